@@ -1,0 +1,215 @@
+"""The shared estimator API: validation, the NaN/0 convention, keep_observed, score.
+
+Every inpainter is a scikit-learn estimator:
+
+* ``fit(X)`` takes ground-truth depth maps (an ``inpaintenv`` dataset, a sequence of
+  ``(H, W)`` arrays, or an ``(N, H, W)`` array) and returns ``self``;
+* ``predict(X)`` takes the corrupted input -- metres, NaN = fill, 0 = no measurement --
+  as ``(H, W)`` or ``(N, H, W)`` and returns float32 metres of the same shape with every
+  pixel predicted;
+* ``score(X, y=None)`` returns minus the hole RMSE (greater is better).
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+from sklearn.base import BaseEstimator
+from sklearn.utils.validation import check_is_fitted
+
+from inpaintenv.conventions import DEFAULT_MAX_DEPTH, check_depth
+from inpaintenv.data.base import DepthDataset, as_dataset
+from inpaintenv.masks import get_protocol
+from inpaintenv.metrics import aggregate, frame_metrics
+
+__all__ = ["BaseInpainter", "check_inpaint_input", "iter_scoring_batches"]
+
+#: Protocol and seed that ``score(X)`` uses to corrupt ground truth when no ``y`` is given.
+SCORE_PROTOCOL = "rect-v1"
+SCORE_SEED = 0
+#: Frames predicted per call when scoring a dataset (bounds memory on large sets).
+SCORE_CHUNK = 8
+
+
+def check_inpaint_input(X: Any, *, require_hole: bool = True) -> np.ndarray:
+    """Validate a method input (NaN = fill, 0 = no measurement) as float32.
+
+    Parameters
+    ----------
+    X : array-like
+        ``(H, W)`` or ``(N, H, W)`` depth in metres.
+    require_hole : bool
+        Raise if there is no NaN at all (nothing to inpaint usually means the caller
+        zeroed the holes instead of marking them NaN).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 array; the input itself when it already is float32 (never modified).
+    """
+    arr = check_depth(X, name="X", allow_nan=True)
+    if require_hole and not np.isnan(arr).any():
+        raise ValueError(
+            "X has no NaN: mark the pixels to fill with NaN (0 means 'no measurement', "
+            "not 'hole')"
+        )
+    return arr
+
+
+def iter_scoring_batches(
+    X: Any, y: Any = None, *, protocol: str = SCORE_PROTOCOL, seed: int = SCORE_SEED,
+    chunk: int = SCORE_CHUNK,
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Yield ``(corrupted, ground_truth, hole)`` batches for scoring.
+
+    With ``y``, ``X`` is the corrupted input and ``y`` the ground truth. Without ``y``,
+    ``X`` is ground truth and frame ``i`` is corrupted with ``protocol``'s mask for
+    ``(seed, i)``.
+    """
+    if y is not None:
+        x = check_inpaint_input(X)
+        gt = check_depth(y, name="y")
+        if x.shape != gt.shape:
+            raise ValueError(f"X has shape {x.shape} but y has {gt.shape}")
+        if x.ndim == 2:
+            x, gt = x[None], gt[None]
+        yield x, gt, np.isnan(x)
+        return
+    dataset = as_dataset(X)
+    proto = get_protocol(protocol)
+    for start in range(0, len(dataset), chunk):
+        idx = range(start, min(start + chunk, len(dataset)))
+        gt = dataset.load_batch(idx)
+        hole = proto.masks(dataset.frame_shape, seed, idx)
+        x = gt.copy()
+        x[hole] = np.nan
+        yield x, gt, hole
+
+
+class BaseInpainter(BaseEstimator):
+    """Base class of all inpainters (do not instantiate).
+
+    Subclasses take keyword-only parameters in ``__init__`` and only store them,
+    implement :meth:`_predict_batch`, and override :meth:`_fit` when they learn.
+    Stateless (classical) subclasses set ``_stateless = True``: they can predict
+    without ``fit``.
+    """
+
+    _stateless: bool = False
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False
+        tags.input_tags.three_d_array = True
+        tags.input_tags.allow_nan = True
+        tags.input_tags.positive_only = True
+        tags.target_tags.required = False
+        tags.requires_fit = not self._stateless
+        tags.non_deterministic = False
+        return tags
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return self._stateless or getattr(self, "is_fitted_", False)
+
+    # -- fitting -----------------------------------------------------------------
+    def fit(self, X: Any, y: Any = None) -> "BaseInpainter":
+        """Fit on ground-truth depth maps.
+
+        Parameters
+        ----------
+        X : DepthDataset, sequence of (H, W) arrays, or (N, H, W) array
+            Ground truth in metres (0 = no measurement).
+        y : None
+            Ignored; present for scikit-learn compatibility.
+
+        Returns
+        -------
+        self
+        """
+        dataset = as_dataset(X)
+        if len(dataset) == 0:
+            raise ValueError("cannot fit on an empty dataset")
+        self._fit(dataset)
+        self.is_fitted_ = True
+        return self
+
+    def _fit(self, dataset: DepthDataset) -> None:
+        """Learn from ``dataset``; classical methods learn nothing."""
+        # Touch one frame so bad data fails at fit time, not later.
+        check_depth(dataset[0], name="X[0]")
+
+    # -- prediction --------------------------------------------------------------
+    def predict(self, X: Any) -> np.ndarray:
+        """Fill the NaN pixels of one depth map or a batch.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(H, W)`` or ``(N, H, W)`` metres; NaN = fill, 0 = no measurement.
+            Never modified (read-only / memory-mapped input is fine).
+
+        Returns
+        -------
+        numpy.ndarray
+            float32 depth of the same shape, finite and non-negative everywhere. With
+            ``keep_observed=True`` the measured (positive) input pixels are returned
+            unchanged.
+        """
+        check_is_fitted(self)
+        x = check_inpaint_input(X)
+        batch = x[None] if x.ndim == 2 else x
+        out = np.asarray(self._predict_batch(batch), dtype=np.float32)
+        if out.shape != batch.shape:
+            raise RuntimeError(
+                f"{type(self).__name__} returned shape {out.shape} for input {batch.shape}"
+            )
+        if not np.isfinite(out).all():
+            raise RuntimeError(f"{type(self).__name__} produced NaN or inf depth")
+        out = np.maximum(out, 0.0)
+        if getattr(self, "keep_observed", True):
+            observed = batch > 0  # NaN > 0 is False
+            out = np.where(observed, batch, out)
+        return out[0] if x.ndim == 2 else out
+
+    @abstractmethod
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        """Predict a validated ``(N, H, W)`` float32 batch (NaN = fill); must not modify X."""
+
+    # -- scoring -----------------------------------------------------------------
+    def score_frames(
+        self, X: Any, y: Any = None, *, protocol: str = SCORE_PROTOCOL, seed: int = SCORE_SEED,
+        max_depth: float = DEFAULT_MAX_DEPTH,
+    ) -> dict[str, np.ndarray]:
+        """Per-frame metrics (see :func:`inpaintenv.metrics.frame_metrics`).
+
+        Parameters are as in :meth:`score`; ``protocol`` and ``seed`` only apply when
+        ``y`` is None.
+        """
+        parts: list[dict[str, np.ndarray]] = []
+        for x, gt, hole in iter_scoring_batches(X, y, protocol=protocol, seed=seed):
+            parts.append(frame_metrics(self.predict(x), gt, hole, max_depth=max_depth))
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+    def score(self, X: Any, y: Any = None) -> float:
+        """Minus the mean per-frame hole RMSE in metres (greater is better).
+
+        Parameters
+        ----------
+        X : array-like or DepthDataset
+            With ``y``: the corrupted input (NaN = fill). Without ``y``: ground truth,
+            corrupted here with the ``rect-v1`` protocol and seed 0 (frame ``i`` gets the
+            mask of index ``i``), so every estimator is scored on the same holes.
+        y : array-like, optional
+            Ground truth matching ``X``.
+
+        Returns
+        -------
+        float
+        """
+        table = aggregate(self.score_frames(X, y))
+        if np.isnan(table["hole_rmse"]):
+            raise ValueError("no frame has ground truth inside its holes; nothing to score")
+        return -table["hole_rmse"]

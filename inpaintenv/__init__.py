@@ -1,0 +1,12 @@
+"""inpaintenv: a benchmark for depth-only inpainting of large occlusions in outdoor depth.
+
+The benchmark knows nothing about any particular method: it serves frames with
+occlusions and scores any reconstruction.
+"""
+
+from __future__ import annotations
+
+from .conventions import DEFAULT_MAX_DEPTH, corrupt
+
+__version__ = "0.1.0"
+__all__ = ["DEFAULT_MAX_DEPTH", "corrupt", "__version__"]

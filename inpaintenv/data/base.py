@@ -1,0 +1,216 @@
+"""The dataset interface every data source implements, plus drive-level splits and subsets."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from typing import Any, overload
+
+import numpy as np
+
+from ..conventions import check_depth
+
+__all__ = ["DepthDataset", "ArrayDataset", "Subset", "as_dataset", "split_by_drive", "subset"]
+
+
+class DepthDataset(Sequence, ABC):
+    """A lazy, indexable sequence of ground-truth depth maps of one fixed size.
+
+    Subclasses implement :meth:`_load` and set ``groups`` (one drive id per frame),
+    ``frame_ids`` (stable, human-readable ids) and ``frame_shape``.
+
+    Items are ``(H, W)`` float32 metres, 0 = no measurement. Integer indexing loads one
+    frame; slices and integer arrays return a :class:`Subset` (nothing is loaded).
+
+    A dataset looks like a lazy ``(N, H, W)`` array to scikit-learn (``shape``,
+    ``len``, ``ds[indices, ...]``), so ``GridSearchCV`` and ``cross_validate`` split it
+    into lazy subsets that keep their drive ids instead of loading every frame.
+    """
+
+    #: ``(H, W)`` of every frame.
+    frame_shape: tuple[int, int]
+    #: Drive id of each frame: splits and CV folds never put one drive on both sides.
+    groups: np.ndarray
+    #: A stable id per frame, e.g. ``"2011_09_26_drive_0001_sync/image_02/0000000005"``.
+    frame_ids: list[str]
+
+    @abstractmethod
+    def _load(self, index: int) -> np.ndarray:
+        """Load frame ``index`` (0 <= index < len) as float32 ``(H, W)`` metres."""
+
+    def __len__(self) -> int:
+        return len(self.groups)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """``(N, H, W)``, as if the dataset were one array."""
+        return (len(self), *self.frame_shape)
+
+    @overload
+    def __getitem__(self, index: int) -> np.ndarray: ...
+    @overload
+    def __getitem__(self, index: slice | Sequence[int] | np.ndarray) -> "Subset": ...
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, tuple):
+            # scikit-learn indexes arrays as ``X[key, ...]``.
+            if len(index) == 2 and index[1] is Ellipsis:
+                index = index[0]
+            else:
+                raise IndexError("a dataset is indexed by frame only: ds[i] or ds[indices]")
+        if isinstance(index, (int, np.integer)):
+            n = len(self)
+            i = int(index)
+            if i < -n or i >= n:
+                raise IndexError(f"frame index {i} out of range for a dataset of {n} frames")
+            return self._load(i % n)
+        if isinstance(index, slice):
+            return Subset(self, np.arange(len(self))[index])
+        return Subset(self, np.asarray(index))
+
+    def load_batch(self, indices: Sequence[int] | np.ndarray) -> np.ndarray:
+        """Load several frames as one ``(N, H, W)`` float32 array."""
+        indices = list(indices)
+        out = np.empty((len(indices), *self.frame_shape), dtype=np.float32)
+        for k, i in enumerate(indices):
+            out[k] = self[int(i)]
+        return out
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        arr = self.load_batch(range(len(self)))
+        return arr if dtype is None else arr.astype(dtype)
+
+    def __repr__(self) -> str:
+        n_drives = len(np.unique(self.groups)) if len(self) else 0
+        return f"{type(self).__name__}({len(self)} frames, {n_drives} drives, frame_shape={self.frame_shape})"
+
+
+class Subset(DepthDataset):
+    """A view of selected frames of another dataset (keeps its groups and ids)."""
+
+    def __init__(self, parent: DepthDataset, indices: Sequence[int] | np.ndarray):
+        idx = np.asarray(indices)
+        if idx.dtype == bool:
+            if idx.shape != (len(parent),):
+                raise ValueError("a boolean index must have one entry per frame")
+            idx = np.flatnonzero(idx)
+        if idx.size and not np.issubdtype(idx.dtype, np.integer):
+            raise TypeError(f"frame indices must be integers, got dtype {idx.dtype}")
+        idx = idx.astype(np.int64).reshape(-1)
+        n = len(parent)
+        if idx.size and (idx.min() < -n or idx.max() >= n):
+            raise IndexError(f"frame indices out of range for a dataset of {n} frames")
+        # Flatten nested subsets so loading never walks a chain of views.
+        if isinstance(parent, Subset):
+            idx = parent.indices[idx % n]
+            parent = parent.parent
+        self.parent = parent
+        self.indices = idx % len(parent) if len(parent) else idx
+        self.frame_shape = parent.frame_shape
+        self.groups = np.asarray(parent.groups)[self.indices]
+        self.frame_ids = [parent.frame_ids[i] for i in self.indices]
+
+    def _load(self, index: int) -> np.ndarray:
+        return self.parent[int(self.indices[index])]
+
+
+class ArrayDataset(DepthDataset):
+    """Wrap an ``(N, H, W)`` array or a list of ``(H, W)`` arrays as a dataset.
+
+    Parameters
+    ----------
+    frames : array-like or sequence of array-like
+        Ground-truth depth maps in metres.
+    groups : sequence of str, optional
+        Drive id per frame; by default every frame is its own group.
+    """
+
+    def __init__(self, frames: Any, groups: Sequence[Any] | None = None):
+        if isinstance(frames, np.ndarray) or not isinstance(frames, Sequence):
+            arr = check_depth(frames, name="frames", ndim=(3,))
+            self._frames: Sequence[np.ndarray] | np.ndarray = arr
+        else:
+            if len(frames) == 0:
+                raise ValueError("frames is empty")
+            self._frames = [check_depth(f, name=f"frames[{i}]", ndim=(2,)) for i, f in enumerate(frames)]
+        shapes = {tuple(f.shape) for f in self._frames}
+        if len(shapes) != 1:
+            raise ValueError(f"all frames must have one size, got {sorted(shapes)}")
+        self.frame_shape = shapes.pop()  # type: ignore[assignment]
+        n = len(self._frames)
+        if groups is None:
+            groups = [f"frame{i}" for i in range(n)]
+        if len(groups) != n:
+            raise ValueError(f"groups has {len(groups)} entries for {n} frames")
+        self.groups = np.asarray([str(g) for g in groups])
+        self.frame_ids = [f"{g}/{i}" for i, g in enumerate(self.groups)]
+
+    def _load(self, index: int) -> np.ndarray:
+        return np.asarray(self._frames[index], dtype=np.float32)
+
+
+def as_dataset(data: Any) -> DepthDataset:
+    """Return ``data`` as a :class:`DepthDataset` (datasets pass through unchanged).
+
+    Accepts a dataset, an ``(N, H, W)`` array, a single ``(H, W)`` array, or a sequence
+    of ``(H, W)`` arrays.
+    """
+    if isinstance(data, DepthDataset):
+        return data
+    if isinstance(data, np.ndarray) and data.ndim == 2:
+        data = data[None]
+    return ArrayDataset(data)
+
+
+def split_by_drive(
+    dataset: DepthDataset, test_size: float | int = 0.2, seed: int = 0
+) -> tuple[Subset, Subset]:
+    """Split a dataset into train and test so that no drive appears on both sides.
+
+    Parameters
+    ----------
+    dataset : DepthDataset
+    test_size : float or int
+        Fraction of drives (float in (0, 1)) or number of drives (int) for the test side.
+        At least one drive goes to each side.
+    seed : int
+        Seed of the drive shuffle; the same seed always gives the same split.
+
+    Returns
+    -------
+    train, test : Subset
+    """
+    drives = np.unique(dataset.groups)
+    if len(drives) < 2:
+        raise ValueError(
+            f"a drive-level split needs at least 2 drives, the dataset has {len(drives)}"
+        )
+    if isinstance(test_size, float):
+        if not 0.0 < test_size < 1.0:
+            raise ValueError(f"test_size as a fraction must be in (0, 1), got {test_size}")
+        n_test = int(round(test_size * len(drives)))
+    else:
+        n_test = int(test_size)
+    n_test = min(max(n_test, 1), len(drives) - 1)
+    order = np.random.default_rng(seed).permutation(len(drives))
+    test_drives = drives[order[:n_test]]
+    is_test = np.isin(dataset.groups, test_drives)
+    return Subset(dataset, np.flatnonzero(~is_test)), Subset(dataset, np.flatnonzero(is_test))
+
+
+def subset(dataset: DepthDataset, fraction: float, seed: int = 0) -> Subset:
+    """A random fraction of the frames (in their original order), e.g. the study's 25 %.
+
+    Parameters
+    ----------
+    dataset : DepthDataset
+    fraction : float
+        In (0, 1]; at least one frame is kept.
+    seed : int
+    """
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction must be in (0, 1], got {fraction}")
+    n = len(dataset)
+    k = max(1, int(round(fraction * n)))
+    keep = np.sort(np.random.default_rng(seed).choice(n, size=k, replace=False))
+    return Subset(dataset, keep)

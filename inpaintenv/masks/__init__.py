@@ -1,0 +1,59 @@
+"""Occlusion protocols: named, versioned ways of drawing the holes a method must fill.
+
+A mask is reproducible from ``(protocol, seed, frame index)`` alone::
+
+    >>> from inpaintenv.masks import get_protocol
+    >>> hole = get_protocol("rect-v1").mask((352, 1216), seed=0, index=7)
+"""
+
+from __future__ import annotations
+
+from .base import OcclusionProtocol, mask_rng
+from .rect import RectV1
+
+__all__ = [
+    "OcclusionProtocol",
+    "RectV1",
+    "available_protocols",
+    "get_protocol",
+    "mask_rng",
+    "register_protocol",
+]
+
+_REGISTRY: dict[str, type[OcclusionProtocol]] = {}
+
+
+def register_protocol(cls: type[OcclusionProtocol]) -> type[OcclusionProtocol]:
+    """Register a protocol class under its ``name`` (usable as a decorator)."""
+    if not cls.name:
+        raise ValueError(f"{cls.__name__} has no name")
+    if cls.name in _REGISTRY and _REGISTRY[cls.name] is not cls:
+        raise ValueError(f"protocol {cls.name!r} is already registered")
+    _REGISTRY[cls.name] = cls
+    return cls
+
+
+def available_protocols() -> list[str]:
+    """Names of the registered protocols, sorted."""
+    return sorted(_REGISTRY)
+
+
+def get_protocol(protocol: str | OcclusionProtocol) -> OcclusionProtocol:
+    """Return a protocol instance by name (instances pass through).
+
+    Raises
+    ------
+    KeyError
+        If the name is unknown; the message lists the known ones.
+    """
+    if isinstance(protocol, OcclusionProtocol):
+        return protocol
+    try:
+        return _REGISTRY[protocol]()
+    except KeyError:
+        raise KeyError(
+            f"unknown occlusion protocol {protocol!r}; available: {', '.join(available_protocols())}"
+        ) from None
+
+
+register_protocol(RectV1)

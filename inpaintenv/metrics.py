@@ -1,0 +1,171 @@
+"""Depth-inpainting metrics on valid ground truth: inside the holes and over all pixels.
+
+Only pixels with ground truth (``gt > 0``) count: ``S = gt > 0``; hole metrics use
+``S ∩ H``, global ("all") metrics use ``S``. Per frame we report RMSE and MAE in metres,
+iRMSE and iMAE in 1/km (KITTI devkit), and PSNR = ``20·log10(max_depth / RMSE)`` in dB.
+Aggregation is the mean over frames (the study's and the devkit's convention) or, on
+request, pooled over pixels. A frame whose hole holds no valid ground truth has NaN hole
+metrics, is counted in ``n_skipped_hole`` and never enters a mean.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from .conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask
+
+__all__ = ["METRIC_NAMES", "REGIONS", "frame_metrics", "aggregate"]
+
+REGIONS = ("hole", "all")
+METRIC_NAMES = ("rmse", "mae", "irmse", "imae", "psnr")
+#: Predictions are clipped to this depth before inversion (iRMSE/iMAE), so an unfilled
+#: pixel (0 m) gives a large but finite error instead of inf.
+MIN_INVERSE_DEPTH = 0.1
+#: RMSE floor for PSNR, so a perfect frame gives a large finite value, not inf.
+MIN_PSNR_RMSE = 1e-6
+
+
+def frame_metrics(
+    pred: np.ndarray,
+    gt: np.ndarray,
+    hole: np.ndarray,
+    *,
+    max_depth: float = DEFAULT_MAX_DEPTH,
+) -> dict[str, np.ndarray]:
+    """Per-frame metrics for one frame or a batch, vectorised.
+
+    Parameters
+    ----------
+    pred : numpy.ndarray
+        Reconstruction in metres, ``(H, W)`` or ``(N, H, W)``; must be finite and
+        non-negative wherever ground truth exists.
+    gt : numpy.ndarray
+        Ground truth of the same shape, 0 = no measurement.
+    hole : numpy.ndarray
+        Boolean occlusion mask of the same shape.
+    max_depth : float
+        Range for PSNR (80 m by default).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Keys ``{region}_{metric}`` for region in ``("hole", "all")`` and metric in
+        ``("rmse", "mae", "irmse", "imae", "psnr")``, plus ``hole_count`` and
+        ``all_count`` (number of scored pixels). Each value has shape ``(N,)`` (or is a
+        0-d array for a single frame). Hole metrics are NaN where ``hole_count == 0``.
+    """
+    gt = check_depth(gt, name="ground truth")
+    single = gt.ndim == 2
+    pred_arr = np.asarray(pred)
+    if pred_arr.shape != gt.shape:
+        raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {gt.shape}")
+    if not (np.issubdtype(pred_arr.dtype, np.floating) or np.issubdtype(pred_arr.dtype, np.integer)):
+        raise TypeError(f"prediction must be numeric, got dtype {pred_arr.dtype}")
+    hole = check_mask(hole, gt.shape)
+    if max_depth <= 0:
+        raise ValueError(f"max_depth must be positive, got {max_depth}")
+    if single:
+        gt, pred_arr, hole = gt[None], pred_arr[None], hole[None]
+
+    valid = gt > 0
+    p = pred_arr.astype(np.float64, copy=False)
+    scored_pred = p[valid]
+    if not np.isfinite(scored_pred).all():
+        raise ValueError("prediction has NaN or inf at pixels with ground truth; fill every pixel")
+    if (scored_pred < 0).any():
+        raise ValueError("prediction has negative depth at pixels with ground truth")
+
+    g = gt.astype(np.float64)
+    # Zero the error outside S so sums over H×W only see scored pixels.
+    err = np.where(valid, p - g, 0.0)
+    inv_err = np.where(
+        valid,
+        1000.0 / np.maximum(np.where(valid, p, 1.0), MIN_INVERSE_DEPTH) - 1000.0 / np.where(valid, g, 1.0),
+        0.0,
+    )
+    out: dict[str, np.ndarray] = {}
+    for region, sel in (("hole", valid & hole), ("all", valid)):
+        n = sel.sum(axis=(1, 2))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            denom = np.where(n > 0, n, np.nan)
+            rmse = np.sqrt(np.where(sel, err**2, 0.0).sum(axis=(1, 2)) / denom)
+            mae = np.where(sel, np.abs(err), 0.0).sum(axis=(1, 2)) / denom
+            irmse = np.sqrt(np.where(sel, inv_err**2, 0.0).sum(axis=(1, 2)) / denom)
+            imae = np.where(sel, np.abs(inv_err), 0.0).sum(axis=(1, 2)) / denom
+            psnr = 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
+        out[f"{region}_rmse"] = rmse
+        out[f"{region}_mae"] = mae
+        out[f"{region}_irmse"] = irmse
+        out[f"{region}_imae"] = imae
+        out[f"{region}_psnr"] = psnr
+        out[f"{region}_count"] = n.astype(np.int64)
+    if single:
+        out = {k: v[0] for k, v in out.items()}
+    return out
+
+
+def aggregate(
+    per_frame: Mapping[str, np.ndarray] | list[Mapping[str, float]],
+    *,
+    how: str = "mean",
+    max_depth: float = DEFAULT_MAX_DEPTH,
+) -> dict[str, float]:
+    """Aggregate per-frame metrics over frames.
+
+    Parameters
+    ----------
+    per_frame : mapping of arrays, or list of per-frame dicts
+        As returned by :func:`frame_metrics` (batched) or rows of such values.
+    how : {"mean", "pooled"}
+        ``"mean"``: the mean of the per-frame values (the study's convention; PSNR is
+        the mean of per-frame PSNR). ``"pooled"``: every scored pixel weighs the same;
+        PSNR then comes from the pooled RMSE.
+    max_depth : float
+        Range for the pooled PSNR.
+
+    Returns
+    -------
+    dict of str to float
+        ``{region}_{metric}`` plus ``n_frames`` and ``n_skipped_hole`` (frames without
+        valid ground truth in the hole, left out of the hole means).
+    """
+    if how not in ("mean", "pooled"):
+        raise ValueError(f"how must be 'mean' or 'pooled', got {how!r}")
+    if isinstance(per_frame, list):
+        if not per_frame:
+            raise ValueError("no frames to aggregate")
+        cols = {k: np.asarray([row[k] for row in per_frame], dtype=np.float64) for k in per_frame[0]}
+    else:
+        cols = {k: np.atleast_1d(np.asarray(v, dtype=np.float64)) for k, v in per_frame.items()}
+    missing = [f"{r}_{m}" for r in REGIONS for m in ("rmse", "mae", "count") if f"{r}_{m}" not in cols]
+    if missing:
+        raise KeyError(f"per-frame metrics lack {missing}")
+    n_frames = len(cols["all_rmse"])
+    if n_frames == 0:
+        raise ValueError("no frames to aggregate")
+    out: dict[str, float] = {"n_frames": n_frames}
+    for region in REGIONS:
+        count = cols[f"{region}_count"]
+        ok = count > 0
+        if region == "hole":
+            out["n_skipped_hole"] = int((~ok).sum())
+        for metric in METRIC_NAMES:
+            key = f"{region}_{metric}"
+            if key not in cols:
+                continue
+            vals = cols[key][ok]
+            if not ok.any():
+                out[key] = float("nan")
+            elif how == "mean":
+                out[key] = float(vals.mean())
+            elif metric in ("rmse", "irmse"):
+                out[key] = float(np.sqrt((vals**2 * count[ok]).sum() / count[ok].sum()))
+            elif metric in ("mae", "imae"):
+                out[key] = float((vals * count[ok]).sum() / count[ok].sum())
+        if how == "pooled" and ok.any():
+            out[f"{region}_psnr"] = float(
+                20.0 * np.log10(max_depth / max(out[f"{region}_rmse"], MIN_PSNR_RMSE))
+            )
+    return out
