@@ -53,12 +53,12 @@ def check_depth(
         not allowed, or negative depth.
     """
     arr = np.asarray(depth)
+    if arr.dtype == np.bool_:
+        raise TypeError(f"{name} must be depth in metres, got a boolean array")
     if arr.dtype == object or not (
         np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
     ):
         raise TypeError(f"{name} must be a real numeric array of metres, got dtype {arr.dtype}")
-    if arr.dtype == np.bool_:
-        raise TypeError(f"{name} must be depth in metres, got a boolean array")
     if arr.ndim not in ndim:
         want = " or ".join(f"{d}-D" for d in ndim)
         raise ValueError(f"{name} must be {want} (H, W) / (N, H, W), got shape {arr.shape}")

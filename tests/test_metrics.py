@@ -1,0 +1,162 @@
+"""Metrics against a plain-Python reference, conventions and aggregation rules."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from inpaintenv.metrics import aggregate, frame_metrics
+
+
+def reference_metrics(pred, gt, hole, max_depth=80.0):
+    """Pixel-by-pixel loops, the slow obvious way."""
+    out = {}
+    H, W = gt.shape
+    for region in ("hole", "all"):
+        se = ae = ise = iae = 0.0
+        n = 0
+        for i in range(H):
+            for j in range(W):
+                g = float(gt[i, j])
+                if g <= 0 or (region == "hole" and not hole[i, j]):
+                    continue
+                p = float(pred[i, j])
+                n += 1
+                se += (p - g) ** 2
+                ae += abs(p - g)
+                ie = 1000.0 / max(p, 0.1) - 1000.0 / g
+                ise += ie**2
+                iae += abs(ie)
+        if n == 0:
+            out.update({f"{region}_{m}": math.nan for m in ("rmse", "mae", "irmse", "imae", "psnr")})
+        else:
+            rmse = math.sqrt(se / n)
+            out[f"{region}_rmse"] = rmse
+            out[f"{region}_mae"] = ae / n
+            out[f"{region}_irmse"] = math.sqrt(ise / n)
+            out[f"{region}_imae"] = iae / n
+            out[f"{region}_psnr"] = 20 * math.log10(max_depth / rmse)
+        out[f"{region}_count"] = n
+    return out
+
+
+def random_case(rng, shape=(7, 9)):
+    gt = rng.uniform(1, 60, shape).astype(np.float32)
+    gt[rng.random(shape) < 0.4] = 0.0
+    pred = np.abs(gt + rng.normal(0, 3, shape)).astype(np.float32)
+    hole = rng.random(shape) < 0.5
+    return pred, gt, hole
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_single_frame_matches_reference(seed):
+    pred, gt, hole = random_case(np.random.default_rng(seed))
+    got = frame_metrics(pred, gt, hole)
+    want = reference_metrics(pred, gt, hole)
+    for key, value in want.items():
+        assert got[key] == pytest.approx(value, rel=1e-9, nan_ok=True), key
+
+
+def test_batch_equals_per_frame():
+    rng = np.random.default_rng(1)
+    cases = [random_case(rng) for _ in range(4)]
+    pred, gt, hole = (np.stack(c) for c in zip(*cases))
+    batch = frame_metrics(pred, gt, hole)
+    for k, (p, g, h) in enumerate(cases):
+        single = frame_metrics(p, g, h)
+        for key in single:
+            np.testing.assert_allclose(batch[key][k], single[key])
+
+
+def test_pixels_without_ground_truth_do_not_count():
+    gt = np.array([[10.0, 0.0], [20.0, 0.0]], dtype=np.float32)
+    pred = np.array([[11.0, 500.0], [20.0, 0.0]], dtype=np.float32)
+    hole = np.array([[True, True], [False, True]])
+    m = frame_metrics(pred, gt, hole)
+    assert m["hole_rmse"] == pytest.approx(1.0)
+    assert m["hole_count"] == 1
+    assert m["all_rmse"] == pytest.approx(math.sqrt(0.5))
+    assert m["all_psnr"] == pytest.approx(20 * math.log10(80 / math.sqrt(0.5)))
+
+
+def test_psnr_uses_max_depth_and_is_finite_for_perfect_prediction():
+    gt = np.full((4, 4), 10.0, dtype=np.float32)
+    hole = np.zeros((4, 4), bool)
+    hole[:2] = True
+    m = frame_metrics(gt, gt, hole, max_depth=100.0)
+    assert m["hole_rmse"] == 0.0
+    assert np.isfinite(m["hole_psnr"]) and m["hole_psnr"] > 100
+    m2 = frame_metrics(gt + 1, gt, hole, max_depth=100.0)
+    assert m2["hole_psnr"] == pytest.approx(40.0)
+
+
+def test_frames_without_hole_ground_truth_are_skipped_in_the_mean():
+    gt = np.full((2, 4, 4), 10.0, dtype=np.float32)
+    gt[1, :2] = 0.0  # frame 1 has no ground truth where its hole is
+    hole = np.zeros((2, 4, 4), bool)
+    hole[:, :2] = True
+    pred = gt + np.array([2.0, 5.0], dtype=np.float32)[:, None, None]
+    per_frame = frame_metrics(pred, gt, hole)
+    assert np.isnan(per_frame["hole_rmse"][1])
+    table = aggregate(per_frame)
+    assert table["n_frames"] == 2
+    assert table["n_skipped_hole"] == 1
+    assert table["hole_rmse"] == pytest.approx(2.0)
+    assert table["all_rmse"] == pytest.approx(3.5)
+
+
+def test_pooled_aggregation_weights_pixels():
+    gt = np.full((2, 4, 4), 10.0, dtype=np.float32)
+    hole = np.zeros((2, 4, 4), bool)
+    hole[0, :1] = True  # 4 pixels with error 1
+    hole[1, :3] = True  # 12 pixels with error 3
+    pred = gt + np.array([1.0, 3.0], dtype=np.float32)[:, None, None]
+    pooled = aggregate(frame_metrics(pred, gt, hole), how="pooled")
+    assert pooled["hole_rmse"] == pytest.approx(math.sqrt((4 * 1 + 12 * 9) / 16))
+    assert pooled["hole_mae"] == pytest.approx((4 + 36) / 16)
+    assert pooled["hole_psnr"] == pytest.approx(20 * math.log10(80 / pooled["hole_rmse"]))
+    mean = aggregate(frame_metrics(pred, gt, hole))
+    assert mean["hole_rmse"] == pytest.approx(2.0)
+
+
+def test_aggregate_accepts_rows():
+    gt = np.full((2, 3, 3), 5.0, dtype=np.float32)
+    hole = np.ones((2, 3, 3), bool)
+    per_frame = frame_metrics(gt + 1, gt, hole)
+    rows = [{k: float(v[i]) for k, v in per_frame.items()} for i in range(2)]
+    assert aggregate(rows) == aggregate(per_frame)
+
+
+@pytest.mark.parametrize(
+    "pred, message",
+    [
+        (np.full((3, 3), np.nan, np.float32), "NaN or inf"),
+        (np.full((3, 3), -1.0, np.float32), "negative"),
+        (np.ones((3, 4), np.float32), "shape"),
+        (np.full((3, 3), "a"), "numeric"),
+    ],
+)
+def test_bad_predictions_are_rejected(pred, message):
+    gt = np.ones((3, 3), np.float32)
+    with pytest.raises((ValueError, TypeError), match=message):
+        frame_metrics(pred, gt, np.ones((3, 3), bool))
+
+
+def test_nan_prediction_outside_ground_truth_is_ignored():
+    gt = np.array([[1.0, 0.0]], dtype=np.float32)
+    pred = np.array([[1.0, np.nan]], dtype=np.float32)
+    assert frame_metrics(pred, gt, np.ones((1, 2), bool))["hole_rmse"] == 0.0
+
+
+def test_bad_ground_truth_and_mask_are_rejected():
+    ok = np.ones((3, 3), np.float32)
+    with pytest.raises(ValueError, match="NaN"):
+        frame_metrics(ok, np.full((3, 3), np.nan, np.float32), np.ones((3, 3), bool))
+    with pytest.raises(ValueError, match="mask"):
+        frame_metrics(ok, ok, np.ones((2, 3), bool))
+    with pytest.raises(ValueError, match="only 0 and 1"):
+        frame_metrics(ok, ok, np.full((3, 3), 2))
+    with pytest.raises(ValueError, match="how"):
+        aggregate(frame_metrics(ok, ok, np.ones((3, 3), bool)), how="median")
