@@ -7,6 +7,7 @@ occlusions and scores any reconstruction.
 from __future__ import annotations
 
 from .conventions import DEFAULT_MAX_DEPTH, corrupt
+from .evaluate import EvaluationResult, evaluate
 
 __version__ = "0.1.0"
-__all__ = ["DEFAULT_MAX_DEPTH", "corrupt", "__version__"]
+__all__ = ["DEFAULT_MAX_DEPTH", "EvaluationResult", "corrupt", "evaluate", "__version__"]
