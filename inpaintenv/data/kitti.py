@@ -1,0 +1,326 @@
+"""Real KITTI depth-completion data, read lazily from the official folder layout.
+
+Two layouts are understood (both exactly as downloaded from the KITTI website)::
+
+    <root>/<split>/<drive>_sync/proj_depth/<kind>/<camera>/<frame>.png          split = train | val
+    <root>/depth_selection/val_selection_cropped/<kind>_depth|velodyne_raw/
+        <drive>_sync_<groundtruth_depth|velodyne_raw>_<frame>_<camera>.png      split = val_selection
+
+Files are indexed once when the dataset is created; pixels are decoded on access.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import struct
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .base import DepthDataset
+from .io import DepthFormatError, read_depth_png
+
+__all__ = ["KittiDepth", "KITTI_URL", "KITTI_ROOT_ENV", "png_header", "bottom_center_crop"]
+
+#: Where to download the KITTI depth-completion data.
+KITTI_URL = "https://www.cvlibs.net/datasets/kitti/eval_depth.php?benchmark=depth_completion"
+#: Environment variable read when ``root`` is not given.
+KITTI_ROOT_ENV = "INPAINTENV_KITTI_ROOT"
+
+_LAYOUT_HELP = (
+    f"Download 'annotated depth maps' and 'projected raw LiDaR scans' (and optionally the "
+    f"'validation and test sets') from {KITTI_URL} and unzip them into one folder, giving\n"
+    "  <root>/train/<drive>_sync/proj_depth/{groundtruth,velodyne_raw}/image_0{2,3}/*.png\n"
+    "  <root>/val/<drive>_sync/proj_depth/{groundtruth,velodyne_raw}/image_0{2,3}/*.png\n"
+    "  <root>/depth_selection/val_selection_cropped/{groundtruth_depth,velodyne_raw}/*.png\n"
+    f"then pass root=<root> (CLI: --kitti-root) or set ${KITTI_ROOT_ENV}."
+)
+
+_KINDS = ("groundtruth", "velodyne_raw")
+_CAMERAS = ("image_02", "image_03")
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# File names of depth_selection/val_selection_cropped, e.g.
+# 2011_09_26_drive_0002_sync_groundtruth_depth_0000000005_image_02.png
+_VAL_SELECTION_RE = re.compile(
+    r"^(?P<drive>.+_sync)_(?:groundtruth_depth|velodyne_raw)_(?P<frame>\d+)_(?P<camera>image_0[23])\.png$"
+)
+
+
+@dataclass(frozen=True)
+class PngHeader:
+    """The fields of a PNG's IHDR chunk that matter for depth maps."""
+
+    width: int
+    height: int
+    bit_depth: int
+    color_type: int  # 0 = greyscale, 2 = RGB, 3 = palette, 4 = grey+alpha, 6 = RGBA
+
+
+def png_header(path: str | os.PathLike) -> PngHeader:
+    """Read a PNG's size and pixel format from its first 33 bytes (no decoding).
+
+    Raises
+    ------
+    DepthFormatError
+        If the file is not a PNG or is too short to hold the header.
+    """
+    with open(path, "rb") as f:
+        head = f.read(33)
+    if len(head) < 33 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
+        raise DepthFormatError(f"{path} is not a PNG file (or is truncated before its header)")
+    width, height, bit_depth, color_type = struct.unpack(">IIBB", head[16:26])
+    return PngHeader(width, height, bit_depth, color_type)
+
+
+def _check_header(path: Path, header: PngHeader) -> None:
+    if header.color_type != 0:
+        kind = {2: "RGB", 3: "palette", 4: "grey+alpha", 6: "RGBA"}.get(header.color_type, "non-greyscale")
+        raise DepthFormatError(f"{path} is a {kind} PNG; a KITTI depth map is single-channel 16-bit")
+    if header.bit_depth != 16:
+        raise DepthFormatError(
+            f"{path} is a {header.bit_depth}-bit PNG; KITTI depth must be 16-bit (metres = value / 256)"
+        )
+
+
+def bottom_center_crop(depth: np.ndarray, crop: tuple[int, int], name: str = "frame") -> np.ndarray:
+    """Crop ``(H, W)`` to ``crop`` keeping the bottom rows and the centre columns.
+
+    The bottom is kept because KITTI's LiDAR sees nothing in the top rows (sky), and
+    the centre because raw widths differ by a few pixels between recording days.
+    """
+    ch, cw = crop
+    h, w = depth.shape
+    if h < ch or w < cw:
+        raise ValueError(f"{name} is {w}x{h} (W x H), smaller than the crop {cw}x{ch}")
+    top, left = h - ch, (w - cw) // 2
+    return np.ascontiguousarray(depth[top:, left : left + cw])
+
+
+class KittiDepth(DepthDataset):
+    """KITTI depth-completion frames in metres, read lazily from the official layout.
+
+    Parameters
+    ----------
+    root : path-like, optional
+        Folder holding ``train/``, ``val/`` and/or ``depth_selection/``. By default
+        ``$INPAINTENV_KITTI_ROOT``.
+    split : {"train", "val", "val_selection"}
+        ``val_selection`` is ``depth_selection/val_selection_cropped`` (1000 frames,
+        already 352x1216).
+    camera : {"image_02", "image_03", "both"}
+        Left, right or both colour cameras (both cameras of a drive share its group).
+    kind : {"groundtruth", "velodyne_raw"}
+        Semi-dense accumulated ground truth, or the single-scan LiDAR input.
+    crop : (int, int) or None
+        ``(H, W)`` bottom-centre crop applied to every frame (KITTI's raw sizes differ:
+        1242x375, 1224x370, 1238x374, 1241x376). ``None`` keeps the raw size, which is
+        only allowed if all frames share one size.
+    drives : sequence of str, optional
+        Only these drives (e.g. ``"2011_09_26_drive_0001_sync"``).
+
+    Attributes
+    ----------
+    groups : numpy.ndarray
+        The drive id of each frame.
+    frame_ids : list of str
+        ``"<drive>/<camera>/<frame>"``.
+    paths : list of pathlib.Path
+        The PNG of each frame.
+
+    Examples
+    --------
+    >>> ds = KittiDepth("/data/kitti", split="val")          # doctest: +SKIP
+    >>> depth = ds[0]                                         # doctest: +SKIP
+    >>> depth.shape, depth.dtype                              # doctest: +SKIP
+    ((352, 1216), dtype('float32'))
+    """
+
+    def __init__(
+        self,
+        root: str | os.PathLike | None = None,
+        split: str = "train",
+        camera: str = "image_02",
+        kind: str = "groundtruth",
+        crop: tuple[int, int] | None = (352, 1216),
+        drives: list[str] | tuple[str, ...] | None = None,
+    ):
+        if kind not in _KINDS:
+            raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
+        if camera not in (*_CAMERAS, "both"):
+            raise ValueError(f"camera must be 'image_02', 'image_03' or 'both', got {camera!r}")
+        if crop is not None:
+            if len(crop) != 2 or any(int(c) != c or c <= 0 for c in crop):
+                raise ValueError(f"crop must be (H, W) positive integers or None, got {crop!r}")
+            crop = (int(crop[0]), int(crop[1]))
+        self.root = _resolve_root(root)
+        self.split, self.camera, self.kind, self.crop = split, camera, kind, crop
+        cameras = _CAMERAS if camera == "both" else (camera,)
+
+        if split == "val_selection":
+            entries, searched = _index_val_selection(self.root, kind, cameras)
+        else:
+            entries, searched = _index_split(self.root, split, kind, cameras)
+        if drives is not None:
+            wanted = [str(d) for d in drives]
+            found = {e[1] for e in entries}
+            missing = sorted(set(wanted) - found)
+            if missing:
+                raise ValueError(
+                    f"drives not found in {split!r} ({kind}, {camera}): {missing}; "
+                    f"available: {sorted(found)}"
+                )
+            entries = [e for e in entries if e[1] in set(wanted)]
+        if not entries:
+            raise FileNotFoundError(f"no depth PNGs found: searched {searched}\n{_LAYOUT_HELP}")
+        entries.sort(key=lambda e: (e[1], e[2], e[3]))  # drive, camera, frame
+
+        self.paths: list[Path] = [e[0] for e in entries]
+        self.groups = np.asarray([e[1] for e in entries])
+        self.frame_ids = [f"{d}/{c}/{f}" for _, d, c, f in entries]
+        self._headers: list[PngHeader] | None = None
+
+        if crop is None:
+            sizes = self.raw_sizes()
+            if len(sizes) != 1:
+                listing = ", ".join(f"{w}x{h} ({n} frames)" for (w, h), n in sorted(sizes.items()))
+                raise ValueError(
+                    f"frames have different sizes (W x H): {listing}; pass crop=(H, W), "
+                    "e.g. the default (352, 1216), to crop them to one size"
+                )
+            (w, h), = sizes
+            self.frame_shape = (h, w)
+        else:
+            # Reject 8-bit/RGB trees early from the first file's header; the rest is
+            # checked when decoded.
+            _check_header(self.paths[0], png_header(self.paths[0]))
+            self.frame_shape = crop
+
+    # -- loading -----------------------------------------------------------------
+    def _load(self, index: int) -> np.ndarray:
+        path = self.paths[index]
+        depth = read_depth_png(path)
+        if self.crop is None:
+            if depth.shape != self.frame_shape:
+                raise DepthFormatError(
+                    f"{path} is {depth.shape[1]}x{depth.shape[0]}, expected "
+                    f"{self.frame_shape[1]}x{self.frame_shape[0]} (file changed since indexing?)"
+                )
+            return depth
+        return bottom_center_crop(depth, self.crop, name=str(path))
+
+    # -- description -------------------------------------------------------------
+    def headers(self) -> list[PngHeader]:
+        """The PNG header of every frame (read once, then cached); checks the pixel format."""
+        if self._headers is None:
+            headers = []
+            for p in self.paths:
+                h = png_header(p)
+                _check_header(p, h)
+                headers.append(h)
+            self._headers = headers
+        return self._headers
+
+    def raw_sizes(self) -> dict[tuple[int, int], int]:
+        """Number of frames per raw ``(W, H)`` size, from the PNG headers (no decoding)."""
+        return dict(Counter((h.width, h.height) for h in self.headers()))
+
+    def summary(self, n_sample: int = 8) -> dict[str, Any]:
+        """A description of the dataset for ``inpaintenv info``.
+
+        Parameters
+        ----------
+        n_sample : int
+            Number of evenly spaced frames decoded to measure the valid-pixel density.
+
+        Returns
+        -------
+        dict
+            ``source``, ``root``, ``split``, ``kind``, ``camera``, ``frames``, ``drives``,
+            ``frames_per_drive``, ``raw_sizes`` (``"WxH" -> count``), ``frame_shape``,
+            ``valid_density`` (mean fraction of pixels > 0 on the sample) and
+            ``sampled_frames``.
+        """
+        drives, counts = np.unique(self.groups, return_counts=True)
+        sample = np.unique(np.linspace(0, len(self) - 1, num=min(n_sample, len(self))).round().astype(int))
+        density = float(np.mean([(self[int(i)] > 0).mean() for i in sample])) if n_sample > 0 else None
+        return {
+            "source": "KittiDepth",
+            "root": str(self.root),
+            "split": self.split,
+            "kind": self.kind,
+            "camera": self.camera,
+            "frames": len(self),
+            "drives": len(drives),
+            "frames_per_drive": {str(d): int(c) for d, c in zip(drives, counts)},
+            "raw_sizes": {f"{w}x{h}": n for (w, h), n in sorted(self.raw_sizes().items())},
+            "frame_shape": list(self.frame_shape),
+            "valid_density": density,
+            "sampled_frames": int(len(sample)) if n_sample > 0 else 0,
+        }
+
+    info = summary
+
+    def __repr__(self) -> str:
+        return (
+            f"KittiDepth(root={str(self.root)!r}, split={self.split!r}, camera={self.camera!r}, "
+            f"kind={self.kind!r}, {len(self)} frames, {len(np.unique(self.groups))} drives, "
+            f"frame_shape={self.frame_shape})"
+        )
+
+
+def _resolve_root(root: str | os.PathLike | None) -> Path:
+    if root is None:
+        env = os.environ.get(KITTI_ROOT_ENV)
+        if not env:
+            raise FileNotFoundError(
+                f"no KITTI root given and ${KITTI_ROOT_ENV} is not set.\n{_LAYOUT_HELP}\n"
+                "(Without KITTI, use the built-in SyntheticStreets data.)"
+            )
+        root = env
+    path = Path(root).expanduser()
+    if not path.is_dir():
+        raise FileNotFoundError(f"KITTI root {path} does not exist or is not a folder.\n{_LAYOUT_HELP}")
+    return path
+
+
+def _index_split(
+    root: Path, split: str, kind: str, cameras: tuple[str, ...]
+) -> tuple[list[tuple[Path, str, str, str]], str]:
+    base = root / split
+    if not base.is_dir():
+        present = sorted(p.name for p in root.iterdir() if p.is_dir())
+        raise FileNotFoundError(
+            f"split folder {base} not found (folders in {root}: {present}); splits are "
+            f"'train', 'val' or 'val_selection'.\n{_LAYOUT_HELP}"
+        )
+    entries = []
+    for cam in cameras:
+        for png in base.glob(f"*_sync/proj_depth/{kind}/{cam}/*.png"):
+            drive = png.parents[3].name
+            entries.append((png, drive, cam, png.stem))
+    cams = "{" + ",".join(cameras) + "}" if len(cameras) > 1 else cameras[0]
+    return entries, str(base / "*_sync" / "proj_depth" / kind / cams / "*.png")
+
+
+def _index_val_selection(
+    root: Path, kind: str, cameras: tuple[str, ...]
+) -> tuple[list[tuple[Path, str, str, str]], str]:
+    folder = "groundtruth_depth" if kind == "groundtruth" else "velodyne_raw"
+    base = root / "depth_selection" / "val_selection_cropped" / folder
+    if not base.is_dir():
+        raise FileNotFoundError(f"split folder {base} not found for split='val_selection'.\n{_LAYOUT_HELP}")
+    entries = []
+    for png in base.glob("*.png"):
+        m = _VAL_SELECTION_RE.match(png.name)
+        if m is None:
+            raise ValueError(
+                f"unexpected file name {png.name} in {base}; expected "
+                f"<drive>_sync_{folder}_<frame>_<camera>.png"
+            )
+        if m["camera"] in cameras:
+            entries.append((png, m["drive"], m["camera"], m["frame"]))
+    return entries, str(base / f"*_sync_{folder}_*_image_0?.png")
