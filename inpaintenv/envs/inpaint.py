@@ -1,0 +1,299 @@
+"""``DepthInpaintEnv``: one occluded frame per episode, scored on the submitted reconstruction.
+
+Episode = one frame:
+
+* ``reset(seed=..., options={"index": i, "mask_seed": s})`` picks frame ``i`` (drawn from
+  the env's generator when absent) and draws its occlusion as
+  ``protocol.mask(frame_shape, s, i)`` -- the very mask :func:`inpaintenv.evaluate`
+  uses for evaluation seed ``s`` (``s`` drawn from the env's generator when absent).
+* ``step(reconstruction)`` scores the ``(H, W)`` reconstruction in metres with
+  :func:`inpaintenv.metrics.frame_metrics`; reward = −hole RMSE, ``terminated=True``.
+
+Decisions (see ``docs/env.md``):
+
+* **Holes without ground truth.** If the drawn hole holds no valid ground-truth pixel,
+  the mask is redrawn deterministically from ``(protocol, mask_seed, index, attempt)``,
+  at most :data:`MAX_MASK_REDRAWS` times (``info["mask_redraws"]`` says how many). A
+  frame with no ground truth under any of those masks is refused: a randomly drawn index
+  is replaced by another random frame (at most :data:`MAX_FRAME_DRAWS` tries); an index
+  given in ``options`` raises ``ValueError``. So every step has a defined reward.
+* **Bad actions raise**, they are never scored with a penalty: a non-array or non-float
+  dtype raises ``TypeError``; a wrong shape, NaN/inf, negative depth or depth above the
+  action space's bound raises ``ValueError``. A penalty would hide bugs in a method
+  behind a bad but plausible score.
+"""
+
+from __future__ import annotations
+
+import zlib
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..conventions import DEFAULT_MAX_DEPTH, check_depth
+from ..data.base import DepthDataset, as_dataset
+from ..masks import OcclusionProtocol, get_protocol
+from ..metrics import frame_metrics
+from .render import render_panel
+
+__all__ = ["DEPTH_LIMIT", "DepthInpaintEnv", "MAX_FRAME_DRAWS", "MAX_MASK_REDRAWS", "draw_scored_hole"]
+
+#: Upper bound of the depth spaces: the largest depth KITTI's 16-bit PNG encoding can hold
+#: (65535 / 256 m). Finite bounds are required by Gymnasium's checker.
+DEPTH_LIMIT: float = 65535.0 / 256.0
+#: Redraws of a mask whose hole holds no valid ground truth.
+MAX_MASK_REDRAWS = 16
+#: Random frames tried when a frame has no valid ground truth under any redraw.
+MAX_FRAME_DRAWS = 64
+#: Largest mask seed drawn by the env (exclusive).
+MASK_SEED_HIGH = 2**31
+
+
+def draw_scored_hole(
+    protocol: OcclusionProtocol, gt: np.ndarray, mask_seed: int, index: int,
+    max_redraws: int = MAX_MASK_REDRAWS,
+) -> tuple[np.ndarray | None, int]:
+    """The first mask of ``(protocol, mask_seed, index)`` whose hole holds valid ground truth.
+
+    Attempt 0 is ``protocol.mask(gt.shape, mask_seed, index)``; attempt ``k > 0`` draws from
+    ``SeedSequence([crc32(name), mask_seed, index, k])``, so redraws are reproducible too.
+
+    Returns
+    -------
+    hole : numpy.ndarray or None
+        ``(H, W)`` bool, or None when no attempt covers a valid pixel.
+    redraws : int
+        Number of masks rejected before ``hole``.
+    """
+    valid = gt > 0
+    for attempt in range(max_redraws + 1):
+        if attempt == 0:
+            hole = protocol.mask(gt.shape, mask_seed, index)
+        else:
+            ss = np.random.SeedSequence([zlib.crc32(protocol.name.encode()), mask_seed, index, attempt])
+            hole = protocol.sample(gt.shape, np.random.default_rng(ss))
+        if (hole & valid).any():
+            return hole, attempt
+    return None, max_redraws + 1
+
+
+class DepthInpaintEnv(gym.Env):
+    """Gymnasium env: fill the occluded part of one depth frame per episode.
+
+    Parameters
+    ----------
+    dataset : DepthDataset or array-like
+        Ground truth (``(N, H, W)`` metres, 0 = no measurement); arrays are wrapped.
+    protocol : str or OcclusionProtocol
+        Occlusion protocol, ``"rect-v1"`` by default.
+    max_depth : float
+        Range of PSNR and of the render colour scale, metres.
+    render_mode : {None, "rgb_array"}
+
+    Observation
+    -----------
+    ``{"depth": float32 (H, W), "hole": uint8 (H, W)}``: the ground truth with the hole
+    zeroed (so 0 there means "occluded", elsewhere "no measurement"), and the hole mask
+    (1 = fill). Both are ``Box`` spaces with finite bounds ``[0, DEPTH_LIMIT]`` and
+    ``[0, 1]``.
+
+    Action
+    ------
+    float ``(H, W)`` reconstruction in metres, ``Box(0, DEPTH_LIMIT)``. Every pixel must
+    be finite; only pixels with ground truth are scored.
+
+    Reward and info
+    ---------------
+    ``step`` returns reward = −hole RMSE (metres), ``terminated=True``,
+    ``truncated=False``, and ``info`` with every metric of
+    :func:`~inpaintenv.metrics.frame_metrics` (``hole_rmse``, ..., ``all_count``) as
+    Python numbers, plus ``frame_id``, ``drive``, ``index``, ``mask_seed``,
+    ``mask_redraws`` and ``hole_fraction``. ``reset`` returns the same episode keys.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        dataset: Any,
+        protocol: str | OcclusionProtocol = "rect-v1",
+        max_depth: float = DEFAULT_MAX_DEPTH,
+        render_mode: str | None = None,
+    ):
+        self.dataset: DepthDataset = as_dataset(dataset)
+        if len(self.dataset) == 0:
+            raise ValueError("the dataset has no frames")
+        self.protocol = get_protocol(protocol)
+        if not 0 < max_depth <= DEPTH_LIMIT:
+            raise ValueError(f"max_depth must be in (0, {DEPTH_LIMIT}], got {max_depth}")
+        self.max_depth = float(max_depth)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
+        self.render_mode = render_mode
+        shape = tuple(int(s) for s in self.dataset.frame_shape)
+        self.frame_shape: tuple[int, int] = shape  # type: ignore[assignment]
+        self.observation_space = spaces.Dict(
+            {
+                "depth": spaces.Box(0.0, DEPTH_LIMIT, shape=shape, dtype=np.float32),
+                "hole": spaces.Box(0, 1, shape=shape, dtype=np.uint8),
+            }
+        )
+        self.action_space = spaces.Box(0.0, DEPTH_LIMIT, shape=shape, dtype=np.float32)
+        self._gt: np.ndarray | None = None
+        self._hole: np.ndarray | None = None
+        self._pred: np.ndarray | None = None
+        self._episode: dict[str, Any] = {}
+        self._metrics: dict[str, Any] | None = None
+        self._done = True
+
+    # -- episode ---------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start an episode on one frame.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Seeds the env's generator (which draws the index and mask seed when absent).
+        options : dict, optional
+            ``"index"``: frame index; ``"mask_seed"``: seed of the mask, so that
+            ``options={"index": i, "mask_seed": s}`` serves exactly the pair
+            :func:`inpaintenv.evaluate` scores for frame ``i`` under seed ``s``.
+
+        Returns
+        -------
+        observation : dict
+        info : dict
+        """
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"index", "mask_seed"}
+        if unknown:
+            raise ValueError(f"unknown reset options {sorted(unknown)}; known: 'index', 'mask_seed'")
+        index = options.get("index")
+        mask_seed = options.get("mask_seed")
+        if index is not None:
+            index = self._check_int(index, "index", len(self.dataset))
+        if mask_seed is not None:
+            mask_seed = self._check_int(mask_seed, "mask_seed", None)
+
+        tries = 1 if index is not None else MAX_FRAME_DRAWS
+        for _ in range(tries):
+            i = index if index is not None else int(self.np_random.integers(len(self.dataset)))
+            s = mask_seed if mask_seed is not None else int(self.np_random.integers(MASK_SEED_HIGH))
+            gt = self._load(i)
+            hole, redraws = draw_scored_hole(self.protocol, gt, s, i)
+            if hole is not None:
+                break
+        if hole is None and index is not None:
+            raise ValueError(
+                f"frame {i} ({self.dataset.frame_ids[i]}) has no valid ground truth inside any of "
+                f"{MAX_MASK_REDRAWS + 1} {self.protocol.name} masks, so no reconstruction could "
+                "be scored; choose another index"
+            )
+        if hole is None:
+            raise RuntimeError(
+                f"{MAX_FRAME_DRAWS} random frames had no valid ground truth inside any "
+                f"{self.protocol.name} hole; does the dataset hold any measurement?"
+            )
+        self._gt, self._hole, self._pred, self._metrics = gt, hole, None, None
+        self._episode = {
+            "frame_id": str(self.dataset.frame_ids[i]),
+            "drive": str(self.dataset.groups[i]),
+            "index": i,
+            "mask_seed": s,
+            "mask_redraws": redraws,
+            "hole_fraction": float(hole.mean()),
+        }
+        self._done = False
+        return self._observation(), dict(self._episode)
+
+    def step(
+        self, action: Any
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Score a reconstruction of the current frame; the episode ends.
+
+        Raises
+        ------
+        TypeError
+            If ``action`` is not a floating-point array.
+        ValueError
+            On a wrong shape, NaN/inf, negative depth or depth above ``DEPTH_LIMIT``.
+        RuntimeError
+            If called before ``reset`` or after the episode ended.
+        """
+        if self._done or self._gt is None or self._hole is None:
+            raise RuntimeError("the episode is over or has not started; call reset() first")
+        pred = self._check_action(action)
+        m = frame_metrics(pred, self._gt, self._hole, max_depth=self.max_depth)
+        metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items()}
+        self._pred, self._metrics = pred, metrics
+        self._done = True
+        info = {**metrics, **self._episode}
+        return self._observation(), -metrics["hole_rmse"], True, False, info
+
+    def render(self) -> np.ndarray | None:
+        """The RGB uint8 panel of the current frame (``render_mode="rgb_array"``), else None."""
+        if self.render_mode != "rgb_array" or self._gt is None or self._hole is None:
+            return None
+        title = None
+        if self._metrics is not None:
+            m = self._metrics
+            title = (
+                f"{self._episode['frame_id']}  hole RMSE {m['hole_rmse']:.3f} m  "
+                f"PSNR {m['hole_psnr']:.2f} dB | all RMSE {m['all_rmse']:.3f} m  PSNR {m['all_psnr']:.2f} dB"
+            )
+        return render_panel(self._gt, self._hole, self._pred, max_depth=self.max_depth, title=title)
+
+    # -- helpers ---------------------------------------------------------------------
+    def _observation(self) -> dict[str, np.ndarray]:
+        assert self._gt is not None and self._hole is not None
+        # Fresh arrays every call: callers may keep or modify what they receive.
+        return {
+            "depth": np.where(self._hole, np.float32(0.0), self._gt).astype(np.float32),
+            "hole": self._hole.astype(np.uint8),
+        }
+
+    def _load(self, index: int) -> np.ndarray:
+        gt = check_depth(self.dataset[index], name=f"frame {index}", ndim=(2,))
+        if gt.shape != self.frame_shape:
+            raise ValueError(f"frame {index} has shape {gt.shape}, the dataset says {self.frame_shape}")
+        if gt.max() > DEPTH_LIMIT:
+            raise ValueError(
+                f"frame {index} has depth {float(gt.max()):.1f} m above the env's bound {DEPTH_LIMIT} m"
+            )
+        return np.array(gt, dtype=np.float32, copy=True)
+
+    @staticmethod
+    def _check_int(value: Any, name: str, upper: int | None) -> int:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"options[{name!r}] must be an int, got {type(value).__name__}")
+        v = int(value)
+        if v < 0 or (upper is not None and v >= upper):
+            rng = f"[0, {upper})" if upper is not None else ">= 0"
+            raise ValueError(f"options[{name!r}] = {v} is out of range {rng}")
+        return v
+
+    def _check_action(self, action: Any) -> np.ndarray:
+        arr = np.asarray(action)
+        if arr.dtype == object or not np.issubdtype(arr.dtype, np.floating):
+            raise TypeError(
+                f"action must be a float array of depth in metres (float32), got dtype {arr.dtype}"
+            )
+        if arr.shape != self.frame_shape:
+            raise ValueError(f"action has shape {arr.shape}, expected {self.frame_shape}")
+        arr = arr.astype(np.float32)  # a copy: the caller's array is never kept
+        if not np.isfinite(arr).all():
+            raise ValueError("action contains NaN or inf; fill every pixel with a depth in metres")
+        if (arr < 0).any():
+            raise ValueError(f"action contains negative depth (min {float(arr.min()):.3g} m)")
+        if (arr > DEPTH_LIMIT).any():
+            raise ValueError(
+                f"action exceeds the action space's bound {DEPTH_LIMIT} m (max {float(arr.max()):.1f} m)"
+            )
+        return arr
