@@ -6,5 +6,37 @@ Classical methods import without torch; the neural ones load torch on first use.
 from __future__ import annotations
 
 from .base import BaseInpainter
+from .classical import (
+    ConstantInpainter,
+    HarmonicInpainter,
+    IPBasicInpainter,
+    IterativeBilateralInpainter,
+    NavierStokesInpainter,
+    NearestInpainter,
+    ScanlineInpainter,
+    TeleaInpainter,
+)
+from .scoring import (
+    all_rmse_scorer,
+    hole_mae_scorer,
+    hole_psnr_scorer,
+    hole_rmse_scorer,
+    make_inpaint_scorer,
+)
 
-__all__ = ["BaseInpainter"]
+__all__ = [
+    "BaseInpainter",
+    "ConstantInpainter",
+    "HarmonicInpainter",
+    "IPBasicInpainter",
+    "IterativeBilateralInpainter",
+    "NavierStokesInpainter",
+    "NearestInpainter",
+    "ScanlineInpainter",
+    "TeleaInpainter",
+    "all_rmse_scorer",
+    "hole_mae_scorer",
+    "hole_psnr_scorer",
+    "hole_rmse_scorer",
+    "make_inpaint_scorer",
+]

@@ -1,0 +1,132 @@
+"""Shared behaviour of the classical inpainters: parameter checks and parallel frames.
+
+A classical method only implements :meth:`ClassicalInpainter._fill_frame` for one
+``(H, W)`` frame; this module runs it over a batch (in parallel with joblib when
+``n_jobs`` asks for it) and keeps OpenCV from oversubscribing the cores meanwhile.
+"""
+
+from __future__ import annotations
+
+import numbers
+import threading
+from abc import abstractmethod
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
+
+import cv2
+import numpy as np
+from joblib import Parallel, delayed, effective_n_jobs
+
+from ..base import BaseInpainter
+
+__all__ = ["ClassicalInpainter", "FILL_MODES", "unknown_mask"]
+
+#: ``"invalid"``: every pixel without a measurement (NaN or 0) is unknown (sound);
+#: ``"hole"``: only NaN is unknown, unmeasured pixels count as depth 0 (the study).
+FILL_MODES = ("invalid", "hole")
+#: joblib backend for frames of a batch. OpenCV and the large NumPy operations release
+#: the GIL, so threads avoid copying frames between processes (measured faster than
+#: loky in benchmarks/bench_classical.py).
+PARALLEL_BACKEND = "threading"
+
+_cv2_threads_lock = threading.Lock()
+
+
+@contextmanager
+def opencv_threads(n: int) -> Iterator[None]:
+    """Set ``cv2.setNumThreads(n)`` for the duration of the block, then restore it."""
+    with _cv2_threads_lock:
+        previous = cv2.getNumThreads()
+        cv2.setNumThreads(n)
+    try:
+        yield
+    finally:
+        with _cv2_threads_lock:
+            cv2.setNumThreads(previous)
+
+
+def unknown_mask(x: np.ndarray, fill: str = "invalid") -> np.ndarray:
+    """Pixels a method must estimate: NaN and 0 (``"invalid"``) or NaN only (``"hole"``)."""
+    if fill == "hole":
+        return np.isnan(x)
+    return ~(x > 0)  # NaN > 0 is False, so NaN counts as unknown
+
+
+class ClassicalInpainter(BaseInpainter):
+    """Base of the classical (non-learned, stateless) inpainters.
+
+    Subclasses store their keyword-only parameters, list the checks in
+    :meth:`_check_params` and implement :meth:`_fill_frame`. They predict without
+    ``fit``; ``fit`` only validates parameters and one frame.
+    """
+
+    _stateless = True
+
+    # -- parameter validation (in fit/predict, never in __init__) ------------------
+    def _check_params(self) -> None:
+        """Raise a clear error on an invalid parameter; extend in subclasses."""
+        self._check_bool("keep_observed")
+        n_jobs = self.n_jobs
+        if n_jobs is not None and (
+            isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0
+        ):
+            raise ValueError(
+                f"{type(self).__name__}: n_jobs must be None or a non-zero integer "
+                f"(-1 = all cores), got {n_jobs!r}"
+            )
+
+    def _check_bool(self, name: str) -> None:
+        value = getattr(self, name)
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"{type(self).__name__}: {name} must be True or False, got {value!r}")
+
+    def _check_int(self, name: str, low: int, high: int | None = None, *, odd: bool = False) -> None:
+        value = getattr(self, name)
+        ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+        ok = ok and value >= low and (high is None or value <= high) and (not odd or value % 2 == 1)
+        if not ok:
+            bound = f">= {low}" if high is None else f"in [{low}, {high}]"
+            kind = "an odd integer" if odd else "an integer"
+            raise ValueError(f"{type(self).__name__}: {name} must be {kind} {bound}, got {value!r}")
+
+    def _check_positive(self, name: str) -> None:
+        value = getattr(self, name)
+        ok = isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+        if not (ok and np.isfinite(value) and value > 0):
+            raise ValueError(f"{type(self).__name__}: {name} must be a positive number, got {value!r}")
+
+    def _check_option(self, name: str, options: Sequence[Any]) -> None:
+        value = getattr(self, name)
+        if not isinstance(value, str) or value not in options:
+            raise ValueError(
+                f"{type(self).__name__}: {name} must be one of {', '.join(map(repr, options))}, "
+                f"got {value!r}"
+            )
+
+    # -- the work ------------------------------------------------------------------
+    def _fit(self, dataset: Any) -> None:
+        self._check_params()
+        super()._fit(dataset)
+
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        self._check_params()
+        n_workers = min(effective_n_jobs(self.n_jobs), len(X))
+        if n_workers <= 1:
+            frames = [self._fill_frame(X[i]) for i in range(len(X))]
+        else:
+            # One OpenCV thread per worker: n_workers × OpenCV's own pool would
+            # oversubscribe the cores.
+            with opencv_threads(1):
+                frames = Parallel(n_jobs=n_workers, backend=PARALLEL_BACKEND)(
+                    delayed(self._fill_frame)(X[i]) for i in range(len(X))
+                )
+        return np.stack(frames).astype(np.float32, copy=False)
+
+    @abstractmethod
+    def _fill_frame(self, x: np.ndarray) -> np.ndarray:
+        """Fill one validated ``(H, W)`` float32 frame (NaN = fill, 0 = no data).
+
+        ``x`` may be read-only and must not be modified. Return ``(H, W)`` depth that is
+        finite everywhere; observed pixels are composited back by ``predict``.
+        """
