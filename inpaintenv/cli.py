@@ -1,0 +1,312 @@
+"""The ``inpaintenv`` command line: ``info``, ``evaluate``, ``show``.
+
+Each subcommand lives in two small functions: ``add_<name>(subparsers)`` declares its
+options and ``cmd_<name>(args)`` runs it. More subcommands (``benchmark``, ``train``)
+are added by appending their ``add_`` function to :data:`SUBCOMMANDS`; the shared
+data-source options come from :func:`add_source_options` / :func:`open_source_from_args`.
+
+Examples
+--------
+::
+
+    inpaintenv info
+    inpaintenv evaluate --method telea --method telea-hole --n-frames 8 --out results/
+    inpaintenv show --method ipbasic --index 3 --out panel.png
+    inpaintenv info --kitti-root ../shared/kitti --split train
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .conventions import DEFAULT_MAX_DEPTH
+
+__all__ = ["SUBCOMMANDS", "add_source_options", "build_parser", "main", "open_source_from_args"]
+
+#: Errors reported as one line ("inpaintenv: error: ...") with exit status 1, not a traceback.
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError, KeyError, TypeError, FileNotFoundError, ImportError, IndexError, OSError,
+)
+
+
+# ---------------------------------------------------------------------------------------
+# Shared options
+# ---------------------------------------------------------------------------------------
+def add_source_options(parser: argparse.ArgumentParser) -> None:
+    """Options choosing the data source: built-in synthetic streets, or real KITTI."""
+    g = parser.add_argument_group("data source (default: built-in SyntheticStreets)")
+    g.add_argument("--kitti-root", metavar="PATH", help="root of a KITTI depth-completion tree")
+    g.add_argument("--split", default="train", help="KITTI split: train, val or val_selection (default train)")
+    g.add_argument(
+        "--kind", default="groundtruth", choices=["groundtruth", "velodyne_raw"],
+        help="ground truth to score against (default groundtruth)",
+    )
+    g.add_argument("--n-frames", type=int, metavar="N", help="use only the first N frames")
+    g.add_argument(
+        "--frame-shape", type=int, nargs=2, metavar=("H", "W"),
+        help="synthetic frame size (default 352 1216, KITTI's crop)",
+    )
+    g.add_argument("--data-seed", type=int, default=0, help="seed of the synthetic streets (default 0)")
+
+
+def add_common_options(parser: argparse.ArgumentParser) -> None:
+    """Options every subcommand takes."""
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+
+
+def open_source_from_args(args: argparse.Namespace) -> Any:
+    """Build the data source selected by :func:`add_source_options`' options.
+
+    ``--kitti-root`` gives :class:`~inpaintenv.data.kitti.KittiDepth`; otherwise the
+    built-in :class:`~inpaintenv.data.synthetic.SyntheticStreets` (``--n-frames`` frames,
+    64 by default). ``--n-frames`` keeps the first N frames of KITTI.
+    """
+    n = args.n_frames
+    if n is not None and n < 1:
+        raise ValueError(f"--n-frames must be >= 1, got {n}")
+    if args.kitti_root:
+        if args.frame_shape:
+            raise ValueError("--frame-shape applies to the synthetic source only (KITTI is cropped to 352x1216)")
+        from .data.kitti import KittiDepth
+
+        ds = KittiDepth(args.kitti_root, split=args.split, kind=args.kind)
+        return ds if n is None or n >= len(ds) else ds[:n]
+    from .data.synthetic import SyntheticStreets
+
+    kwargs: dict[str, Any] = {"n": n or 64, "seed": args.data_seed, "kind": args.kind}
+    if args.frame_shape:
+        kwargs["frame_shape"] = tuple(args.frame_shape)
+    return SyntheticStreets(**kwargs)
+
+
+def _method_overrides(args: argparse.Namespace) -> dict[str, Any]:
+    return {} if getattr(args, "n_jobs", None) is None else {"n_jobs": args.n_jobs}
+
+
+# ---------------------------------------------------------------------------------------
+# info
+# ---------------------------------------------------------------------------------------
+def add_info(subparsers: Any) -> None:
+    p = subparsers.add_parser("info", help="summarise a data source", description="Summarise a data source: frames, drives, sizes, valid-pixel density.")
+    add_source_options(p)
+    add_common_options(p)
+    p.add_argument("--sample", type=int, default=8, help="frames decoded to measure density (default 8)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_info)
+
+
+def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
+    """A summary of any dataset: its own ``summary()`` if it has one, else the basics."""
+    if n_sample < 1:
+        raise ValueError(f"--sample must be >= 1, got {n_sample}")
+    summary = getattr(ds, "summary", None)
+    if callable(summary):
+        return dict(summary(n_sample=n_sample))
+    sample = np.unique(np.linspace(0, len(ds) - 1, num=min(n_sample, len(ds))).round().astype(int))
+    drives, counts = np.unique(ds.groups, return_counts=True)
+    return {
+        "source": type(ds).__name__,
+        "frames": len(ds),
+        "drives": len(drives),
+        "frames_per_drive": {str(d): int(c) for d, c in zip(drives, counts)},
+        "frame_shape": list(ds.frame_shape),
+        "valid_density": float(np.mean([(ds[int(i)] > 0).mean() for i in sample])),
+        "sampled_frames": int(len(sample)),
+    }
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from .masks import available_protocols
+    from .registry import available_methods
+
+    ds = open_source_from_args(args)
+    info = describe_source(ds, args.sample)
+    info["frames_used"] = len(ds)
+    if args.json:
+        print(json.dumps(info, indent=1))
+        return 0
+    for key, value in info.items():
+        if key == "valid_density" and value is not None:
+            value = f"{100 * value:.1f} % of pixels (mean over {info.get('sampled_frames', '?')} frames)"
+        elif isinstance(value, dict):
+            value = ", ".join(f"{k}: {v}" for k, v in value.items())
+        print(f"{key:>16}: {value}")
+    print(f"{'protocols':>16}: {', '.join(available_protocols())}")
+    print(f"{'methods':>16}: {', '.join(available_methods())}")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------
+# evaluate
+# ---------------------------------------------------------------------------------------
+def add_evaluate(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "evaluate", help="score methods on a data source and protocol",
+        description="Score methods by name on seeded (frame, occlusion) pairs; print a Markdown table.",
+    )
+    p.add_argument("--method", "-m", action="append", required=True, metavar="NAME",
+                   help="method name (repeatable); see `inpaintenv info` for the list")
+    p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
+    p.add_argument("--seed", type=int, action="append", metavar="S",
+                   help="evaluation seed (repeatable; default 0)")
+    p.add_argument("--batch-size", type=int, default=4, help="frames per batch (default 4)")
+    p.add_argument("--max-depth", type=float, default=DEFAULT_MAX_DEPTH, help="PSNR range in metres (default 80)")
+    p.add_argument("--n-jobs", type=int, help="n_jobs passed to each method")
+    p.add_argument("--by-drive", action="store_true", help="also print a table per drive")
+    p.add_argument("--out", metavar="DIR", help="write results.json, results.csv and table.md here")
+    add_source_options(p)
+    add_common_options(p)
+    p.set_defaults(func=cmd_evaluate)
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from .evaluate import EvaluationResult, evaluate
+    from .registry import make_method
+
+    # Build every method first so a typo fails before any long run.
+    methods = [(name, make_method(name, **_method_overrides(args))) for name in args.method]
+    ds = open_source_from_args(args)
+    seeds = args.seed or [0]
+    results = [
+        evaluate(method, ds, protocol=args.protocol, seeds=seeds, batch_size=args.batch_size,
+                 max_depth=args.max_depth, progress=not args.quiet, name=name)
+        for name, method in methods
+    ]
+    result = EvaluationResult.concat(results)
+    result.meta["command"] = "inpaintenv " + " ".join(args.argv)
+    table = result.to_markdown()
+    print(table)
+    if args.by_drive:
+        print()
+        print(result.to_markdown(result.by_drive()))
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        result.to_json(out / "results.json")
+        result.to_csv(out / "results.csv")
+        (out / "table.md").write_text(table + "\n")
+        print(f"\nwrote {out / 'results.json'}, {out / 'results.csv'}, {out / 'table.md'}", file=sys.stderr)
+    return 0
+
+
+# ---------------------------------------------------------------------------------------
+# show
+# ---------------------------------------------------------------------------------------
+def add_show(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "show", help="save a PNG panel of one frame",
+        description="Save the panel input | hole | ground truth | reconstruction | error of one frame.",
+    )
+    p.add_argument("--method", "-m", metavar="NAME", help="method to run (default: none, data only)")
+    p.add_argument("--index", type=int, default=0, help="frame index in the source (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="evaluation seed of the mask (default 0)")
+    p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
+    p.add_argument("--max-depth", type=float, default=DEFAULT_MAX_DEPTH, help="colour scale top in metres")
+    p.add_argument("--out", default="panel.png", help="PNG to write (default panel.png)")
+    add_source_options(p)
+    add_common_options(p)
+    p.set_defaults(func=cmd_show)
+
+
+def _fmt(v: float, unit: str, digits: int = 3) -> str:
+    return "n/a" if v is None or np.isnan(v) else f"{v:.{digits}f}{unit}"
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    import cv2
+
+    from .conventions import corrupt
+    from .envs.render import render_panel
+    from .evaluate import _as_predictor, _run
+    from .masks import get_protocol
+    from .metrics import frame_metrics
+    from .registry import make_method
+
+    method = make_method(args.method) if args.method else None
+    ds = open_source_from_args(args)
+    if not 0 <= args.index < len(ds):
+        raise IndexError(f"--index {args.index} is out of range for a source of {len(ds)} frames")
+    proto = get_protocol(args.protocol)
+    gt = ds[args.index]
+    # The same mask evaluate() uses for (protocol, seed, index).
+    hole = proto.mask(gt.shape, args.seed, args.index)
+    lines = [f"{ds.frame_ids[args.index]}  {proto.name} seed {args.seed}  hole {100 * hole.mean():.1f} %"]
+    pred = None
+    if method is not None:
+        call, batched = _as_predictor(method)
+        x = corrupt(gt, hole)[None]
+        batch, ms = _run(call, batched, x, args.method)
+        pred = batch[0]
+        m = {k: float(v) for k, v in frame_metrics(pred, gt, hole, max_depth=args.max_depth).items()}
+        lines.append(
+            f"{args.method}: hole RMSE {_fmt(m['hole_rmse'], ' m')} MAE {_fmt(m['hole_mae'], ' m')} "
+            f"PSNR {_fmt(m['hole_psnr'], ' dB', 2)} | all RMSE {_fmt(m['all_rmse'], ' m')} "
+            f"PSNR {_fmt(m['all_psnr'], ' dB', 2)} | {ms:.0f} ms"
+        )
+    panel = render_panel(gt, hole, pred, max_depth=args.max_depth, title=lines)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not cv2.imwrite(str(out), cv2.cvtColor(panel, cv2.COLOR_RGB2BGR)):
+        raise OSError(f"could not write {out} (use a .png name)")
+    for line in lines:
+        print(line)
+    print(f"wrote {out} ({panel.shape[1]}x{panel.shape[0]})", file=sys.stderr)
+    return 0
+
+
+# ---------------------------------------------------------------------------------------
+# entry point
+# ---------------------------------------------------------------------------------------
+#: ``add_<name>(subparsers)`` functions, one per subcommand.
+SUBCOMMANDS: list[Callable[[Any], None]] = [add_info, add_evaluate, add_show]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every subcommand of :data:`SUBCOMMANDS`."""
+    from . import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="inpaintenv",
+        description="Benchmark for depth-only inpainting of large occlusions in outdoor LiDAR depth.",
+    )
+    parser.add_argument("--version", action="version", version=f"inpaintenv {__version__}")
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in SUBCOMMANDS:
+        add(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit status (0 = success, 1 = error in the inputs).
+
+    Errors in the inputs print one line to stderr; set ``INPAINTENV_TRACEBACK=1`` to get
+    the traceback instead.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name; ``sys.argv[1:]`` by default.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    args.argv = argv
+    try:
+        return int(args.func(args) or 0)
+    except USER_ERRORS as exc:
+        if os.environ.get("INPAINTENV_TRACEBACK"):
+            raise
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"inpaintenv {args.command}: error: {msg}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,156 @@
+"""The methods known by name to the CLI and the benchmark.
+
+This module is the only list of methods in the project (estimators never import it):
+each name maps to ``(module path, class name, keyword arguments)`` and the class is
+imported only when :func:`make_method` builds it, so ``import inpaintenv`` never loads
+``estimators``.
+
+>>> from inpaintenv.registry import available_methods, make_method
+>>> "telea-hole" in available_methods()
+True
+>>> make_method("telea-hole")                           # doctest: +SKIP
+TeleaInpainter(fill='hole')
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["MethodSpec", "available_methods", "get_spec", "make_method", "register_method"]
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """How to build one named method.
+
+    Attributes
+    ----------
+    module : str
+        Import path of the module holding the class, e.g. ``"estimators.classical"``.
+    cls : str
+        Class name in that module.
+    kwargs : dict
+        Constructor keywords that define the variant (e.g. ``{"fill": "hole"}``).
+    description : str
+        One line for listings.
+    """
+
+    module: str
+    cls: str
+    kwargs: dict[str, Any] = field(default_factory=dict)
+    description: str = ""
+
+
+_CLASSICAL = "estimators.classical"
+_METHODS: dict[str, MethodSpec] = {}
+
+
+def register_method(
+    name: str, module: str, cls: str, kwargs: dict[str, Any] | None = None,
+    description: str = "", *, overwrite: bool = False,
+) -> MethodSpec:
+    """Add a named method (e.g. a trained neural model) to the registry.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is taken (unless ``overwrite``) or malformed.
+    """
+    if not name or name != name.strip() or ":" in name:
+        raise ValueError(f"method names must be non-empty, without spaces at the ends or ':', got {name!r}")
+    if name in _METHODS and not overwrite:
+        raise ValueError(f"method {name!r} is already registered")
+    spec = MethodSpec(module, cls, dict(kwargs or {}), description)
+    _METHODS[name] = spec
+    return spec
+
+
+def available_methods() -> list[str]:
+    """Registered method names, in registration order."""
+    return list(_METHODS)
+
+
+def get_spec(name: str) -> MethodSpec:
+    """The :class:`MethodSpec` of ``name``.
+
+    ``"package.module:ClassName"`` names any importable class, without registration.
+
+    Raises
+    ------
+    KeyError
+        For an unknown name; the message lists the known names (and close matches).
+    """
+    if name in _METHODS:
+        return _METHODS[name]
+    if ":" in name:
+        module, _, cls = name.partition(":")
+        if module and cls:
+            return MethodSpec(module, cls, {}, "custom class")
+    close = difflib.get_close_matches(name, list(_METHODS), n=3)
+    hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
+    raise KeyError(
+        f"unknown method {name!r}.{hint} Known methods: {', '.join(available_methods())} "
+        "(or 'package.module:ClassName')"
+    )
+
+
+def make_method(name: str, **overrides: Any) -> Any:
+    """Build the method registered as ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A registered name (see :func:`available_methods`) or ``"package.module:Class"``.
+    **overrides
+        Constructor keywords replacing or adding to the registered ones.
+
+    Returns
+    -------
+    object
+        A new, unfitted estimator.
+
+    Raises
+    ------
+    KeyError
+        Unknown name.
+    ImportError
+        The method's module cannot be imported (e.g. it is not installed).
+    TypeError
+        An override the class does not accept.
+    """
+    spec = get_spec(name)
+    try:
+        module = importlib.import_module(spec.module)
+    except ImportError as exc:
+        raise ImportError(f"method {name!r} needs module {spec.module!r}, which cannot be imported: {exc}") from exc
+    try:
+        cls = getattr(module, spec.cls)
+    except AttributeError:
+        raise ImportError(f"method {name!r}: module {spec.module!r} has no class {spec.cls!r}") from None
+    kwargs = {**spec.kwargs, **overrides}
+    try:
+        return cls(**kwargs)
+    except TypeError as exc:
+        raise TypeError(f"method {name!r} ({spec.module}.{spec.cls}) rejected parameters {kwargs}: {exc}") from exc
+
+
+# The classical baselines: both the study's way (fill="hole": only the occlusion is
+# filled, LiDAR gaps stay 0) and the right way (fill="invalid": every missing pixel).
+for _name, _cls, _kw, _desc in [
+    ("telea", "TeleaInpainter", {"fill": "invalid"}, "OpenCV Telea, fills every missing pixel"),
+    ("telea-hole", "TeleaInpainter", {"fill": "hole"}, "OpenCV Telea as the study ran it (hole only)"),
+    ("ns", "NavierStokesInpainter", {"fill": "invalid"}, "OpenCV Navier-Stokes, every missing pixel"),
+    ("ns-hole", "NavierStokesInpainter", {"fill": "hole"}, "OpenCV Navier-Stokes as the study ran it"),
+    ("bilateral", "IterativeBilateralInpainter", {"fill": "invalid"}, "iterative bilateral, every missing pixel"),
+    ("bilateral-hole", "IterativeBilateralInpainter", {"fill": "hole"}, "iterative bilateral as the study ran it"),
+    ("ipbasic", "IPBasicInpainter", {}, "IP-Basic-style morphological depth completion"),
+    ("nearest", "NearestInpainter", {}, "nearest measured pixel"),
+    ("harmonic", "HarmonicInpainter", {}, "harmonic (Laplace) interpolation"),
+    ("scanline", "ScanlineInpainter", {}, "row-wise linear interpolation of depth"),
+    ("scanline-inverse", "ScanlineInpainter", {"inverse": True}, "row-wise linear interpolation of inverse depth"),
+    ("constant", "ConstantInpainter", {}, "median of the measured pixels"),
+]:
+    register_method(_name, _CLASSICAL, _cls, _kw, _desc)

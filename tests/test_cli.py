@@ -1,0 +1,101 @@
+"""The ``inpaintenv`` CLI, run in-process on tiny synthetic data and on the real KITTI slice."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from inpaintenv.cli import SUBCOMMANDS, build_parser, main
+from inpaintenv.evaluate import EvaluationResult
+
+pytest.importorskip("inpaintenv.data.synthetic")
+TINY = ["--n-frames", "3", "--frame-shape", "48", "120"]
+
+
+def test_parser_has_subcommands():
+    parser = build_parser()
+    assert len(SUBCOMMANDS) >= 3
+    for cmd in ("info", "evaluate", "show"):
+        args = parser.parse_args([cmd, "--method", "nearest"] if cmd != "info" else [cmd])
+        assert callable(args.func)
+
+
+def test_info(capsys):
+    assert main(["info", *TINY]) == 0
+    out = capsys.readouterr().out
+    assert "SyntheticStreets" in out and "valid_density" in out and "rect-v1" in out and "telea" in out
+
+
+def test_info_json(capsys):
+    assert main(["info", "--json", *TINY]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["frames"] == 3 and info["frame_shape"] == [48, 120]
+    assert 0.0 < info["valid_density"] < 1.0
+
+
+def test_evaluate_writes_json_csv_and_prints_table(tmp_path, capsys):
+    out = tmp_path / "res"
+    rc = main(["evaluate", "-m", "nearest", "-m", "constant", "--seed", "0", "--seed", "1",
+               "--out", str(out), "--quiet", "--by-drive", *TINY])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert text.startswith("| method |")
+    assert "| nearest |" in text and "| constant |" in text
+    res = EvaluationResult.from_json(out / "results.json")
+    assert len(res.rows) == 2 * 2 * 3  # methods x seeds x frames
+    assert res.methods == ["nearest", "constant"]
+    assert res.meta["seeds"] == [0, 1] and "evaluate" in res.meta["command"]
+    csv_rows = EvaluationResult.from_csv(out / "results.csv").rows
+    assert [r["hole_rmse"] for r in csv_rows] == pytest.approx([r["hole_rmse"] for r in res.rows], nan_ok=True)
+    assert (out / "table.md").read_text().startswith("| method |")
+
+
+def test_evaluate_unknown_method_is_one_line_error(capsys):
+    assert main(["evaluate", "-m", "telee", *TINY]) == 1
+    err = capsys.readouterr().err
+    assert "unknown method 'telee'" in err and "telea" in err and "Traceback" not in err
+
+
+def test_evaluate_bad_protocol_and_n_frames(capsys):
+    assert main(["evaluate", "-m", "nearest", "--protocol", "nope", *TINY]) == 1
+    assert "unknown occlusion protocol" in capsys.readouterr().err
+    assert main(["evaluate", "-m", "nearest", "--n-frames", "0"]) == 1
+    assert "--n-frames" in capsys.readouterr().err
+
+
+def test_show_writes_panel(tmp_path, capsys):
+    out = tmp_path / "sub" / "panel.png"
+    assert main(["show", "-m", "nearest", "--index", "1", "--seed", "2", "--out", str(out), *TINY]) == 0
+    printed = capsys.readouterr().out
+    assert "hole RMSE" in printed and "all RMSE" in printed
+    img = cv2.imread(str(out))
+    assert img is not None and img.dtype == np.uint8 and img.shape[1] == 120
+    assert img.shape[0] > 5 * 48
+
+
+def test_show_without_method_and_bad_index(tmp_path, capsys):
+    assert main(["show", "--out", str(tmp_path / "p.png"), *TINY]) == 0
+    assert (tmp_path / "p.png").exists()
+    assert main(["show", "--index", "9", "--out", str(tmp_path / "q.png"), *TINY]) == 1
+    assert "out of range" in capsys.readouterr().err
+
+
+@pytest.mark.kitti
+def test_cli_on_real_kitti(kitti_root, tmp_path, capsys):
+    pytest.importorskip("inpaintenv.data.kitti")
+    root = str(kitti_root)
+    assert main(["info", "--kitti-root", root, "--split", "train", "--json", "--sample", "2"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["frames"] == 80 and info["drives"] == 2
+    rc = main(["evaluate", "-m", "nearest", "--kitti-root", root, "--split", "val", "-q",
+               "--out", str(tmp_path)])
+    assert rc == 0
+    res = EvaluationResult.from_json(tmp_path / "results.json")
+    assert len(res.rows) == 1 and res.rows[0]["hole_count"] > 0
+    assert res.rows[0]["frame_id"].startswith("2011_10_03_drive_9101_sync")
+    assert main(["show", "-m", "nearest", "--kitti-root", root, "--split", "val",
+                 "--out", str(tmp_path / "k.png")]) == 0
+    assert cv2.imread(str(tmp_path / "k.png")).shape[1] == 1216

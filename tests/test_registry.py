@@ -1,0 +1,60 @@
+"""The registry of methods by name (used by the CLI and the benchmark)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from inpaintenv.registry import available_methods, get_spec, make_method, register_method
+
+EXPECTED = [
+    "telea", "telea-hole", "ns", "ns-hole", "bilateral", "bilateral-hole", "ipbasic",
+    "nearest", "harmonic", "scanline", "scanline-inverse", "constant",
+]
+
+
+def test_names_listed():
+    assert set(EXPECTED) <= set(available_methods())
+    assert get_spec("telea-hole").kwargs == {"fill": "hole"}
+    assert get_spec("scanline-inverse").kwargs == {"inverse": True}
+
+
+def test_unknown_name_lists_known_and_close_matches():
+    with pytest.raises(KeyError, match="Did you mean 'telea'") as info:
+        get_spec("telae")
+    assert "ipbasic" in str(info.value)
+
+
+def test_register_rejects_duplicates_and_bad_names():
+    with pytest.raises(ValueError, match="already"):
+        register_method("telea", "estimators.classical", "TeleaInpainter")
+    with pytest.raises(ValueError, match="method names"):
+        register_method("a:b", "m", "C")
+
+
+def test_module_class_form_and_missing_module():
+    spec = get_spec("collections:OrderedDict")
+    assert (spec.module, spec.cls) == ("collections", "OrderedDict")
+    with pytest.raises(ImportError, match="no_such_module"):
+        make_method("no_such_module:Thing")
+    with pytest.raises(ImportError, match="has no class"):
+        make_method("collections:NoSuchClass")
+
+
+@pytest.mark.parametrize("name", EXPECTED)
+def test_every_classical_method_builds_and_fills(name):
+    pytest.importorskip("estimators.classical")
+    est = make_method(name)
+    for key, value in get_spec(name).kwargs.items():
+        assert est.get_params()[key] == value
+    x = np.full((16, 24), 10.0, np.float32)
+    x[4:10, 6:14] = np.nan
+    out = est.predict(x)
+    assert out.shape == x.shape and np.isfinite(out).all()
+
+
+def test_overrides_and_bad_override():
+    pytest.importorskip("estimators.classical")
+    assert make_method("telea", radius=3).radius == 3
+    with pytest.raises(TypeError, match="'telea'"):
+        make_method("telea", no_such_param=1)
