@@ -2,13 +2,23 @@
 
 from .base import ArrayDataset, DepthDataset, Subset, as_dataset, split_by_drive, subset
 from .io import DepthFormatError, read_depth_png, write_depth_png
+from .kitti import KITTI_ROOT_ENV, KITTI_URL, KittiDepth, bottom_center_crop, png_header
+from .sources import open_source
+from .synthetic import SyntheticStreets
 
 __all__ = [
     "ArrayDataset",
     "DepthDataset",
     "DepthFormatError",
+    "KITTI_ROOT_ENV",
+    "KITTI_URL",
+    "KittiDepth",
     "Subset",
+    "SyntheticStreets",
     "as_dataset",
+    "bottom_center_crop",
+    "open_source",
+    "png_header",
     "read_depth_png",
     "split_by_drive",
     "subset",
