@@ -237,7 +237,6 @@ def test_method_name():
 
 
 def test_default_source_is_synthetic():
-    pytest.importorskip("inpaintenv.data.synthetic")
     res = evaluate(lambda x: np.nan_to_num(x, nan=10.0), None, n_frames=2, progress=False)
     assert res.table[0]["n_frames"] == 2
     assert "SyntheticStreets" in res.meta["source"]

@@ -256,7 +256,6 @@ def test_render_panel_shape_and_dtype(dataset):
 
 
 def test_synthetic_env():
-    pytest.importorskip("inpaintenv.data.synthetic")
     env = gym.make("inpaintenv/SyntheticInpaint-v0", n=3, seed=0, frame_shape=(64, 160))
     obs, info = env.reset(seed=0)
     assert obs["depth"].shape == (64, 160)
@@ -267,7 +266,6 @@ def test_synthetic_env():
 
 @pytest.mark.kitti
 def test_kitti_env(kitti_root):
-    pytest.importorskip("inpaintenv.data.kitti")
     env = gym.make("inpaintenv/KittiInpaint-v0", root=str(kitti_root), split="val")
     obs, info = env.reset(seed=0)
     assert obs["depth"].shape == (352, 1216)
