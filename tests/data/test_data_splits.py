@@ -1,0 +1,57 @@
+"""Drive-level splits, subsets and scikit-learn indexing stay lazy and never mix drives."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.model_selection import GroupKFold
+from sklearn.utils import _safe_indexing
+
+from inpaintenv.data import Subset, SyntheticStreets, split_by_drive, subset
+
+
+class CountingStreets(SyntheticStreets):
+    """Counts decoded frames, to prove that splitting loads nothing."""
+
+    loads = 0
+
+    def _load(self, index: int) -> np.ndarray:
+        type(self).loads += 1
+        return super()._load(index)
+
+
+@pytest.fixture
+def ds() -> CountingStreets:
+    CountingStreets.loads = 0
+    return CountingStreets(n=40, seed=0, frame_shape=(32, 48), frames_per_drive=4)
+
+
+def test_split_by_drive_never_shares_a_drive(ds):
+    train, test = split_by_drive(ds, test_size=0.3, seed=1)
+    assert not set(train.groups) & set(test.groups)
+    assert len(train) + len(test) == len(ds) and len(np.unique(test.groups)) == 3
+    again = split_by_drive(ds, test_size=0.3, seed=1)
+    np.testing.assert_array_equal(again[1].indices, test.indices)
+    assert CountingStreets.loads == 0
+
+
+def test_subset_fraction_and_nesting(ds):
+    quarter = subset(ds, 0.25, seed=0)
+    assert len(quarter) == 10 and (np.diff(quarter.indices) > 0).all()
+    np.testing.assert_array_equal(subset(ds, 0.25, seed=0).indices, quarter.indices)
+    inner = quarter[[1, 3]]
+    assert isinstance(inner, Subset) and inner.parent is ds  # flattened, no chain of views
+    np.testing.assert_array_equal(inner.indices, quarter.indices[[1, 3]])
+    assert inner.frame_ids == [ds.frame_ids[i] for i in quarter.indices[[1, 3]]]
+    assert CountingStreets.loads == 0
+    np.testing.assert_array_equal(inner[0], ds[int(quarter.indices[1])])
+
+
+def test_group_kfold_and_safe_indexing_stay_lazy(ds):
+    folds = list(GroupKFold(n_splits=5).split(np.zeros(len(ds)), groups=ds.groups))
+    for train_idx, test_idx in folds:
+        assert not set(ds.groups[train_idx]) & set(ds.groups[test_idx])
+        part = _safe_indexing(ds, test_idx)  # what GridSearchCV / cross_validate do
+        assert isinstance(part, Subset) and part.shape == (len(test_idx), 32, 48)
+        np.testing.assert_array_equal(part.groups, ds.groups[test_idx])
+    assert CountingStreets.loads == 0
