@@ -45,9 +45,11 @@ def add_source_options(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("data source (default: built-in SyntheticStreets)")
     g.add_argument("--kitti-root", metavar="PATH", help="root of a KITTI depth-completion tree")
     g.add_argument("--split", default="train", help="KITTI split: train, val or val_selection (default train)")
+    g.add_argument("--camera", default="image_02", choices=["image_02", "image_03", "both"],
+                   help="KITTI camera (default image_02)")
     g.add_argument(
-        "--kind", default="groundtruth", choices=["groundtruth", "velodyne_raw"],
-        help="ground truth to score against (default groundtruth)",
+        "--kind", default="groundtruth", choices=["groundtruth", "velodyne_raw", "dense"],
+        help="ground truth to score against (default groundtruth; dense: synthetic only)",
     )
     g.add_argument("--n-frames", type=int, metavar="N", help="use only the first N frames")
     g.add_argument(
@@ -65,26 +67,28 @@ def add_common_options(parser: argparse.ArgumentParser) -> None:
 def open_source_from_args(args: argparse.Namespace) -> Any:
     """Build the data source selected by :func:`add_source_options`' options.
 
-    ``--kitti-root`` gives :class:`~inpaintenv.data.kitti.KittiDepth`; otherwise the
-    built-in :class:`~inpaintenv.data.synthetic.SyntheticStreets` (``--n-frames`` frames,
-    64 by default). ``--n-frames`` keeps the first N frames of KITTI.
+    Uses :func:`inpaintenv.data.open_source`: ``--kitti-root`` gives ``KittiDepth``
+    (first ``--n-frames`` frames), otherwise the built-in ``SyntheticStreets``
+    (``--n-frames`` frames, 64 by default; ``--frame-shape`` sets their size).
     """
-    n = args.n_frames
-    if n is not None and n < 1:
-        raise ValueError(f"--n-frames must be >= 1, got {n}")
-    if args.kitti_root:
-        if args.frame_shape:
-            raise ValueError("--frame-shape applies to the synthetic source only (KITTI is cropped to 352x1216)")
-        from .data.kitti import KittiDepth
+    from .data import open_source
 
-        ds = KittiDepth(args.kitti_root, split=args.split, kind=args.kind)
-        return ds if n is None or n >= len(ds) else ds[:n]
-    from .data.synthetic import SyntheticStreets
-
-    kwargs: dict[str, Any] = {"n": n or 64, "seed": args.data_seed, "kind": args.kind}
+    if args.n_frames is not None and args.n_frames < 1:
+        raise ValueError(f"--n-frames must be >= 1, got {args.n_frames}")
     if args.frame_shape:
-        kwargs["frame_shape"] = tuple(args.frame_shape)
-    return SyntheticStreets(**kwargs)
+        if args.kitti_root:
+            raise ValueError("--frame-shape applies to the synthetic source only (KITTI is cropped to 352x1216)")
+        from .data import SyntheticStreets
+        from .data.sources import DEFAULT_SYNTHETIC_FRAMES
+
+        return SyntheticStreets(
+            n=args.n_frames or DEFAULT_SYNTHETIC_FRAMES, seed=args.data_seed, kind=args.kind,
+            frame_shape=tuple(args.frame_shape),
+        )
+    return open_source(
+        args.kitti_root, split=args.split, kind=args.kind, n_frames=args.n_frames,
+        seed=args.data_seed, camera=args.camera,
+    )
 
 
 def _method_overrides(args: argparse.Namespace) -> dict[str, Any]:

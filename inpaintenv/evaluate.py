@@ -93,19 +93,15 @@ def resolve_source(source: Any = None) -> DepthDataset:
     Parameters
     ----------
     source : DepthDataset, array-like, Gymnasium env of this package, or None
-        ``None`` is the built-in default (:class:`SyntheticStreets` with its defaults);
+        ``None`` is the built-in default, ``inpaintenv.data.open_source()`` (64 frames
+        of :class:`SyntheticStreets`);
         an ``(N, H, W)`` / ``(H, W)`` array or a list of frames is wrapped; a
         ``DepthInpaintEnv`` (possibly wrapped) contributes its dataset.
     """
     if source is None:
-        try:  # imported lazily: the data sources are separate modules
-            from .data.synthetic import SyntheticStreets
-        except ImportError as exc:  # pragma: no cover - until the module exists
-            raise ImportError(
-                "the built-in default source inpaintenv.data.synthetic.SyntheticStreets "
-                "is not available; pass a dataset or an array as source"
-            ) from exc
-        return SyntheticStreets()
+        from .data.sources import open_source  # lazy: generating data is not import work
+
+        return open_source()
     if isinstance(source, DepthDataset):
         return source
     env_dataset = getattr(getattr(source, "unwrapped", None), "dataset", None)

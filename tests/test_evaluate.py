@@ -252,3 +252,28 @@ def test_never_imports_estimators_or_torch():
         "assert not bad, bad"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_env_as_source(gt_ds):
+    import gymnasium as gym
+
+    env = gym.make("inpaintenv/DepthInpaint-v0", dataset=gt_ds)
+    a = evaluate(lambda x: np.nan_to_num(x, nan=9.0), env, progress=False)
+    b = evaluate(lambda x: np.nan_to_num(x, nan=9.0), gt_ds, progress=False)
+    strip = lambda rows: [{k: v for k, v in r.items() if k != "ms"} for r in rows]  # noqa: E731
+    assert strip(a.rows) == strip(b.rows)
+
+
+def test_env_serves_the_pairs_evaluate_scores(gt_ds):
+    """reset(options={"index": i, "mask_seed": s}) + step gives evaluate's row for (s, i)."""
+    from inpaintenv.envs import DepthInpaintEnv
+
+    fill = lambda x: np.nan_to_num(x, nan=9.0)  # noqa: E731
+    res = evaluate(fill, gt_ds, seeds=(4,), progress=False)
+    env = DepthInpaintEnv(gt_ds)
+    for row in res.rows:
+        obs, _ = env.reset(options={"index": row["index"], "mask_seed": 4})
+        action = np.where(obs["hole"].astype(bool), 9.0, obs["depth"]).astype(np.float32)
+        _, reward, *_ , info = env.step(action)
+        assert reward == pytest.approx(-row["hole_rmse"])
+        assert info["all_rmse"] == pytest.approx(row["all_rmse"])
