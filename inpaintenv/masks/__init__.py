@@ -9,9 +9,15 @@ A mask is reproducible from ``(protocol, seed, frame index)`` alone::
 from __future__ import annotations
 
 from .base import OcclusionProtocol, mask_rng
+from .ego import EgoOcclusionV1
+from .freeform import FreeformV1
+from .lidar import LidarDropoutV1
 from .rect import RectV1
 
 __all__ = [
+    "EgoOcclusionV1",
+    "FreeformV1",
+    "LidarDropoutV1",
     "OcclusionProtocol",
     "RectV1",
     "available_protocols",
@@ -56,4 +62,5 @@ def get_protocol(protocol: str | OcclusionProtocol) -> OcclusionProtocol:
         ) from None
 
 
-register_protocol(RectV1)
+for _cls in (RectV1, LidarDropoutV1, EgoOcclusionV1, FreeformV1):
+    register_protocol(_cls)

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import inspect
 import zlib
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -62,8 +64,51 @@ class OcclusionProtocol(ABC):
             out[k] = self.mask(shape, seed, int(i))
         return out
 
+    def get_params(self) -> dict[str, Any]:
+        """Constructor parameters and their current values (scikit-learn style).
+
+        Subclasses store each ``__init__`` argument as an attribute of the same name.
+        """
+        sig = inspect.signature(type(self).__init__)
+        return {
+            k: _plain(getattr(self, k))
+            for k, p in sig.parameters.items()
+            if k != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)
+        }
+
+    def hole_fraction_range(self) -> tuple[float, float] | None:
+        """Documented bounds of the fraction of the frame a mask covers (None if unknown)."""
+        return None
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-serialisable record of the protocol for reports and ``results.json``.
+
+        Returns
+        -------
+        dict
+            ``name``, ``description``, ``class``, ``params`` (see :meth:`get_params`) and
+            ``hole_fraction_range`` (``[low, high]`` or None).
+        """
+        rng = self.hole_fraction_range()
+        return {
+            "name": self.name,
+            "description": self.description,
+            "class": f"{type(self).__module__}.{type(self).__qualname__}",
+            "params": self.get_params(),
+            "hole_fraction_range": None if rng is None else [float(rng[0]), float(rng[1])],
+        }
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"
+
+
+def _plain(value: Any) -> Any:
+    """NumPy scalars and tuples as plain Python values, so ``describe()`` dumps to JSON."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    return value
 
 
 def _check_shape(shape: tuple[int, int]) -> tuple[int, int]:
