@@ -43,8 +43,12 @@ _T_NEAR = 0.3  # no surface closer than this to the camera
 # Velodyne HDL-64E: 32 upper lasers +2 .. -8.33 deg, 32 lower lasers -8.83 .. -24.8 deg.
 BEAM_ELEVATIONS_DEG = np.concatenate([np.linspace(2.0, -8.33, 32), np.linspace(-8.83, -24.8, 32)])
 LIDAR_OFFSET = (0.0, -0.08, -0.27)  # lidar in camera coordinates (x right, y down, z forward)
+# In the real slice's velodyne_raw the top returns sit at +2.9..+4.5 deg seen from the
+# camera (vehicle pitch, mounting), not +2 deg: tilt the simulated lidar up by 2 deg.
+# Applied as an elevation offset (exact straight ahead, ~0.5 deg less at the image edge).
+LIDAR_PITCH_DEG = 2.0
 AZIMUTH_STEP_DEG = 0.17  # horizontal spacing of one laser's returns at 10 Hz
-RETURN_PROB = 0.9  # fraction of lidar returns kept (dark/specular surfaces drop out)
+RETURN_PROB = 0.8  # fraction of lidar returns kept (dark/specular surfaces drop out)
 GT_SCAN_OFFSETS = range(-5, 6)  # KITTI accumulates 11 scans around each frame
 GT_KEEP_PROB = 0.62  # accumulated points surviving KITTI's consistency filtering
 
@@ -269,7 +273,7 @@ _LUT_STEP = 1e-4  # resolution of the nearest-beam table in tan(elevation)
 @lru_cache(maxsize=1)
 def _beam_lut() -> tuple[float, np.ndarray, np.ndarray]:
     """Nearest beam (index and tan(elevation)) for tan(elevation) quantised by ``_LUT_STEP``."""
-    tan_beams = np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG))
+    tan_beams = np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG + LIDAR_PITCH_DEG))
     lo = tan_beams.min() - 0.01
     grid = lo + _LUT_STEP * np.arange(int((tan_beams.max() + 0.01 - lo) / _LUT_STEP) + 2)
     nearest = np.abs(grid[:, None] - tan_beams[None, :]).argmin(axis=1)
@@ -327,7 +331,7 @@ def _below_top_beam(p: _Points, forward: float) -> np.ndarray:
     forward one), so testing that pose bounds all scans; it drops the high facade and
     tree pixels no laser reaches before the per-scan work.
     """
-    tan_top = np.float32(np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG.max())) + 0.01)
+    tan_top = np.float32(np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG.max() + LIDAR_PITCH_DEG)) + 0.01)
     dz = p.z - np.float32(LIDAR_OFFSET[2] + forward)
     return p.up < tan_top * np.sqrt(p.x2 + dz * dz)
 
