@@ -29,7 +29,7 @@ def _downsample(values: np.ndarray, known: np.ndarray) -> tuple[np.ndarray, np.n
     return np.divide(vs, ks, out=np.zeros_like(vs), where=coarse_known).astype(np.float32), coarse_known
 
 
-def harmonic_fill(values: np.ndarray, known: np.ndarray, iterations: int = 20) -> np.ndarray:
+def harmonic_fill(values: np.ndarray, known: np.ndarray, iterations: int = 50) -> np.ndarray:
     """Harmonic interpolation of the unknown pixels, solved coarse to fine.
 
     Each pyramid level starts from the upsampled solution of the coarser level and runs
@@ -77,15 +77,16 @@ class HarmonicInpainter(ClassicalInpainter):
 
     Parameters
     ----------
-    iterations : int, default=20
-        Jacobi sweeps per pyramid level.
+    iterations : int, default=50
+        Jacobi sweeps per pyramid level (more converge further; 50 was chosen on the
+        tuning drive, see docs/baselines.md).
     keep_observed : bool, default=True
         Return measured input pixels unchanged.
     n_jobs : int or None, default=None
         Frames processed in parallel (joblib; None = 1, -1 = all cores).
     """
 
-    def __init__(self, *, iterations: int = 20, keep_observed: bool = True, n_jobs: int | None = None):
+    def __init__(self, *, iterations: int = 50, keep_observed: bool = True, n_jobs: int | None = None):
         self.iterations = iterations
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs

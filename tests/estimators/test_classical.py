@@ -1,0 +1,180 @@
+"""Method-specific tests of the classical inpainters (the contract is in test_common)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from estimators import (
+    ConstantInpainter,
+    HarmonicInpainter,
+    IPBasicInpainter,
+    IterativeBilateralInpainter,
+    NavierStokesInpainter,
+    NearestInpainter,
+    ScanlineInpainter,
+    TeleaInpainter,
+)
+from estimators.classical.harmonic import harmonic_fill
+from estimators.classical.nearest import nearest_fill
+from estimators.classical.scanline import scanline_fill
+
+
+def _holed(depth: np.ndarray, top: int, left: int, h: int, w: int) -> np.ndarray:
+    x = depth.astype(np.float32).copy()
+    x[top : top + h, left : left + w] = np.nan
+    return x
+
+
+@pytest.mark.parametrize(
+    "estimator, param, bad",
+    [
+        (TeleaInpainter(), "radius", 0),
+        (TeleaInpainter(), "radius", 2.5),
+        (TeleaInpainter(), "fill", "holes"),
+        (NavierStokesInpainter(), "fill", None),
+        (IterativeBilateralInpainter(), "iterations", 0),
+        (IterativeBilateralInpainter(), "d", 40),
+        (IterativeBilateralInpainter(), "sigma_color", -1.0),
+        (IterativeBilateralInpainter(), "sigma_space", float("nan")),
+        (IPBasicInpainter(), "max_depth", 0.05),
+        (IPBasicInpainter(), "large_hole_kernel", 30),
+        (IPBasicInpainter(), "blur", "median"),
+        (IPBasicInpainter(), "fallback", "zero"),
+        (IPBasicInpainter(), "extrapolate", "yes"),
+        (HarmonicInpainter(), "iterations", True),
+        (ScanlineInpainter(), "inverse", 1),
+        (ScanlineInpainter(), "vertical", "no"),
+        (NearestInpainter(), "n_jobs", 0),
+        (ConstantInpainter(), "n_jobs", 1.5),
+        (ConstantInpainter(), "keep_observed", None),
+    ],
+)
+def test_invalid_parameter_raises_naming_it(estimator, param, bad):
+    est = estimator.set_params(**{param: bad})  # __init__/set_params never validate
+    x = _holed(np.full((8, 8), 5.0), 2, 2, 3, 3)
+    with pytest.raises((ValueError, TypeError), match=param):
+        est.predict(x)
+    with pytest.raises((ValueError, TypeError), match=param):
+        est.fit(np.full((1, 8, 8), 5.0, np.float32))
+
+
+@pytest.mark.parametrize("cls", [TeleaInpainter, NavierStokesInpainter, IterativeBilateralInpainter])
+def test_fill_hole_treats_unmeasured_as_zero(cls):
+    depth = np.full((24, 48), 10.0, np.float32)
+    depth[:, ::2] = 0.0  # semi-dense: every other column unmeasured
+    x = _holed(depth, 6, 12, 10, 20)
+    hole_mode = cls(fill="hole").predict(x)
+    invalid_mode = cls(fill="invalid").predict(x)
+    unmeasured_outside = (depth == 0) & ~np.isnan(x)
+    # "hole" keeps the zeros outside the hole as depth 0 and drags the hole towards 0 ...
+    assert (hole_mode[unmeasured_outside] == 0).all()
+    assert hole_mode[np.isnan(x)].mean() < 9.0
+    # ... "invalid" fills every unmeasured pixel from the 10 m measurements (Telea's
+    # gradient term is not exact on a constant field, hence the tolerance).
+    assert abs(invalid_mode[np.isnan(x)].mean() - 10.0) < 0.5
+    assert (invalid_mode[unmeasured_outside] > 5).all()
+
+
+def test_nearest_fill_matches_exact_distance_transform():
+    rng = np.random.default_rng(0)
+    values = rng.uniform(1, 50, (40, 60)).astype(np.float32)
+    known = np.zeros((40, 60), bool)
+    known[::9, ::13] = True  # well separated, so no ties
+    ours = nearest_fill(values, known)
+    _, (r, c) = ndimage.distance_transform_edt(~known, return_indices=True)
+    agree = (ours == values[r, c]).mean()
+    assert agree > 0.97  # OpenCV's 5×5 mask approximates the Euclidean distance
+    np.testing.assert_array_equal(ours[known], values[known])
+
+
+def test_scanline_is_exact_on_rows_linear_in_depth():
+    depth = np.tile(np.linspace(5, 40, 64, dtype=np.float32), (16, 1))
+    x = _holed(depth, 3, 10, 8, 40)
+    np.testing.assert_allclose(ScanlineInpainter().predict(x), depth, rtol=1e-5)
+
+
+def test_scanline_inverse_is_exact_on_rows_linear_in_inverse_depth():
+    depth = np.tile(1.0 / np.linspace(0.02, 0.5, 64), (16, 1)).astype(np.float32)
+    x = _holed(depth, 3, 10, 8, 40)
+    np.testing.assert_allclose(ScanlineInpainter(inverse=True).predict(x), depth, rtol=1e-4)
+    assert np.abs(ScanlineInpainter().predict(x) - depth).max() > 1.0
+
+
+def test_scanline_fills_rows_without_measurements_vertically():
+    values = np.array([[2.0, 2, 2], [0, 0, 0], [0, 0, 0], [8, 8, 8]])
+    out = scanline_fill(values, values > 0)
+    np.testing.assert_allclose(out[:, 0], [2, 4, 6, 8])
+
+
+def test_scanline_vertical_bridges_short_wide_holes():
+    # Depth changes non-linearly along the row but not down the column, so a short,
+    # wide hole is bridged far better vertically (gap 4) than along rows (gap 41).
+    depth = np.tile((10 + 5 * np.sin(np.linspace(0, 6, 64))).astype(np.float32), (24, 1))
+    x = _holed(depth, 10, 12, 3, 40)
+    rows_only = np.abs(ScanlineInpainter().predict(x) - depth).max()
+    both = np.abs(ScanlineInpainter(vertical=True).predict(x) - depth).max()
+    assert both < rows_only / 3
+
+
+def test_harmonic_reproduces_a_plane():
+    yy, xx = np.mgrid[0:64, 0:96].astype(np.float32)
+    plane = 10 + 0.1 * yy + 0.05 * xx  # harmonic: the exact Laplace solution
+    known = np.ones_like(plane, bool)
+    known[10:50, 20:80] = False
+    out = harmonic_fill(plane, known, iterations=50)
+    np.testing.assert_allclose(out, plane, atol=0.05)
+
+
+def test_ipbasic_fills_holes_wider_than_its_kernels():
+    depth = np.full((96, 256), 12.0, np.float32)
+    depth[::3] = 0.0
+    x = _holed(depth, 10, 20, 80, 200)  # far wider than the 31×31 kernel
+    out = IPBasicInpainter().predict(x)
+    np.testing.assert_allclose(out, 12.0, atol=1e-3)
+
+
+def test_ipbasic_prefers_the_nearer_surface_at_a_depth_edge():
+    depth = np.full((40, 40), 30.0, np.float32)
+    depth[:, 20:] = 5.0
+    sparse = depth.copy()
+    sparse[:, 20:22] = 0.0  # unmeasured strip along the near side of the edge
+    x = _holed(sparse, 0, 0, 1, 1)
+    out = IPBasicInpainter(blur="none").predict(x)
+    # Dilation of inverted depth grows the near (5 m) surface into the gap, although
+    # column 20 touches the far (30 m) surface.
+    assert (out[5:35, 20:22] < 10).all()
+
+
+def test_constant_uses_the_frame_median():
+    x = np.array([[1.0, 2.0, 0.0, 4.0], [3.0, np.nan, 100.0, 0.0]], np.float32)
+    out = ConstantInpainter().predict(x)
+    assert out[1, 1] == out[0, 2] == 3.0
+
+
+def test_iterative_bilateral_keeps_known_depth_fixed():
+    rng = np.random.default_rng(0)
+    depth = rng.uniform(5, 20, (24, 48)).astype(np.float32)
+    x = _holed(depth, 5, 5, 10, 10)
+    out = IterativeBilateralInpainter(keep_observed=False, iterations=5).predict(x)
+    known = ~np.isnan(x)
+    np.testing.assert_array_equal(out[known], depth[known])
+
+
+def test_n_jobs_restores_opencv_threads():
+    before = cv2.getNumThreads()
+    x = np.stack([_holed(np.full((16, 16), 3.0), 2, 2, 4, 4)] * 3)
+    TeleaInpainter(n_jobs=2).predict(x)
+    assert cv2.getNumThreads() == before
+
+
+def test_n_jobs_all_cores_matches_serial():
+    rng = np.random.default_rng(3)
+    x = rng.uniform(2, 30, (5, 24, 40)).astype(np.float32)
+    x[:, 4:12, 6:20] = np.nan
+    x[rng.random(x.shape) < 0.5] = 0.0
+    for est in (TeleaInpainter(), IPBasicInpainter(), HarmonicInpainter()):
+        serial = est.set_params(n_jobs=None).predict(x)
+        np.testing.assert_array_equal(est.set_params(n_jobs=-1).predict(x), serial)
