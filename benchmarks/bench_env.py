@@ -54,11 +54,28 @@ def env_loop(env: DepthInpaintEnv, n: int) -> Callable[[], int]:
     return run
 
 
+def profile_env(env: DepthInpaintEnv, n: int) -> None:
+    """Print how much of ``n`` env episodes is spent in ``frame_metrics``."""
+    import cProfile
+    import pstats
+
+    prof = cProfile.Profile()
+    prof.runcall(env_loop(env, n))
+    stats = pstats.Stats(prof)
+    total = stats.total_tt  # type: ignore[attr-defined]
+    in_metrics = sum(v[3] for k, v in stats.stats.items() if k[2] == "frame_metrics")  # type: ignore[attr-defined]
+    print(
+        f"profile of {n} episodes: {total:.2f} s total, {in_metrics:.2f} s in frame_metrics, "
+        f"{1000 * (total - in_metrics) / n:.1f} ms per episode elsewhere (profiler overhead included)"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--kitti-root", help="KITTI slice for the PNG-reading env measurement")
     parser.add_argument("--frames", type=int, default=40, help="episodes per run (default 40)")
     parser.add_argument("--repeats", type=int, default=3, help="runs; the best is reported (default 3)")
+    parser.add_argument("--profile", action="store_true", help="also profile env episodes: time in frame_metrics")
     args = parser.parse_args()
 
     from inpaintenv.data.synthetic import SyntheticStreets
@@ -97,6 +114,8 @@ def main() -> None:
         best_rate(lambda: len(evaluate(fill, big, batch_size=8, progress=False).rows), args.repeats),
     ))
 
+    if args.profile:
+        profile_env(DepthInpaintEnv(memory), args.frames)
     print(f"python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}, frames {SHAPE[0]}x{SHAPE[1]}")
     print("| measurement | frames/s |")
     print("|---|---:|")

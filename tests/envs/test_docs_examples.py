@@ -1,0 +1,24 @@
+"""The Python examples in docs/env.md and docs/evaluate.md run as written."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+
+
+def python_blocks(name: str) -> str:
+    text = (DOCS / name).read_text()
+    return "\n".join(re.findall(r"```python\n(.*?)```", text, flags=re.S))
+
+
+@pytest.mark.parametrize("name", ["env.md", "evaluate.md"])
+def test_doc_examples_run(name, tmp_path, monkeypatch, capsys):
+    code = python_blocks(name)
+    assert code.strip(), f"no python examples in {name}"
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code.replace("/tmp/", f"{tmp_path}/"), name, "exec"), {"__name__": "__doc_example__"})
+    assert capsys.readouterr().out  # the examples print their results
