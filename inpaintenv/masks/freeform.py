@@ -67,43 +67,37 @@ class FreeformV1(OcclusionProtocol):
                 f"got {H}x{W}"
             )
         target = rng.uniform(*self.TARGET)
-        rows, lo, hi, owner = self._intervals((H, W), rng)
-        # Bisection on a 4x coarser grid (every 4th row, columns scaled by 1/4): a cheap
-        # estimate of the coverage; the result is then checked at full resolution.
-        on_grid = rows % 4 == 0
-        g_rows, g_owner = rows[on_grid] // 4, owner[on_grid]
-        # Coarse column c stands for full columns 4c..4c+3: count it when its centre
-        # (4c + 1.5) lies in the interval, so the estimate is unbiased.
-        g_lo = np.ceil((np.rint(lo[on_grid]) - 1.5) / 4)
-        g_hi = np.floor((np.rint(hi[on_grid]) - 1.5) / 4)
-        grid_shape = ((H + 3) // 4, (W + 3) // 4)
+        cand = self._draw((H, W), rng)
+        # Rasterising all N_MAX candidates is wasted work when a dozen reach the target:
+        # expand only as many as a Boolean-model estimate of their union says are needed
+        # (with margin), and all of them if that proves too few. The result does not
+        # depend on this limit: it is always the smallest j whose coverage reaches f.
+        est = 1.0 - np.exp(-np.cumsum(cand["area"]) / (H * W))
+        limit = min(self.N_MAX, int(np.searchsorted(est, min(0.99, 1.5 * target + 0.05))) + 1)
+        geo = _Coverage((H, W), *self._intervals((H, W), cand, limit))
+        if limit < self.N_MAX and geo.estimate(limit) < target:
+            limit = self.N_MAX
+            geo = _Coverage((H, W), *self._intervals((H, W), cand, limit))
 
-        def covered(j: int) -> np.ndarray:
-            sel = owner < j
-            return fill_intervals((H, W), rows[sel], lo[sel], hi[sel])
-
-        def estimate(j: int) -> float:
-            sel = g_owner < j
-            return float(fill_intervals(grid_shape, g_rows[sel], g_lo[sel], g_hi[sel]).mean())
-
-        lo_j, hi_j = 1, self.N_MAX
+        lo_j, hi_j = 1, limit
         while lo_j < hi_j:  # smallest j whose estimated coverage reaches the target
             mid = (lo_j + hi_j) // 2
-            if estimate(mid) >= target:
+            if geo.estimate(mid) >= target:
                 hi_j = mid
             else:
                 lo_j = mid + 1
-        mask = covered(lo_j)
+        mask = geo.covered(lo_j)
         # The estimate may run a little high: add shapes until the exact coverage holds.
         while lo_j < self.N_MAX and mask.mean() < target:
             lo_j += 1
-            mask = covered(lo_j)
+            if lo_j > limit:
+                limit = self.N_MAX
+                geo = _Coverage((H, W), *self._intervals((H, W), cand, limit))
+            mask = geo.covered(lo_j)
         return mask
 
-    def _intervals(
-        self, shape: tuple[int, int], rng: np.random.Generator
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Row intervals of all ``N_MAX`` candidates and the candidate each belongs to.
+    def _draw(self, shape: tuple[int, int], rng: np.random.Generator) -> dict[str, np.ndarray]:
+        """Parameters of all ``N_MAX`` candidates, and a rough area of each.
 
         All draws have fixed sizes (stroke and blob parameters are drawn for every
         candidate and its kind picks one), which keeps the stream simple and vectorised.
@@ -123,28 +117,76 @@ class FreeformV1(OcclusionProtocol):
         step = rng.uniform(*self.STEP, size=(N, V - 1)) * M
         moves = np.stack([step * np.sin(heading), step * np.cos(heading)], axis=-1)
         verts = _reflect(np.concatenate([start, start + np.cumsum(moves, axis=1)], axis=1), (H, W))
-        used = is_stroke[:, None] & (np.arange(V - 1)[None, :] < (n_v - 1)[:, None])
-        seg_of = np.broadcast_to(np.arange(N)[:, None], (N, V - 1))[used]
-        s_rows, s_lo, s_hi, cap = capsule_intervals(
-            verts[:, :-1][used], verts[:, 1:][used], radius[seg_of]
-        )
+        seg_used = is_stroke[:, None] & (np.arange(V - 1)[None, :] < (n_v - 1)[:, None])
 
         # Blobs: B discs around a centre, of which the first n_d are used.
         n_d = rng.integers(self.BLOB_DISCS[0], B + 1, size=N)
         centre = rng.uniform(0, 1, size=(N, 1, 2)) * (H, W)
         blob_r = rng.uniform(*self.BLOB_RADIUS, size=(N, B)) * m
         blob_pts = centre + rng.normal(0, 1, size=(N, B, 2)) * blob_r[..., None]
-        blob_used = ~is_stroke[:, None] & (np.arange(B)[None, :] < n_d[:, None])
-        blob_of = np.broadcast_to(np.arange(N)[:, None], (N, B))[blob_used]
-        pts = blob_pts[blob_used]
-        b_rows, b_lo, b_hi, disc = disc_intervals(pts[:, 0], pts[:, 1], blob_r[blob_used])
+        disc_used = ~is_stroke[:, None] & (np.arange(B)[None, :] < n_d[:, None])
 
+        stroke_area = (step * seg_used).sum(axis=1) * 2 * radius + np.pi * radius**2
+        blob_area = 0.6 * (np.pi * blob_r**2 * disc_used).sum(axis=1)  # discs overlap
+        return {
+            "verts": verts,
+            "radius": radius,
+            "seg_used": seg_used,
+            "blob_pts": blob_pts,
+            "blob_r": blob_r,
+            "disc_used": disc_used,
+            "area": np.where(is_stroke, stroke_area, blob_area),
+        }
+
+    def _intervals(
+        self, shape: tuple[int, int], cand: dict[str, np.ndarray], limit: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Row intervals of the first ``limit`` candidates and the candidate of each."""
+        N = self.N_MAX
+        first = (np.arange(N) < limit)[:, None]
+        seg_used = cand["seg_used"] & first
+        V = cand["verts"].shape[1]
+        seg_of = np.broadcast_to(np.arange(N)[:, None], (N, V - 1))[seg_used]
+        verts = cand["verts"]
+        s_rows, s_lo, s_hi, cap = capsule_intervals(
+            verts[:, :-1][seg_used], verts[:, 1:][seg_used], cand["radius"][seg_of]
+        )
+        disc_used = cand["disc_used"] & first
+        blob_of = np.broadcast_to(np.arange(N)[:, None], disc_used.shape)[disc_used]
+        pts = cand["blob_pts"][disc_used]
+        b_rows, b_lo, b_hi, disc = disc_intervals(pts[:, 0], pts[:, 1], cand["blob_r"][disc_used])
         return (
             np.concatenate([s_rows, b_rows]),
             np.concatenate([s_lo, b_lo]),
             np.concatenate([s_hi, b_hi]),
             np.concatenate([seg_of[cap], blob_of[disc]]),
         )
+
+
+class _Coverage:
+    """Union of the first ``j`` candidates, exactly or estimated on a 4x coarser grid."""
+
+    def __init__(self, shape, rows, lo, hi, owner):
+        self.shape = shape
+        self.rows, self.lo, self.hi, self.owner = rows, lo, hi, owner
+        # Coarse grid: every 4th row; coarse column c stands for full columns
+        # 4c..4c+3 and counts when its centre (4c + 1.5) lies in the interval, so
+        # the estimate is unbiased.
+        on_grid = rows % 4 == 0
+        self.g_rows, self.g_owner = rows[on_grid] // 4, owner[on_grid]
+        self.g_lo = np.ceil((np.rint(lo[on_grid]) - 1.5) / 4)
+        self.g_hi = np.floor((np.rint(hi[on_grid]) - 1.5) / 4)
+        H, W = shape
+        self.grid_shape = ((H + 3) // 4, (W + 3) // 4)
+
+    def covered(self, j: int) -> np.ndarray:
+        sel = self.owner < j
+        return fill_intervals(self.shape, self.rows[sel], self.lo[sel], self.hi[sel])
+
+    def estimate(self, j: int) -> float:
+        sel = self.g_owner < j
+        grid = fill_intervals(self.grid_shape, self.g_rows[sel], self.g_lo[sel], self.g_hi[sel])
+        return float(grid.mean())
 
 
 def _reflect(p: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -33,8 +33,9 @@ class LidarDropoutV1(OcclusionProtocol):
       each at a uniform column; they may overlap each other and the beams.
     * **Reflective / absorbing patches** (with probability 0.7). Surfaces that return
       nothing (black paint, glass, wet road): smooth Gaussian noise with correlation
-      length ``c ~ U(0.08, 0.20)·H`` pixels, thresholded at its ``1 - f_p`` quantile
-      (estimated on every 8th row and column), ``f_p ~ U(0.02, 0.15)``.
+      length ``c ~ U(0.08, 0.20)·H`` pixels, drawn at half resolution (2×2-pixel
+      cells) and thresholded at its ``1 - f_p`` quantile (estimated on every 8th row
+      and column of the frame), ``f_p ~ U(0.02, 0.15)``.
 
     The hole fraction is therefore at least ``f_b >= 0.05`` (beams alone) and at most
     the sum of the budgets, ``0.20 + 0.12 + 0.15`` plus rounding (``<= 0.50`` at
@@ -82,8 +83,11 @@ class LidarDropoutV1(OcclusionProtocol):
         if rng.random() < self.PATCH_PROB:
             f_p = rng.uniform(*self.PATCH_FRACTION)
             cell = rng.uniform(*self.PATCH_CELL) * H
-            field = smooth_noise((H, W), rng, cell)
-            mask |= field > np.quantile(field[::8, ::8], 1.0 - f_p)
+            # The field is smooth over >= 0.08·H pixels, so it is drawn at half
+            # resolution and each cell covers 2×2 pixels: 4x cheaper, same blobs.
+            field = smooth_noise(((H + 1) // 2, (W + 1) // 2), rng, cell / 2)
+            patch = field > np.quantile(field[::4, ::4], 1.0 - f_p)
+            mask |= np.repeat(np.repeat(patch, 2, axis=0), 2, axis=1)[:H, :W]
         return mask
 
     def _beams(self, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:

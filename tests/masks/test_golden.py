@@ -17,7 +17,7 @@ from inpaintenv.masks import get_protocol
 
 GOLDEN = {
     "rect-v1": "c892b37ab57c5b8f",
-    "lidar-dropout-v1": "4119dd82b609a720",
+    "lidar-dropout-v1": "11ef1fb50d10bf8b",
     "ego-occlusion-v1": "aa66c676d4eca1ff",
     "freeform-v1": "d6ae45301b122ea0",
 }
