@@ -229,7 +229,7 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     from .conventions import corrupt
     from .envs.render import render_panel
-    from .evaluate import _as_predictor, _run
+    from .evaluate import run_method
     from .masks import get_protocol
     from .metrics import frame_metrics
     from .registry import make_method
@@ -245,9 +245,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     lines = [f"{ds.frame_ids[args.index]}  {proto.name} seed {args.seed}  hole {100 * hole.mean():.1f} %"]
     pred = None
     if method is not None:
-        call, batched = _as_predictor(method)
-        x = corrupt(gt, hole)[None]
-        batch, ms = _run(call, batched, x, args.method)
+        batch, ms = run_method(method, corrupt(gt, hole)[None], args.method)
         pred = batch[0]
         m = {k: float(v) for k, v in frame_metrics(pred, gt, hole, max_depth=args.max_depth).items()}
         lines.append(

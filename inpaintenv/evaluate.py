@@ -36,7 +36,7 @@ from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
 from .metrics import METRIC_NAMES, REGIONS, aggregate, frame_metrics
 
-__all__ = ["EvaluationResult", "evaluate", "method_name", "resolve_source", "MethodOutputError"]
+__all__ = ["EvaluationResult", "MethodOutputError", "evaluate", "method_name", "resolve_source", "run_method"]
 
 #: Per-frame metric columns, in report order.
 METRIC_COLUMNS: tuple[str, ...] = tuple(
@@ -453,6 +453,31 @@ def evaluate(
         "inpaintenv_version": inpaintenv.__version__,
     }
     return EvaluationResult(rows=rows, meta=meta)
+
+
+def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.ndarray, float]:
+    """Run ``method`` on a corrupted batch the way :func:`evaluate` does.
+
+    Parameters
+    ----------
+    method : callable or object with ``predict``
+    x : numpy.ndarray
+        ``(N, H, W)`` float32 input, NaN = fill.
+    name : str, optional
+        Name used in error messages.
+
+    Returns
+    -------
+    pred : numpy.ndarray
+        Validated ``(N, H, W)`` float32 reconstruction.
+    ms : float
+        Wall clock of the method per frame, milliseconds.
+    """
+    x = np.asarray(x, dtype=np.float32)
+    if x.ndim != 3:
+        raise ValueError(f"run_method needs an (N, H, W) batch, got shape {x.shape}")
+    call, batched = _as_predictor(method)
+    return _run(call, batched, x, name or method_name(method))
 
 
 def _run(call: Callable, batched: bool, x: np.ndarray, label: str) -> tuple[np.ndarray, float]:

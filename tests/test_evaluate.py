@@ -277,3 +277,16 @@ def test_env_serves_the_pairs_evaluate_scores(gt_ds):
         _, reward, *_ , info = env.step(action)
         assert reward == pytest.approx(-row["hole_rmse"])
         assert info["all_rmse"] == pytest.approx(row["all_rmse"])
+
+
+def test_run_method_validates_and_times():
+    from inpaintenv.evaluate import run_method
+
+    x = np.full((2, 8, 10), 5.0, np.float32)
+    x[:, 2:4, 3:6] = np.nan
+    pred, ms = run_method(lambda f: np.nan_to_num(f, nan=5.0), x)
+    assert pred.shape == x.shape and (pred == 5.0).all() and ms >= 0
+    with pytest.raises(MethodOutputError, match="'hole-left'"):
+        run_method(lambda f: f, x, name="hole-left")
+    with pytest.raises(ValueError, match="batch"):
+        run_method(lambda f: f, x[0])
