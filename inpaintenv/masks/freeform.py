@@ -88,7 +88,7 @@ class FreeformV1(OcclusionProtocol):
                 lo_j = mid + 1
         mask = geo.covered(lo_j)
         # The estimate may run a little high: add shapes until the exact coverage holds.
-        while lo_j < self.N_MAX and mask.mean() < target:
+        while lo_j < self.N_MAX and _fraction(mask) < target:
             lo_j += 1
             if lo_j > limit:
                 limit = self.N_MAX
@@ -186,7 +186,12 @@ class _Coverage:
     def estimate(self, j: int) -> float:
         sel = self.g_owner < j
         grid = fill_intervals(self.grid_shape, self.g_rows[sel], self.g_lo[sel], self.g_hi[sel])
-        return float(grid.mean())
+        return _fraction(grid)
+
+
+def _fraction(mask: np.ndarray) -> float:
+    """Share of True pixels (count_nonzero: no float copy of the mask, unlike mean)."""
+    return np.count_nonzero(mask) / mask.size
 
 
 def _reflect(p: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
