@@ -13,11 +13,6 @@ from inpaintenv.evaluate import EvaluationResult
 
 
 
-def needs_classical() -> None:
-    """Tests that run a method need the classical estimators (another engineer's module)."""
-    pytest.importorskip("estimators.classical")
-
-
 TINY = ["--n-frames", "3", "--frame-shape", "48", "120"]
 
 
@@ -43,7 +38,6 @@ def test_info_json(capsys):
 
 
 def test_evaluate_writes_json_csv_and_prints_table(tmp_path, capsys):
-    needs_classical()
     out = tmp_path / "res"
     rc = main(["evaluate", "-m", "nearest", "-m", "constant", "--seed", "0", "--seed", "1",
                "--out", str(out), "--quiet", "--by-drive", *TINY])
@@ -67,7 +61,6 @@ def test_evaluate_unknown_method_is_one_line_error(capsys):
 
 
 def test_evaluate_bad_protocol_and_n_frames(capsys):
-    needs_classical()
     assert main(["evaluate", "-m", "nearest", "--protocol", "nope", *TINY]) == 1
     assert "unknown occlusion protocol" in capsys.readouterr().err
     assert main(["evaluate", "-m", "nearest", "--n-frames", "0"]) == 1
@@ -75,7 +68,6 @@ def test_evaluate_bad_protocol_and_n_frames(capsys):
 
 
 def test_show_writes_panel(tmp_path, capsys):
-    needs_classical()
     out = tmp_path / "sub" / "panel.png"
     assert main(["show", "-m", "nearest", "--index", "1", "--seed", "2", "--out", str(out), *TINY]) == 0
     printed = capsys.readouterr().out
@@ -94,7 +86,6 @@ def test_show_without_method_and_bad_index(tmp_path, capsys):
 
 @pytest.mark.kitti
 def test_cli_on_real_kitti(kitti_root, tmp_path, capsys):
-    needs_classical()
     root = str(kitti_root)
     assert main(["info", "--kitti-root", root, "--split", "train", "--json", "--sample", "2"]) == 0
     info = json.loads(capsys.readouterr().out)

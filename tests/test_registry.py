@@ -43,7 +43,6 @@ def test_module_class_form_and_missing_module():
 
 @pytest.mark.parametrize("name", EXPECTED)
 def test_every_classical_method_builds_and_fills(name):
-    pytest.importorskip("estimators.classical")
     est = make_method(name)
     for key, value in get_spec(name).kwargs.items():
         assert est.get_params()[key] == value
@@ -54,7 +53,6 @@ def test_every_classical_method_builds_and_fills(name):
 
 
 def test_overrides_and_bad_override():
-    pytest.importorskip("estimators.classical")
     assert make_method("telea", radius=3).radius == 3
     with pytest.raises(TypeError, match="'telea'"):
         make_method("telea", no_such_param=1)
