@@ -184,7 +184,7 @@ def _render_box(zbuf: np.ndarray, box: np.ndarray, origin: np.ndarray, dx: np.nd
     tf = np.minimum(cf[cols][None, :], rf[rows][:, None])
     hit = (tn < tf) & (tn > _T_NEAR)
     sub = zbuf[rows, cols]
-    np.minimum(sub, np.where(hit, tn, np.inf), out=sub)
+    np.minimum(sub, tn, out=sub, where=hit)
 
 
 def _render_ellipsoid(zbuf: np.ndarray, ell: np.ndarray, origin: np.ndarray, dx: np.ndarray, dy: np.ndarray, dz: np.ndarray) -> None:
@@ -206,7 +206,7 @@ def _render_ellipsoid(zbuf: np.ndarray, ell: np.ndarray, origin: np.ndarray, dx:
     t = (b - np.sqrt(np.maximum(disc, 0.0))) / a
     hit = (disc > 0) & (t > _T_NEAR)
     sub = zbuf[rows, cols]
-    np.minimum(sub, np.where(hit, t, np.inf), out=sub)
+    np.minimum(sub, t, out=sub, where=hit)
 
 
 @dataclass(frozen=True)
@@ -281,26 +281,28 @@ def _beam_lut() -> tuple[float, np.ndarray, np.ndarray]:
 
 
 class _Points:
-    """Camera-frame points of the valid pixels, with what every scan needs precomputed."""
+    """Camera-frame points of the pixels a lidar can reach, with what every scan needs.
 
-    def __init__(self, depth: np.ndarray, camera: Camera):
-        a, b = camera.rays()
-        w = depth.shape[1]
-        self.flat = np.flatnonzero(depth)
-        rows, self.cols = np.divmod(self.flat, w)
-        t = depth.ravel()[self.flat]
-        self.t = self.z = t
-        x = t * a.astype(np.float32)[self.cols]
-        self.x2 = x * x
-        self.up = np.float32(LIDAR_OFFSET[1]) - t * b.astype(np.float32)[rows]  # height above lidar
-        self.half_px = np.float32(0.5 / KITTI_FY) * t  # half a pixel row, in metres at the point
+    Only valid pixels not above the top laser as seen from the lidar ``min_forward``
+    metres ahead are kept: a point above the lidar looks lowest from the pose farthest
+    from it (the least forward one), so that pose bounds all scans. This drops the high
+    facade and tree pixels no laser reaches before the per-scan work.
+    """
 
-    def select(self, keep: np.ndarray) -> None:
-        """Keep only the points where ``keep`` is True (an index array is faster)."""
-        idx = np.flatnonzero(keep)
-        for name in ("flat", "cols", "t", "x2", "up", "half_px"):
-            setattr(self, name, getattr(self, name)[idx])
-        self.z = self.t
+    def __init__(self, depth: np.ndarray, camera: Camera, min_forward: float = 0.0):
+        a, b = (r.astype(np.float32) for r in camera.rays())
+        # Whole-image arithmetic, then one gather per array (cheaper than compressing twice).
+        x2 = depth * a[None, :]
+        x2 *= x2
+        up = np.float32(LIDAR_OFFSET[1]) - depth * b[:, None]  # height above the lidar
+        dz = depth - np.float32(LIDAR_OFFSET[2] + min_forward)
+        rh = np.sqrt(x2 + dz * dz)
+        tan_top = np.float32(np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG.max() + LIDAR_PITCH_DEG)) + 0.01)
+        self.flat = np.flatnonzero((depth > 0) & (up < tan_top * rh))
+        self.t = self.z = depth.take(self.flat)
+        self.x2 = x2.take(self.flat)
+        self.up = up.take(self.flat)
+        self.half_px = np.float32(0.5 / KITTI_FY) * self.t  # half a pixel row, in metres at the point
 
     def scatter(self, keep: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
         """A depth map holding the kept points, 0 elsewhere."""
@@ -310,38 +312,38 @@ class _Points:
         return out
 
 
-def _beam_hits(p: _Points, forward: float) -> tuple[np.ndarray, np.ndarray]:
+def _beam_hits(p: _Points, forward: float, buf: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Points that some laser's elevation passes within half a pixel of, seen from a
-    lidar ``forward`` metres ahead of this frame's; and the index of that laser."""
+    lidar ``forward`` metres ahead of this frame's; and the index (into the nearest-beam
+    table) of that laser. ``buf``: two float32 work arrays of the points' size, reused
+    across scans (in-place arithmetic is ~20 % faster than temporaries here)."""
     lo, nearest, tan_near = _beam_lut()
-    dz = p.z - np.float32(LIDAR_OFFSET[2] + forward)
-    rh = np.sqrt(p.x2 + dz * dz)
-    tan_e = p.up / rh
-    q = ((tan_e - np.float32(lo)) * np.float32(1.0 / _LUT_STEP)).astype(np.intp)
-    np.clip(q, 0, len(nearest) - 1, out=q)
-    # |tan_e - tan_beam| < half_px / rh, multiplied through by rh.
-    hit = np.abs(p.up - tan_near[q] * rh) < p.half_px
-    return hit, q
-
-
-def _below_top_beam(p: _Points, forward: float) -> np.ndarray:
-    """Points not above the top laser as seen from a lidar ``forward`` metres ahead.
-
-    A point above the lidar looks lowest from the pose farthest from it (the least
-    forward one), so testing that pose bounds all scans; it drops the high facade and
-    tree pixels no laser reaches before the per-scan work.
-    """
-    tan_top = np.float32(np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG.max() + LIDAR_PITCH_DEG)) + 0.01)
-    dz = p.z - np.float32(LIDAR_OFFSET[2] + forward)
-    return p.up < tan_top * np.sqrt(p.x2 + dz * dz)
+    rh, work = buf if buf is not None else (np.empty_like(p.t), np.empty_like(p.t))
+    # rh = horizontal distance from the lidar
+    np.subtract(p.z, np.float32(LIDAR_OFFSET[2] + forward), out=rh)
+    np.multiply(rh, rh, out=rh)
+    np.add(rh, p.x2, out=rh)
+    np.sqrt(rh, out=rh)
+    # q = nearest-beam table index of tan(elevation) = up / rh
+    np.divide(p.up, rh, out=work)
+    np.subtract(work, np.float32(lo), out=work)
+    np.multiply(work, np.float32(1.0 / _LUT_STEP), out=work)
+    q = work.astype(np.intp)
+    # |tan_e - tan_beam| < half_px / rh, multiplied through by rh. mode="clip" maps
+    # elevations outside the table to the top/bottom laser (and skips bounds checks).
+    tan_near.take(q, out=work, mode="clip")
+    np.multiply(work, rh, out=work)
+    np.subtract(p.up, work, out=work)
+    np.abs(work, out=work)
+    return work < p.half_px, q
 
 
 def single_scan(depth: np.ndarray, camera: Camera, rng: np.random.Generator) -> np.ndarray:
     """One 64-beam scan: each laser returns at azimuths ``phase + k * step``; a pixel is
     sampled when a laser's elevation and one of its azimuths fall inside it."""
     p = _Points(depth, camera)
-    p.select(_below_top_beam(p, 0.0))
     hit, q = _beam_hits(p, 0.0)
+    idx = np.flatnonzero(hit)  # the azimuth test only for the ~20 % passing elevation
     _, nearest, _ = _beam_lut()
     a, _ = camera.rays()
     az = np.arctan(a)
@@ -349,9 +351,13 @@ def single_scan(depth: np.ndarray, camera: Camera, rng: np.random.Generator) -> 
     step = np.deg2rad(AZIMUTH_STEP_DEG)
     phase = rng.uniform(0.0, step, size=len(BEAM_ELEVATIONS_DEG))
     az_hit = np.mod(az[None, :] + width / 2 - phase[:, None], step) < width  # (beams, columns)
-    hit &= az_hit[nearest[q], p.cols]
-    hit &= rng.random(hit.shape, dtype=np.float32) < RETURN_PROB
-    return p.scatter(hit, depth.shape)
+    beam = nearest.take(q.take(idx), mode="clip")
+    cols = p.flat.take(idx) % depth.shape[1]
+    kept = az_hit[beam, cols] & (rng.random(idx.shape, dtype=np.float32) < RETURN_PROB)
+    out = np.zeros_like(depth)
+    sel = idx[kept]
+    out.ravel()[p.flat[sel]] = p.t[sel]
+    return out
 
 
 def accumulated_scans(
@@ -365,12 +371,12 @@ def accumulated_scans(
     current scan (KITTI drops their smeared points).
     """
     forwards = [k * speed for k in GT_SCAN_OFFSETS]
-    p = _Points(depth, camera)
-    p.select(_below_top_beam(p, min(forwards)))
+    p = _Points(depth, camera, min_forward=min(forwards))
     static = ~moving.ravel()[p.flat]
     count = np.zeros(p.t.shape, dtype=np.uint8)
+    buf = (np.empty_like(p.t), np.empty_like(p.t))
     for f in forwards:
-        hit, _ = _beam_hits(p, f)
+        hit, _ = _beam_hits(p, f, buf)
         count += hit if f == 0 else hit & static
     p_col = min(1.0, (1.0 / KITTI_FX) / np.deg2rad(AZIMUTH_STEP_DEG)) * RETURN_PROB
     keep_prob = (1.0 - (1.0 - p_col) ** np.arange(len(forwards) + 1)).astype(np.float32)
