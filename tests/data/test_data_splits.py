@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
-from sklearn.model_selection import GroupKFold
+from sklearn.base import BaseEstimator
+from sklearn.model_selection import GroupKFold, cross_validate
 from sklearn.utils import _safe_indexing
 
 from inpaintenv.data import Subset, SyntheticStreets, split_by_drive, subset
@@ -55,3 +58,28 @@ def test_group_kfold_and_safe_indexing_stay_lazy(ds):
         assert isinstance(part, Subset) and part.shape == (len(test_idx), 32, 48)
         np.testing.assert_array_equal(part.groups, ds.groups[test_idx])
     assert CountingStreets.loads == 0
+
+
+class _Probe(BaseEstimator):
+    """Records what scikit-learn hands to fit/score."""
+
+    def fit(self, X, y=None):
+        assert isinstance(X, Subset)
+        self.train_drives_ = set(X.groups)
+        return self
+
+    def score(self, X, y=None):
+        assert isinstance(X, Subset) and not set(X.groups) & self.train_drives_
+        return float(len(X))
+
+
+def test_cross_validate_passes_lazy_subsets(ds):
+    res = cross_validate(_Probe(), ds, groups=ds.groups, cv=GroupKFold(n_splits=5))
+    assert res["test_score"].sum() == len(ds)
+    assert CountingStreets.loads == 0
+
+
+def test_datasets_pickle(ds, tmp_path):
+    again = pickle.loads(pickle.dumps(ds))
+    np.testing.assert_array_equal(again[5], ds[5])
+    np.testing.assert_array_equal(again.groups, ds.groups)

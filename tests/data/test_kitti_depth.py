@@ -202,3 +202,12 @@ def test_real_val_frame_is_cropped(kitti_root):
     np.testing.assert_array_equal(ds[0], raw[0][376 - 352 :, 12 : 12 + 1216])
     vel = KittiDepth(kitti_root, split="val", kind="velodyne_raw")[0]
     assert 0.02 < (vel > 0).mean() < 0.08
+
+
+def test_pickles_for_worker_processes(tree):
+    import pickle
+
+    ds = KittiDepth(tree, split="train", crop=CROP)
+    again = pickle.loads(pickle.dumps(ds))
+    np.testing.assert_array_equal(again[3], ds[3])
+    assert again.frame_ids == ds.frame_ids
