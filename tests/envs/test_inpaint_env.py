@@ -272,3 +272,16 @@ def test_kitti_env(kitti_root):
     assert obs in env.observation_space
     _, reward, terminated, _, step_info = env.step(np.full((352, 1216), 10.0, np.float32))
     assert terminated and reward == -step_info["hole_rmse"] and reward < 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+
+
+
+@pytest.mark.kitti
+def test_kitti_train_random_episodes_are_scorable(kitti_root):
+    env = gym.make("inpaintenv/KittiInpaint-v0", root=str(kitti_root), split="train")
+    for seed in range(3):
+        obs, info = env.reset(seed=seed)
+        assert info["frame_id"].startswith("2011_09_26_drive_900")
+        assert (obs["hole"].astype(bool) & (env.unwrapped.dataset[info["index"]] > 0)).any()
