@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ._raster import capsule_intervals, disc_intervals, fill_intervals
@@ -28,8 +30,9 @@ class FreeformV1(OcclusionProtocol):
         uniform centre with ``N(0, radius)`` offsets -- an irregular, lumpy patch;
 
     * the first ``j`` candidates are kept, with ``j`` the smallest count whose union
-      covers at least ``f``: found by bisection on a 4x coarser grid, then confirmed
-      (and if need be increased) at full resolution.
+      covers at least ``f``: found on a 4x coarser grid (exponential search from a
+      Boolean-model guess, then bisection), then confirmed (and if need be increased)
+      at full resolution.
 
     So the hole fraction is at least ``f >= 0.05`` and exceeds ``f`` by little more than
     one shape: :meth:`hole_fraction_range` is ``(0.05, 0.50)``. All 48 candidates
@@ -79,13 +82,8 @@ class FreeformV1(OcclusionProtocol):
             limit = self.N_MAX
             geo = _Coverage((H, W), *self._intervals((H, W), cand, limit))
 
-        lo_j, hi_j = 1, limit
-        while lo_j < hi_j:  # smallest j whose estimated coverage reaches the target
-            mid = (lo_j + hi_j) // 2
-            if geo.estimate(mid) >= target:
-                hi_j = mid
-            else:
-                lo_j = mid + 1
+        guess = int(np.searchsorted(est, target)) + 1
+        lo_j = _smallest_reaching(geo.estimate, target, limit, guess)
         mask = geo.covered(lo_j)
         # The estimate may run a little high: add shapes until the exact coverage holds.
         while lo_j < self.N_MAX and _fraction(mask) < target:
@@ -166,7 +164,14 @@ class FreeformV1(OcclusionProtocol):
 class _Coverage:
     """Union of the first ``j`` candidates, exactly or estimated on a 4x coarser grid."""
 
-    def __init__(self, shape, rows, lo, hi, owner):
+    def __init__(
+        self,
+        shape: tuple[int, int],
+        rows: np.ndarray,
+        lo: np.ndarray,
+        hi: np.ndarray,
+        owner: np.ndarray,
+    ):
         self.shape = shape
         self.rows, self.lo, self.hi, self.owner = rows, lo, hi, owner
         # Coarse grid: every 4th row; coarse column c stands for full columns
@@ -187,6 +192,37 @@ class _Coverage:
         sel = self.g_owner < j
         grid = fill_intervals(self.grid_shape, self.g_rows[sel], self.g_lo[sel], self.g_hi[sel])
         return _fraction(grid)
+
+
+def _smallest_reaching(f: Callable[[int], float], target: float, limit: int, guess: int) -> int:
+    """Smallest ``j`` in ``1..limit`` with ``f(j) >= target`` for non-decreasing ``f`` (else ``limit``).
+
+    Exponential search outwards from ``guess``, then bisection: a good guess costs two
+    or three evaluations instead of ``log2(limit)``.
+    """
+    j = min(max(guess, 1), limit)
+    if f(j) >= target:
+        lo, hi, step = 0, j, 1  # f(lo) < target is known (or lo = 0), f(hi) >= target
+        while hi - step >= 1:
+            if f(hi - step) >= target:
+                hi, step = hi - step, step * 2
+            else:
+                lo = hi - step
+                break
+    else:
+        lo, hi, step = j, limit, 1
+        while lo + step < limit:
+            if f(lo + step) >= target:
+                hi = lo + step
+                break
+            lo, step = lo + step, step * 2
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if f(mid) >= target:
+            hi = mid
+        else:
+            lo = mid
+    return hi
 
 
 def _fraction(mask: np.ndarray) -> float:

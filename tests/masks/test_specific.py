@@ -80,3 +80,23 @@ def test_freeform_strokes_are_thin_structures():
     m = get_protocol("freeform-v1").mask((176, 608), 0, 0)
     interior = m[1:-1, 1:-1] & m[:-2, 1:-1] & m[2:, 1:-1] & m[1:-1, :-2] & m[1:-1, 2:]
     assert interior.sum() < 0.97 * m[1:-1, 1:-1].sum()
+
+
+def test_smallest_reaching_matches_a_linear_scan():
+    from inpaintenv.masks.freeform import _smallest_reaching
+
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        limit = int(rng.integers(1, 50))
+        values = np.sort(rng.random(limit + 1))  # non-decreasing f(0..limit)
+        target = rng.random()
+        calls = []
+
+        def f(j):
+            calls.append(j)
+            return values[j]
+
+        expected = next((j for j in range(1, limit + 1) if values[j] >= target), limit)
+        got = _smallest_reaching(f, target, limit, guess=int(rng.integers(-3, limit + 5)))
+        assert got == expected
+        assert all(1 <= j <= limit for j in calls)
