@@ -35,7 +35,9 @@ def _time(load, indices) -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     default = os.environ.get("INPAINTENV_KITTI_ROOT", str(ROOT.parent / "shared" / "kitti"))
-    parser.add_argument("--kitti-root", default=default, help="KITTI root (default: $INPAINTENV_KITTI_ROOT or ../shared/kitti)")
+    parser.add_argument(
+        "--kitti-root", default=default, help="KITTI root (default: $INPAINTENV_KITTI_ROOT or ../shared/kitti)"
+    )
     parser.add_argument("--n-kitti", type=int, default=40, help="KITTI frames to read")
     parser.add_argument("--n-synthetic", type=int, default=16, help="synthetic frames to generate per kind")
     args = parser.parse_args()

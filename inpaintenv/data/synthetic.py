@@ -14,7 +14,8 @@ Three kinds of frame are produced from the same dense render:
 
 * ``"dense"``: the dense truth.
 * ``"velodyne_raw"``: one simulated 64-beam scan (HDL-64E: elevations +2 deg to
-  -24.8 deg, lidar 0.08 m above and 0.27 m behind the camera).
+  -24.8 deg, lidar 0.08 m above and 0.27 m behind the camera, tilted up by 2 deg as
+  measured on the real slice).
 * ``"groundtruth"``: 11 simulated scans at the poses of frames i-5..i+5 accumulated,
   like KITTI's semi-dense ground truth; moving cars only keep the current scan.
 
@@ -171,7 +172,9 @@ def _span(valid: np.ndarray) -> slice | None:
     return slice(idx[0], idx[-1] + 1) if idx.size else None
 
 
-def _render_box(zbuf: np.ndarray, box: np.ndarray, origin: np.ndarray, dx: np.ndarray, dy: np.ndarray, dz: np.ndarray) -> None:
+def _render_box(
+    zbuf: np.ndarray, box: np.ndarray, origin: np.ndarray, dx: np.ndarray, dy: np.ndarray, dz: np.ndarray
+) -> None:
     """Z-buffer one box into ``zbuf`` (rows x columns) in place."""
     xn, xf = _slab(origin[0], dx, box[0], box[1])
     zn, zf = _slab(origin[2], dz, box[4], box[5])
@@ -187,7 +190,9 @@ def _render_box(zbuf: np.ndarray, box: np.ndarray, origin: np.ndarray, dx: np.nd
     np.minimum(sub, tn, out=sub, where=hit)
 
 
-def _render_ellipsoid(zbuf: np.ndarray, ell: np.ndarray, origin: np.ndarray, dx: np.ndarray, dy: np.ndarray, dz: np.ndarray) -> None:
+def _render_ellipsoid(
+    zbuf: np.ndarray, ell: np.ndarray, origin: np.ndarray, dx: np.ndarray, dy: np.ndarray, dz: np.ndarray
+) -> None:
     """Z-buffer one ellipsoid: solve |(t d - c) / r|^2 = 1 inside its bounding rectangle."""
     c = ell[:3] - origin
     r = ell[3:]
@@ -238,7 +243,9 @@ def render_dense(scene: Scene, frame: int, camera: Camera, yaw_jitter: float = 0
     # float32 halves the memory traffic of the per-pixel work; 1 mm at 80 m is plenty.
     dx = (np.cos(yaw) * a + np.sin(yaw)).astype(np.float32)
     dz = (-np.sin(yaw) * a + np.cos(yaw)).astype(np.float32)
-    dy = np.where(b == 0, 1e-12, b).astype(np.float32)
+    dy = b.astype(np.float32)
+    for d in (dx, dy, dz):  # a ray parallel to a slab would give 0 * inf = NaN
+        d[d == 0] = 1e-12
     origin = np.array([0.0, 0.0, frame * scene.speed])
     with np.errstate(divide="ignore"):
         road = np.where(dy > 0, np.float32(CAMERA_HEIGHT) / dy, np.float32(np.inf))
@@ -312,7 +319,9 @@ class _Points:
         return out
 
 
-def _beam_hits(p: _Points, forward: float, buf: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _beam_hits(
+    p: _Points, forward: float, buf: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Points that some laser's elevation passes within half a pixel of, seen from a
     lidar ``forward`` metres ahead of this frame's; and the index (into the nearest-beam
     table) of that laser. ``buf``: two float32 work arrays of the points' size, reused
