@@ -7,10 +7,11 @@ occlusions and scores any reconstruction.
 from __future__ import annotations
 
 from .conventions import DEFAULT_MAX_DEPTH, corrupt
+from .envs import DepthInpaintEnv
 from .envs import register_envs as _register_envs
 from .evaluate import EvaluationResult, evaluate
 
 __version__ = "0.1.0"
-__all__ = ["DEFAULT_MAX_DEPTH", "EvaluationResult", "corrupt", "evaluate", "__version__"]
+__all__ = ["DEFAULT_MAX_DEPTH", "DepthInpaintEnv", "EvaluationResult", "corrupt", "evaluate", "__version__"]
 
 _register_envs()

@@ -214,6 +214,12 @@ class EvaluationResult:
         rows = [row for r in results for row in r.rows]
         meta = dict(results[0].meta)
         meta["methods"] = list(dict.fromkeys(m for r in results for m in r.meta.get("methods", [])))
+        protocols = list(dict.fromkeys(r.meta["protocol"] for r in results if "protocol" in r.meta))
+        if len(protocols) > 1:
+            meta["protocol"] = protocols
+        seeds = list(dict.fromkeys(s for r in results for s in r.meta.get("seeds", [])))
+        if seeds:
+            meta["seeds"] = seeds
         return cls(rows=rows, meta=meta)
 
     # -- output ------------------------------------------------------------------------

@@ -216,8 +216,15 @@ def test_json_csv_round_trip(gt_ds, tmp_path):
 def test_concat_and_markdown(gt_ds):
     a = evaluate(lambda x: np.nan_to_num(x, nan=9.0), gt_ds, progress=False, name="nine")
     b = evaluate(lambda x: np.nan_to_num(x, nan=20.0), gt_ds, progress=False, name="twenty")
+    c = evaluate(lambda x: np.nan_to_num(x, nan=9.0), gt_ds, protocol="freeform-v1", seeds=(1,),
+                 progress=False, name="nine")
     both = EvaluationResult.concat([a, b])
     assert both.methods == ["nine", "twenty"]
+    mixed = EvaluationResult.concat([a, c])
+    assert mixed.meta["protocol"] == ["rect-v1", "freeform-v1"] and mixed.meta["seeds"] == [0, 1]
+    assert [(t["method"], t["protocol"]) for t in mixed.table] == [("nine", "rect-v1"), ("nine", "freeform-v1")]
+    with pytest.raises(ValueError, match="no results"):
+        EvaluationResult.concat([])
     md = both.to_markdown().splitlines()
     assert md[0].startswith("| method |") and len(md) == 4
     assert "| nine |" in md[2] and "| twenty |" in md[3]
