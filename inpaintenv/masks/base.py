@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import operator
 import zlib
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
@@ -112,6 +113,21 @@ def _plain(value: Any) -> Any:
 
 
 def _check_shape(shape: tuple[int, int]) -> tuple[int, int]:
-    if len(shape) != 2 or min(shape) < 1:
-        raise ValueError(f"mask shape must be (H, W) with H, W >= 1, got {shape}")
-    return int(shape[0]), int(shape[1])
+    """``(H, W)`` as two Python ints >= 1, or a ValueError naming the bad shape."""
+    try:
+        dims = [operator.index(d) for d in shape]  # ints only: 3.5 rows is an error
+    except TypeError:
+        raise ValueError(f"mask shape must be (H, W) with integer H, W >= 1, got {shape!r}") from None
+    if len(dims) != 2 or min(dims) < 1:
+        raise ValueError(f"mask shape must be (H, W) with H, W >= 1, got {shape!r}")
+    return dims[0], dims[1]
+
+
+def _check_rng(rng: object) -> np.random.Generator:
+    """Protocols draw only from a ``numpy.random.Generator``; refuse anything else clearly."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(
+            f"rng must be a numpy.random.Generator (e.g. mask_rng(name, seed, index)), "
+            f"got {type(rng).__name__}"
+        )
+    return rng

@@ -7,7 +7,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from ._raster import fill_intervals
-from .base import OcclusionProtocol, _check_shape
+from .base import OcclusionProtocol, _check_rng, _check_shape
 
 __all__ = ["EgoOcclusionV1"]
 
@@ -73,6 +73,7 @@ class EgoOcclusionV1(OcclusionProtocol):
 
     def sample(self, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
         H, W = _check_shape(shape)
+        _check_rng(rng)
         if H < self.MIN_SHAPE[0] or W < self.MIN_SHAPE[1]:
             raise ValueError(
                 f"{self.name} needs frames of at least {self.MIN_SHAPE[0]}x{self.MIN_SHAPE[1]}, "

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import numpy as np
 
-from .base import OcclusionProtocol, _check_shape
+from .base import OcclusionProtocol, _check_rng, _check_shape
 
 __all__ = ["RectV1"]
 
@@ -86,6 +86,7 @@ class RectV1(OcclusionProtocol):
             the image fits in it.
         """
         H, W = _check_shape(shape)
+        _check_rng(rng)
         total = H * W
         w_lo, w_hi = self._width_bounds((H, W))
         feasible = np.flatnonzero(w_lo <= w_hi) + 1  # heights with a valid whole width

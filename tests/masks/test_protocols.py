@@ -123,3 +123,23 @@ def test_smallest_allowed_frame_works(name):
     for i in range(20):
         m = proto.mask(proto.MIN_SHAPE, seed=0, index=i)
         assert m.shape == proto.MIN_SHAPE and m.any()
+
+
+@pytest.mark.parametrize("name", ALL)
+@pytest.mark.parametrize("bad", [(88.5, 304), ("88", 304), 88, None])
+def test_non_integer_shapes_are_a_clear_error(name, bad):
+    with pytest.raises(ValueError, match="shape"):
+        get_protocol(name).mask(bad, seed=0, index=0)
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_sample_refuses_anything_but_a_generator(name):
+    with pytest.raises(TypeError, match="Generator"):
+        get_protocol(name).sample(SHAPE, 0)
+    with pytest.raises(TypeError, match="Generator"):
+        get_protocol(name).sample(SHAPE, np.random.RandomState(0))
+
+
+def test_numpy_integer_shapes_are_accepted():
+    m = get_protocol("rect-v1").mask((np.int64(88), np.int32(304)), seed=0, index=0)
+    assert m.shape == SHAPE
