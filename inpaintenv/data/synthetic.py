@@ -468,7 +468,7 @@ class SyntheticStreets(DepthDataset):
             "kind": self.kind,
             "frames": len(self),
             "drives": len(np.unique(self.groups)),
-            "frames_per_drive": self.frames_per_drive,
+            "frames_per_drive": {str(d): int(c) for d, c in zip(*np.unique(self.groups, return_counts=True))},
             "frame_shape": list(self.frame_shape),
             "valid_density": float(np.mean([(self[int(i)] > 0).mean() for i in sample])),
             "sampled_frames": int(len(sample)),

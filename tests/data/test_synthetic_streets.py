@@ -81,6 +81,7 @@ def test_frame_shape_and_groups():
     assert ds.frame_ids[5].endswith("/image_02/0000000001")
     s = ds.summary(n_sample=2)
     assert s["frames"] == 10 and s["drives"] == 3 and s["sampled_frames"] == 2
+    assert sorted(s["frames_per_drive"].values()) == [2, 4, 4]
 
 
 def test_ego_moves_forward_within_a_drive():
