@@ -297,3 +297,29 @@ def test_run_method_validates_and_times():
         run_method(lambda f: f, x, name="hole-left")
     with pytest.raises(ValueError, match="batch"):
         run_method(lambda f: f, x[0])
+
+
+class _FakeTTY:
+    """A stderr stand-in that claims to be a terminal and records what is written."""
+
+    def __init__(self):
+        self.text = ""
+
+    def write(self, s):
+        self.text += s
+        return len(s)
+
+    def flush(self):
+        pass
+
+    def isatty(self):
+        return True
+
+
+@pytest.mark.parametrize("progress", [True, False])
+def test_progress_bar_on_terminal_only_when_asked(monkeypatch, progress):
+    fake = _FakeTTY()
+    monkeypatch.setattr("sys.stderr", fake)
+    evaluate(lambda x: np.nan_to_num(x, nan=1.0), np.ones((3, 16, 20), np.float32), progress=progress,
+             name="bar")
+    assert ("evaluate bar" in fake.text) is progress
