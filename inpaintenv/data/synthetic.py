@@ -470,8 +470,8 @@ class SyntheticStreets(DepthDataset):
             "drives": len(np.unique(self.groups)),
             "frames_per_drive": {str(d): int(c) for d, c in zip(*np.unique(self.groups, return_counts=True))},
             "frame_shape": list(self.frame_shape),
-            "valid_density": float(np.mean([(self[int(i)] > 0).mean() for i in sample])),
-            "sampled_frames": int(len(sample)),
+            "valid_density": float(np.mean([(self[int(i)] > 0).mean() for i in sample])) if n_sample > 0 else None,
+            "sampled_frames": int(len(sample)) if n_sample > 0 else 0,
         }
 
     info = summary
