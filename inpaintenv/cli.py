@@ -123,7 +123,7 @@ def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
         "frames_per_drive": {str(d): int(c) for d, c in zip(drives, counts)},
         "frame_shape": list(ds.frame_shape),
         "valid_density": float(np.mean([(ds[int(i)] > 0).mean() for i in sample])),
-        "sampled_frames": int(len(sample)),
+        "sampled_frames": len(sample),
     }
 
 

@@ -207,7 +207,7 @@ class EvaluationResult:
         return list(dict.fromkeys(r["method"] for r in self.rows))
 
     @classmethod
-    def concat(cls, results: Sequence["EvaluationResult"]) -> "EvaluationResult":
+    def concat(cls, results: Sequence[EvaluationResult]) -> EvaluationResult:
         """Join several results (e.g. one per method) into one."""
         if not results:
             raise ValueError("no results to concatenate")
@@ -236,7 +236,7 @@ class EvaluationResult:
         return path
 
     @classmethod
-    def from_json(cls, path: str | Path) -> "EvaluationResult":
+    def from_json(cls, path: str | Path) -> EvaluationResult:
         """Read a result written by :meth:`to_json`."""
         doc = json.loads(Path(path).read_text())
         rows = [_parse_row(r) for r in doc["rows"]]
@@ -253,7 +253,7 @@ class EvaluationResult:
         return path
 
     @classmethod
-    def from_csv(cls, path: str | Path) -> "EvaluationResult":
+    def from_csv(cls, path: str | Path) -> EvaluationResult:
         """Read per-frame rows written by :meth:`to_csv` (``meta`` is empty)."""
         with Path(path).open(newline="") as f:
             rows = [_parse_row(r) for r in csv.DictReader(f)]

@@ -11,8 +11,6 @@ import pytest
 from inpaintenv.cli import SUBCOMMANDS, build_parser, main
 from inpaintenv.evaluate import EvaluationResult
 
-
-
 TINY = ["--n-frames", "3", "--frame-shape", "48", "120"]
 
 

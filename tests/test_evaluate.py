@@ -167,7 +167,7 @@ def test_bad_output_names_method(gt_ds, bad, match):
 
 
 def test_bad_arguments(gt_ds):
-    ok = lambda x: np.nan_to_num(x, nan=1.0)  # noqa: E731
+    ok = lambda x: np.nan_to_num(x, nan=1.0)
     with pytest.raises(TypeError, match="callable"):
         evaluate(42, gt_ds)
     with pytest.raises(ValueError, match="n_frames"):
@@ -267,7 +267,7 @@ def test_env_as_source(gt_ds):
     env = gym.make("inpaintenv/DepthInpaint-v0", dataset=gt_ds)
     a = evaluate(lambda x: np.nan_to_num(x, nan=9.0), env, progress=False)
     b = evaluate(lambda x: np.nan_to_num(x, nan=9.0), gt_ds, progress=False)
-    strip = lambda rows: [{k: v for k, v in r.items() if k != "ms"} for r in rows]  # noqa: E731
+    strip = lambda rows: [{k: v for k, v in r.items() if k != "ms"} for r in rows]
     assert strip(a.rows) == strip(b.rows)
 
 
@@ -275,7 +275,7 @@ def test_env_serves_the_pairs_evaluate_scores(gt_ds):
     """reset(options={"index": i, "mask_seed": s}) + step gives evaluate's row for (s, i)."""
     from inpaintenv.envs import DepthInpaintEnv
 
-    fill = lambda x: np.nan_to_num(x, nan=9.0)  # noqa: E731
+    fill = lambda x: np.nan_to_num(x, nan=9.0)
     res = evaluate(fill, gt_ds, seeds=(4,), progress=False)
     env = DepthInpaintEnv(gt_ds)
     for row in res.rows:

@@ -14,7 +14,7 @@ from __future__ import annotations
 from .inpaint import DEPTH_LIMIT, DepthInpaintEnv, draw_scored_hole
 from .render import render_panel
 
-__all__ = ["DEPTH_LIMIT", "DepthInpaintEnv", "ENV_IDS", "draw_scored_hole", "register_envs", "render_panel"]
+__all__ = ["DEPTH_LIMIT", "ENV_IDS", "DepthInpaintEnv", "draw_scored_hole", "register_envs", "render_panel"]
 
 #: Env ids and their entry points.
 ENV_IDS: dict[str, str] = {

@@ -26,7 +26,7 @@ Decisions (see ``docs/env.md``):
 from __future__ import annotations
 
 import zlib
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -38,7 +38,7 @@ from ..masks import OcclusionProtocol, get_protocol
 from ..metrics import frame_metrics
 from .render import render_panel
 
-__all__ = ["DEPTH_LIMIT", "DepthInpaintEnv", "MAX_FRAME_DRAWS", "MAX_MASK_REDRAWS", "draw_scored_hole"]
+__all__ = ["DEPTH_LIMIT", "MAX_FRAME_DRAWS", "MAX_MASK_REDRAWS", "DepthInpaintEnv", "draw_scored_hole"]
 
 #: Upper bound of the depth spaces: the largest depth KITTI's 16-bit PNG encoding can hold
 #: (65535 / 256 m). Finite bounds are required by Gymnasium's checker.
@@ -113,7 +113,7 @@ class DepthInpaintEnv(gym.Env):
     ``mask_redraws`` and ``hole_fraction``. ``reset`` returns the same episode keys.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
 
     def __init__(
         self,

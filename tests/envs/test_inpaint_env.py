@@ -70,6 +70,7 @@ def test_reset_options_index_and_mask_seed_match_protocol(dataset):
     obs, info = env.reset(seed=123, options={"index": 3})
     assert info["index"] == 3 and info["frame_id"] == dataset.frame_ids[3]
     obs2, info2 = env.reset(seed=123, options={"index": 3})
+    assert info2 == info
     np.testing.assert_array_equal(obs["hole"], obs2["hole"])
     # With mask_seed the mask is the one evaluate() uses for (seed, index).
     obs, info = env.reset(options={"index": 2, "mask_seed": 5})
@@ -235,7 +236,7 @@ def test_vector_env_from_registered_id(dataset):
         "inpaintenv/DepthInpaint-v0", num_envs=2, vectorization_mode="sync",
         vector_kwargs={"autoreset_mode": gym.vector.AutoresetMode.SAME_STEP}, dataset=dataset,
     )
-    obs, _ = envs.reset(seed=0)
+    envs.reset(seed=0)
     _, reward, terminated, _, _ = envs.step(np.ones((2, *SHAPE), np.float32))
     assert terminated.all() and (reward < 0).all()
     envs.close()
@@ -258,7 +259,7 @@ def test_render_panel_shape_and_dtype(dataset):
 def test_synthetic_env():
     env = gym.make("inpaintenv/SyntheticInpaint-v0", n=3, seed=0, frame_shape=(64, 160))
     obs, info = env.reset(seed=0)
-    assert obs["depth"].shape == (64, 160)
+    assert obs["depth"].shape == (64, 160) and info["frame_id"].startswith("synthetic")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(env.unwrapped)
@@ -268,7 +269,7 @@ def test_synthetic_env():
 def test_kitti_env(kitti_root):
     env = gym.make("inpaintenv/KittiInpaint-v0", root=str(kitti_root), split="val")
     obs, info = env.reset(seed=0)
-    assert obs["depth"].shape == (352, 1216)
+    assert obs["depth"].shape == (352, 1216) and info["frame_id"].startswith("2011_10_03_drive_9101")
     assert obs in env.observation_space
     _, reward, terminated, _, step_info = env.step(np.full((352, 1216), 10.0, np.float32))
     assert terminated and reward == -step_info["hole_rmse"] and reward < 0
