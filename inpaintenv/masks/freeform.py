@@ -37,8 +37,8 @@ class FreeformV1(OcclusionProtocol):
     So the hole fraction is at least ``f >= 0.05`` and exceeds ``f`` by little more than
     one shape: :meth:`hole_fraction_range` is ``(0.05, 0.50)``. The upper bound holds at
     KITTI-like sizes (tested at 88×304, measured at 352×1216); on small frames one shape
-    is a larger share of the image and can push the union a little above 50 %
-    (measured maxima over 500-1500 masks: 0.51 at 64×64, 0.62 at 32×32). All 48 candidates
+    is a larger share of the image and can push the union above 50 % (see
+    ``docs/protocols.md``: maximum 0.62 over 1000 masks at 32×32). All 48 candidates
     together could in principle cover less than ``f`` (the mask is then their union);
     on frames of at least 32×32 this was never seen in the tests or in the sample
     statistics of ``docs/protocols.md``. Smaller frames raise ``ValueError``.

@@ -40,8 +40,9 @@ class LidarDropoutV1(OcclusionProtocol):
     The hole fraction is therefore at least ``f_b >= 0.05`` (beams alone) and at most
     the sum of the budgets, ``0.20 + 0.12 + 0.15`` plus rounding (``<= 0.50`` at
     KITTI sizes): :meth:`hole_fraction_range` returns ``(0.05, 0.50)``. On small frames
-    rounding bands and sectors up to whole pixels inflates them (measured maxima over
-    500 masks: 0.46 at 64×64, 0.54 at 32×64, 0.70 at 32×16); the lower bound always holds.
+    rounding bands and sectors up to whole pixels inflates them (see
+    ``docs/protocols.md``: maximum 0.70 over 1000 masks at 32×16); the lower bound
+    always holds.
 
     Requires ``H >= 32`` and ``W >= 16`` (smaller frames cannot hold 8 separate
     bands with room to bend); smaller shapes raise ``ValueError``.
