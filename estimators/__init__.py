@@ -39,4 +39,21 @@ __all__ = [
     "hole_psnr_scorer",
     "hole_rmse_scorer",
     "make_inpaint_scorer",
+    "UNetInpainter",
+    "AutoencoderInpainter",
 ]
+
+#: Exported lazily so that ``import estimators`` never imports torch.
+_NEURAL = ("UNetInpainter", "AutoencoderInpainter")
+
+
+def __getattr__(name: str):
+    if name in _NEURAL:
+        from . import neural
+
+        return getattr(neural, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_NEURAL))

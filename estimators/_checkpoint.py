@@ -1,0 +1,249 @@
+"""Checkpoint files of the neural inpainters: safetensors + JSON, atomic, never pickle.
+
+A checkpoint is a directory::
+
+    model.safetensors      network weights
+    config.json            format tag, estimator class and parameters, fitted attributes,
+                           and the SHA-256 of model.safetensors (written last: the commit)
+    optimizer.safetensors  optional, Adam state tensors (for resuming training)
+    training.json          optional, step / epoch / position / history + optimizer groups
+
+Every file is written to a temporary name and moved into place with ``os.replace``;
+the JSON files record the SHA-256 of the tensor files they belong to, so a torn,
+truncated or edited checkpoint fails to load with :class:`CheckpointError` instead of
+producing a silently different model.
+
+A training run directory holds immutable checkpoint directories ``ckpt-<step>`` and a
+pointer file ``state.json`` = ``{"last": ..., "best": ...}`` that is replaced
+atomically, so a crash while writing never leaves ``last`` half-written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import uuid
+from pathlib import Path
+from typing import Any
+
+import torch
+from safetensors import SafetensorError
+from safetensors.torch import load_file, save_file
+
+__all__ = [
+    "CheckpointError",
+    "FORMAT",
+    "FORMAT_VERSION",
+    "flatten_optimizer_state",
+    "read_checkpoint",
+    "read_run_state",
+    "unflatten_optimizer_state",
+    "write_checkpoint",
+    "write_run_checkpoint",
+]
+
+FORMAT = "inpaintenv.neural"
+FORMAT_VERSION = 1
+MODEL_FILE, CONFIG_FILE = "model.safetensors", "config.json"
+OPTIM_FILE, TRAINING_FILE = "optimizer.safetensors", "training.json"
+STATE_FILE = "state.json"
+
+
+class CheckpointError(ValueError):
+    """A checkpoint is missing, truncated, corrupt, or not an inpaintenv neural checkpoint."""
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _atomic_write(path: Path, write: Any) -> None:
+    """Call ``write(tmp_path)`` then move the temp file over ``path`` atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        with open(tmp, "rb+") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _write_json(path: Path, obj: dict[str, Any]) -> None:
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(obj, f, indent=1, allow_nan=True)
+
+    _atomic_write(path, write)
+
+
+def _write_tensors(path: Path, tensors: dict[str, torch.Tensor]) -> str:
+    flat = {k: v.detach().to("cpu").contiguous() for k, v in tensors.items()}
+    _atomic_write(path, lambda tmp: save_file(flat, tmp))
+    return _sha256(path)
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    try:
+        with open(path, encoding="utf-8") as f:
+            obj = json.load(f)
+    except FileNotFoundError:
+        raise CheckpointError(f"checkpoint file missing: {path}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise CheckpointError(f"checkpoint file {path} is not valid JSON (truncated or corrupt): {e}") from None
+    if not isinstance(obj, dict):
+        raise CheckpointError(f"checkpoint file {path} does not hold a JSON object")
+    return obj
+
+
+def _read_tensors(path: Path, sha256: str | None) -> dict[str, torch.Tensor]:
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint file missing: {path}")
+    if sha256 is not None and _sha256(path) != sha256:
+        raise CheckpointError(
+            f"{path} does not match the checksum recorded beside it: the checkpoint is "
+            "truncated, corrupt, or was partly overwritten"
+        )
+    try:
+        return load_file(str(path), device="cpu")
+    except (SafetensorError, OSError, ValueError) as e:
+        raise CheckpointError(f"cannot read {path} as safetensors (truncated or corrupt): {e}") from None
+
+
+def write_checkpoint(
+    path: str | os.PathLike,
+    config: dict[str, Any],
+    weights: dict[str, torch.Tensor],
+    *,
+    training: dict[str, Any] | None = None,
+    optimizer_tensors: dict[str, torch.Tensor] | None = None,
+) -> Path:
+    """Write a checkpoint directory (created if needed; existing files are replaced)."""
+    path = Path(path)
+    path.mkdir(parents=True, exist_ok=True)
+    weights_sha = _write_tensors(path / MODEL_FILE, weights)
+    if training is not None:
+        optim_sha = _write_tensors(path / OPTIM_FILE, optimizer_tensors or {})
+        _write_json(path / TRAINING_FILE, {**training, "optimizer_sha256": optim_sha, "weights_sha256": weights_sha})
+    # config.json last: its checksum commits the weights written above.
+    _write_json(path / CONFIG_FILE, {"format": FORMAT, "format_version": FORMAT_VERSION, **config, "weights_sha256": weights_sha})
+    return path
+
+
+def read_checkpoint(
+    path: str | os.PathLike, *, training: bool = False
+) -> tuple[dict[str, Any], dict[str, torch.Tensor], dict[str, Any] | None, dict[str, torch.Tensor] | None]:
+    """Read a checkpoint directory.
+
+    Returns
+    -------
+    config, weights, training_state, optimizer_tensors
+        The last two are None unless ``training=True`` (then they must exist).
+
+    Raises
+    ------
+    CheckpointError
+        On any missing, truncated, corrupt or foreign file.
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise CheckpointError(f"no checkpoint directory at {path}")
+    config = _read_json(path / CONFIG_FILE)
+    if config.get("format") != FORMAT:
+        raise CheckpointError(f"{path} is not an {FORMAT} checkpoint (format={config.get('format')!r})")
+    if int(config.get("format_version", -1)) > FORMAT_VERSION:
+        raise CheckpointError(
+            f"{path} has format version {config.get('format_version')}; this version reads <= {FORMAT_VERSION}"
+        )
+    weights = _read_tensors(path / MODEL_FILE, config.get("weights_sha256"))
+    if not training:
+        return config, weights, None, None
+    state = _read_json(path / TRAINING_FILE)
+    if state.get("weights_sha256") != config.get("weights_sha256"):
+        raise CheckpointError(f"{path}: training state and weights come from different saves")
+    optim = _read_tensors(path / OPTIM_FILE, state.get("optimizer_sha256"))
+    return config, weights, state, optim
+
+
+# -- optimizer state <-> flat tensors + JSON ------------------------------------------
+def flatten_optimizer_state(state_dict: dict[str, Any]) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
+    """Split ``optimizer.state_dict()`` into named tensors and a JSON-able rest."""
+    tensors: dict[str, torch.Tensor] = {}
+    scalars: dict[str, dict[str, Any]] = {}
+    for pid, pstate in state_dict["state"].items():
+        for key, value in pstate.items():
+            if isinstance(value, torch.Tensor):
+                tensors[f"{pid}.{key}"] = value
+            else:
+                scalars.setdefault(str(pid), {})[key] = value
+    return tensors, {"param_groups": state_dict["param_groups"], "scalars": scalars}
+
+
+def unflatten_optimizer_state(tensors: dict[str, torch.Tensor], meta: dict[str, Any]) -> dict[str, Any]:
+    """Inverse of :func:`flatten_optimizer_state`."""
+    state: dict[int, dict[str, Any]] = {}
+    for name, value in tensors.items():
+        pid, key = name.split(".", 1)
+        state.setdefault(int(pid), {})[key] = value
+    for pid, extra in meta.get("scalars", {}).items():
+        state.setdefault(int(pid), {}).update(extra)
+    return {"state": state, "param_groups": meta["param_groups"]}
+
+
+# -- training run directories ---------------------------------------------------------
+def read_run_state(run_dir: str | os.PathLike) -> dict[str, Any] | None:
+    """The ``{"last": name, "best": name | None}`` pointers of a run, or None if new."""
+    path = Path(run_dir) / STATE_FILE
+    if not path.exists():
+        return None
+    return _read_json(path)
+
+
+def write_run_checkpoint(
+    run_dir: str | os.PathLike,
+    step: int,
+    config: dict[str, Any],
+    weights: dict[str, torch.Tensor],
+    training: dict[str, Any],
+    optimizer_tensors: dict[str, torch.Tensor],
+    *,
+    best_weights: dict[str, torch.Tensor] | None = None,
+    best_is_current: bool = False,
+) -> None:
+    """Write ``last`` (and maybe a new ``best``) of a run and swap the pointers atomically.
+
+    Parameters
+    ----------
+    best_weights : dict, optional
+        Weights of a new best model to write as the ``best`` checkpoint.
+    best_is_current : bool
+        The current weights are the new best (``best`` points at the new ``last``).
+    """
+    run_dir = Path(run_dir)
+    old = read_run_state(run_dir) or {}
+    # Fresh names: a referenced checkpoint is never rewritten in place.
+    tag = f"{step:08d}-{uuid.uuid4().hex[:8]}"
+    last = f"ckpt-{tag}"
+    write_checkpoint(run_dir / last, config, weights, training=training, optimizer_tensors=optimizer_tensors)
+    best = old.get("best")
+    if best_is_current:
+        best = last
+    elif best_weights is not None:
+        best = f"best-{tag}"
+        write_checkpoint(run_dir / best, config, best_weights)
+    _write_json(run_dir / STATE_FILE, {"last": last, "best": best})
+    # Only now are older checkpoints unreferenced.
+    for child in run_dir.iterdir():
+        if child.is_dir() and child.name not in (last, best) and child.name.startswith(("ckpt-", "best-")):
+            shutil.rmtree(child, ignore_errors=True)

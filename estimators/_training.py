@@ -1,0 +1,160 @@
+"""Training data pipeline and tensor helpers of the neural inpainters.
+
+Reproducibility: every random choice of a training sample (crop offset, occlusion mask)
+comes from a generator seeded by ``(seed, epoch, index)`` alone, and the visiting order
+of an epoch from ``(seed, epoch)``. A sample therefore does not depend on which worker
+loads it or on whether training was interrupted, and resuming mid-epoch only needs the
+epoch and the number of batches already done.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+from collections.abc import Iterator
+
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Dataset
+
+from inpaintenv.data.base import DepthDataset
+from inpaintenv.masks import OcclusionProtocol
+
+__all__ = [
+    "OcclusionFrames",
+    "data_fingerprint",
+    "encode_input",
+    "epoch_order",
+    "make_loader",
+    "sample_rng",
+    "torch_threads",
+]
+
+#: Stream id of the epoch order, distinct from any frame index.
+_ORDER_STREAM = 2**31 - 1
+
+
+def sample_rng(seed: int, epoch: int, index: int) -> np.random.Generator:
+    """Generator of the crop and mask of training sample ``index`` in ``epoch``."""
+    return np.random.default_rng(np.random.SeedSequence([seed, epoch, index]))
+
+
+def epoch_order(n: int, seed: int, epoch: int) -> np.ndarray:
+    """The shuffled visiting order of ``n`` frames in ``epoch``."""
+    return sample_rng(seed, epoch, _ORDER_STREAM).permutation(n)
+
+
+class OcclusionFrames(Dataset):
+    """Torch view of a :class:`DepthDataset`: ``(ground truth, hole)`` per frame.
+
+    Each item is a random crop (or the whole frame) with a fresh occlusion drawn from
+    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Set
+    :attr:`epoch` before iterating an epoch (workers are re-created per epoch, so they
+    see the new value).
+
+    Parameters
+    ----------
+    frames : DepthDataset
+    protocol : OcclusionProtocol
+    crop : (int, int) or None
+        Crop size; each side is clipped to the frame size.
+    seed : int
+    """
+
+    def __init__(self, frames: DepthDataset, protocol: OcclusionProtocol, crop: tuple[int, int] | None, seed: int):
+        self.frames = frames
+        self.protocol = protocol
+        fh, fw = frames.frame_shape
+        self.crop = (fh, fw) if crop is None else (min(int(crop[0]), fh), min(int(crop[1]), fw))
+        self.seed = int(seed)
+        self.epoch = 0
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
+        rng = sample_rng(self.seed, self.epoch, int(index))
+        gt = np.asarray(self.frames[int(index)], dtype=np.float32)
+        (fh, fw), (ch, cw) = gt.shape, self.crop
+        top = int(rng.integers(0, fh - ch + 1))
+        left = int(rng.integers(0, fw - cw + 1))
+        gt = np.ascontiguousarray(gt[top : top + ch, left : left + cw])
+        hole = self.protocol.sample((ch, cw), rng)
+        return torch.from_numpy(gt), torch.from_numpy(hole)
+
+
+def _worker_init(_: int) -> None:
+    # Loader workers only decode and crop; one thread each leaves the cores to training.
+    torch.set_num_threads(1)
+
+
+def make_loader(
+    data: OcclusionFrames, order: np.ndarray, batch_size: int, num_workers: int, pin_memory: bool
+) -> DataLoader:
+    """A loader visiting ``order`` (a list of frame indices) in batches, in that order."""
+    return DataLoader(
+        data,
+        batch_size=batch_size,
+        sampler=order.tolist(),
+        num_workers=num_workers,
+        pin_memory=pin_memory,
+        worker_init_fn=_worker_init if num_workers else None,
+        drop_last=False,
+    )
+
+
+def encode_input(depth: torch.Tensor, hole: torch.Tensor, max_depth: float, input_mask: bool) -> torch.Tensor:
+    """Network input from observed depth (0 in holes and where unmeasured) and holes.
+
+    Parameters
+    ----------
+    depth : torch.Tensor
+        ``(N, H, W)`` metres, finite, 0 inside holes.
+    hole : torch.Tensor
+        ``(N, H, W)`` bool.
+    max_depth : float
+        Normalisation range (the study's 80 m).
+    input_mask : bool
+        False: one channel, ``depth / max_depth`` (the study). True: three channels,
+        adding the hole mask and the validity mask (``depth > 0``).
+
+    Returns
+    -------
+    torch.Tensor
+        ``(N, C, H, W)`` float32.
+    """
+    x = (depth / max_depth).unsqueeze(1)
+    if not input_mask:
+        return x
+    return torch.cat([x, hole.unsqueeze(1).to(x.dtype), (depth > 0).unsqueeze(1).to(x.dtype)], dim=1)
+
+
+def data_fingerprint(dataset: DepthDataset) -> str:
+    """A cheap identity of a dataset: ids, size, and the content of its first/last frame.
+
+    Used to name per-fit checkpoint directories, so two folds (or two datasets) never
+    share one, while refitting the same data resumes.
+    """
+    h = hashlib.sha256()
+    h.update(f"{type(dataset).__name__}|{len(dataset)}|{tuple(dataset.frame_shape)}|".encode())
+    h.update("\n".join(map(str, dataset.frame_ids)).encode())
+    for i in sorted({0, len(dataset) - 1}):
+        h.update(np.ascontiguousarray(dataset[i], dtype=np.float32).tobytes())
+    return h.hexdigest()
+
+
+@contextlib.contextmanager
+def torch_threads(n: int | None) -> Iterator[int]:
+    """Set ``torch.set_num_threads(n)`` for the block and restore it after.
+
+    ``None`` keeps the current setting (which under joblib's loky workers already is
+    ``cores // n_jobs``, since loky exports ``OMP_NUM_THREADS`` to its workers).
+    """
+    before = torch.get_num_threads()
+    if n is not None:
+        torch.set_num_threads(int(n))
+    try:
+        yield torch.get_num_threads()
+    finally:
+        if n is not None:
+            torch.set_num_threads(before)

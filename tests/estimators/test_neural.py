@@ -1,0 +1,311 @@
+"""UNetInpainter / AutoencoderInpainter: fit, predict, persistence, resume, warm start."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+
+from estimators.neural import AutoencoderInpainter, CheckpointError, UNetInpainter
+from inpaintenv.data import ArrayDataset
+
+H, W = 24, 40
+
+
+def tiny(cls=UNetInpainter, **kw):
+    """A model that trains in well under a second on CPU."""
+    params = dict(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1)
+    return cls(**(params | kw))
+
+
+@pytest.fixture(scope="module")
+def frames() -> np.ndarray:
+    rng = np.random.default_rng(0)
+    rows = np.linspace(30.0, 5.0, H, dtype=np.float32)[:, None]
+    out = np.stack([rows + k + np.zeros((1, W), np.float32) for k in range(6)])
+    out[rng.random(out.shape) < 0.3] = 0.0
+    return out
+
+
+@pytest.fixture(scope="module")
+def dataset(frames) -> ArrayDataset:
+    return ArrayDataset(frames, groups=["a", "a", "b", "b", "c", "c"])
+
+
+@pytest.fixture(scope="module")
+def corrupted(frames) -> np.ndarray:
+    x = frames[:2].copy()
+    x[:, 4:12, 8:30] = np.nan
+    return x
+
+
+@pytest.fixture(scope="module")
+def fitted(dataset) -> UNetInpainter:
+    return tiny(epochs=2).fit(dataset)
+
+
+def test_not_fitted_errors(corrupted, tmp_path):
+    est = tiny()
+    with pytest.raises(NotFittedError):
+        est.predict(corrupted)
+    with pytest.raises(NotFittedError):
+        est.save(tmp_path / "m")
+
+
+def test_fit_predict_contract(fitted, corrupted):
+    out = fitted.predict(corrupted)
+    assert out.shape == corrupted.shape and out.dtype == np.float32
+    assert np.isfinite(out).all() and (out >= 0).all()
+    observed = corrupted > 0
+    assert np.array_equal(out[observed], corrupted[observed])
+    assert fitted.predict(corrupted[0]).shape == (H, W)
+    # 6 frames, batch 2, 2 epochs.
+    assert fitted.n_steps_ == 6
+    assert len(fitted.history_["step_loss"]) == 6 and len(fitted.history_["epoch_loss"]) == 2
+    assert fitted.history_["val_hole_rmse"] == [] and fitted.history_["best_epoch"] is None
+
+
+def test_any_frame_size_predicts(fitted):
+    x = np.full((1, 37, 53), 10.0, np.float32)
+    x[0, 5:20, 5:20] = np.nan
+    assert fitted.predict(x).shape == x.shape
+
+
+def test_same_seed_same_model(dataset, corrupted, fitted):
+    again = tiny(epochs=2).fit(dataset)
+    assert np.array_equal(again.predict(corrupted), fitted.predict(corrupted))
+    other = tiny(epochs=2, random_state=1).fit(dataset)
+    assert not np.array_equal(other.predict(corrupted), fitted.predict(corrupted))
+
+
+def test_fit_restores_torch_threads(dataset):
+    before = torch.get_num_threads()
+    est = tiny(num_threads=1).fit(dataset)
+    assert est.n_threads_ == 1
+    assert torch.get_num_threads() == before
+
+
+def test_autoencoder_and_mask_input(dataset, corrupted):
+    ae = tiny(AutoencoderInpainter, input_mask=True).fit(dataset)
+    assert ae.model_.skip is False and ae.model_.in_channels == 3
+    assert np.isfinite(ae.predict(corrupted)).all()
+
+
+def test_cpu_bf16_and_channels_last_run(dataset, corrupted):
+    for kw in (dict(amp="cpu-bf16"), dict(channels_last=True)):
+        out = tiny(max_steps=1, **kw).fit(dataset).predict(corrupted)
+        assert np.isfinite(out).all()
+
+
+def test_validation_split_selects_best_epoch(dataset):
+    est = tiny(epochs=3, validation_fraction=0.34).fit(dataset)
+    val = est.history_["val_hole_rmse"]
+    assert len(val) == 3 and all(v > 0 for v in val)
+    assert est.history_["best_epoch"] == int(np.nanargmin(val))
+
+
+def test_validation_needs_two_drives(frames):
+    one_drive = ArrayDataset(frames, groups=["a"] * len(frames))
+    with pytest.raises(ValueError, match="at least 2 drives"):
+        tiny(validation_fraction=0.5).fit(one_drive)
+
+
+def test_max_steps_stops_mid_epoch(dataset):
+    assert tiny(epochs=5, max_steps=4).fit(dataset).n_steps_ == 4
+
+
+def test_crop_trains_on_crops(dataset, monkeypatch):
+    seen = []
+    from estimators import neural
+
+    orig = neural._NeuralInpainter._train_step
+
+    def spy(self, model, opt, scaler, autocast, gt, hole, device):
+        seen.append(tuple(gt.shape))
+        return orig(self, model, opt, scaler, autocast, gt, hole, device)
+
+    monkeypatch.setattr(neural._NeuralInpainter, "_train_step", spy)
+    tiny(crop=(16, 1000), max_steps=1).fit(dataset)
+    assert seen == [(2, 16, W)]  # width clipped to the frame
+
+
+# -- persistence ---------------------------------------------------------------------
+def test_save_load_round_trip(fitted, corrupted, tmp_path):
+    path = fitted.save(tmp_path / "model")
+    assert {p.name for p in path.iterdir()} == {"model.safetensors", "config.json"}
+    loaded = UNetInpainter.load(path)
+    assert type(loaded) is UNetInpainter
+    assert loaded.get_params() == fitted.get_params()
+    assert np.array_equal(loaded.predict(corrupted), fitted.predict(corrupted))
+    assert loaded.history_ == fitted.history_ and loaded.n_steps_ == fitted.n_steps_
+    config = json.loads((path / "config.json").read_text())
+    assert config["class"] == "UNetInpainter" and config["params"]["width"] == 4
+
+
+def test_load_checks_class(fitted, tmp_path):
+    path = fitted.save(tmp_path / "model")
+    with pytest.raises(CheckpointError, match="not a AutoencoderInpainter"):
+        AutoencoderInpainter.load(path)
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "bad_json", "missing"])
+def test_corrupt_checkpoint_gives_clear_error(fitted, tmp_path, damage):
+    path = fitted.save(tmp_path / "model")
+    weights = path / "model.safetensors"
+    if damage == "truncate":
+        weights.write_bytes(weights.read_bytes()[:100])
+    elif damage == "flip":
+        data = bytearray(weights.read_bytes())
+        data[-5] ^= 0xFF
+        weights.write_bytes(bytes(data))
+    elif damage == "bad_json":
+        (path / "config.json").write_text('{"format": "inpaint')
+    else:
+        weights.unlink()
+    with pytest.raises(CheckpointError, match="truncated|corrupt|missing"):
+        UNetInpainter.load(path)
+
+
+def test_load_nonexistent(tmp_path):
+    with pytest.raises(CheckpointError, match="no checkpoint"):
+        UNetInpainter.load(tmp_path / "nope")
+
+
+# -- checkpoints during training and resume ------------------------------------------------
+def _interrupt_after(monkeypatch, n_steps):
+    from estimators import neural
+
+    orig = neural._NeuralInpainter._train_step
+    calls = {"n": 0}
+
+    def step(self, *args):
+        if calls["n"] == n_steps:
+            raise KeyboardInterrupt("simulated crash")
+        calls["n"] += 1
+        return orig(self, *args)
+
+    monkeypatch.setattr(neural._NeuralInpainter, "_train_step", step)
+
+
+def test_resume_equals_uninterrupted_run(dataset, corrupted, tmp_path, monkeypatch):
+    kw = dict(epochs=3, validation_fraction=0.34, checkpoint_every=1)
+    full = tiny(**kw, checkpoint_dir=tmp_path / "a").fit(dataset)
+
+    with monkeypatch.context() as m:
+        _interrupt_after(m, 3)  # mid-epoch 2 (2 training drives -> 2 steps per epoch)
+        with pytest.raises(KeyboardInterrupt):
+            tiny(**kw, checkpoint_dir=tmp_path / "b").fit(dataset)
+    (run,) = (tmp_path / "b").iterdir()
+    state = json.loads((run / "state.json").read_text())
+    assert state["last"].startswith("ckpt-00000003")
+
+    resumed = tiny(**kw, checkpoint_dir=tmp_path / "b").fit(dataset)
+    assert resumed.n_steps_ == full.n_steps_ == 6
+    assert resumed.history_ == full.history_
+    assert np.array_equal(resumed.predict(corrupted), full.predict(corrupted))
+
+
+def test_finished_run_is_not_retrained(dataset, corrupted, tmp_path, monkeypatch):
+    first = tiny(checkpoint_dir=tmp_path).fit(dataset)
+    from estimators import neural
+
+    def fail(*a):
+        raise AssertionError("should not train again")
+
+    monkeypatch.setattr(neural._NeuralInpainter, "_train_step", fail)
+    again = tiny(checkpoint_dir=tmp_path, verbose=True).fit(dataset)  # verbose does not change the run
+    assert again.run_dir_ == first.run_dir_
+    assert np.array_equal(again.predict(corrupted), first.predict(corrupted))
+    # The run directory also loads as a model (its best, else last, checkpoint).
+    assert np.array_equal(UNetInpainter.load(first.run_dir_).predict(corrupted), first.predict(corrupted))
+
+
+def test_run_dirs_differ_by_params_and_data(dataset, tmp_path):
+    a = tiny(max_steps=1, checkpoint_dir=tmp_path).fit(dataset)
+    b = tiny(max_steps=1, checkpoint_dir=tmp_path, hole_weight=1.0).fit(dataset)
+    c = tiny(max_steps=1, checkpoint_dir=tmp_path).fit(dataset[:4])
+    assert len({a.run_dir_, b.run_dir_, c.run_dir_}) == 3
+
+
+def test_corrupt_last_checkpoint_stops_resume_with_clear_error(dataset, tmp_path):
+    est = tiny(checkpoint_dir=tmp_path).fit(dataset)
+    state = json.loads((est.run_dir_ / "state.json").read_text())
+    (est.run_dir_ / state["last"] / "optimizer.safetensors").write_bytes(b"garbage")
+    with pytest.raises(CheckpointError, match="optimizer.safetensors"):
+        tiny(checkpoint_dir=tmp_path).fit(dataset)
+
+
+# -- warm start --------------------------------------------------------------------------
+def test_warm_start_copies_encoder(dataset, tmp_path):
+    ae = tiny(AutoencoderInpainter, epochs=2).fit(dataset)
+    for source in (ae, ae.save(tmp_path / "ae")):
+        # One step with a negligible learning rate: weights are still the initial ones.
+        unet = tiny(warm_start=source, max_steps=1, lr=1e-12).fit(dataset)
+        for k, v in ae.model_.encoder.state_dict().items():
+            torch.testing.assert_close(unet.model_.encoder.state_dict()[k], v, atol=1e-9, rtol=0)
+    cold = tiny(max_steps=1, lr=1e-12, random_state=5).fit(dataset)
+    k = next(iter(ae.model_.encoder.state_dict()))
+    assert not torch.allclose(cold.model_.encoder.state_dict()[k], ae.model_.encoder.state_dict()[k])
+
+
+def test_warm_start_errors(dataset):
+    ae = tiny(AutoencoderInpainter, max_steps=1).fit(dataset)
+    with pytest.raises(ValueError, match="does not match"):
+        tiny(warm_start=ae, width=8, max_steps=1).fit(dataset)
+    with pytest.raises(ValueError, match="not fitted"):
+        tiny(warm_start=clone(ae), max_steps=1).fit(dataset)
+    with pytest.raises(TypeError, match="warm_start"):
+        tiny(warm_start=3, max_steps=1).fit(dataset)
+
+
+# -- validation ---------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "bad, match",
+    [
+        (dict(width=0), "width"),
+        (dict(depth=1.5), "depth"),
+        (dict(batch_size=0), "batch_size"),
+        (dict(crop=(0, 4)), "crop"),
+        (dict(crop=16), "crop"),
+        (dict(amp="fp8"), "amp"),
+        (dict(validation_fraction=1.5), "validation_fraction"),
+        (dict(lr=-1.0), "lr"),
+        (dict(hole_weight=float("nan")), "hole_weight"),
+        (dict(random_state=-1), "random_state"),
+        (dict(device="cuda" if not torch.cuda.is_available() else "nonsense"), "device"),
+    ],
+)
+def test_bad_parameters_rejected_at_fit(dataset, bad, match):
+    with pytest.raises(ValueError, match=match):
+        tiny(**bad).fit(dataset)
+
+
+def test_unknown_protocol(dataset):
+    with pytest.raises(KeyError, match="unknown occlusion protocol"):
+        tiny(protocol="nope").fit(dataset)
+
+
+def test_bad_input_errors_come_from_base_validation(fitted, frames):
+    with pytest.raises(ValueError, match="no NaN"):
+        fitted.predict(frames[:1])
+    with pytest.raises(ValueError, match="2-D or 3-D"):
+        fitted.predict(np.zeros(5, np.float32))
+    with pytest.raises(ValueError, match="infinite"):
+        fitted.predict(np.full((4, 4), np.inf, np.float32))
+    with pytest.raises(ValueError, match="negative"):
+        tiny().fit(-frames)
+
+
+@pytest.mark.slow
+def test_import_estimators_does_not_import_torch():
+    code = (
+        "import estimators, sys; assert 'torch' not in sys.modules; "
+        "estimators.UNetInpainter; assert 'torch' in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
