@@ -87,15 +87,21 @@ class OcclusionProtocol(ABC):
         Returns
         -------
         dict
-            ``name``, ``description``, ``class``, ``params`` (see :meth:`get_params`) and
-            ``hole_fraction_range`` (``[low, high]`` or None).
+            ``name``, ``description``, ``class``, ``params`` (see :meth:`get_params`),
+            ``constants`` (the class's upper-case attributes: the fixed parameters of
+            the protocol's distributions) and ``hole_fraction_range`` (``[low, high]``
+            or None).
         """
         rng = self.hole_fraction_range()
+        constants = {}
+        for klass in reversed(type(self).__mro__):
+            constants.update({k: _plain(v) for k, v in vars(klass).items() if k.isupper()})
         return {
             "name": self.name,
             "description": self.description,
             "class": f"{type(self).__module__}.{type(self).__qualname__}",
             "params": self.get_params(),
+            "constants": constants,
             "hole_fraction_range": None if rng is None else [float(rng[0]), float(rng[1])],
         }
 

@@ -100,3 +100,9 @@ def test_smallest_reaching_matches_a_linear_scan():
         got = _smallest_reaching(f, target, limit, guess=int(rng.integers(-3, limit + 5)))
         assert got == expected
         assert all(1 <= j <= limit for j in calls)
+
+
+def test_describe_records_the_distribution_constants():
+    desc = get_protocol("lidar-dropout-v1").describe()
+    assert desc["constants"]["BEAM_FRACTION"] == [0.05, 0.2]
+    assert get_protocol("freeform-v1").describe()["constants"]["N_MAX"] == 48
