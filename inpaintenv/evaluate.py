@@ -36,7 +36,10 @@ from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
 from .metrics import METRIC_NAMES, REGIONS, aggregate, frame_metrics
 
-__all__ = ["EvaluationResult", "MethodOutputError", "evaluate", "method_name", "resolve_source", "run_method"]
+__all__ = [
+    "EvaluationResult", "MethodOutputError", "evaluate", "json_safe", "method_name", "parse_row",
+    "resolve_source", "run_method",
+]
 
 #: Per-frame metric columns, in report order.
 METRIC_COLUMNS: tuple[str, ...] = tuple(
@@ -232,14 +235,14 @@ class EvaluationResult:
             "by_drive": self.by_drive(),
             "rows": self.rows,
         }
-        path.write_text(json.dumps(_nan_to_none(doc), indent=1))
+        path.write_text(json.dumps(json_safe(doc), indent=1))
         return path
 
     @classmethod
     def from_json(cls, path: str | Path) -> EvaluationResult:
         """Read a result written by :meth:`to_json`."""
         doc = json.loads(Path(path).read_text())
-        rows = [_parse_row(r) for r in doc["rows"]]
+        rows = [parse_row(r) for r in doc["rows"]]
         return cls(rows=rows, meta=doc.get("meta", {}))
 
     def to_csv(self, path: str | Path) -> Path:
@@ -256,7 +259,7 @@ class EvaluationResult:
     def from_csv(cls, path: str | Path) -> EvaluationResult:
         """Read per-frame rows written by :meth:`to_csv` (``meta`` is empty)."""
         with Path(path).open(newline="") as f:
-            rows = [_parse_row(r) for r in csv.DictReader(f)]
+            rows = [parse_row(r) for r in csv.DictReader(f)]
         return cls(rows=rows, meta={})
 
     def to_markdown(self, table: list[dict[str, Any]] | None = None) -> str:
@@ -299,13 +302,14 @@ class EvaluationResult:
         return f"EvaluationResult({len(self.rows)} rows, methods={self.methods})"
 
 
-def _nan_to_none(obj: Any) -> Any:
+def json_safe(obj: Any) -> Any:
+    """``obj`` with every float NaN replaced by None (valid JSON), recursively."""
     if isinstance(obj, float) and math.isnan(obj):
         return None
     if isinstance(obj, dict):
-        return {k: _nan_to_none(v) for k, v in obj.items()}
+        return {k: json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_nan_to_none(v) for v in obj]
+        return [json_safe(v) for v in obj]
     return obj
 
 
@@ -315,7 +319,7 @@ def _csv_cell(v: Any) -> Any:
     return v
 
 
-def _parse_row(raw: dict[str, Any]) -> dict[str, Any]:
+def parse_row(raw: dict[str, Any]) -> dict[str, Any]:
     """Restore column types of a row read back from JSON or CSV."""
     row: dict[str, Any] = {}
     for k, v in raw.items():
@@ -344,6 +348,8 @@ def evaluate(
     max_depth: float = DEFAULT_MAX_DEPTH,
     progress: bool = True,
     name: str | None = None,
+    indices: Sequence[int] | None = None,
+    on_batch: Callable[[list[dict[str, Any]]], None] | None = None,
 ) -> EvaluationResult:
     """Score ``method`` on every (seed, frame) pair of ``source`` under ``protocol``.
 
@@ -372,6 +378,13 @@ def evaluate(
         Show a tqdm progress bar on stderr (only when stderr is a terminal).
     name : str, optional
         Method name in the rows; default from :func:`method_name`.
+    indices : sequence of int, optional
+        Score only these frame positions (masks still come from each frame's position in
+        the source, so a subset scores exactly as in a full run). Used by the resumable
+        benchmark runner.
+    on_batch : callable, optional
+        Called with the rows of every scored batch as soon as they exist (e.g. to append
+        them to a file, so a killed run loses at most one batch).
 
     Returns
     -------
@@ -403,18 +416,25 @@ def evaluate(
         if n_frames < 1:
             raise ValueError(f"n_frames must be >= 1, got {n_frames}")
         total = min(total, int(n_frames))
+    if indices is None:
+        frame_list = list(range(total))
+    else:
+        frame_list = [int(i) for i in indices]
+        bad = [i for i in frame_list if not 0 <= i < total]
+        if bad:
+            raise ValueError(f"frame indices {bad[:5]} are outside 0..{total - 1}")
     shape = tuple(dataset.frame_shape)
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
     rows: list[dict[str, Any]] = []
     bar = tqdm(
-        total=total * len(seed_list), desc=f"evaluate {label}", unit="frame",
+        total=len(frame_list) * len(seed_list), desc=f"evaluate {label}", unit="frame",
         disable=None if progress else True, leave=False,
     )
     try:
-        for start in range(0, total, batch_size):
-            idx = list(range(start, min(start + batch_size, total)))
+        for start in range(0, len(frame_list), batch_size):
+            idx = frame_list[start : start + batch_size]
             # Load ground truth once per batch and reuse it for every seed.
             gt = dataset.load_batch(idx)
             for seed in seed_list:
@@ -424,6 +444,7 @@ def evaluate(
                 pred, ms = _run(call, batched, x, label)
                 metrics = frame_metrics(pred, gt, hole, max_depth=max_depth)
                 fractions = hole.mean(axis=(1, 2))
+                batch_rows: list[dict[str, Any]] = []
                 for k, i in enumerate(idx):
                     row: dict[str, Any] = {
                         "method": label,
@@ -438,7 +459,10 @@ def evaluate(
                         v = metrics[c][k]
                         row[c] = int(v) if c.endswith("_count") else float(v)
                     row["ms"] = ms
-                    rows.append(row)
+                    batch_rows.append(row)
+                rows.extend(batch_rows)
+                if on_batch is not None:
+                    on_batch(batch_rows)
                 bar.update(len(idx))
     finally:
         bar.close()

@@ -1,6 +1,8 @@
 """Data sources: real KITTI depth and the built-in synthetic streets, plus splits."""
 
-from .base import ArrayDataset, DepthDataset, Subset, as_dataset, split_by_drive, subset
+from .base import (
+    ArrayDataset, ConcatDataset, DepthDataset, Subset, as_dataset, select_drives, split_by_drive, subset,
+)
 from .io import DepthFormatError, read_depth_png, write_depth_png
 from .kitti import KITTI_ROOT_ENV, KITTI_URL, KittiDepth, bottom_center_crop, png_header
 from .sources import open_source
@@ -8,6 +10,7 @@ from .synthetic import SyntheticStreets
 
 __all__ = [
     "ArrayDataset",
+    "ConcatDataset",
     "DepthDataset",
     "DepthFormatError",
     "KITTI_ROOT_ENV",
@@ -20,6 +23,7 @@ __all__ = [
     "open_source",
     "png_header",
     "read_depth_png",
+    "select_drives",
     "split_by_drive",
     "subset",
     "write_depth_png",

@@ -10,7 +10,10 @@ import numpy as np
 
 from ..conventions import check_depth
 
-__all__ = ["DepthDataset", "ArrayDataset", "Subset", "as_dataset", "split_by_drive", "subset"]
+__all__ = [
+    "DepthDataset", "ArrayDataset", "ConcatDataset", "Subset", "as_dataset", "select_drives",
+    "split_by_drive", "subset",
+]
 
 
 class DepthDataset(Sequence, ABC):
@@ -147,6 +150,62 @@ class ArrayDataset(DepthDataset):
 
     def _load(self, index: int) -> np.ndarray:
         return np.asarray(self._frames[index], dtype=np.float32)
+
+
+class ConcatDataset(DepthDataset):
+    """Several datasets of one frame size, one after the other (e.g. KITTI train + val).
+
+    Parameters
+    ----------
+    parts : sequence of DepthDataset
+    """
+
+    def __init__(self, parts: Sequence[DepthDataset]):
+        if not parts:
+            raise ValueError("ConcatDataset needs at least one dataset")
+        shapes = {tuple(p.frame_shape) for p in parts}
+        if len(shapes) != 1:
+            raise ValueError(f"datasets to concatenate have different frame sizes: {sorted(shapes)}")
+        self.parts = list(parts)
+        self.frame_shape = shapes.pop()  # type: ignore[assignment]
+        self.groups = np.concatenate([np.asarray(p.groups) for p in parts])
+        self.frame_ids = [f for p in parts for f in p.frame_ids]
+        self._offsets = np.cumsum([0] + [len(p) for p in parts])
+
+    def _load(self, index: int) -> np.ndarray:
+        part = int(np.searchsorted(self._offsets, index, side="right")) - 1
+        return self.parts[part][int(index - self._offsets[part])]
+
+    def __repr__(self) -> str:
+        return f"ConcatDataset({' + '.join(repr(p) for p in self.parts)})"
+
+
+def select_drives(
+    dataset: DepthDataset,
+    drives: Sequence[str] | None = None,
+    exclude: Sequence[str] | None = None,
+) -> DepthDataset:
+    """Keep only the frames of ``drives`` and drop those of ``exclude``.
+
+    Raises
+    ------
+    ValueError
+        If a named drive is not in the dataset, or nothing is left.
+    """
+    if not drives and not exclude:
+        return dataset
+    known = set(np.asarray(dataset.groups).tolist())
+    unknown = sorted({*(drives or ()), *(exclude or ())} - known)
+    if unknown:
+        raise ValueError(f"unknown drives {unknown}; the dataset has {sorted(known)}")
+    keep = np.ones(len(dataset), dtype=bool)
+    if drives:
+        keep &= np.isin(dataset.groups, list(drives))
+    if exclude:
+        keep &= ~np.isin(dataset.groups, list(exclude))
+    if not keep.any():
+        raise ValueError("no frames left after selecting drives")
+    return Subset(dataset, np.flatnonzero(keep))
 
 
 def as_dataset(data: Any) -> DepthDataset:

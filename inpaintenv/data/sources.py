@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import os
 
-from .base import DepthDataset, Subset
+from collections.abc import Sequence
+
+from .base import ConcatDataset, DepthDataset, Subset, select_drives
 from .kitti import KittiDepth
 from .synthetic import SyntheticStreets
 
@@ -21,6 +23,8 @@ def open_source(
     n_frames: int | None = None,
     seed: int = 0,
     camera: str = "image_02",
+    drives: Sequence[str] | None = None,
+    exclude_drives: Sequence[str] | None = None,
 ) -> DepthDataset:
     """Open the data source used by the CLI, the environments and the benchmarks.
 
@@ -34,7 +38,8 @@ def open_source(
     kitti_root : path-like, optional
         Root of the KITTI depth-completion data (see :class:`KittiDepth`).
     split : str
-        KITTI split (``"train"``, ``"val"``, ``"val_selection"``); ignored for synthetic data.
+        KITTI split (``"train"``, ``"val"``, ``"val_selection"``), or several joined by
+        commas (``"train,val"``: one dataset, train frames first); ignored for synthetic data.
     kind : {"groundtruth", "velodyne_raw"} or "dense"
         ``"dense"`` exists only for synthetic data.
     n_frames : int, optional
@@ -44,6 +49,9 @@ def open_source(
         Seed of the synthetic streets; ignored for KITTI.
     camera : str
         KITTI camera (``"image_02"``, ``"image_03"`` or ``"both"``); ignored for synthetic.
+    drives, exclude_drives : sequence of str, optional
+        Keep only / drop these drives (applied before ``n_frames``), e.g. to score on
+        drives a model never saw.
 
     Returns
     -------
@@ -53,10 +61,14 @@ def open_source(
         raise ValueError(f"n_frames must be a positive integer or None, got {n_frames!r}")
     if kitti_root is None:
         n = DEFAULT_SYNTHETIC_FRAMES if n_frames is None else int(n_frames)
-        return SyntheticStreets(n=n, seed=seed, kind=kind)
+        return select_drives(SyntheticStreets(n=n, seed=seed, kind=kind), drives, exclude_drives)
     if kind == "dense":
         raise ValueError("kind='dense' exists only for the synthetic source (KITTI has no dense truth)")
-    ds = KittiDepth(kitti_root, split=split, camera=camera, kind=kind)
+    splits = [s.strip() for s in split.split(",") if s.strip()]
+    if not splits:
+        raise ValueError(f"no KITTI split named in {split!r}")
+    parts = [KittiDepth(kitti_root, split=s, camera=camera, kind=kind) for s in splits]
+    ds = select_drives(parts[0] if len(parts) == 1 else ConcatDataset(parts), drives, exclude_drives)
     if n_frames is not None and n_frames < len(ds):
         return Subset(ds, range(int(n_frames)))
     return ds

@@ -1,0 +1,33 @@
+"""Bootstrap intervals of per-frame means."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from inpaintenv.benchmark import bootstrap_mean_ci
+
+
+def test_interval_contains_mean_and_shrinks_with_more_frames():
+    rng = np.random.default_rng(0)
+    small = rng.normal(5.0, 2.0, 20)
+    large = rng.normal(5.0, 2.0, 2000)
+    m1, lo1, hi1 = bootstrap_mean_ci(small)
+    m2, lo2, hi2 = bootstrap_mean_ci(large)
+    assert lo1 <= m1 <= hi1 and lo2 <= m2 <= hi2
+    assert (hi2 - lo2) < (hi1 - lo1) / 4
+    # ~ 1.96 * sigma / sqrt(n) for a normal sample
+    assert (hi2 - lo2) / 2 == pytest.approx(1.96 * 2.0 / np.sqrt(2000), rel=0.2)
+
+
+def test_nan_frames_are_dropped_and_result_is_reproducible():
+    vals = [1.0, np.nan, 3.0, 5.0]
+    assert bootstrap_mean_ci(vals)[0] == pytest.approx(3.0)
+    assert bootstrap_mean_ci(vals) == bootstrap_mean_ci(vals)
+
+
+def test_degenerate_inputs():
+    assert bootstrap_mean_ci([2.0]) == (2.0, 2.0, 2.0)
+    assert all(np.isnan(v) for v in bootstrap_mean_ci([np.nan]))
+    with pytest.raises(ValueError, match="confidence"):
+        bootstrap_mean_ci([1.0, 2.0], confidence=1.5)

@@ -1,0 +1,41 @@
+"""open_source: split lists, drive selection, and ConcatDataset."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from inpaintenv.data import open_source
+
+
+def test_concat_splits_and_drive_selection_on_real_slice(kitti_root):
+    ds = open_source(kitti_root, split="train,val", exclude_drives=["2011_09_26_drive_9001_sync"])
+    assert sorted(set(ds.groups)) == ["2011_09_26_drive_9002_sync", "2011_10_03_drive_9101_sync"]
+    assert len(ds) == 13
+    assert ds[12].shape == (352, 1216)
+    only = open_source(kitti_root, split="train", drives=["2011_09_26_drive_9002_sync"])
+    assert len(only) == 12
+    np.testing.assert_array_equal(only[0], ds[0])
+
+
+def test_drive_selection_errors():
+    with pytest.raises(ValueError, match="unknown drives"):
+        open_source(n_frames=16, drives=["nope"])
+    ds = open_source(n_frames=16)
+    first = ds.groups[0]
+    kept = open_source(n_frames=16, drives=[first])
+    assert set(kept.groups) == {first}
+    with pytest.raises(ValueError, match="no frames left"):
+        open_source(n_frames=16, drives=[first], exclude_drives=[first])
+
+
+def test_concat_dataset_indexing():
+    from inpaintenv.data import ArrayDataset, ConcatDataset
+
+    a = ArrayDataset(np.ones((2, 4, 5), np.float32), groups=["a", "a"])
+    b = ArrayDataset(np.full((3, 4, 5), 2.0, np.float32), groups=["b", "b", "b"])
+    c = ConcatDataset([a, b])
+    assert len(c) == 5 and list(c.groups) == ["a", "a", "b", "b", "b"]
+    assert c[1][0, 0] == 1.0 and c[2][0, 0] == 2.0 and c[-1][0, 0] == 2.0
+    with pytest.raises(ValueError, match="different frame sizes"):
+        ConcatDataset([a, ArrayDataset(np.ones((1, 3, 3), np.float32))])
