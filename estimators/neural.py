@@ -328,7 +328,8 @@ class _NeuralInpainter(BaseInpainter):
         best_state: dict[str, torch.Tensor] | None = None
         run_dir = self._run_dir(dataset, seed)
         self.run_dir_ = run_dir
-        config = {"class": type(self).__name__, "params": self._config_params(), "seed": seed}
+        config = {"class": type(self).__name__, "params": self._config_params(), "seed": seed,
+                  "torch_threads": torch.get_num_threads()}
         if run_dir is not None:
             resumed = self._resume(run_dir, model, optimizer, device)
             if resumed is not None:
