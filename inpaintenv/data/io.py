@@ -8,7 +8,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["DepthFormatError", "read_depth_png", "write_depth_png", "KITTI_DEPTH_SCALE"]
+__all__ = [
+    "DepthFormatError", "KITTI_DEPTH_SCALE", "depth_from_uint16", "read_depth_png", "read_depth_png_raw",
+    "write_depth_png",
+]
 
 #: KITTI stores depth as uint16 PNG with metres = value / 256.
 KITTI_DEPTH_SCALE: float = 256.0
@@ -38,6 +41,15 @@ def read_depth_png(path: str | os.PathLike) -> np.ndarray:
     DepthFormatError
         If the file is unreadable, truncated, 8-bit, or has more than one channel.
     """
+    return depth_from_uint16(read_depth_png_raw(path))
+
+
+def read_depth_png_raw(path: str | os.PathLike) -> np.ndarray:
+    """Read a KITTI depth PNG as its stored uint16 values (metres * 256), validated.
+
+    Cropping these before :func:`depth_from_uint16` converts only the kept pixels.
+    Raises as :func:`read_depth_png`.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"depth PNG not found: {path}")
@@ -54,9 +66,12 @@ def read_depth_png(path: str | os.PathLike) -> np.ndarray:
             f"{path} is {raw.dtype} ({8 * raw.dtype.itemsize}-bit); KITTI depth must be a "
             "16-bit PNG (metres = value / 256)"
         )
-    depth = raw.astype(np.float32)
-    depth *= 1.0 / KITTI_DEPTH_SCALE
-    return depth
+    return raw
+
+
+def depth_from_uint16(raw: np.ndarray) -> np.ndarray:
+    """KITTI uint16 values to contiguous float32 metres in one pass (exact: /256 is a power of 2)."""
+    return np.multiply(raw, np.float32(1.0 / KITTI_DEPTH_SCALE), dtype=np.float32)
 
 
 def write_depth_png(path: str | os.PathLike, depth: np.ndarray) -> None:

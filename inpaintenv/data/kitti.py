@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from .base import DepthDataset
-from .io import DepthFormatError, read_depth_png
+from .io import DepthFormatError, depth_from_uint16, read_depth_png_raw
 
 __all__ = ["KittiDepth", "KITTI_URL", "KITTI_ROOT_ENV", "png_header", "bottom_center_crop"]
 
@@ -86,18 +86,22 @@ def _check_header(path: Path, header: PngHeader) -> None:
         )
 
 
-def bottom_center_crop(depth: np.ndarray, crop: tuple[int, int], name: str = "frame") -> np.ndarray:
+def bottom_center_crop(
+    depth: np.ndarray, crop: tuple[int, int], name: str = "frame", *, copy: bool = True
+) -> np.ndarray:
     """Crop ``(H, W)`` to ``crop`` keeping the bottom rows and the centre columns.
 
     The bottom is kept because KITTI's LiDAR sees nothing in the top rows (sky), and
     the centre because raw widths differ by a few pixels between recording days.
+    With ``copy=False`` the result is a (non-contiguous) view of ``depth``.
     """
     ch, cw = crop
     h, w = depth.shape
     if h < ch or w < cw:
         raise ValueError(f"{name} is {w}x{h} (W x H), smaller than the crop {cw}x{ch}")
     top, left = h - ch, (w - cw) // 2
-    return np.ascontiguousarray(depth[top:, left : left + cw])
+    view = depth[top:, left : left + cw]
+    return np.ascontiguousarray(view) if copy else view
 
 
 class KittiDepth(DepthDataset):
@@ -202,15 +206,17 @@ class KittiDepth(DepthDataset):
     # -- loading -----------------------------------------------------------------
     def _load(self, index: int) -> np.ndarray:
         path = self.paths[index]
-        depth = read_depth_png(path)
+        raw = read_depth_png_raw(path)
         if self.crop is None:
-            if depth.shape != self.frame_shape:
+            if raw.shape != self.frame_shape:
                 raise DepthFormatError(
-                    f"{path} is {depth.shape[1]}x{depth.shape[0]}, expected "
+                    f"{path} is {raw.shape[1]}x{raw.shape[0]}, expected "
                     f"{self.frame_shape[1]}x{self.frame_shape[0]} (file changed since indexing?)"
                 )
-            return depth
-        return bottom_center_crop(depth, self.crop, name=str(path))
+        else:
+            # Crop the uint16 values first: only the kept pixels are converted, in one pass.
+            raw = bottom_center_crop(raw, self.crop, name=str(path), copy=False)
+        return depth_from_uint16(raw)
 
     # -- description -------------------------------------------------------------
     def headers(self) -> list[PngHeader]:
