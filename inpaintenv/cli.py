@@ -44,13 +44,17 @@ def add_source_options(parser: argparse.ArgumentParser) -> None:
     """Options choosing the data source: built-in synthetic streets, or real KITTI."""
     g = parser.add_argument_group("data source (default: built-in SyntheticStreets)")
     g.add_argument("--kitti-root", metavar="PATH", help="root of a KITTI depth-completion tree")
-    g.add_argument("--split", default="train", help="KITTI split: train, val or val_selection (default train)")
+    g.add_argument("--split", default="train", help="KITTI split: train, val or val_selection, or several joined by commas, "
+                   "e.g. train,val (default train)")
     g.add_argument("--camera", default="image_02", choices=["image_02", "image_03", "both"],
                    help="KITTI camera (default image_02)")
     g.add_argument(
         "--kind", default="groundtruth", choices=["groundtruth", "velodyne_raw", "dense"],
         help="ground truth to score against (default groundtruth; dense: synthetic only)",
     )
+    g.add_argument("--drives", nargs="+", metavar="DRIVE", help="keep only these drives")
+    g.add_argument("--exclude-drives", nargs="+", metavar="DRIVE",
+                   help="drop these drives (e.g. the ones a model was trained on)")
     g.add_argument("--n-frames", type=int, metavar="N", help="use only the first N frames")
     g.add_argument(
         "--frame-shape", type=int, nargs=2, metavar=("H", "W"),
@@ -81,13 +85,19 @@ def open_source_from_args(args: argparse.Namespace) -> Any:
         from .data import SyntheticStreets
         from .data.sources import DEFAULT_SYNTHETIC_FRAMES
 
-        return SyntheticStreets(
-            n=args.n_frames or DEFAULT_SYNTHETIC_FRAMES, seed=args.data_seed, kind=args.kind,
-            frame_shape=tuple(args.frame_shape),
+        from .data import select_drives
+
+        return select_drives(
+            SyntheticStreets(
+                n=args.n_frames or DEFAULT_SYNTHETIC_FRAMES, seed=args.data_seed, kind=args.kind,
+                frame_shape=tuple(args.frame_shape),
+            ),
+            args.drives, args.exclude_drives,
         )
     return open_source(
         args.kitti_root, split=args.split, kind=args.kind, n_frames=args.n_frames,
-        seed=args.data_seed, camera=args.camera,
+        seed=args.data_seed, camera=args.camera, drives=args.drives,
+        exclude_drives=args.exclude_drives,
     )
 
 
@@ -268,7 +278,13 @@ def cmd_show(args: argparse.Namespace) -> int:
 # entry point
 # ---------------------------------------------------------------------------------------
 #: ``add_<name>(subparsers)`` functions, one per subcommand.
-SUBCOMMANDS: list[Callable[[Any], None]] = [add_info, add_evaluate, add_show]
+def add_benchmark(subparsers: Any) -> None:
+    from .benchmark.command import add_benchmark as add
+
+    add(subparsers, add_source_options, add_common_options)
+
+
+SUBCOMMANDS: list[Callable[[Any], None]] = [add_info, add_evaluate, add_show, add_benchmark]
 
 
 def build_parser() -> argparse.ArgumentParser:

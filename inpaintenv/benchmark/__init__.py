@@ -1,0 +1,22 @@
+"""Benchmark suites, the resumable runner, reports and figures.
+
+This subpackage (with :mod:`inpaintenv.cli`) is the only part of ``inpaintenv`` that
+knows methods by name; it builds them through :mod:`inpaintenv.registry`.
+"""
+
+from .report import summary_table, to_markdown, write_report
+from .runner import RunMismatchError, run_benchmark
+from .stats import bootstrap_mean_ci
+from .suites import SUITES, LazyMethod, suite_methods
+
+__all__ = [
+    "SUITES",
+    "LazyMethod",
+    "RunMismatchError",
+    "bootstrap_mean_ci",
+    "run_benchmark",
+    "suite_methods",
+    "summary_table",
+    "to_markdown",
+    "write_report",
+]
