@@ -101,10 +101,10 @@ def main(argv: list[str] | None = None) -> int:
     result = EvaluationResult.concat(results)
     n = sum(len(s) for s in sources)
     print(f"{n} frames ({', '.join(args.splits)}), protocol {args.protocol}, seed {args.seed}\n")
-    print(result.to_markdown(result.group_table(("method",))))
+    print(result.to_markdown(result.group_table(("method", "protocol"))))
     if args.by_drive:
         print()
-        print(result.to_markdown(result.group_table(("method", "drive"))))
+        print(result.to_markdown(result.group_table(("method", "protocol", "drive"))))
     return 0
 
 
