@@ -33,7 +33,8 @@ import cv2
 import numpy as np
 
 from inpaintenv.conventions import corrupt
-from inpaintenv.data import KittiDepth, SyntheticStreets, bottom_center_crop, read_depth_png, write_depth_png
+from inpaintenv.data import ArrayDataset, KittiDepth, SyntheticStreets, bottom_center_crop, read_depth_png, write_depth_png
+from inpaintenv.data.cache import CachedDataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import frame_metrics
 
@@ -126,6 +127,11 @@ def main() -> None:
             index = {p: i for i, p in enumerate(ds.paths)}
             idx = [index[p] for p in paths]
             stage("load: KittiDepth.load_batch (read+crop+stack)", lambda: ds.load_batch(idx))
+            source_ds = ds[idx]
+        else:
+            source_ds = ArrayDataset(np.stack(crops))
+        cached = CachedDataset(source_ds, Path(tmp_dir) / "cache").build(progress=False)
+        stage("load: CachedDataset.load_batch (uint16 memmap, built)", lambda: cached.load_batch(range(n)))
     gt = np.stack(crops)
     proto = get_protocol(args.protocol)
     hole = stage(f"mask: {proto.name} masks for the batch", lambda: proto.masks(SHAPE, 0, range(n)))
