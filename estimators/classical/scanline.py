@@ -10,36 +10,39 @@ __all__ = ["ScanlineInpainter", "scanline_fill"]
 
 
 def _interp_along_rows(
-    values: np.ndarray, known: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    values: np.ndarray, known: np.ndarray, *, with_gap: bool = False
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
     """Linear interpolation along axis 1 between the nearest known pixels left and right.
 
     Pixels before the first / after the last known pixel of a row take that pixel's
-    value. Returns the filled array, the length of the gap each pixel lies in (0 where
-    known, ``inf`` in a row without any known pixel) and a per-row flag "row had a
+    value. Returns the filled array, (if ``with_gap``) the length of the gap each pixel
+    lies in (``inf`` in a row without any known pixel), and a per-row flag "row had a
     known pixel".
     """
     h, w = values.shape
-    cols = np.arange(w)
+    cols = np.arange(w, dtype=np.int32)
     # Index of the nearest known pixel at or left of each column (-1: none) ...
-    left = np.maximum.accumulate(np.where(known, cols, -1), axis=1)
+    left = np.maximum.accumulate(np.where(known, cols, np.int32(-1)), axis=1)
     # ... and at or right of it (w: none).
-    right = np.minimum.accumulate(np.where(known, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    right = np.minimum.accumulate(np.where(known, cols, np.int32(w))[:, ::-1], axis=1)[:, ::-1]
     has_left, has_right = left >= 0, right < w
-    rows = np.arange(h)[:, None]
-    v_left = values[rows, np.clip(left, 0, w - 1)]
-    v_right = values[rows, np.clip(right, 0, w - 1)]
-    span = np.maximum(right - left, 1)
-    t = (cols[None, :] - left) / span
-    both = v_left + t * (v_right - v_left)
-    out = np.where(has_left & has_right, both, np.where(has_left, v_left, v_right))
-    # An open-ended gap (image border) counts as twice the distance to its one end.
-    gap = np.where(
-        has_left & has_right, right - left,
-        np.where(has_left, 2 * (cols[None, :] - left), 2 * (right - cols[None, :])),
-    ).astype(np.float64)
+    v_left = np.take_along_axis(values, np.maximum(left, 0), axis=1)
+    v_right = np.take_along_axis(values, np.minimum(right, w - 1), axis=1)
+    # Open-ended gaps (image border) repeat their one known end.
+    v_left = np.where(has_left, v_left, v_right)
+    v_right = np.where(has_right, v_right, v_left)
+    span = np.maximum(right - left, 1).astype(values.dtype)
+    t = (cols - left).astype(values.dtype) / span
+    out = v_left + t * (v_right - v_left)
     row_ok = known.any(axis=1)
-    gap[~row_ok] = np.inf
+    gap = None
+    if with_gap:
+        # An open-ended gap counts as twice the distance to its one end.
+        gap = np.where(
+            has_left & has_right, right - left,
+            np.where(has_left, 2 * (cols - left), 2 * (right - cols)),
+        ).astype(np.float32)
+        gap[~row_ok] = np.inf
     return out, gap, row_ok
 
 
@@ -59,12 +62,12 @@ def scanline_fill(values: np.ndarray, known: np.ndarray, vertical: bool = False)
     Returns
     -------
     numpy.ndarray
-        float64 ``(H, W)``, equal to ``values`` where known; zeros if nothing is known.
+        float32 ``(H, W)``, equal to ``values`` where known; zeros if nothing is known.
     """
     if not known.any():
-        return np.zeros(values.shape)
-    vals = np.where(known, values, 0.0).astype(np.float64)
-    rows_filled, row_gap, row_ok = _interp_along_rows(vals, known)
+        return np.zeros(values.shape, np.float32)
+    vals = np.where(known, values, 0.0).astype(np.float32)
+    rows_filled, row_gap, row_ok = _interp_along_rows(vals, known, with_gap=vertical)
     if not row_ok.all():
         # Empty rows: interpolate vertically between the nearest filled rows, i.e.
         # the same scan along columns with whole rows as known.
@@ -72,7 +75,7 @@ def scanline_fill(values: np.ndarray, known: np.ndarray, vertical: bool = False)
         cols_filled, _, _ = _interp_along_rows(rows_filled.T, col_known.T)
         rows_filled = cols_filled.T
     if vertical:
-        cols_filled, col_gap, _ = _interp_along_rows(vals.T, known.T)
+        cols_filled, col_gap, _ = _interp_along_rows(vals.T, known.T, with_gap=True)
         w_row = 1.0 / np.maximum(row_gap, 1.0)  # 0 in an empty row (gap = inf)
         w_col = 1.0 / np.maximum(col_gap.T, 1.0)
         w_sum = w_row + w_col
