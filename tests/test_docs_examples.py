@@ -1,4 +1,4 @@
-"""The Python examples in docs/env.md and docs/evaluate.md run as written."""
+"""The Python examples in README.md and docs/*.md run as written."""
 
 from __future__ import annotations
 
@@ -7,15 +7,15 @@ from pathlib import Path
 
 import pytest
 
-DOCS = Path(__file__).resolve().parents[2] / "docs"
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def python_blocks(name: str) -> str:
-    text = (DOCS / name).read_text()
+    text = (ROOT / name).read_text()
     return "\n".join(re.findall(r"```python\n(.*?)```", text, flags=re.DOTALL))
 
 
-@pytest.mark.parametrize("name", ["env.md", "evaluate.md"])
+@pytest.mark.parametrize("name", ["README.md", "docs/env.md", "docs/evaluate.md", "docs/benchmark.md"])
 def test_doc_examples_run(name, tmp_path, monkeypatch, capsys):
     code = python_blocks(name)
     assert code.strip(), f"no python examples in {name}"
