@@ -27,8 +27,12 @@ __all__ = ["ClassicalInpainter", "FILL_MODES", "unknown_mask"]
 FILL_MODES = ("invalid", "hole")
 #: joblib backend for frames of a batch. OpenCV and the large NumPy operations release
 #: the GIL, so threads avoid copying frames between processes (measured faster than
-#: loky in benchmarks/bench_classical.py).
+#: loky in benchmarks/bench_classical.py). Passed to joblib as a soft hint
+#: (``prefer="threads"``), so ``joblib.parallel_config(backend=...)`` (loky, dask, ray)
+#: still chooses the backend when the caller sets one.
 PARALLEL_BACKEND = "threading"
+
+_PREFER = {"threading": "threads", "loky": "processes"}
 
 _cv2_threads_lock = threading.Lock()
 
@@ -118,7 +122,7 @@ class ClassicalInpainter(BaseInpainter):
             # One OpenCV thread per worker: n_workers × OpenCV's own pool would
             # oversubscribe the cores.
             with opencv_threads(1):
-                frames = Parallel(n_jobs=n_workers, backend=PARALLEL_BACKEND)(
+                frames = Parallel(n_jobs=n_workers, prefer=_PREFER[PARALLEL_BACKEND])(
                     delayed(self._fill_frame)(X[i]) for i in range(len(X))
                 )
         return np.stack(frames).astype(np.float32, copy=False)
