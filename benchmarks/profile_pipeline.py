@@ -6,6 +6,7 @@ Usage (from the project root)::
     python benchmarks/profile_pipeline.py --frames 8 --repeats 3 --methods nearest telea
     python benchmarks/profile_pipeline.py --synthetic            # force synthetic frames
     python benchmarks/profile_pipeline.py --json out.json        # also write the numbers
+    python benchmarks/profile_pipeline.py --scaling              # cost vs frames and resolution
 
 Input: ground-truth PNGs of the real KITTI slice (``$INPAINTENV_KITTI_ROOT`` or
 ``../shared/kitti``, split ``train``), bottom-centre cropped to 352x1216; without the
@@ -15,6 +16,11 @@ of ``--frames`` frames; each stage is repeated ``--repeats`` times and the best 
 kept (the least disturbed by other jobs on a shared machine). Times are milliseconds
 per frame of CPU time of this process and of wall-clock time. Single process;
 estimators run with ``n_jobs=1``.
+
+``--scaling`` instead times the whole ``inpaintenv.evaluate.evaluate`` loop (decode,
+crop, mask, method, metrics) on the KITTI slice for several frame counts at 352x1216
+and for several bottom-centre crop sizes, per method (and ``frame_metrics`` alone), and
+fits ``seconds = a + b * frames`` and ``ms/frame = c + d * megapixels`` by least squares.
 """
 
 from __future__ import annotations
@@ -33,7 +39,14 @@ import cv2
 import numpy as np
 
 from inpaintenv.conventions import corrupt
-from inpaintenv.data import ArrayDataset, KittiDepth, SyntheticStreets, bottom_center_crop, read_depth_png, write_depth_png
+from inpaintenv.data import (
+    ArrayDataset,
+    KittiDepth,
+    SyntheticStreets,
+    bottom_center_crop,
+    read_depth_png,
+    write_depth_png,
+)
 from inpaintenv.data.cache import CachedDataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import frame_metrics
@@ -104,8 +117,16 @@ def main() -> None:
     parser.add_argument("--protocol", default="rect-v1")
     parser.add_argument("--methods", nargs="*", default=["nearest", "telea", "ipbasic"])
     parser.add_argument("--json", type=Path, help="also write the results here")
+    parser.add_argument("--scaling", action="store_true", help="fit cost vs frames and resolution instead")
+    parser.add_argument("--sweep-frames", type=int, nargs="+", default=[4, 8, 16, 24])
+    parser.add_argument("--sweep-crops", nargs="+", default=["88x304", "176x608", "264x912", "352x1216"],
+                        help="crop sizes HxW for the resolution sweep")
+    parser.add_argument("--crop-frames", type=int, default=6, help="frames per point of the resolution sweep")
     args = parser.parse_args()
     cv2.setNumThreads(1)  # one core per stage, comparable across runs
+    if args.scaling:
+        scaling(args)
+        return
 
     rows: list[tuple[str, float, float]] = []
     n = args.frames
@@ -154,6 +175,104 @@ def main() -> None:
             "source": source, "frames": n, "shape": list(SHAPE), "repeats": args.repeats,
             "stages": [{"stage": s, "cpu_ms_per_frame": c, "wall_ms_per_frame": w} for s, c, w in rows],
         }, indent=1))
+
+
+def fit_line(x: list[float], y: list[float]) -> tuple[float, float, float]:
+    """Least-squares ``y = a + b x``; returns ``(a, b, r2)``."""
+    xa, ya = np.asarray(x, float), np.asarray(y, float)
+    b, a = np.polyfit(xa, ya, 1)
+    resid = ya - (a + b * xa)
+    ss = ((ya - ya.mean()) ** 2).sum()
+    return float(a), float(b), float(1 - (resid**2).sum() / ss) if ss > 0 else 1.0
+
+
+def scaling(args: argparse.Namespace) -> None:
+    """Evaluation cost vs number of frames and vs resolution, with fitted lines."""
+    from inpaintenv.evaluate import evaluate
+
+    root = Path(args.kitti_root)
+    if not (root / "train").is_dir():
+        raise SystemExit(f"--scaling needs the KITTI slice (not found at {root})")
+
+    class MetricsOnly:
+        """Returns the ground truth's observed pixels (nearest-free): isolates load+mask+metrics."""
+
+        name = "no method (load+mask+metrics)"
+        batched = True
+
+        def __call__(self, x: np.ndarray) -> np.ndarray:
+            return np.nan_to_num(x, nan=0.0)
+
+    methods = [("none", MetricsOnly())] + [(m, make_method(m)) for m in args.methods]
+    # Frames with ground truth, spread over both drives.
+    full = KittiDepth(root, split="train")
+    usable = [i for i in range(len(full)) if i % 40 not in range(5)]
+
+    def run(method: Any, ds: Any, n: int) -> tuple[float, float]:
+        """Best CPU and best wall seconds of ``args.repeats`` evaluations of ``n`` frames."""
+        cpu, wall, _ = best_of(
+            lambda: evaluate(method, ds, protocol=args.protocol, seeds=(0,), n_frames=n, progress=False),
+            args.repeats,
+        )
+        return cpu, wall
+
+    report: dict[str, Any] = {"frames": {}, "resolution": {}}
+    print(f"KITTI slice {root}; protocol {args.protocol}; best of {args.repeats}; "
+          "CPU seconds of this process (wall in brackets)")
+    print(f"python {platform.python_version()}, numpy {np.__version__}, opencv {cv2.__version__}, cv2 threads 1, n_jobs=1")
+    print("\n## Cost vs frames at 352x1216: seconds = a + b * frames\n")
+    print("| method | " + " | ".join(f"{n} fr" for n in args.sweep_frames) + " | a (s) | b (ms/frame) | R² |")
+    print("|---|" + "---:|" * (len(args.sweep_frames) + 3))
+    for key, method in methods:
+        ds = full[usable[: max(args.sweep_frames)]]
+        run(method, ds, 1)  # warm-up
+        pts = [run(method, ds, n) for n in args.sweep_frames]
+        a, b, r2 = fit_line(args.sweep_frames, [c for c, _ in pts])
+        report["frames"][key] = {"points": pts, "a_s": a, "b_ms_per_frame": 1000 * b, "r2": r2}
+        cells = " | ".join(f"{c:.2f} ({w:.2f})" for c, w in pts)
+        print(f"| {getattr(method, 'name', type(method).__name__)} | {cells} | {a:.3f} | {1000 * b:.1f} | {r2:.4f} |")
+
+    crops = [tuple(int(v) for v in c.split("x")) for c in args.sweep_crops]
+    mpix = [h * w / 1e6 for h, w in crops]
+    print(f"\n## Cost vs resolution ({args.crop_frames} frames per point): ms/frame = c + d * megapixels\n")
+    print("| method | " + " | ".join(f"{w}x{h}" for h, w in crops) + " | c (ms) | d (ms/MP) | R² | k in ms ∝ MP^k |")
+    print("|---|" + "---:|" * (len(crops) + 4))
+    for key, method in methods:
+        pts = []
+        for crop in crops:
+            ds = KittiDepth(root, split="train", crop=crop)[usable[: args.crop_frames]]
+            c, w = run(method, ds, args.crop_frames)
+            pts.append((1000 * c / args.crop_frames, 1000 * w / args.crop_frames))
+        c0, d, r2 = fit_line(mpix, [c for c, _ in pts])
+        # The exponent shows whether a straight line is the right model (k = 1: linear).
+        _, k, _ = fit_line(list(np.log(mpix)), [float(np.log(c)) for c, _ in pts])
+        report["resolution"][key] = {
+            "megapixels": mpix, "points_ms": pts, "c_ms": c0, "d_ms_per_mp": d, "r2": r2, "exponent": k,
+        }
+        cells = " | ".join(f"{c:.1f} ({w:.1f})" for c, w in pts)
+        print(f"| {getattr(method, 'name', type(method).__name__)} | {cells} | {c0:.2f} | {d:.1f} | {r2:.4f} | {k:.2f} |")
+
+    # Two workers on this machine: only the method's frames run in parallel (evaluate's
+    # loading and metrics stay in the calling thread).
+    from joblib import parallel_config
+
+    n = max(args.sweep_frames)
+    print(f"\n## {n} frames at 352x1216 with joblib.parallel_config(backend, n_jobs=2) (wall seconds)\n")
+    print("| method | n_jobs=1 | threading, 2 | loky, 2 | speed-up (best) |")
+    print("|---|---:|---:|---:|---:|")
+    ds = full[usable[:n]]
+    for key, _ in methods[1:]:
+        _, one = run(make_method(key), ds, n)
+        walls = []
+        for backend in ("threading", "loky"):
+            est = make_method(key).set_params(n_jobs=None)
+            with parallel_config(backend=backend, n_jobs=2):
+                run(est, ds, 2)  # warm the pool
+                walls.append(run(est, ds, n)[1])
+        report.setdefault("parallel", {})[key] = {"n_jobs_1": one, "threading_2": walls[0], "loky_2": walls[1]}
+        print(f"| {type(make_method(key)).__name__} | {one:.2f} | {walls[0]:.2f} | {walls[1]:.2f} | {one / min(walls):.2f}x |")
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=1))
 
 
 if __name__ == "__main__":

@@ -69,7 +69,6 @@ def frame_metrics(
     if single:
         gt, pred_arr, hole = gt[None], pred_arr[None], hole[None]
 
-    n_frames = gt.shape[0]
     valid = gt > 0
     # Work on the scored pixels only (KITTI ground truth covers ~25 % of a frame): one
     # gather instead of several full-frame float64 temporaries. The arithmetic stays in

@@ -105,7 +105,7 @@ def test_synthetic_frames_do_not_depend_on_access_order():
 
 
 def test_evaluation_rows_are_identical_run_to_run(frames):
-    kwargs = dict(protocol="rect-v1", seeds=(0, 3), progress=False, batch_size=4)
+    kwargs = {"protocol": "rect-v1", "seeds": (0, 3), "progress": False, "batch_size": 4}
     first = evaluate(NearestInpainter(), frames, **kwargs)
     second = evaluate(NearestInpainter(), frames, **kwargs)
     assert_same_rows(drop_timing(first), drop_timing(second))

@@ -9,7 +9,11 @@ import cv2
 import numpy as np
 
 __all__ = [
-    "DepthFormatError", "KITTI_DEPTH_SCALE", "depth_from_uint16", "read_depth_png", "read_depth_png_raw",
+    "KITTI_DEPTH_SCALE",
+    "DepthFormatError",
+    "depth_from_uint16",
+    "read_depth_png",
+    "read_depth_png_raw",
     "write_depth_png",
 ]
 
