@@ -88,11 +88,13 @@ class _NeuralInpainter(BaseInpainter):
         Hold out this fraction of drives (:func:`inpaintenv.data.split_by_drive`); after
         each epoch the hole RMSE on them is measured and the best epoch's weights are
         kept (the study's selection). Needs at least two drives.
-    warm_start : str, path, fitted estimator, or None
-        Initialise the encoder from a fitted autoencoder (or any fitted neural
-        inpainter with the same ``width``, ``depth`` and input channels), given as the
-        estimator or a path written by :meth:`save`. Under ``GridSearchCV`` pass a path:
-        ``clone`` drops the fitted state of an estimator parameter.
+    warm_start : str, path, fitted estimator, bool or None
+        A path written by :meth:`save` or a fitted autoencoder (or any fitted neural
+        inpainter with the same ``width``, ``depth`` and input channels): initialise
+        the encoder from it (the study's fine-tuning). Under ``GridSearchCV`` pass a
+        path: ``clone`` drops the fitted state of an estimator parameter. ``True``
+        (scikit-learn's meaning): start from this estimator's own previous fit, all
+        weights (fresh optimiser). ``None``/``False``: random initialisation.
     device : {"auto", "cpu", "cuda"} or str
         "auto" picks CUDA when available.
     amp : {True, False, "cpu-bf16"}, default True
@@ -272,7 +274,11 @@ class _NeuralInpainter(BaseInpainter):
         """Parameters as JSON-able values (warm_start estimators become a weight hash)."""
         params = self.get_params(deep=False)
         ws = params["warm_start"]
-        if isinstance(ws, _NeuralInpainter):
+        if isinstance(ws, bool):
+            params["warm_start"] = ws
+            if ws and hasattr(self, "model_"):
+                params["warm_start"] = f"<previous fit sha256:{_weights_hash(self)}>"
+        elif isinstance(ws, _NeuralInpainter):
             params["warm_start"] = f"<{type(ws).__name__} weights sha256:{_weights_hash(ws)}>" if hasattr(ws, "model_") else f"<unfitted {type(ws).__name__}>"
         elif ws is not None:
             params["warm_start"] = str(ws)
@@ -310,7 +316,12 @@ class _NeuralInpainter(BaseInpainter):
             train_ds, val_ds = dataset, None
         protocol = get_protocol(self.protocol)
         model = self._build_model(seed)
-        if self.warm_start is not None:
+        if self.warm_start is True:
+            # scikit-learn's meaning: continue from this estimator's previous fit, if any.
+            if hasattr(self, "model_"):
+                _copy_encoder(self.model_, model)
+                model.load_state_dict(self.model_.state_dict())
+        elif self.warm_start is not None and self.warm_start is not False:
             _copy_encoder(self._warm_start_model(), model)
         model.to(device)
         if self.channels_last:
@@ -469,9 +480,14 @@ class _NeuralInpainter(BaseInpainter):
         model.eval()
         autocast, _ = self._autocast(device)
         out = np.empty(X.shape, dtype=np.float32)
+        # On CPU, frames go one by one: batched oneDNN convolutions round differently per
+        # batch composition, and a frame's prediction must not depend on its neighbours.
+        # GPUs get real batches (that is where batching pays).
+        step = self.batch_size if device.type == "cuda" else 1
         with torch.inference_mode():
-            for start in range(0, len(X), self.batch_size):
-                chunk = torch.from_numpy(np.ascontiguousarray(X[start:start + self.batch_size]))
+            for start in range(0, len(X), step):
+                # A copy: the input may be read-only (memmap) and must never be modified.
+                chunk = torch.from_numpy(np.array(X[start:start + step], dtype=np.float32))
                 hole = torch.isnan(chunk)
                 depth = torch.nan_to_num(chunk, nan=0.0)
                 x = encode_input(depth, hole, self.max_depth, self.input_mask).to(device)

@@ -16,6 +16,7 @@ from estimators import (
     ScanlineInpainter,
     TeleaInpainter,
 )
+from estimators import AutoencoderInpainter, UNetInpainter  # lazy: imports torch here
 
 ESTIMATORS = [
     TeleaInpainter(),
@@ -32,4 +33,7 @@ ESTIMATORS = [
     ScanlineInpainter(),
     ScanlineInpainter(inverse=True, vertical=True),
     ConstantInpainter(),
+    # Tiny neural nets (one epoch, one thread) so the shared suite stays fast.
+    UNetInpainter(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1),
+    AutoencoderInpainter(width=4, depth=2, batch_size=2, epochs=1, input_mask=True, random_state=0, num_threads=1),
 ]

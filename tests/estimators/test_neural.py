@@ -309,3 +309,14 @@ def test_import_estimators_does_not_import_torch():
         "estimators.UNetInpainter; assert 'torch' in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_warm_start_true_continues_previous_fit(dataset):
+    est = tiny(max_steps=2).fit(dataset)
+    before = {k: v.clone() for k, v in est.model_.state_dict().items()}
+    est.set_params(warm_start=True, lr=1e-12, max_steps=1).fit(dataset)
+    for k, v in est.model_.state_dict().items():
+        torch.testing.assert_close(v, before[k], atol=1e-9, rtol=0)
+    # False behaves like None: a fresh initialisation.
+    fresh = tiny(max_steps=1, lr=1e-12, warm_start=False).fit(dataset)
+    assert not all(torch.equal(fresh.model_.state_dict()[k], v) for k, v in before.items())
