@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from baselines_table import METHODS, default_root  # noqa: E402
+from baselines_table import METHODS, default_root
 
-from estimators.classical import _base  # noqa: E402
-from inpaintenv.masks import get_protocol  # noqa: E402
+from estimators.classical import _base
+from inpaintenv.masks import get_protocol
 
 SHAPE = (352, 1216)
 

@@ -20,16 +20,16 @@ import numpy as np
 from sklearn.model_selection import ParameterGrid
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from baselines_table import TUNING_DRIVE, default_root  # noqa: E402
+from baselines_table import TUNING_DRIVE, default_root
 
-from estimators import (  # noqa: E402
+from estimators import (
     HarmonicInpainter,
     IPBasicInpainter,
     IterativeBilateralInpainter,
     TeleaInpainter,
 )
-from inpaintenv.data.kitti import KittiDepth  # noqa: E402
-from inpaintenv.metrics import aggregate  # noqa: E402
+from inpaintenv.data.kitti import KittiDepth
+from inpaintenv.metrics import aggregate
 
 GRIDS = [
     (HarmonicInpainter(), {"iterations": [10, 20, 50, 100]}),

@@ -20,7 +20,7 @@ from joblib import Parallel, delayed, effective_n_jobs
 
 from ..base import BaseInpainter
 
-__all__ = ["ClassicalInpainter", "FILL_MODES", "unknown_mask"]
+__all__ = ["FILL_MODES", "ClassicalInpainter", "unknown_mask"]
 
 #: ``"invalid"``: every pixel without a measurement (NaN or 0) is unknown (sound);
 #: ``"hole"``: only NaN is unknown, unmeasured pixels count as depth 0 (the study).

@@ -14,8 +14,8 @@ import cv2
 import numpy as np
 
 from ._base import ClassicalInpainter
-from .nearest import nearest_fill
 from .harmonic import harmonic_fill
+from .nearest import nearest_fill
 from .scanline import scanline_fill
 
 __all__ = ["IPBasicInpainter"]

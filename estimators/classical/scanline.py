@@ -19,7 +19,7 @@ def _interp_along_rows(
     lies in (``inf`` in a row without any known pixel), and a per-row flag "row had a
     known pixel".
     """
-    h, w = values.shape
+    w = values.shape[1]
     cols = np.arange(w, dtype=np.int32)
     # Index of the nearest known pixel at or left of each column (-1: none) ...
     left = np.maximum.accumulate(np.where(known, cols, np.int32(-1)), axis=1)

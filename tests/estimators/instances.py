@@ -6,7 +6,8 @@ net trained for one epoch). Ids in the test report are the instances' reprs.
 
 from __future__ import annotations
 
-from estimators import (
+from estimators import (  # lazy: imports torch here
+    AutoencoderInpainter,
     ConstantInpainter,
     HarmonicInpainter,
     IPBasicInpainter,
@@ -15,8 +16,8 @@ from estimators import (
     NearestInpainter,
     ScanlineInpainter,
     TeleaInpainter,
+    UNetInpainter,
 )
-from estimators import AutoencoderInpainter, UNetInpainter  # lazy: imports torch here
 
 ESTIMATORS = [
     TeleaInpainter(),

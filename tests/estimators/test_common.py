@@ -12,13 +12,14 @@ import warnings
 
 import numpy as np
 import pytest
+
+# tests/ has no __init__.py, so pytest puts this directory on sys.path.
+from instances import ESTIMATORS
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils import estimator_checks as skchecks
 
 from inpaintenv.masks import get_protocol
-
-from instances import ESTIMATORS  # tests/ has no __init__: pytest puts this dir on sys.path
 
 H, W = 32, 96
 
