@@ -1,0 +1,291 @@
+"""A learned inpainter built on classical priors: per-pixel blend of candidate fills + residual.
+
+>>> from estimators.prior import PriorUNetInpainter                  # doctest: +SKIP
+>>> est = PriorUNetInpainter.pretrained("kitti-rect-v1")             # shipped weights
+>>> est.predict(corrupted)                                           # metres
+
+The network (:class:`estimators.nets.prior_unet.PriorUNet`) sees the corrupted depth,
+the hole and validity masks and the classical fills of :mod:`estimators.priors`
+(row-wise depth and inverse-depth interpolation, column-wise interpolation, harmonic),
+all computed on the whole frame, and predicts per pixel how to weight them plus a
+correction. Training, checkpoints, resuming, validation and saving are those of
+:class:`estimators.neural.UNetInpainter`; only the model, the input features, the loss
+(L2 on the hole in metres, since the benchmark's metric is RMSE) and flip augmentation /
+test-time flip averaging differ. See ``docs/model_card.md`` for the shipped model.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from . import neural
+from .nets.prior_unet import PriorUNet
+from .neural import _NeuralInpainter
+from .priors import CANDIDATES, prior_features
+
+__all__ = ["PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti"]
+
+#: Folder of the shipped checkpoints (one checkpoint directory per name).
+PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+
+
+def available_pretrained() -> list[str]:
+    """Names accepted by :meth:`PriorUNetInpainter.pretrained`."""
+    if not PRETRAINED_DIR.is_dir():
+        return []
+    return sorted(p.name for p in PRETRAINED_DIR.iterdir() if (p / "config.json").is_file())
+
+
+class PriorUNetInpainter(_NeuralInpainter):
+    """U-Net over classical candidate fills: learned blend + residual, CPU-sized.
+
+    Parameters
+    ----------
+    width : int, default 32
+        Channels of the network's first level (doubled per level).
+    levels : int, default 3
+        2× downsamplings after the pixel-unshuffle.
+    factor : int, default 8
+        Pixel-unshuffle factor: the network runs at ``1/factor`` of the frame size.
+    candidates : tuple of str, default all of :data:`estimators.priors.CANDIDATES`
+        Classical fills given to the network.
+    flip : bool, default True
+        Random horizontal flips while training (p = 0.5).
+    tta : bool, default True
+        Average the prediction with that of the mirrored frame.
+    lr, weight_decay, batch_size, epochs, max_steps, crop, protocol,
+    validation_fraction, warm_start, device, amp, channels_last, num_threads,
+    num_workers, random_state, checkpoint_dir, checkpoint_every, keep_observed, verbose
+        As in :class:`estimators.neural.UNetInpainter`. ``crop=None`` (whole frames) is
+        the recommended setting: candidates of a crop differ from those of the frame.
+
+    Attributes
+    ----------
+    model_ : PriorUNet
+    history_, n_steps_, seed_, run_dir_
+        As in :class:`estimators.neural.UNetInpainter`; ``step_loss`` is the hole MSE
+        in m².
+    """
+
+    _skip = True
+    # Fixed by the recipe (read by the shared parameter checks and checkpoint code):
+    # the loss is L2 on the hole in metres, no TV term, no valid-pixel term.
+    hole_weight = 1.0
+    tv_weight = 0.0
+    max_depth = 80.0
+    input_mask = True
+
+    def __init__(
+        self,
+        *,
+        width: int = 32,
+        levels: int = 3,
+        factor: int = 8,
+        candidates: tuple[str, ...] = CANDIDATES,
+        flip: bool = True,
+        tta: bool = True,
+        lr: float = 2e-3,
+        weight_decay: float = 0.0,
+        batch_size: int = 4,
+        epochs: int = 1000,
+        max_steps: int | None = 600,
+        crop: tuple[int, int] | None = None,
+        protocol: str = "rect-v1",
+        validation_fraction: float | None = None,
+        warm_start: Any = None,
+        device: str = "auto",
+        amp: bool | str = True,
+        channels_last: bool = False,
+        num_threads: int | None = None,
+        num_workers: int = 0,
+        random_state: int | None = None,
+        checkpoint_dir: str | os.PathLike | None = None,
+        checkpoint_every: int | None = None,
+        keep_observed: bool = True,
+        verbose: bool = False,
+    ):
+        self.width = width
+        self.levels = levels
+        self.factor = factor
+        self.candidates = candidates
+        self.flip = flip
+        self.tta = tta
+        self.lr = lr
+        self.weight_decay = weight_decay
+        self.batch_size = batch_size
+        self.epochs = epochs
+        self.max_steps = max_steps
+        self.crop = crop
+        self.protocol = protocol
+        self.validation_fraction = validation_fraction
+        self.warm_start = warm_start
+        self.device = device
+        self.amp = amp
+        self.channels_last = channels_last
+        self.num_threads = num_threads
+        self.num_workers = num_workers
+        self.random_state = random_state
+        self.checkpoint_dir = checkpoint_dir
+        self.checkpoint_every = checkpoint_every
+        self.keep_observed = keep_observed
+        self.verbose = verbose
+
+    # The shared checks read ``depth``; here it is the number of levels.
+    @property
+    def depth(self) -> int:
+        return self.levels
+
+    def _check_params(self) -> None:
+        super()._check_params()
+        f = self.factor
+        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
+            raise ValueError(f"factor must be an integer >= 1, got {f!r}")
+        names = self.candidates
+        if isinstance(names, str) or not isinstance(names, (tuple, list)) or not names or any(
+            n not in CANDIDATES for n in names
+        ):
+            raise ValueError(f"candidates must be a non-empty tuple from {CANDIDATES}, got {names!r}")
+        for name in ("flip", "tta"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+
+    @property
+    def in_channels(self) -> int:
+        """Network input channels: depth, hole, valid and one per candidate."""
+        return 3 + len(self.candidates)
+
+    def _build_model(self, seed: int) -> PriorUNet:
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            return PriorUNet(len(self.candidates), int(self.width), int(self.levels), int(self.factor))
+
+    def _config_params(self) -> dict[str, Any]:
+        params = super()._config_params()
+        params["candidates"] = list(params["candidates"])
+        return params
+
+    # -- features ----------------------------------------------------------------------
+    def _features(self, x: np.ndarray) -> torch.Tensor:
+        """``(N, H, W)`` corrupted frames (NaN holes) -> ``(N, 3 + K, H, W)`` tensor."""
+        names = tuple(self.candidates)
+        n_workers = min(len(x), torch.get_num_threads())
+        if n_workers <= 1:
+            return torch.from_numpy(np.stack([prior_features(frame, names) for frame in x]))
+        # The fills are NumPy/OpenCV work that mostly releases the GIL: threads suffice.
+        with ThreadPoolExecutor(n_workers) as pool:
+            return torch.from_numpy(np.stack(list(pool.map(lambda f: prior_features(f, names), x))))
+
+    # -- training ----------------------------------------------------------------------
+    def _train(self, dataset, seed: int, device: torch.device) -> None:
+        # Flip decisions come from their own stream, independent of masks and crops.
+        self._flip_rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0xF11B]))
+        try:
+            super()._train(dataset, seed, device)
+        finally:
+            del self._flip_rng
+
+    def _set_lr(self, optimizer) -> None:
+        """Cosine decay of the learning rate over ``max_steps`` (5 % linear warm-up).
+
+        The step is read from Adam's own state, so a resumed run continues the schedule.
+        """
+        total = self.max_steps
+        if not total:
+            return
+        state = optimizer.state.get(optimizer.param_groups[0]["params"][0], {})
+        step = float(state.get("step", 0))
+        warm = max(1.0, 0.05 * total)
+        scale = (step + 1) / warm if step < warm else 0.5 * (1 + np.cos(np.pi * min(1.0, (step - warm) / max(1.0, total - warm))))
+        for group in optimizer.param_groups:
+            group["lr"] = self.lr * max(scale, 0.01)
+
+    def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
+        self._set_lr(optimizer)
+        corrupted = torch.where(hole, torch.nan, gt).numpy()
+        x = self._features(corrupted)
+        if self.flip and self._flip_rng.random() < 0.5:
+            x, gt, hole = x.flip(-1), gt.flip(-1), hole.flip(-1)
+        x, gt, hole = x.to(device), gt.to(device), hole.to(device)
+        if self.channels_last:
+            x = x.contiguous(memory_format=torch.channels_last)
+        optimizer.zero_grad(set_to_none=True)
+        with autocast:
+            pred = model(x)
+        mask = hole & (gt > 0)
+        if not mask.any():  # no ground truth in any hole of this batch: nothing to learn
+            return 0.0
+        # L2 in metres on the hole: the benchmark's metric is hole RMSE.
+        loss = (pred.float()[mask] - gt[mask]).square().mean()
+        if not torch.isfinite(loss):
+            raise FloatingPointError(f"training loss became {loss.item()}; lower lr or disable amp")
+        if scaler is not None:
+            scaler.scale(loss).backward()
+            scaler.step(optimizer)
+            scaler.update()
+        else:
+            loss.backward()
+            optimizer.step()
+        return float(loss.detach())
+
+    # -- prediction ----------------------------------------------------------------------
+    def _forward(self, model: PriorUNet, X: np.ndarray, device: torch.device) -> np.ndarray:
+        model.eval()
+        autocast, _ = self._autocast(device)
+        out = np.empty(X.shape, dtype=np.float32)
+        with torch.inference_mode():
+            for start in range(0, len(X), self.batch_size):
+                chunk = X[start:start + self.batch_size]
+                x = self._features(chunk).to(device)
+                if self.channels_last:
+                    x = x.contiguous(memory_format=torch.channels_last)
+                with autocast:
+                    pred = model(x).float()
+                    if self.tta:
+                        pred = 0.5 * (pred + model(x.flip(-1)).float().flip(-1))
+                out[start:start + len(chunk)] = np.maximum(pred.cpu().numpy(), 0.0)
+        return out
+
+    # -- shipped weights -------------------------------------------------------------------
+    @classmethod
+    def pretrained(cls, name: str = "kitti-rect-v1", **overrides: Any) -> "PriorUNetInpainter":
+        """Load shipped weights by name (see :func:`available_pretrained`).
+
+        Parameters
+        ----------
+        name : str
+            E.g. ``"kitti-rect-v1"`` (trained on one real KITTI drive with rect-v1
+            occlusions; CC BY-NC-SA 3.0, see ``docs/model_card.md``).
+        **overrides
+            Prediction-time parameters to change, e.g. ``num_threads=2``, ``tta=False``.
+
+        Raises
+        ------
+        KeyError
+            Unknown name (the message lists the shipped ones).
+        """
+        if not isinstance(name, str) or name not in available_pretrained():
+            raise KeyError(f"no pretrained model {name!r}; shipped: {available_pretrained()}")
+        est = cls.load(PRETRAINED_DIR / name)
+        return est.set_params(**overrides) if overrides else est
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "PriorUNetInpainter":
+        """Load a model written by :meth:`save` (see :meth:`UNetInpainter.load`)."""
+        est = super().load(path)
+        est.candidates = tuple(est.candidates)
+        return est
+
+
+def pretrained_kitti(**overrides: Any) -> PriorUNetInpainter:
+    """Factory for the registry: the shipped ``kitti-rect-v1`` model."""
+    return PriorUNetInpainter.pretrained("kitti-rect-v1", **overrides)
+
+
+# The shared loader finds classes by name in this table; register ours there.
+neural._CLASSES.setdefault("PriorUNetInpainter", PriorUNetInpainter)

@@ -1,0 +1,149 @@
+"""PriorUNet inpainter: candidate fills, the network, the estimator, presets, shipped weights."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from estimators.nets.prior_unet import PriorUNet
+from estimators.prior import PriorUNetInpainter, available_pretrained
+from estimators.presets import available_presets, make_preset, train_preset
+from estimators.priors import CANDIDATES, candidate_fills, prior_features
+from estimators.classical import ScanlineInpainter
+
+TINY = dict(width=4, levels=1, factor=2, batch_size=2, max_steps=2, random_state=0, num_threads=1)
+
+
+def _corrupt(frames: np.ndarray) -> np.ndarray:
+    x = frames.copy()
+    x[:, 8:20, 10:30] = np.nan
+    return x
+
+
+# -- priors ----------------------------------------------------------------------------
+def test_candidates_keep_measured_pixels_and_fill_holes(small_gt):
+    x = _corrupt(small_gt)[0]
+    fills = candidate_fills(x)
+    assert fills.shape == (len(CANDIDATES), *x.shape) and fills.dtype == np.float32
+    measured = x > 0
+    assert np.allclose(fills[:, measured], x[measured])
+    assert np.isfinite(fills).all() and (fills[:, np.isnan(x)] > 0).all()
+
+
+def test_scanline_candidate_is_the_scanline_estimator(small_gt):
+    x = _corrupt(small_gt)[:1]
+    expected = ScanlineInpainter(keep_observed=False).predict(x)[0]
+    np.testing.assert_allclose(candidate_fills(x[0], ["scanline"])[0], expected, rtol=1e-6)
+
+
+def test_prior_features_channels(small_gt):
+    x = _corrupt(small_gt)[0]
+    f = prior_features(x, ["harmonic"])
+    assert f.shape == (4, *x.shape)
+    np.testing.assert_array_equal(f[1] == 1, np.isnan(x))
+    np.testing.assert_array_equal(f[2] == 1, x > 0)
+    assert (f[0][~(x > 0)] == 0).all()
+
+
+@pytest.mark.parametrize("names", [[], ["sobel"], "scanline"])
+def test_unknown_candidates_raise(small_gt, names):
+    with pytest.raises(ValueError, match="candidates"):
+        candidate_fills(_corrupt(small_gt)[0], names)
+
+
+def test_priors_reject_batches():
+    with pytest.raises(ValueError, match="2-D"):
+        prior_features(np.ones((2, 4, 4), dtype=np.float32))
+
+
+# -- network ---------------------------------------------------------------------------
+def test_untrained_net_is_mean_of_candidates_any_size():
+    net = PriorUNet(n_candidates=2, width=4, levels=1, factor=2)
+    x = torch.rand(2, 5, 13, 22) * 30
+    out = net(x)
+    assert out.shape == (2, 13, 22)
+    torch.testing.assert_close(out, x[:, 3:].mean(1))
+
+
+def test_net_rejects_wrong_channels_and_params():
+    with pytest.raises(ValueError, match="expected input"):
+        PriorUNet(n_candidates=2, width=4, levels=1, factor=2)(torch.zeros(1, 4, 8, 8))
+    with pytest.raises(ValueError, match="factor"):
+        PriorUNet(factor=0)
+
+
+# -- estimator -------------------------------------------------------------------------
+def test_fit_predict_keeps_observed(small_gt):
+    est = PriorUNetInpainter(**TINY).fit(small_gt)
+    assert est.n_steps_ == 2 and np.isfinite(est.history_["step_loss"]).all()
+    x = _corrupt(small_gt)
+    pred = est.predict(x)
+    assert pred.shape == x.shape and np.isfinite(pred).all() and (pred >= 0).all()
+    np.testing.assert_array_equal(pred[x > 0], x[x > 0])
+
+
+def test_training_is_reproducible(small_gt):
+    a = PriorUNetInpainter(**TINY).fit(small_gt)
+    b = PriorUNetInpainter(**TINY).fit(small_gt)
+    assert a.history_["step_loss"] == b.history_["step_loss"]
+
+
+def test_save_load_roundtrip(small_gt, tmp_path):
+    est = PriorUNetInpainter(**TINY, candidates=("scanline", "vertical")).fit(small_gt)
+    loaded = PriorUNetInpainter.load(est.save(tmp_path / "m"))
+    assert loaded.candidates == ("scanline", "vertical")
+    x = _corrupt(small_gt)
+    np.testing.assert_allclose(loaded.predict(x), est.predict(x))
+
+
+@pytest.mark.parametrize(
+    ("param", "value", "error"),
+    [("factor", 0, ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError),
+     ("levels", 0, ValueError)],
+)
+def test_bad_params_raise_clear_errors(small_gt, param, value, error):
+    with pytest.raises(error, match=param if param != "levels" else "depth"):
+        PriorUNetInpainter(**{**TINY, param: value}).fit(small_gt)
+
+
+# -- presets -----------------------------------------------------------------------------
+def test_presets_listed_and_unknown_raises():
+    assert "cpu-1h" in available_presets()
+    assert make_preset("cpu-1h").max_steps >= 1
+    with pytest.raises(KeyError, match="cpu-1h"):
+        make_preset("gpu-1w")
+
+
+def test_train_preset_smoke(small_gt):
+    est = train_preset("smoke", small_gt)
+    assert est.n_steps_ == 2 and est.fit_seconds_ > 0
+
+
+# -- shipped weights ------------------------------------------------------------------------
+def test_unknown_pretrained_name_lists_shipped():
+    with pytest.raises(KeyError, match="shipped"):
+        PriorUNetInpainter.pretrained("no-such-model")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif("kitti-rect-v1" not in available_pretrained(), reason="weights not shipped")
+def test_pretrained_beats_constant_on_real_frame(kitti_root):
+    from inpaintenv.conventions import corrupt
+    from inpaintenv.data import KittiDepth
+    from inpaintenv.masks import get_protocol
+    from inpaintenv.metrics import frame_metrics
+
+    from estimators.classical import ConstantInpainter
+
+    gt = KittiDepth(kitti_root, split="val")[0]
+    assert gt.shape == (352, 1216)
+    hole = get_protocol("rect-v1").mask(gt.shape, 0, 0)
+    x = corrupt(gt, hole)
+    est = PriorUNetInpainter.pretrained("kitti-rect-v1", num_threads=2)
+    pred = est.predict(x)
+    assert pred.shape == gt.shape and np.isfinite(pred).all()
+    np.testing.assert_array_equal(pred[x > 0], x[x > 0])
+    ours = frame_metrics(pred[None], gt[None], hole[None])["hole_rmse"][0]
+    const = frame_metrics(ConstantInpainter().predict(x)[None], gt[None], hole[None])["hole_rmse"][0]
+    assert ours < const
