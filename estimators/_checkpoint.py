@@ -34,9 +34,9 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 
 __all__ = [
-    "CheckpointError",
     "FORMAT",
     "FORMAT_VERSION",
+    "CheckpointError",
     "flatten_optimizer_state",
     "read_checkpoint",
     "read_run_state",

@@ -11,7 +11,6 @@ cross-validated search.
 from __future__ import annotations
 
 import contextlib
-import copy
 import hashlib
 import json
 import math
@@ -532,7 +531,7 @@ class _NeuralInpainter(BaseInpainter):
         return ckpt.write_checkpoint(path, config, _cpu_state(self.model_))
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "_NeuralInpainter":
+    def load(cls, path: str | os.PathLike) -> _NeuralInpainter:
         """Load a model written by :meth:`save`, or the best (else last) model of a run dir.
 
         Raises

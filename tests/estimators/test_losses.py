@@ -7,7 +7,13 @@ import math
 import pytest
 import torch
 
-from estimators.losses import hole_l1, inpainting_loss, masked_l1, total_variation, valid_l1
+from estimators.losses import (
+    hole_l1,
+    inpainting_loss,
+    masked_l1,
+    total_variation,
+    valid_l1,
+)
 
 # One 2×3 frame (N=1). Errors |pred - target| = [[1, 2, 3], [4, 5, 6]].
 PRED = torch.tensor([[[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]])

@@ -66,8 +66,8 @@ def test_padding_is_cropped_back_not_leaked():
         pad_to_multiple(x, 4, "reflect")
 
 
-@pytest.mark.parametrize("bad", [dict(width=0), dict(depth=0), dict(in_channels=0), dict(width=2.5)])
+@pytest.mark.parametrize("bad", [{"width": 0}, {"depth": 0}, {"in_channels": 0}, {"width": 2.5}])
 def test_bad_architecture_is_rejected(bad):
-    kwargs = dict(in_channels=1, width=4, depth=2) | bad
+    kwargs = {"in_channels": 1, "width": 4, "depth": 2} | bad
     with pytest.raises(ValueError, match="must be an integer"):
         UNet(**kwargs)

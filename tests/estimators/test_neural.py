@@ -20,7 +20,7 @@ H, W = 24, 40
 
 def tiny(cls=UNetInpainter, **kw):
     """A model that trains in well under a second on CPU."""
-    params = dict(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1)
+    params = {"width": 4, "depth": 2, "batch_size": 2, "epochs": 1, "random_state": 0, "num_threads": 1}
     return cls(**(params | kw))
 
 
@@ -98,7 +98,7 @@ def test_autoencoder_and_mask_input(dataset, corrupted):
 
 
 def test_cpu_bf16_and_channels_last_run(dataset, corrupted):
-    for kw in (dict(amp="cpu-bf16"), dict(channels_last=True)):
+    for kw in ({"amp": "cpu-bf16"}, {"channels_last": True}):
         out = tiny(max_steps=1, **kw).fit(dataset).predict(corrupted)
         assert np.isfinite(out).all()
 
@@ -194,7 +194,7 @@ def _interrupt_after(monkeypatch, n_steps):
 
 
 def test_resume_equals_uninterrupted_run(dataset, corrupted, tmp_path, monkeypatch):
-    kw = dict(epochs=3, validation_fraction=0.34, checkpoint_every=1)
+    kw = {"epochs": 3, "validation_fraction": 0.34, "checkpoint_every": 1}
     full = tiny(**kw, checkpoint_dir=tmp_path / "a").fit(dataset)
 
     with monkeypatch.context() as m:
@@ -268,17 +268,17 @@ def test_warm_start_errors(dataset):
 @pytest.mark.parametrize(
     "bad, match",
     [
-        (dict(width=0), "width"),
-        (dict(depth=1.5), "depth"),
-        (dict(batch_size=0), "batch_size"),
-        (dict(crop=(0, 4)), "crop"),
-        (dict(crop=16), "crop"),
-        (dict(amp="fp8"), "amp"),
-        (dict(validation_fraction=1.5), "validation_fraction"),
-        (dict(lr=-1.0), "lr"),
-        (dict(hole_weight=float("nan")), "hole_weight"),
-        (dict(random_state=-1), "random_state"),
-        (dict(device="cuda" if not torch.cuda.is_available() else "nonsense"), "device"),
+        ({"width": 0}, "width"),
+        ({"depth": 1.5}, "depth"),
+        ({"batch_size": 0}, "batch_size"),
+        ({"crop": (0, 4)}, "crop"),
+        ({"crop": 16}, "crop"),
+        ({"amp": "fp8"}, "amp"),
+        ({"validation_fraction": 1.5}, "validation_fraction"),
+        ({"lr": -1.0}, "lr"),
+        ({"hole_weight": float("nan")}, "hole_weight"),
+        ({"random_state": -1}, "random_state"),
+        ({"device": "cuda" if not torch.cuda.is_available() else "nonsense"}, "device"),
     ],
 )
 def test_bad_parameters_rejected_at_fit(dataset, bad, match):
