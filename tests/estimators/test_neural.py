@@ -320,3 +320,9 @@ def test_warm_start_true_continues_previous_fit(dataset):
     # False behaves like None: a fresh initialisation.
     fresh = tiny(max_steps=1, lr=1e-12, warm_start=False).fit(dataset)
     assert not all(torch.equal(fresh.model_.state_dict()[k], v) for k, v in before.items())
+
+
+def test_loader_workers_give_the_same_model(dataset, corrupted, fitted):
+    # Samples are seeded by (seed, epoch, index), not by the worker that loads them.
+    with_workers = tiny(epochs=2, num_workers=2).fit(dataset)
+    assert np.array_equal(with_workers.predict(corrupted), fitted.predict(corrupted))
