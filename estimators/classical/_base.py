@@ -27,8 +27,8 @@ __all__ = ["FILL_MODES", "ClassicalInpainter", "unknown_mask"]
 FILL_MODES = ("invalid", "hole")
 #: joblib backend for frames of a batch. OpenCV and the large NumPy operations release
 #: the GIL, so threads avoid copying frames between processes (as fast as or faster
-#: than loky for 13 of 14 configurations in benchmarks/bench_classical.py). Passed to joblib as a soft hint
-#: (``prefer="threads"``), so ``joblib.parallel_config(backend=...)`` (loky, dask, ray)
+#: than loky for 13 of 14 configurations in benchmarks/bench_classical.py). Passed to
+#: joblib as a soft hint (``prefer="threads"``), so ``joblib.parallel_config(backend=...)`` (loky, dask, ray)
 #: still chooses the backend when the caller sets one.
 PARALLEL_BACKEND = "threading"
 
