@@ -151,6 +151,7 @@ for _name, _cls, _kw, _desc in [
     ("harmonic", "HarmonicInpainter", {}, "harmonic (Laplace) interpolation"),
     ("scanline", "ScanlineInpainter", {}, "row-wise linear interpolation of depth"),
     ("scanline-inverse", "ScanlineInpainter", {"inverse": True}, "row-wise linear interpolation of inverse depth"),
+    ("scanline-2d", "ScanlineInpainter", {"vertical": True}, "row- and column-wise interpolation, blended by gap length"),
     ("constant", "ConstantInpainter", {}, "median of the measured pixels"),
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc)
