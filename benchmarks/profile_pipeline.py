@@ -47,7 +47,11 @@ from inpaintenv.data import (
     read_depth_png,
     write_depth_png,
 )
-from inpaintenv.data.cache import CachedDataset
+
+try:  # absent in trees before the cache existed (for before/after runs of this script)
+    from inpaintenv.data.cache import CachedDataset
+except ImportError:
+    CachedDataset = None
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import frame_metrics
 
@@ -71,7 +75,7 @@ def png_paths(args: argparse.Namespace, tmp: Path) -> tuple[list[Path], str]:
     root = Path(args.kitti_root)
     if not args.synthetic and (root / "train").is_dir():
         ds = KittiDepth(root, split="train")
-        # Frames with ground truth (the first/last 5 of a drive have none).
+        # Evenly spread over the slice's drives.
         idx = np.linspace(5, len(ds) - 6, args.frames).round().astype(int)
         return [ds.paths[i] for i in idx], f"KITTI slice {root} (train groundtruth, raw 1242x375)"
     ds_syn = SyntheticStreets(n=args.frames, seed=0, frame_shape=(375, 1242))
@@ -151,8 +155,9 @@ def main() -> None:
             source_ds = ds[idx]
         else:
             source_ds = ArrayDataset(np.stack(crops))
-        cached = CachedDataset(source_ds, Path(tmp_dir) / "cache").build(progress=False)
-        stage("load: CachedDataset.load_batch (uint16 memmap, built)", lambda: cached.load_batch(range(n)))
+        if CachedDataset is not None:
+            cached = CachedDataset(source_ds, Path(tmp_dir) / "cache").build(progress=False)
+            stage("load: CachedDataset.load_batch (uint16 memmap, built)", lambda: cached.load_batch(range(n)))
     gt = np.stack(crops)
     proto = get_protocol(args.protocol)
     hole = stage(f"mask: {proto.name} masks for the batch", lambda: proto.masks(SHAPE, 0, range(n)))
@@ -204,7 +209,7 @@ def scaling(args: argparse.Namespace) -> None:
             return np.nan_to_num(x, nan=0.0)
 
     methods = [("none", MetricsOnly())] + [(m, make_method(m)) for m in args.methods]
-    # Frames with ground truth, spread over both drives.
+    # The frames the sweeps use (positions 0-4 of every 40 are skipped).
     full = KittiDepth(root, split="train")
     usable = [i for i in range(len(full)) if i % 40 not in range(5)]
 
