@@ -3,6 +3,7 @@
 from .base import (
     ArrayDataset, ConcatDataset, DepthDataset, Subset, as_dataset, select_drives, split_by_drive, subset,
 )
+from .cache import CachedDataset, StaleCacheError, estimate_cache_bytes
 from .io import DepthFormatError, read_depth_png, write_depth_png
 from .kitti import KITTI_ROOT_ENV, KITTI_URL, KittiDepth, bottom_center_crop, png_header
 from .sources import open_source
@@ -10,6 +11,7 @@ from .synthetic import SyntheticStreets
 
 __all__ = [
     "ArrayDataset",
+    "CachedDataset",
     "ConcatDataset",
     "DepthDataset",
     "DepthFormatError",
@@ -17,9 +19,11 @@ __all__ = [
     "KITTI_URL",
     "KittiDepth",
     "Subset",
+    "StaleCacheError",
     "SyntheticStreets",
     "as_dataset",
     "bottom_center_crop",
+    "estimate_cache_bytes",
     "open_source",
     "png_header",
     "read_depth_png",
