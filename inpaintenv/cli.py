@@ -284,7 +284,105 @@ def add_benchmark(subparsers: Any) -> None:
     add(subparsers, add_source_options, add_common_options)
 
 
-SUBCOMMANDS: list[Callable[[Any], None]] = [add_info, add_evaluate, add_show, add_benchmark]
+# ---------------------------------------------------------------------------------------
+# train
+# ---------------------------------------------------------------------------------------
+def add_train(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "train", help="train a neural estimator from a named preset",
+        description=(
+            "Train a neural inpainter with a named recipe (see --list). Writes the model "
+            "(safetensors + JSON), resumable checkpoints, training_log.json and loss.png. "
+            "Rerun the same command to resume an interrupted run."
+        ),
+    )
+    p.add_argument("--preset", default="cpu-1h", help="training recipe (default cpu-1h; --list shows all)")
+    p.add_argument("--list", action="store_true", help="list the presets and exit")
+    p.add_argument("--out", default="runs/model", metavar="DIR", help="output folder (default runs/model)")
+    p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")
+    p.add_argument("--seed", type=int, metavar="S", help="override the preset's random_state")
+    p.add_argument("--threads", type=int, metavar="N", help="torch threads (override)")
+    p.add_argument("--device", choices=["auto", "cpu", "cuda"], help="override the preset's device")
+    add_source_options(p)
+    add_common_options(p)
+    p.set_defaults(func=cmd_train)
+
+
+def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
+    """Loss per step (raw and smoothed) and validation hole RMSE per epoch, to PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    steps = np.asarray(history.get("step_loss") or [], dtype=float)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    if steps.size:
+        ax.plot(np.arange(1, steps.size + 1), steps, alpha=0.3, lw=0.8, label="loss per step")
+        k = max(1, steps.size // 50)
+        smooth = np.convolve(steps, np.ones(k) / k, mode="valid")
+        ax.plot(np.arange(k, steps.size + 1), smooth, lw=1.5, label=f"mean of {k} steps")
+    ax.set_xlabel("step")
+    ax.set_ylabel("training loss")
+    ax.grid(alpha=0.3)
+    val = [v for v in history.get("val_hole_rmse") or [] if v is not None]
+    if val:
+        ax2 = ax.twinx()
+        ax2.plot(np.linspace(0, max(steps.size, 1), len(val) + 1)[1:], val, "o-", color="C3", label="validation hole RMSE")
+        ax2.set_ylabel("validation hole RMSE (m)")
+        ax2.legend(loc="upper center", fontsize=8)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from estimators.presets import PRESETS, train_preset
+
+    if args.list:
+        for name, (cls, params, desc) in PRESETS.items():
+            print(f"{name:12s} {cls.__name__}: {desc}")
+        return 0
+    if args.preset not in PRESETS:
+        raise KeyError(f"unknown preset {args.preset!r}; known presets: {', '.join(PRESETS)}")
+    overrides: dict[str, Any] = {}
+    for key, value in (("max_steps", args.max_steps), ("random_state", args.seed),
+                       ("num_threads", args.threads), ("device", args.device)):
+        if value is not None:
+            overrides[key] = value
+    ds = open_source_from_args(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"training preset {args.preset} on {ds!r} -> {out}", file=sys.stderr)
+    est = train_preset(args.preset, ds, checkpoint_dir=out / "checkpoints", verbose=not args.quiet, **overrides)
+    model_path = est.save(out / "model")
+    history = getattr(est, "history_", None) or {}
+    log = {
+        "command": "inpaintenv " + " ".join(getattr(args, "argv", [])),
+        "preset": args.preset,
+        "overrides": overrides,
+        "estimator": type(est).__name__,
+        "params": {k: repr(v) if not isinstance(v, (int, float, str, bool, type(None), list, tuple)) else v
+                   for k, v in est.get_params().items()},
+        "source": repr(ds),
+        "fit_seconds": getattr(est, "fit_seconds_", None),
+        "n_steps": getattr(est, "n_steps_", None),
+        "history": history,
+    }
+    from .evaluate import json_safe
+
+    (out / "training_log.json").write_text(json.dumps(json_safe(log), indent=1))
+    plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}")
+    print(f"model: {model_path}")
+    print(f"log: {out / 'training_log.json'}, curves: {out / 'loss.png'}")
+    print(f"score it: inpaintenv benchmark --checkpoint mine={model_path} ...")
+    return 0
+
+
+SUBCOMMANDS: list[Callable[[Any], None]] = [add_info, add_evaluate, add_show, add_benchmark, add_train]
 
 
 def build_parser() -> argparse.ArgumentParser:
