@@ -21,13 +21,14 @@ __all__ = ["PRESETS", "available_presets", "make_preset", "train_preset"]
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     "cpu-1h": (
         PriorUNetInpainter,
-        dict(width=32, levels=3, factor=8, batch_size=4, lr=2e-3, max_steps=600, epochs=10_000,
+        dict(arch="pixel", width=128, levels=3, batch_size=4, lr=2e-3, max_steps=300, epochs=10_000,
              flip=True, tta=True, num_threads=2, random_state=0),
-        "PriorUNet over classical fills, whole frames, rect-v1; < 1 h on 2 CPU cores",
+        "per-pixel learned blend of classical fills (PixelBlendNet), whole frames, rect-v1; "
+        "< 1 h on 2 CPU cores",
     ),
     "smoke": (
         PriorUNetInpainter,
-        dict(width=8, levels=1, factor=4, batch_size=2, max_steps=2, epochs=10_000, num_threads=1, random_state=0),
+        dict(arch="pixel", width=8, levels=1, batch_size=2, max_steps=2, epochs=10_000, num_threads=1, random_state=0),
         "a seconds-long run that checks the pipeline end to end (not a useful model)",
     ),
 }

@@ -25,11 +25,16 @@ import numpy as np
 import torch
 
 from . import neural
+from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
 from .neural import _NeuralInpainter
-from .priors import CANDIDATES, prior_features
+from .priors import CANDIDATES, GAP_CHANNELS, prior_features
 
-__all__ = ["PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti"]
+__all__ = ["ARCHS", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti"]
+
+#: ``"pixel"``: per-pixel MLP on candidates and gap lengths (the shipped recipe);
+#: ``"unet"``: U-Net at 1/``factor`` resolution on candidates and masks.
+ARCHS = ("pixel", "unet")
 
 #: Folder of the shipped checkpoints (one checkpoint directory per name).
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
@@ -43,16 +48,20 @@ def available_pretrained() -> list[str]:
 
 
 class PriorUNetInpainter(_NeuralInpainter):
-    """U-Net over classical candidate fills: learned blend + residual, CPU-sized.
+    """Learned blend of classical candidate fills + residual, CPU-sized.
 
     Parameters
     ----------
-    width : int, default 32
-        Channels of the network's first level (doubled per level).
+    arch : {"pixel", "unet"}, default "pixel"
+        ``"pixel"``: :class:`~estimators.nets.pixel_blend.PixelBlendNet`, an MLP per
+        pixel on the candidates and the gap lengths to the nearest measurement in the
+        four directions. ``"unet"``: :class:`~estimators.nets.prior_unet.PriorUNet`.
+    width : int, default 128
+        Hidden units (pixel) or channels of the first level (unet).
     levels : int, default 3
-        2× downsamplings after the pixel-unshuffle.
+        Hidden layers (pixel) or 2× downsamplings after the pixel-unshuffle (unet).
     factor : int, default 8
-        Pixel-unshuffle factor: the network runs at ``1/factor`` of the frame size.
+        unet only: pixel-unshuffle factor (the network runs at ``1/factor``).
     candidates : tuple of str, default all of :data:`estimators.priors.CANDIDATES`
         Classical fills given to the network.
     flip : bool, default True
@@ -84,7 +93,8 @@ class PriorUNetInpainter(_NeuralInpainter):
     def __init__(
         self,
         *,
-        width: int = 32,
+        arch: str = "pixel",
+        width: int = 128,
         levels: int = 3,
         factor: int = 8,
         candidates: tuple[str, ...] = CANDIDATES,
@@ -110,6 +120,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         keep_observed: bool = True,
         verbose: bool = False,
     ):
+        self.arch = arch
         self.width = width
         self.levels = levels
         self.factor = factor
@@ -143,6 +154,8 @@ class PriorUNetInpainter(_NeuralInpainter):
 
     def _check_params(self) -> None:
         super()._check_params()
+        if self.arch not in ARCHS:
+            raise ValueError(f"arch must be one of {ARCHS}, got {self.arch!r}")
         f = self.factor
         if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
             raise ValueError(f"factor must be an integer >= 1, got {f!r}")
@@ -157,12 +170,18 @@ class PriorUNetInpainter(_NeuralInpainter):
 
     @property
     def in_channels(self) -> int:
-        """Network input channels: depth, hole, valid and one per candidate."""
-        return 3 + len(self.candidates)
+        """Network input channels: depth, hole, valid, one per candidate (+ 4 gap lengths)."""
+        return 3 + len(self.candidates) + (len(GAP_CHANNELS) if self._gaps else 0)
 
-    def _build_model(self, seed: int) -> PriorUNet:
+    @property
+    def _gaps(self) -> bool:
+        return self.arch == "pixel"
+
+    def _build_model(self, seed: int) -> PriorUNet | PixelBlendNet:
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
+            if self.arch == "pixel":
+                return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.levels))
             return PriorUNet(len(self.candidates), int(self.width), int(self.levels), int(self.factor))
 
     def _config_params(self) -> dict[str, Any]:
@@ -176,10 +195,20 @@ class PriorUNetInpainter(_NeuralInpainter):
         names = tuple(self.candidates)
         n_workers = min(len(x), torch.get_num_threads())
         if n_workers <= 1:
-            return torch.from_numpy(np.stack([prior_features(frame, names) for frame in x]))
+            return torch.from_numpy(np.stack([prior_features(frame, names, self._gaps) for frame in x]))
         # The fills are NumPy/OpenCV work that mostly releases the GIL: threads suffice.
         with ThreadPoolExecutor(n_workers) as pool:
-            return torch.from_numpy(np.stack(list(pool.map(lambda f: prior_features(f, names), x))))
+            return torch.from_numpy(np.stack(list(pool.map(lambda f: prior_features(f, names, self._gaps), x))))
+
+    def _flip(self, x: torch.Tensor) -> torch.Tensor:
+        """Mirror features left-right (gap-left and gap-right swap roles)."""
+        x = x.flip(-1)
+        if self._gaps:
+            k = 3 + len(self.candidates)
+            order = list(range(x.shape[1]))
+            order[k], order[k + 1] = k + 1, k
+            x = x[:, order]
+        return x
 
     # -- training ----------------------------------------------------------------------
     def _train(self, dataset, seed: int, device: torch.device) -> None:
@@ -210,18 +239,18 @@ class PriorUNetInpainter(_NeuralInpainter):
         corrupted = torch.where(hole, torch.nan, gt).numpy()
         x = self._features(corrupted)
         if self.flip and self._flip_rng.random() < 0.5:
-            x, gt, hole = x.flip(-1), gt.flip(-1), hole.flip(-1)
+            x, gt, hole = self._flip(x), gt.flip(-1), hole.flip(-1)
         x, gt, hole = x.to(device), gt.to(device), hole.to(device)
         if self.channels_last:
             x = x.contiguous(memory_format=torch.channels_last)
         optimizer.zero_grad(set_to_none=True)
-        with autocast:
-            pred = model(x)
         mask = hole & (gt > 0)
         if not mask.any():  # no ground truth in any hole of this batch: nothing to learn
             return 0.0
+        with autocast:
+            pred = model(x, where=mask) if self.arch == "pixel" else model(x)[mask]
         # L2 in metres on the hole: the benchmark's metric is hole RMSE.
-        loss = (pred.float()[mask] - gt[mask]).square().mean()
+        loss = (pred.float() - gt[mask]).square().mean()
         if not torch.isfinite(loss):
             raise FloatingPointError(f"training loss became {loss.item()}; lower lr or disable amp")
         if scaler is not None:
@@ -247,7 +276,7 @@ class PriorUNetInpainter(_NeuralInpainter):
                 with autocast:
                     pred = model(x).float()
                     if self.tta:
-                        pred = 0.5 * (pred + model(x.flip(-1)).float().flip(-1))
+                        pred = 0.5 * (pred + model(self._flip(x)).float().flip(-1))
                 out[start:start + len(chunk)] = np.maximum(pred.cpu().numpy(), 0.0)
         return out
 

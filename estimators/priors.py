@@ -24,13 +24,17 @@ from inpaintenv.conventions import check_depth
 from .classical.harmonic import harmonic_fill
 from .classical.scanline import scanline_fill
 
-__all__ = ["BASE_CHANNELS", "CANDIDATES", "candidate_fills", "prior_features"]
+__all__ = ["BASE_CHANNELS", "CANDIDATES", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
 CANDIDATES: tuple[str, ...] = ("scanline", "scanline-inverse", "vertical", "harmonic")
 #: Channels before the candidates in :func:`prior_features`.
 BASE_CHANNELS: tuple[str, ...] = ("depth", "hole", "valid")
+#: Channels of :func:`gap_distances`, appended after the candidates when asked for.
+GAP_CHANNELS: tuple[str, ...] = ("gap-left", "gap-right", "gap-up", "gap-down")
+#: Distance reported where no measurement lies in that direction (longer than any row).
+NO_MEASUREMENT_DISTANCE = 2048
 
 
 def _inverse_scanline(values: np.ndarray, known: np.ndarray) -> np.ndarray:
@@ -53,6 +57,40 @@ def _check_names(names: Sequence[str]) -> tuple[str, ...]:
     if not names or unknown:
         raise ValueError(f"candidates must be a non-empty subset of {CANDIDATES}, got {names!r}")
     return names
+
+
+def _distances_along_rows(known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    cols = np.arange(known.shape[1])
+    far = NO_MEASUREMENT_DISTANCE
+    left = np.maximum.accumulate(np.where(known, cols, -far), axis=1)
+    right = np.minimum.accumulate(np.where(known, cols, 2 * far)[:, ::-1], axis=1)[:, ::-1]
+    return np.minimum(cols - left, far), np.minimum(right - cols, far)
+
+
+def gap_distances(known: np.ndarray) -> np.ndarray:
+    """Pixels to the nearest measurement left, right, above and below each pixel.
+
+    Which classical fill to trust depends on the gap it bridges (a row-wise fill is good
+    across a narrow, tall hole only if the row gap is short), so a learned blend needs
+    these lengths. 0 on measured pixels; :data:`NO_MEASUREMENT_DISTANCE` (capped) where
+    none lies in that direction.
+
+    Parameters
+    ----------
+    known : numpy.ndarray
+        ``(H, W)`` bool, True where measured.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(4, H, W)`` float32: left, right, up, down.
+    """
+    known = np.asarray(known)
+    if known.ndim != 2 or known.dtype != bool:
+        raise ValueError(f"known must be a 2-D bool array, got {known.dtype} with shape {known.shape}")
+    left, right = _distances_along_rows(known)
+    up, down = _distances_along_rows(known.T)
+    return np.stack([left, right, up.T, down.T]).astype(np.float32)
 
 
 def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndarray:
@@ -78,7 +116,7 @@ def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndar
     return np.stack([_FILLS[n](values, known) for n in names]).astype(np.float32)
 
 
-def prior_features(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndarray:
+def prior_features(x: np.ndarray, names: Sequence[str] = CANDIDATES, gaps: bool = False) -> np.ndarray:
     """Network input of one frame: observed depth, hole and validity masks, candidates.
 
     Parameters
@@ -87,15 +125,18 @@ def prior_features(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndarr
         ``(H, W)`` metres; NaN = hole, 0 = no measurement.
     names : sequence of str
         Candidate fills, from :data:`CANDIDATES`.
+    gaps : bool
+        Append the four :func:`gap_distances` channels (pixels).
 
     Returns
     -------
     numpy.ndarray
-        ``(3 + len(names), H, W)`` float32: depth (0 where unknown), hole (1/0),
-        valid (1 where measured), then the candidate fills in metres.
+        ``(3 + len(names) [+ 4], H, W)`` float32: depth (0 where unknown), hole (1/0),
+        valid (1 where measured), the candidate fills in metres, then the gap lengths.
     """
     fills = candidate_fills(x, names)
     hole = np.isnan(x)
     depth = np.where(x > 0, x, 0.0)
     base = np.stack([depth, hole, depth > 0]).astype(np.float32)
-    return np.concatenate([base, fills])
+    parts = [base, fills, gap_distances(depth > 0)] if gaps else [base, fills]
+    return np.concatenate(parts)

@@ -155,3 +155,10 @@ for _name, _cls, _kw, _desc in [
     ("constant", "ConstantInpainter", {}, "median of the measured pixels"),
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc)
+
+# The shipped learned model (estimators/pretrained/kitti-rect-v1; needs torch). A factory,
+# not a class: it loads the weights. See docs/model_card.md.
+register_method(
+    "unet-pretrained", "estimators.prior", "pretrained_kitti", {},
+    "learned per-pixel blend of classical fills, pretrained on one KITTI drive (CC BY-NC-SA 3.0)",
+)

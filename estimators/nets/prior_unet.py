@@ -74,7 +74,10 @@ class PriorUNet(nn.Module):
         """Expected input channels ``3 + K``."""
         return 3 + self.n_candidates
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    def forward(self, x: torch.Tensor, where: torch.Tensor | None = None) -> torch.Tensor:
+        """``(N, 3 + K, H, W)`` -> ``(N, H, W)`` metres, or ``(P,)`` at ``where`` if given."""
+        if where is not None:
+            return self.forward(x)[where]
         if x.ndim != 4 or x.shape[1] != self.in_channels:
             raise ValueError(f"expected input (N, {self.in_channels}, H, W), got {tuple(x.shape)}")
         n, _, h, w = x.shape

@@ -6,13 +6,15 @@ import numpy as np
 import pytest
 import torch
 
+from estimators.nets.pixel_blend import PixelBlendNet
 from estimators.nets.prior_unet import PriorUNet
 from estimators.prior import PriorUNetInpainter, available_pretrained
 from estimators.presets import available_presets, make_preset, train_preset
-from estimators.priors import CANDIDATES, candidate_fills, prior_features
+from estimators.priors import CANDIDATES, NO_MEASUREMENT_DISTANCE, candidate_fills, gap_distances, prior_features
 from estimators.classical import ScanlineInpainter
 
 TINY = dict(width=4, levels=1, factor=2, batch_size=2, max_steps=2, random_state=0, num_threads=1)
+ARCH_IDS = ["pixel", "unet"]
 
 
 def _corrupt(frames: np.ndarray) -> np.ndarray:
@@ -52,6 +54,25 @@ def test_unknown_candidates_raise(small_gt, names):
         candidate_fills(_corrupt(small_gt)[0], names)
 
 
+def test_gap_distances():
+    known = np.zeros((3, 6), bool)
+    known[1, 1] = known[1, 4] = True
+    d = gap_distances(known)
+    assert d.shape == (4, 3, 6)
+    np.testing.assert_array_equal(d[:, 1, 2], [1, 2, NO_MEASUREMENT_DISTANCE, NO_MEASUREMENT_DISTANCE])
+    np.testing.assert_array_equal(d[:, 0, 1], [NO_MEASUREMENT_DISTANCE, NO_MEASUREMENT_DISTANCE, NO_MEASUREMENT_DISTANCE, 1])
+    assert (d[:, known] == 0).all()
+    with pytest.raises(ValueError, match="bool"):
+        gap_distances(known.astype(int))
+
+
+def test_prior_features_with_gaps(small_gt):
+    x = _corrupt(small_gt)[0]
+    f = prior_features(x, gaps=True)
+    assert f.shape == (3 + len(CANDIDATES) + 4, *x.shape)
+    np.testing.assert_array_equal(f[-4:], gap_distances(x > 0))
+
+
 def test_priors_reject_batches():
     with pytest.raises(ValueError, match="2-D"):
         prior_features(np.ones((2, 4, 4), dtype=np.float32))
@@ -66,21 +87,50 @@ def test_untrained_net_is_mean_of_candidates_any_size():
     torch.testing.assert_close(out, x[:, 3:].mean(1))
 
 
+def test_untrained_pixel_net_is_mean_of_candidates_and_keeps_measured():
+    net = PixelBlendNet(n_candidates=2, n_gaps=4, width=8, layers=2)
+    x = torch.rand(2, 9, 5, 7) * 30
+    x[:, 2] = (torch.rand(2, 5, 7) > 0.5).float()
+    out = net(x)
+    unknown = x[:, 2] < 0.5
+    torch.testing.assert_close(out[unknown], x[:, 3:5].mean(1)[unknown])
+    torch.testing.assert_close(out[~unknown], x[:, 0][~unknown])
+    torch.testing.assert_close(net(x, where=unknown), out[unknown])
+
+
 def test_net_rejects_wrong_channels_and_params():
     with pytest.raises(ValueError, match="expected input"):
         PriorUNet(n_candidates=2, width=4, levels=1, factor=2)(torch.zeros(1, 4, 8, 8))
     with pytest.raises(ValueError, match="factor"):
         PriorUNet(factor=0)
+    with pytest.raises(ValueError, match="expected input"):
+        PixelBlendNet(n_candidates=2, n_gaps=4, width=4, layers=1)(torch.zeros(1, 5, 8, 8))
+    with pytest.raises(ValueError, match="layers"):
+        PixelBlendNet(layers=0)
 
 
 # -- estimator -------------------------------------------------------------------------
-def test_fit_predict_keeps_observed(small_gt):
-    est = PriorUNetInpainter(**TINY).fit(small_gt)
+@pytest.mark.parametrize("arch", ARCH_IDS)
+def test_fit_predict_keeps_observed(small_gt, arch):
+    est = PriorUNetInpainter(**TINY, arch=arch).fit(small_gt)
     assert est.n_steps_ == 2 and np.isfinite(est.history_["step_loss"]).all()
     x = _corrupt(small_gt)
     pred = est.predict(x)
     assert pred.shape == x.shape and np.isfinite(pred).all() and (pred >= 0).all()
     np.testing.assert_array_equal(pred[x > 0], x[x > 0])
+
+
+def test_flip_swaps_left_and_right_gaps(small_gt):
+    est = PriorUNetInpainter(**TINY)
+    x = est._features(_corrupt(small_gt))
+    flipped = est._flip(x)
+    k = 3 + len(CANDIDATES)
+    torch.testing.assert_close(flipped[:, k], x[:, k + 1].flip(-1))
+    torch.testing.assert_close(flipped[:, :k], x[:, :k].flip(-1))
+    # Features of the mirrored frame are the mirrored features (up to float round-off).
+    np.testing.assert_allclose(
+        est._features(_corrupt(small_gt)[:, :, ::-1].copy()).numpy(), flipped.numpy(), rtol=1e-5
+    )
 
 
 def test_training_is_reproducible(small_gt):
@@ -89,17 +139,18 @@ def test_training_is_reproducible(small_gt):
     assert a.history_["step_loss"] == b.history_["step_loss"]
 
 
-def test_save_load_roundtrip(small_gt, tmp_path):
-    est = PriorUNetInpainter(**TINY, candidates=("scanline", "vertical")).fit(small_gt)
+@pytest.mark.parametrize("arch", ARCH_IDS)
+def test_save_load_roundtrip(small_gt, tmp_path, arch):
+    est = PriorUNetInpainter(**TINY, arch=arch, candidates=("scanline", "vertical")).fit(small_gt)
     loaded = PriorUNetInpainter.load(est.save(tmp_path / "m"))
-    assert loaded.candidates == ("scanline", "vertical")
+    assert loaded.candidates == ("scanline", "vertical") and loaded.arch == arch
     x = _corrupt(small_gt)
     np.testing.assert_allclose(loaded.predict(x), est.predict(x))
 
 
 @pytest.mark.parametrize(
     ("param", "value", "error"),
-    [("factor", 0, ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError),
+    [("factor", 0, ValueError), ("arch", "transformer", ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError),
      ("levels", 0, ValueError)],
 )
 def test_bad_params_raise_clear_errors(small_gt, param, value, error):

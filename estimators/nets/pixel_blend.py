@@ -1,0 +1,104 @@
+"""A per-pixel MLP that blends classical candidate fills using the gaps they bridge.
+
+For every pixel to fill, the inputs are the K candidate fills (metres / 80) and the
+log-lengths of the gaps to the nearest measurement left, right, above and below; an MLP
+(``layers`` hidden layers of ``width`` units, ReLU) outputs K blend logits and a
+residual::
+
+    depth = Σ_k softmax(logits)_k · candidate_k + 80 m · residual
+
+The last layer starts at zero, so an untrained model is the mean of the candidates.
+It has no notion of absolute image position on purpose: in probes on KITTI, position
+features let a model memorise the training drive's layout (see docs/model_card.md).
+Only pixels asked for are computed, so training on hole pixels and predicting on
+unknown pixels costs time in proportion to those pixels alone.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+__all__ = ["PixelBlendNet"]
+
+DEPTH_SCALE = 80.0
+#: log1p(pixels) / GAP_SCALE keeps the gap inputs near [0, 1] (log1p(2048) ≈ 7.6).
+GAP_SCALE = 7.0
+#: Pixels per chunk when a whole frame is predicted (bounds memory).
+CHUNK = 1 << 18
+
+
+class PixelBlendNet(nn.Module):
+    """Per-pixel blend of candidates plus residual, from candidates and gap lengths.
+
+    Parameters
+    ----------
+    n_candidates : int
+        Candidate channels ``K`` (after depth, hole and valid).
+    n_gaps : int
+        Gap-length channels after the candidates (4: left, right, up, down).
+    width : int
+        Hidden units per layer.
+    layers : int
+        Hidden layers.
+
+    Notes
+    -----
+    Input ``(N, 3 + K + n_gaps, H, W)`` as built by
+    :func:`estimators.priors.prior_features` with ``gaps=True``.
+    """
+
+    def __init__(self, n_candidates: int = 4, n_gaps: int = 4, width: int = 128, layers: int = 3):
+        super().__init__()
+        for name, value, low in (("n_candidates", n_candidates, 1), ("n_gaps", n_gaps, 0),
+                                 ("width", width, 1), ("layers", layers, 1)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+        self.n_candidates, self.n_gaps, self.width, self.layers = n_candidates, n_gaps, width, layers
+        dims = [n_candidates + n_gaps] + [width] * layers
+        mods: list[nn.Module] = []
+        for a, b in zip(dims[:-1], dims[1:]):
+            mods += [nn.Linear(a, b), nn.ReLU(inplace=True)]
+        self.body = nn.Sequential(*mods)
+        self.head = nn.Linear(width, n_candidates + 1)
+        nn.init.zeros_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    @property
+    def in_channels(self) -> int:
+        """Expected input channels ``3 + K + n_gaps``."""
+        return 3 + self.n_candidates + self.n_gaps
+
+    def blend(self, pixels: torch.Tensor) -> torch.Tensor:
+        """``(P, K + n_gaps)`` raw pixel features (metres, pixels) -> ``(P,)`` metres."""
+        k = self.n_candidates
+        cands = pixels[:, :k]
+        z = torch.cat([cands / DEPTH_SCALE, torch.log1p(pixels[:, k:]) / GAP_SCALE], dim=1)
+        out = self.head(self.body(z))
+        return (torch.softmax(out[:, :k], dim=1) * cands).sum(dim=1) + DEPTH_SCALE * out[:, k]
+
+    def forward(self, x: torch.Tensor, where: torch.Tensor | None = None) -> torch.Tensor:
+        """Predict at the pixels ``where`` (``(P,)`` metres) or on the whole map.
+
+        Parameters
+        ----------
+        x : torch.Tensor
+            ``(N, 3 + K + n_gaps, H, W)`` features.
+        where : torch.Tensor, optional
+            ``(N, H, W)`` bool. Without it, a full ``(N, H, W)`` map is returned: the
+            blend on unmeasured pixels, the input depth on measured ones.
+        """
+        if x.ndim != 4 or x.shape[1] != self.in_channels:
+            raise ValueError(f"expected input (N, {self.in_channels}, H, W), got {tuple(x.shape)}")
+        channels_last = x[:, 3:].permute(0, 2, 3, 1)
+        if where is not None:
+            return self.blend(channels_last[where])
+        unknown = x[:, 2] < 0.5
+        out = x[:, 0].clone()
+        pixels = channels_last[unknown]
+        values = torch.cat([self.blend(p) for p in pixels.split(CHUNK)]) if len(pixels) else pixels[:, 0]
+        out[unknown] = values.to(out.dtype)
+        return out
+
+    def extra_repr(self) -> str:
+        return f"n_candidates={self.n_candidates}, n_gaps={self.n_gaps}, width={self.width}, layers={self.layers}"
