@@ -40,7 +40,7 @@ from .base import BaseInpainter
 from .losses import inpainting_loss
 from .nets import UNet
 
-__all__ = ["AutoencoderInpainter", "CheckpointError", "UNetInpainter"]
+__all__ = ["AutoencoderInpainter", "CheckpointError", "UNetInpainter", "load_checkpoint"]
 
 CheckpointError = ckpt.CheckpointError
 
@@ -627,3 +627,23 @@ _CLASSES: dict[str, type[_NeuralInpainter]] = {
     "UNetInpainter": UNetInpainter,
     "AutoencoderInpainter": AutoencoderInpainter,
 }
+
+
+def load_checkpoint(path: str | os.PathLike) -> _NeuralInpainter:
+    """Load any saved neural inpainter (its class is read from the checkpoint).
+
+    Parameters
+    ----------
+    path : path-like
+        A model folder written by ``save`` or a training run folder.
+
+    Raises
+    ------
+    CheckpointError
+        If the checkpoint is missing, corrupt, or of an unknown class.
+    """
+    import importlib
+
+    # Classes defined elsewhere register themselves in _CLASSES on import.
+    importlib.import_module("estimators.prior")
+    return _NeuralInpainter.load(path)

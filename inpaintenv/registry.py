@@ -162,3 +162,8 @@ register_method(
     "unet-pretrained", "estimators.prior", "pretrained_kitti", {},
     "learned per-pixel blend of classical fills, pretrained on one KITTI drive (CC BY-NC-SA 3.0)",
 )
+
+register_method(
+    "checkpoint", "estimators.neural", "load_checkpoint", {},
+    "a saved neural model: make_method('checkpoint', path=...)",
+)
