@@ -121,7 +121,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             built[name] = method() if getattr(method, "lazy", False) else method
         return built[name]
 
-    cached = {name: LazyMethod(lambda name=name, m=m: materialise(name, m)) for name, m in methods.items()}
+    cached = {
+        name: LazyMethod(lambda name=name, m=m: materialise(name, m), optional=getattr(m, "optional", False))
+        for name, m in methods.items()
+    }
     result = run_benchmark(
         cached, dataset, protocols=protocols, seeds=seeds, out_dir=args.out,
         resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,

@@ -22,6 +22,10 @@ from ..masks import get_protocol
 __all__ = ["run_benchmark", "RunMismatchError"]
 
 
+#: Errors meaning "this method cannot be built here" (missing package or weights).
+UNAVAILABLE = (ImportError, KeyError, FileNotFoundError)
+
+
 class RunMismatchError(ValueError):
     """The output folder holds rows of a different run (other data, seeds or protocols)."""
 
@@ -126,7 +130,13 @@ def run_benchmark(
             if n_todo:
                 say(f"{name} / {protocol}: {n_todo} frames to score ({len(done)} already done)")
             if n_todo and getattr(method, "lazy", False):
-                method = method()
+                try:
+                    method = method()
+                except UNAVAILABLE as exc:
+                    if not getattr(method, "optional", False):
+                        raise
+                    say(f"skipping {name!r}: not available here ({exc})")
+                    break
             if path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n"):
                 # A kill mid-write left a partial last line: end it so new rows start clean.
                 with path.open("a") as f:
@@ -151,6 +161,8 @@ def run_benchmark(
             unique = {(r["seed"], r["index"]): r for r in rows}
             ordered = [unique[k] for k in sorted(unique)]
             results.append(EvaluationResult(rows=ordered, meta={"methods": [name]}))
+    if not results:
+        raise ValueError("no method could be run here (see the messages above)")
     combined = EvaluationResult.concat(results)
     combined.meta.update(
         {"source": repr(dataset), "protocols": protocols, "seeds": seeds, "n_frames": total}

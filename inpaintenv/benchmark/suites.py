@@ -33,12 +33,18 @@ SUITES: dict[str, list[str]] = {
 
 
 class LazyMethod:
-    """A method built only when first needed (e.g. a neural model loading weights)."""
+    """A method built only when first needed (e.g. a neural model loading weights).
+
+    ``optional=True`` marks a suite member that may be unavailable on this machine
+    (no torch, no shipped weights): the runner then skips it with a message instead of
+    failing the whole run.
+    """
 
     lazy = True
 
-    def __init__(self, factory: Callable[[], Any]):
+    def __init__(self, factory: Callable[[], Any], optional: bool = False):
         self.factory = factory
+        self.optional = optional
 
     def __call__(self) -> Any:
         return self.factory()
@@ -66,7 +72,7 @@ def suite_methods(
         if name not in known:
             warn(f"skipping {name!r}: not registered here (its package or weights are missing)")
             continue
-        out[name] = LazyMethod(lambda name=name: build_method(name, overrides or {}))
+        out[name] = LazyMethod(lambda name=name: build_method(name, overrides or {}), optional=True)
     return out
 
 

@@ -87,3 +87,21 @@ def test_report_files_and_intervals(dataset, tmp_path):
     md = paths["markdown"].read_text()
     assert "| median | rect-v1 |" in md and "±" in md and "## Per drive" in md
     assert paths["csv"].read_text().count("\n") == len(res.rows) + 1
+
+
+def test_optional_methods_that_cannot_be_built_are_skipped(dataset, tmp_path):
+    from inpaintenv.benchmark import LazyMethod
+
+    def missing():
+        raise ImportError("no torch here")
+
+    messages = []
+    res = run_benchmark(
+        {"gone": LazyMethod(missing, optional=True), "ten": ten_metres}, dataset,
+        out_dir=tmp_path, progress=False, log=messages.append,
+    )
+    assert res.methods == ["ten"]
+    assert any("skipping 'gone'" in m and "no torch here" in m for m in messages)
+    # A method the user asked for by name is not optional: the error surfaces.
+    with pytest.raises(ImportError, match="no torch"):
+        run_benchmark({"gone": LazyMethod(missing)}, dataset, out_dir=tmp_path, progress=False)
