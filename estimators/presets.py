@@ -13,6 +13,7 @@ import os
 import time
 from typing import Any
 
+from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
 __all__ = ["PRESETS", "available_presets", "make_preset", "train_preset"]
@@ -21,10 +22,36 @@ __all__ = ["PRESETS", "available_presets", "make_preset", "train_preset"]
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     "cpu-1h": (
         PriorUNetInpainter,
-        dict(arch="pixel", width=128, levels=3, batch_size=4, lr=2e-3, max_steps=300, epochs=10_000,
+        dict(arch="pixel", width=128, levels=3, pixel_batches=8, batch_size=4, lr=2e-3, max_steps=300, epochs=10_000,
              flip=True, tta=True, num_threads=2, random_state=0),
         "per-pixel learned blend of classical fills (PixelBlendNet), whole frames, rect-v1; "
         "< 1 h on 2 CPU cores",
+    ),
+    # The study's variants at a CPU budget (crops, 16-channel 4-level U-Net); the study
+    # trained full frames on a GPU. Use --max-steps to set the budget.
+    "study-unet-tv": (
+        UNetInpainter,
+        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
+             hole_weight=2.0, tv_weight=0.01, random_state=0),
+        "the study's U-Net + TV (depth-only input, L1 + 2·L1 hole + 0.01·TV) on 176×416 crops",
+    ),
+    "study-unet": (
+        UNetInpainter,
+        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
+             hole_weight=2.0, tv_weight=0.0, random_state=0),
+        "the study's U-Net without TV on 176×416 crops",
+    ),
+    "study-autoencoder": (
+        AutoencoderInpainter,
+        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
+             hole_weight=2.0, tv_weight=0.01, random_state=0),
+        "the study's autoencoder ablation (no skips) on 176×416 crops",
+    ),
+    "unet-mask": (
+        UNetInpainter,
+        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
+             hole_weight=2.0, tv_weight=0.01, input_mask=True, random_state=0),
+        "the study's U-Net with hole and validity mask channels on 176×416 crops",
     ),
     "smoke": (
         PriorUNetInpainter,

@@ -64,6 +64,10 @@ class PriorUNetInpainter(_NeuralInpainter):
         unet only: pixel-unshuffle factor (the network runs at ``1/factor``).
     candidates : tuple of str, default all of :data:`estimators.priors.CANDIDATES`
         Classical fills given to the network.
+    pixel_batches : int, default 8
+        pixel only: the hole pixels of each batch of frames are shuffled and split into
+        this many optimiser steps (the candidate fills are the expensive part of a step,
+        so each batch of frames is used for several cheap updates).
     flip : bool, default True
         Random horizontal flips while training (p = 0.5).
     tta : bool, default True
@@ -98,6 +102,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         levels: int = 3,
         factor: int = 8,
         candidates: tuple[str, ...] = CANDIDATES,
+        pixel_batches: int = 8,
         flip: bool = True,
         tta: bool = True,
         lr: float = 2e-3,
@@ -125,6 +130,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         self.levels = levels
         self.factor = factor
         self.candidates = candidates
+        self.pixel_batches = pixel_batches
         self.flip = flip
         self.tta = tta
         self.lr = lr
@@ -159,6 +165,9 @@ class PriorUNetInpainter(_NeuralInpainter):
         f = self.factor
         if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
             raise ValueError(f"factor must be an integer >= 1, got {f!r}")
+        pb = self.pixel_batches
+        if isinstance(pb, bool) or not isinstance(pb, (int, np.integer)) or pb < 1:
+            raise ValueError(f"pixel_batches must be an integer >= 1, got {pb!r}")
         names = self.candidates
         if isinstance(names, str) or not isinstance(names, (tuple, list)) or not names or any(
             n not in CANDIDATES for n in names
@@ -224,7 +233,7 @@ class PriorUNetInpainter(_NeuralInpainter):
 
         The step is read from Adam's own state, so a resumed run continues the schedule.
         """
-        total = self.max_steps
+        total = self.max_steps * self._updates_per_step if self.max_steps else None
         if not total:
             return
         state = optimizer.state.get(optimizer.param_groups[0]["params"][0], {})
@@ -234,8 +243,11 @@ class PriorUNetInpainter(_NeuralInpainter):
         for group in optimizer.param_groups:
             group["lr"] = self.lr * max(scale, 0.01)
 
+    @property
+    def _updates_per_step(self) -> int:
+        return int(self.pixel_batches) if self.arch == "pixel" else 1
+
     def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
-        self._set_lr(optimizer)
         corrupted = torch.where(hole, torch.nan, gt).numpy()
         x = self._features(corrupted)
         if self.flip and self._flip_rng.random() < 0.5:
@@ -243,14 +255,28 @@ class PriorUNetInpainter(_NeuralInpainter):
         x, gt, hole = x.to(device), gt.to(device), hole.to(device)
         if self.channels_last:
             x = x.contiguous(memory_format=torch.channels_last)
-        optimizer.zero_grad(set_to_none=True)
         mask = hole & (gt > 0)
         if not mask.any():  # no ground truth in any hole of this batch: nothing to learn
             return 0.0
+        if self.arch == "unet":
+            return self._update(model, optimizer, scaler, autocast, lambda: model(x)[mask], gt[mask])
+        # Per-pixel model: gather the hole pixels once, then several updates on shuffles.
+        pixels, target = x[:, 3:].permute(0, 2, 3, 1)[mask], gt[mask]
+        order = torch.from_numpy(self._flip_rng.permutation(len(target))).to(device)
+        losses = [
+            self._update(model, optimizer, scaler, autocast, lambda idx=idx: model.blend(pixels[idx]), target[idx])
+            for idx in order.tensor_split(min(self._updates_per_step, len(order)))
+        ]
+        return float(np.mean(losses))
+
+    def _update(self, model, optimizer, scaler, autocast, predict, target: torch.Tensor) -> float:
+        """One optimiser step on the L2 loss (metres) between ``predict()`` and ``target``."""
+        self._set_lr(optimizer)
+        optimizer.zero_grad(set_to_none=True)
         with autocast:
-            pred = model(x, where=mask) if self.arch == "pixel" else model(x)[mask]
+            pred = predict()
         # L2 in metres on the hole: the benchmark's metric is hole RMSE.
-        loss = (pred.float() - gt[mask]).square().mean()
+        loss = (pred.float() - target).square().mean()
         if not torch.isfinite(loss):
             raise FloatingPointError(f"training loss became {loss.item()}; lower lr or disable amp")
         if scaler is not None:

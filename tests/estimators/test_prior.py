@@ -133,6 +133,15 @@ def test_flip_swaps_left_and_right_gaps(small_gt):
     )
 
 
+def test_pixel_batches_give_more_updates_per_step(small_gt):
+    one = PriorUNetInpainter(**{**TINY, "pixel_batches": 1}).fit(small_gt)
+    three = PriorUNetInpainter(**{**TINY, "pixel_batches": 3}).fit(small_gt)
+    assert one.n_steps_ == three.n_steps_ == 2
+    # Same first batch of frames; three updates move the weights further than one.
+    w0 = PriorUNetInpainter(**TINY)._build_model(0).head.weight
+    assert (three.model_.head.weight - w0).abs().sum() > (one.model_.head.weight - w0).abs().sum()
+
+
 def test_training_is_reproducible(small_gt):
     a = PriorUNetInpainter(**TINY).fit(small_gt)
     b = PriorUNetInpainter(**TINY).fit(small_gt)
@@ -150,7 +159,7 @@ def test_save_load_roundtrip(small_gt, tmp_path, arch):
 
 @pytest.mark.parametrize(
     ("param", "value", "error"),
-    [("factor", 0, ValueError), ("arch", "transformer", ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError),
+    [("factor", 0, ValueError), ("arch", "transformer", ValueError), ("pixel_batches", 0, ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError),
      ("levels", 0, ValueError)],
 )
 def test_bad_params_raise_clear_errors(small_gt, param, value, error):
