@@ -17,6 +17,8 @@ test-time flip averaging differ. See ``docs/model_card.md`` for the shipped mode
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -24,6 +26,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from . import _checkpoint as ckpt
 from . import neural
 from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
@@ -36,7 +39,8 @@ __all__ = ["ARCHS", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretraine
 #: ``"unet"``: U-Net at 1/``factor`` resolution on candidates and masks.
 ARCHS = ("pixel", "unet")
 
-#: Folder of the shipped checkpoints (one checkpoint directory per name).
+#: Folder of the shipped models: ``NAME.safetensors`` (weights) + ``NAME.json`` (the
+#: ``config.json`` of a checkpoint written by :meth:`PriorUNetInpainter.save`).
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
 
 
@@ -44,7 +48,7 @@ def available_pretrained() -> list[str]:
     """Names accepted by :meth:`PriorUNetInpainter.pretrained`."""
     if not PRETRAINED_DIR.is_dir():
         return []
-    return sorted(p.name for p in PRETRAINED_DIR.iterdir() if (p / "config.json").is_file())
+    return sorted(p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file())
 
 
 class PriorUNetInpainter(_NeuralInpainter):
@@ -326,7 +330,12 @@ class PriorUNetInpainter(_NeuralInpainter):
         """
         if not isinstance(name, str) or name not in available_pretrained():
             raise KeyError(f"no pretrained model {name!r}; shipped: {available_pretrained()}")
-        est = cls.load(PRETRAINED_DIR / name)
+        # The shipped pair is a checkpoint directory's two files under flat names; copy
+        # them (small) into one so the shared, checksum-verifying loader reads them.
+        with tempfile.TemporaryDirectory() as tmp:
+            for src, dst in ((".safetensors", ckpt.MODEL_FILE), (".json", ckpt.CONFIG_FILE)):
+                shutil.copyfile(PRETRAINED_DIR / f"{name}{src}", Path(tmp) / dst)
+            est = cls.load(tmp)
         return est.set_params(**overrides) if overrides else est
 
     @classmethod
