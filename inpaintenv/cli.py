@@ -340,14 +340,13 @@ def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from estimators.presets import PRESETS, train_preset
+    from estimators.presets import available_presets, describe_preset, train_preset
 
     if args.list:
-        for name, (cls, params, desc) in PRESETS.items():
-            print(f"{name:12s} {cls.__name__}: {desc}")
+        for name in available_presets():
+            print(f"{name:18s} {describe_preset(name)}")
         return 0
-    if args.preset not in PRESETS:
-        raise KeyError(f"unknown preset {args.preset!r}; known presets: {', '.join(PRESETS)}")
+    describe_preset(args.preset)  # unknown name: one-line error listing the presets
     overrides: dict[str, Any] = {}
     for key, value in (("max_steps", args.max_steps), ("random_state", args.seed),
                        ("num_threads", args.threads), ("device", args.device)):
@@ -370,6 +369,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         "source": repr(ds),
         "fit_seconds": getattr(est, "fit_seconds_", None),
         "n_steps": getattr(est, "n_steps_", None),
+        "stages": getattr(est, "stages_", None),
         "history": history,
     }
     from .evaluate import json_safe

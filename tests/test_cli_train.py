@@ -34,3 +34,20 @@ def test_train_lists_presets_and_rejects_unknown(capsys):
     assert "cpu-1h" in capsys.readouterr().out
     assert main(["train", "--preset", "nope"]) == 1
     assert "unknown preset" in capsys.readouterr().err
+
+
+def test_staged_preset_warm_starts_the_second_stage(tmp_path):
+    import numpy as np
+
+    from estimators.presets import train_preset
+    from inpaintenv.data import SyntheticStreets
+
+    ds = SyntheticStreets(n=8, frame_shape=(64, 128))
+    est = train_preset("study-cpu", ds, max_steps=2, crop=(32, 64), width=4, depth=2, num_threads=1,
+                       checkpoint_dir=tmp_path)
+    assert [s["class"] for s in est.stages_] == ["AutoencoderInpainter", "UNetInpainter"]
+    assert [s["frames"] for s in est.stages_] == [2, 4]  # 25 % then 50 % of 8 frames
+    assert type(est).__name__ == "UNetInpainter" and est.lr == 5e-4
+    x = ds[0].copy()
+    x[20:40, 30:60] = np.nan
+    assert np.isfinite(est.predict(x)).all()
