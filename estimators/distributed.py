@@ -47,7 +47,14 @@ from inpaintenv.masks import get_protocol
 
 from . import _checkpoint as ckpt
 from ._training import OcclusionFrames, epoch_order, make_loader, torch_threads
-from .neural import AutoencoderInpainter, UNetInpainter, _copy_encoder, _cpu_state, _fitted_summary, _NeuralInpainter
+from .neural import (
+    AutoencoderInpainter,
+    UNetInpainter,
+    _copy_encoder,
+    _cpu_state,
+    _fitted_summary,
+    _NeuralInpainter,
+)
 
 __all__ = ["main", "rank_order", "train_distributed"]
 
@@ -72,7 +79,7 @@ def process_group(device_type: str) -> Iterator[tuple[int, int, int]]:
     Yields ``(rank, world_size, local_rank)``; a group created here is destroyed after.
     """
     if dist.is_initialized():
-        yield dist.get_rank(), dist.get_world_size(), int(os.environ.get("LOCAL_RANK", 0))
+        yield dist.get_rank(), dist.get_world_size(), int(os.environ.get("LOCAL_RANK", "0"))
         return
     missing = [k for k in _ENV if k not in os.environ]
     if missing:
@@ -256,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
                 "the U-Net/autoencoder presets")
     dataset = open_source(args.kitti_root, split=args.split, n_frames=args.n_frames)
     train_distributed(est, dataset)
-    if int(os.environ.get("RANK", 0)) == 0:
+    if int(os.environ.get("RANK", "0")) == 0:
         path = est.save(args.out / "model")
         print(f"saved {path} (load with estimators.neural.load_checkpoint)", flush=True)
     return 0
