@@ -316,7 +316,7 @@ class PriorUNetInpainter(_NeuralInpainter):
 
     # -- shipped weights -------------------------------------------------------------------
     @classmethod
-    def pretrained(cls, name: str = "kitti-rect-v1", **overrides: Any) -> "PriorUNetInpainter":
+    def pretrained(cls, name: str = "kitti-rect-v1", **overrides: Any) -> PriorUNetInpainter:
         """Load shipped weights by name (see :func:`available_pretrained`).
 
         Parameters
@@ -343,7 +343,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         return est.set_params(**overrides) if overrides else est
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "PriorUNetInpainter":
+    def load(cls, path: str | os.PathLike) -> PriorUNetInpainter:
         """Load a model written by :meth:`save` (see :meth:`UNetInpainter.load`)."""
         est = super().load(path)
         est.candidates = tuple(est.candidates)

@@ -16,6 +16,8 @@ unknown pixels costs time in proportion to those pixels alone.
 
 from __future__ import annotations
 
+import itertools
+
 import torch
 from torch import nn
 
@@ -57,7 +59,7 @@ class PixelBlendNet(nn.Module):
         self.n_candidates, self.n_gaps, self.width, self.layers = n_candidates, n_gaps, width, layers
         dims = [n_candidates + n_gaps] + [width] * layers
         mods: list[nn.Module] = []
-        for a, b in zip(dims[:-1], dims[1:]):
+        for a, b in itertools.pairwise(dims):
             mods += [nn.Linear(a, b), nn.ReLU(inplace=True)]
         self.body = nn.Sequential(*mods)
         self.head = nn.Linear(width, n_candidates + 1)

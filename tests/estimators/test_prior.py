@@ -6,14 +6,20 @@ import numpy as np
 import pytest
 import torch
 
+from estimators.classical import ScanlineInpainter
 from estimators.nets.pixel_blend import PixelBlendNet
 from estimators.nets.prior_unet import PriorUNet
-from estimators.prior import PriorUNetInpainter, available_pretrained
 from estimators.presets import available_presets, make_preset, train_preset
-from estimators.priors import CANDIDATES, NO_MEASUREMENT_DISTANCE, candidate_fills, gap_distances, prior_features
-from estimators.classical import ScanlineInpainter
+from estimators.prior import PriorUNetInpainter, available_pretrained
+from estimators.priors import (
+    CANDIDATES,
+    NO_MEASUREMENT_DISTANCE,
+    candidate_fills,
+    gap_distances,
+    prior_features,
+)
 
-TINY = dict(width=4, levels=1, factor=2, batch_size=2, max_steps=2, random_state=0, num_threads=1)
+TINY = {"width": 4, "levels": 1, "factor": 2, "batch_size": 2, "max_steps": 2, "random_state": 0, "num_threads": 1}
 ARCH_IDS = ["pixel", "unet"]
 
 
@@ -189,12 +195,11 @@ def test_unknown_pretrained_name_lists_shipped():
 @pytest.mark.slow
 @pytest.mark.skipif("kitti-rect-v1" not in available_pretrained(), reason="weights not shipped")
 def test_pretrained_beats_constant_on_real_frame(kitti_root):
+    from estimators.classical import ConstantInpainter
     from inpaintenv.conventions import corrupt
     from inpaintenv.data import KittiDepth
     from inpaintenv.masks import get_protocol
     from inpaintenv.metrics import frame_metrics
-
-    from estimators.classical import ConstantInpainter
 
     gt = KittiDepth(kitti_root, split="val")[0]
     assert gt.shape == (352, 1216)
