@@ -96,3 +96,42 @@ def test_two_gloo_processes_match_one_process(tmp_path):
     # Weights agree to rounding, amplified a little by Adam (it divides each gradient by
     # its own magnitude, so near-zero gradients' rounding moves weights by up to ~lr).
     np.testing.assert_allclose(model.predict(x), single.predict(x), rtol=0, atol=1e-2)  # metres
+
+
+@pytest.fixture
+def one_process_group(monkeypatch):
+    """The torchrun environment of a 1-process job on a free localhost port."""
+    monkeypatch.setenv("RANK", "0")
+    monkeypatch.setenv("LOCAL_RANK", "0")
+    monkeypatch.setenv("WORLD_SIZE", "1")
+    monkeypatch.setenv("MASTER_ADDR", "127.0.0.1")
+    monkeypatch.setenv("MASTER_PORT", str(_free_port()))
+
+
+def test_world_of_one_is_bit_identical_to_fit(one_process_group):
+    # 8 frames / batch 4: no dropped batch, so the same steps as fit, and DDP over one
+    # process averages nothing.
+    params = {**PARAMS, "hole_weight": 2.0}
+    ddp = train_distributed(UNetInpainter(**params), _frames(), log=False)
+    single = UNetInpainter(**params).fit(_frames())
+    assert ddp.history_ == single.history_
+    for k, v in single.model_.state_dict().items():
+        assert np.array_equal(ddp.model_.state_dict()[k].numpy(), v.numpy()), k
+
+
+@pytest.mark.parametrize(("est", "err", "match"), [
+    (UNetInpainter(**{**PARAMS, "validation_fraction": 0.5}), ValueError, "validation_fraction"),
+    (UNetInpainter(**{**PARAMS, "warm_start": True}), ValueError, "warm_start=True"),
+    (UNetInpainter(**{**PARAMS, "batch_size": 16}), ValueError, "fewer than one global batch"),
+    ("not an estimator", TypeError, "UNetInpainter or AutoencoderInpainter"),
+])
+def test_bad_configurations_are_clear_errors(one_process_group, est, err, match):
+    with pytest.raises(err, match=match):
+        train_distributed(est, _frames(), log=False)
+
+
+def test_prior_unet_is_refused():
+    from estimators.prior import PriorUNetInpainter
+
+    with pytest.raises(TypeError, match="PriorUNetInpainter"):
+        train_distributed(PriorUNetInpainter(), _frames())
