@@ -41,17 +41,18 @@ __all__ = [
     "make_inpaint_scorer",
     "UNetInpainter",
     "AutoencoderInpainter",
+    "PriorUNetInpainter",
 ]
 
 #: Exported lazily so that ``import estimators`` never imports torch.
-_NEURAL = ("UNetInpainter", "AutoencoderInpainter")
+_NEURAL = {"UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior"}
 
 
 def __getattr__(name: str):
     if name in _NEURAL:
-        from . import neural
+        import importlib
 
-        return getattr(neural, name)
+        return getattr(importlib.import_module(f".{_NEURAL[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

@@ -14,6 +14,7 @@ from estimators import (  # lazy: imports torch here
     IterativeBilateralInpainter,
     NavierStokesInpainter,
     NearestInpainter,
+    PriorUNetInpainter,
     ScanlineInpainter,
     TeleaInpainter,
     UNetInpainter,
@@ -37,4 +38,5 @@ ESTIMATORS = [
     # Tiny neural nets (one epoch, one thread) so the shared suite stays fast.
     UNetInpainter(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1),
     AutoencoderInpainter(width=4, depth=2, batch_size=2, epochs=1, input_mask=True, random_state=0, num_threads=1),
+    PriorUNetInpainter(width=4, levels=1, batch_size=2, max_steps=2, random_state=0, num_threads=1),
 ]
