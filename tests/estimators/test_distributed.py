@@ -135,3 +135,30 @@ def test_prior_unet_is_refused():
 
     with pytest.raises(TypeError, match="PriorUNetInpainter"):
         train_distributed(PriorUNetInpainter(), _frames())
+
+
+def test_distributed_run_resumes_after_a_crash(one_process_group, tmp_path, monkeypatch):
+    from estimators import neural
+
+    params = {**PARAMS, "max_steps": 3, "checkpoint_every": 1}
+    full = train_distributed(UNetInpainter(**params, checkpoint_dir=tmp_path / "a"), _frames(), log=False)
+
+    orig, calls = neural._NeuralInpainter._train_step, {"n": 0}
+
+    def crash_after_two(self, *a):
+        if calls["n"] == 2:
+            raise KeyboardInterrupt("simulated crash")
+        calls["n"] += 1
+        return orig(self, *a)
+
+    with monkeypatch.context() as m:
+        m.setattr(neural._NeuralInpainter, "_train_step", crash_after_two)
+        with pytest.raises(KeyboardInterrupt):
+            train_distributed(UNetInpainter(**params, checkpoint_dir=tmp_path / "b"), _frames(), log=False)
+    (run,) = (tmp_path / "b").iterdir()
+    assert json.loads((run / "state.json").read_text())["last"].startswith("ckpt-00000002")
+    resumed = train_distributed(UNetInpainter(**params, checkpoint_dir=tmp_path / "b"), _frames(), log=False)
+    assert resumed.n_steps_ == full.n_steps_ == 3
+    assert resumed.history_ == full.history_
+    for k, v in full.model_.state_dict().items():
+        assert np.array_equal(resumed.model_.state_dict()[k].numpy(), v.numpy()), k
