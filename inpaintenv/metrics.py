@@ -5,7 +5,8 @@ Only pixels with ground truth (``gt > 0``) count: ``S = gt > 0``; hole metrics u
 iRMSE and iMAE in 1/km (KITTI devkit), and PSNR = ``20·log10(max_depth / RMSE)`` in dB.
 Aggregation is the mean over frames (the study's and the devkit's convention) or, on
 request, pooled over pixels. A frame whose hole holds no valid ground truth has NaN hole
-metrics, is counted in ``n_skipped_hole`` and never enters a mean.
+metrics, is counted in ``n_skipped_hole`` and enters no mean (neither hole nor all: it
+tested nothing, and its all-pixel error would be ~0 with a huge PSNR).
 """
 
 from __future__ import annotations
@@ -145,7 +146,7 @@ def aggregate(
     -------
     dict of str to float
         ``{region}_{metric}`` plus ``n_frames`` and ``n_skipped_hole`` (frames without
-        valid ground truth in the hole, left out of the hole means).
+        valid ground truth in the hole, left out of every mean).
     """
     if how not in ("mean", "pooled"):
         raise ValueError(f"how must be 'mean' or 'pooled', got {how!r}")
@@ -162,11 +163,13 @@ def aggregate(
     if n_frames == 0:
         raise ValueError("no frames to aggregate")
     out: dict[str, float] = {"n_frames": n_frames}
+    # A frame whose hole holds no ground truth tested nothing: it leaves every mean, not
+    # only the hole ones (its all-pixel error would be ~0 and its PSNR huge).
+    scored = cols["hole_count"] > 0
+    out["n_skipped_hole"] = int((~scored).sum())
     for region in REGIONS:
         count = cols[f"{region}_count"]
-        ok = count > 0
-        if region == "hole":
-            out["n_skipped_hole"] = int((~ok).sum())
+        ok = scored & (count > 0)
         for metric in METRIC_NAMES:
             key = f"{region}_{metric}"
             if key not in cols:

@@ -41,7 +41,7 @@ def summary_table(
 
     Each entry holds the ``keys``, ``n_frames``, ``n_skipped_hole``, ``ms_per_frame``
     and, per metric, ``{metric}`` (the mean), ``{metric}_low`` and ``{metric}_high``.
-    Frames without ground truth in their hole are left out of the hole metrics.
+    Frames without ground truth in their hole are left out of every metric.
     """
     groups: dict[tuple, list[dict[str, Any]]] = {}
     for row in result.rows:
@@ -52,7 +52,10 @@ def summary_table(
         entry["n_frames"] = len(rows)
         entry["n_skipped_hole"] = sum(1 for r in rows if not r["hole_count"])
         for metric, _, _ in REPORT_METRICS:
-            vals = np.array([np.nan if r[metric] is None else r[metric] for r in rows], dtype=float)
+            # Frames without ground truth in their hole leave every mean (see metrics.aggregate).
+            vals = np.array(
+                [np.nan if r[metric] is None or not r["hole_count"] else r[metric] for r in rows], dtype=float
+            )
             mean, low, high = bootstrap_mean_ci(vals, confidence=confidence, seed=seed)
             entry[metric], entry[f"{metric}_low"], entry[f"{metric}_high"] = mean, low, high
         entry["hole_fraction"] = float(np.mean([r["hole_fraction"] for r in rows]))
