@@ -29,6 +29,15 @@ def _pyplot():
     return plt
 
 
+def _save(fig: Any, path: str | Path, dpi: int) -> Path:
+    """Write ``fig`` to ``path`` (creating its folder) and free it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    _pyplot().close(fig)
+    return path
+
+
 def _predict(method: Any, x: np.ndarray, name: str) -> np.ndarray:
     pred, _ = run_method(method, x[None], name)
     return pred[0]
@@ -90,11 +99,7 @@ def frame_panel(
         )
     fig.suptitle(f"{dataset.frame_ids[index]} — {protocol}, seed {seed}", fontsize=10)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=90)
 
 
 def plot_error_vs_hole_size(result: EvaluationResult, path: str | Path, *, n_bins: int = 6) -> Path:
@@ -124,11 +129,7 @@ def plot_error_vs_hole_size(result: EvaluationResult, path: str | Path, *, n_bin
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=100)
 
 
 def plot_error_vs_distance(
@@ -172,8 +173,4 @@ def plot_error_vs_distance(
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path, values
+    return _save(fig, path, dpi=100), values

@@ -52,6 +52,20 @@ class OcclusionProtocol(ABC):
             ``(H, W)`` bool, True inside the occlusion.
         """
 
+    #: Smallest ``(H, W)`` the protocol can draw on (checked by :meth:`_check_args`).
+    MIN_SHAPE: tuple[int, int] = (1, 1)
+
+    def _check_args(self, shape: tuple[int, int], rng: np.random.Generator) -> tuple[int, int]:
+        """Validate ``sample``'s arguments; return ``(H, W)``."""
+        H, W = _check_shape(shape)
+        _check_rng(rng)
+        if H < self.MIN_SHAPE[0] or W < self.MIN_SHAPE[1]:
+            raise ValueError(
+                f"{self.name} needs frames of at least {self.MIN_SHAPE[0]}x{self.MIN_SHAPE[1]} "
+                f"(H x W), got {H}x{W}"
+            )
+        return H, W
+
     def mask(self, shape: tuple[int, int], seed: int, index: int) -> np.ndarray:
         """The reproducible mask of frame ``index`` for evaluation ``seed``."""
         shape = _check_shape(shape)

@@ -7,7 +7,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from ._raster import fill_intervals
-from .base import OcclusionProtocol, _check_rng, _check_shape
+from .base import OcclusionProtocol
 
 __all__ = ["EgoOcclusionV1"]
 
@@ -72,13 +72,7 @@ class EgoOcclusionV1(OcclusionProtocol):
         return (0.10 if "bonnet" in self.parts else 0.0), 0.30
 
     def sample(self, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
-        H, W = _check_shape(shape)
-        _check_rng(rng)
-        if H < self.MIN_SHAPE[0] or W < self.MIN_SHAPE[1]:
-            raise ValueError(
-                f"{self.name} needs frames of at least {self.MIN_SHAPE[0]}x{self.MIN_SHAPE[1]}, "
-                f"got {H}x{W}"
-            )
+        H, W = self._check_args(shape, rng)
         # One fixed-size draw for all parts keeps each part's jitter independent of `parts`.
         j = rng.uniform(-1.0, 1.0, size=11)
         x = np.arange(W, dtype=np.float64)

@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ._raster import capsule_intervals, disc_intervals, fill_intervals
-from .base import OcclusionProtocol, _check_rng, _check_shape
+from .base import OcclusionProtocol
 
 __all__ = ["FreeformV1"]
 
@@ -66,13 +66,7 @@ class FreeformV1(OcclusionProtocol):
         return 0.05, 0.50
 
     def sample(self, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
-        H, W = _check_shape(shape)
-        _check_rng(rng)
-        if H < self.MIN_SHAPE[0] or W < self.MIN_SHAPE[1]:
-            raise ValueError(
-                f"{self.name} needs frames of at least {self.MIN_SHAPE[0]}x{self.MIN_SHAPE[1]}, "
-                f"got {H}x{W}"
-            )
+        H, W = self._check_args(shape, rng)
         target = rng.uniform(*self.TARGET)
         cand = self._draw((H, W), rng)
         # Rasterising all N_MAX candidates is wasted work when a dozen reach the target:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from ._raster import smooth_noise
-from .base import OcclusionProtocol, _check_rng, _check_shape
+from .base import OcclusionProtocol
 
 __all__ = ["LidarDropoutV1"]
 
@@ -70,13 +70,7 @@ class LidarDropoutV1(OcclusionProtocol):
         return 0.05, 0.50
 
     def sample(self, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
-        H, W = _check_shape(shape)
-        _check_rng(rng)
-        if H < self.MIN_SHAPE[0] or W < self.MIN_SHAPE[1]:
-            raise ValueError(
-                f"{self.name} needs frames of at least {self.MIN_SHAPE[0]}x{self.MIN_SHAPE[1]} "
-                f"(H x W), got {H}x{W}"
-            )
+        H, W = self._check_args(shape, rng)
         mask = self._beams((H, W), rng)
         if rng.random() < self.SECTOR_PROB:
             n_s = int(rng.integers(self.SECTORS[0], self.SECTORS[1] + 1))
