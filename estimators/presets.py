@@ -18,6 +18,12 @@ from .prior import PriorUNetInpainter
 
 __all__ = ["PRESETS", "STAGED_PRESETS", "available_presets", "describe_preset", "make_preset", "train_preset"]
 
+#: The CPU-budget configuration shared by the study's variants below.
+_STUDY_CPU: dict[str, Any] = dict(
+    width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
+    hole_weight=2.0, random_state=0,
+)
+
 #: name -> (estimator class, constructor keywords, one-line description).
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     "cpu-1h": (
@@ -30,27 +36,19 @@ PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     # The study's variants at a CPU budget (crops, 16-channel 4-level U-Net); the study
     # trained full frames on a GPU. Use --max-steps to set the budget.
     "study-unet-tv": (
-        UNetInpainter,
-        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
-             hole_weight=2.0, tv_weight=0.01, random_state=0),
+        UNetInpainter, {**_STUDY_CPU, "tv_weight": 0.01},
         "the study's U-Net + TV (depth-only input, L1 + 2·L1 hole + 0.01·TV) on 176×416 crops",
     ),
     "study-unet": (
-        UNetInpainter,
-        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
-             hole_weight=2.0, tv_weight=0.0, random_state=0),
+        UNetInpainter, {**_STUDY_CPU, "tv_weight": 0.0},
         "the study's U-Net without TV on 176×416 crops",
     ),
     "study-autoencoder": (
-        AutoencoderInpainter,
-        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
-             hole_weight=2.0, tv_weight=0.01, random_state=0),
+        AutoencoderInpainter, {**_STUDY_CPU, "tv_weight": 0.01},
         "the study's autoencoder ablation (no skips) on 176×416 crops",
     ),
     "unet-mask": (
-        UNetInpainter,
-        dict(width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
-             hole_weight=2.0, tv_weight=0.01, input_mask=True, random_state=0),
+        UNetInpainter, {**_STUDY_CPU, "tv_weight": 0.01, "input_mask": True},
         "the study's U-Net with hole and validity mask channels on 176×416 crops",
     ),
     "smoke": (
