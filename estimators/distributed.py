@@ -164,12 +164,7 @@ def _train(est: _NeuralInpainter, dataset: DepthDataset, seed: int, device: torc
     model = est._build_model(seed)  # same seed on every rank; DDP also broadcasts rank 0's
     if est.warm_start not in (None, False):
         _copy_encoder(est._warm_start_model(), model)
-    model.to(device)
-    if est.channels_last:
-        model.to(memory_format=torch.channels_last)
-    optimizer = torch.optim.Adam(model.parameters(), lr=est.lr, weight_decay=est.weight_decay)
-    autocast, needs_scaler = est._autocast(device)
-    scaler = torch.amp.GradScaler("cuda") if needs_scaler else None
+    optimizer, autocast, scaler = est._prepare_training(model, device)
 
     progress: dict[str, Any] = {
         "epoch": 0, "batch": 0, "step": 0, "finished": False, "epoch_start_step": 0,

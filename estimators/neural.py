@@ -322,12 +322,7 @@ class _NeuralInpainter(BaseInpainter):
                 model.load_state_dict(self.model_.state_dict())
         elif self.warm_start is not None and self.warm_start is not False:
             _copy_encoder(self._warm_start_model(), model)
-        model.to(device)
-        if self.channels_last:
-            model.to(memory_format=torch.channels_last)
-        optimizer = torch.optim.Adam(model.parameters(), lr=self.lr, weight_decay=self.weight_decay)
-        autocast, needs_scaler = self._autocast(device)
-        scaler = torch.amp.GradScaler("cuda") if needs_scaler else None
+        optimizer, autocast, scaler = self._prepare_training(model, device)
 
         n_batches = math.ceil(len(train_ds) / self.batch_size)
         total = self.epochs * n_batches if self.max_steps is None else min(self.max_steps, self.epochs * n_batches)
@@ -407,6 +402,20 @@ class _NeuralInpainter(BaseInpainter):
         self.model_ = model.to("cpu", memory_format=torch.contiguous_format).eval()
         self.history_ = hist
         self.n_steps_ = progress["step"]
+
+    def _prepare_training(self, model: torch.nn.Module, device: torch.device) -> tuple[Any, Any, Any]:
+        """Move ``model`` to ``device`` (channels-last if asked) and build the Adam optimizer,
+        the autocast context and the CUDA gradient scaler (None when not needed).
+
+        Shared by :meth:`_train` and ``estimators.distributed`` so both train alike.
+        """
+        model.to(device)
+        if self.channels_last:
+            model.to(memory_format=torch.channels_last)
+        optimizer = torch.optim.Adam(model.parameters(), lr=self.lr, weight_decay=self.weight_decay)
+        autocast, needs_scaler = self._autocast(device)
+        scaler = torch.amp.GradScaler("cuda") if needs_scaler else None
+        return optimizer, autocast, scaler
 
     def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
         gt = gt.to(device, non_blocking=True)
