@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from .conventions import DEFAULT_MAX_DEPTH
+from .data.base import as_dataset
 
 __all__ = ["SUBCOMMANDS", "add_source_options", "build_parser", "main", "open_source_from_args"]
 
@@ -118,23 +119,10 @@ def add_info(subparsers: Any) -> None:
 
 
 def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
-    """A summary of any dataset: its own ``summary()`` if it has one, else the basics."""
+    """``ds.summary()`` for ``inpaintenv info``, with ``--sample`` checked first."""
     if n_sample < 1:
         raise ValueError(f"--sample must be >= 1, got {n_sample}")
-    summary = getattr(ds, "summary", None)
-    if callable(summary):
-        return dict(summary(n_sample=n_sample))
-    sample = np.unique(np.linspace(0, len(ds) - 1, num=min(n_sample, len(ds))).round().astype(int))
-    drives, counts = np.unique(ds.groups, return_counts=True)
-    return {
-        "source": type(ds).__name__,
-        "frames": len(ds),
-        "drives": len(drives),
-        "frames_per_drive": {str(d): int(c) for d, c in zip(drives, counts)},
-        "frame_shape": list(ds.frame_shape),
-        "valid_density": float(np.mean([(ds[int(i)] > 0).mean() for i in sample])),
-        "sampled_frames": len(sample),
-    }
+    return dict(as_dataset(ds).summary(n_sample=n_sample))
 
 
 def cmd_info(args: argparse.Namespace) -> int:

@@ -83,6 +83,45 @@ class DepthDataset(Sequence, ABC):
         arr = self.load_batch(range(len(self)))
         return arr if dtype is None else arr.astype(dtype)
 
+    def summary(self, n_sample: int = 8) -> dict[str, Any]:
+        """A description of the dataset (what ``inpaintenv info`` prints).
+
+        Parameters
+        ----------
+        n_sample : int, default 8
+            Number of evenly spaced frames loaded to measure the valid-pixel density
+            (0: do not measure).
+
+        Returns
+        -------
+        dict
+            ``source`` (class name), the fields of :meth:`_summary_fields` (e.g. root
+            and split of a KITTI dataset), ``frames``, ``drives``, ``frames_per_drive``,
+            ``frame_shape``, ``valid_density`` (mean fraction of pixels > 0 over the
+            sample, None without one) and ``sampled_frames``.
+        """
+        if isinstance(n_sample, bool) or not isinstance(n_sample, (int, np.integer)) or n_sample < 0:
+            raise ValueError(f"n_sample must be an integer >= 0, got {n_sample!r}")
+        drives, counts = np.unique(self.groups, return_counts=True)
+        n = min(int(n_sample), len(self))
+        sample = np.unique(np.linspace(0, len(self) - 1, num=n).round().astype(int)) if n else np.array([], int)
+        return {
+            "source": type(self).__name__,
+            **self._summary_fields(),
+            "frames": len(self),
+            "drives": len(drives),
+            "frames_per_drive": {str(d): int(c) for d, c in zip(drives, counts)},
+            "frame_shape": list(self.frame_shape),
+            "valid_density": float(np.mean([(self[int(i)] > 0).mean() for i in sample])) if len(sample) else None,
+            "sampled_frames": int(len(sample)),
+        }
+
+    info = summary
+
+    def _summary_fields(self) -> dict[str, Any]:
+        """Source-specific entries of :meth:`summary` (root, split, seed, ...)."""
+        return {}
+
     def __repr__(self) -> str:
         n_drives = len(np.unique(self.groups)) if len(self) else 0
         return f"{type(self).__name__}({len(self)} frames, {n_drives} drives, frame_shape={self.frame_shape})"

@@ -234,41 +234,15 @@ class KittiDepth(DepthDataset):
         """Number of frames per raw ``(W, H)`` size, from the PNG headers (no decoding)."""
         return dict(Counter((h.width, h.height) for h in self.headers()))
 
-    def summary(self, n_sample: int = 8) -> dict[str, Any]:
-        """A description of the dataset for ``inpaintenv info``.
-
-        Parameters
-        ----------
-        n_sample : int
-            Number of evenly spaced frames decoded to measure the valid-pixel density.
-
-        Returns
-        -------
-        dict
-            ``source``, ``root``, ``split``, ``kind``, ``camera``, ``frames``, ``drives``,
-            ``frames_per_drive``, ``raw_sizes`` (``"WxH" -> count``), ``frame_shape``,
-            ``valid_density`` (mean fraction of pixels > 0 on the sample) and
-            ``sampled_frames``.
-        """
-        drives, counts = np.unique(self.groups, return_counts=True)
-        sample = np.unique(np.linspace(0, len(self) - 1, num=min(n_sample, len(self))).round().astype(int))
-        density = float(np.mean([(self[int(i)] > 0).mean() for i in sample])) if n_sample > 0 else None
+    def _summary_fields(self) -> dict[str, Any]:
+        # raw_sizes: KITTI drives differ in raw frame size (1242x375, 1224x370, ...).
         return {
-            "source": "KittiDepth",
             "root": str(self.root),
             "split": self.split,
             "kind": self.kind,
             "camera": self.camera,
-            "frames": len(self),
-            "drives": len(drives),
-            "frames_per_drive": {str(d): int(c) for d, c in zip(drives, counts)},
             "raw_sizes": {f"{w}x{h}": n for (w, h), n in sorted(self.raw_sizes().items())},
-            "frame_shape": list(self.frame_shape),
-            "valid_density": density,
-            "sampled_frames": int(len(sample)) if n_sample > 0 else 0,
         }
-
-    info = summary
 
     def __repr__(self) -> str:
         return (

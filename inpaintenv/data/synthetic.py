@@ -459,22 +459,8 @@ class SyntheticStreets(DepthDataset):
             return single_scan(depth, self.camera, rng)
         return accumulated_scans(depth, moving, self.camera, scene.speed, rng)
 
-    def summary(self, n_sample: int = 8) -> dict:
-        """A description for ``inpaintenv info`` (density measured on a sample of frames)."""
-        sample = np.unique(np.linspace(0, len(self) - 1, num=min(n_sample, len(self))).round().astype(int))
-        return {
-            "source": "SyntheticStreets",
-            "seed": self.seed,
-            "kind": self.kind,
-            "frames": len(self),
-            "drives": len(np.unique(self.groups)),
-            "frames_per_drive": {str(d): int(c) for d, c in zip(*np.unique(self.groups, return_counts=True))},
-            "frame_shape": list(self.frame_shape),
-            "valid_density": float(np.mean([(self[int(i)] > 0).mean() for i in sample])) if n_sample > 0 else None,
-            "sampled_frames": int(len(sample)) if n_sample > 0 else 0,
-        }
-
-    info = summary
+    def _summary_fields(self) -> dict:
+        return {"seed": self.seed, "kind": self.kind}
 
     def __repr__(self) -> str:
         return (
