@@ -103,7 +103,9 @@ def make_loader(
     )
 
 
-def encode_input(depth: torch.Tensor, hole: torch.Tensor, max_depth: float, input_mask: bool) -> torch.Tensor:
+def encode_input(
+    depth: torch.Tensor, hole: torch.Tensor, max_depth: float | torch.Tensor, input_mask: bool
+) -> torch.Tensor:
     """Network input from observed depth (0 in holes and where unmeasured) and holes.
 
     Parameters
@@ -112,8 +114,8 @@ def encode_input(depth: torch.Tensor, hole: torch.Tensor, max_depth: float, inpu
         ``(N, H, W)`` metres, finite, 0 inside holes.
     hole : torch.Tensor
         ``(N, H, W)`` bool.
-    max_depth : float
-        Normalisation range (the study's 80 m).
+    max_depth : float or torch.Tensor
+        Normalisation range (the study's 80 m), or a per-frame ``(N, 1, 1)`` scale.
     input_mask : bool
         False: one channel, ``depth / max_depth`` (the study). True: three channels,
         adding the hole mask and the validity mask (``depth > 0``).

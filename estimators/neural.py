@@ -48,6 +48,7 @@ CheckpointError = ckpt.CheckpointError
 #: hash so that e.g. changing ``verbose`` still resumes the same run.
 _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed")
 _AMP_CHOICES = (True, False, "cpu-bf16")
+_DEPTH_SCALES = ("fixed", "frame")
 
 
 class _NeuralInpainter(BaseInpainter):
@@ -64,6 +65,13 @@ class _NeuralInpainter(BaseInpainter):
         False: the study's input, the corrupted depth alone (0 inside holes, divided by
         ``max_depth``). True: add a hole-mask and a validity-mask channel, since a 0
         otherwise means both "hole" and "no LiDAR".
+    depth_scale : {"fixed", "frame"}, default "fixed"
+        How depth is scaled for the network. "fixed": divided by ``max_depth`` (the
+        study). "frame": divided by the mean observed depth of each frame and the output
+        multiplied back by it. The GroupNorm layers discard the absolute level of their
+        input, so with "fixed" the network must relearn how far a scene is from the few
+        pixels whose level survives; with "frame" it predicts depth relative to the
+        frame's own level, and a scene twice as far gets a fill twice as far.
     hole_weight : float, default 2.0
         λ of the loss (L1 over valid pixels inside holes).
     tv_weight : float, default 0.01
@@ -143,6 +151,7 @@ class _NeuralInpainter(BaseInpainter):
         width: int = 32,
         depth: int = 4,
         input_mask: bool = False,
+        depth_scale: str = "fixed",
         hole_weight: float = 2.0,
         tv_weight: float = 0.01,
         max_depth: float = 80.0,
@@ -169,6 +178,7 @@ class _NeuralInpainter(BaseInpainter):
         self.width = width
         self.depth = depth
         self.input_mask = input_mask
+        self.depth_scale = depth_scale
         self.hole_weight = hole_weight
         self.tv_weight = tv_weight
         self.max_depth = max_depth
@@ -236,6 +246,8 @@ class _NeuralInpainter(BaseInpainter):
             or self.random_state < 0
         ):
             raise ValueError(f"random_state must be a non-negative int or None, got {self.random_state!r}")
+        if self.depth_scale not in _DEPTH_SCALES:
+            raise ValueError(f"depth_scale must be one of {_DEPTH_SCALES}, got {self.depth_scale!r}")
         get_protocol(self.protocol)  # KeyError listing the known protocols
 
     def _device(self) -> torch.device:
@@ -256,6 +268,21 @@ class _NeuralInpainter(BaseInpainter):
         if device.type == "cuda" and self.amp is True and not torch.cuda.is_bf16_supported():
             return torch.autocast("cuda", dtype=torch.float16), True
         return torch.autocast(device.type, dtype=torch.bfloat16), False
+
+    def _input_scale(self, observed: torch.Tensor) -> torch.Tensor | float:
+        """Metres per network unit: ``max_depth``, or each frame's mean observed depth.
+
+        ``observed`` is ``(N, H, W)`` metres with 0 in holes and where unmeasured; the
+        frame scale is returned as ``(N, 1, 1)`` so it broadcasts over pixels. A frame
+        with nothing observed falls back to ``max_depth``; the floor of 1 m keeps a
+        frame of a few very near points from blowing up the input.
+        """
+        if self.depth_scale == "fixed":
+            return self.max_depth
+        valid = observed > 0
+        count = valid.sum(dim=(1, 2), keepdim=True)
+        mean = observed.sum(dim=(1, 2), keepdim=True) / count.clamp(min=1)
+        return torch.where(count > 0, mean.clamp(min=1.0), torch.full_like(mean, self.max_depth))
 
     @property
     def in_channels(self) -> int:
@@ -421,13 +448,17 @@ class _NeuralInpainter(BaseInpainter):
         gt = gt.to(device, non_blocking=True)
         hole = hole.to(device, non_blocking=True)
         target = gt / self.max_depth
-        x = encode_input(torch.where(hole, torch.zeros_like(gt), gt), hole, self.max_depth, self.input_mask)
+        observed = torch.where(hole, torch.zeros_like(gt), gt)
+        scale = self._input_scale(observed)
+        x = encode_input(observed, hole, scale, self.input_mask)
         if self.channels_last:
             x = x.contiguous(memory_format=torch.channels_last)
         optimizer.zero_grad(set_to_none=True)
         with autocast:
             pred = model(x)[:, 0]
-        loss = inpainting_loss(pred.float(), target, gt > 0, hole, self.hole_weight, self.tv_weight)
+        # The loss always compares depths divided by max_depth, whatever the input scale.
+        pred = pred.float() * (scale / self.max_depth)
+        loss = inpainting_loss(pred, target, gt > 0, hole, self.hole_weight, self.tv_weight)
         if not torch.isfinite(loss):
             raise FloatingPointError(
                 f"training loss became {loss.item()} at step; lower lr or disable amp"
@@ -498,12 +529,13 @@ class _NeuralInpainter(BaseInpainter):
                 chunk = torch.from_numpy(np.array(X[start:start + step], dtype=np.float32))
                 hole = torch.isnan(chunk)
                 depth = torch.nan_to_num(chunk, nan=0.0)
-                x = encode_input(depth, hole, self.max_depth, self.input_mask).to(device)
+                scale = self._input_scale(depth)
+                x = encode_input(depth, hole, scale, self.input_mask).to(device)
                 if self.channels_last:
                     x = x.contiguous(memory_format=torch.channels_last)
                 with autocast:
                     pred = model(x)[:, 0]
-                out[start:start + len(chunk)] = (pred.float() * self.max_depth).cpu().numpy()
+                out[start:start + len(chunk)] = (pred.float().cpu() * scale).numpy()
         return out
 
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:

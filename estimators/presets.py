@@ -51,6 +51,10 @@ PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
         UNetInpainter, {**_STUDY_CPU, "tv_weight": 0.01, "input_mask": True},
         "the study's U-Net with hole and validity mask channels on 176×416 crops",
     ),
+    "unet-frame": (
+        UNetInpainter, {**_STUDY_CPU, "tv_weight": 0.01, "input_mask": True, "depth_scale": "frame"},
+        "U-Net + mask channels, depth scaled by each frame's mean observed depth, 176×416 crops",
+    ),
     "smoke": (
         PriorUNetInpainter,
         dict(arch="pixel", width=8, levels=1, batch_size=2, max_steps=2, epochs=10_000, num_threads=1, random_state=0),

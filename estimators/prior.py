@@ -97,6 +97,7 @@ class PriorUNetInpainter(_NeuralInpainter):
     tv_weight = 0.0
     max_depth = 80.0
     input_mask = True
+    depth_scale = "fixed"  # the classical candidates already carry the frame's level
 
     def __init__(
         self,

@@ -278,12 +278,32 @@ def test_warm_start_errors(dataset):
         ({"lr": -1.0}, "lr"),
         ({"hole_weight": float("nan")}, "hole_weight"),
         ({"random_state": -1}, "random_state"),
+        ({"depth_scale": "log"}, "depth_scale"),
         ({"device": "cuda" if not torch.cuda.is_available() else "nonsense"}, "device"),
     ],
 )
 def test_bad_parameters_rejected_at_fit(dataset, bad, match):
     with pytest.raises(ValueError, match=match):
         tiny(**bad).fit(dataset)
+
+
+# -- depth scale ------------------------------------------------------------------------
+def test_frame_depth_scale_is_scale_equivariant(dataset, corrupted):
+    """With depth_scale="frame" a scene twice as far gets a fill exactly twice as far."""
+    est = tiny(depth_scale="frame", input_mask=True, keep_observed=False, max_steps=2).fit(dataset)
+    near, far = est.predict(corrupted), est.predict(2 * corrupted)
+    np.testing.assert_allclose(far, 2 * near, rtol=1e-5)
+    # The study's fixed 80 m scale is not equivariant (GroupNorm + conv bias see the level).
+    study = tiny(keep_observed=False, max_steps=2).fit(dataset)
+    assert not np.allclose(study.predict(2 * corrupted), 2 * study.predict(corrupted), rtol=1e-3)
+
+
+def test_frame_depth_scale_survives_frames_with_nothing_observed(dataset):
+    est = tiny(depth_scale="frame", max_steps=1).fit(dataset)
+    empty = np.zeros((1, H, W), np.float32)
+    empty[0, 4:12, 8:30] = np.nan  # only a hole and unmeasured pixels
+    pred = est.predict(empty)
+    assert np.isfinite(pred).all() and pred.shape == empty.shape
 
 
 def test_unknown_protocol(dataset):

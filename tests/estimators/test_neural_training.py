@@ -33,7 +33,8 @@ def _hole_rmse(pred: np.ndarray, gt: np.ndarray, hole: np.ndarray) -> float:
 
 @pytest.fixture(scope="module")
 def short_run(kitti_root) -> dict[str, float]:
-    """Hole RMSE (m) on held-out-drive crops: untrained, 300-step trained, best constant."""
+    """Hole RMSE (m) on held-out-drive crops after 300 steps: the study's U-Net untrained
+    and trained, ours (frame depth scale + mask channels) trained, and constants."""
     train_all = KittiDepth(kitti_root, split="train", drives=[TRAIN_DRIVE])
     # Every 3rd frame, held in memory: the test measures learning, not PNG decoding.
     train = ArrayDataset(train_all.load_batch(range(0, len(train_all), 3)))
@@ -44,15 +45,20 @@ def short_run(kitti_root) -> dict[str, float]:
 
     params = {"width": 8, "depth": 3, "crop": CROP, "batch_size": 4, "epochs": 10_000, "random_state": 0, "num_threads": 1}
     untrained = UNetInpainter(**params, max_steps=1, lr=1e-12).fit(train)
-    trained = UNetInpainter(**params, max_steps=300).fit(train)
+    study = UNetInpainter(**params, max_steps=300).fit(train)
+    ours = UNetInpainter(**params, max_steps=300, depth_scale="frame", input_mask=True).fit(train)
     train_gt = np.asarray(train)
     constant = np.where(x > 0, x, train_gt[train_gt > 0].mean())  # the best constant on training data
+    # Not a constant predictor but the reference for depth_scale="frame": each crop's own mean.
+    crop_mean = np.where(x > 0, x, np.array([f[f > 0].mean() for f in np.nan_to_num(x)])[:, None, None])
     result = {
         "untrained": _hole_rmse(untrained.predict(x), gt, hole),
-        "trained": _hole_rmse(trained.predict(x), gt, hole),
+        "study": _hole_rmse(study.predict(x), gt, hole),
+        "ours": _hole_rmse(ours.predict(x), gt, hole),
         "constant": _hole_rmse(constant, gt, hole),
-        "first_epoch_loss": trained.history_["epoch_loss"][0],
-        "last_epoch_loss": trained.history_["epoch_loss"][-1],
+        "crop_mean": _hole_rmse(crop_mean, gt, hole),
+        "first_epoch_loss": study.history_["epoch_loss"][0],
+        "last_epoch_loss": study.history_["epoch_loss"][-1],
     }
     print("hole RMSE on held-out crops (m):", {k: round(v, 3) for k, v in result.items()})
     return result
@@ -61,17 +67,19 @@ def short_run(kitti_root) -> dict[str, float]:
 @pytest.mark.slow
 @pytest.mark.kitti
 def test_short_training_learns(short_run):
-    assert short_run["trained"] < 0.7 * short_run["untrained"]
+    """The study's recipe (depth-only input, fixed 80 m scale) learns: error and loss fall."""
+    assert short_run["study"] < 0.7 * short_run["untrained"]
     assert short_run["last_epoch_loss"] < 0.5 * short_run["first_epoch_loss"]
 
 
 @pytest.mark.slow
 @pytest.mark.kitti
-@pytest.mark.xfail(
-    strict=False,
-    reason="known gap: 300 CPU steps of the study's recipe (depth-only input, GroupNorm) "
-    "do not yet beat the training-mean constant on held-out crops (7.8 m vs 7.0 m, "
-    "16:58 UTC 2026-11-25); issue 8 is about closing it",
-)
 def test_short_training_beats_constant(short_run):
-    assert short_run["trained"] < 0.95 * short_run["constant"]
+    """With the frame depth scale, 300 steps beat the best constant depth clearly.
+
+    (The study's fixed scale does not yet at this budget -- 7.8 m vs 7.0 m when this
+    was written -- because GroupNorm discards the level of a depth-only input; see
+    docs/neural.md.)
+    """
+    assert short_run["ours"] < 0.8 * short_run["constant"]
+    assert short_run["ours"] < 0.5 * short_run["untrained"]
