@@ -9,6 +9,9 @@ from ._base import FILL_MODES, ClassicalInpainter, unknown_mask
 
 __all__ = ["NavierStokesInpainter", "TeleaInpainter"]
 
+#: Frames narrower than this (in either direction) are padded before cv2.inpaint.
+_MIN_SIDE = 3
+
 
 class _OpenCVInpainter(ClassicalInpainter):
     """``cv2.inpaint`` on float32 depth; subclasses choose the algorithm flag."""
@@ -35,7 +38,13 @@ class _OpenCVInpainter(ClassicalInpainter):
         src = np.where(unknown, 0.0, x).astype(np.float32)
         if not unknown.any() or unknown.all():
             return src
-        return cv2.inpaint(src, unknown.astype(np.uint8), float(self.radius), self._flag)
+        mask = unknown.astype(np.uint8)
+        if min(src.shape) >= _MIN_SIDE:
+            return cv2.inpaint(src, mask, float(self.radius), self._flag)
+        # cv2.inpaint reads uninitialised memory on 1-pixel-high or -wide images (NaN or
+        # garbage values, depending on the heap); a 1-pixel replicated border avoids it.
+        padded = cv2.inpaint(np.pad(src, 1, mode="edge"), np.pad(mask, 1, mode="edge"), float(self.radius), self._flag)
+        return padded[1:-1, 1:-1]
 
 
 class TeleaInpainter(_OpenCVInpainter):
