@@ -3,8 +3,9 @@
 For each configuration the script builds ``estimators.nets.UNet(1, width, depth,
 skip=True)`` and times, on synthetic in-memory input (so data loading is not part of it):
 
-* **one training step** exactly as ``UNetInpainter._train_step`` does it (fp32, CPU):
-  network input ``encode_input(gt with holes zeroed) = depth / 80``, forward,
+* **one training step** exactly as ``UNetInpainter._train_step`` does it with the
+  defaults (fp32, CPU, ``depth_scale="fixed"``, 1 input channel): network input
+  ``encode_input(gt with holes zeroed) = depth / 80``, forward,
   ``inpainting_loss(pred, gt / 80, gt > 0, hole, 2.0, 0.01)``, backward, Adam step
   (lr 1e-3, weight decay 1e-6), at batch ``--batch``;
 * **inference of one frame** as ``UNetInpainter._forward`` does it on CPU (one frame per
@@ -110,14 +111,38 @@ def train_flops(width: int, depth: int, height: int, width_px: int, batch: int =
     return count_flops(lambda: model(x).sum().backward())
 
 
+def unet_level_flops(
+    width: int, depth: int, height: int, width_px: int, batch: int = 1, in_channels: int = 1,
+    skip: bool = True,
+) -> list[int]:
+    """Forward convolution FLOPs of each resolution level of the UNet (encoder + decoder block).
+
+    ``2 × 9 × c_in × c_out`` per output pixel and 3×3 convolution; the input is padded
+    to a multiple of ``2**depth`` first, as the network does. Finest level first; the
+    1×1 head is not included (see :func:`unet_conv_flops`).
+    """
+    mult = 2**depth
+    h, w = -(-height // mult) * mult, -(-width_px // mult) * mult
+    ch = [width * 2**level for level in range(depth + 1)]
+    levels = []
+    for level in range(depth + 1):
+        pixels = (h >> level) * (w >> level)
+        c_in = in_channels if level == 0 else ch[level - 1]
+        flops = pixels * 18 * (c_in * ch[level] + ch[level] * ch[level])        # encoder
+        if level < depth:
+            c_in = ch[level + 1] + (ch[level] if skip else 0)
+            flops += pixels * 18 * (c_in * ch[level] + ch[level] * ch[level])    # decoder
+        levels.append(batch * flops)
+    return levels
+
+
 def unet_conv_flops(
     width: int, depth: int, height: int, width_px: int, batch: int = 1, in_channels: int = 1,
     skip: bool = True,
 ) -> int:
     """Forward convolution FLOPs of :class:`estimators.nets.UNet` from its architecture.
 
-    ``2 × 9 × c_in × c_out`` per output pixel and 3×3 convolution, ``2 × width`` for the
-    1×1 head; the input is padded to a multiple of ``2**depth`` first, as the network does.
+    The levels of :func:`unet_level_flops` plus ``2 × width`` per pixel for the 1×1 head.
 
     Returns
     -------
@@ -126,17 +151,8 @@ def unet_conv_flops(
     """
     mult = 2**depth
     h, w = -(-height // mult) * mult, -(-width_px // mult) * mult
-    ch = [width * 2**level for level in range(depth + 1)]
-    total = 0
-    for level in range(depth + 1):
-        pixels = (h >> level) * (w >> level)
-        c_in = in_channels if level == 0 else ch[level - 1]
-        total += pixels * 18 * (c_in * ch[level] + ch[level] * ch[level])        # encoder
-        if level < depth:
-            c_in = ch[level + 1] + (ch[level] if skip else 0)
-            total += pixels * 18 * (c_in * ch[level] + ch[level] * ch[level])    # decoder
-    total += h * w * 2 * width                                                    # head
-    return batch * total
+    head = batch * h * w * 2 * width
+    return sum(unet_level_flops(width, depth, height, width_px, batch, in_channels, skip)) + head
 
 
 def n_params(width: int, depth: int, skip: bool = True) -> int:
@@ -202,12 +218,12 @@ def measure(width: int, depth: int, height: int, width_px: int, batch: int, repe
     torch.manual_seed(0)
     model = UNet(1, width, depth, skip=True)
     gt, hole = make_batch(batch, height, width_px)
-    row: dict[str, Any] = dict(
-        width=width, depth=depth, height=height, width_px=width_px, batch=batch,
-        megapixels=height * width_px / 1e6, params=n_params(width, depth),
-        fwd_gflop_frame=forward_flops(width, depth, height, width_px) / 1e9,
-        train_gflop_frame=train_flops(width, depth, height, width_px) / 1e9,
-    )
+    row: dict[str, Any] = {
+        "width": width, "depth": depth, "height": height, "width_px": width_px, "batch": batch,
+        "megapixels": height * width_px / 1e6, "params": n_params(width, depth),
+        "fwd_gflop_frame": forward_flops(width, depth, height, width_px) / 1e9,
+        "train_gflop_frame": train_flops(width, depth, height, width_px) / 1e9,
+    }
     row["infer_cpu_s"], row["infer_wall_s"] = time_call(make_inference(model, gt, hole), repeats)
     if train:
         cpu, wall = time_call(make_train_step(model, gt, hole), repeats)
@@ -241,8 +257,8 @@ def fit_power(x: Any, y: Any) -> dict[str, float]:
 # -- report --------------------------------------------------------------------------
 def _table(rows: list[dict[str, Any]], key: str, label: Callable[[dict], str]) -> str:
     lines = [
-        f"| {key} | params | fwd GFLOP/frame | train GFLOP/frame | train CPU s/step (wall) "
-        "| train CPU s/frame | train ms/GFLOP | infer CPU s/frame (wall) | infer ms/GFLOP |",
+        (f"| {key} | params | fwd GFLOP/frame | train GFLOP/frame | train CPU s/step (wall) "
+        "| train CPU s/frame | train ms/GFLOP | infer CPU s/frame (wall) | infer ms/GFLOP |"),
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
@@ -280,11 +296,11 @@ def kitti_costs(rates: dict[str, tuple[float, float]], frames: int = KITTI_TRAIN
     out = []
     for name, width in (("U-Net w32 d4 (preset `study`, stage 2), 1 epoch", 32),
                         ("U-Net w16 d4 (CPU presets' network), 1 epoch", 16)):
-        out.append(dict(recipe=name, train_frames=frames, infer_frames=0,
-                        train_flops=train_flops(width, 4, h, w) * frames, infer_flops=0))
+        out.append({"recipe": name, "train_frames": frames, "infer_frames": 0,
+                        "train_flops": train_flops(width, 4, h, w) * frames, "infer_flops": 0})
     # Two-stage study recipe (STAGED_PRESETS["study"]).
-    rec = dict(recipe="whole `study` recipe (AE 25 % + U-Net 50 %, 20 epochs each, 10 % val)",
-               train_frames=0, infer_frames=0, train_flops=0, infer_flops=0)
+    rec = {"recipe": "whole `study` recipe (AE 25 % + U-Net 50 %, 20 epochs each, 10 % val)",
+               "train_frames": 0, "infer_frames": 0, "train_flops": 0, "infer_flops": 0}
     for skip, fraction in ((False, 0.25), (True, 0.5)):
         n = round(frames * fraction)
         n_val = round(n * 0.1)
@@ -321,9 +337,9 @@ def gpu_estimate(flops: float, frame_train_flops: float, params: int, batch: int
     allreduce_ms = [2 * 7 / 8 * grad_bytes / (g * 1e9) * 1e3 for g in (max(link_gbps), min(link_gbps))]
     fps8 = [8 * e * batch / t for e, t in zip((max(ddp_eff), min(ddp_eff)), step_s)]
     cores = {name: [f * ms / 1e3 for f in fps8] for name, ms in loader_ms.items()}
-    return dict(one_gpu_h=one, eight_gpu_h=eight, step_s=step_s, batch=batch,
-                grad_mbytes=grad_bytes / 1e6, allreduce_ms=allreduce_ms,
-                frames_per_s_8gpu=fps8, loader_cores_8gpu=cores)
+    return {"one_gpu_h": one, "eight_gpu_h": eight, "step_s": step_s, "batch": batch,
+                "grad_mbytes": grad_bytes / 1e6, "allreduce_ms": allreduce_ms,
+                "frames_per_s_8gpu": fps8, "loader_cores_8gpu": cores}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
@@ -375,11 +391,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         r = full_rows[0]
         rates["352x1216"] = (r["train_cpu_s_frame"] / r["train_gflop_frame"], r["infer_cpu_s"] / r["fwd_gflop_frame"])
     kitti = kitti_costs(rates)
-    full = dict(fwd_gflop_frame=forward_flops(32, 4, h, w) / 1e9, train_gflop_frame=train_flops(32, 4, h, w) / 1e9,
-                fwd_gflop_frame_w16=forward_flops(16, 4, h, w) / 1e9,
-                train_gflop_frame_w16=train_flops(16, 4, h, w) / 1e9,
-                train_gflop_frame_ae=train_flops(32, 4, h, w, skip=False) / 1e9,
-                params_w32=n_params(32, 4), params_w16=n_params(16, 4), params_ae_w32=n_params(32, 4, skip=False))
+    full = {"fwd_gflop_frame": forward_flops(32, 4, h, w) / 1e9, "train_gflop_frame": train_flops(32, 4, h, w) / 1e9,
+                "fwd_gflop_frame_w16": forward_flops(16, 4, h, w) / 1e9,
+                "train_gflop_frame_w16": train_flops(16, 4, h, w) / 1e9,
+                "fwd_gflop_frame_ae": forward_flops(32, 4, h, w, skip=False) / 1e9,
+                "train_gflop_frame_ae": train_flops(32, 4, h, w, skip=False) / 1e9,
+                "level_share_w32": [round(f / sum(lv), 3) for lv in [unet_level_flops(32, 4, h, w)] for f in lv],
+                "params_w32": n_params(32, 4), "params_w16": n_params(16, 4), "params_ae_w32": n_params(32, 4, skip=False)}
     loader = {"KittiDepth": args.load_ms[0], "CachedDataset": args.load_ms[1]}
     gpu = []
     for r, (width, skip) in zip(kitti, ((32, True), (16, True), (32, True))):
@@ -398,7 +416,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         print(f"  {k}: " + ", ".join(f"{n}={v:.4g}" for n, v in f.items()))
     print("\n## Full 352×1216 frames\n")
     for k, v in full.items():
-        print(f"  {k}: {v:,.3f}" if isinstance(v, float) else f"  {k}: {v:,}")
+        print(f"  {k}: {v:,.3f}" if isinstance(v, float) else f"  {k}: {v:,}" if isinstance(v, int) else f"  {k}: {v}")
     print(f"\n## Full KITTI ({KITTI_TRAIN_FRAMES:,} train frames at {h}×{w})")
     print("CPU rates (train, inference ms/GFLOP; measured, " + f"{info['threads']} thread(s)): "
           + "; ".join(f"{n} {tr * 1e3:.2f}, {inf * 1e3:.2f}" for n, (tr, inf) in rates.items()))
@@ -416,10 +434,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
               f"{g['frames_per_s_8gpu'][0]:,.0f}-{g['frames_per_s_8gpu'][1]:,.0f} frames/s = loader cores "
               + "; ".join(f"{n} {c[0]:.1f}-{c[1]:.1f}" for n, c in g["loader_cores_8gpu"].items()))
 
-    out = dict(info=info, sweeps=sweeps, fits=fits, full_frame=full, kitti=kitti, gpu=gpu,
-               assumptions=dict(gpu_peak_tflops=args.gpu_peak_tflops, gpu_util=list(args.gpu_util),
-                                ddp_eff=list(args.ddp_eff), link_gbps=list(args.link_gbps),
-                                load_ms=loader), cpu_rates=rates)
+    out = {"info": info, "sweeps": sweeps, "fits": fits, "full_frame": full, "kitti": kitti, "gpu": gpu,
+               "assumptions": {"gpu_peak_tflops": args.gpu_peak_tflops, "gpu_util": list(args.gpu_util),
+                                "ddp_eff": list(args.ddp_eff), "link_gbps": list(args.link_gbps),
+                                "load_ms": loader}, "cpu_rates": rates}
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=1)
@@ -430,11 +448,11 @@ def _run_sweeps(args: argparse.Namespace, argv: list[str] | None) -> tuple[dict,
     """Measure the width, resolution and depth sweeps; return (run info, sweeps)."""
     torch.set_num_threads(args.threads)
     cmd = [os.path.relpath(sys.argv[0])] + (list(argv) if argv is not None else sys.argv[1:])
-    info = dict(command="python " + " ".join(cmd),
-                start_utc=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S"),
-                uptime_start=_uptime(), torch=torch.__version__, python=platform.python_version(),
-                machine=platform.machine(), cpu_count=os.cpu_count(), threads=args.threads,
-                batch=args.batch, repeats=args.repeats)
+    info = {"command": "python " + " ".join(cmd),
+                "start_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S"),
+                "uptime_start": _uptime(), "torch": torch.__version__, "python": platform.python_version(),
+                "machine": platform.machine(), "cpu_count": os.cpu_count(), "threads": args.threads,
+                "batch": args.batch, "repeats": args.repeats}
     print(f"# {info['command']}\n# start {info['start_utc']} UTC; {info['uptime_start']}")
     if args.quick:
         crop, depth, base_w, widths, depths = (64, 208), 3, 16, (8, 16, 32), (2, 3, 4)
