@@ -180,6 +180,9 @@ def _train(est: _NeuralInpainter, dataset: DepthDataset, seed: int, device: torc
             progress = resumed[0]
     est.run_dir_ = run_dir
     ddp = DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
+    # Compile the DDP wrapper (not the inner module), as torch's DDP notes advise, so
+    # graph breaks line up with the gradient buckets.
+    step_model = est._compiled(ddp)
     config = {"class": type(est).__name__, "params": est._config_params(), "seed": seed,
               "torch_threads": torch.get_num_threads(), "world_size": world}
 
@@ -206,7 +209,7 @@ def _train(est: _NeuralInpainter, dataset: DepthDataset, seed: int, device: torc
         for gt, hole in make_loader(data, order, local_batch, est.num_workers, device.type == "cuda"):
             # The estimator's own step (input encoding, loss, AMP); DDP's backward hooks
             # all-reduce (average) the gradients before optimizer.step().
-            local = est._train_step(ddp, optimizer, scaler, autocast, gt, hole, device)
+            local = est._train_step(step_model, optimizer, scaler, autocast, gt, hole, device)
             loss = torch.tensor([local], dtype=torch.float64, device=device)
             dist.all_reduce(loss)
             hist["step_loss"].append(float(loss.item()) / world)

@@ -49,6 +49,7 @@ CheckpointError = ckpt.CheckpointError
 _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed")
 _AMP_CHOICES = (True, False, "cpu-bf16")
 _DEPTH_SCALES = ("fixed", "frame")
+_COMPILE_MODES = ("default", "reduce-overhead", "max-autotune", "max-autotune-no-cudagraphs")
 
 
 class _NeuralInpainter(BaseInpainter):
@@ -110,6 +111,13 @@ class _NeuralInpainter(BaseInpainter):
         autocast on CPU.
     channels_last : bool, default False
         Use the channels-last memory format (can be faster on CPU/GPU; see benchmarks).
+    compile : bool, str or dict, default False
+        Run the network through ``torch.compile`` for training steps and prediction.
+        True: default settings; a string: that ``mode`` (e.g. ``"max-autotune"``); a
+        dict: keyword arguments of ``torch.compile`` (e.g. ``{"backend": "aot_eager"}``).
+        The first step of each input shape pays the compilation (tens of seconds on
+        CPU); see docs/performance.md for when it pays back. Weights and checkpoints
+        are those of the plain module, so a compiled fit loads without compiling.
     num_threads : int or None
         ``torch.set_num_threads`` during fit/predict (restored after). None keeps the
         process setting (joblib workers already get ``cores // n_jobs``).
@@ -167,6 +175,7 @@ class _NeuralInpainter(BaseInpainter):
         device: str = "auto",
         amp: bool | str = True,
         channels_last: bool = False,
+        compile: bool | str | dict = False,
         num_threads: int | None = None,
         num_workers: int = 0,
         random_state: int | None = None,
@@ -194,6 +203,7 @@ class _NeuralInpainter(BaseInpainter):
         self.device = device
         self.amp = amp
         self.channels_last = channels_last
+        self.compile = compile
         self.num_threads = num_threads
         self.num_workers = num_workers
         self.random_state = random_state
@@ -246,6 +256,14 @@ class _NeuralInpainter(BaseInpainter):
             or self.random_state < 0
         ):
             raise ValueError(f"random_state must be a non-negative int or None, got {self.random_state!r}")
+        if not (
+            isinstance(self.compile, (bool, np.bool_, dict))
+            or (isinstance(self.compile, str) and self.compile in _COMPILE_MODES)
+        ):
+            raise ValueError(
+                f"compile must be True, False, a dict of torch.compile arguments or one of "
+                f"{_COMPILE_MODES}, got {self.compile!r}"
+            )
         if self.depth_scale not in _DEPTH_SCALES:
             raise ValueError(f"depth_scale must be one of {_DEPTH_SCALES}, got {self.depth_scale!r}")
         get_protocol(self.protocol)  # KeyError listing the known protocols
@@ -350,6 +368,7 @@ class _NeuralInpainter(BaseInpainter):
         elif self.warm_start is not None and self.warm_start is not False:
             _copy_encoder(self._warm_start_model(), model)
         optimizer, autocast, scaler = self._prepare_training(model, device)
+        step_model = self._compiled(model)
 
         n_batches = math.ceil(len(train_ds) / self.batch_size)
         total = self.epochs * n_batches if self.max_steps is None else min(self.max_steps, self.epochs * n_batches)
@@ -390,7 +409,7 @@ class _NeuralInpainter(BaseInpainter):
                 stopped = False
                 model.train()
                 for gt, hole in make_loader(data, order, self.batch_size, self.num_workers, pin):
-                    loss = self._train_step(model, optimizer, scaler, autocast, gt, hole, device)
+                    loss = self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device)
                     hist["step_loss"].append(loss)
                     progress["step"] += 1
                     progress["batch"] += 1
@@ -443,6 +462,20 @@ class _NeuralInpainter(BaseInpainter):
         autocast, needs_scaler = self._autocast(device)
         scaler = torch.amp.GradScaler("cuda") if needs_scaler else None
         return optimizer, autocast, scaler
+
+    def _compiled(self, model: torch.nn.Module) -> torch.nn.Module:
+        """``model`` through ``torch.compile`` as the ``compile`` parameter asks, else itself.
+
+        The compiled wrapper shares the module's parameters, so optimiser, checkpoints
+        and ``train()``/``eval()`` keep working on the plain module.
+        """
+        if self.compile is False or self.compile is None:
+            return model
+        if isinstance(self.compile, dict):
+            kwargs = dict(self.compile)
+        else:
+            kwargs = {} if self.compile is True else {"mode": self.compile}
+        return torch.compile(model, **kwargs)
 
     def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
         gt = gt.to(device, non_blocking=True)
@@ -546,7 +579,7 @@ class _NeuralInpainter(BaseInpainter):
             if self.channels_last:
                 model = model.to(memory_format=torch.channels_last)
             try:
-                return self._forward(model, X, device)
+                return self._forward(self._compiled(model), X, device)
             finally:
                 self.model_ = model.to("cpu", memory_format=torch.contiguous_format)
 

@@ -77,7 +77,7 @@ class PriorUNetInpainter(_NeuralInpainter):
     tta : bool, default True
         Average the prediction with that of the mirrored frame.
     lr, weight_decay, batch_size, epochs, max_steps, crop, protocol,
-    validation_fraction, warm_start, device, amp, channels_last, num_threads,
+    validation_fraction, warm_start, device, amp, channels_last, compile, num_threads,
     num_workers, random_state, checkpoint_dir, checkpoint_every, keep_observed, verbose
         As in :class:`estimators.neural.UNetInpainter`. ``crop=None`` (whole frames) is
         the recommended setting: candidates of a crop differ from those of the frame.
@@ -122,6 +122,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         device: str = "auto",
         amp: bool | str = True,
         channels_last: bool = False,
+        compile: bool | str | dict = False,
         num_threads: int | None = None,
         num_workers: int = 0,
         random_state: int | None = None,
@@ -150,6 +151,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         self.device = device
         self.amp = amp
         self.channels_last = channels_last
+        self.compile = compile
         self.num_threads = num_threads
         self.num_workers = num_workers
         self.random_state = random_state

@@ -279,12 +279,31 @@ def test_warm_start_errors(dataset):
         ({"hole_weight": float("nan")}, "hole_weight"),
         ({"random_state": -1}, "random_state"),
         ({"depth_scale": "log"}, "depth_scale"),
+        ({"compile": "fast"}, "compile"),
+        ({"compile": 1}, "compile"),
         ({"device": "cuda" if not torch.cuda.is_available() else "nonsense"}, "device"),
     ],
 )
 def test_bad_parameters_rejected_at_fit(dataset, bad, match):
     with pytest.raises(ValueError, match=match):
         tiny(**bad).fit(dataset)
+
+
+# -- torch.compile ------------------------------------------------------------------------
+@pytest.mark.slow
+def test_compiled_training_and_prediction_match_eager(dataset, corrupted):
+    """compile= routes training steps and prediction through torch.compile; same numbers.
+
+    ``aot_eager`` traces forward and backward graphs like the default inductor backend
+    but runs them with eager kernels, so the test is quick and exact; inductor itself
+    (minutes of C++ compilation on CPU) is measured in benchmarks/bench_neural.py.
+    """
+    eager = tiny(max_steps=3).fit(dataset)
+    compiled = tiny(max_steps=3, compile={"backend": "aot_eager"}).fit(dataset)
+    np.testing.assert_allclose(compiled.history_["step_loss"], eager.history_["step_loss"], rtol=1e-5)
+    np.testing.assert_allclose(compiled.predict(corrupted), eager.predict(corrupted), rtol=1e-4, atol=1e-3)
+    # Weights are the plain module's: the checkpoint keys carry no "_orig_mod." prefix.
+    assert not any(k.startswith("_orig_mod") for k in compiled.model_.state_dict())
 
 
 # -- depth scale ------------------------------------------------------------------------
