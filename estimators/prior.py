@@ -31,7 +31,7 @@ from . import neural
 from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
 from .neural import _NeuralInpainter
-from .priors import CANDIDATES, GAP_CHANNELS, prior_features
+from .priors import AVAILABLE_CANDIDATES, CANDIDATES, GAP_CHANNELS, prior_features
 
 __all__ = ["ARCHS", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti"]
 
@@ -66,7 +66,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         Hidden layers (pixel) or 2× downsamplings after the pixel-unshuffle (unet).
     factor : int, default 8
         unet only: pixel-unshuffle factor (the network runs at ``1/factor``).
-    candidates : tuple of str, default all of :data:`estimators.priors.CANDIDATES`
+    candidates : tuple of str, default :data:`estimators.priors.CANDIDATES` (any of ``AVAILABLE_CANDIDATES``)
         Classical fills given to the network.
     pixel_batches : int, default 8
         pixel only: the hole pixels of each batch of frames are shuffled and split into
@@ -177,9 +177,9 @@ class PriorUNetInpainter(_NeuralInpainter):
             raise ValueError(f"pixel_batches must be an integer >= 1, got {pb!r}")
         names = self.candidates
         if isinstance(names, str) or not isinstance(names, (tuple, list)) or not names or any(
-            n not in CANDIDATES for n in names
+            n not in AVAILABLE_CANDIDATES for n in names
         ):
-            raise ValueError(f"candidates must be a non-empty tuple from {CANDIDATES}, got {names!r}")
+            raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
         for name in ("flip", "tta"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")

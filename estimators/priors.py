@@ -21,10 +21,11 @@ import numpy as np
 
 from inpaintenv.conventions import check_depth
 
+from .classical._base import in_inverse_depth
 from .classical.harmonic import harmonic_fill
 from .classical.scanline import scanline_fill
 
-__all__ = ["BASE_CHANNELS", "CANDIDATES", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features"]
+__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
@@ -37,25 +38,27 @@ GAP_CHANNELS: tuple[str, ...] = ("gap-left", "gap-right", "gap-up", "gap-down")
 NO_MEASUREMENT_DISTANCE = 2048
 
 
-def _inverse_scanline(values: np.ndarray, known: np.ndarray) -> np.ndarray:
-    inv = np.divide(1.0, values, out=np.zeros(values.shape), where=known)
-    filled = scanline_fill(inv, known)
-    return np.divide(1.0, filled, out=np.zeros(values.shape), where=filled > 0)
+def _vertical(values: np.ndarray, known: np.ndarray) -> np.ndarray:
+    return scanline_fill(values.T, known.T).T
 
 
 _FILLS = {
     "scanline": lambda v, k: scanline_fill(v, k),
-    "scanline-inverse": _inverse_scanline,
-    "vertical": lambda v, k: scanline_fill(v.T, k.T).T,
+    "scanline-inverse": lambda v, k: in_inverse_depth(scanline_fill, v, k),
+    "vertical": _vertical,
     "harmonic": harmonic_fill,
+    "vertical-inverse": lambda v, k: in_inverse_depth(_vertical, v, k),
+    "harmonic-inverse": lambda v, k: in_inverse_depth(harmonic_fill, v, k),
 }
+#: Every fill :func:`candidate_fills` knows (CANDIDATES is the default subset).
+AVAILABLE_CANDIDATES: tuple[str, ...] = tuple(_FILLS)
 
 
 def _check_names(names: Sequence[str]) -> tuple[str, ...]:
     names = tuple(names)
     unknown = [n for n in names if n not in _FILLS]
     if not names or unknown:
-        raise ValueError(f"candidates must be a non-empty subset of {CANDIDATES}, got {names!r}")
+        raise ValueError(f"candidates must be a non-empty subset of {AVAILABLE_CANDIDATES}, got {names!r}")
     return names
 
 
@@ -101,7 +104,7 @@ def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndar
     x : numpy.ndarray
         ``(H, W)`` metres; NaN = hole to fill, 0 = no measurement (both unknown).
     names : sequence of str
-        Which fills, from :data:`CANDIDATES`.
+        Which fills, from :data:`AVAILABLE_CANDIDATES`.
 
     Returns
     -------
@@ -124,7 +127,7 @@ def prior_features(x: np.ndarray, names: Sequence[str] = CANDIDATES, gaps: bool 
     x : numpy.ndarray
         ``(H, W)`` metres; NaN = hole, 0 = no measurement.
     names : sequence of str
-        Candidate fills, from :data:`CANDIDATES`.
+        Candidate fills, from :data:`AVAILABLE_CANDIDATES`.
     gaps : bool
         Append the four :func:`gap_distances` channels (pixels).
 

@@ -149,6 +149,7 @@ for _name, _cls, _kw, _desc in [
     ("ipbasic", "IPBasicInpainter", {}, "IP-Basic-style morphological depth completion"),
     ("nearest", "NearestInpainter", {}, "nearest measured pixel"),
     ("harmonic", "HarmonicInpainter", {}, "harmonic (Laplace) interpolation"),
+    ("harmonic-inverse", "HarmonicInpainter", {"inverse": True}, "harmonic interpolation of inverse depth (exact on planes)"),
     ("scanline", "ScanlineInpainter", {}, "row-wise linear interpolation of depth"),
     ("scanline-inverse", "ScanlineInpainter", {"inverse": True}, "row-wise linear interpolation of inverse depth"),
     ("scanline-2d", "ScanlineInpainter", {"vertical": True}, "row- and column-wise interpolation, blended by gap length"),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ._base import ClassicalInpainter, unknown_mask
+from ._base import ClassicalInpainter, in_inverse_depth, unknown_mask
 from .nearest import nearest_fill
 
 __all__ = ["HarmonicInpainter", "harmonic_fill"]
@@ -80,20 +80,33 @@ class HarmonicInpainter(ClassicalInpainter):
     iterations : int, default=50
         Jacobi sweeps per pyramid level (more converge further; 50 was chosen on the
         tuning drive, see docs/baselines.md).
+    inverse : bool, default=False
+        Interpolate inverse depth instead of depth. A harmonic function with affine
+        boundary values is that affine function, and inverse depth is affine in image
+        coordinates on any plane, so the inverse fill reproduces planes seen in
+        perspective (road, walls) exactly; the depth fill bends them.
     keep_observed : bool, default=True
         Return measured input pixels unchanged.
     n_jobs : int or None, default=None
         Frames processed in parallel (joblib; None = 1, -1 = all cores).
     """
 
-    def __init__(self, *, iterations: int = 50, keep_observed: bool = True, n_jobs: int | None = None):
+    def __init__(
+        self, *, iterations: int = 50, inverse: bool = False, keep_observed: bool = True,
+        n_jobs: int | None = None,
+    ):
         self.iterations = iterations
+        self.inverse = inverse
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs
 
     def _check_params(self) -> None:
         super()._check_params()
         self._check_int("iterations", 1)
+        self._check_bool("inverse")
 
     def _fill_frame(self, x: np.ndarray) -> np.ndarray:
-        return harmonic_fill(x, ~unknown_mask(x), self.iterations)
+        known = ~unknown_mask(x)
+        if self.inverse:
+            return in_inverse_depth(harmonic_fill, x, known, self.iterations)
+        return harmonic_fill(x, known, self.iterations)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._base import ClassicalInpainter, unknown_mask
+from ._base import ClassicalInpainter, in_inverse_depth, unknown_mask
 
 __all__ = ["ScanlineInpainter", "scanline_fill"]
 
@@ -129,8 +129,4 @@ class ScanlineInpainter(ClassicalInpainter):
         known = ~unknown_mask(x)
         if not self.inverse:
             return scanline_fill(x, known, self.vertical).astype(np.float32)
-        inv = np.divide(1.0, x, out=np.zeros(x.shape), where=known)
-        filled = scanline_fill(inv, known, self.vertical)
-        # Interpolated inverse depth stays between positive known values, so > 0
-        # whenever something is known; guard the all-unknown frame (zeros).
-        return np.divide(1.0, filled, out=np.zeros(x.shape), where=filled > 0).astype(np.float32)
+        return in_inverse_depth(scanline_fill, x, known, self.vertical)

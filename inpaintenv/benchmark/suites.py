@@ -18,7 +18,7 @@ __all__ = ["SUITES", "suite_methods", "LazyMethod"]
 STUDY_CLASSICAL = ["telea-hole", "ns-hole", "bilateral-hole"]
 #: Every classical method done right (every unmeasured pixel unknown).
 CLASSICAL = [
-    "harmonic", "ipbasic", "scanline", "scanline-inverse", "scanline-2d", "nearest",
+    "harmonic", "harmonic-inverse", "ipbasic", "scanline", "scanline-inverse", "scanline-2d", "nearest",
     "telea", "ns", "bilateral", "constant",
 ]
 #: The learned models shipped with the package (added to the registry by estimators).
@@ -28,7 +28,7 @@ SUITES: dict[str, list[str]] = {
     "default": PRETRAINED + CLASSICAL + STUDY_CLASSICAL,
     "classical": CLASSICAL + STUDY_CLASSICAL,
     "study": STUDY_CLASSICAL,
-    "fast": PRETRAINED + ["harmonic", "ipbasic", "scanline", "scanline-2d", "constant"],
+    "fast": PRETRAINED + ["harmonic", "harmonic-inverse", "ipbasic", "scanline", "scanline-2d", "constant"],
 }
 
 
