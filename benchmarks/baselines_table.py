@@ -46,6 +46,7 @@ METHODS = {
     "ip-basic": IPBasicInpainter(),
     "nearest": NearestInpainter(),
     "harmonic": HarmonicInpainter(),
+    "harmonic-inverse": HarmonicInpainter(inverse=True),
     "scanline": ScanlineInpainter(),
     "scanline-inverse": ScanlineInpainter(inverse=True),
     "scanline-2d": ScanlineInpainter(vertical=True),

@@ -31,7 +31,7 @@ from . import neural
 from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
 from .neural import _NeuralInpainter
-from .priors import AVAILABLE_CANDIDATES, CANDIDATES, GAP_CHANNELS, prior_features
+from .priors import AVAILABLE_CANDIDATES, CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
 
 __all__ = ["ARCHS", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti"]
 
@@ -68,6 +68,10 @@ class PriorUNetInpainter(_NeuralInpainter):
         unet only: pixel-unshuffle factor (the network runs at ``1/factor``).
     candidates : tuple of str, default :data:`estimators.priors.CANDIDATES` (any of ``AVAILABLE_CANDIDATES``)
         Classical fills given to the network.
+    endpoints : bool, default False
+        pixel only: also give the depth of the nearest measurement left, right, above
+        and below (:func:`estimators.priors.endpoint_values`), so the blend can tell a
+        gap over one surface from one over a depth edge.
     pixel_batches : int, default 8
         pixel only: the hole pixels of each batch of frames are shuffled and split into
         this many optimiser steps (the candidate fills are the expensive part of a step,
@@ -107,6 +111,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         levels: int = 3,
         factor: int = 8,
         candidates: tuple[str, ...] = CANDIDATES,
+        endpoints: bool = False,
         pixel_batches: int = 8,
         flip: bool = True,
         tta: bool = True,
@@ -136,6 +141,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         self.levels = levels
         self.factor = factor
         self.candidates = candidates
+        self.endpoints = endpoints
         self.pixel_batches = pixel_batches
         self.flip = flip
         self.tta = tta
@@ -180,24 +186,31 @@ class PriorUNetInpainter(_NeuralInpainter):
             n not in AVAILABLE_CANDIDATES for n in names
         ):
             raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
-        for name in ("flip", "tta"):
+        for name in ("flip", "tta", "endpoints"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
     @property
     def in_channels(self) -> int:
         """Network input channels: depth, hole, valid, one per candidate (+ 4 gap lengths)."""
-        return 3 + len(self.candidates) + (len(GAP_CHANNELS) if self._gaps else 0)
+        return 3 + len(self.candidates) + (len(GAP_CHANNELS) if self._gaps else 0) + (
+            len(ENDPOINT_CHANNELS) if self._endpoints else 0
+        )
 
     @property
     def _gaps(self) -> bool:
         return self.arch == "pixel"
 
+    @property
+    def _endpoints(self) -> bool:
+        return self.arch == "pixel" and bool(self.endpoints)
+
     def _build_model(self, seed: int) -> PriorUNet | PixelBlendNet:
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
             if self.arch == "pixel":
-                return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.levels))
+                return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.levels),
+                                     n_endpoints=len(ENDPOINT_CHANNELS) if self._endpoints else 0)
             return PriorUNet(len(self.candidates), int(self.width), int(self.levels), int(self.factor))
 
     def _config_params(self) -> dict[str, Any]:
@@ -211,20 +224,23 @@ class PriorUNetInpainter(_NeuralInpainter):
         names = tuple(self.candidates)
         n_workers = min(len(x), torch.get_num_threads())
         if n_workers <= 1:
-            return torch.from_numpy(np.stack([prior_features(frame, names, self._gaps) for frame in x]))
+            return torch.from_numpy(np.stack([prior_features(frame, names, self._gaps, self._endpoints) for frame in x]))
         # The fills are NumPy/OpenCV work that mostly releases the GIL: threads suffice.
         with ThreadPoolExecutor(n_workers) as pool:
-            return torch.from_numpy(np.stack(list(pool.map(lambda f: prior_features(f, names, self._gaps), x))))
+            return torch.from_numpy(np.stack(list(pool.map(
+                lambda f: prior_features(f, names, self._gaps, self._endpoints), x))))
 
     def _flip(self, x: torch.Tensor) -> torch.Tensor:
-        """Mirror features left-right (gap-left and gap-right swap roles)."""
+        """Mirror features left-right (the left and right gap lengths and endpoint depths swap roles)."""
         x = x.flip(-1)
+        order = list(range(x.shape[1]))
+        k = 3 + len(self.candidates)
         if self._gaps:
-            k = 3 + len(self.candidates)
-            order = list(range(x.shape[1]))
             order[k], order[k + 1] = k + 1, k
-            x = x[:, order]
-        return x
+            k += len(GAP_CHANNELS)
+        if self._endpoints:
+            order[k], order[k + 1] = k + 1, k
+        return x[:, order] if order != list(range(x.shape[1])) else x
 
     # -- training ----------------------------------------------------------------------
     def _train(self, dataset, seed: int, device: torch.device) -> None:

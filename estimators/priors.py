@@ -25,7 +25,7 @@ from .classical._base import in_inverse_depth
 from .classical.harmonic import harmonic_fill
 from .classical.scanline import scanline_fill
 
-__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features"]
+__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
@@ -34,6 +34,8 @@ CANDIDATES: tuple[str, ...] = ("scanline", "scanline-inverse", "vertical", "harm
 BASE_CHANNELS: tuple[str, ...] = ("depth", "hole", "valid")
 #: Channels of :func:`gap_distances`, appended after the candidates when asked for.
 GAP_CHANNELS: tuple[str, ...] = ("gap-left", "gap-right", "gap-up", "gap-down")
+#: Channels of :func:`endpoint_values`, appended after the gap lengths when asked for.
+ENDPOINT_CHANNELS: tuple[str, ...] = ("end-left", "end-right", "end-up", "end-down")
 #: Distance reported where no measurement lies in that direction (longer than any row).
 NO_MEASUREMENT_DISTANCE = 2048
 
@@ -62,12 +64,66 @@ def _check_names(names: Sequence[str]) -> tuple[str, ...]:
     return names
 
 
-def _distances_along_rows(known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _nearest_known_columns(known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Column of the nearest measurement at or left / right of each pixel, per row.
+
+    ``-NO_MEASUREMENT_DISTANCE`` (left) or ``2 * NO_MEASUREMENT_DISTANCE`` (right) where
+    the row has none in that direction.
+    """
     cols = np.arange(known.shape[1])
     far = NO_MEASUREMENT_DISTANCE
     left = np.maximum.accumulate(np.where(known, cols, -far), axis=1)
     right = np.minimum.accumulate(np.where(known, cols, 2 * far)[:, ::-1], axis=1)[:, ::-1]
+    return left, right
+
+
+def _distances_along_rows(known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    cols = np.arange(known.shape[1])
+    left, right = _nearest_known_columns(known)
+    far = NO_MEASUREMENT_DISTANCE
     return np.minimum(cols - left, far), np.minimum(right - cols, far)
+
+
+def _endpoints_along_rows(values: np.ndarray, known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    left, right = _nearest_known_columns(known)
+    rows = np.arange(known.shape[0])[:, None]
+    w = known.shape[1]
+    # No measurement in that direction: 0, the "unknown" of the depth convention.
+    out_left = np.where(left >= 0, values[rows, np.clip(left, 0, w - 1)], 0.0)
+    out_right = np.where(right < w, values[rows, np.clip(right, 0, w - 1)], 0.0)
+    return out_left, out_right
+
+
+def endpoint_values(values: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Depth of the nearest measurement left, right, above and below each pixel.
+
+    The row and column fills interpolate between these; the values themselves tell a
+    learned blend whether a gap bridges one surface (similar ends) or a depth edge (a
+    near car on one side, a far facade on the other), where interpolation is wrong.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        ``(H, W)`` metres, read where ``known``.
+    known : numpy.ndarray
+        ``(H, W)`` bool.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(4, H, W)`` float32 metres: left, right, up, down; the pixel's own value on
+        measured pixels, 0 where no measurement lies in that direction.
+    """
+    known = np.asarray(known)
+    if known.ndim != 2 or known.dtype != bool or np.shape(values) != known.shape:
+        raise ValueError(
+            f"values and known must be 2-D arrays of one shape, known bool; got {np.shape(values)} "
+            f"and {known.dtype} {known.shape}"
+        )
+    values = np.asarray(values, dtype=np.float32)
+    left, right = _endpoints_along_rows(values, known)
+    up, down = _endpoints_along_rows(values.T, known.T)
+    return np.stack([left, right, up.T, down.T]).astype(np.float32)
 
 
 def gap_distances(known: np.ndarray) -> np.ndarray:
@@ -119,7 +175,9 @@ def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndar
     return np.stack([_FILLS[n](values, known) for n in names]).astype(np.float32)
 
 
-def prior_features(x: np.ndarray, names: Sequence[str] = CANDIDATES, gaps: bool = False) -> np.ndarray:
+def prior_features(
+    x: np.ndarray, names: Sequence[str] = CANDIDATES, gaps: bool = False, endpoints: bool = False
+) -> np.ndarray:
     """Network input of one frame: observed depth, hole and validity masks, candidates.
 
     Parameters
@@ -130,16 +188,23 @@ def prior_features(x: np.ndarray, names: Sequence[str] = CANDIDATES, gaps: bool 
         Candidate fills, from :data:`AVAILABLE_CANDIDATES`.
     gaps : bool
         Append the four :func:`gap_distances` channels (pixels).
+    endpoints : bool
+        Then append the four :func:`endpoint_values` channels (metres).
 
     Returns
     -------
     numpy.ndarray
-        ``(3 + len(names) [+ 4], H, W)`` float32: depth (0 where unknown), hole (1/0),
-        valid (1 where measured), the candidate fills in metres, then the gap lengths.
+        ``(3 + len(names) [+ 4] [+ 4], H, W)`` float32: depth (0 where unknown), hole
+        (1/0), valid (1 where measured), the candidate fills in metres, then the gap
+        lengths, then the endpoint depths.
     """
     fills = candidate_fills(x, names)
     hole = np.isnan(x)
     depth = np.where(x > 0, x, 0.0)
     base = np.stack([depth, hole, depth > 0]).astype(np.float32)
-    parts = [base, fills, gap_distances(depth > 0)] if gaps else [base, fills]
+    parts = [base, fills]
+    if gaps:
+        parts.append(gap_distances(depth > 0))
+    if endpoints:
+        parts.append(endpoint_values(depth, depth > 0))
     return np.concatenate(parts)

@@ -71,11 +71,13 @@ def in_inverse_depth(fill: Any, values: np.ndarray, known: np.ndarray, *args: An
     Returns
     -------
     numpy.ndarray
-        ``(H, W)`` float32 depth.
+        ``(H, W)`` float32 depth, ``values`` where ``known``.
     """
     inv = np.divide(1.0, values, out=np.zeros(values.shape), where=known)
     filled = fill(inv, known, *args)
-    return np.divide(1.0, filled, out=np.zeros(values.shape), where=filled > 0).astype(np.float32)
+    depth = np.divide(1.0, filled, out=np.zeros(values.shape), where=filled > 0)
+    # 1 / (1 / d) is not always d in floating point: measured pixels are returned exactly.
+    return np.where(known, values, depth).astype(np.float32)
 
 
 def unknown_mask(x: np.ndarray, fill: str = "invalid") -> np.ndarray:

@@ -39,6 +39,9 @@ class PixelBlendNet(nn.Module):
         Candidate channels ``K`` (after depth, hole and valid).
     n_gaps : int
         Gap-length channels after the candidates (4: left, right, up, down).
+    n_endpoints : int, default 0
+        Endpoint-depth channels after the gap lengths (4: the depth of the nearest
+        measurement left, right, above, below; metres).
     width : int
         Hidden units per layer.
     layers : int
@@ -46,18 +49,21 @@ class PixelBlendNet(nn.Module):
 
     Notes
     -----
-    Input ``(N, 3 + K + n_gaps, H, W)`` as built by
-    :func:`estimators.priors.prior_features` with ``gaps=True``.
+    Input ``(N, 3 + K + n_gaps + n_endpoints, H, W)`` as built by
+    :func:`estimators.priors.prior_features` with ``gaps=True`` (and ``endpoints=True``).
     """
 
-    def __init__(self, n_candidates: int = 4, n_gaps: int = 4, width: int = 128, layers: int = 3):
+    def __init__(
+        self, n_candidates: int = 4, n_gaps: int = 4, width: int = 128, layers: int = 3, n_endpoints: int = 0
+    ):
         super().__init__()
         for name, value, low in (("n_candidates", n_candidates, 1), ("n_gaps", n_gaps, 0),
-                                 ("width", width, 1), ("layers", layers, 1)):
+                                 ("width", width, 1), ("layers", layers, 1), ("n_endpoints", n_endpoints, 0)):
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
         self.n_candidates, self.n_gaps, self.width, self.layers = n_candidates, n_gaps, width, layers
-        dims = [n_candidates + n_gaps] + [width] * layers
+        self.n_endpoints = n_endpoints
+        dims = [n_candidates + n_gaps + n_endpoints] + [width] * layers
         mods: list[nn.Module] = []
         for a, b in itertools.pairwise(dims):
             mods += [nn.Linear(a, b), nn.ReLU(inplace=True)]
@@ -68,14 +74,16 @@ class PixelBlendNet(nn.Module):
 
     @property
     def in_channels(self) -> int:
-        """Expected input channels ``3 + K + n_gaps``."""
-        return 3 + self.n_candidates + self.n_gaps
+        """Expected input channels ``3 + K + n_gaps + n_endpoints``."""
+        return 3 + self.n_candidates + self.n_gaps + self.n_endpoints
 
     def blend(self, pixels: torch.Tensor) -> torch.Tensor:
-        """``(P, K + n_gaps)`` raw pixel features (metres, pixels) -> ``(P,)`` metres."""
-        k = self.n_candidates
+        """``(P, K + n_gaps + n_endpoints)`` raw pixel features (metres, pixels) -> ``(P,)`` metres."""
+        k, g = self.n_candidates, self.n_candidates + self.n_gaps
         cands = pixels[:, :k]
-        z = torch.cat([cands / DEPTH_SCALE, torch.log1p(pixels[:, k:]) / GAP_SCALE], dim=1)
+        z = torch.cat(
+            [cands / DEPTH_SCALE, torch.log1p(pixels[:, k:g]) / GAP_SCALE, pixels[:, g:] / DEPTH_SCALE], dim=1
+        )
         out = self.head(self.body(z))
         return (torch.softmax(out[:, :k], dim=1) * cands).sum(dim=1) + DEPTH_SCALE * out[:, k]
 
@@ -103,4 +111,5 @@ class PixelBlendNet(nn.Module):
         return out
 
     def extra_repr(self) -> str:
-        return f"n_candidates={self.n_candidates}, n_gaps={self.n_gaps}, width={self.width}, layers={self.layers}"
+        return (f"n_candidates={self.n_candidates}, n_gaps={self.n_gaps}, n_endpoints={self.n_endpoints}, "
+                f"width={self.width}, layers={self.layers}")

@@ -12,9 +12,11 @@ from estimators.nets.prior_unet import PriorUNet
 from estimators.presets import available_presets, make_preset, train_preset
 from estimators.prior import PriorUNetInpainter, available_pretrained
 from estimators.priors import (
+    AVAILABLE_CANDIDATES,
     CANDIDATES,
     NO_MEASUREMENT_DISTANCE,
     candidate_fills,
+    endpoint_values,
     gap_distances,
     prior_features,
 )
@@ -79,6 +81,31 @@ def test_prior_features_with_gaps(small_gt):
     np.testing.assert_array_equal(f[-4:], gap_distances(x > 0))
 
 
+def test_endpoint_values():
+    values = np.array([[1, 0, 0, 4], [0, 2, 0, 0]], np.float32)
+    e = endpoint_values(values, values > 0)
+    np.testing.assert_array_equal(e[0], [[1, 1, 1, 4], [0, 2, 2, 2]])  # left
+    np.testing.assert_array_equal(e[1], [[1, 4, 4, 4], [2, 2, 0, 0]])  # right
+    np.testing.assert_array_equal(e[2], [[1, 0, 0, 4], [1, 2, 0, 4]])  # up
+    np.testing.assert_array_equal(e[3], [[1, 2, 0, 4], [0, 2, 0, 0]])  # down
+    with pytest.raises(ValueError, match="one shape"):
+        endpoint_values(values, (values > 0)[:1])
+
+
+def test_prior_features_with_endpoints(small_gt):
+    x = _corrupt(small_gt)[0]
+    f = prior_features(x, gaps=True, endpoints=True)
+    assert f.shape == (3 + len(CANDIDATES) + 8, *x.shape)
+    np.testing.assert_array_equal(f[-4:], endpoint_values(np.where(x > 0, x, 0), x > 0))
+
+
+def test_every_available_candidate_keeps_measured_pixels(small_gt):
+    x = _corrupt(small_gt)[0]
+    fills = candidate_fills(x, AVAILABLE_CANDIDATES)
+    assert np.isfinite(fills).all() and (fills[:, np.isnan(x)] > 0).all()
+    np.testing.assert_array_equal(fills[:, x > 0], np.broadcast_to(x[x > 0], (len(AVAILABLE_CANDIDATES), (x > 0).sum())))
+
+
 def test_priors_reject_batches():
     with pytest.raises(ValueError, match="2-D"):
         prior_features(np.ones((2, 4, 4), dtype=np.float32))
@@ -137,6 +164,17 @@ def test_flip_swaps_left_and_right_gaps(small_gt):
     np.testing.assert_allclose(
         est._features(_corrupt(small_gt)[:, :, ::-1].copy()).numpy(), flipped.numpy(), rtol=1e-5
     )
+
+
+def test_flip_with_endpoints_matches_features_of_the_mirrored_frame(small_gt):
+    est = PriorUNetInpainter(**TINY, endpoints=True)
+    x = est._features(_corrupt(small_gt))
+    assert x.shape[1] == est.in_channels == 3 + len(CANDIDATES) + 8
+    np.testing.assert_allclose(
+        est._features(_corrupt(small_gt)[:, :, ::-1].copy()).numpy(), est._flip(x).numpy(), rtol=1e-5
+    )
+    pred = est.fit(small_gt).predict(_corrupt(small_gt))
+    assert np.isfinite(pred).all()
 
 
 def test_pixel_batches_give_more_updates_per_step(small_gt):
