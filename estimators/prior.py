@@ -1,7 +1,7 @@
 """A learned inpainter built on classical priors: per-pixel blend of candidate fills + residual.
 
 >>> from estimators.prior import PriorUNetInpainter                  # doctest: +SKIP
->>> est = PriorUNetInpainter.pretrained("kitti-rect-v1")             # shipped weights
+>>> est = PriorUNetInpainter.pretrained("kitti-rect-v2")             # shipped weights
 >>> est.predict(corrupted)                                           # metres
 
 The network (:class:`estimators.nets.prior_unet.PriorUNet`) sees the corrupted depth,
@@ -335,14 +335,15 @@ class PriorUNetInpainter(_NeuralInpainter):
 
     # -- shipped weights -------------------------------------------------------------------
     @classmethod
-    def pretrained(cls, name: str = "kitti-rect-v1", **overrides: Any) -> PriorUNetInpainter:
+    def pretrained(cls, name: str = "kitti-rect-v2", **overrides: Any) -> PriorUNetInpainter:
         """Load shipped weights by name (see :func:`available_pretrained`).
 
         Parameters
         ----------
         name : str
-            E.g. ``"kitti-rect-v1"`` (trained on one real KITTI drive with rect-v1
-            occlusions; CC BY-NC-SA 3.0, see ``docs/model_card.md``).
+            ``"kitti-rect-v2"`` (default) or ``"kitti-rect-v1"`` (the first release,
+            kept so earlier results can be re-run); both trained on one real KITTI
+            drive with rect-v1 occlusions; CC BY-NC-SA 3.0, see ``docs/model_card.md``.
         **overrides
             Prediction-time parameters to change, e.g. ``num_threads=2``, ``tta=False``.
 
@@ -370,8 +371,8 @@ class PriorUNetInpainter(_NeuralInpainter):
 
 
 def pretrained_kitti(**overrides: Any) -> PriorUNetInpainter:
-    """Factory for the registry: the shipped ``kitti-rect-v1`` model."""
-    return PriorUNetInpainter.pretrained("kitti-rect-v1", **overrides)
+    """Factory for the registry: the shipped ``kitti-rect-v2`` model."""
+    return PriorUNetInpainter.pretrained("kitti-rect-v2", **overrides)
 
 
 # The shared loader finds classes by name in this table; register ours there.

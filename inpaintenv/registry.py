@@ -157,7 +157,7 @@ for _name, _cls, _kw, _desc in [
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc)
 
-# The shipped learned model (estimators/pretrained/kitti-rect-v1; needs torch). A factory,
+# The shipped learned model (estimators/pretrained/kitti-rect-v2; needs torch). A factory,
 # not a class: it loads the weights. See docs/model_card.md.
 register_method(
     "unet-pretrained", "estimators.prior", "pretrained_kitti", {},

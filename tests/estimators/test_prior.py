@@ -231,8 +231,8 @@ def test_unknown_pretrained_name_lists_shipped():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif("kitti-rect-v1" not in available_pretrained(), reason="weights not shipped")
-def test_pretrained_beats_constant_on_real_frame(kitti_root):
+@pytest.mark.parametrize("name", ["kitti-rect-v2", "kitti-rect-v1"])
+def test_pretrained_beats_constant_on_real_frame(kitti_root, name):
     from estimators.classical import ConstantInpainter
     from inpaintenv.conventions import corrupt
     from inpaintenv.data import KittiDepth
@@ -243,7 +243,8 @@ def test_pretrained_beats_constant_on_real_frame(kitti_root):
     assert gt.shape == (352, 1216)
     hole = get_protocol("rect-v1").mask(gt.shape, 0, 0)
     x = corrupt(gt, hole)
-    est = PriorUNetInpainter.pretrained("kitti-rect-v1", num_threads=2)
+    assert name in available_pretrained()
+    est = PriorUNetInpainter.pretrained(name, num_threads=2)
     pred = est.predict(x)
     assert pred.shape == gt.shape and np.isfinite(pred).all()
     np.testing.assert_array_equal(pred[x > 0], x[x > 0])
