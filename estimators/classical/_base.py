@@ -10,7 +10,7 @@ from __future__ import annotations
 import numbers
 import threading
 from abc import abstractmethod
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
@@ -50,7 +50,9 @@ def opencv_threads(n: int) -> Iterator[None]:
             cv2.setNumThreads(previous)
 
 
-def in_inverse_depth(fill: Any, values: np.ndarray, known: np.ndarray, *args: Any) -> np.ndarray:
+def in_inverse_depth(
+    fill: Callable[..., np.ndarray], values: np.ndarray, known: np.ndarray, *args: Any
+) -> np.ndarray:
     """Run ``fill(values, known, *args)`` on inverse depth and return depth.
 
     Inverse depth is affine in image coordinates on any plane (road, walls, the sides
