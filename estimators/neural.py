@@ -469,12 +469,14 @@ class _NeuralInpainter(BaseInpainter):
         The compiled wrapper shares the module's parameters, so optimiser, checkpoints
         and ``train()``/``eval()`` keep working on the plain module.
         """
-        if self.compile is False or self.compile is None:
-            return model
         if isinstance(self.compile, dict):
             kwargs = dict(self.compile)
+        elif isinstance(self.compile, str):
+            kwargs = {"mode": self.compile}
+        elif self.compile:  # True or numpy.True_ (the parameter check accepts both)
+            kwargs = {}
         else:
-            kwargs = {} if self.compile is True else {"mode": self.compile}
+            return model
         return torch.compile(model, **kwargs)
 
     def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:

@@ -302,6 +302,9 @@ def test_compiled_training_and_prediction_match_eager(dataset, corrupted):
     compiled = tiny(max_steps=3, compile={"backend": "aot_eager"}).fit(dataset)
     np.testing.assert_allclose(compiled.history_["step_loss"], eager.history_["step_loss"], rtol=1e-5)
     np.testing.assert_allclose(compiled.predict(corrupted), eager.predict(corrupted), rtol=1e-4, atol=1e-3)
+    # numpy booleans (as from a parameter grid) mean the same as Python's.
+    assert tiny(compile=np.False_)._compiled(eager.model_) is eager.model_
+    assert tiny(compile=np.True_)._compiled(eager.model_) is not eager.model_
     # Weights are the plain module's: the checkpoint keys carry no "_orig_mod." prefix.
     assert not any(k.startswith("_orig_mod") for k in compiled.model_.state_dict())
 
