@@ -45,6 +45,7 @@ def _holed(depth: np.ndarray, top: int, left: int, h: int, w: int) -> np.ndarray
         (IPBasicInpainter(), "fallback", "zero"),
         (IPBasicInpainter(), "extrapolate", "yes"),
         (HarmonicInpainter(), "iterations", True),
+        (HarmonicInpainter(), "inverse", "yes"),
         (ScanlineInpainter(), "inverse", 1),
         (ScanlineInpainter(), "vertical", "no"),
         (NearestInpainter(), "n_jobs", 0),

@@ -203,7 +203,7 @@ def test_save_load_roundtrip(small_gt, tmp_path, arch):
 
 @pytest.mark.parametrize(
     ("param", "value", "error"),
-    [("factor", 0, ValueError), ("arch", "transformer", ValueError), ("pixel_batches", 0, ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError),
+    [("factor", 0, ValueError), ("arch", "transformer", ValueError), ("pixel_batches", 0, ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError), ("endpoints", 1, TypeError),
      ("levels", 0, ValueError)],
 )
 def test_bad_params_raise_clear_errors(small_gt, param, value, error):
