@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--kitti-root", required=True)
     p.add_argument("--preset", default="cpu-1h")
     p.add_argument("--out", default="selection-runs")
-    args = p.parse_args(argv)
+    args = p.parse_intermixed_args(argv)  # overrides may come after the options
     overrides = {}
     for item in args.overrides:
         key, sep, value = item.partition("=")

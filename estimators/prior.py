@@ -72,6 +72,10 @@ class PriorUNetInpainter(_NeuralInpainter):
         pixel only: also give the depth of the nearest measurement left, right, above
         and below (:func:`estimators.priors.endpoint_values`), so the blend can tell a
         gap over one surface from one over a depth edge.
+    relative : bool, default False
+        pixel only: scale-free blend (see :class:`~estimators.nets.pixel_blend.PixelBlendNet`):
+        the network sees depths as log-ratios to the candidates' geometric mean, so
+        its prediction scales exactly with the input depth.
     pixel_batches : int, default 8
         pixel only: the hole pixels of each batch of frames are shuffled and split into
         this many optimiser steps (the candidate fills are the expensive part of a step,
@@ -112,6 +116,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         factor: int = 8,
         candidates: tuple[str, ...] = CANDIDATES,
         endpoints: bool = False,
+        relative: bool = False,
         pixel_batches: int = 8,
         flip: bool = True,
         tta: bool = True,
@@ -142,6 +147,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         self.factor = factor
         self.candidates = candidates
         self.endpoints = endpoints
+        self.relative = relative
         self.pixel_batches = pixel_batches
         self.flip = flip
         self.tta = tta
@@ -186,7 +192,7 @@ class PriorUNetInpainter(_NeuralInpainter):
             n not in AVAILABLE_CANDIDATES for n in names
         ):
             raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
-        for name in ("flip", "tta", "endpoints"):
+        for name in ("flip", "tta", "endpoints", "relative"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
@@ -210,7 +216,8 @@ class PriorUNetInpainter(_NeuralInpainter):
             torch.manual_seed(seed)
             if self.arch == "pixel":
                 return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.levels),
-                                     n_endpoints=len(ENDPOINT_CHANNELS) if self._endpoints else 0)
+                                     n_endpoints=len(ENDPOINT_CHANNELS) if self._endpoints else 0,
+                                     relative=bool(self.relative))
             return PriorUNet(len(self.candidates), int(self.width), int(self.levels), int(self.factor))
 
     def _config_params(self) -> dict[str, Any]:

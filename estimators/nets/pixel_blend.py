@@ -26,6 +26,8 @@ __all__ = ["PixelBlendNet"]
 DEPTH_SCALE = 80.0
 #: log1p(pixels) / GAP_SCALE keeps the gap inputs near [0, 1] (log1p(2048) ≈ 7.6).
 GAP_SCALE = 7.0
+#: Floor (metres) before logarithms in ``relative`` mode (candidates are 0 only on empty frames).
+MIN_DEPTH = 1e-3
 #: Pixels per chunk when a whole frame is predicted (bounds memory).
 CHUNK = 1 << 18
 
@@ -46,6 +48,11 @@ class PixelBlendNet(nn.Module):
         Hidden units per layer.
     layers : int
         Hidden layers.
+    relative : bool, default False
+        Scale-free inputs and output: candidates and endpoint depths enter as
+        ``log(value / ref)`` with ``ref`` the geometric mean of the pixel's candidates,
+        and the residual is a fraction of ``ref``. Multiplying all depths by ``s`` then
+        multiplies the prediction by ``s`` (the model cannot key on a drive's depth range).
 
     Notes
     -----
@@ -54,7 +61,8 @@ class PixelBlendNet(nn.Module):
     """
 
     def __init__(
-        self, n_candidates: int = 4, n_gaps: int = 4, width: int = 128, layers: int = 3, n_endpoints: int = 0
+        self, n_candidates: int = 4, n_gaps: int = 4, width: int = 128, layers: int = 3, n_endpoints: int = 0,
+        relative: bool = False,
     ):
         super().__init__()
         for name, value, low in (("n_candidates", n_candidates, 1), ("n_gaps", n_gaps, 0),
@@ -63,6 +71,7 @@ class PixelBlendNet(nn.Module):
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
         self.n_candidates, self.n_gaps, self.width, self.layers = n_candidates, n_gaps, width, layers
         self.n_endpoints = n_endpoints
+        self.relative = bool(relative)
         dims = [n_candidates + n_gaps + n_endpoints] + [width] * layers
         mods: list[nn.Module] = []
         for a, b in itertools.pairwise(dims):
@@ -81,11 +90,19 @@ class PixelBlendNet(nn.Module):
         """``(P, K + n_gaps + n_endpoints)`` raw pixel features (metres, pixels) -> ``(P,)`` metres."""
         k, g = self.n_candidates, self.n_candidates + self.n_gaps
         cands = pixels[:, :k]
-        z = torch.cat(
-            [cands / DEPTH_SCALE, torch.log1p(pixels[:, k:g]) / GAP_SCALE, pixels[:, g:] / DEPTH_SCALE], dim=1
-        )
+        gaps = torch.log1p(pixels[:, k:g]) / GAP_SCALE
+        if self.relative:
+            # log-ratios to the candidates' geometric mean: exact scale equivariance.
+            log_c = torch.log(cands.clamp_min(MIN_DEPTH))
+            log_ref = log_c.mean(dim=1, keepdim=True)
+            log_e = torch.log(pixels[:, g:].clamp_min(MIN_DEPTH))
+            z = torch.cat([log_c - log_ref, gaps, log_e - log_ref], dim=1)
+            scale = torch.exp(log_ref[:, 0])
+        else:
+            z = torch.cat([cands / DEPTH_SCALE, gaps, pixels[:, g:] / DEPTH_SCALE], dim=1)
+            scale = DEPTH_SCALE
         out = self.head(self.body(z))
-        return (torch.softmax(out[:, :k], dim=1) * cands).sum(dim=1) + DEPTH_SCALE * out[:, k]
+        return (torch.softmax(out[:, :k], dim=1) * cands).sum(dim=1) + scale * out[:, k]
 
     def forward(self, x: torch.Tensor, where: torch.Tensor | None = None) -> torch.Tensor:
         """Predict at the pixels ``where`` (``(P,)`` metres) or on the whole map.
@@ -112,4 +129,4 @@ class PixelBlendNet(nn.Module):
 
     def extra_repr(self) -> str:
         return (f"n_candidates={self.n_candidates}, n_gaps={self.n_gaps}, n_endpoints={self.n_endpoints}, "
-                f"width={self.width}, layers={self.layers}")
+                f"width={self.width}, layers={self.layers}, relative={self.relative}")

@@ -12,12 +12,14 @@ from .base import OcclusionProtocol, mask_rng
 from .ego import EgoOcclusionV1
 from .freeform import FreeformV1
 from .lidar import LidarDropoutV1
+from .mixed import MixedV1
 from .rect import RectV1
 
 __all__ = [
     "EgoOcclusionV1",
     "FreeformV1",
     "LidarDropoutV1",
+    "MixedV1",
     "OcclusionProtocol",
     "RectV1",
     "available_protocols",
@@ -62,5 +64,5 @@ def get_protocol(protocol: str | OcclusionProtocol) -> OcclusionProtocol:
         ) from None
 
 
-for _cls in (RectV1, LidarDropoutV1, EgoOcclusionV1, FreeformV1):
+for _cls in (RectV1, LidarDropoutV1, EgoOcclusionV1, FreeformV1, MixedV1):
     register_protocol(_cls)

@@ -131,6 +131,24 @@ def test_untrained_pixel_net_is_mean_of_candidates_and_keeps_measured():
     torch.testing.assert_close(net(x, where=unknown), out[unknown])
 
 
+@pytest.mark.parametrize("n_endpoints", [0, 4])
+def test_relative_pixel_net_scales_with_depth(n_endpoints):
+    torch.manual_seed(0)
+    net = PixelBlendNet(n_candidates=3, n_gaps=4, width=8, layers=2, n_endpoints=n_endpoints, relative=True)
+    torch.nn.init.normal_(net.head.weight)  # a trained-looking head, not the zero start
+    torch.nn.init.normal_(net.head.bias)
+    pixels = torch.rand(50, 3 + 4 + n_endpoints, dtype=torch.float64) * 40 + 1
+    net = net.double()
+    scaled = pixels.clone()
+    scaled[:, :3] *= 7.5  # candidates
+    scaled[:, 7:] *= 7.5  # endpoint depths; the gap lengths (pixels) do not scale
+    torch.testing.assert_close(net.blend(scaled), 7.5 * net.blend(pixels))
+    # The fixed-scale net does not have this property.
+    fixed = PixelBlendNet(n_candidates=3, n_gaps=4, width=8, layers=2, n_endpoints=n_endpoints).double()
+    fixed.load_state_dict(net.state_dict())
+    assert not torch.allclose(fixed.blend(scaled), 7.5 * fixed.blend(pixels))
+
+
 def test_net_rejects_wrong_channels_and_params():
     with pytest.raises(ValueError, match="expected input"):
         PriorUNet(n_candidates=2, width=4, levels=1, factor=2)(torch.zeros(1, 4, 8, 8))
@@ -177,6 +195,20 @@ def test_flip_with_endpoints_matches_features_of_the_mirrored_frame(small_gt):
     assert np.isfinite(pred).all()
 
 
+def test_relative_estimator_prediction_scales_with_input(small_gt):
+    est = PriorUNetInpainter(**TINY, relative=True).fit(small_gt)
+    x = _corrupt(small_gt)
+    # Every candidate fill, the floor and the blend scale with depth; gap lengths do not change.
+    np.testing.assert_allclose(est.predict(3.0 * x), 3.0 * est.predict(x), rtol=2e-5)
+
+
+def test_relative_is_saved_and_loaded(small_gt, tmp_path):
+    est = PriorUNetInpainter(**TINY, relative=True).fit(small_gt)
+    loaded = PriorUNetInpainter.load(est.save(tmp_path / "m"))
+    assert loaded.relative is True and loaded.model_.relative
+    np.testing.assert_allclose(loaded.predict(_corrupt(small_gt)), est.predict(_corrupt(small_gt)))
+
+
 def test_pixel_batches_give_more_updates_per_step(small_gt):
     one = PriorUNetInpainter(**{**TINY, "pixel_batches": 1}).fit(small_gt)
     three = PriorUNetInpainter(**{**TINY, "pixel_batches": 3}).fit(small_gt)
@@ -203,7 +235,7 @@ def test_save_load_roundtrip(small_gt, tmp_path, arch):
 
 @pytest.mark.parametrize(
     ("param", "value", "error"),
-    [("factor", 0, ValueError), ("arch", "transformer", ValueError), ("pixel_batches", 0, ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError), ("endpoints", 1, TypeError),
+    [("factor", 0, ValueError), ("arch", "transformer", ValueError), ("pixel_batches", 0, ValueError), ("candidates", ("nope",), ValueError), ("tta", "yes", TypeError), ("endpoints", 1, TypeError), ("relative", "no", TypeError),
      ("levels", 0, ValueError)],
 )
 def test_bad_params_raise_clear_errors(small_gt, param, value, error):

@@ -17,7 +17,7 @@ from inpaintenv.masks import (
 
 SHAPE = (88, 304)  # a quarter of the 352×1216 KITTI crop: same geometry, 16x fewer pixels
 N_STATS = 200
-NEW = ["lidar-dropout-v1", "ego-occlusion-v1", "freeform-v1"]
+NEW = ["lidar-dropout-v1", "ego-occlusion-v1", "freeform-v1", "mixed-v1"]
 ALL = ["rect-v1", *NEW]
 
 
@@ -143,3 +143,32 @@ def test_sample_refuses_anything_but_a_generator(name):
 def test_numpy_integer_shapes_are_accepted():
     m = get_protocol("rect-v1").mask((np.int64(88), np.int32(304)), seed=0, index=0)
     assert m.shape == SHAPE
+
+
+# -- mixed-v1 ----------------------------------------------------------------------------
+def test_mixed_draws_every_component_and_matches_it():
+    from inpaintenv.masks import MixedV1
+
+    mixed = MixedV1()
+    picks = [int(mask_rng("mixed-v1", 0, i).integers(4)) for i in range(40)]
+    assert set(picks) == {0, 1, 2, 3}
+    for i, k in enumerate(picks[:8]):
+        rng = mask_rng("mixed-v1", 0, i)
+        rng.integers(4)  # the component draw comes first, from the same stream
+        expected = get_protocol(mixed.components[k]).sample(SHAPE, rng)
+        np.testing.assert_array_equal(mixed.mask(SHAPE, seed=0, index=i), expected)
+
+
+def test_mixed_subset_and_bad_components():
+    from inpaintenv.masks import MixedV1
+
+    only_rect = MixedV1(components=("rect-v1",))
+    assert only_rect.hole_fraction_range() == get_protocol("rect-v1").hole_fraction_range()
+    assert only_rect.MIN_SHAPE == get_protocol("rect-v1").MIN_SHAPE
+    assert MixedV1().MIN_SHAPE == (32, 32)
+    with pytest.raises(ValueError, match="unknown components"):
+        MixedV1(components=("rect-v9",))
+    with pytest.raises(ValueError, match="components"):
+        MixedV1(components="rect-v1")
+    with pytest.raises(ValueError, match="at least 32x32"):
+        MixedV1().mask((16, 64), seed=0, index=0)
