@@ -20,6 +20,7 @@ GOLDEN = {
     "lidar-dropout-v1": "11ef1fb50d10bf8b",
     "ego-occlusion-v1": "aa66c676d4eca1ff",
     "freeform-v1": "d6ae45301b122ea0",
+    "mixed-v1": "6604d76d35bc9568",
 }
 
 
