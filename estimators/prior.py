@@ -1,7 +1,7 @@
 """A learned inpainter built on classical priors: per-pixel blend of candidate fills + residual.
 
 >>> from estimators.prior import PriorUNetInpainter                  # doctest: +SKIP
->>> est = PriorUNetInpainter.pretrained("kitti-rect-v2")             # shipped weights
+>>> est = PriorUNetInpainter.pretrained("kitti-rect-v3")             # shipped weights
 >>> est.predict(corrupted)                                           # metres
 
 The network (:class:`estimators.nets.prior_unet.PriorUNet`) sees the corrupted depth,
@@ -33,7 +33,10 @@ from .nets.prior_unet import PriorUNet
 from .neural import _NeuralInpainter
 from .priors import AVAILABLE_CANDIDATES, CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
 
-__all__ = ["ARCHS", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti"]
+__all__ = [
+    "ARCHS", "DEFAULT_PRETRAINED", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti",
+    "pretrained_kitti_mixed",
+]
 
 #: ``"pixel"``: per-pixel MLP on candidates and gap lengths (the shipped recipe);
 #: ``"unet"``: U-Net at 1/``factor`` resolution on candidates and masks.
@@ -42,6 +45,10 @@ ARCHS = ("pixel", "unet")
 #: Folder of the shipped models: ``NAME.safetensors`` (weights) + ``NAME.json`` (the
 #: ``config.json`` of a checkpoint written by :meth:`PriorUNetInpainter.save`).
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+
+#: The shipped model that :meth:`PriorUNetInpainter.pretrained` and the registry's
+#: ``unet-pretrained`` load by default (older releases stay loadable by name).
+DEFAULT_PRETRAINED = "kitti-rect-v3"
 
 
 def available_pretrained() -> list[str]:
@@ -342,15 +349,16 @@ class PriorUNetInpainter(_NeuralInpainter):
 
     # -- shipped weights -------------------------------------------------------------------
     @classmethod
-    def pretrained(cls, name: str = "kitti-rect-v2", **overrides: Any) -> PriorUNetInpainter:
+    def pretrained(cls, name: str = DEFAULT_PRETRAINED, **overrides: Any) -> PriorUNetInpainter:
         """Load shipped weights by name (see :func:`available_pretrained`).
 
         Parameters
         ----------
         name : str
-            ``"kitti-rect-v2"`` (default) or ``"kitti-rect-v1"`` (the first release,
-            kept so earlier results can be re-run); both trained on one real KITTI
-            drive with rect-v1 occlusions; CC BY-NC-SA 3.0, see ``docs/model_card.md``.
+            ``"kitti-rect-v3"`` (default, :data:`DEFAULT_PRETRAINED`), ``"kitti-rect-v2"``
+            or ``"kitti-rect-v1"`` (earlier releases, kept so earlier results can be
+            re-run); all trained on one real KITTI drive with rect-v1 occlusions;
+            CC BY-NC-SA 3.0, see ``docs/model_card.md``.
         **overrides
             Prediction-time parameters to change, e.g. ``num_threads=2``, ``tta=False``.
 
@@ -378,8 +386,13 @@ class PriorUNetInpainter(_NeuralInpainter):
 
 
 def pretrained_kitti(**overrides: Any) -> PriorUNetInpainter:
-    """Factory for the registry: the shipped ``kitti-rect-v2`` model."""
-    return PriorUNetInpainter.pretrained("kitti-rect-v2", **overrides)
+    """Factory for the registry: the default shipped model (:data:`DEFAULT_PRETRAINED`)."""
+    return PriorUNetInpainter.pretrained(DEFAULT_PRETRAINED, **overrides)
+
+
+def pretrained_kitti_mixed(**overrides: Any) -> PriorUNetInpainter:
+    """Factory for the registry: ``kitti-mixed-v1``, trained on all four protocols (``mixed-v1``)."""
+    return PriorUNetInpainter.pretrained("kitti-mixed-v1", **overrides)
 
 
 # The shared loader finds classes by name in this table; register ours there.

@@ -157,11 +157,16 @@ for _name, _cls, _kw, _desc in [
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc)
 
-# The shipped learned model (estimators/pretrained/kitti-rect-v2; needs torch). A factory,
+# The shipped learned model (estimators.prior.DEFAULT_PRETRAINED; needs torch). A factory,
 # not a class: it loads the weights. See docs/model_card.md.
 register_method(
     "unet-pretrained", "estimators.prior", "pretrained_kitti", {},
     "learned per-pixel blend of classical fills, pretrained on one KITTI drive (CC BY-NC-SA 3.0)",
+)
+
+register_method(
+    "unet-pretrained-mixed", "estimators.prior", "pretrained_kitti_mixed", {},
+    "the same learned blend trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
 
 register_method(

@@ -22,7 +22,7 @@ CLASSICAL = [
     "telea", "ns", "bilateral", "constant",
 ]
 #: The learned models shipped with the package (added to the registry by estimators).
-PRETRAINED = ["unet-pretrained"]
+PRETRAINED = ["unet-pretrained", "unet-pretrained-mixed"]
 
 SUITES: dict[str, list[str]] = {
     "default": PRETRAINED + CLASSICAL + STUDY_CLASSICAL,

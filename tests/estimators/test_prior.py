@@ -262,8 +262,25 @@ def test_unknown_pretrained_name_lists_shipped():
         PriorUNetInpainter.pretrained("no-such-model")
 
 
+@pytest.mark.parametrize(("name", "preset"), [("kitti-rect-v3", "cpu-1h"), ("kitti-rect-v2", "cpu-1h-v2"),
+                                            ("kitti-rect-v1", "cpu-1h-v1"), ("kitti-mixed-v1", "cpu-1h-mixed")])
+def test_shipped_weights_were_trained_with_their_preset(name, preset):
+    from estimators.presets import PRESETS
+
+    params = PriorUNetInpainter.pretrained(name).get_params()
+    recipe = PRESETS[preset][1]
+    assert {k: params[k] for k in recipe} == recipe
+
+
+def test_default_pretrained_is_shipped():
+    from estimators.prior import DEFAULT_PRETRAINED
+
+    assert DEFAULT_PRETRAINED in available_pretrained()
+    assert PriorUNetInpainter.pretrained().relative is True  # v3 is the scale-free blend
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["kitti-rect-v2", "kitti-rect-v1"])
+@pytest.mark.parametrize("name", ["kitti-rect-v3", "kitti-mixed-v1", "kitti-rect-v2", "kitti-rect-v1"])
 def test_pretrained_beats_constant_on_real_frame(kitti_root, name):
     from estimators.classical import ConstantInpainter
     from inpaintenv.conventions import corrupt
