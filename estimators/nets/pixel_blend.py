@@ -8,6 +8,8 @@ residual::
     depth = Σ_k softmax(logits)_k · candidate_k + 80 m · residual
 
 The last layer starts at zero, so an untrained model is the mean of the candidates.
+With ``relative=True`` depths enter as log-ratios to the candidates' geometric mean
+and the residual is a fraction of it, which makes the model exactly scale-equivariant.
 It has no notion of absolute image position on purpose: in probes on KITTI, position
 features let a model memorise the training drive's layout (see docs/model_card.md).
 Only pixels asked for are computed, so training on hole pixels and predicting on
@@ -95,8 +97,10 @@ class PixelBlendNet(nn.Module):
             # log-ratios to the candidates' geometric mean: exact scale equivariance.
             log_c = torch.log(cands.clamp_min(MIN_DEPTH))
             log_ref = log_c.mean(dim=1, keepdim=True)
-            log_e = torch.log(pixels[:, g:].clamp_min(MIN_DEPTH))
-            z = torch.cat([log_c - log_ref, gaps, log_e - log_ref], dim=1)
+            ends = pixels[:, g:]
+            # A missing endpoint (0 m) enters as 0, like "equal to ref"; its gap length tells.
+            log_e = torch.where(ends > 0, torch.log(ends.clamp_min(MIN_DEPTH)) - log_ref, 0.0)
+            z = torch.cat([log_c - log_ref, gaps, log_e], dim=1)
             scale = torch.exp(log_ref[:, 0])
         else:
             z = torch.cat([cands / DEPTH_SCALE, gaps, pixels[:, g:] / DEPTH_SCALE], dim=1)

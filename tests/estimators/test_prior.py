@@ -143,6 +143,9 @@ def test_relative_pixel_net_scales_with_depth(n_endpoints):
     scaled[:, :3] *= 7.5  # candidates
     scaled[:, 7:] *= 7.5  # endpoint depths; the gap lengths (pixels) do not scale
     torch.testing.assert_close(net.blend(scaled), 7.5 * net.blend(pixels))
+    if n_endpoints:  # a missing endpoint (0 m) stays finite and scale-free
+        pixels[:5, 7], scaled[:5, 7] = 0.0, 0.0
+        torch.testing.assert_close(net.blend(scaled), 7.5 * net.blend(pixels))
     # The fixed-scale net does not have this property.
     fixed = PixelBlendNet(n_candidates=3, n_gaps=4, width=8, layers=2, n_endpoints=n_endpoints).double()
     fixed.load_state_dict(net.state_dict())
