@@ -24,32 +24,30 @@ _STUDY_CPU: dict[str, Any] = dict(
     hole_weight=2.0, random_state=0,
 )
 
+#: kitti-rect-v2's recipe, the base of the later releases: six candidates, 900 steps, one thread.
+_BLEND_V2: dict[str, Any] = dict(
+    arch="pixel", width=128, levels=3, pixel_batches=8, batch_size=4, lr=2e-3, max_steps=900, epochs=10_000,
+    candidates=("scanline", "scanline-inverse", "vertical", "harmonic", "vertical-inverse", "harmonic-inverse"),
+    flip=True, tta=True, num_threads=1, random_state=0,
+)
+
 #: name -> (estimator class, constructor keywords, one-line description).
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     # kitti-rect-v3: kitti-rect-v2's recipe with the scale-free blend (relative=True), 1500 steps.
     "cpu-1h": (
-        PriorUNetInpainter,
-        dict(arch="pixel", width=128, levels=3, pixel_batches=8, batch_size=4, lr=2e-3, max_steps=1500, epochs=10_000,
-             candidates=("scanline", "scanline-inverse", "vertical", "harmonic", "vertical-inverse", "harmonic-inverse"),
-             relative=True, flip=True, tta=True, num_threads=1, random_state=0),
+        PriorUNetInpainter, {**_BLEND_V2, "relative": True, "max_steps": 1500},
         "scale-free per-pixel learned blend of six classical fills (PixelBlendNet, relative=True), whole frames, "
         "rect-v1, 1500 steps; 55 min on one core of a busy 2-core machine (the shipped kitti-rect-v3)",
     ),
-    # kitti-mixed-v1: cpu-1h trained on the mixture of the four protocols.
+    # kitti-mixed-v1: the scale-free blend trained on the mixture of the four protocols.
     "cpu-1h-mixed": (
-        PriorUNetInpainter,
-        dict(arch="pixel", width=128, levels=3, pixel_batches=8, batch_size=4, lr=2e-3, max_steps=900, epochs=10_000,
-             candidates=("scanline", "scanline-inverse", "vertical", "harmonic", "vertical-inverse", "harmonic-inverse"),
-             relative=True, protocol="mixed-v1", flip=True, tta=True, num_threads=1, random_state=0),
-        "cpu-1h trained on mixed-v1 (each frame's hole from one of the four protocols); 32 min on one core "
-        "(the shipped kitti-mixed-v1)",
+        PriorUNetInpainter, {**_BLEND_V2, "relative": True, "protocol": "mixed-v1"},
+        "scale-free blend trained on mixed-v1 (each frame's hole from one of the four protocols), 900 steps; "
+        "32 min on one core (the shipped kitti-mixed-v1)",
     ),
     # The recipe of kitti-rect-v2: six candidates, fixed depth scale, 900 steps.
     "cpu-1h-v2": (
-        PriorUNetInpainter,
-        dict(arch="pixel", width=128, levels=3, pixel_batches=8, batch_size=4, lr=2e-3, max_steps=900, epochs=10_000,
-             candidates=("scanline", "scanline-inverse", "vertical", "harmonic", "vertical-inverse", "harmonic-inverse"),
-             flip=True, tta=True, num_threads=1, random_state=0),
+        PriorUNetInpainter, _BLEND_V2,
         "kitti-rect-v2's recipe: six classical fills, fixed depth scale, 900 steps, 1 thread",
     ),
     # The recipe of the first shipped model, kitti-rect-v1 (four candidates, 300 steps).
