@@ -35,7 +35,6 @@ from .priors import AVAILABLE_CANDIDATES, CANDIDATES, ENDPOINT_CHANNELS, GAP_CHA
 
 __all__ = [
     "ARCHS", "DEFAULT_PRETRAINED", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti",
-    "pretrained_kitti_mixed",
 ]
 
 #: ``"pixel"``: per-pixel MLP on candidates and gap lengths (the shipped recipe);
@@ -385,14 +384,13 @@ class PriorUNetInpainter(_NeuralInpainter):
         return est
 
 
-def pretrained_kitti(**overrides: Any) -> PriorUNetInpainter:
-    """Factory for the registry: the default shipped model (:data:`DEFAULT_PRETRAINED`)."""
-    return PriorUNetInpainter.pretrained(DEFAULT_PRETRAINED, **overrides)
+def pretrained_kitti(name: str = DEFAULT_PRETRAINED, **overrides: Any) -> PriorUNetInpainter:
+    """Factory for the registry: a shipped model (by default :data:`DEFAULT_PRETRAINED`).
 
-
-def pretrained_kitti_mixed(**overrides: Any) -> PriorUNetInpainter:
-    """Factory for the registry: ``kitti-mixed-v1``, trained on all four protocols (``mixed-v1``)."""
-    return PriorUNetInpainter.pretrained("kitti-mixed-v1", **overrides)
+    ``unet-pretrained`` calls it with no name; ``unet-pretrained-mixed`` with
+    ``name="kitti-mixed-v1"``. See :meth:`PriorUNetInpainter.pretrained`.
+    """
+    return PriorUNetInpainter.pretrained(name, **overrides)
 
 
 # The shared loader finds classes by name in this table; register ours there.

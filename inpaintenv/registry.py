@@ -165,7 +165,7 @@ register_method(
 )
 
 register_method(
-    "unet-pretrained-mixed", "estimators.prior", "pretrained_kitti_mixed", {},
+    "unet-pretrained-mixed", "estimators.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
     "the same learned blend trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
 
