@@ -34,6 +34,13 @@ DRIVE = "2011_09_26_drive_9001_sync"
 N_TRAIN = 56
 
 
+def sel_scores(predict, sel: np.ndarray, protocol: str = "rect-v1") -> dict:
+    """Hole/all RMSE of ``predict`` (batch of corrupted frames -> depth) on ``sel`` (seed 0)."""
+    holes = get_protocol(protocol).masks(sel.shape[1:], 0, range(len(sel)))
+    x = np.where(holes, np.nan, sel).astype(np.float32)
+    return aggregate(frame_metrics(predict(x), sel, holes))
+
+
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("name", help="label of the run; the model is saved under --out/NAME")
@@ -58,9 +65,7 @@ def main(argv: list[str] | None = None) -> dict:
     train_s = time.perf_counter() - start
     est.save(Path(args.out) / args.name)
 
-    holes = get_protocol("rect-v1").masks(sel.shape[1:], 0, range(len(sel)))
-    x = np.where(holes, np.nan, sel).astype(np.float32)
-    scores = aggregate(frame_metrics(est.predict(x), sel, holes))
+    scores = sel_scores(est.predict, sel)
     row = {"name": args.name, "preset": args.preset, "overrides": {k: repr(v) for k, v in overrides.items()},
            "train_s": round(train_s), "sel_hole_rmse": round(float(scores["hole_rmse"]), 3),
            "sel_all_rmse": round(float(scores["all_rmse"]), 3)}

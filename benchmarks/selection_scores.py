@@ -1,0 +1,59 @@
+"""Score saved or shipped models and classical methods on the selection frames, per protocol.
+
+The selection frames of ``benchmarks/pretrained_selection.py`` (drive 9001, frames
+56-67, seed 0) under each occlusion protocol: the sel tables of ``docs/model_card.md``.
+
+Examples
+--------
+    python benchmarks/selection_scores.py --kitti-root ../shared/kitti kitti-mixed-v1 selection-runs/relative
+    python benchmarks/selection_scores.py --kitti-root ../shared/kitti -m harmonic -m harmonic-inverse
+
+A model is a shipped name (see ``estimators.prior.available_pretrained``) or a
+directory written by ``est.save``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from estimators.prior import PriorUNetInpainter, available_pretrained
+from inpaintenv.data.kitti import KittiDepth
+from inpaintenv.registry import make_method
+from pretrained_selection import DRIVE, N_TRAIN, sel_scores
+
+PROTOCOLS = ("rect-v1", "lidar-dropout-v1", "ego-occlusion-v1", "freeform-v1")
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("models", nargs="*", help="shipped model names or saved model directories")
+    p.add_argument("-m", "--method", action="append", default=[], help="registry method (repeatable)")
+    p.add_argument("--kitti-root", required=True)
+    p.add_argument("--protocol", action="append", help=f"default: all of {PROTOCOLS}")
+    args = p.parse_intermixed_args(argv)
+    frames = KittiDepth(args.kitti_root, split="train", drives=[DRIVE])
+    sel = frames.load_batch(range(N_TRAIN, len(frames)))
+    rows = []
+    entries = [(m, "model") for m in args.models] + [(m, "method") for m in args.method]
+    for label, kind in entries:
+        if kind == "model":
+            est = (PriorUNetInpainter.pretrained(label) if label in available_pretrained()
+                   else PriorUNetInpainter.load(label)).set_params(num_threads=1)
+            predict = est.predict
+        else:
+            est = make_method(label)
+            predict = lambda x, est=est: np.stack([est.predict(f) for f in x])  # noqa: E731
+        row = {"name": label}
+        for protocol in args.protocol or PROTOCOLS:
+            scores = sel_scores(predict, sel, protocol)
+            row[protocol] = [round(float(scores["hole_rmse"]), 3), round(float(scores["all_rmse"]), 3)]
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    return rows
+
+
+if __name__ == "__main__":
+    main()

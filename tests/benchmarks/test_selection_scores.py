@@ -1,0 +1,34 @@
+"""benchmarks/selection_scores.py on the real selection frames (cheap methods only)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+_DIR = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+@pytest.fixture(scope="module")
+def sel_module():
+    sys.path.insert(0, str(_DIR))  # the script imports its sibling pretrained_selection
+    try:
+        import selection_scores
+
+        yield selection_scores
+    finally:
+        sys.path.remove(str(_DIR))
+
+
+def test_scores_classical_methods_per_protocol(sel_module, kitti_root, capsys):
+    rows = sel_module.main(["--kitti-root", str(kitti_root), "-m", "constant", "-m", "scanline",
+                            "--protocol", "rect-v1", "--protocol", "ego-occlusion-v1"])
+    assert [r["name"] for r in rows] == ["constant", "scanline"]
+    for row in rows:
+        assert set(row) == {"name", "rect-v1", "ego-occlusion-v1"}
+        for hole, whole in (row["rect-v1"], row["ego-occlusion-v1"]):
+            assert 0 < whole < hole  # all-pixel RMSE averages in the easy measured pixels
+    const, scan = rows
+    assert scan["rect-v1"][0] < const["rect-v1"][0]  # interpolation beats the median
+    assert '"name": "scanline"' in capsys.readouterr().out
