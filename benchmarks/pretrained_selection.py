@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from estimators.presets import make_preset
-from inpaintenv.data import ArrayDataset
+from inpaintenv.data import ArrayDataset, ConcatDataset, SyntheticStreets
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
@@ -48,6 +48,8 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--kitti-root", required=True)
     p.add_argument("--preset", default="cpu-1h")
     p.add_argument("--out", default="selection-runs")
+    p.add_argument("--synthetic", type=int, default=0, metavar="N",
+                   help="append N SyntheticStreets frames (seed 1000) to the training frames")
     args = p.parse_intermixed_args(argv)  # overrides may come after the options
     overrides = {}
     for item in args.overrides:
@@ -58,6 +60,10 @@ def main(argv: list[str] | None = None) -> dict:
 
     frames = KittiDepth(args.kitti_root, split="train", drives=[DRIVE])
     train = ArrayDataset(frames.load_batch(range(N_TRAIN)))
+    if args.synthetic:
+        # Procedural streets add scene diversity the one real drive lacks; seed 1000
+        # keeps them apart from the synthetic frames the tests and demos use.
+        train = ConcatDataset([train, SyntheticStreets(n=args.synthetic, seed=1000, frame_shape=frames.frame_shape)])
     sel = frames.load_batch(range(N_TRAIN, len(frames)))
     est = make_preset(args.preset, **overrides)
     start = time.perf_counter()
@@ -67,6 +73,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     scores = sel_scores(est.predict, sel)
     row = {"name": args.name, "preset": args.preset, "overrides": {k: repr(v) for k, v in overrides.items()},
+           "synthetic": args.synthetic,
            "train_s": round(train_s), "sel_hole_rmse": round(float(scores["hole_rmse"]), 3),
            "sel_all_rmse": round(float(scores["all_rmse"]), 3)}
     print(json.dumps(row))

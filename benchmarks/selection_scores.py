@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 
 import numpy as np
 
@@ -25,6 +26,18 @@ from inpaintenv.registry import make_method
 from pretrained_selection import DRIVE, N_TRAIN, sel_scores
 
 PROTOCOLS = ("rect-v1", "lidar-dropout-v1", "ego-occlusion-v1", "freeform-v1")
+
+
+def batch_predictor(label: str, kind: str) -> Callable[[np.ndarray], np.ndarray]:
+    """``(N, H, W)`` corrupted -> filled, for a model (shipped name or saved directory) or a registry method."""
+    if kind == "model":
+        est = (PriorUNetInpainter.pretrained(label) if label in available_pretrained()
+               else PriorUNetInpainter.load(label)).set_params(num_threads=1)
+        return est.predict
+    if kind != "method":
+        raise ValueError(f"kind must be 'model' or 'method', got {kind!r}")
+    est = make_method(label)
+    return lambda x: np.stack([est.predict(f) for f in x])
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -39,13 +52,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     rows = []
     entries = [(m, "model") for m in args.models] + [(m, "method") for m in args.method]
     for label, kind in entries:
-        if kind == "model":
-            est = (PriorUNetInpainter.pretrained(label) if label in available_pretrained()
-                   else PriorUNetInpainter.load(label)).set_params(num_threads=1)
-            predict = est.predict
-        else:
-            est = make_method(label)
-            predict = lambda x, est=est: np.stack([est.predict(f) for f in x])  # noqa: E731
+        predict = batch_predictor(label, kind)
         row = {"name": label}
         for protocol in args.protocol or PROTOCOLS:
             scores = sel_scores(predict, sel, protocol)

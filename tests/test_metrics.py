@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from inpaintenv.metrics import aggregate, frame_metrics
+from inpaintenv.metrics import aggregate, depth_binned_errors, frame_metrics
 
 
 def reference_metrics(pred, gt, hole, max_depth=80.0):
@@ -161,3 +161,61 @@ def test_bad_ground_truth_and_mask_are_rejected():
         frame_metrics(ok, ok, np.full((3, 3), 2))
     with pytest.raises(ValueError, match="how"):
         aggregate(frame_metrics(ok, ok, np.ones((3, 3), bool)), how="median")
+
+
+# -- depth_binned_errors -------------------------------------------------------------------
+
+
+def _binned_case(seed=0):
+    rng = np.random.default_rng(seed)
+    gt = rng.uniform(1, 90, (2, 24, 32)).astype(np.float32)
+    gt[rng.random(gt.shape) < 0.4] = 0  # semi-dense truth
+    hole = np.zeros(gt.shape, bool)
+    hole[:, 4:18, 5:25] = True
+    pred = np.abs(gt + rng.normal(0, 3, gt.shape)).astype(np.float32)
+    return pred, gt, hole
+
+
+def test_depth_bins_recompose_the_pooled_hole_rmse():
+    pred, gt, hole = _binned_case()
+    rows = depth_binned_errors(pred, gt, hole)
+    assert sum(r["pixels"] for r in rows) == np.count_nonzero(hole & (gt > 0))
+    assert math.isclose(sum(r["pixel_share"] for r in rows), 1.0)
+    assert math.isclose(sum(r["sse_share"] for r in rows), 1.0)
+    pooled = aggregate(frame_metrics(pred, gt, hole), how="pooled")["hole_rmse"]
+    recomposed = math.sqrt(sum(r["pixel_share"] * r["rmse"] ** 2 for r in rows if r["pixels"]))
+    assert math.isclose(recomposed, pooled, rel_tol=1e-9)
+
+
+def test_depth_bins_report_signed_bias_per_bin():
+    gt = np.array([[5.0, 15.0, 60.0, 0.0]], np.float32)
+    pred = np.array([[6.0, 15.0, 40.0, 99.0]], np.float32)  # the 0-truth pixel is not scored
+    rows = depth_binned_errors(pred, gt, np.ones(gt.shape, bool), edges=(0, 10, 50, np.inf))
+    assert [r["pixels"] for r in rows] == [1, 1, 1]
+    assert [r["bias"] for r in rows] == [1.0, 0.0, -20.0]
+    assert math.isclose(rows[2]["sse_share"], 400 / 401)
+
+
+def test_depth_bins_empty_bin_is_nan_not_an_error():
+    gt = np.full((4, 4), 5.0, np.float32)
+    rows = depth_binned_errors(gt, gt, np.ones(gt.shape, bool), edges=(0, 10, 20))
+    assert rows[0]["rmse"] == 0.0 and rows[0]["sse_share"] == 0.0
+    assert rows[1]["pixels"] == 0 and math.isnan(rows[1]["rmse"]) and math.isnan(rows[1]["bias"])
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        (dict(hole=np.zeros((8, 8), bool)), "no hole pixel has ground truth"),
+        (dict(edges=(10, 0)), "increasing"),
+        (dict(edges=(5,)), "increasing"),
+        (dict(pred=np.ones((8, 7), np.float32)), "shape"),
+        (dict(pred=np.full((8, 8), np.nan, np.float32)), "NaN"),
+    ],
+)
+def test_depth_bins_reject_bad_input(change, match):
+    args = dict(pred=np.ones((8, 8), np.float32), gt=np.full((8, 8), 3.0, np.float32),
+                hole=np.ones((8, 8), bool), edges=(0, 10, np.inf))
+    args.update(change)
+    with pytest.raises(ValueError, match=match):
+        depth_binned_errors(args["pred"], args["gt"], args["hole"], edges=args["edges"])
