@@ -25,7 +25,7 @@ from .classical._base import in_inverse_depth
 from .classical.harmonic import harmonic_fill
 from .classical.scanline import scanline_fill
 
-__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features"]
+__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features", "row_band_quantile"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
@@ -44,6 +44,57 @@ def _vertical(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     return scanline_fill(values.T, known.T).T
 
 
+#: Rows above and below a pixel's row pooled by the row-context fills (a band of 9 rows).
+ROW_BAND = 4
+
+
+def row_band_quantile(values: np.ndarray, known: np.ndarray, q: float, band: int = ROW_BAND) -> np.ndarray:
+    """The ``q``-quantile of the measured depth in each band of ``2·band + 1`` rows.
+
+    Context, not interpolation: a large hole can hide far scene (the road's end, a gap
+    between buildings) that no fill from its border reaches; how far the rest of the
+    same rows reaches tells a learned blend how much to push a pixel back. Measured
+    pixels keep their value; rows with no measurement in their band take the nearest
+    such row's value; a frame without any measurement gives zeros.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        ``(H, W)`` metres, read where ``known``.
+    known : numpy.ndarray
+        ``(H, W)`` bool.
+    q : float
+        Quantile in [0, 1] (linear interpolation between order statistics).
+    band : int
+        Rows pooled on each side.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(H, W)`` float32 metres.
+    """
+    if not 0.0 <= q <= 1.0:
+        raise ValueError(f"q must be in [0, 1], got {q!r}")
+    height, width = values.shape
+    if not known.any():
+        return np.zeros((height, width), np.float32)
+    # Unknown pixels sort last as +inf; each band's k-th order statistic is then an index.
+    keyed = np.where(known, values, np.inf).astype(np.float32)
+    padded = np.pad(keyed, ((band, band), (0, 0)), constant_values=np.inf)
+    bands = np.lib.stride_tricks.sliding_window_view(padded, (2 * band + 1, width))[:, 0].reshape(height, -1)
+    ordered = np.sort(bands, axis=1)
+    count = np.count_nonzero(np.isfinite(ordered), axis=1)
+    has = count > 0
+    pos = q * np.maximum(count - 1, 0)
+    lo = np.floor(pos).astype(np.int64)
+    hi = np.minimum(lo + 1, np.maximum(count - 1, 0))
+    rows = np.arange(height)
+    frac = (pos - lo).astype(np.float32)
+    per_row = np.where(has, ordered[rows, lo] * (1 - frac) + np.where(frac > 0, ordered[rows, hi], 0) * frac, 0)
+    per_row = np.interp(rows, rows[has], per_row[has]).astype(np.float32)
+    return np.where(known, values, per_row[:, None]).astype(np.float32)
+
+
 _FILLS = {
     "scanline": lambda v, k: scanline_fill(v, k),
     "scanline-inverse": lambda v, k: in_inverse_depth(scanline_fill, v, k),
@@ -51,6 +102,9 @@ _FILLS = {
     "harmonic": harmonic_fill,
     "vertical-inverse": lambda v, k: in_inverse_depth(_vertical, v, k),
     "harmonic-inverse": lambda v, k: in_inverse_depth(harmonic_fill, v, k),
+    # Row context: how near / how far the rest of the pixel's rows reach.
+    "row-median": lambda v, k: row_band_quantile(v, k, 0.5),
+    "row-far": lambda v, k: row_band_quantile(v, k, 0.9),
 }
 #: Every fill :func:`candidate_fills` knows (CANDIDATES is the default subset).
 AVAILABLE_CANDIDATES: tuple[str, ...] = tuple(_FILLS)

@@ -19,6 +19,7 @@ from estimators.priors import (
     endpoint_values,
     gap_distances,
     prior_features,
+    row_band_quantile,
 )
 
 TINY = {"width": 4, "levels": 1, "factor": 2, "batch_size": 2, "max_steps": 2, "random_state": 0, "num_threads": 1}
@@ -104,6 +105,40 @@ def test_every_available_candidate_keeps_measured_pixels(small_gt):
     fills = candidate_fills(x, AVAILABLE_CANDIDATES)
     assert np.isfinite(fills).all() and (fills[:, np.isnan(x)] > 0).all()
     np.testing.assert_array_equal(fills[:, x > 0], np.broadcast_to(x[x > 0], (len(AVAILABLE_CANDIDATES), (x > 0).sum())))
+
+
+def _row_band_quantile_reference(values, known, q, band):
+    """Row by row with NumPy's nanquantile; rows with no data in their band stay NaN."""
+    v = np.where(known, values, np.nan)
+    out = np.full(len(v), np.nan)
+    for r in range(len(v)):
+        block = v[max(0, r - band): r + band + 1]
+        if np.isfinite(block).any():
+            out[r] = np.nanquantile(block, q)
+    return out
+
+
+@pytest.mark.parametrize("q", [0.0, 0.5, 0.9, 1.0])
+def test_row_band_quantile_matches_nanquantile(q):
+    rng = np.random.default_rng(1)
+    values = rng.uniform(2, 80, (30, 17)).astype(np.float32)
+    known = rng.random(values.shape) < 0.3
+    known[:8] = False  # rows far from any measurement take the nearest covered row's value
+    out = row_band_quantile(values, known, q, band=2)
+    ref = _row_band_quantile_reference(values, known, q, band=2)
+    covered = np.isfinite(ref)
+    for r in np.nonzero(covered)[0]:
+        np.testing.assert_allclose(out[r][~known[r]], ref[r], rtol=1e-5)
+    np.testing.assert_array_equal(out[known], values[known])
+    first = np.argmax(covered)
+    np.testing.assert_allclose(out[:first], ref[first], rtol=1e-5)
+
+
+def test_row_band_quantile_edge_cases():
+    values = np.full((4, 5), 7.0, np.float32)
+    assert not row_band_quantile(values, np.zeros((4, 5), bool), 0.5).any()  # nothing measured: zeros
+    with pytest.raises(ValueError, match="q must be in"):
+        row_band_quantile(values, values > 0, 1.5)
 
 
 def test_priors_reject_batches():
