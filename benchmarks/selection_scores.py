@@ -7,9 +7,10 @@ Examples
 --------
     python benchmarks/selection_scores.py --kitti-root ../shared/kitti kitti-mixed-v1 selection-runs/relative
     python benchmarks/selection_scores.py --kitti-root ../shared/kitti -m harmonic -m harmonic-inverse
+    python benchmarks/selection_scores.py --kitti-root ../shared/kitti kitti-rect-v3+kitti-mixed-v1 --protocol rect-v1
 
 A model is a shipped name (see ``estimators.prior.available_pretrained``) or a
-directory written by ``est.save``.
+directory written by ``est.save``; ``a+b`` averages models' predictions.
 """
 
 from __future__ import annotations
@@ -29,7 +30,13 @@ PROTOCOLS = ("rect-v1", "lidar-dropout-v1", "ego-occlusion-v1", "freeform-v1")
 
 
 def batch_predictor(label: str, kind: str) -> Callable[[np.ndarray], np.ndarray]:
-    """``(N, H, W)`` corrupted -> filled, for a model (shipped name or saved directory) or a registry method."""
+    """``(N, H, W)`` corrupted -> filled, for a model (shipped name or saved directory) or a registry method.
+
+    ``"a+b"`` is the mean of the predictions of models ``a`` and ``b`` (an ensemble).
+    """
+    if kind == "model" and "+" in label:
+        members = [batch_predictor(part, kind) for part in label.split("+")]
+        return lambda x: np.mean([predict(x) for predict in members], axis=0)
     if kind == "model":
         est = (PriorUNetInpainter.pretrained(label) if label in available_pretrained()
                else PriorUNetInpainter.load(label)).set_params(num_threads=1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 _DIR = Path(__file__).resolve().parents[2] / "benchmarks"
@@ -32,3 +33,20 @@ def test_scores_classical_methods_per_protocol(sel_module, kitti_root, capsys):
     const, scan = rows
     assert scan["rect-v1"][0] < const["rect-v1"][0]  # interpolation beats the median
     assert '"name": "scanline"' in capsys.readouterr().out
+
+
+def test_plus_averages_models(sel_module, monkeypatch):
+    calls = []
+
+    def fake_load(label):
+        calls.append(label)
+        return type("Est", (), {"set_params": lambda self, **kw: self,
+                                "predict": lambda self, x, v=float(len(calls)): x * 0 + v})()
+
+    monkeypatch.setattr(sel_module, "available_pretrained", lambda: ["a", "b"])
+    monkeypatch.setattr(sel_module.PriorUNetInpainter, "pretrained", staticmethod(fake_load))
+    predict = sel_module.batch_predictor("a+b", "model")
+    assert calls == ["a", "b"]
+    np.testing.assert_array_equal(predict(np.zeros((1, 2, 2))), np.full((1, 2, 2), 1.5))
+    with pytest.raises(ValueError, match="kind"):
+        sel_module.batch_predictor("x", "other")
