@@ -4,12 +4,16 @@ This subpackage (with :mod:`inpaintenv.cli`) is the only part of ``inpaintenv`` 
 knows methods by name; it builds them through :mod:`inpaintenv.registry`.
 """
 
+from .headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
 from .report import summary_table, to_markdown, write_report
 from .runner import RunMismatchError, run_benchmark
 from .stats import bootstrap_mean_ci
 from .suites import SUITES, LazyMethod, suite_methods
 
 __all__ = [
+    "CLASSICAL_METHODS",
+    "headline_markdown",
+    "learned_vs_classical",
     "SUITES",
     "LazyMethod",
     "RunMismatchError",

@@ -82,6 +82,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..data import split_by_drive
     from ..data.synthetic import SyntheticStreets
     from .figures import frame_panel, plot_error_vs_distance, plot_error_vs_hole_size
+    from .headline import headline_markdown, learned_vs_classical
     from .report import summary_table, to_markdown, write_report
     from .runner import run_benchmark
     from .suites import LazyMethod, build_method, suite_methods
@@ -133,6 +134,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     paths = write_report(result, args.out, meta={"command": command, "holdout": holdout})
     table = summary_table(result)
     print(to_markdown(table))
+    headline = headline_markdown(learned_vs_classical(result))
+    if headline:
+        print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
     if args.figure_frames > 0:
         fig_dir = Path(args.out) / "figures"
         chosen = {n: materialise(n, methods[n]) for n in _figure_methods(table, methods)}

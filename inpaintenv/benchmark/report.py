@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..evaluate import EvaluationResult, json_safe
+from .headline import headline_markdown, learned_vs_classical
 from .stats import bootstrap_mean_ci
 
 __all__ = ["REPORT_METRICS", "summary_table", "to_markdown", "environment_info", "write_report"]
@@ -112,7 +113,8 @@ def write_report(
     result: EvaluationResult, out_dir: str | os.PathLike, *, meta: dict[str, Any] | None = None
 ) -> dict[str, Path]:
     """Write ``results.json`` (every per-frame row, tables, environment), ``results.csv``
-    (per-frame rows) and ``results.md`` (overall and per-drive tables).
+    (per-frame rows) and ``results.md`` (overall and per-drive tables, and the best learned
+    vs strongest classical comparison of :mod:`.headline` when the run has both kinds).
 
     Returns
     -------
@@ -123,11 +125,13 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     table = summary_table(result)
     per_drive = summary_table(result, ("method", "protocol", "drive"))
+    headline = learned_vs_classical(result)
     doc = {
         "meta": {**result.meta, **(meta or {})},
         "environment": environment_info(),
         "table": table,
         "by_drive": per_drive,
+        "headline": headline,
         "rows": result.rows,
     }
     paths = {"json": out / "results.json", "csv": out / "results.csv", "markdown": out / "results.md"}
@@ -146,5 +150,16 @@ def write_report(
         to_markdown(per_drive, ("method", "protocol", "drive")),
         "",
     ]
+    if headline:
+        md += [
+            "## Best learned vs strongest classical (per protocol and drive)",
+            "",
+            "Ratio of mean hole RMSE on the frame-masks both methods scored, with a paired "
+            "95 % bootstrap interval; the last column is the learned method's all-pixel RMSE "
+            "÷ the classical method's hole RMSE.",
+            "",
+            headline_markdown(headline),
+            "",
+        ]
     paths["markdown"].write_text("\n".join(md))
     return paths

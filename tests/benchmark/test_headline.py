@@ -1,0 +1,76 @@
+"""Best learned vs strongest classical: the per-drive ratio behind issue 8's goal."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from inpaintenv.benchmark import headline_markdown, learned_vs_classical, run_benchmark, write_report
+from inpaintenv.data import ArrayDataset
+from inpaintenv.evaluate import EvaluationResult
+
+
+def _rows(method, drive, holes, alls=None, protocol="rect-v1", seed=0, counts=None):
+    alls = alls or [h / 2 for h in holes]
+    counts = counts or [100] * len(holes)
+    return [
+        {"method": method, "protocol": protocol, "drive": drive, "seed": seed, "index": i,
+         "hole_rmse": h if c else float("nan"), "all_rmse": a, "hole_count": c}
+        for i, (h, a, c) in enumerate(zip(holes, alls, counts))
+    ]
+
+
+def test_picks_the_best_of_each_kind_and_pairs_frames():
+    rows = (_rows("harmonic", "d0", [4.0, 6.0, 8.0]) + _rows("scanline", "d0", [5.0, 5.0, 5.0])
+            + _rows("constant", "d0", [20.0, 20.0, 20.0])
+            + _rows("mine", "d0", [3.0, 3.0, 6.0], alls=[1.0, 2.0, 3.0]) + _rows("other", "d0", [9.0, 9.0, 9.0]))
+    (row,) = learned_vs_classical(EvaluationResult(rows=rows, meta={}))
+    assert (row["learned"], row["classical"]) == ("mine", "scanline")  # scanline 5.0 < harmonic 6.0
+    assert row["hole_ratio"] == pytest.approx(4.0 / 5.0)
+    assert row["hole_ratio_low"] <= row["hole_ratio"] <= row["hole_ratio_high"]
+    assert row["all_over_classical_hole"] == pytest.approx(2.0 / 5.0)
+    assert row["n_frames"] == 3 and (row["protocol"], row["drive"]) == ("rect-v1", "d0")
+
+
+def test_groups_by_drive_and_skips_frames_without_hole_truth():
+    rows = (_rows("harmonic", "d0", [4.0, 4.0]) + _rows("mine", "d0", [2.0, 2.0])
+            + _rows("harmonic", "d1", [4.0, 100.0], counts=[100, 0]) + _rows("mine", "d1", [8.0, 100.0], counts=[100, 0]))
+    out = learned_vs_classical(EvaluationResult(rows=rows, meta={}))
+    by_drive = {r["drive"]: r for r in out}
+    assert by_drive["d0"]["hole_ratio"] == pytest.approx(0.5)
+    d1 = by_drive["d1"]
+    assert d1["n_frames"] == 1 and d1["hole_ratio"] == pytest.approx(2.0)
+    assert d1["hole_ratio_low"] == d1["hole_ratio_high"] == d1["hole_ratio"]  # one frame: no interval
+
+
+def test_nothing_to_compare_without_both_kinds():
+    only_classical = _rows("harmonic", "d0", [4.0]) + _rows("scanline", "d0", [5.0])
+    assert learned_vs_classical(EvaluationResult(rows=only_classical, meta={})) == []
+    assert headline_markdown([]) == ""
+    with pytest.raises(ValueError, match="confidence"):
+        learned_vs_classical(EvaluationResult(rows=only_classical, meta={}), confidence=1.0)
+
+
+def test_custom_classical_set_and_markdown():
+    rows = _rows("a", "d0", [2.0, 4.0]) + _rows("b", "d0", [4.0, 4.0])
+    (row,) = learned_vs_classical(EvaluationResult(rows=rows, meta={}), classical={"b"})
+    assert row["learned"] == "a" and math.isclose(row["hole_ratio"], 0.75)
+    md = headline_markdown([row])
+    assert "| rect-v1 | d0 | 2 | a 3.00 | b 4.00 | 0.75 [" in md
+
+
+def test_report_and_json_carry_the_headline(small_gt, tmp_path):
+    data = ArrayDataset(np.concatenate([small_gt, small_gt + 1.0]), groups=["d0"] * len(small_gt) * 2)
+    methods = {
+        "scanline": lambda x: np.where(np.isnan(x), 10.0, x),
+        "mine": lambda x: np.where(np.isnan(x), np.nanmedian(np.where(x > 0, x, np.nan)), x),
+    }
+    res = run_benchmark(methods, data, protocols=["rect-v1"], seeds=[0], out_dir=tmp_path, progress=False)
+    paths = write_report(res, tmp_path / "report")
+    doc = json.loads(paths["json"].read_text())
+    (head,) = doc["headline"]
+    assert head["learned"] == "mine" and head["classical"] == "scanline"
+    assert "## Best learned vs strongest classical" in paths["markdown"].read_text()
