@@ -75,6 +75,16 @@ def row_band_quantile(values: np.ndarray, known: np.ndarray, q: float, band: int
     """
     if not 0.0 <= q <= 1.0:
         raise ValueError(f"q must be in [0, 1], got {q!r}")
+    if int(band) != band or band < 0:
+        raise ValueError(f"band must be a non-negative integer, got {band!r}")
+    known = np.asarray(known)
+    if known.ndim != 2 or known.dtype != bool or np.shape(values) != known.shape:
+        raise ValueError(
+            f"values and known must be 2-D arrays of one shape, known bool; got {np.shape(values)} "
+            f"and {known.dtype} {known.shape}"
+        )
+    values = np.asarray(values, dtype=np.float32)
+    band = int(band)
     height, width = values.shape
     if not known.any():
         return np.zeros((height, width), np.float32)

@@ -139,6 +139,10 @@ def test_row_band_quantile_edge_cases():
     assert not row_band_quantile(values, np.zeros((4, 5), bool), 0.5).any()  # nothing measured: zeros
     with pytest.raises(ValueError, match="q must be in"):
         row_band_quantile(values, values > 0, 1.5)
+    with pytest.raises(ValueError, match="band must be"):
+        row_band_quantile(values, values > 0, 0.5, band=-1)
+    with pytest.raises(ValueError, match="one shape"):
+        row_band_quantile(values, np.ones((4, 4), bool), 0.5)
 
 
 def test_priors_reject_batches():
