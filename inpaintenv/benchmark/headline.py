@@ -113,7 +113,7 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
         return ""
     heads = list(keys) + ["frames", "best learned (hole RMSE m)", "strongest classical (hole RMSE m)",
                           "ratio [95 % CI]", "learned all ÷ classical hole"]
-    lines = ["| " + " | ".join(heads) + " |", "|" + "|".join(["---"] * (len(keys) + 1) + ["---"] * 2 + ["---:"] * 2) + "|"]
+    lines = ["| " + " | ".join(heads) + " |", "|" + "|".join(["---"] * len(keys) + ["---:"] + ["---"] * 2 + ["---:"] * 2) + "|"]
     for r in rows:
         lines.append("| " + " | ".join([str(r[k]) for k in keys] + [
             str(r["n_frames"]),
