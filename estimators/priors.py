@@ -44,6 +44,17 @@ def _vertical(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     return scanline_fill(values.T, known.T).T
 
 
+def _check_values_known(values: np.ndarray, known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(values as float32, known)`` after checking both are 2-D, of one shape, ``known`` bool."""
+    known = np.asarray(known)
+    if known.ndim != 2 or known.dtype != bool or np.shape(values) != known.shape:
+        raise ValueError(
+            f"values and known must be 2-D arrays of one shape, known bool; got {np.shape(values)} "
+            f"and {known.dtype} {known.shape}"
+        )
+    return np.asarray(values, dtype=np.float32), known
+
+
 #: Rows above and below a pixel's row pooled by the row-context fills (a band of 9 rows).
 ROW_BAND = 4
 
@@ -77,13 +88,7 @@ def row_band_quantile(values: np.ndarray, known: np.ndarray, q: float, band: int
         raise ValueError(f"q must be in [0, 1], got {q!r}")
     if int(band) != band or band < 0:
         raise ValueError(f"band must be a non-negative integer, got {band!r}")
-    known = np.asarray(known)
-    if known.ndim != 2 or known.dtype != bool or np.shape(values) != known.shape:
-        raise ValueError(
-            f"values and known must be 2-D arrays of one shape, known bool; got {np.shape(values)} "
-            f"and {known.dtype} {known.shape}"
-        )
-    values = np.asarray(values, dtype=np.float32)
+    values, known = _check_values_known(values, known)
     band = int(band)
     height, width = values.shape
     if not known.any():
@@ -178,13 +183,7 @@ def endpoint_values(values: np.ndarray, known: np.ndarray) -> np.ndarray:
         ``(4, H, W)`` float32 metres: left, right, up, down; the pixel's own value on
         measured pixels, 0 where no measurement lies in that direction.
     """
-    known = np.asarray(known)
-    if known.ndim != 2 or known.dtype != bool or np.shape(values) != known.shape:
-        raise ValueError(
-            f"values and known must be 2-D arrays of one shape, known bool; got {np.shape(values)} "
-            f"and {known.dtype} {known.shape}"
-        )
-    values = np.asarray(values, dtype=np.float32)
+    values, known = _check_values_known(values, known)
     left, right = _endpoints_along_rows(values, known)
     up, down = _endpoints_along_rows(values.T, known.T)
     return np.stack([left, right, up.T, down.T]).astype(np.float32)
