@@ -7,7 +7,7 @@ knows methods by name; it builds them through :mod:`inpaintenv.registry`.
 from .headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
 from .report import summary_table, to_markdown, write_report
 from .runner import RunMismatchError, run_benchmark
-from .stats import bootstrap_mean_ci
+from .stats import bootstrap_mean_ci, bootstrap_ratio_ci
 from .suites import SUITES, LazyMethod, suite_methods
 
 __all__ = [
@@ -18,6 +18,7 @@ __all__ = [
     "LazyMethod",
     "RunMismatchError",
     "bootstrap_mean_ci",
+    "bootstrap_ratio_ci",
     "run_benchmark",
     "suite_methods",
     "summary_table",

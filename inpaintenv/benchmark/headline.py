@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..evaluate import EvaluationResult
+from .stats import bootstrap_ratio_ci
 from .suites import CLASSICAL, STUDY_CLASSICAL
 
 __all__ = ["CLASSICAL_METHODS", "learned_vs_classical", "headline_markdown"]
@@ -87,13 +88,7 @@ def learned_vs_classical(
             continue
         a = np.array([hole[best_l][k] for k in shared])
         b = np.array([hole[best_c][k] for k in shared])
-        ratio = a.mean() / b.mean()
-        low = high = ratio
-        if len(shared) > 1:
-            idx = np.random.default_rng(seed).integers(0, len(shared), size=(n_resamples, len(shared)))
-            ratios = a[idx].mean(axis=1) / b[idx].mean(axis=1)
-            alpha = (1.0 - confidence) / 2.0
-            low, high = (float(q) for q in np.quantile(ratios, [alpha, 1.0 - alpha]))
+        ratio, low, high = bootstrap_ratio_ci(a, b, confidence=confidence, n_resamples=n_resamples, seed=seed)
         learned_all = _per_frame(by_method[best_l], "all_rmse")
         all_mean = float(np.mean([learned_all[k] for k in shared if k in learned_all]))
         out.append({

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["bootstrap_mean_ci"]
+__all__ = ["bootstrap_mean_ci", "bootstrap_ratio_ci"]
 
 
 def bootstrap_mean_ci(
@@ -46,8 +46,54 @@ def bootstrap_mean_ci(
     mean = float(v.mean())
     if v.size == 1:
         return mean, mean, mean
-    rng = np.random.default_rng(seed)
-    means = v[rng.integers(0, v.size, size=(n_resamples, v.size))].mean(axis=1)
+    means = v[_resample(v.size, n_resamples, seed)].mean(axis=1)
+    return (mean, *_percentile_interval(means, confidence))
+
+
+def bootstrap_ratio_ci(
+    a: Sequence[float] | np.ndarray,
+    b: Sequence[float] | np.ndarray,
+    *,
+    confidence: float = 0.95,
+    n_resamples: int = 2000,
+    seed: int = 0,
+) -> tuple[float, float, float]:
+    """``mean(a) / mean(b)`` and its paired percentile-bootstrap interval.
+
+    ``a[i]`` and ``b[i]`` belong to one frame (e.g. two methods on the same frame and
+    mask), so each resample draws frames and keeps the pairs together.
+
+    Parameters
+    ----------
+    a, b : array-like of float
+        Paired per-frame values of one length, finite.
+    confidence, n_resamples, seed
+        As for :func:`bootstrap_mean_ci`.
+
+    Returns
+    -------
+    (ratio, low, high) : tuple of float
+        ``low == high == ratio`` for a single pair.
+    """
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    a = np.asarray(a, dtype=np.float64).reshape(-1)
+    b = np.asarray(b, dtype=np.float64).reshape(-1)
+    if a.size != b.size or a.size == 0:
+        raise ValueError(f"a and b must be non-empty and paired, got {a.size} and {b.size} values")
+    ratio = float(a.mean() / b.mean())
+    if a.size == 1:
+        return ratio, ratio, ratio
+    idx = _resample(a.size, n_resamples, seed)
+    return (ratio, *_percentile_interval(a[idx].mean(axis=1) / b[idx].mean(axis=1), confidence))
+
+
+def _resample(n: int, n_resamples: int, seed: int) -> np.ndarray:
+    """``(n_resamples, n)`` indices drawn with replacement (one vectorised draw)."""
+    return np.random.default_rng(seed).integers(0, n, size=(n_resamples, n))
+
+
+def _percentile_interval(samples: np.ndarray, confidence: float) -> tuple[float, float]:
     alpha = (1.0 - confidence) / 2.0
-    low, high = np.quantile(means, [alpha, 1.0 - alpha])
-    return mean, float(low), float(high)
+    low, high = np.quantile(samples, [alpha, 1.0 - alpha])
+    return float(low), float(high)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from inpaintenv.benchmark import bootstrap_mean_ci
+from inpaintenv.benchmark import bootstrap_mean_ci, bootstrap_ratio_ci
 
 
 def test_interval_contains_mean_and_shrinks_with_more_frames():
@@ -31,3 +31,23 @@ def test_degenerate_inputs():
     assert all(np.isnan(v) for v in bootstrap_mean_ci([np.nan]))
     with pytest.raises(ValueError, match="confidence"):
         bootstrap_mean_ci([1.0, 2.0], confidence=1.5)
+
+
+def test_ratio_interval_is_paired():
+    rng = np.random.default_rng(1)
+    b = rng.uniform(2, 20, 40)  # frames differ a lot in difficulty
+    a = 0.8 * b * rng.uniform(0.97, 1.03, 40)  # the first method is ~0.8x on every frame
+    ratio, low, high = bootstrap_ratio_ci(a, b)
+    assert ratio == pytest.approx(a.mean() / b.mean())
+    assert low <= ratio <= high and high - low < 0.05  # pairing removes the frame spread
+    assert bootstrap_ratio_ci(a, b) == bootstrap_ratio_ci(a, b)
+
+
+def test_ratio_degenerate_and_bad_inputs():
+    assert bootstrap_ratio_ci([3.0], [4.0]) == (0.75, 0.75, 0.75)
+    with pytest.raises(ValueError, match="paired"):
+        bootstrap_ratio_ci([1.0, 2.0], [1.0])
+    with pytest.raises(ValueError, match="paired"):
+        bootstrap_ratio_ci([], [])
+    with pytest.raises(ValueError, match="confidence"):
+        bootstrap_ratio_ci([1.0, 2.0], [1.0, 2.0], confidence=0.0)
