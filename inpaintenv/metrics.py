@@ -59,14 +59,8 @@ def frame_metrics(
         ``all_count`` (number of scored pixels). Each value has shape ``(N,)`` (or is a
         0-d array for a single frame). Hole metrics are NaN where ``hole_count == 0``.
     """
-    gt = check_depth(gt, name="ground truth")
+    pred_arr, gt, hole = _check_inputs(pred, gt, hole)
     single = gt.ndim == 2
-    pred_arr = np.asarray(pred)
-    if pred_arr.shape != gt.shape:
-        raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {gt.shape}")
-    if not (np.issubdtype(pred_arr.dtype, np.floating) or np.issubdtype(pred_arr.dtype, np.integer)):
-        raise TypeError(f"prediction must be numeric, got dtype {pred_arr.dtype}")
-    hole = check_mask(hole, gt.shape)
     if max_depth <= 0:
         raise ValueError(f"max_depth must be positive, got {max_depth}")
     if single:
@@ -76,12 +70,7 @@ def frame_metrics(
     # Work on the scored pixels only (KITTI ground truth covers ~25 % of a frame): one
     # gather instead of several full-frame float64 temporaries. The arithmetic stays in
     # float64 on that compact vector, so results match a pixel-by-pixel reference.
-    scored_pred = pred_arr[valid]
-    if not np.isfinite(scored_pred).all():
-        raise ValueError("prediction has NaN or inf at pixels with ground truth; fill every pixel")
-    if (scored_pred < 0).any():
-        raise ValueError("prediction has negative depth at pixels with ground truth")
-    p = scored_pred.astype(np.float64)
+    p = _checked_scored(pred_arr[valid])
     g = gt[valid].astype(np.float64)
     in_hole = hole[valid]
     # Boolean indexing walks frames in order: frame k's pixels are one contiguous run.
@@ -111,6 +100,26 @@ def frame_metrics(
     if single:
         out = {k: v[0] for k, v in out.items()}
     return out
+
+
+def _check_inputs(pred: np.ndarray, gt: np.ndarray, hole: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(pred, gt, hole)`` as arrays after checking ground truth, shapes, dtype and mask."""
+    gt = check_depth(gt, name="ground truth")
+    pred_arr = np.asarray(pred)
+    if pred_arr.shape != gt.shape:
+        raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {gt.shape}")
+    if not (np.issubdtype(pred_arr.dtype, np.floating) or np.issubdtype(pred_arr.dtype, np.integer)):
+        raise TypeError(f"prediction must be numeric, got dtype {pred_arr.dtype}")
+    return pred_arr, gt, check_mask(hole, gt.shape)
+
+
+def _checked_scored(scored_pred: np.ndarray) -> np.ndarray:
+    """The prediction at scored pixels as float64, which must be finite and non-negative."""
+    if not np.isfinite(scored_pred).all():
+        raise ValueError("prediction has NaN or inf at pixels with ground truth; fill every pixel")
+    if (scored_pred < 0).any():
+        raise ValueError("prediction has negative depth at pixels with ground truth")
+    return scored_pred.astype(np.float64)
 
 
 def _frame_sums(values: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -230,20 +239,14 @@ def depth_binned_errors(
     >>> [(r["pixels"], r["sse_share"], r["bias"]) for r in rows]
     [(1, 0.0, 0.0), (1, 1.0, -20.0)]
     """
-    gt = check_depth(gt, name="ground truth")
-    pred_arr = np.asarray(pred)
-    if pred_arr.shape != gt.shape:
-        raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {gt.shape}")
-    hole = check_mask(hole, gt.shape)
+    pred_arr, gt, hole = _check_inputs(pred, gt, hole)
     edges_arr = np.asarray(edges, dtype=np.float64)
     if edges_arr.ndim != 1 or len(edges_arr) < 2 or not (np.diff(edges_arr) > 0).all():
         raise ValueError(f"edges must be at least two increasing values, got {edges!r}")
     scored = hole & (gt > 0)
     if not scored.any():
         raise ValueError("no hole pixel has ground truth: nothing to break down")
-    p = pred_arr[scored].astype(np.float64)
-    if not np.isfinite(p).all():
-        raise ValueError("prediction has NaN or inf at hole pixels with ground truth")
+    p = _checked_scored(pred_arr[scored])
     g = gt[scored].astype(np.float64)
     err = p - g
     sq = err * err

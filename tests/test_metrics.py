@@ -211,6 +211,7 @@ def test_depth_bins_empty_bin_is_nan_not_an_error():
         (dict(edges=(5,)), "increasing"),
         (dict(pred=np.ones((8, 7), np.float32)), "shape"),
         (dict(pred=np.full((8, 8), np.nan, np.float32)), "NaN"),
+        (dict(pred=np.full((8, 8), -1.0, np.float32)), "negative"),
     ],
 )
 def test_depth_bins_reject_bad_input(change, match):
