@@ -5,18 +5,21 @@ knows methods by name; it builds them through :mod:`inpaintenv.registry`.
 """
 
 from .headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
+from .identity import method_identity
 from .report import summary_table, to_markdown, write_report
-from .runner import RunMismatchError, run_benchmark
+from .runner import RunMismatchError, RunStateError, run_benchmark
 from .stats import bootstrap_mean_ci, bootstrap_ratio_ci
 from .suites import SUITES, LazyMethod, suite_methods
 
 __all__ = [
     "CLASSICAL_METHODS",
     "headline_markdown",
+    "method_identity",
     "learned_vs_classical",
     "SUITES",
     "LazyMethod",
     "RunMismatchError",
+    "RunStateError",
     "bootstrap_mean_ci",
     "bootstrap_ratio_ci",
     "run_benchmark",

@@ -54,6 +54,7 @@ def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_opti
 
 def _checkpoint_methods(specs: list[str]) -> dict[str, Any]:
     from ..registry import make_method
+    from .identity import files_identity
     from .suites import LazyMethod
 
     out: dict[str, Any] = {}
@@ -63,7 +64,10 @@ def _checkpoint_methods(specs: list[str]) -> dict[str, Any]:
             raise ValueError(f"--checkpoint takes NAME=PATH, got {spec!r}")
         if not Path(path).exists():
             raise FileNotFoundError(f"checkpoint not found: {path}")
-        out[name] = LazyMethod(lambda path=path: make_method("checkpoint", path=path))
+        # Hash the files now (cheap) so a resume can tell checkpoints apart unloaded.
+        out[name] = LazyMethod(
+            lambda path=path: make_method("checkpoint", path=path), identity=files_identity(path)
+        )
     return out
 
 
@@ -123,7 +127,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         return built[name]
 
     cached = {
-        name: LazyMethod(lambda name=name, m=m: materialise(name, m), optional=getattr(m, "optional", False))
+        name: LazyMethod(
+            lambda name=name, m=m: materialise(name, m),
+            optional=getattr(m, "optional", False), identity=getattr(m, "identity", None),
+        )
         for name, m in methods.items()
     }
     result = run_benchmark(

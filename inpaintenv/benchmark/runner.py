@@ -3,23 +3,29 @@
 Per-frame rows are appended to ``<out>/rows/<method>__<protocol>.jsonl`` as soon as a
 batch is scored, so a killed run continues where it stopped: on restart, every
 (seed, frame) already in the file is skipped. ``<out>/run.json`` fingerprints the run
-(source, frames, protocols, seeds); resuming into a folder of a different run is an error.
+(source, frames, protocols, seeds) and records what each method is (its identity, see
+:mod:`.identity`); resuming into a folder of a different run, or reusing rows that another
+model made under the same name, is an error.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..data.base import DepthDataset
-from ..evaluate import EvaluationResult, parse_row, evaluate, resolve_source
-from ..masks import get_protocol
+import numpy as np
 
-__all__ = ["run_benchmark", "RunMismatchError"]
+from ..data.base import DepthDataset
+from ..evaluate import EvaluationResult, evaluate, parse_row, resolve_source
+from ..masks import get_protocol
+from .identity import method_identity
+
+__all__ = ["run_benchmark", "RunMismatchError", "RunStateError"]
 
 
 #: Errors meaning "this method cannot be built here" (missing package or weights).
@@ -27,7 +33,12 @@ UNAVAILABLE = (ImportError, KeyError, FileNotFoundError)
 
 
 class RunMismatchError(ValueError):
-    """The output folder holds rows of a different run (other data, seeds or protocols)."""
+    """The output folder holds rows of a different run (other data, seeds, protocols, or
+    another model under the same method name)."""
+
+
+class RunStateError(ValueError):
+    """The output folder's ``run.json`` (the resume state) cannot be read."""
 
 
 def _slug(name: str) -> str:
@@ -59,12 +70,98 @@ def _read_rows(path: Path) -> list[dict[str, Any]]:
     return rows
 
 
+def _read_run_file(path: Path) -> dict[str, Any]:
+    """The resume state of ``path``; a damaged file is an error that names it."""
+    try:
+        state = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise RunStateError(
+            f"cannot read the resume state {path} ({exc}); pass --no-resume (resume=False) "
+            "to start over, or delete the file"
+        ) from None
+    if not isinstance(state, dict):
+        raise RunStateError(
+            f"{path} is not a benchmark resume state (a JSON object); pass --no-resume "
+            "(resume=False) to start over, or delete the file"
+        )
+    return state
+
+
+def _write_run_file(path: Path, fingerprint: dict[str, Any], identities: dict[str, str]) -> None:
+    # Write-then-rename: a kill mid-write must not leave a run.json that cannot be read.
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps({**fingerprint, "methods": identities}, indent=1))
+    os.replace(tmp, path)
+
+
+def _is_int(value: Any) -> bool:
+    # bool is an int subclass, but seed=True is a mistake, not seed 1.
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _check_run(
+    methods: Any, protocols: Any, seeds: Any, n_frames: Any, batch_size: Any
+) -> tuple[list[str], list[int]]:
+    """Validate the run's arguments; return the protocol names and seeds as lists.
+
+    A single protocol name or a single int seed is accepted as a one-element list (as
+    :func:`inpaintenv.evaluate.evaluate` accepts them).
+    """
+    if not isinstance(methods, Mapping):
+        raise TypeError(f"methods must be a mapping of name -> method, got {type(methods).__name__}")
+    if not methods:
+        raise ValueError("methods is empty; give at least one name -> method")
+    bad_names = [n for n in methods if not isinstance(n, str) or not n.strip()]
+    if bad_names:
+        raise ValueError(f"method names must be non-empty strings, got {bad_names!r}")
+
+    if isinstance(protocols, str):
+        protocols = [protocols]
+    if not isinstance(protocols, Sequence):
+        raise TypeError(f"protocols must be a protocol name or a list of them, got {type(protocols).__name__}")
+    names = [get_protocol(p).name for p in protocols]
+    if not names:
+        raise ValueError("protocols is empty; give at least one occlusion protocol")
+    if len(set(names)) != len(names):
+        raise ValueError(f"protocols must be distinct, got {names}")
+
+    if _is_int(seeds):
+        seeds = [seeds]
+    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, (Sequence, np.ndarray)):
+        raise TypeError(f"seeds must be an int or a list of ints, got {seeds!r}")
+    bad = [s for s in seeds if not _is_int(s)]
+    if bad:
+        raise TypeError(f"seeds must be integers, got {bad!r}")
+    seed_list = [int(s) for s in seeds]
+    if not seed_list:
+        raise ValueError("seeds is empty; give at least one evaluation seed")
+    if any(s < 0 for s in seed_list):
+        raise ValueError(f"seeds must be non-negative, got {seed_list}")
+    if len(set(seed_list)) != len(seed_list):
+        # A repeated seed would score the same masks twice and weight them double.
+        raise ValueError(f"seeds must be distinct, got {seed_list}")
+
+    if n_frames is not None and (not _is_int(n_frames) or n_frames < 1):
+        raise ValueError(f"n_frames must be None or an integer >= 1, got {n_frames!r}")
+    if not _is_int(batch_size) or batch_size < 1:
+        raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+    return names, seed_list
+
+
+def _check_identity(name: str, out: Path, recorded: str | None, identity: str, has_rows: bool) -> None:
+    if has_rows and recorded is not None and recorded != identity:
+        raise RunMismatchError(
+            f"rows for {name!r} in {out} were made by {recorded}, not {identity}; "
+            "pass --no-resume (resume=False) or another --out"
+        )
+
+
 def run_benchmark(
     methods: Mapping[str, Any],
     source: Any = None,
     *,
-    protocols: Sequence[str] = ("rect-v1",),
-    seeds: Sequence[int] = (0,),
+    protocols: str | Sequence[str] = ("rect-v1",),
+    seeds: int | Sequence[int] = (0,),
     n_frames: int | None = None,
     out_dir: str | Path = "benchmark-results",
     resume: bool = True,
@@ -78,65 +175,122 @@ def run_benchmark(
     ----------
     methods : mapping of str to method
         Display name -> callable or estimator (see :func:`inpaintenv.evaluate.evaluate`).
-        Values may also be zero-argument factories marked with ``lazy=True`` attribute;
-        they are only built when some frame still needs scoring.
+        Values may also be zero-argument factories marked with ``lazy=True`` attribute
+        (:class:`~inpaintenv.benchmark.LazyMethod`); they are built when some frame still
+        needs scoring, or to confirm their identity on resume unless they carry one.
     source : DepthDataset, array or None
         Ground truth to score on (None: the built-in SyntheticStreets default).
-    protocols, seeds : sequences
-        Occlusion protocols by name and evaluation seeds.
+    protocols : str or sequence of str
+        Occlusion protocols by name, distinct; a single name means that one protocol.
+    seeds : int or sequence of int
+        Evaluation seeds: distinct non-negative integers (a single int means one seed).
     n_frames : int, optional
-        Only the first ``n_frames`` frames.
+        Only the first ``n_frames`` frames (an integer >= 1).
     out_dir : path
         Folder for ``run.json`` and the per-method row files.
     resume : bool
-        Keep rows already in ``out_dir`` and score only what is missing. With False the
-        folder's row files are replaced.
+        Keep rows already in ``out_dir`` and score only what is missing. With False every
+        row file in the folder is deleted first and ``run.json`` is replaced.
+    batch_size : int
+        Frames per call of a method (>= 1).
 
     Returns
     -------
     EvaluationResult
         Rows of every (method, protocol, seed, frame), methods in the given order.
+
+    Raises
+    ------
+    RunMismatchError
+        On resume, if ``out_dir`` holds another run (data, frames, protocols, seeds), or
+        rows of a method name that another model made (its recorded identity differs).
+    RunStateError
+        On resume, if ``out_dir/run.json`` is damaged.
+    ValueError, TypeError
+        On no methods, no frames, or invalid ``protocols``, ``seeds``, ``n_frames`` or
+        ``batch_size``.
     """
+    protocols, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size)
     dataset = resolve_source(source)
+    if len(dataset) == 0:
+        raise ValueError("the data source has no frames")
     total = len(dataset) if n_frames is None else min(len(dataset), int(n_frames))
-    protocols = [get_protocol(p).name for p in protocols]
-    seeds = [int(s) for s in seeds]
     out = Path(out_dir)
     rows_dir = out / "rows"
     rows_dir.mkdir(parents=True, exist_ok=True)
     fingerprint = _fingerprint(dataset, total, protocols, seeds)
     run_file = out / "run.json"
+    # name -> identity of the method that wrote its rows (see .identity); a name missing
+    # here (e.g. a run.json from before identities were recorded) is unknown and accepted.
+    identities: dict[str, str] = {}
     if resume and run_file.exists():
-        previous = json.loads(run_file.read_text())
+        previous = _read_run_file(run_file)
+        recorded = previous.pop("methods", None)
+        identities = {k: v for k, v in (recorded or {}).items() if isinstance(v, str)}
         if previous != fingerprint:
             raise RunMismatchError(
                 f"{out} holds results of a different run ({previous.get('source')}, "
                 f"protocols {previous.get('protocols')}, seeds {previous.get('seeds')}); "
                 "choose another --out or pass --no-resume to overwrite"
             )
-    run_file.write_text(json.dumps(fingerprint, indent=1))
+    if not resume:
+        # Every row file goes, not only this run's methods': run.json is replaced, so
+        # rows left behind could later be resumed under a fingerprint they do not match.
+        for stale in rows_dir.glob("*.jsonl"):
+            stale.unlink()
     say = log or (lambda msg: None)
+
+    # Rows already on disk, and identities known without building anything: a changed
+    # method is refused before any scoring starts.
+    paths = {
+        name: {p: rows_dir / f"{_slug(name)}__{_slug(p)}.jsonl" for p in protocols} for name in methods
+    }
+    done = {
+        name: {
+            p: {(r["seed"], r["index"]) for r in _read_rows(path) if r["method"] == name}
+            for p, path in by_protocol.items()
+        }
+        for name, by_protocol in paths.items()
+    }
+    cheap: dict[str, str | None] = {
+        name: getattr(m, "identity", None) if getattr(m, "lazy", False) else method_identity(m)
+        for name, m in methods.items()
+    }
+    for name, identity in cheap.items():
+        if identity is not None:
+            _check_identity(name, out, identities.get(name), identity, any(done[name].values()))
+    _write_run_file(run_file, fingerprint, identities)
 
     results: list[EvaluationResult] = []
     for name, method in methods.items():
+        todo = {
+            p: {s: [i for i in range(total) if (s, i) not in done[name][p]] for s in seeds} for p in protocols
+        }
+        n_todo = {p: sum(len(v) for v in todo[p].values()) for p in protocols}
+        for p in protocols:
+            if n_todo[p]:
+                say(f"{name} / {p}: {n_todo[p]} frames to score ({len(done[name][p])} already done)")
+        identity = cheap[name]
+        recorded = identities.get(name)
+        # A lazy method is built when frames need scoring, or when its rows carry an
+        # identity that only the built method can confirm.
+        if getattr(method, "lazy", False) and (any(n_todo.values()) or (identity is None and recorded is not None)):
+            try:
+                method = method()
+            except UNAVAILABLE as exc:
+                if not getattr(method, "optional", False):
+                    raise
+                say(f"skipping {name!r}: not available here ({exc})")
+                continue
+            if identity is None:
+                identity = method_identity(method)
+                _check_identity(name, out, recorded, identity, any(done[name].values()))
+        if identity is not None and identity != recorded:
+            # Recorded before any row is written, so a killed run's rows are attributed.
+            identities[name] = identity
+            _write_run_file(run_file, fingerprint, identities)
         for protocol in protocols:
-            path = rows_dir / f"{_slug(name)}__{_slug(protocol)}.jsonl"
-            if not resume and path.exists():
-                path.unlink()
-            done_rows = [r for r in _read_rows(path) if r["method"] == name]
-            done = {(r["seed"], r["index"]) for r in done_rows}
-            todo = {s: [i for i in range(total) if (s, i) not in done] for s in seeds}
-            n_todo = sum(len(v) for v in todo.values())
-            if n_todo:
-                say(f"{name} / {protocol}: {n_todo} frames to score ({len(done)} already done)")
-            if n_todo and getattr(method, "lazy", False):
-                try:
-                    method = method()
-                except UNAVAILABLE as exc:
-                    if not getattr(method, "optional", False):
-                        raise
-                    say(f"skipping {name!r}: not available here ({exc})")
-                    break
+            path = paths[name][protocol]
             if path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n"):
                 # A kill mid-write left a partial last line: end it so new rows start clean.
                 with path.open("a") as f:
@@ -148,7 +302,7 @@ def run_benchmark(
                         f.write(json.dumps(row) + "\n")
                     f.flush()
 
-                for seed, indices in todo.items():
+                for seed, indices in todo[protocol].items():
                     if not indices:
                         continue
                     evaluate(

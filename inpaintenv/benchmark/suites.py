@@ -38,13 +38,18 @@ class LazyMethod:
     ``optional=True`` marks a suite member that may be unavailable on this machine
     (no torch, no shipped weights): the runner then skips it with a message instead of
     failing the whole run.
+
+    ``identity`` says what the method is without building it (e.g.
+    ``"checkpoint:<sha256 of its files>"``, see :mod:`inpaintenv.benchmark.identity`);
+    when None, the runner builds the method to learn its identity if a resume needs it.
     """
 
     lazy = True
 
-    def __init__(self, factory: Callable[[], Any], optional: bool = False):
+    def __init__(self, factory: Callable[[], Any], optional: bool = False, identity: str | None = None):
         self.factory = factory
         self.optional = optional
+        self.identity = identity
 
     def __call__(self) -> Any:
         return self.factory()

@@ -7,7 +7,14 @@ import json
 import numpy as np
 import pytest
 
-from inpaintenv.benchmark import RunMismatchError, run_benchmark, summary_table, write_report
+from inpaintenv.benchmark import (
+    RunMismatchError,
+    RunStateError,
+    method_identity,
+    run_benchmark,
+    summary_table,
+    write_report,
+)
 from inpaintenv.data import ArrayDataset
 
 
@@ -52,6 +59,9 @@ def test_killed_run_resumes_to_the_same_result(dataset, tmp_path):
     def counting(x):
         calls.append(1)
         return median_fill(x)
+
+    # The same model under a wrapper: say so, or the resume would (rightly) be refused.
+    counting.identity = method_identity(median_fill)
 
     resumed = run_benchmark(
         {"median": counting, "ten": ten_metres}, dataset, protocols=["rect-v1", "freeform-v1"],
@@ -105,3 +115,118 @@ def test_optional_methods_that_cannot_be_built_are_skipped(dataset, tmp_path):
     # A method the user asked for by name is not optional: the error surfaces.
     with pytest.raises(ImportError, match="no torch"):
         run_benchmark({"gone": LazyMethod(missing)}, dataset, out_dir=tmp_path, progress=False)
+
+
+# --- method identity on resume ----------------------------------------------------------
+def test_rows_of_another_model_under_the_same_name_are_not_reused(dataset, tmp_path):
+    run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False)
+    with pytest.raises(RunMismatchError, match=r"rows for 'm' in .* were made by .*median_fill, not .*ten_metres"):
+        run_benchmark({"m": ten_metres}, dataset, out_dir=tmp_path, progress=False)
+    # --no-resume starts over and scores the new model.
+    res = run_benchmark({"m": ten_metres}, dataset, out_dir=tmp_path, progress=False, resume=False)
+    fresh = run_benchmark({"ten": ten_metres}, dataset, out_dir=tmp_path / "fresh", progress=False)
+    assert [r["hole_rmse"] for r in res.rows] == [r["hole_rmse"] for r in fresh.rows]
+
+
+def test_estimator_parameters_are_part_of_the_identity(dataset, tmp_path):
+    classical = pytest.importorskip("estimators.classical")
+    run_benchmark({"h": classical.HarmonicInpainter()}, dataset, out_dir=tmp_path, progress=False)
+    # Speed-only parameters may change between a run and its resume...
+    again = run_benchmark({"h": classical.HarmonicInpainter(n_jobs=2)}, dataset, out_dir=tmp_path, progress=False)
+    assert len(again.rows) == len(dataset)
+    # ...parameters that change the output may not.
+    with pytest.raises(RunMismatchError, match=r"HarmonicInpainter\(.*'inverse', False.*not .*'inverse', True"):
+        run_benchmark({"h": classical.HarmonicInpainter(inverse=True)}, dataset, out_dir=tmp_path, progress=False)
+
+
+def test_lazy_identity_is_checked_without_building(dataset, tmp_path):
+    from inpaintenv.benchmark import LazyMethod
+
+    built = []
+
+    def factory():
+        built.append(1)
+        return median_fill
+
+    run_benchmark({"m": LazyMethod(factory, identity="checkpoint:aaa")}, dataset, out_dir=tmp_path, progress=False)
+    assert built == [1]
+    # Unchanged identity, nothing left to score: resumed without building the model.
+    res = run_benchmark({"m": LazyMethod(factory, identity="checkpoint:aaa")}, dataset, out_dir=tmp_path,
+                        progress=False)
+    assert built == [1] and len(res.rows) == len(dataset)
+    with pytest.raises(RunMismatchError, match="made by checkpoint:aaa, not checkpoint:bbb"):
+        run_benchmark({"m": LazyMethod(factory, identity="checkpoint:bbb")}, dataset, out_dir=tmp_path,
+                      progress=False)
+    assert built == [1]
+
+
+def test_run_without_recorded_identities_still_resumes(dataset, tmp_path):
+    first = run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False)
+    # A run.json written before identities were recorded: the rows' maker is unknown.
+    state = json.loads((tmp_path / "run.json").read_text())
+    del state["methods"]
+    (tmp_path / "run.json").write_text(json.dumps(state))
+    calls = []
+
+    def counting(x):
+        calls.append(1)
+        return median_fill(x)
+
+    res = run_benchmark({"m": counting}, dataset, out_dir=tmp_path, progress=False)
+    assert calls == [] and res.rows == first.rows
+
+
+def test_no_resume_discards_every_row_file(dataset, tmp_path):
+    run_benchmark({"a": median_fill}, dataset, seeds=[0], out_dir=tmp_path, progress=False)
+    run_benchmark({"b": ten_metres}, dataset, seeds=[1], out_dir=tmp_path, progress=False, resume=False)
+    assert [p.name for p in (tmp_path / "rows").glob("*.jsonl")] == ["b__rect-v1.jsonl"]
+
+
+# --- argument validation ----------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kw", "error", "match"),
+    [
+        ({"seeds": []}, ValueError, "seeds is empty"),
+        ({"seeds": [0, 0]}, ValueError, r"seeds must be distinct, got \[0, 0\]"),
+        ({"seeds": [-1]}, ValueError, "seeds must be non-negative"),
+        ({"seeds": "12"}, TypeError, "seeds must be an int or a list of ints, got '12'"),
+        ({"seeds": [1.5]}, TypeError, r"seeds must be integers, got \[1.5\]"),
+        ({"seeds": [True]}, TypeError, r"seeds must be integers, got \[True\]"),
+        ({"n_frames": -2}, ValueError, "n_frames must be None or an integer >= 1, got -2"),
+        ({"n_frames": 0}, ValueError, "n_frames must be None or an integer >= 1"),
+        ({"n_frames": 2.5}, ValueError, "n_frames must be None or an integer >= 1, got 2.5"),
+        ({"protocols": []}, ValueError, "protocols is empty"),
+        ({"protocols": ["rect-v1", "rect-v1"]}, ValueError, "protocols must be distinct"),
+        ({"protocols": ["nope"]}, KeyError, "nope"),
+        ({"batch_size": 0}, ValueError, "batch_size must be an integer >= 1"),
+    ],
+)
+def test_invalid_runs_are_refused(dataset, tmp_path, kw, error, match):
+    with pytest.raises(error, match=match):
+        run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False, **kw)
+    assert not (tmp_path / "run.json").exists()  # refused before touching the folder
+
+
+def test_no_methods_is_refused(dataset, tmp_path):
+    with pytest.raises(ValueError, match="methods is empty"):
+        run_benchmark({}, dataset, out_dir=tmp_path, progress=False)
+
+
+def test_a_single_protocol_name_or_seed_is_one_protocol_or_seed(dataset, tmp_path):
+    res = run_benchmark({"m": median_fill}, dataset, protocols="freeform-v1", seeds=3, out_dir=tmp_path,
+                        progress=False)
+    assert {(r["protocol"], r["seed"]) for r in res.rows} == {("freeform-v1", 3)}
+    assert len(res.rows) == len(dataset)
+
+
+def test_corrupt_resume_state_names_the_file(dataset, tmp_path):
+    run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False)
+    (tmp_path / "run.json").write_text('{"source": ')
+    with pytest.raises(RunStateError, match=r"cannot read the resume state .*run\.json .*--no-resume"):
+        run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False)
+    (tmp_path / "run.json").write_text("[]")
+    with pytest.raises(RunStateError, match=r"run\.json is not a benchmark resume state"):
+        run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False)
+    # Starting over replaces it.
+    res = run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False, resume=False)
+    assert len(res.rows) == len(dataset)
