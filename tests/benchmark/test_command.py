@@ -49,3 +49,46 @@ def test_benchmark_on_unseen_real_drives(kitti_root, tmp_path, capsys):
     doc = json.loads((tmp_path / "results.json").read_text())
     assert {r["drive"] for r in doc["rows"]} == {"2011_09_26_drive_9002_sync"}
     assert all(r["hole_rmse"] > 0 for r in doc["rows"])
+
+
+def test_rerun_with_another_checkpoint_under_the_same_name_is_refused(tmp_path, capsys):
+    torch = pytest.importorskip("torch")
+    import numpy as np
+
+    from estimators.neural import UNetInpainter, load_checkpoint
+    from inpaintenv.data import ArrayDataset
+
+    rows = np.linspace(30.0, 5.0, 24, dtype=np.float32)[:, None]
+    frames = np.stack([rows + k + np.zeros((1, 40), np.float32) for k in range(4)])
+    model = UNetInpainter(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1)
+    model.fit(ArrayDataset(frames, groups=["a", "a", "b", "b"]))
+    ck_a = model.save(tmp_path / "ckA")
+    other = load_checkpoint(ck_a)
+    with torch.no_grad():
+        for p in other.model_.parameters():
+            p.add_(0.5)  # another model of the same class and parameters
+    ck_b = other.save(tmp_path / "ckB")
+    out = tmp_path / "out"
+    common = ["-m", "constant", "--frame-shape", "64", "160", "--n-frames", "4", "--holdout", "0",
+              "--figure-frames", "0", "--out", str(out), "--quiet"]
+    assert main(["benchmark", "--checkpoint", f"mine={ck_a}", *common]) == 0
+    table = capsys.readouterr().out
+    assert main(["benchmark", "--checkpoint", f"mine={ck_b}", *common]) == 1
+    err = capsys.readouterr().err
+    assert "rows for 'mine'" in err and "were made by checkpoint:" in err and "--no-resume" in err
+    # The same checkpoint again resumes (nothing rescored, same table).
+    assert main(["benchmark", "--checkpoint", f"mine={ck_a}", *common]) == 0
+    assert capsys.readouterr().out == table
+    # --no-resume scores the new model.
+    assert main(["benchmark", "--checkpoint", f"mine={ck_b}", "--no-resume", *common]) == 0
+    assert capsys.readouterr().out != table
+
+
+def test_corrupt_resume_state_is_one_line_naming_the_file(tmp_path, capsys):
+    (tmp_path / "run.json").write_text("{'source': 1}")
+    argv = ["benchmark", "-m", "constant", "--frame-shape", "64", "160", "--n-frames", "2", "--holdout", "0",
+            "--figure-frames", "0", "--out", str(tmp_path), "--quiet"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert str(tmp_path / "run.json") in err and "--no-resume" in err
+    assert main([*argv, "--no-resume"]) == 0
