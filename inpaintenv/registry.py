@@ -19,7 +19,7 @@ import importlib
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["MethodSpec", "available_methods", "get_spec", "make_method", "register_method"]
+__all__ = ["MethodSpec", "PRETRAINED_RELEASES", "available_methods", "get_spec", "make_method", "register_method"]
 
 
 @dataclass(frozen=True)
@@ -168,6 +168,15 @@ register_method(
     "unet-pretrained-mixed", "estimators.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
     "the same learned blend trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
+
+# Every shipped release under its own name, so that older results stay re-runnable after
+# the default moves on (``unet-pretrained`` is whichever release is current).
+PRETRAINED_RELEASES: tuple[str, ...] = ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3", "kitti-mixed-v1")
+for _release in PRETRAINED_RELEASES:
+    register_method(
+        _release, "estimators.prior", "pretrained_kitti", {"name": _release},
+        f"the shipped release {_release} of the learned blend (docs/model_card.md; CC BY-NC-SA 3.0)",
+    )
 
 register_method(
     "checkpoint", "estimators.neural", "load_checkpoint", {},

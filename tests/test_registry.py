@@ -56,3 +56,16 @@ def test_overrides_and_bad_override():
     assert make_method("telea", radius=3).radius == 3
     with pytest.raises(TypeError, match="'telea'"):
         make_method("telea", no_such_param=1)
+
+
+def test_every_shipped_release_has_its_own_method_name():
+    """Older results stay re-runnable: each file in estimators/pretrained is a method."""
+    pytest.importorskip("torch")
+    from estimators.prior import available_pretrained
+
+    from inpaintenv.registry import PRETRAINED_RELEASES
+
+    assert set(PRETRAINED_RELEASES) == set(available_pretrained())
+    est = make_method("kitti-rect-v1")
+    assert est.get_params()["relative"] is False  # v1 predates the scale-free blend
+    assert make_method("kitti-rect-v3").get_params() == make_method("unet-pretrained").get_params()
