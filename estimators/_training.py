@@ -17,6 +17,7 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
 
+from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.masks import OcclusionProtocol
 
@@ -25,6 +26,7 @@ __all__ = [
     "data_fingerprint",
     "encode_input",
     "epoch_order",
+    "frame_label",
     "make_loader",
     "sample_rng",
     "torch_threads",
@@ -48,7 +50,10 @@ class OcclusionFrames(Dataset):
     """Torch view of a :class:`DepthDataset`: ``(ground truth, hole)`` per frame.
 
     Each item is a random crop (or the whole frame) with a fresh occlusion drawn from
-    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Set
+    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Every
+    frame is validated (:func:`~inpaintenv.conventions.check_depth`) as it is loaded,
+    so NaN, inf or negative depth in any frame stops training with an error naming
+    the frame instead of surfacing later as a NaN loss or training silently. Set
     :attr:`epoch` before iterating an epoch (workers are re-created per epoch, so they
     see the new value).
 
@@ -73,14 +78,29 @@ class OcclusionFrames(Dataset):
         return len(self.frames)
 
     def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
-        rng = sample_rng(self.seed, self.epoch, int(index))
-        gt = np.asarray(self.frames[int(index)], dtype=np.float32)
+        index = int(index)
+        rng = sample_rng(self.seed, self.epoch, index)
+        gt = check_depth(self.frames[index], name=f"training frame {frame_label(self.frames, index)}", ndim=(2,))
+        if gt.shape != tuple(self.frames.frame_shape):
+            raise ValueError(
+                f"training frame {frame_label(self.frames, index)} has shape {gt.shape}, but the "
+                f"dataset's frame_shape is {tuple(self.frames.frame_shape)}"
+            )
         (fh, fw), (ch, cw) = gt.shape, self.crop
         top = int(rng.integers(0, fh - ch + 1))
         left = int(rng.integers(0, fw - cw + 1))
         gt = np.ascontiguousarray(gt[top : top + ch, left : left + cw])
         hole = self.protocol.sample((ch, cw), rng)
         return torch.from_numpy(gt), torch.from_numpy(hole)
+
+
+def frame_label(frames: DepthDataset, index: int) -> str:
+    """``"3 (id 'drive_a/3')"``: a frame's index and, when the dataset has them, its id."""
+    ids = getattr(frames, "frame_ids", None)
+    try:
+        return f"{index} (id {ids[index]!r})" if ids is not None else str(index)
+    except (IndexError, TypeError):  # a custom dataset with incomplete ids: index only
+        return str(index)
 
 
 def _worker_init(_: int) -> None:

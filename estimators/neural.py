@@ -33,6 +33,7 @@ from ._training import (
     data_fingerprint,
     encode_input,
     epoch_order,
+    frame_label,
     make_loader,
     torch_threads,
 )
@@ -50,6 +51,10 @@ _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "
 _AMP_CHOICES = (True, False, "cpu-bf16")
 _DEPTH_SCALES = ("fixed", "frame")
 _COMPILE_MODES = ("default", "reduce-overhead", "max-autotune", "max-autotune-no-cudagraphs")
+#: Accepted ``max_depth`` range (metres). Depths are divided by it: far outside this
+#: range the network's inputs and targets overflow or vanish in float32 and training
+#: fails with a NaN loss that says nothing about the cause.
+_MAX_DEPTH_RANGE = (0.1, 1e5)
 
 
 class _NeuralInpainter(BaseInpainter):
@@ -78,7 +83,8 @@ class _NeuralInpainter(BaseInpainter):
     tv_weight : float, default 0.01
         β of the loss (anisotropic total variation of the prediction).
     max_depth : float, default 80.0
-        Depth normalisation in metres (inputs and targets are divided by it).
+        Depth normalisation in metres (inputs and targets are divided by it); must be
+        in [0.1, 1e5].
     lr, weight_decay : float
         Adam's learning rate (1e-3) and weight decay (1e-6).
     batch_size : int, default 4
@@ -237,6 +243,12 @@ class _NeuralInpainter(BaseInpainter):
         int_at_least("checkpoint_every", 1, optional=True)
         for name in ("max_depth", "lr"):
             positive(name)
+        low, high = _MAX_DEPTH_RANGE
+        if not low <= self.max_depth <= high:
+            raise ValueError(
+                f"max_depth is the depth normalisation range in metres and must be in "
+                f"[{low:g}, {high:g}] (the study uses 80), got {self.max_depth!r}"
+            )
         for name in ("hole_weight", "tv_weight", "weight_decay"):
             positive(name, allow_zero=True)
         if self.crop is not None:
@@ -539,7 +551,9 @@ class _NeuralInpainter(BaseInpainter):
         parts = []
         for start in range(0, len(val_ds), self.batch_size):
             idx = range(start, min(start + self.batch_size, len(val_ds)))
-            gt = val_ds.load_batch(idx)
+            gt = np.stack([
+                check_depth(val_ds[i], name=f"validation frame {frame_label(val_ds, i)}", ndim=(2,)) for i in idx
+            ])
             hole = protocol.masks(val_ds.frame_shape, seed, idx)
             x = np.where(hole, np.nan, gt).astype(np.float32)
             pred = self._forward(model, x, device)

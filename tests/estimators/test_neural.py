@@ -14,6 +14,7 @@ from sklearn.exceptions import NotFittedError
 
 from estimators.neural import AutoencoderInpainter, CheckpointError, UNetInpainter
 from inpaintenv.data import ArrayDataset
+from inpaintenv.data.base import DepthDataset, split_by_drive
 
 H, W = 24, 40
 
@@ -282,6 +283,9 @@ def test_warm_start_errors(dataset):
         ({"compile": "fast"}, "compile"),
         ({"compile": 1}, "compile"),
         ({"device": "cuda" if not torch.cuda.is_available() else "nonsense"}, "device"),
+        ({"max_depth": 1e-30}, r"max_depth .* must be in \[0.1, 100000\].*got 1e-30"),
+        ({"max_depth": 1e9}, r"max_depth .* must be in \[0.1, 100000\]"),
+        ({"max_depth": float("inf")}, "max_depth must be a finite number"),
     ],
 )
 def test_bad_parameters_rejected_at_fit(dataset, bad, match):
@@ -342,6 +346,44 @@ def test_bad_input_errors_come_from_base_validation(fitted, frames):
         fitted.predict(np.full((4, 4), np.inf, np.float32))
     with pytest.raises(ValueError, match="negative"):
         tiny().fit(-frames)
+
+
+class _Frames(DepthDataset):
+    """A custom dataset that, unlike ArrayDataset, does not validate its frames."""
+
+    def __init__(self, frames):
+        self._frames = frames
+        self.frame_shape = frames.shape[1:]
+        self.groups = np.array(["a", "a", "b", "b", "c", "c"][: len(frames)])
+        self.frame_ids = [f"custom/{i}" for i in range(len(frames))]
+
+    def _load(self, index):
+        return self._frames[index]
+
+
+@pytest.mark.parametrize(
+    "value, match",
+    [(np.nan, r"training frame 3 \(id 'custom/3'\) contains NaN"),
+     (-1.0, r"training frame 3 \(id 'custom/3'\) contains negative depth"),
+     (np.inf, r"training frame 3 \(id 'custom/3'\) contains infinite")],
+)
+def test_every_training_frame_is_validated(frames, value, match):
+    # Frame 0 is fine, so only a per-frame check at load time catches frame 3.
+    bad = frames.copy()
+    bad[3, 5, 5] = value
+    with pytest.raises(ValueError, match=match):
+        tiny(max_steps=3).fit(_Frames(bad))
+
+
+def test_validation_frames_are_validated(frames):
+    # NaN only in frames of the held-out drive (not frame 0, which fit checks up front).
+    held_out = set(split_by_drive(_Frames(frames), 0.3, seed=0)[1].frame_ids)
+    bad = frames.copy()
+    idx = [i for i in range(1, len(frames)) if f"custom/{i}" in held_out]
+    assert idx and "custom/0" not in held_out
+    bad[idx, 5, 5] = np.nan
+    with pytest.raises(ValueError, match=r"validation frame \d \(id 'custom/\d'\) contains NaN"):
+        tiny(max_steps=3, validation_fraction=0.3).fit(_Frames(bad))
 
 
 @pytest.mark.slow
