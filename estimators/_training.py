@@ -23,6 +23,7 @@ from inpaintenv.masks import OcclusionProtocol
 
 __all__ = [
     "OcclusionFrames",
+    "crop_shape",
     "data_fingerprint",
     "encode_input",
     "epoch_order",
@@ -44,6 +45,12 @@ def sample_rng(seed: int, epoch: int, index: int) -> np.random.Generator:
 def epoch_order(n: int, seed: int, epoch: int) -> np.ndarray:
     """The shuffled visiting order of ``n`` frames in ``epoch``."""
     return sample_rng(seed, epoch, _ORDER_STREAM).permutation(n)
+
+
+def crop_shape(frame_shape: tuple[int, int], crop: tuple[int, int] | None) -> tuple[int, int]:
+    """Shape of the training samples: ``crop`` with each side clipped to the frame."""
+    fh, fw = (int(v) for v in frame_shape)
+    return (fh, fw) if crop is None else (min(int(crop[0]), fh), min(int(crop[1]), fw))
 
 
 class OcclusionFrames(Dataset):
@@ -69,8 +76,7 @@ class OcclusionFrames(Dataset):
     def __init__(self, frames: DepthDataset, protocol: OcclusionProtocol, crop: tuple[int, int] | None, seed: int):
         self.frames = frames
         self.protocol = protocol
-        fh, fw = frames.frame_shape
-        self.crop = (fh, fw) if crop is None else (min(int(crop[0]), fh), min(int(crop[1]), fw))
+        self.crop = crop_shape(frames.frame_shape, crop)
         self.seed = int(seed)
         self.epoch = 0
 

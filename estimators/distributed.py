@@ -143,6 +143,7 @@ def train_distributed(
     dataset = as_dataset(X)
     if len(dataset) == 0:
         raise ValueError("cannot fit on an empty dataset")
+    est._check_frame_size(dataset.frame_shape)
     device = est._device()
     with process_group(device.type) as (rank, world, local_rank), torch_threads(est.num_threads):
         if est.batch_size % world:

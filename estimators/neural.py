@@ -30,6 +30,7 @@ from inpaintenv.metrics import aggregate, frame_metrics
 from . import _checkpoint as ckpt
 from ._training import (
     OcclusionFrames,
+    crop_shape,
     data_fingerprint,
     encode_input,
     epoch_order,
@@ -55,6 +56,11 @@ _COMPILE_MODES = ("default", "reduce-overhead", "max-autotune", "max-autotune-no
 #: range the network's inputs and targets overflow or vanish in float32 and training
 #: fails with a NaN loss that says nothing about the cause.
 _MAX_DEPTH_RANGE = (0.1, 1e5)
+#: Most channels allowed at the deepest U-Net level (``width * 2**depth``). The U-Net
+#: doubles its channels per level, so each extra level about quadruples the parameters:
+#: 2048 (e.g. width=128, depth=4) is already ~100 M parameters, while width=4, depth=12
+#: (16,384 channels) needs tens of GB and gets the process killed.
+MAX_CHANNELS = 2048
 
 
 class _NeuralInpainter(BaseInpainter):
@@ -63,10 +69,12 @@ class _NeuralInpainter(BaseInpainter):
     Parameters
     ----------
     width : int, default 32
-        Channels of the first level; doubled at every level.
+        Channels of the first level; doubled at every level. ``width * 2**depth`` may
+        not exceed :data:`MAX_CHANNELS` (2048).
     depth : int, default 4
         Number of 2× downsamplings (inputs are padded internally to a multiple of
-        ``2**depth`` and cropped back).
+        ``2**depth`` and cropped back). Training frames (or crops) must be at least
+        ``2**depth`` pixels on each side.
     input_mask : bool, default False
         False: the study's input, the corrupted depth alone (0 inside holes, divided by
         ``max_depth``). True: add a hole-mask and a validity-mask channel, since a 0
@@ -109,8 +117,9 @@ class _NeuralInpainter(BaseInpainter):
         path: ``clone`` drops the fitted state of an estimator parameter. ``True``
         (scikit-learn's meaning): start from this estimator's own previous fit, all
         weights (fresh optimiser). ``None``/``False``: random initialisation.
-    device : {"auto", "cpu", "cuda"} or str
-        "auto" picks CUDA when available.
+    device : {"auto", "cpu", "cuda", "cuda:N", "mps"}
+        "auto" picks CUDA when available. Other torch device types (e.g. "meta") are
+        rejected at fit/predict with a ValueError.
     amp : {True, False, "cpu-bf16"}, default True
         Mixed precision. True: autocast (bf16 where supported, else fp16 with gradient
         scaling) on CUDA only; False: float32 everywhere; "cpu-bf16": also bf16
@@ -158,6 +167,8 @@ class _NeuralInpainter(BaseInpainter):
     """
 
     _skip: bool = True
+    #: Name of the parameter that sets the number of downsamplings (read by messages).
+    _depth_param: str = "depth"
 
     def __init__(
         self,
@@ -276,24 +287,79 @@ class _NeuralInpainter(BaseInpainter):
                 f"compile must be True, False, a dict of torch.compile arguments or one of "
                 f"{_COMPILE_MODES}, got {self.compile!r}"
             )
+        self._check_capacity()
         if self.depth_scale not in _DEPTH_SCALES:
             raise ValueError(f"depth_scale must be one of {_DEPTH_SCALES}, got {self.depth_scale!r}")
         get_protocol(self.protocol)  # KeyError listing the known protocols
 
+    def _check_capacity(self) -> None:
+        """Refuse networks far larger than any sensible use (channels double per level)."""
+        # Compare without computing 2**depth for an absurd depth.
+        if self.depth > MAX_CHANNELS.bit_length() or int(self.width) << int(self.depth) > MAX_CHANNELS:
+            d = self._depth_param
+            raise ValueError(
+                f"width={self.width}, {d}={self.depth} gives width * 2**{d} channels at the "
+                f"deepest level, more than the {MAX_CHANNELS} allowed (channels double per level, "
+                f"so parameters about quadruple); lower {d} or width"
+            )
+
+    def _downsampling(self) -> tuple[int, str]:
+        """Total downsampling factor of the network and the parameters that set it."""
+        need = 2 ** int(self.depth)
+        return need, f"depth={self.depth} (2**depth = {need} px)"
+
+    def _check_frame_size(self, frame_shape: tuple[int, int]) -> None:
+        """Refuse training samples smaller than the network's total downsampling.
+
+        The network pads any input to a multiple of it, so this is not about crashing:
+        on smaller samples the deepest levels see nothing but padding.
+        """
+        ch, cw = crop_shape(frame_shape, self.crop)
+        need, what = self._downsampling()
+        if min(ch, cw) < need:
+            kind = "crops" if self.crop is not None else "frames"
+            raise ValueError(
+                f"{what} needs training {kind} of at least {need} px per side, got {ch}x{cw}; "
+                f"lower it or train on larger {kind}"
+            )
+
     def _device(self) -> torch.device:
+        """The torch device to fit/predict on; a clear ValueError for anything unusable.
+
+        Accepted: "auto", "cpu", "cuda", "cuda:N" (N < the number of GPUs) and "mps"
+        where available. Other torch device types ("meta", "xla", ...) would only fail
+        later, deep inside autocast or a kernel.
+        """
+        choices = "'auto', 'cpu', 'cuda', 'cuda:N' or 'mps'"
         if self.device == "auto":
             return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+        if not isinstance(self.device, (str, torch.device)):
+            raise ValueError(f"device must be one of {choices}, got {self.device!r}")
         try:
             dev = torch.device(self.device)
-        except (RuntimeError, TypeError):
-            raise ValueError(f"device must be 'auto', 'cpu', 'cuda' or a torch device string, got {self.device!r}") from None
-        if dev.type == "cuda" and not torch.cuda.is_available():
-            raise ValueError("device='cuda' but no CUDA device is available; use device='auto' or 'cpu'")
-        return dev
+        except (RuntimeError, TypeError, ValueError):
+            raise ValueError(f"device must be one of {choices}, got {self.device!r}") from None
+        if dev.type == "cpu":
+            return dev
+        if dev.type == "cuda":
+            if not torch.cuda.is_available():
+                raise ValueError(f"device={self.device!r} but no CUDA device is available; use device='auto' or 'cpu'")
+            if dev.index is not None and dev.index >= torch.cuda.device_count():
+                raise ValueError(
+                    f"device={self.device!r} but only {torch.cuda.device_count()} CUDA device(s) are visible"
+                )
+            return dev
+        if dev.type == "mps":
+            if not torch.backends.mps.is_available():
+                raise ValueError(f"device={self.device!r} but MPS is not available here; use device='auto' or 'cpu'")
+            return dev
+        raise ValueError(f"device must be one of {choices}, got {self.device!r} (device type {dev.type!r} is not supported)")
 
     def _autocast(self, device: torch.device) -> tuple[Any, bool]:
         """Autocast context for ``device`` and whether fp16 gradient scaling is needed."""
-        if self.amp is False or (device.type == "cpu" and self.amp != "cpu-bf16"):
+        # As documented: autocast on CUDA, and on CPU only with "cpu-bf16"; never on
+        # other devices (MPS), whose autocast support varies across torch versions.
+        if self.amp is False or device.type not in ("cpu", "cuda") or (device.type == "cpu" and self.amp != "cpu-bf16"):
             return contextlib.nullcontext(), False
         if device.type == "cuda" and self.amp is True and not torch.cuda.is_bf16_supported():
             return torch.autocast("cuda", dtype=torch.float16), True
@@ -356,6 +422,7 @@ class _NeuralInpainter(BaseInpainter):
     def _fit(self, dataset: DepthDataset) -> None:
         self._check_params()
         check_depth(dataset[0], name="X[0]")
+        self._check_frame_size(dataset.frame_shape)
         seed = int(self.random_state) if self.random_state is not None else int(
             np.random.SeedSequence().generate_state(1)[0]
         )

@@ -105,6 +105,7 @@ class PriorUNetInpainter(_NeuralInpainter):
     """
 
     _skip = True
+    _depth_param = "levels"
     # Fixed by the recipe (read by the shared parameter checks and checkpoint code):
     # the loss is L2 on the hole in metres, no TV term, no valid-pixel term.
     hole_weight = 1.0
@@ -201,6 +202,17 @@ class PriorUNetInpainter(_NeuralInpainter):
         for name in ("flip", "tta", "endpoints", "relative"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+
+    def _check_capacity(self) -> None:
+        # Only the U-Net doubles channels per level; the pixel MLP is width × levels.
+        if self.arch != "pixel":
+            super()._check_capacity()
+
+    def _downsampling(self) -> tuple[int, str]:
+        if self.arch == "pixel":
+            return 1, "arch='pixel'"
+        need = int(self.factor) * 2 ** int(self.levels)
+        return need, f"factor={self.factor}, levels={self.levels} (factor * 2**levels = {need} px)"
 
     @property
     def in_channels(self) -> int:

@@ -286,6 +286,14 @@ def test_warm_start_errors(dataset):
         ({"max_depth": 1e-30}, r"max_depth .* must be in \[0.1, 100000\].*got 1e-30"),
         ({"max_depth": 1e9}, r"max_depth .* must be in \[0.1, 100000\]"),
         ({"max_depth": float("inf")}, "max_depth must be a finite number"),
+        ({"device": "meta"}, r"device must be one of 'auto', 'cpu', 'cuda', 'cuda:N' or 'mps', got 'meta'"),
+        ({"device": 3}, r"device must be one of .*, got 3"),
+        ({"device": "cuda:7"}, r"device='cuda:7' but (no CUDA device is available|only \d CUDA device)"),
+        ({"width": 4, "depth": 12}, r"width=4, depth=12 gives .* more than the 2048 allowed"),
+        ({"width": 256, "depth": 4}, r"width=256, depth=4 .* more than the 2048 allowed"),
+        ({"depth": 10**9}, r"depth=1000000000 gives"),
+        ({"depth": 5}, r"depth=5 \(2\*\*depth = 32 px\) needs training frames of at least 32 px per side, got 24x40"),
+        ({"depth": 4, "crop": (8, 64)}, r"needs training crops of at least 16 px per side, got 8x40"),
     ],
 )
 def test_bad_parameters_rejected_at_fit(dataset, bad, match):
@@ -346,6 +354,20 @@ def test_bad_input_errors_come_from_base_validation(fitted, frames):
         fitted.predict(np.full((4, 4), np.inf, np.float32))
     with pytest.raises(ValueError, match="negative"):
         tiny().fit(-frames)
+
+
+def test_device_is_checked_at_predict(fitted, corrupted):
+    est = clone(fitted)
+    est.__dict__.update({k: v for k, v in vars(fitted).items() if k.endswith("_")})
+    with pytest.raises(ValueError, match="got 'meta'"):
+        est.set_params(device="meta").predict(corrupted)
+    assert est.set_params(device="cpu").predict(corrupted).shape == corrupted.shape
+
+
+def test_frames_as_small_as_the_downsampling_train(frames):
+    # 24 px tall frames: depth=3 (8 px) is fine, and predict still takes any size.
+    est = tiny(depth=3, max_steps=1).fit(frames)
+    assert est.predict(np.where(frames[:1] > 20, np.nan, frames[:1])).shape == (1, H, W)
 
 
 class _Frames(DepthDataset):
