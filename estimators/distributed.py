@@ -156,6 +156,7 @@ def train_distributed(
         seed = _shared_seed(est)
         _train(est, dataset, seed, device, rank, world, log)
         est.seed_ = seed
+        est.model_params_ = est._model_params()
         est.is_fitted_ = True
     return est
 

@@ -164,6 +164,12 @@ class _NeuralInpainter(BaseInpainter):
         The seed actually used.
     run_dir_ : pathlib.Path or None
         This fit's checkpoint directory.
+    model_params_ : dict
+        The values at fit (or load) of the parameters the weights depend on (``width``,
+        ``depth``, ``input_mask``, ``depth_scale``, ``max_depth``). ``predict`` and
+        ``save`` raise ``ValueError`` if one was changed since; training-only
+        (``lr``, ``max_steps``, ...) and prediction-time parameters (``batch_size``,
+        ``device``, ``num_threads``, ``keep_observed``, ...) can be changed freely.
     """
 
     _skip: bool = True
@@ -291,6 +297,32 @@ class _NeuralInpainter(BaseInpainter):
         if self.depth_scale not in _DEPTH_SCALES:
             raise ValueError(f"depth_scale must be one of {_DEPTH_SCALES}, got {self.depth_scale!r}")
         get_protocol(self.protocol)  # KeyError listing the known protocols
+
+    def _model_param_names(self) -> tuple[str, ...]:
+        """Parameters the trained weights depend on: the architecture and how depth is
+        scaled into and out of the network (not training-only or prediction-time ones)."""
+        return ("width", "depth", "input_mask", "depth_scale", "max_depth")
+
+    def _model_params(self) -> dict[str, Any]:
+        """Current values of :meth:`_model_param_names`, as plain comparable values."""
+        return {name: _plain(getattr(self, name)) for name in self._model_param_names()}
+
+    def _check_model_params(self, hint: str = "refit or set it back") -> None:
+        """Raise if a parameter the fitted weights depend on changed since fit/load.
+
+        Without this, ``set_params(max_depth=20)`` after fit would silently rescale the
+        output and ``set_params(width=8)`` would run the width-4 model while
+        ``get_params`` says 8.
+        """
+        fitted = getattr(self, "model_params_", None)
+        if fitted is None:  # pickled by a version that did not record them
+            return
+        for name, value in fitted.items():
+            current = _plain(getattr(self, name, None))
+            if current != value:
+                raise ValueError(
+                    f"{name}={current!r} differs from the {value!r} this model was trained with; {hint}"
+                )
 
     def _check_capacity(self) -> None:
         """Refuse networks far larger than any sensible use (channels double per level)."""
@@ -431,6 +463,7 @@ class _NeuralInpainter(BaseInpainter):
             self.n_threads_ = n_threads
             self._train(dataset, seed, device)
         self.seed_ = seed
+        self.model_params_ = self._model_params()
 
     def _train(self, dataset: DepthDataset, seed: int, device: torch.device) -> None:
         if self.validation_fraction is not None:
@@ -656,6 +689,7 @@ class _NeuralInpainter(BaseInpainter):
 
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         self._check_params()
+        self._check_model_params()
         device = self._device()
         with torch_threads(self.num_threads):
             model = self.model_.to(device)
@@ -679,6 +713,8 @@ class _NeuralInpainter(BaseInpainter):
             from sklearn.exceptions import NotFittedError
 
             raise NotFittedError(f"this {type(self).__name__} is not fitted; nothing to save")
+        # The config is written from the current parameters: they must still describe the weights.
+        self._check_model_params()
         config = {
             "class": type(self).__name__,
             "params": self._config_params(),
@@ -723,8 +759,18 @@ class _NeuralInpainter(BaseInpainter):
         est.history_ = fitted.get("history_") or progress_history(fitted)
         est.n_steps_ = int(fitted.get("n_steps_", fitted.get("step", 0)) or 0)
         est.seed_ = config.get("seed")
+        est.model_params_ = est._model_params()
         est.is_fitted_ = True
         return est
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with NumPy scalars as Python ones and lists as tuples, for comparison."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return tuple(_plain(v) for v in value)
+    return value
 
 
 def progress_history(fitted: dict[str, Any]) -> dict[str, Any]:

@@ -356,9 +356,56 @@ def test_bad_input_errors_come_from_base_validation(fitted, frames):
         tiny().fit(-frames)
 
 
-def test_device_is_checked_at_predict(fitted, corrupted):
+def _copy(fitted):
+    """An independent fitted copy (clone() drops fitted state)."""
     est = clone(fitted)
     est.__dict__.update({k: v for k, v in vars(fitted).items() if k.endswith("_")})
+    return est
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        ({"max_depth": 20.0}, r"^max_depth=20.0 differs from the 80.0 this model was trained with; refit or set it back$"),
+        ({"width": 8}, r"^width=8 differs from the 4 this model was trained with"),
+        ({"depth": 1}, r"^depth=1 differs from the 2 "),
+        ({"depth_scale": "frame"}, r"^depth_scale='frame' differs from the 'fixed' "),
+        ({"input_mask": True}, r"^input_mask=True differs from the False "),
+    ],
+)
+def test_model_params_changed_after_fit_raise(fitted, corrupted, tmp_path, change, match):
+    est = _copy(fitted)
+    before = est.predict(corrupted)
+    est.set_params(**change)
+    with pytest.raises(ValueError, match=match):
+        est.predict(corrupted)
+    with pytest.raises(ValueError, match=match):
+        est.save(tmp_path / "m")  # would write a config that does not describe the weights
+    est.set_params(**{k: fitted.get_params()[k] for k in change})
+    np.testing.assert_array_equal(est.predict(corrupted), before)
+
+
+def test_training_and_prediction_params_may_change_after_fit(fitted, corrupted, tmp_path):
+    est = _copy(fitted)
+    before = est.predict(corrupted)
+    est.set_params(lr=1.0, max_steps=1, epochs=3, hole_weight=0.0, batch_size=1, device="cpu",
+                   num_threads=2, verbose=True, checkpoint_dir=tmp_path)
+    np.testing.assert_array_equal(est.predict(corrupted), before)
+    loaded = UNetInpainter.load(est.save(tmp_path / "m"))
+    assert loaded.model_params_ == fitted.model_params_
+    np.testing.assert_array_equal(loaded.predict(corrupted), before)
+    with pytest.raises(ValueError, match="max_depth=40.0 differs from the 80.0"):
+        loaded.set_params(max_depth=40.0).predict(corrupted)
+
+
+def test_refit_after_changing_model_params_records_them(fitted, dataset, corrupted):
+    est = clone(fitted).set_params(width=8, max_depth=40.0, max_steps=1)
+    assert est.fit(dataset).model_params_["width"] == 8
+    assert est.model_params_["max_depth"] == 40.0 and est.predict(corrupted).shape == corrupted.shape
+
+
+def test_device_is_checked_at_predict(fitted, corrupted):
+    est = _copy(fitted)
     with pytest.raises(ValueError, match="got 'meta'"):
         est.set_params(device="meta").predict(corrupted)
     assert est.set_params(device="cpu").predict(corrupted).shape == corrupted.shape

@@ -308,6 +308,32 @@ def test_train_preset_smoke(small_gt):
 
 
 # -- shipped weights ------------------------------------------------------------------------
+def test_pretrained_overrides_prediction_params_but_not_the_architecture():
+    est = PriorUNetInpainter.pretrained(num_threads=1, tta=False, device="cpu", batch_size=1)
+    assert est.get_params()["tta"] is False and est.num_threads == 1
+    for change, match in (({"width": 64}, r"^width=64 differs from the 128 this model was trained with; "
+                                           r"the shipped 'kitti-rect-v3' weights fix it"),
+                          ({"candidates": ("scanline",)}, r"^candidates=\('scanline',\) differs from"),
+                          ({"relative": False}, r"^relative=False differs from the True")):
+        with pytest.raises(ValueError, match=match):
+            PriorUNetInpainter.pretrained(**change)
+
+
+@pytest.mark.parametrize("arch", ARCH_IDS)
+def test_model_params_changed_after_fit_raise(small_gt, arch):
+    est = PriorUNetInpainter(**TINY, arch=arch).fit(small_gt)
+    x = _corrupt(small_gt)
+    params = est.get_params()
+    change = {"relative": True} if arch == "pixel" else {"factor": 4}
+    with pytest.raises(ValueError, match=f"^{next(iter(change))}=.* differs from the .* this model was trained with"):
+        est.set_params(**change).predict(x)
+    with pytest.raises(ValueError, match=r"^candidates=\('scanline',\) differs"):
+        est.set_params(**{**params, "candidates": ["scanline"]}).predict(x)
+    # A list equal to the fitted tuple is the same setting; tta is prediction-time.
+    est.set_params(**{**params, "candidates": list(CANDIDATES), "tta": False})
+    assert est.predict(x).shape == x.shape
+
+
 def test_unknown_pretrained_name_lists_shipped():
     with pytest.raises(KeyError, match="shipped"):
         PriorUNetInpainter.pretrained("no-such-model")
