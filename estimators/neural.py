@@ -366,7 +366,7 @@ class _NeuralInpainter(BaseInpainter):
         if self.device == "auto":
             return torch.device("cuda" if torch.cuda.is_available() else "cpu")
         if not isinstance(self.device, (str, torch.device)):
-            raise ValueError(f"device must be one of {choices}, got {self.device!r}")
+            raise TypeError(f"device must be one of {choices}, got {self.device!r}")
         try:
             dev = torch.device(self.device)
         except (RuntimeError, TypeError, ValueError):

@@ -311,8 +311,8 @@ def test_train_preset_smoke(small_gt):
 def test_pretrained_overrides_prediction_params_but_not_the_architecture():
     est = PriorUNetInpainter.pretrained(num_threads=1, tta=False, device="cpu", batch_size=1)
     assert est.get_params()["tta"] is False and est.num_threads == 1
-    for change, match in (({"width": 64}, r"^width=64 differs from the 128 this model was trained with; "
-                                           r"the shipped 'kitti-rect-v3' weights fix it"),
+    shipped = r"^width=64 differs from the 128 this model was trained with; the shipped 'kitti-rect-v3' weights fix it"
+    for change, match in (({"width": 64}, shipped),
                           ({"candidates": ("scanline",)}, r"^candidates=\('scanline',\) differs from"),
                           ({"relative": False}, r"^relative=False differs from the True")):
         with pytest.raises(ValueError, match=match):
