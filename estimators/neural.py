@@ -329,9 +329,10 @@ class _NeuralInpainter(BaseInpainter):
         # Compare without computing 2**depth for an absurd depth.
         if self.depth > MAX_CHANNELS.bit_length() or int(self.width) << int(self.depth) > MAX_CHANNELS:
             d = self._depth_param
+            count = str(int(self.width) << int(self.depth)) if self.depth <= 64 else "astronomically many"
             raise ValueError(
-                f"width={self.width}, {d}={self.depth} gives width * 2**{d} channels at the "
-                f"deepest level, more than the {MAX_CHANNELS} allowed (channels double per level, "
+                f"width={self.width}, {d}={self.depth} gives {count} channels at the deepest level "
+                f"(width * 2**{d}), more than the {MAX_CHANNELS} allowed (channels double per level, "
                 f"so parameters about quadruple); lower {d} or width"
             )
 

@@ -288,7 +288,7 @@ def test_warm_start_errors(dataset):
         ({"max_depth": float("inf")}, "max_depth must be a finite number"),
         ({"device": "meta"}, r"device must be one of 'auto', 'cpu', 'cuda', 'cuda:N' or 'mps', got 'meta'"),
         ({"device": "cuda:7"}, r"device='cuda:7' but (no CUDA device is available|only \d CUDA device)"),
-        ({"width": 4, "depth": 12}, r"width=4, depth=12 gives .* more than the 2048 allowed"),
+        ({"width": 4, "depth": 12}, r"width=4, depth=12 gives 16384 channels at the deepest level \(width \* 2\*\*depth\), more than the 2048 allowed"),
         ({"width": 256, "depth": 4}, r"width=256, depth=4 .* more than the 2048 allowed"),
         ({"depth": 10**9}, r"depth=1000000000 gives"),
         ({"depth": 5}, r"depth=5 \(2\*\*depth = 32 px\) needs training frames of at least 32 px per side, got 24x40"),

@@ -288,7 +288,7 @@ def test_bad_params_raise_clear_errors(small_gt, param, value, error):
 def test_unet_arch_needs_frames_of_its_downsampling(small_gt):
     with pytest.raises(ValueError, match=r"factor=8, levels=3 \(factor \* 2\*\*levels = 64 px\) needs training frames"):
         PriorUNetInpainter(**{**TINY, "arch": "unet", "factor": 8, "levels": 3}).fit(small_gt)
-    with pytest.raises(ValueError, match=r"width=512, levels=3 gives width \* 2\*\*levels channels"):
+    with pytest.raises(ValueError, match=r"width=512, levels=3 gives 4096 channels at the deepest level \(width \* 2\*\*levels\)"):
         PriorUNetInpainter(**{**TINY, "arch": "unet", "width": 512, "levels": 3}).fit(small_gt)
     # The pixel MLP neither downsamples nor doubles its width per layer.
     PriorUNetInpainter(**{**TINY, "levels": 3, "width": 8}).fit(small_gt)
