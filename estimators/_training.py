@@ -17,14 +17,17 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
 
+from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.masks import OcclusionProtocol
 
 __all__ = [
     "OcclusionFrames",
+    "crop_shape",
     "data_fingerprint",
     "encode_input",
     "epoch_order",
+    "frame_label",
     "make_loader",
     "sample_rng",
     "torch_threads",
@@ -44,11 +47,20 @@ def epoch_order(n: int, seed: int, epoch: int) -> np.ndarray:
     return sample_rng(seed, epoch, _ORDER_STREAM).permutation(n)
 
 
+def crop_shape(frame_shape: tuple[int, int], crop: tuple[int, int] | None) -> tuple[int, int]:
+    """Shape of the training samples: ``crop`` with each side clipped to the frame."""
+    fh, fw = (int(v) for v in frame_shape)
+    return (fh, fw) if crop is None else (min(int(crop[0]), fh), min(int(crop[1]), fw))
+
+
 class OcclusionFrames(Dataset):
     """Torch view of a :class:`DepthDataset`: ``(ground truth, hole)`` per frame.
 
     Each item is a random crop (or the whole frame) with a fresh occlusion drawn from
-    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Set
+    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Every
+    frame is validated (:func:`~inpaintenv.conventions.check_depth`) as it is loaded,
+    so NaN, inf or negative depth in any frame stops training with an error naming
+    the frame instead of surfacing later as a NaN loss or training silently. Set
     :attr:`epoch` before iterating an epoch (workers are re-created per epoch, so they
     see the new value).
 
@@ -64,8 +76,7 @@ class OcclusionFrames(Dataset):
     def __init__(self, frames: DepthDataset, protocol: OcclusionProtocol, crop: tuple[int, int] | None, seed: int):
         self.frames = frames
         self.protocol = protocol
-        fh, fw = frames.frame_shape
-        self.crop = (fh, fw) if crop is None else (min(int(crop[0]), fh), min(int(crop[1]), fw))
+        self.crop = crop_shape(frames.frame_shape, crop)
         self.seed = int(seed)
         self.epoch = 0
 
@@ -73,14 +84,29 @@ class OcclusionFrames(Dataset):
         return len(self.frames)
 
     def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
-        rng = sample_rng(self.seed, self.epoch, int(index))
-        gt = np.asarray(self.frames[int(index)], dtype=np.float32)
+        index = int(index)
+        rng = sample_rng(self.seed, self.epoch, index)
+        gt = check_depth(self.frames[index], name=f"training frame {frame_label(self.frames, index)}", ndim=(2,))
+        if gt.shape != tuple(self.frames.frame_shape):
+            raise ValueError(
+                f"training frame {frame_label(self.frames, index)} has shape {gt.shape}, but the "
+                f"dataset's frame_shape is {tuple(self.frames.frame_shape)}"
+            )
         (fh, fw), (ch, cw) = gt.shape, self.crop
         top = int(rng.integers(0, fh - ch + 1))
         left = int(rng.integers(0, fw - cw + 1))
         gt = np.ascontiguousarray(gt[top : top + ch, left : left + cw])
         hole = self.protocol.sample((ch, cw), rng)
         return torch.from_numpy(gt), torch.from_numpy(hole)
+
+
+def frame_label(frames: DepthDataset, index: int) -> str:
+    """``"3 (id 'drive_a/3')"``: a frame's index and, when the dataset has them, its id."""
+    ids = getattr(frames, "frame_ids", None)
+    try:
+        return f"{index} (id {ids[index]!r})" if ids is not None else str(index)
+    except (IndexError, TypeError):  # a custom dataset with incomplete ids: index only
+        return str(index)
 
 
 def _worker_init(_: int) -> None:

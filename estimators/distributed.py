@@ -143,6 +143,7 @@ def train_distributed(
     dataset = as_dataset(X)
     if len(dataset) == 0:
         raise ValueError("cannot fit on an empty dataset")
+    est._check_frame_size(dataset.frame_shape)
     device = est._device()
     with process_group(device.type) as (rank, world, local_rank), torch_threads(est.num_threads):
         if est.batch_size % world:
@@ -155,6 +156,7 @@ def train_distributed(
         seed = _shared_seed(est)
         _train(est, dataset, seed, device, rank, world, log)
         est.seed_ = seed
+        est.model_params_ = est._model_params()
         est.is_fitted_ = True
     return est
 

@@ -30,9 +30,11 @@ from inpaintenv.metrics import aggregate, frame_metrics
 from . import _checkpoint as ckpt
 from ._training import (
     OcclusionFrames,
+    crop_shape,
     data_fingerprint,
     encode_input,
     epoch_order,
+    frame_label,
     make_loader,
     torch_threads,
 )
@@ -50,6 +52,15 @@ _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "
 _AMP_CHOICES = (True, False, "cpu-bf16")
 _DEPTH_SCALES = ("fixed", "frame")
 _COMPILE_MODES = ("default", "reduce-overhead", "max-autotune", "max-autotune-no-cudagraphs")
+#: Accepted ``max_depth`` range (metres). Depths are divided by it: far outside this
+#: range the network's inputs and targets overflow or vanish in float32 and training
+#: fails with a NaN loss that says nothing about the cause.
+_MAX_DEPTH_RANGE = (0.1, 1e5)
+#: Most channels allowed at the deepest U-Net level (``width * 2**depth``). The U-Net
+#: doubles its channels per level, so each extra level about quadruples the parameters:
+#: 2048 (e.g. width=128, depth=4) is already ~100 M parameters, while width=4, depth=12
+#: (16,384 channels) needs tens of GB and gets the process killed.
+MAX_CHANNELS = 2048
 
 
 class _NeuralInpainter(BaseInpainter):
@@ -58,10 +69,12 @@ class _NeuralInpainter(BaseInpainter):
     Parameters
     ----------
     width : int, default 32
-        Channels of the first level; doubled at every level.
+        Channels of the first level; doubled at every level. ``width * 2**depth`` may
+        not exceed :data:`MAX_CHANNELS` (2048).
     depth : int, default 4
         Number of 2× downsamplings (inputs are padded internally to a multiple of
-        ``2**depth`` and cropped back).
+        ``2**depth`` and cropped back). Training frames (or crops) must be at least
+        ``2**depth`` pixels on each side.
     input_mask : bool, default False
         False: the study's input, the corrupted depth alone (0 inside holes, divided by
         ``max_depth``). True: add a hole-mask and a validity-mask channel, since a 0
@@ -78,7 +91,8 @@ class _NeuralInpainter(BaseInpainter):
     tv_weight : float, default 0.01
         β of the loss (anisotropic total variation of the prediction).
     max_depth : float, default 80.0
-        Depth normalisation in metres (inputs and targets are divided by it).
+        Depth normalisation in metres (inputs and targets are divided by it); must be
+        in [0.1, 1e5].
     lr, weight_decay : float
         Adam's learning rate (1e-3) and weight decay (1e-6).
     batch_size : int, default 4
@@ -103,8 +117,9 @@ class _NeuralInpainter(BaseInpainter):
         path: ``clone`` drops the fitted state of an estimator parameter. ``True``
         (scikit-learn's meaning): start from this estimator's own previous fit, all
         weights (fresh optimiser). ``None``/``False``: random initialisation.
-    device : {"auto", "cpu", "cuda"} or str
-        "auto" picks CUDA when available.
+    device : {"auto", "cpu", "cuda", "cuda:N", "mps"}
+        "auto" picks CUDA when available. Other torch device types (e.g. "meta") are
+        rejected at fit/predict with a ValueError.
     amp : {True, False, "cpu-bf16"}, default True
         Mixed precision. True: autocast (bf16 where supported, else fp16 with gradient
         scaling) on CUDA only; False: float32 everywhere; "cpu-bf16": also bf16
@@ -149,9 +164,17 @@ class _NeuralInpainter(BaseInpainter):
         The seed actually used.
     run_dir_ : pathlib.Path or None
         This fit's checkpoint directory.
+    model_params_ : dict
+        The values at fit (or load) of the parameters the weights depend on (``width``,
+        ``depth``, ``input_mask``, ``depth_scale``, ``max_depth``). ``predict`` and
+        ``save`` raise ``ValueError`` if one was changed since; training-only
+        (``lr``, ``max_steps``, ...) and prediction-time parameters (``batch_size``,
+        ``device``, ``num_threads``, ``keep_observed``, ...) can be changed freely.
     """
 
     _skip: bool = True
+    #: Name of the parameter that sets the number of downsamplings (read by messages).
+    _depth_param: str = "depth"
 
     def __init__(
         self,
@@ -237,6 +260,12 @@ class _NeuralInpainter(BaseInpainter):
         int_at_least("checkpoint_every", 1, optional=True)
         for name in ("max_depth", "lr"):
             positive(name)
+        low, high = _MAX_DEPTH_RANGE
+        if not low <= self.max_depth <= high:
+            raise ValueError(
+                f"max_depth is the depth normalisation range in metres and must be in "
+                f"[{low:g}, {high:g}] (the study uses 80), got {self.max_depth!r}"
+            )
         for name in ("hole_weight", "tv_weight", "weight_decay"):
             positive(name, allow_zero=True)
         if self.crop is not None:
@@ -264,24 +293,106 @@ class _NeuralInpainter(BaseInpainter):
                 f"compile must be True, False, a dict of torch.compile arguments or one of "
                 f"{_COMPILE_MODES}, got {self.compile!r}"
             )
+        self._check_capacity()
         if self.depth_scale not in _DEPTH_SCALES:
             raise ValueError(f"depth_scale must be one of {_DEPTH_SCALES}, got {self.depth_scale!r}")
         get_protocol(self.protocol)  # KeyError listing the known protocols
 
+    def _model_param_names(self) -> tuple[str, ...]:
+        """Parameters the trained weights depend on: the architecture and how depth is
+        scaled into and out of the network (not training-only or prediction-time ones)."""
+        return ("width", "depth", "input_mask", "depth_scale", "max_depth")
+
+    def _model_params(self) -> dict[str, Any]:
+        """Current values of :meth:`_model_param_names`, as plain comparable values."""
+        return {name: _plain(getattr(self, name)) for name in self._model_param_names()}
+
+    def _check_model_params(self, hint: str = "refit or set it back") -> None:
+        """Raise if a parameter the fitted weights depend on changed since fit/load.
+
+        Without this, ``set_params(max_depth=20)`` after fit would silently rescale the
+        output and ``set_params(width=8)`` would run the width-4 model while
+        ``get_params`` says 8.
+        """
+        fitted = getattr(self, "model_params_", None)
+        if fitted is None:  # pickled by a version that did not record them
+            return
+        for name, value in fitted.items():
+            current = _plain(getattr(self, name, None))
+            if current != value:
+                raise ValueError(
+                    f"{name}={current!r} differs from the {value!r} this model was trained with; {hint}"
+                )
+
+    def _check_capacity(self) -> None:
+        """Refuse networks far larger than any sensible use (channels double per level)."""
+        # Compare without computing 2**depth for an absurd depth.
+        if self.depth > MAX_CHANNELS.bit_length() or int(self.width) << int(self.depth) > MAX_CHANNELS:
+            d = self._depth_param
+            count = str(int(self.width) << int(self.depth)) if self.depth <= 64 else "astronomically many"
+            raise ValueError(
+                f"width={self.width}, {d}={self.depth} gives {count} channels at the deepest level "
+                f"(width * 2**{d}), more than the {MAX_CHANNELS} allowed (channels double per level, "
+                f"so parameters about quadruple); lower {d} or width"
+            )
+
+    def _downsampling(self) -> tuple[int, str]:
+        """Total downsampling factor of the network and the parameters that set it."""
+        need = 2 ** int(self.depth)
+        return need, f"depth={self.depth} (2**depth = {need} px)"
+
+    def _check_frame_size(self, frame_shape: tuple[int, int]) -> None:
+        """Refuse training samples smaller than the network's total downsampling.
+
+        The network pads any input to a multiple of it, so this is not about crashing:
+        on smaller samples the deepest levels see nothing but padding.
+        """
+        ch, cw = crop_shape(frame_shape, self.crop)
+        need, what = self._downsampling()
+        if min(ch, cw) < need:
+            kind = "crops" if self.crop is not None else "frames"
+            raise ValueError(
+                f"{what} needs training {kind} of at least {need} px per side, got {ch}x{cw}; "
+                f"lower it or train on larger {kind}"
+            )
+
     def _device(self) -> torch.device:
+        """The torch device to fit/predict on; a clear ValueError for anything unusable.
+
+        Accepted: "auto", "cpu", "cuda", "cuda:N" (N < the number of GPUs) and "mps"
+        where available. Other torch device types ("meta", "xla", ...) would only fail
+        later, deep inside autocast or a kernel.
+        """
+        choices = "'auto', 'cpu', 'cuda', 'cuda:N' or 'mps'"
         if self.device == "auto":
             return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+        if not isinstance(self.device, (str, torch.device)):
+            raise TypeError(f"device must be one of {choices}, got {self.device!r}")
         try:
             dev = torch.device(self.device)
-        except (RuntimeError, TypeError):
-            raise ValueError(f"device must be 'auto', 'cpu', 'cuda' or a torch device string, got {self.device!r}") from None
-        if dev.type == "cuda" and not torch.cuda.is_available():
-            raise ValueError("device='cuda' but no CUDA device is available; use device='auto' or 'cpu'")
-        return dev
+        except (RuntimeError, TypeError, ValueError):
+            raise ValueError(f"device must be one of {choices}, got {self.device!r}") from None
+        if dev.type == "cpu":
+            return dev
+        if dev.type == "cuda":
+            if not torch.cuda.is_available():
+                raise ValueError(f"device={self.device!r} but no CUDA device is available; use device='auto' or 'cpu'")
+            if dev.index is not None and dev.index >= torch.cuda.device_count():
+                raise ValueError(
+                    f"device={self.device!r} but only {torch.cuda.device_count()} CUDA device(s) are visible"
+                )
+            return dev
+        if dev.type == "mps":
+            if not torch.backends.mps.is_available():
+                raise ValueError(f"device={self.device!r} but MPS is not available here; use device='auto' or 'cpu'")
+            return dev
+        raise ValueError(f"device must be one of {choices}, got {self.device!r} (device type {dev.type!r} is not supported)")
 
     def _autocast(self, device: torch.device) -> tuple[Any, bool]:
         """Autocast context for ``device`` and whether fp16 gradient scaling is needed."""
-        if self.amp is False or (device.type == "cpu" and self.amp != "cpu-bf16"):
+        # As documented: autocast on CUDA, and on CPU only with "cpu-bf16"; never on
+        # other devices (MPS), whose autocast support varies across torch versions.
+        if self.amp is False or device.type not in ("cpu", "cuda") or (device.type == "cpu" and self.amp != "cpu-bf16"):
             return contextlib.nullcontext(), False
         if device.type == "cuda" and self.amp is True and not torch.cuda.is_bf16_supported():
             return torch.autocast("cuda", dtype=torch.float16), True
@@ -344,6 +455,7 @@ class _NeuralInpainter(BaseInpainter):
     def _fit(self, dataset: DepthDataset) -> None:
         self._check_params()
         check_depth(dataset[0], name="X[0]")
+        self._check_frame_size(dataset.frame_shape)
         seed = int(self.random_state) if self.random_state is not None else int(
             np.random.SeedSequence().generate_state(1)[0]
         )
@@ -352,6 +464,7 @@ class _NeuralInpainter(BaseInpainter):
             self.n_threads_ = n_threads
             self._train(dataset, seed, device)
         self.seed_ = seed
+        self.model_params_ = self._model_params()
 
     def _train(self, dataset: DepthDataset, seed: int, device: torch.device) -> None:
         if self.validation_fraction is not None:
@@ -539,7 +652,9 @@ class _NeuralInpainter(BaseInpainter):
         parts = []
         for start in range(0, len(val_ds), self.batch_size):
             idx = range(start, min(start + self.batch_size, len(val_ds)))
-            gt = val_ds.load_batch(idx)
+            gt = np.stack([
+                check_depth(val_ds[i], name=f"validation frame {frame_label(val_ds, i)}", ndim=(2,)) for i in idx
+            ])
             hole = protocol.masks(val_ds.frame_shape, seed, idx)
             x = np.where(hole, np.nan, gt).astype(np.float32)
             pred = self._forward(model, x, device)
@@ -575,6 +690,7 @@ class _NeuralInpainter(BaseInpainter):
 
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         self._check_params()
+        self._check_model_params()
         device = self._device()
         with torch_threads(self.num_threads):
             model = self.model_.to(device)
@@ -598,6 +714,8 @@ class _NeuralInpainter(BaseInpainter):
             from sklearn.exceptions import NotFittedError
 
             raise NotFittedError(f"this {type(self).__name__} is not fitted; nothing to save")
+        # The config is written from the current parameters: they must still describe the weights.
+        self._check_model_params()
         config = {
             "class": type(self).__name__,
             "params": self._config_params(),
@@ -642,8 +760,18 @@ class _NeuralInpainter(BaseInpainter):
         est.history_ = fitted.get("history_") or progress_history(fitted)
         est.n_steps_ = int(fitted.get("n_steps_", fitted.get("step", 0)) or 0)
         est.seed_ = config.get("seed")
+        est.model_params_ = est._model_params()
         est.is_fitted_ = True
         return est
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with NumPy scalars as Python ones and lists as tuples, for comparison."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return tuple(_plain(v) for v in value)
+    return value
 
 
 def progress_history(fitted: dict[str, Any]) -> dict[str, Any]:

@@ -71,7 +71,9 @@ class PriorUNetInpainter(_NeuralInpainter):
     levels : int, default 3
         Hidden layers (pixel) or 2× downsamplings after the pixel-unshuffle (unet).
     factor : int, default 8
-        unet only: pixel-unshuffle factor (the network runs at ``1/factor``).
+        unet only: pixel-unshuffle factor (the network runs at ``1/factor``). Training
+        frames (or crops) must be at least ``factor * 2**levels`` px per side, and
+        ``width * 2**levels`` at most 2048.
     candidates : tuple of str, default :data:`estimators.priors.CANDIDATES` (any of ``AVAILABLE_CANDIDATES``)
         Classical fills given to the network.
     endpoints : bool, default False
@@ -102,9 +104,14 @@ class PriorUNetInpainter(_NeuralInpainter):
     history_, n_steps_, seed_, run_dir_
         As in :class:`estimators.neural.UNetInpainter`; ``step_loss`` is the hole MSE
         in m².
+    model_params_ : dict
+        As in :class:`estimators.neural.UNetInpainter`: here ``arch``, ``width``,
+        ``levels``, ``candidates`` and ``endpoints``/``relative`` (pixel) or ``factor``
+        (unet); changing one after fit makes ``predict`` and ``save`` raise.
     """
 
     _skip = True
+    _depth_param = "levels"
     # Fixed by the recipe (read by the shared parameter checks and checkpoint code):
     # the loss is L2 on the hole in metres, no TV term, no valid-pixel term.
     hole_weight = 1.0
@@ -201,6 +208,22 @@ class PriorUNetInpainter(_NeuralInpainter):
         for name in ("flip", "tta", "endpoints", "relative"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+
+    def _model_param_names(self) -> tuple[str, ...]:
+        # max_depth, input_mask and depth_scale are fixed by the class, not parameters.
+        names = ("arch", "width", "levels", "candidates")
+        return names + (("endpoints", "relative") if self.arch == "pixel" else ("factor",))
+
+    def _check_capacity(self) -> None:
+        # Only the U-Net doubles channels per level; the pixel MLP is width × levels.
+        if self.arch != "pixel":
+            super()._check_capacity()
+
+    def _downsampling(self) -> tuple[int, str]:
+        if self.arch == "pixel":
+            return 1, "arch='pixel'"
+        need = int(self.factor) * 2 ** int(self.levels)
+        return need, f"factor={self.factor}, levels={self.levels} (factor * 2**levels = {need} px)"
 
     @property
     def in_channels(self) -> int:
@@ -359,12 +382,16 @@ class PriorUNetInpainter(_NeuralInpainter):
             re-run); all trained on one real KITTI drive with rect-v1 occlusions;
             CC BY-NC-SA 3.0, see ``docs/model_card.md``.
         **overrides
-            Prediction-time parameters to change, e.g. ``num_threads=2``, ``tta=False``.
+            Prediction-time parameters to change, e.g. ``num_threads=2``, ``tta=False``,
+            ``device="cpu"``, ``batch_size=1``.
 
         Raises
         ------
         KeyError
             Unknown name (the message lists the shipped ones).
+        ValueError
+            An override of a parameter the weights depend on (``arch``, ``width``,
+            ``levels``, ``candidates``, ``endpoints``, ``relative``, ``factor``).
         """
         if not isinstance(name, str) or name not in available_pretrained():
             raise KeyError(f"no pretrained model {name!r}; shipped: {available_pretrained()}")
@@ -374,7 +401,13 @@ class PriorUNetInpainter(_NeuralInpainter):
             for src, dst in ((".safetensors", ckpt.MODEL_FILE), (".json", ckpt.CONFIG_FILE)):
                 shutil.copyfile(PRETRAINED_DIR / f"{name}{src}", Path(tmp) / dst)
             est = cls.load(tmp)
-        return est.set_params(**overrides) if overrides else est
+        if overrides:
+            est.set_params(**overrides)
+            est._check_model_params(
+                f"the shipped {name!r} weights fix it; override only prediction-time parameters "
+                "(e.g. num_threads, tta, device, batch_size) or train your own model"
+            )
+        return est
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> PriorUNetInpainter:

@@ -55,8 +55,9 @@ class IPBasicInpainter(ClassicalInpainter):
     ----------
     max_depth : float, default=100.0
         Inversion offset in metres: the pipeline works on ``max_depth - depth`` so that
-        the max of a dilation picks the nearer surface (depth above ``max_depth - 0.1``
-        is clipped there for the inversion).
+        the max of a dilation picks the nearer surface. Measured depth must stay below
+        ``max_depth - 0.1`` (the smallest inverted value kept apart from "empty");
+        ``predict`` raises ``ValueError`` on deeper input rather than clip it.
     large_hole_kernel : int, default=31
         Size of the square kernel of the large-hole fill (odd).
     extrapolate : bool, default=False
@@ -97,6 +98,20 @@ class IPBasicInpainter(ClassicalInpainter):
         self._check_bool("extrapolate")
         self._check_option("blur", BLURS)
         self._check_option("fallback", FALLBACKS)
+
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        self._check_params()
+        # Inverted depth is floored at 0.1 (0 means empty), so anything deeper than
+        # max_depth - 0.1 would come back clipped to it: refuse instead.
+        deepest = float(np.max(X, where=~np.isnan(X), initial=0.0))
+        limit = float(self.max_depth) - 0.1
+        if deepest > limit:
+            raise ValueError(
+                f"X has depth up to {deepest:.4g} m, above max_depth={self.max_depth:g} "
+                f"(IPBasic inverts depth as max_depth - depth, so it must stay below "
+                f"{limit:.4g} m); raise max_depth"
+            )
+        return super()._predict_batch(X)
 
     def _fill_frame(self, x: np.ndarray) -> np.ndarray:
         known = x > 0

@@ -35,8 +35,10 @@ ESTIMATORS = [
     ScanlineInpainter(),
     ScanlineInpainter(inverse=True, vertical=True),
     ConstantInpainter(),
-    # Tiny neural nets (one epoch, one thread) so the shared suite stays fast.
-    UNetInpainter(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1),
-    AutoencoderInpainter(width=4, depth=2, batch_size=2, epochs=1, input_mask=True, depth_scale="frame", random_state=0, num_threads=1),
+    # Tiny neural nets (one epoch, one thread) so the shared suite stays fast. depth=1:
+    # scikit-learn's checks fit on (n_samples, 2) arrays, read as 2-pixel-wide frames,
+    # and fit refuses frames narrower than 2**depth.
+    UNetInpainter(width=4, depth=1, batch_size=2, epochs=1, random_state=0, num_threads=1),
+    AutoencoderInpainter(width=4, depth=1, batch_size=2, epochs=1, input_mask=True, depth_scale="frame", random_state=0, num_threads=1),
     PriorUNetInpainter(width=4, levels=1, batch_size=2, max_steps=2, random_state=0, num_threads=1),
 ]

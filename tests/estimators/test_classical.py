@@ -186,6 +186,17 @@ def test_ipbasic_prefers_the_nearer_surface_at_a_depth_edge():
     assert (out[5:35, 20:22] < 10).all()
 
 
+def test_ipbasic_refuses_depth_beyond_max_depth_instead_of_clipping():
+    depth = np.tile(np.linspace(2.0, 60.0, 40, dtype=np.float32), (40, 1))
+    x = _holed(depth, 10, 10, 20, 20)
+    with pytest.raises(ValueError, match=r"X has depth up to 60 m, above max_depth=10 .*below 9.9 m\); raise max_depth"):
+        IPBasicInpainter(max_depth=10).predict(x)
+    with pytest.raises(ValueError, match=r"up to 180 m, above max_depth=100"):
+        IPBasicInpainter().predict(x * 3)
+    # Within range the fill is not capped: the far side of the hole is filled far.
+    assert IPBasicInpainter(max_depth=61).predict(x)[np.isnan(x)].max() > 40
+
+
 def test_constant_uses_the_frame_median():
     x = np.array([[1.0, 2.0, 0.0, 4.0], [3.0, np.nan, 100.0, 0.0]], np.float32)
     out = ConstantInpainter().predict(x)

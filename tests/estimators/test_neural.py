@@ -14,6 +14,7 @@ from sklearn.exceptions import NotFittedError
 
 from estimators.neural import AutoencoderInpainter, CheckpointError, UNetInpainter
 from inpaintenv.data import ArrayDataset
+from inpaintenv.data.base import DepthDataset, split_by_drive
 
 H, W = 24, 40
 
@@ -282,6 +283,16 @@ def test_warm_start_errors(dataset):
         ({"compile": "fast"}, "compile"),
         ({"compile": 1}, "compile"),
         ({"device": "cuda" if not torch.cuda.is_available() else "nonsense"}, "device"),
+        ({"max_depth": 1e-30}, r"max_depth .* must be in \[0.1, 100000\].*got 1e-30"),
+        ({"max_depth": 1e9}, r"max_depth .* must be in \[0.1, 100000\]"),
+        ({"max_depth": float("inf")}, "max_depth must be a finite number"),
+        ({"device": "meta"}, r"device must be one of 'auto', 'cpu', 'cuda', 'cuda:N' or 'mps', got 'meta'"),
+        ({"device": "cuda:7"}, r"device='cuda:7' but (no CUDA device is available|only \d CUDA device)"),
+        ({"width": 4, "depth": 12}, r"width=4, depth=12 gives 16384 channels at the deepest level \(width \* 2\*\*depth\), more than the 2048 allowed"),
+        ({"width": 256, "depth": 4}, r"width=256, depth=4 .* more than the 2048 allowed"),
+        ({"depth": 10**9}, r"depth=1000000000 gives"),
+        ({"depth": 5}, r"depth=5 \(2\*\*depth = 32 px\) needs training frames of at least 32 px per side, got 24x40"),
+        ({"depth": 4, "crop": (8, 64)}, r"needs training crops of at least 16 px per side, got 8x40"),
     ],
 )
 def test_bad_parameters_rejected_at_fit(dataset, bad, match):
@@ -342,6 +353,107 @@ def test_bad_input_errors_come_from_base_validation(fitted, frames):
         fitted.predict(np.full((4, 4), np.inf, np.float32))
     with pytest.raises(ValueError, match="negative"):
         tiny().fit(-frames)
+
+
+def _copy(fitted):
+    """An independent fitted copy (clone() drops fitted state)."""
+    est = clone(fitted)
+    est.__dict__.update({k: v for k, v in vars(fitted).items() if k.endswith("_")})
+    return est
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        ({"max_depth": 20.0}, r"^max_depth=20.0 differs from the 80.0 this model was trained with; refit or set it back$"),
+        ({"width": 8}, r"^width=8 differs from the 4 this model was trained with"),
+        ({"depth": 1}, r"^depth=1 differs from the 2 "),
+        ({"depth_scale": "frame"}, r"^depth_scale='frame' differs from the 'fixed' "),
+        ({"input_mask": True}, r"^input_mask=True differs from the False "),
+    ],
+)
+def test_model_params_changed_after_fit_raise(fitted, corrupted, tmp_path, change, match):
+    est = _copy(fitted)
+    before = est.predict(corrupted)
+    est.set_params(**change)
+    with pytest.raises(ValueError, match=match):
+        est.predict(corrupted)
+    with pytest.raises(ValueError, match=match):
+        est.save(tmp_path / "m")  # would write a config that does not describe the weights
+    est.set_params(**{k: fitted.get_params()[k] for k in change})
+    np.testing.assert_array_equal(est.predict(corrupted), before)
+
+
+def test_training_and_prediction_params_may_change_after_fit(fitted, corrupted, tmp_path):
+    est = _copy(fitted)
+    before = est.predict(corrupted)
+    est.set_params(lr=1.0, max_steps=1, epochs=3, hole_weight=0.0, batch_size=1, device="cpu",
+                   num_threads=2, verbose=True, checkpoint_dir=tmp_path)
+    np.testing.assert_array_equal(est.predict(corrupted), before)
+    loaded = UNetInpainter.load(est.save(tmp_path / "m"))
+    assert loaded.model_params_ == fitted.model_params_
+    np.testing.assert_array_equal(loaded.predict(corrupted), before)
+    with pytest.raises(ValueError, match="max_depth=40.0 differs from the 80.0"):
+        loaded.set_params(max_depth=40.0).predict(corrupted)
+
+
+def test_refit_after_changing_model_params_records_them(fitted, dataset, corrupted):
+    est = clone(fitted).set_params(width=8, max_depth=40.0, max_steps=1)
+    assert est.fit(dataset).model_params_["width"] == 8
+    assert est.model_params_["max_depth"] == 40.0 and est.predict(corrupted).shape == corrupted.shape
+
+
+def test_device_is_checked_at_predict(fitted, corrupted):
+    est = _copy(fitted)
+    with pytest.raises(TypeError, match=r"device must be one of .*, got 3"):
+        est.set_params(device=3).predict(corrupted)
+    with pytest.raises(ValueError, match="got 'meta'"):
+        est.set_params(device="meta").predict(corrupted)
+    assert est.set_params(device="cpu").predict(corrupted).shape == corrupted.shape
+
+
+def test_frames_as_small_as_the_downsampling_train(frames):
+    # 24 px tall frames: depth=3 (8 px) is fine, and predict still takes any size.
+    est = tiny(depth=3, max_steps=1).fit(frames)
+    assert est.predict(np.where(frames[:1] > 20, np.nan, frames[:1])).shape == (1, H, W)
+
+
+class _Frames(DepthDataset):
+    """A custom dataset that, unlike ArrayDataset, does not validate its frames."""
+
+    def __init__(self, frames):
+        self._frames = frames
+        self.frame_shape = frames.shape[1:]
+        self.groups = np.array(["a", "a", "b", "b", "c", "c"][: len(frames)])
+        self.frame_ids = [f"custom/{i}" for i in range(len(frames))]
+
+    def _load(self, index):
+        return self._frames[index]
+
+
+@pytest.mark.parametrize(
+    "value, match",
+    [(np.nan, r"training frame 3 \(id 'custom/3'\) contains NaN"),
+     (-1.0, r"training frame 3 \(id 'custom/3'\) contains negative depth"),
+     (np.inf, r"training frame 3 \(id 'custom/3'\) contains infinite")],
+)
+def test_every_training_frame_is_validated(frames, value, match):
+    # Frame 0 is fine, so only a per-frame check at load time catches frame 3.
+    bad = frames.copy()
+    bad[3, 5, 5] = value
+    with pytest.raises(ValueError, match=match):
+        tiny(max_steps=3).fit(_Frames(bad))
+
+
+def test_validation_frames_are_validated(frames):
+    # NaN only in frames of the held-out drive (not frame 0, which fit checks up front).
+    held_out = set(split_by_drive(_Frames(frames), 0.3, seed=0)[1].frame_ids)
+    bad = frames.copy()
+    idx = [i for i in range(1, len(frames)) if f"custom/{i}" in held_out]
+    assert idx and "custom/0" not in held_out
+    bad[idx, 5, 5] = np.nan
+    with pytest.raises(ValueError, match=r"validation frame \d \(id 'custom/\d'\) contains NaN"):
+        tiny(max_steps=3, validation_fraction=0.3).fit(_Frames(bad))
 
 
 @pytest.mark.slow

@@ -285,6 +285,15 @@ def test_bad_params_raise_clear_errors(small_gt, param, value, error):
         PriorUNetInpainter(**{**TINY, param: value}).fit(small_gt)
 
 
+def test_unet_arch_needs_frames_of_its_downsampling(small_gt):
+    with pytest.raises(ValueError, match=r"factor=8, levels=3 \(factor \* 2\*\*levels = 64 px\) needs training frames"):
+        PriorUNetInpainter(**{**TINY, "arch": "unet", "factor": 8, "levels": 3}).fit(small_gt)
+    with pytest.raises(ValueError, match=r"width=512, levels=3 gives 4096 channels at the deepest level \(width \* 2\*\*levels\)"):
+        PriorUNetInpainter(**{**TINY, "arch": "unet", "width": 512, "levels": 3}).fit(small_gt)
+    # The pixel MLP neither downsamples nor doubles its width per layer.
+    PriorUNetInpainter(**{**TINY, "levels": 3, "width": 8}).fit(small_gt)
+
+
 # -- presets -----------------------------------------------------------------------------
 def test_presets_listed_and_unknown_raises():
     assert "cpu-1h" in available_presets()
@@ -299,6 +308,32 @@ def test_train_preset_smoke(small_gt):
 
 
 # -- shipped weights ------------------------------------------------------------------------
+def test_pretrained_overrides_prediction_params_but_not_the_architecture():
+    est = PriorUNetInpainter.pretrained(num_threads=1, tta=False, device="cpu", batch_size=1)
+    assert est.get_params()["tta"] is False and est.num_threads == 1
+    shipped = r"^width=64 differs from the 128 this model was trained with; the shipped 'kitti-rect-v3' weights fix it"
+    for change, match in (({"width": 64}, shipped),
+                          ({"candidates": ("scanline",)}, r"^candidates=\('scanline',\) differs from"),
+                          ({"relative": False}, r"^relative=False differs from the True")):
+        with pytest.raises(ValueError, match=match):
+            PriorUNetInpainter.pretrained(**change)
+
+
+@pytest.mark.parametrize("arch", ARCH_IDS)
+def test_model_params_changed_after_fit_raise(small_gt, arch):
+    est = PriorUNetInpainter(**TINY, arch=arch).fit(small_gt)
+    x = _corrupt(small_gt)
+    params = est.get_params()
+    change = {"relative": True} if arch == "pixel" else {"factor": 4}
+    with pytest.raises(ValueError, match=f"^{next(iter(change))}=.* differs from the .* this model was trained with"):
+        est.set_params(**change).predict(x)
+    with pytest.raises(ValueError, match=r"^candidates=\('scanline',\) differs"):
+        est.set_params(**{**params, "candidates": ["scanline"]}).predict(x)
+    # A list equal to the fitted tuple is the same setting; tta is prediction-time.
+    est.set_params(**{**params, "candidates": list(CANDIDATES), "tta": False})
+    assert est.predict(x).shape == x.shape
+
+
 def test_unknown_pretrained_name_lists_shipped():
     with pytest.raises(KeyError, match="shipped"):
         PriorUNetInpainter.pretrained("no-such-model")
