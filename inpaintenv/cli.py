@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .conventions import DEFAULT_MAX_DEPTH
+from .conventions import DEFAULT_MAX_DEPTH, check_max_depth, check_seed, check_seeds
 from .data.base import as_dataset
 
 __all__ = ["SUBCOMMANDS", "add_source_options", "build_parser", "main", "open_source_from_args"]
@@ -173,10 +173,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from .evaluate import EvaluationResult, evaluate
     from .registry import make_method
 
-    # Build every method first so a typo fails before any long run.
+    # Check the options and build every method first, so a typo fails before any long run.
+    seeds = check_seeds(args.seed or [0], "--seed")
+    check_max_depth(args.max_depth, "--max-depth")
     methods = [(name, make_method(name, **_method_overrides(args))) for name in args.method]
     ds = open_source_from_args(args)
-    seeds = args.seed or [0]
     results = [
         evaluate(method, ds, protocol=args.protocol, seeds=seeds, batch_size=args.batch_size,
                  max_depth=args.max_depth, progress=not args.quiet, name=name)
@@ -232,6 +233,12 @@ def cmd_show(args: argparse.Namespace) -> int:
     from .metrics import frame_metrics
     from .registry import make_method
 
+    out = Path(args.out)
+    # OpenCV picks the format from the suffix and fails with its own traceback otherwise.
+    if out.suffix.lower() != ".png" or out.is_dir():
+        raise ValueError(f"--out must be a .png file, got {args.out!r}")
+    check_max_depth(args.max_depth, "--max-depth")
+    check_seed(args.seed, "--seed")
     method = make_method(args.method) if args.method else None
     ds = open_source_from_args(args)
     if not 0 <= args.index < len(ds):
@@ -252,7 +259,6 @@ def cmd_show(args: argparse.Namespace) -> int:
             f"PSNR {_fmt(m['all_psnr'], ' dB', 2)} | {ms:.0f} ms"
         )
     panel = render_panel(gt, hole, pred, max_depth=args.max_depth, title=lines)
-    out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if not cv2.imwrite(str(out), cv2.cvtColor(panel, cv2.COLOR_RGB2BGR)):
         raise OSError(f"could not write {out} (use a .png name)")

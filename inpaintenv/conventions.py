@@ -7,16 +7,32 @@ Depth maps are float32 arrays in metres, shape ``(H, W)`` or ``(N, H, W)``:
 * ``NaN`` marks the pixels a method must fill (the simulated occlusion).
 
 Ground truth never contains NaN; method inputs carry NaN exactly inside the holes.
+Depth never exceeds :data:`DEPTH_LIMIT` (65535 / 256 m), the most KITTI's 16-bit PNG
+encoding can hold, so raw PNG values (metres x 256) passed by mistake are refused.
+
+Seeds, frame indices and counts are plain non-negative integers
+(:func:`check_int`, :func:`check_seed`, :func:`check_seeds`): a float, a bool or a
+string is refused rather than truncated, so ``seeds="12"`` never becomes ``[1, 2]``.
 """
 
 from __future__ import annotations
 
+import math
+import operator
+from collections.abc import Iterable
+from typing import Any
+
 import numpy as np
 
-__all__ = ["DEFAULT_MAX_DEPTH", "check_depth", "check_mask", "corrupt"]
+__all__ = [
+    "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "check_depth", "check_int", "check_mask", "check_max_depth",
+    "check_seed", "check_seeds", "corrupt",
+]
 
 #: Fixed range used to normalise depth and to compute PSNR (the study's 80 m).
 DEFAULT_MAX_DEPTH: float = 80.0
+#: The largest depth KITTI's 16-bit PNG encoding can hold (65535 / 256 = 255.996 m).
+DEPTH_LIMIT: float = 65535.0 / 256.0
 
 
 def check_depth(
@@ -47,11 +63,19 @@ def check_depth(
     Raises
     ------
     TypeError
-        If ``depth`` is not a real-valued numeric array.
+        If ``depth`` is not a real-valued numeric array, or is a masked array.
     ValueError
-        On a wrong number of dimensions, an empty array, infinite values, NaN where
-        not allowed, or negative depth.
+        On a wrong number of dimensions, a 3-D array whose last axis has size 1 (a
+        channel axis, not ``N`` frames of width 1), an empty array, infinite values,
+        NaN where not allowed, negative depth, or depth above :data:`DEPTH_LIMIT`.
     """
+    if isinstance(depth, np.ma.MaskedArray):
+        # np.asarray would silently drop the mask: the masked pixels could mean "fill"
+        # or "no data", so the caller has to say which.
+        raise TypeError(
+            f"{name} is a numpy masked array; pass a plain array with 0 for no data "
+            "(and NaN for pixels to fill), e.g. m.filled(0)"
+        )
     arr = np.asarray(depth)
     if arr.dtype == np.bool_:
         raise TypeError(f"{name} must be depth in metres, got a boolean array")
@@ -62,6 +86,12 @@ def check_depth(
     if arr.ndim not in ndim:
         want = " or ".join(f"{d}-D" for d in ndim)
         raise ValueError(f"{name} must be {want} (H, W) / (N, H, W), got shape {arr.shape}")
+    if arr.ndim == 3 and arr.shape[-1] == 1 and 3 in ndim:
+        # (H, W, 1) would otherwise be read as H frames of width 1: silently wrong scores.
+        raise ValueError(
+            f"{name} has shape {arr.shape}: a trailing size-1 axis looks like a channel axis; "
+            "pass (H, W) or (N, H, W)"
+        )
     if arr.size == 0:
         raise ValueError(f"{name} is empty (shape {arr.shape})")
     arr = arr.astype(np.float32, copy=False)
@@ -76,7 +106,164 @@ def check_depth(
     # NaN compares False, so this only looks at real values.
     if (arr < 0).any():
         raise ValueError(f"{name} contains negative depth (min {np.nanmin(arr):.3g} m)")
+    if (arr > DEPTH_LIMIT).any():
+        raise ValueError(
+            f"{name} has depth up to {np.nanmax(arr):.0f} m, above {DEPTH_LIMIT:.3f} m, the most a "
+            "KITTI 16-bit PNG can hold: raw PNG values? divide by 256"
+        )
     return arr
+
+
+def _is_int(value: object) -> bool:
+    """True for Python and NumPy integers (and 0-d integer arrays), never for bool or float."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    try:
+        operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        return False
+    return True
+
+
+def _show(value: object) -> str:
+    """``value`` for an error message: plain numbers as Python prints them, else repr."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    return repr(value)
+
+
+def check_int(value: object, name: str, *, minimum: int = 0, upper: int | None = None) -> int:
+    """Validate one integer parameter (a count, an index) and return it as a Python int.
+
+    Parameters
+    ----------
+    value : object
+        The parameter. Python and NumPy integers are accepted; bool, float (even
+        ``2.0``) and strings are refused instead of being truncated or parsed.
+    name : str
+        Parameter name used in the error message.
+    minimum : int
+        Smallest allowed value.
+    upper : int, optional
+        Exclusive upper bound.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not an integer.
+    ValueError
+        If it is out of range.
+    """
+    if not _is_int(value):
+        raise TypeError(f"{name} must be an integer, got {_show(value)} ({type(value).__name__})")
+    v = operator.index(value)  # type: ignore[arg-type]
+    if v < minimum or (upper is not None and v >= upper):
+        want = f">= {minimum}" if upper is None else f"in {minimum}..{upper - 1}"
+        raise ValueError(f"{name} must be {want}, got {v}")
+    return v
+
+
+def check_seed(value: object, name: str = "seed") -> int:
+    """Validate one seed: a non-negative integer (not bool, float or str).
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not an integer (the message names ``name``).
+    ValueError
+        If it is negative.
+    """
+    if not _is_int(value) or operator.index(value) < 0:  # type: ignore[arg-type]
+        raise (ValueError if _is_int(value) else TypeError)(
+            f"{name} must be a non-negative integer, got {_show(value)}"
+        )
+    return operator.index(value)  # type: ignore[arg-type]
+
+
+def check_seeds(
+    values: object,
+    name: str = "seeds",
+    *,
+    upper: int | None = None,
+    distinct: bool = True,
+    allow_empty: bool = False,
+) -> list[int]:
+    """Validate a list of seeds or frame indices and return it as Python ints.
+
+    Parameters
+    ----------
+    values : int or iterable of int
+        One integer, or a non-empty sequence (list, tuple, range, 1-D integer array) of
+        non-negative integers. A string is refused, never iterated character by character.
+    name : str
+        Parameter name used in error messages.
+    upper : int, optional
+        Exclusive upper bound (e.g. the number of frames for indices).
+    distinct : bool
+        Refuse repeated values (a repeated seed or index would be scored twice and
+        weigh double in every mean).
+    allow_empty : bool
+        Accept an empty sequence (returns ``[]``).
+
+    Returns
+    -------
+    list of int
+
+    Raises
+    ------
+    TypeError
+        If ``values`` or an entry is not an integer.
+    ValueError
+        If it is empty (unless ``allow_empty``), an entry is negative or ``>= upper``, or (with ``distinct``)
+        a value repeats.
+    """
+    kind = "distinct non-negative integers" if distinct else "non-negative integers"
+    if _is_int(values):
+        items: list[Any] = [values]
+    elif isinstance(values, (str, bytes)) or not isinstance(values, Iterable) or (
+        isinstance(values, np.ndarray) and values.ndim != 1
+    ):
+        raise TypeError(f"{name} must be {kind}, got {_show(values)}")
+    else:
+        items = list(values)
+    if not items and not allow_empty:
+        raise ValueError(f"{name} is empty")
+    bad = [v for v in items if not _is_int(v)]
+    if bad:
+        raise TypeError(f"{name} must be {kind}, got {_show(values)}")
+    out = [operator.index(v) for v in items]
+    if any(v < 0 for v in out):
+        raise ValueError(f"{name} must be {kind}, got {_show(values) if _is_int(values) else out}")
+    if upper is not None and any(v >= upper for v in out):
+        outside = [v for v in out if v >= upper]
+        raise ValueError(f"{name} {outside[:5]} are outside 0..{upper - 1}")
+    if distinct and len(set(out)) != len(out):
+        dup = sorted({v for v in out if out.count(v) > 1})
+        raise ValueError(f"{name} must be {kind}, got {out} ({dup} repeated)")
+    return out
+
+
+def check_max_depth(value: object, name: str = "max_depth") -> float:
+    """Validate a depth range (PSNR range, colour-scale top): a finite positive number.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not a real number (a string, None, bool).
+    ValueError
+        If it is NaN, infinite, zero or negative.
+    """
+    msg = f"{name} must be a finite positive number of metres, got {_show(value)}"
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(msg)
+    v = float(value)
+    if not math.isfinite(v) or v <= 0:
+        raise ValueError(msg)
+    return v
 
 
 def check_mask(mask: object, shape: tuple[int, ...], *, name: str = "hole") -> np.ndarray:

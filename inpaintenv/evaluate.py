@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from .conventions import DEFAULT_MAX_DEPTH
+from .conventions import DEFAULT_MAX_DEPTH, check_int, check_max_depth, check_seeds
 from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
 from .metrics import METRIC_NAMES, REGIONS, aggregate, frame_metrics
@@ -366,20 +366,21 @@ def evaluate(
     protocol : str or OcclusionProtocol
         Occlusion protocol, e.g. ``"rect-v1"``.
     seeds : int or sequence of int
-        Evaluation seeds; frame ``i`` under seed ``s`` gets ``protocol.mask(shape, s, i)``,
-        so every mask is reproducible from ``(protocol, seed, index)`` alone.
+        Evaluation seeds, distinct non-negative integers; frame ``i`` under seed ``s``
+        gets ``protocol.mask(shape, s, i)``, so every mask is reproducible from
+        ``(protocol, seed, index)`` alone.
     n_frames : int, optional
-        Evaluate only the first ``n_frames`` frames of the source.
+        Evaluate only the first ``n_frames`` frames of the source (an integer >= 1).
     batch_size : int
         Frames loaded (and, for batched methods, predicted) at a time.
     max_depth : float
-        Range of PSNR in metres (80 m by default).
+        Range of PSNR in metres (80 m by default); finite and positive.
     progress : bool
         Show a tqdm progress bar on stderr (only when stderr is a terminal).
     name : str, optional
         Method name in the rows; default from :func:`method_name`.
     indices : sequence of int, optional
-        Score only these frame positions (masks still come from each frame's position in
+        Score only these frame positions, distinct integers in ``0..n_frames-1`` (masks still come from each frame's position in
         the source, so a subset scores exactly as in a full run). Used by the resumable
         benchmark runner.
     on_batch : callable, optional
@@ -395,34 +396,33 @@ def evaluate(
     MethodOutputError
         If the method returns a wrong shape, NaN/inf or negative depth (the message names
         the method).
+    TypeError
+        If ``seeds``, ``indices``, ``n_frames`` or ``batch_size`` is not made of
+        integers (floats, bools and strings are refused, not coerced), or ``max_depth``
+        is not a number.
     ValueError
-        On an empty source or invalid ``n_frames``, ``seeds`` or ``batch_size``.
+        On an empty source; negative, repeated or out-of-range ``seeds``/``indices``;
+        ``n_frames`` or ``batch_size`` below 1; a NaN/inf/non-positive ``max_depth``;
+        ground truth that breaks the depth convention (the message names the frame).
     """
     call, batched = _as_predictor(method)
     label = name or method_name(method)
     dataset = resolve_source(source)
     proto = get_protocol(protocol)
-    seed_list = [int(seeds)] if isinstance(seeds, (int, np.integer)) else [int(s) for s in seeds]
-    if not seed_list:
-        raise ValueError("seeds is empty")
-    if any(s < 0 for s in seed_list):
-        raise ValueError(f"seeds must be non-negative, got {seed_list}")
-    if batch_size < 1:
-        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+    # Integers only, never coerced: int("12") loops, 0.5 -> 0 and repeats would all
+    # score silently wrong sets of (seed, frame) pairs.
+    seed_list = check_seeds(seeds, "seeds")
+    batch_size = check_int(batch_size, "batch_size", minimum=1)
+    max_depth = check_max_depth(max_depth)
     total = len(dataset)
     if total == 0:
         raise ValueError("the data source has no frames")
     if n_frames is not None:
-        if n_frames < 1:
-            raise ValueError(f"n_frames must be >= 1, got {n_frames}")
-        total = min(total, int(n_frames))
+        total = min(total, check_int(n_frames, "n_frames", minimum=1))
     if indices is None:
         frame_list = list(range(total))
     else:
-        frame_list = [int(i) for i in indices]
-        bad = [i for i in frame_list if not 0 <= i < total]
-        if bad:
-            raise ValueError(f"frame indices {bad[:5]} are outside 0..{total - 1}")
+        frame_list = check_seeds(indices, "indices", upper=total)
     shape = tuple(dataset.frame_shape)
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
@@ -502,10 +502,20 @@ def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.
         Validated ``(N, H, W)`` float32 reconstruction.
     ms : float
         Wall clock of the method per frame, milliseconds.
+
+    Raises
+    ------
+    ValueError
+        If ``x`` is not ``(N, H, W)`` or holds no frames.
+    MethodOutputError
+        If the method's output is unusable.
     """
     x = np.asarray(x, dtype=np.float32)
     if x.ndim != 3:
         raise ValueError(f"run_method needs an (N, H, W) batch, got shape {x.shape}")
+    if len(x) == 0:
+        # Otherwise the per-frame time divides by zero.
+        raise ValueError(f"run_method got no frames (shape {x.shape})")
     call, batched = _as_predictor(method)
     return _run(call, batched, x, name or method_name(method))
 

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask
+from .conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask, check_max_depth
 
 __all__ = ["DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "aggregate", "depth_binned_errors", "frame_metrics"]
 
@@ -61,8 +61,8 @@ def frame_metrics(
     """
     pred_arr, gt, hole = _check_inputs(pred, gt, hole)
     single = gt.ndim == 2
-    if max_depth <= 0:
-        raise ValueError(f"max_depth must be positive, got {max_depth}")
+    # NaN/inf would pass a plain "<= 0" test and give NaN/inf PSNR in every row.
+    max_depth = check_max_depth(max_depth)
     if single:
         gt, pred_arr, hole = gt[None], pred_arr[None], hole[None]
 
@@ -151,16 +151,25 @@ def aggregate(
         the mean of per-frame PSNR). ``"pooled"``: every scored pixel weighs the same;
         PSNR then comes from the pooled RMSE.
     max_depth : float
-        Range for the pooled PSNR.
+        Range for the pooled PSNR; a finite positive number.
 
     Returns
     -------
     dict of str to float
         ``{region}_{metric}`` plus ``n_frames`` and ``n_skipped_hole`` (frames without
         valid ground truth in the hole, left out of every mean).
+
+    Raises
+    ------
+    KeyError
+        If a required column (``{region}_rmse``, ``_mae``, ``_count``) is missing.
+    ValueError
+        On no frames, columns of different lengths, an unknown ``how`` or an invalid
+        ``max_depth``.
     """
     if how not in ("mean", "pooled"):
         raise ValueError(f"how must be 'mean' or 'pooled', got {how!r}")
+    max_depth = check_max_depth(max_depth)
     if isinstance(per_frame, list):
         if not per_frame:
             raise ValueError("no frames to aggregate")
@@ -170,6 +179,10 @@ def aggregate(
     missing = [f"{r}_{m}" for r in REGIONS for m in ("rmse", "mae", "count") if f"{r}_{m}" not in cols]
     if missing:
         raise KeyError(f"per-frame metrics lack {missing}")
+    # Columns are matched frame by frame; unequal lengths would fail deep in numpy indexing.
+    lengths = {k: v.shape for k, v in cols.items()}
+    if len({s for s in lengths.values()}) != 1 or any(len(s) != 1 for s in lengths.values()):
+        raise ValueError(f"per-frame metric columns must be 1-D and of one length, got shapes {lengths}")
     n_frames = len(cols["all_rmse"])
     if n_frames == 0:
         raise ValueError("no frames to aggregate")

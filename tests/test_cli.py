@@ -82,6 +82,39 @@ def test_show_without_method_and_bad_index(tmp_path, capsys):
     assert "out of range" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["evaluate", "-m", "constant", "--max-depth", "nan"], "--max-depth must be a finite positive number of metres, got nan"),
+        (["evaluate", "-m", "constant", "--max-depth", "inf"], "--max-depth must be a finite positive number"),
+        (["evaluate", "-m", "constant", "--seed", "0", "--seed", "0"], r"--seed must be distinct non-negative integers, got [0, 0]"),
+        (["evaluate", "-m", "constant", "--seed", "-1"], "--seed must be distinct non-negative integers"),
+        (["show", "--max-depth", "nan"], "--max-depth must be a finite positive number of metres, got nan"),
+        (["show", "--seed", "-1"], "--seed must be a non-negative integer, got -1"),
+    ],
+)
+def test_bad_numbers_are_one_line_errors(tmp_path, capsys, argv, message):
+    # NaN max depth used to print NaN/inf PSNR and exit 0; repeated seeds scored frames twice.
+    if argv[0] == "show":
+        argv = [*argv, "--out", str(tmp_path / "p.png")]
+    assert main([*argv, *TINY, "-q"]) == 1
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not (tmp_path / "p.png").exists()
+
+
+@pytest.mark.parametrize("out", ["panel", "panel.jpg", "."])
+def test_show_out_must_be_a_png_file(tmp_path, capsys, monkeypatch, out):
+    # Without a .png suffix OpenCV failed with its own traceback ("could not find a writer").
+    monkeypatch.chdir(tmp_path)
+    assert main(["show", "--out", out, *TINY]) == 1
+    err = capsys.readouterr().err
+    assert f"--out must be a .png file, got '{out}'" in err and "Traceback" not in err
+    (tmp_path / "dir.png").mkdir()
+    assert main(["show", "--out", "dir.png", *TINY]) == 1
+    assert "--out must be a .png file" in capsys.readouterr().err
+
+
 @pytest.mark.kitti
 def test_cli_on_real_kitti(kitti_root, tmp_path, capsys):
     root = str(kitti_root)

@@ -5,7 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from inpaintenv.conventions import check_depth, check_mask, corrupt
+from inpaintenv.conventions import (
+    DEPTH_LIMIT,
+    check_depth,
+    check_int,
+    check_mask,
+    check_max_depth,
+    check_seed,
+    check_seeds,
+    corrupt,
+)
 
 
 def test_corrupt_marks_holes_with_nan_and_keeps_input():
@@ -51,3 +60,96 @@ def test_check_mask():
         check_mask(np.ones((2, 2), bool), (1, 2))
     with pytest.raises(TypeError):
         check_mask(np.array([["x", "y"]]), (1, 2))
+
+
+@pytest.mark.parametrize("shape", [(352, 1216, 1), (2, 4, 1), (5, 6, 1)])
+def test_check_depth_refuses_a_trailing_channel_axis(shape):
+    # (H, W, 1) would otherwise be scored as H frames of width 1.
+    with pytest.raises(ValueError, match=r"trailing size-1 axis looks like a channel axis; pass \(H, W\)"):
+        check_depth(np.ones(shape), name="X")
+
+
+@pytest.mark.parametrize("shape", [(4, 6), (1, 4, 6), (3, 4, 6), (4, 1), (2, 1, 6)])
+def test_check_depth_keeps_small_frames(shape):
+    assert check_depth(np.ones(shape)).shape == shape
+
+
+def test_check_depth_refuses_raw_png_codes():
+    raw = np.full((3, 4), 15359, dtype=np.uint16)  # 60 m stored as metres x 256
+    with pytest.raises(ValueError, match=r"X has depth up to 15359 m, above 255.996 m.*divide by 256"):
+        check_depth(raw, name="X")
+    # The largest encodable depth itself is fine.
+    assert check_depth(np.full((2, 2), DEPTH_LIMIT)).max() == pytest.approx(DEPTH_LIMIT)
+
+
+def test_check_depth_refuses_masked_arrays():
+    m = np.ma.masked_array(np.ones((2, 3)), mask=[[1, 0, 0], [0, 0, 0]])
+    with pytest.raises(TypeError, match="masked array; pass a plain array with 0 for no data"):
+        check_depth(m)
+
+
+@pytest.mark.parametrize(
+    "value, error, match",
+    [
+        ("12", TypeError, "seeds must be distinct non-negative integers, got '12'"),
+        ([0.5, 1.5], TypeError, r"got \[0.5, 1.5\]"),
+        (1.7, TypeError, "got 1.7"),
+        (True, TypeError, "got True"),
+        (None, TypeError, "got None"),
+        (np.array([0.0, 1.0]), TypeError, "seeds must be"),
+        ([0, 0], ValueError, r"\[0\] repeated"),
+        (-1, ValueError, "seeds must be distinct non-negative integers, got -1"),
+        ([1, -2], ValueError, "non-negative"),
+        ([], ValueError, "seeds is empty"),
+    ],
+)
+def test_check_seeds_refuses_instead_of_coercing(value, error, match):
+    with pytest.raises(error, match=match):
+        check_seeds(value, "seeds")
+
+
+def test_check_seeds_accepts_integer_kinds():
+    assert check_seeds(3) == [3]
+    assert check_seeds(np.int64(3)) == [3]
+    assert check_seeds([np.int32(2), 0]) == [2, 0]
+    assert check_seeds(range(3)) == [0, 1, 2]
+    assert check_seeds(np.array([4, 1])) == [4, 1]
+    assert check_seeds([1, 1], distinct=False) == [1, 1]
+    assert check_seeds([], allow_empty=True) == []
+    with pytest.raises(ValueError, match=r"indices \[5\] are outside 0..4"):
+        check_seeds([0, 5], "indices", upper=5)
+
+
+@pytest.mark.parametrize(
+    "value, error", [(None, TypeError), (True, TypeError), (0.9, TypeError), ("3", TypeError), (-1, ValueError)]
+)
+def test_check_seed_names_the_parameter(value, error):
+    with pytest.raises(error, match="mask_seed must be a non-negative integer"):
+        check_seed(value, "mask_seed")
+
+
+def test_check_seed_and_check_int_accept_numpy_integers():
+    assert check_seed(np.uint8(4)) == 4 and type(check_seed(np.uint8(4))) is int
+    assert check_int(np.int64(2), "n", minimum=1) == 2
+    with pytest.raises(TypeError, match="n_frames must be an integer, got 1.5"):
+        check_int(1.5, "n_frames", minimum=1)
+    with pytest.raises(TypeError, match="n_frames must be an integer, got '2'"):
+        check_int("2", "n_frames", minimum=1)
+    with pytest.raises(ValueError, match="batch_size must be >= 1, got 0"):
+        check_int(0, "batch_size", minimum=1)
+
+
+@pytest.mark.parametrize(
+    "value, error",
+    [(float("nan"), ValueError), (float("inf"), ValueError), (0, ValueError), (-5.0, ValueError),
+     ("80", TypeError), (None, TypeError), (True, TypeError)],
+)
+def test_check_max_depth(value, error):
+    with pytest.raises(error, match="max_depth must be a finite positive number of metres, got"):
+        check_max_depth(value)
+
+
+def test_check_max_depth_message_shows_nan_plainly():
+    with pytest.raises(ValueError, match="got nan$"):
+        check_max_depth(np.float64("nan"))
+    assert check_max_depth(np.float32(80)) == 80.0

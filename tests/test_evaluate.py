@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from inpaintenv.data import ArrayDataset
+from inpaintenv.data import ArrayDataset, DepthDataset
 from inpaintenv.evaluate import EvaluationResult, MethodOutputError, evaluate, method_name
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import frame_metrics
@@ -180,6 +180,70 @@ def test_bad_arguments(gt_ds):
         evaluate(ok, gt_ds, protocol="no-such-protocol")
 
 
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        ({"seeds": "12"}, TypeError, "seeds must be distinct non-negative integers, got '12'"),
+        ({"seeds": [0.5, 1.5]}, TypeError, "seeds must be distinct non-negative integers"),
+        ({"seeds": 1.7}, TypeError, "seeds must be"),
+        ({"seeds": [0, 0]}, ValueError, "repeated"),
+        ({"seeds": -1}, ValueError, "seeds must be distinct non-negative integers, got -1"),
+        ({"indices": [0, 0]}, ValueError, "indices must be distinct"),
+        ({"indices": [0.9]}, TypeError, "indices must be"),
+        ({"indices": [5]}, ValueError, "outside 0..2"),
+        ({"n_frames": 1.5}, TypeError, "n_frames must be an integer, got 1.5"),
+        ({"n_frames": "2"}, TypeError, "n_frames must be an integer, got '2'"),
+        ({"batch_size": 1.5}, TypeError, "batch_size must be an integer"),
+        ({"max_depth": float("nan")}, ValueError, "max_depth must be a finite positive number of metres, got nan"),
+        ({"max_depth": "80"}, TypeError, "max_depth must be a finite positive number"),
+    ],
+)
+def test_arguments_are_validated_not_coerced(gt_ds, kwargs, error, match):
+    ok = lambda x: np.nan_to_num(x, nan=1.0)
+    with pytest.raises(error, match=match):
+        evaluate(ok, gt_ds, progress=False, **kwargs)
+
+
+def test_numpy_integer_seeds_and_indices_are_fine(gt_ds):
+    res = evaluate(lambda x: np.nan_to_num(x, nan=1.0), gt_ds, seeds=np.array([3, 1]),
+                   indices=[np.int64(2)], progress=False)
+    assert [(r["seed"], r["index"]) for r in res.rows] == [(3, 2), (1, 2)]
+    assert all(type(r["seed"]) is int for r in res.rows)
+
+
+def test_channel_axis_source_is_refused(small_gt):
+    # (H, W, 1) used to be scored as H frames of width 1.
+    with pytest.raises(ValueError, match="trailing size-1 axis looks like a channel axis"):
+        evaluate(lambda x: np.nan_to_num(x, nan=1.0), small_gt[0][..., None], progress=False)
+
+
+def test_raw_png_codes_are_refused(small_gt):
+    raw = np.rint(small_gt * 256).astype(np.uint16)
+    with pytest.raises(ValueError, match="divide by 256"):
+        evaluate(lambda x: np.nan_to_num(x, nan=0.0), raw, progress=False)
+
+
+class _Unchecked(DepthDataset):
+    """A custom dataset serving frames as given (ArrayDataset would check them)."""
+
+    def __init__(self, frames):
+        self._frames = frames
+        self.frame_shape = frames.shape[1:]
+        self.groups = np.asarray([f"d{i}" for i in range(len(frames))])
+        self.frame_ids = [f"d{i}/0" for i in range(len(frames))]
+
+    def _load(self, index):
+        return self._frames[index]
+
+
+def test_bad_ground_truth_is_blamed_on_the_data_not_the_method(small_gt):
+    bad = small_gt.copy()
+    bad[1, 0, 0] = -3.0
+    with pytest.raises(ValueError, match=r"frame 1 \(d1/0\) contains negative depth") as info:
+        evaluate(lambda x: np.nan_to_num(x, nan=1.0), _Unchecked(bad), progress=False)
+    assert not isinstance(info.value, MethodOutputError)
+
+
 def test_n_frames_and_by_drive(gt_ds):
     res = evaluate(lambda x: np.nan_to_num(x, nan=9.0), gt_ds, n_frames=2, progress=False)
     assert [r["index"] for r in res.rows] == [0, 1]
@@ -297,6 +361,8 @@ def test_run_method_validates_and_times():
         run_method(lambda f: f, x, name="hole-left")
     with pytest.raises(ValueError, match="batch"):
         run_method(lambda f: f, x[0])
+    with pytest.raises(ValueError, match="no frames"):
+        run_method(lambda f: f, np.zeros((0, 4, 4), np.float32))
 
 
 class _FakeTTY:

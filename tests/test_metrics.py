@@ -163,6 +163,34 @@ def test_bad_ground_truth_and_mask_are_rejected():
         aggregate(frame_metrics(ok, ok, np.ones((3, 3), bool)), how="median")
 
 
+@pytest.mark.parametrize(
+    "max_depth, error",
+    [(float("nan"), ValueError), (float("inf"), ValueError), (0.0, ValueError), ("80", TypeError)],
+)
+def test_max_depth_must_be_finite_and_positive(max_depth, error):
+    # NaN used to give NaN PSNR silently; "80" failed inside a comparison.
+    ok = np.ones((3, 3), np.float32)
+    with pytest.raises(error, match="max_depth must be a finite positive number of metres"):
+        frame_metrics(ok, ok, np.ones((3, 3), bool), max_depth=max_depth)
+    per_frame = frame_metrics(ok, ok, np.ones((3, 3), bool))
+    with pytest.raises(error, match="max_depth must be a finite positive number of metres"):
+        aggregate(per_frame, how="pooled", max_depth=max_depth)
+
+
+def test_raw_png_codes_as_ground_truth_are_refused():
+    raw = np.full((3, 3), 15359, np.uint16)
+    with pytest.raises(ValueError, match="divide by 256"):
+        frame_metrics(np.ones((3, 3), np.float32), raw, np.ones((3, 3), bool))
+
+
+def test_aggregate_refuses_columns_of_different_lengths():
+    gt = np.full((2, 3, 3), 5.0, dtype=np.float32)
+    per_frame = dict(frame_metrics(gt + 1, gt, np.ones((2, 3, 3), bool)))
+    per_frame["hole_rmse"] = per_frame["hole_rmse"][:1]
+    with pytest.raises(ValueError, match="one length"):
+        aggregate(per_frame)
+
+
 # -- depth_binned_errors -------------------------------------------------------------------
 
 

@@ -8,7 +8,7 @@ from typing import Any, overload
 
 import numpy as np
 
-from ..conventions import check_depth
+from ..conventions import check_depth, check_int, check_seed, check_seeds
 
 __all__ = [
     "DepthDataset", "ArrayDataset", "ConcatDataset", "Subset", "as_dataset", "select_drives",
@@ -72,11 +72,36 @@ class DepthDataset(Sequence, ABC):
         return Subset(self, np.asarray(index))
 
     def load_batch(self, indices: Sequence[int] | np.ndarray) -> np.ndarray:
-        """Load several frames as one ``(N, H, W)`` float32 array."""
-        indices = list(indices)
-        out = np.empty((len(indices), *self.frame_shape), dtype=np.float32)
-        for k, i in enumerate(indices):
-            out[k] = self[int(i)]
+        """Load several frames as one ``(N, H, W)`` float32 array.
+
+        Parameters
+        ----------
+        indices : sequence of int
+            Frame positions, integers in ``0..len-1`` (repeats allowed; floats refused).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, H, W)`` float32 metres.
+
+        Raises
+        ------
+        TypeError
+            If an index is not an integer.
+        ValueError
+            If an index is out of range, or a loaded frame breaks the depth convention
+            (negative, NaN/inf, above ``DEPTH_LIMIT``) or has the wrong shape; the
+            message names the frame, so a bad custom dataset is not blamed on a method.
+        """
+        idx = check_seeds(indices, "indices", upper=len(self), distinct=False, allow_empty=True)
+        out = np.empty((len(idx), *self.frame_shape), dtype=np.float32)
+        for k, i in enumerate(idx):
+            name = f"frame {i} ({self.frame_ids[i]})"
+            frame = check_depth(self[i], name=name, ndim=(2,))
+            if frame.shape != tuple(self.frame_shape):
+                # Assigning into out would broadcast e.g. a (1, W) frame without a word.
+                raise ValueError(f"{name} has shape {frame.shape}, the dataset says {tuple(self.frame_shape)}")
+            out[k] = frame
         return out
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
@@ -200,8 +225,14 @@ class ConcatDataset(DepthDataset):
     """
 
     def __init__(self, parts: Sequence[DepthDataset]):
+        if isinstance(parts, DepthDataset) or not isinstance(parts, (list, tuple)):
+            raise TypeError(
+                f"ConcatDataset needs a list of datasets, got {type(parts).__name__}"
+            )
         if not parts:
             raise ValueError("ConcatDataset needs at least one dataset")
+        for k, p in enumerate(parts):
+            _require_dataset(p, f"ConcatDataset part {k}")
         shapes = {tuple(p.frame_shape) for p in parts}
         if len(shapes) != 1:
             raise ValueError(f"datasets to concatenate have different frame sizes: {sorted(shapes)}")
@@ -247,6 +278,16 @@ def select_drives(
     return Subset(dataset, np.flatnonzero(keep))
 
 
+def _require_dataset(dataset: Any, what: str) -> DepthDataset:
+    """``dataset`` if it is a DepthDataset, else a TypeError that says how to wrap arrays."""
+    if not isinstance(dataset, DepthDataset):
+        raise TypeError(
+            f"{what} must be a DepthDataset, got {type(dataset).__name__}; "
+            "wrap arrays with inpaintenv.data.as_dataset(...)"
+        )
+    return dataset
+
+
 def as_dataset(data: Any) -> DepthDataset:
     """Return ``data`` as a :class:`DepthDataset` (datasets pass through unchanged).
 
@@ -277,18 +318,30 @@ def split_by_drive(
     Returns
     -------
     train, test : Subset
+
+    Raises
+    ------
+    TypeError
+        If ``dataset`` is not a DepthDataset, ``test_size`` is not a number or
+        ``seed`` is not a non-negative integer.
+    ValueError
+        If the dataset has fewer than 2 drives or a fractional ``test_size`` is
+        outside (0, 1).
     """
+    _require_dataset(dataset, "split_by_drive's dataset")
+    seed = check_seed(seed, "seed")
     drives = np.unique(dataset.groups)
     if len(drives) < 2:
         raise ValueError(
             f"a drive-level split needs at least 2 drives, the dataset has {len(drives)}"
         )
-    if isinstance(test_size, float):
+    if isinstance(test_size, (float, np.floating)):
         if not 0.0 < test_size < 1.0:
             raise ValueError(f"test_size as a fraction must be in (0, 1), got {test_size}")
         n_test = int(round(test_size * len(drives)))
     else:
-        n_test = int(test_size)
+        # A count of drives; out-of-range counts are clamped below, as documented.
+        n_test = check_int(test_size, "test_size (a number of drives)")
     n_test = min(max(n_test, 1), len(drives) - 1)
     order = np.random.default_rng(seed).permutation(len(drives))
     test_drives = drives[order[:n_test]]
@@ -305,7 +358,20 @@ def subset(dataset: DepthDataset, fraction: float, seed: int = 0) -> Subset:
     fraction : float
         In (0, 1]; at least one frame is kept.
     seed : int
+        Non-negative integer seed of the draw.
+
+    Raises
+    ------
+    TypeError
+        If ``dataset`` is not a DepthDataset, ``fraction`` is not a number or ``seed``
+        is not a non-negative integer.
+    ValueError
+        If ``fraction`` is outside (0, 1].
     """
+    _require_dataset(dataset, "subset's dataset")
+    seed = check_seed(seed, "seed")
+    if isinstance(fraction, (bool, np.bool_)) or not isinstance(fraction, (int, float, np.integer, np.floating)):
+        raise TypeError(f"fraction must be a number in (0, 1], got {fraction!r}")
     if not 0.0 < fraction <= 1.0:
         raise ValueError(f"fraction must be in (0, 1], got {fraction}")
     n = len(dataset)

@@ -8,6 +8,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..conventions import check_depth
+
 __all__ = [
     "KITTI_DEPTH_SCALE",
     "DepthFormatError",
@@ -81,20 +83,35 @@ def depth_from_uint16(raw: np.ndarray) -> np.ndarray:
 def write_depth_png(path: str | os.PathLike, depth: np.ndarray) -> None:
     """Write float metres as a KITTI 16-bit depth PNG (values rounded to 1/256 m).
 
+    Parameters
+    ----------
+    path : path-like
+        Target file; must end in ``.png`` (any other suffix would make OpenCV pick
+        another, possibly 8-bit, format).
+    depth : array-like
+        ``(H, W)`` real-valued metres, 0 = no measurement, finite, non-negative, at
+        most :data:`~inpaintenv.conventions.DEPTH_LIMIT` (65535 / 256 m).
+
     Raises
     ------
     ValueError
-        If depth is not 2-D, is negative/NaN/inf, or exceeds the uint16 range (256 m).
+        On a suffix other than ``.png``; depth that is not 2-D, is empty, negative,
+        NaN/inf or above the 16-bit range; or a 3-D ``(H, W, 1)`` array.
+    TypeError
+        If depth is boolean, complex or not numeric.
+    OSError
+        If OpenCV cannot write the file.
     """
-    depth = np.asarray(depth, dtype=np.float64)
-    if depth.ndim != 2:
-        raise ValueError(f"depth must be 2-D, got shape {depth.shape}")
-    if not np.isfinite(depth).all() or (depth < 0).any():
-        raise ValueError("depth to write must be finite and non-negative")
-    scaled = np.rint(depth * KITTI_DEPTH_SCALE)
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise ValueError(f"depth PNG path must end in .png, got {str(path)!r}")
+    # The shared check refuses bool/complex/object, empty, NaN/inf, negative and
+    # > 65535/256 m arrays with messages that name the problem.
+    check_depth(depth, name="depth to write", ndim=(2,))
+    # Scale in float64 so rounding to 1/256 m does not depend on float32 precision.
+    scaled = np.rint(np.asarray(depth, dtype=np.float64) * KITTI_DEPTH_SCALE)
     if scaled.max(initial=0) > np.iinfo(np.uint16).max:
         raise ValueError("depth exceeds 255.99 m, the range of KITTI's uint16 encoding")
-    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if not cv2.imwrite(str(path), scaled.astype(np.uint16)):
         raise OSError(f"could not write {path}")

@@ -123,8 +123,8 @@ class KittiDepth(DepthDataset):
         ``(H, W)`` bottom-centre crop applied to every frame (KITTI's raw sizes differ:
         1242x375, 1224x370, 1238x374, 1241x376). ``None`` keeps the raw size, which is
         only allowed if all frames share one size.
-    drives : sequence of str, optional
-        Only these drives (e.g. ``"2011_09_26_drive_0001_sync"``).
+    drives : list or tuple of str, optional
+        Only these drives (e.g. ``"2011_09_26_drive_0001_sync"``); must not be empty.
 
     Attributes
     ----------
@@ -152,14 +152,27 @@ class KittiDepth(DepthDataset):
         crop: tuple[int, int] | None = (352, 1216),
         drives: list[str] | tuple[str, ...] | None = None,
     ):
+        if not isinstance(split, str):
+            raise TypeError(f"split must be 'train', 'val' or 'val_selection', got {split!r}")
         if kind not in _KINDS:
             raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
         if camera not in (*_CAMERAS, "both"):
             raise ValueError(f"camera must be 'image_02', 'image_03' or 'both', got {camera!r}")
         if crop is not None:
-            if len(crop) != 2 or any(int(c) != c or c <= 0 for c in crop):
+            # Check the type before comparing: int('a') or len(5) would fail obscurely.
+            if (
+                not isinstance(crop, (tuple, list))
+                or len(crop) != 2
+                or not all(_is_whole(c) and c > 0 for c in crop)
+            ):
                 raise ValueError(f"crop must be (H, W) positive integers or None, got {crop!r}")
             crop = (int(crop[0]), int(crop[1]))
+        if drives is not None:
+            if isinstance(drives, str) or not isinstance(drives, (list, tuple)):
+                raise TypeError(f"drives must be a list of drive names, got {drives!r}")
+            if not drives:
+                # Otherwise every file is filtered out and the error says no PNG exists.
+                raise ValueError("drives is empty; pass None for every drive")
         self.root = _resolve_root(root)
         self.split, self.camera, self.kind, self.crop = split, camera, kind, crop
         cameras = _CAMERAS if camera == "both" else (camera,)
@@ -250,6 +263,15 @@ class KittiDepth(DepthDataset):
             f"kind={self.kind!r}, {len(self)} frames, {len(np.unique(self.groups))} drives, "
             f"frame_shape={self.frame_shape})"
         )
+
+
+def _is_whole(value: object) -> bool:
+    """An int, or a float with an integral value (crop sizes read from JSON); not bool or str."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, (int, np.integer)):
+        return True
+    return isinstance(value, (float, np.floating)) and float(value).is_integer()
 
 
 def _resolve_root(root: str | os.PathLike | None) -> Path:

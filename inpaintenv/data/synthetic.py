@@ -29,6 +29,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..conventions import check_seed
 from .base import DepthDataset
 
 __all__ = ["SyntheticStreets", "KITTI_FX", "KITTI_FY", "KITTI_CX", "KITTI_CY", "KITTI_RAW_SHAPE"]
@@ -402,6 +403,7 @@ class SyntheticStreets(DepthDataset):
     n : int
         Number of frames.
     seed : int
+        A non-negative integer (a float or bool is refused, not truncated).
         Frame ``i`` depends only on ``(seed, i)`` (and the constructor options), so any
         order, subset or process gives the same frames.
     frame_shape : (int, int)
@@ -437,7 +439,8 @@ class SyntheticStreets(DepthDataset):
             raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
         if len(frame_shape) != 2 or any(int(s) != s or s < 8 for s in frame_shape):
             raise ValueError(f"frame_shape must be (H, W) integers >= 8, got {frame_shape!r}")
-        self.n, self.seed, self.kind = int(n), int(seed), kind
+        # int(0.9) would quietly give seed 0's frames under another name.
+        self.n, self.seed, self.kind = int(n), check_seed(seed, "seed"), kind
         self.frames_per_drive = int(frames_per_drive)
         self.frame_shape = (int(frame_shape[0]), int(frame_shape[1]))
         self.camera = Camera(self.frame_shape)

@@ -32,7 +32,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..conventions import DEFAULT_MAX_DEPTH, check_depth
+from ..conventions import DEFAULT_MAX_DEPTH, DEPTH_LIMIT, check_depth, check_int, check_max_depth
 from ..data.base import DepthDataset, as_dataset
 from ..masks import OcclusionProtocol, get_protocol
 from ..metrics import frame_metrics
@@ -40,9 +40,8 @@ from .render import render_panel
 
 __all__ = ["DEPTH_LIMIT", "MAX_FRAME_DRAWS", "MAX_MASK_REDRAWS", "DepthInpaintEnv", "draw_scored_hole"]
 
-#: Upper bound of the depth spaces: the largest depth KITTI's 16-bit PNG encoding can hold
-#: (65535 / 256 m). Finite bounds are required by Gymnasium's checker.
-DEPTH_LIMIT: float = 65535.0 / 256.0
+# DEPTH_LIMIT (from conventions) bounds the depth spaces: the largest depth KITTI's
+# 16-bit PNG encoding can hold (65535 / 256 m). Gymnasium's checker needs finite bounds.
 #: Redraws of a mask whose hole holds no valid ground truth.
 MAX_MASK_REDRAWS = 16
 #: Random frames tried when a frame has no valid ground truth under any redraw.
@@ -89,7 +88,8 @@ class DepthInpaintEnv(gym.Env):
     protocol : str or OcclusionProtocol
         Occlusion protocol, ``"rect-v1"`` by default.
     max_depth : float
-        Range of PSNR and of the render colour scale, metres.
+        Range of PSNR and of the render colour scale, metres: finite, in
+        ``(0, DEPTH_LIMIT]``.
     render_mode : {None, "rgb_array"}
 
     Observation
@@ -126,9 +126,10 @@ class DepthInpaintEnv(gym.Env):
         if len(self.dataset) == 0:
             raise ValueError("the dataset has no frames")
         self.protocol = get_protocol(protocol)
-        if not 0 < max_depth <= DEPTH_LIMIT:
+        max_depth = check_max_depth(max_depth)
+        if max_depth > DEPTH_LIMIT:
             raise ValueError(f"max_depth must be in (0, {DEPTH_LIMIT}], got {max_depth}")
-        self.max_depth = float(max_depth)
+        self.max_depth = max_depth
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
@@ -160,6 +161,7 @@ class DepthInpaintEnv(gym.Env):
         ----------
         seed : int, optional
             Seeds the env's generator (which draws the index and mask seed when absent).
+            Gymnasium itself refuses a negative or non-int seed (``gymnasium.error.Error``).
         options : dict, optional
             ``"index"``: frame index; ``"mask_seed"``: seed of the mask, so that
             ``options={"index": i, "mask_seed": s}`` serves exactly the pair
@@ -178,9 +180,9 @@ class DepthInpaintEnv(gym.Env):
         index = options.get("index")
         mask_seed = options.get("mask_seed")
         if index is not None:
-            index = self._check_int(index, "index", len(self.dataset))
+            index = check_int(index, "options['index']", upper=len(self.dataset))
         if mask_seed is not None:
-            mask_seed = self._check_int(mask_seed, "mask_seed", None)
+            mask_seed = check_int(mask_seed, "options['mask_seed']")
 
         tries = 1 if index is not None else MAX_FRAME_DRAWS
         for _ in range(tries):
@@ -260,24 +262,11 @@ class DepthInpaintEnv(gym.Env):
         }
 
     def _load(self, index: int) -> np.ndarray:
+        # check_depth also refuses depth above DEPTH_LIMIT, the observation space's bound.
         gt = check_depth(self.dataset[index], name=f"frame {index}", ndim=(2,))
         if gt.shape != self.frame_shape:
             raise ValueError(f"frame {index} has shape {gt.shape}, the dataset says {self.frame_shape}")
-        if gt.max() > DEPTH_LIMIT:
-            raise ValueError(
-                f"frame {index} has depth {float(gt.max()):.1f} m above the env's bound {DEPTH_LIMIT} m"
-            )
         return np.array(gt, dtype=np.float32, copy=True)
-
-    @staticmethod
-    def _check_int(value: Any, name: str, upper: int | None) -> int:
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-            raise TypeError(f"options[{name!r}] must be an int, got {type(value).__name__}")
-        v = int(value)
-        if v < 0 or (upper is not None and v >= upper):
-            rng = f"[0, {upper})" if upper is not None else ">= 0"
-            raise ValueError(f"options[{name!r}] = {v} is out of range {rng}")
-        return v
 
     def _check_action(self, action: Any) -> np.ndarray:
         arr = np.asarray(action)

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
+from ..conventions import check_max_depth
+
 __all__ = ["colorize_depth", "colorize_error", "render_panel"]
 
 #: Height in pixels of a tile's label strip.
@@ -87,9 +89,9 @@ def render_panel(
         raise ValueError(f"need (H, W) ground truth and hole of one shape, got {gt.shape} and {hole.shape}")
     if pred is not None and np.shape(pred) != gt.shape:
         raise ValueError(f"reconstruction has shape {np.shape(pred)}, expected {gt.shape}")
-    if max_depth <= 0:
-        raise ValueError(f"max_depth must be positive, got {max_depth}")
-    error_max = max_depth / 8.0 if error_max is None else float(error_max)
+    # A NaN or inf scale would turn every tile black without a word.
+    max_depth = check_max_depth(max_depth)
+    error_max = max_depth / 8.0 if error_max is None else check_max_depth(error_max, "error_max")
     H, W = gt.shape
     valid = gt > 0
 

@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from ..conventions import check_seed, check_seeds
+
 __all__ = ["OcclusionProtocol", "mask_rng"]
 
 
@@ -19,9 +21,15 @@ def mask_rng(name: str, seed: int, index: int) -> np.random.Generator:
 
     Seeding from the triple alone (not from a running stream) makes each mask
     reproducible on its own, in any order, in any process.
+
+    Raises
+    ------
+    TypeError
+        If ``seed`` or ``index`` is not an integer (a float or bool is not truncated).
+    ValueError
+        If either is negative.
     """
-    if seed < 0 or index < 0:
-        raise ValueError(f"seed and index must be non-negative, got seed={seed}, index={index}")
+    seed, index = check_seed(seed, "seed"), check_seed(index, "index")
     return np.random.default_rng(np.random.SeedSequence([zlib.crc32(name.encode()), seed, index]))
 
 
@@ -67,16 +75,25 @@ class OcclusionProtocol(ABC):
         return H, W
 
     def mask(self, shape: tuple[int, int], seed: int, index: int) -> np.ndarray:
-        """The reproducible mask of frame ``index`` for evaluation ``seed``."""
+        """The reproducible mask of frame ``index`` for evaluation ``seed``.
+
+        ``seed`` and ``index`` are non-negative integers (see :func:`mask_rng`).
+        """
         shape = _check_shape(shape)
         return self.sample(shape, mask_rng(self.name, seed, index))
 
     def masks(self, shape: tuple[int, int], seed: int, indices: Sequence[int]) -> np.ndarray:
-        """Masks of several frames as one ``(N, H, W)`` bool array."""
+        """Masks of several frames as one ``(N, H, W)`` bool array.
+
+        ``indices`` are non-negative integers (repeats allowed); floats are refused,
+        never truncated to another frame's mask.
+        """
         shape = _check_shape(shape)
-        out = np.empty((len(indices), *shape), dtype=bool)
-        for k, i in enumerate(indices):
-            out[k] = self.mask(shape, seed, int(i))
+        seed = check_seed(seed, "seed")
+        idx = check_seeds(indices, "indices", distinct=False, allow_empty=True)
+        out = np.empty((len(idx), *shape), dtype=bool)
+        for k, i in enumerate(idx):
+            out[k] = self.mask(shape, seed, i)
         return out
 
     def get_params(self) -> dict[str, Any]:

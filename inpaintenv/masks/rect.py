@@ -35,7 +35,7 @@ class RectV1(OcclusionProtocol):
         Area fraction bounds of each rectangle, ``0 < min_area <= max_area <= 1``.
     max_relative_aspect : float
         ``s`` is drawn log-uniformly from ``[1/max_relative_aspect, max_relative_aspect]``;
-        must be >= 1.
+        must be finite and >= 1.
     """
 
     name = "rect-v1"
@@ -53,10 +53,15 @@ class RectV1(OcclusionProtocol):
             raise TypeError("min_rects and max_rects must be integers")
         if not 1 <= min_rects <= max_rects:
             raise ValueError(f"need 1 <= min_rects <= max_rects, got {min_rects}, {max_rects}")
+        for key, value in (("min_area", min_area), ("max_area", max_area),
+                           ("max_relative_aspect", max_relative_aspect)):
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise TypeError(f"{key} must be a number, got {value!r}")
         if not 0 < min_area <= max_area <= 1:
             raise ValueError(f"need 0 < min_area <= max_area <= 1, got {min_area}, {max_area}")
-        if not max_relative_aspect >= 1:
-            raise ValueError(f"max_relative_aspect must be >= 1, got {max_relative_aspect}")
+        # inf would pass ">= 1" and overflow when the log-uniform shape is drawn.
+        if not (max_relative_aspect >= 1 and math.isfinite(max_relative_aspect)):
+            raise ValueError(f"max_relative_aspect must be a finite number >= 1, got {max_relative_aspect}")
         self.min_rects, self.max_rects = int(min_rects), int(max_rects)
         self.min_area, self.max_area = float(min_area), float(max_area)
         self.max_relative_aspect = float(max_relative_aspect)

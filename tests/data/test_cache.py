@@ -128,8 +128,21 @@ def test_bad_arguments(frames, tmp_path):
         CachedDataset(frames, tmp_path / "c").load_batch([5])
 
 
+class _Unchecked(DepthDataset):
+    """Frames served as given (ArrayDataset itself would refuse depth above 255.996 m)."""
+
+    def __init__(self, frames):
+        self._frames = frames
+        self.frame_shape = frames.shape[1:]
+        self.groups = np.asarray(["d"] * len(frames))
+        self.frame_ids = [f"d/{i}" for i in range(len(frames))]
+
+    def _load(self, index):
+        return self._frames[index]
+
+
 def test_unencodable_depth_is_a_clear_error(tmp_path):
-    far = ArrayDataset(np.full((1, 4, 4), 300.0, dtype=np.float32))
+    far = _Unchecked(np.full((1, 4, 4), 300.0, dtype=np.float32))
     with pytest.raises(ValueError, match="255.99 m"):
         CachedDataset(far, tmp_path / "c")[0]
     with pytest.raises(ValueError, match="finite"):

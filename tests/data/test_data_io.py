@@ -60,8 +60,31 @@ def test_missing_file(tmp_path):
 
 @pytest.mark.parametrize(
     "bad, match",
-    [(np.full((2, 2), -1.0), "non-negative"), (np.full((2, 2), np.nan), "finite"), (np.full((2, 2), 300.0), "255.99"), (np.zeros(3), "2-D")],
+    [(np.full((2, 2), -1.0), "negative"), (np.full((2, 2), np.nan), "NaN"), (np.full((2, 2), 300.0), "255.99"), (np.zeros(3), "2-D")],
 )
 def test_write_rejects_bad_depth(tmp_path, bad, match):
     with pytest.raises(ValueError, match=match):
+        write_depth_png(tmp_path / "x.png", bad)
+
+
+@pytest.mark.parametrize("name", ["d.jpg", "d", "d.PNG.bak"])
+def test_write_requires_a_png_suffix(tmp_path, name):
+    # cv2 picks the format from the suffix: .jpg silently wrote 8 bits.
+    with pytest.raises(ValueError, match="must end in .png"):
+        write_depth_png(tmp_path / name, np.ones((2, 2)))
+    assert not (tmp_path / name).exists()
+
+
+@pytest.mark.parametrize(
+    "bad, error, match",
+    [
+        (np.ones((2, 2), bool), TypeError, "boolean"),
+        (np.ones((2, 2), complex), TypeError, "real numeric"),
+        (np.zeros((0, 5)), ValueError, "empty"),
+        (np.ones((2, 2, 1)), ValueError, "2-D"),
+        (np.full((2, 2), np.inf), ValueError, "infinite"),
+    ],
+)
+def test_write_rejects_bad_arrays_before_opencv(tmp_path, bad, error, match):
+    with pytest.raises(error, match=match):
         write_depth_png(tmp_path / "x.png", bad)

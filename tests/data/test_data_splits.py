@@ -10,7 +10,7 @@ from sklearn.base import BaseEstimator
 from sklearn.model_selection import GroupKFold, cross_validate
 from sklearn.utils import _safe_indexing
 
-from inpaintenv.data import Subset, SyntheticStreets, split_by_drive, subset
+from inpaintenv.data import ArrayDataset, ConcatDataset, DepthDataset, Subset, SyntheticStreets, split_by_drive, subset
 
 
 class CountingStreets(SyntheticStreets):
@@ -83,3 +83,49 @@ def test_datasets_pickle(ds, tmp_path):
     again = pickle.loads(pickle.dumps(ds))
     np.testing.assert_array_equal(again[5], ds[5])
     np.testing.assert_array_equal(again.groups, ds.groups)
+
+
+def test_splits_refuse_arrays_and_non_integer_seeds(ds):
+    arr = np.ones((4, 8, 8), np.float32)
+    with pytest.raises(TypeError, match="split_by_drive's dataset must be a DepthDataset, got ndarray; wrap"):
+        split_by_drive(arr)
+    with pytest.raises(TypeError, match="subset's dataset must be a DepthDataset"):
+        subset(arr, 0.5)
+    with pytest.raises(TypeError, match="ConcatDataset part 0 must be a DepthDataset, got ndarray"):
+        ConcatDataset([arr])
+    with pytest.raises(TypeError, match="ConcatDataset needs a list of datasets"):
+        ConcatDataset(ds)
+    with pytest.raises(TypeError, match="seed must be a non-negative integer, got 0.5"):
+        split_by_drive(ds, seed=0.5)
+    with pytest.raises(ValueError, match="seed must be a non-negative integer, got -1"):
+        subset(ds, 0.5, seed=-1)
+    with pytest.raises(TypeError, match="fraction must be a number"):
+        subset(ds, "0.5")
+    with pytest.raises(TypeError, match="test_size"):
+        split_by_drive(ds, test_size="2")
+    assert CountingStreets.loads == 0
+
+
+def test_load_batch_refuses_float_indices_and_checks_frames():
+    a = ArrayDataset(np.ones((3, 4, 5), np.float32))
+    with pytest.raises(TypeError, match=r"indices must be non-negative integers, got \[0.7\]"):
+        a.load_batch([0.7])
+    with pytest.raises(ValueError, match="outside 0..2"):
+        a.load_batch([3])
+    assert a.load_batch([]).shape == (0, 4, 5)
+    assert a.load_batch(np.array([2, 2])).shape == (2, 4, 5)  # repeats are fine when loading
+
+    class Bad(DepthDataset):
+        frame_shape = (4, 5)
+
+        def __init__(self, frame):
+            self.frame, self.groups, self.frame_ids = frame, np.asarray(["d"]), ["d/0"]
+
+        def _load(self, index):
+            return self.frame
+
+    with pytest.raises(ValueError, match=r"frame 0 \(d/0\) contains negative depth"):
+        Bad(np.full((4, 5), -1.0, np.float32)).load_batch([0])
+    # A (1, W) frame would broadcast into the batch without a word.
+    with pytest.raises(ValueError, match=r"frame 0 \(d/0\) has shape \(1, 5\), the dataset says \(4, 5\)"):
+        Bad(np.ones((1, 5), np.float32)).load_batch([0])

@@ -163,9 +163,19 @@ def test_corrupt_file_named_on_access(tree):
 
 
 @pytest.mark.parametrize("kwargs, match", [({"kind": "dense"}, "kind"), ({"camera": "image_01"}, "camera"),
-                                           ({"crop": (0, 5)}, "crop"), ({"crop": (8,)}, "crop")])
+                                           ({"crop": (0, 5)}, "crop"), ({"crop": (8,)}, "crop"),
+                                           ({"crop": ("a", "b")}, r"crop must be \(H, W\) positive integers"),
+                                           ({"crop": 5}, "crop must be"), ({"crop": (True, 5)}, "crop must be"),
+                                           ({"drives": []}, "drives is empty")])
 def test_bad_arguments(tree, kwargs, match):
     with pytest.raises(ValueError, match=match):
+        KittiDepth(tree, **kwargs)
+
+
+@pytest.mark.parametrize("kwargs, match", [({"split": None}, "split must be 'train', 'val' or 'val_selection', got None"),
+                                           ({"drives": "2011_09_26_drive_0001_sync"}, "drives must be a list")])
+def test_bad_argument_types(tree, kwargs, match):
+    with pytest.raises(TypeError, match=match):
         KittiDepth(tree, **kwargs)
 
 

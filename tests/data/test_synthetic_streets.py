@@ -98,3 +98,17 @@ def test_ego_moves_forward_within_a_drive():
 def test_bad_arguments(kwargs, match):
     with pytest.raises(ValueError, match=match):
         SyntheticStreets(**kwargs)
+
+
+@pytest.mark.parametrize("seed, error", [(0.9, TypeError), (True, TypeError), ("1", TypeError), (-1, ValueError)])
+def test_seed_is_not_truncated(seed, error):
+    # SyntheticStreets(seed=0.9) used to serve seed 0's frames.
+    with pytest.raises(error, match="seed must be a non-negative integer"):
+        SyntheticStreets(n=2, seed=seed, frame_shape=(16, 24))
+
+
+def test_frames_stay_within_the_16_bit_depth_range():
+    from inpaintenv.conventions import DEPTH_LIMIT
+
+    ds = SyntheticStreets(n=2, seed=0, frame_shape=(64, 160), kind="dense")
+    assert 0 < ds.load_batch(range(2)).max() < DEPTH_LIMIT

@@ -202,8 +202,42 @@ def test_bad_constructor_arguments(frames):
         DepthInpaintEnv(frames, protocol="nope")
     too_deep = frames.copy()
     too_deep[0, 0, 0] = 300.0
-    with pytest.raises(ValueError, match="above the env's bound"):
-        DepthInpaintEnv(too_deep).reset(options={"index": 0})
+    # Arrays are checked when wrapped: depth beyond the 16-bit range is refused up front.
+    with pytest.raises(ValueError, match="above 255.996 m"):
+        DepthInpaintEnv(too_deep)
+    # (H, W, 1) used to become H one-pixel-wide frames.
+    with pytest.raises(ValueError, match="trailing size-1 axis looks like a channel axis"):
+        DepthInpaintEnv(frames[0][..., None])
+
+
+@pytest.mark.parametrize("max_depth, error", [(math.nan, ValueError), (math.inf, ValueError), ("80", TypeError),
+                                              (-1.0, ValueError)])
+def test_max_depth_must_be_finite_and_positive(frames, max_depth, error):
+    with pytest.raises(error, match="max_depth must be a finite positive number of metres"):
+        DepthInpaintEnv(frames, max_depth=max_depth)
+    with pytest.raises(ValueError, match="max_depth must be in"):
+        DepthInpaintEnv(frames, max_depth=300.0)
+
+
+def test_custom_dataset_frame_above_the_bound_is_named_on_reset(frames):
+    from inpaintenv.data import DepthDataset
+
+    class Raw(DepthDataset):
+        frame_shape = SHAPE
+        groups = np.asarray(["d"])
+        frame_ids = ["d/0"]
+
+        def _load(self, index):
+            return np.full(SHAPE, 300.0, np.float32)
+
+    with pytest.raises(ValueError, match="frame 0 has depth up to 300 m, above 255.996 m"):
+        DepthInpaintEnv(Raw()).reset(options={"index": 0})
+
+
+def test_negative_reset_seed_is_gymnasium_s_error(dataset):
+    # Left to Gymnasium: its own clear error is part of the Env.reset contract.
+    with pytest.raises(gym.error.Error, match="Seed must be"):
+        DepthInpaintEnv(dataset).reset(seed=-1)
 
 
 @pytest.mark.parametrize("vector_cls", [gym.vector.SyncVectorEnv, gym.vector.AsyncVectorEnv])

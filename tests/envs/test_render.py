@@ -46,3 +46,12 @@ def test_render_panel_bad_input():
         render_panel(gt, np.zeros((4, 5), bool), np.ones((5, 4)))
     with pytest.raises(ValueError, match="max_depth"):
         render_panel(gt, np.zeros((4, 5), bool), max_depth=0)
+
+
+@pytest.mark.parametrize("key", ["max_depth", "error_max"])
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+def test_render_panel_refuses_non_finite_scales(key, value):
+    # A NaN scale used to give an all-black panel without a word.
+    gt = np.ones((4, 5), np.float32)
+    with pytest.raises(ValueError, match=f"{key} must be a finite positive number of metres, got {value}"):
+        render_panel(gt, np.zeros((4, 5), bool), **{key: value})

@@ -42,6 +42,8 @@ def expected_error(x: np.ndarray) -> type[Exception] | None:
         return TypeError
     if x.ndim not in (2, 3) or x.size == 0:
         return ValueError
+    if x.ndim == 3 and x.shape[-1] == 1:  # (H, W, 1) reads as a channel axis: refused
+        return ValueError
     f = x.astype(np.float64)
     if np.isinf(f).any() or (f < 0).any() or not np.isnan(f).any():
         return ValueError

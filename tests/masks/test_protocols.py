@@ -105,6 +105,19 @@ class TestEveryProtocol:
         with pytest.raises(ValueError, match="non-negative"):
             get_protocol(name).mask(SHAPE, seed=0, index=-2)
 
+    @pytest.mark.parametrize("seed", [True, None, 0.5, "0"])
+    def test_non_integer_seed_is_a_clear_error(self, name, seed):
+        # True used to act as seed 1; None failed with "'<' not supported".
+        with pytest.raises(TypeError, match="seed must be a non-negative integer, got"):
+            get_protocol(name).mask(SHAPE, seed=seed, index=0)
+
+    def test_non_integer_indices_are_refused_not_truncated(self, name):
+        with pytest.raises(TypeError, match=r"indices must be non-negative integers, got \[0.5, 1.5\]"):
+            get_protocol(name).masks(SHAPE, 0, [0.5, 1.5])
+        with pytest.raises(TypeError, match="index must be a non-negative integer, got 2.0"):
+            get_protocol(name).mask(SHAPE, seed=0, index=2.0)
+        assert get_protocol(name).masks(SHAPE, np.int64(0), np.array([1, 1])).shape == (2, *SHAPE)
+
 
 @pytest.mark.parametrize("name", NEW)
 @pytest.mark.parametrize("shape", [(16, 16), (1, 300), (300, 1), (8, 8)])

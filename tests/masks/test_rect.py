@@ -103,6 +103,18 @@ def test_non_integer_counts_are_refused():
         RectV1(max_rects=2.5)
 
 
+@pytest.mark.parametrize("value", [math.inf, math.nan])
+def test_infinite_aspect_is_refused(value):
+    # inf passed ">= 1" and overflowed in numpy when drawing.
+    with pytest.raises(ValueError, match="max_relative_aspect must be a finite number >= 1"):
+        RectV1(max_relative_aspect=value)
+
+
+def test_non_numeric_areas_are_refused():
+    with pytest.raises(TypeError, match="min_area must be a number, got '0.1'"):
+        RectV1(min_area="0.1")
+
+
 def test_describe_records_parameters():
     desc = RectV1(max_rects=2).describe()
     assert desc["params"]["max_rects"] == 2
