@@ -18,8 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from ..conventions import check_int, check_seeds
 from ..data.base import DepthDataset
 from ..evaluate import EvaluationResult, evaluate, parse_row, resolve_source
 from ..masks import get_protocol
@@ -94,11 +93,6 @@ def _write_run_file(path: Path, fingerprint: dict[str, Any], identities: dict[st
     os.replace(tmp, path)
 
 
-def _is_int(value: Any) -> bool:
-    # bool is an int subclass, but seed=True is a mistake, not seed 1.
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
-
-
 def _check_run(
     methods: Any, protocols: Any, seeds: Any, n_frames: Any, batch_size: Any
 ) -> tuple[list[str], list[int]]:
@@ -125,26 +119,10 @@ def _check_run(
     if len(set(names)) != len(names):
         raise ValueError(f"protocols must be distinct, got {names}")
 
-    if _is_int(seeds):
-        seeds = [seeds]
-    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, (Sequence, np.ndarray)):
-        raise TypeError(f"seeds must be an int or a list of ints, got {seeds!r}")
-    bad = [s for s in seeds if not _is_int(s)]
-    if bad:
-        raise TypeError(f"seeds must be integers, got {bad!r}")
-    seed_list = [int(s) for s in seeds]
-    if not seed_list:
-        raise ValueError("seeds is empty; give at least one evaluation seed")
-    if any(s < 0 for s in seed_list):
-        raise ValueError(f"seeds must be non-negative, got {seed_list}")
-    if len(set(seed_list)) != len(seed_list):
-        # A repeated seed would score the same masks twice and weight them double.
-        raise ValueError(f"seeds must be distinct, got {seed_list}")
-
-    if n_frames is not None and (not _is_int(n_frames) or n_frames < 1):
-        raise ValueError(f"n_frames must be None or an integer >= 1, got {n_frames!r}")
-    if not _is_int(batch_size) or batch_size < 1:
-        raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+    seed_list = check_seeds(seeds, "seeds")
+    if n_frames is not None:
+        check_int(n_frames, "n_frames", minimum=1)
+    check_int(batch_size, "batch_size", minimum=1)
     return names, seed_list
 
 
