@@ -260,8 +260,16 @@ def select_drives(
     Raises
     ------
     ValueError
-        If a named drive is not in the dataset, or nothing is left.
+        If a named drive is not in the dataset, ``drives`` is empty, or nothing is left.
+    TypeError
+        If ``drives`` or ``exclude`` is a single string instead of a list of names.
     """
+    for name, value in (("drives", drives), ("exclude", exclude)):
+        if isinstance(value, (str, bytes)):
+            raise TypeError(f"{name} must be a list of drive names, got the string {value!r}")
+    if drives is not None and len(drives) == 0:
+        # "keep only these drives: none" would otherwise silently keep every drive.
+        raise ValueError("drives is empty; pass None to keep every drive")
     if not drives and not exclude:
         return dataset
     known = set(np.asarray(dataset.groups).tolist())

@@ -129,3 +129,18 @@ def test_load_batch_refuses_float_indices_and_checks_frames():
     # A (1, W) frame would broadcast into the batch without a word.
     with pytest.raises(ValueError, match=r"frame 0 \(d/0\) has shape \(1, 5\), the dataset says \(4, 5\)"):
         Bad(np.ones((1, 5), np.float32)).load_batch([0])
+
+
+def test_select_drives_refuses_an_empty_list_and_a_bare_string(ds):
+    from inpaintenv.data import select_drives
+
+    drive = sorted(set(ds.groups))[0]
+    kept = select_drives(ds, [drive])
+    assert set(kept.groups) == {drive}
+    assert len(select_drives(ds, None, [])) == len(ds)  # excluding nothing is fine
+    with pytest.raises(ValueError, match="drives is empty; pass None"):
+        select_drives(ds, [])
+    with pytest.raises(TypeError, match="list of drive names, got the string"):
+        select_drives(ds, drive)
+    with pytest.raises(TypeError, match="exclude must be a list"):
+        select_drives(ds, None, drive)
