@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import operator
+from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
@@ -242,7 +243,7 @@ def check_seeds(
         outside = [v for v in out if v >= upper]
         raise ValueError(f"{name} {outside[:5]} are outside 0..{upper - 1}")
     if distinct and len(set(out)) != len(out):
-        dup = sorted({v for v in out if out.count(v) > 1})
+        dup = sorted(v for v, n in Counter(out).items() if n > 1)  # linear: index lists can be long
         raise ValueError(f"{name} must be {kind}, got {out} ({dup} repeated)")
     return out
 
