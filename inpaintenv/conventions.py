@@ -130,7 +130,9 @@ def _show(value: object) -> str:
     """``value`` for an error message: plain numbers as Python prints them, else repr."""
     if isinstance(value, np.generic):
         value = value.item()
-    return repr(value)
+    text = repr(value)
+    # A long index list would otherwise fill the terminal; the head is enough to recognise it.
+    return text if len(text) <= 200 else f"{text[:160]}... ({len(text)} characters)"
 
 
 def check_int(value: object, name: str, *, minimum: int = 0, upper: int | None = None) -> int:
@@ -238,13 +240,13 @@ def check_seeds(
         raise TypeError(f"{name} must be {kind}, got {_show(values)}")
     out = [operator.index(v) for v in items]
     if any(v < 0 for v in out):
-        raise ValueError(f"{name} must be {kind}, got {_show(values) if _is_int(values) else out}")
+        raise ValueError(f"{name} must be {kind}, got {_show(values) if _is_int(values) else _show(out)}")
     if upper is not None and any(v >= upper for v in out):
         outside = [v for v in out if v >= upper]
         raise ValueError(f"{name} {outside[:5]} are outside 0..{upper - 1}")
     if distinct and len(set(out)) != len(out):
         dup = sorted(v for v, n in Counter(out).items() if n > 1)  # linear: index lists can be long
-        raise ValueError(f"{name} must be {kind}, got {out} ({dup} repeated)")
+        raise ValueError(f"{name} must be {kind}, got {_show(out)} ({_show(dup)} repeated)")
     return out
 
 

@@ -153,3 +153,11 @@ def test_check_max_depth_message_shows_nan_plainly():
     with pytest.raises(ValueError, match="got nan$"):
         check_max_depth(np.float64("nan"))
     assert check_max_depth(np.float32(80)) == 80.0
+
+
+def test_check_seeds_keeps_messages_short_for_long_lists():
+    from inpaintenv.conventions import check_seeds
+
+    with pytest.raises(ValueError, match=r"\.\.\. \(\d+ characters\) \(\[5\] repeated\)") as info:
+        check_seeds([*range(100_000), 5], "indices")
+    assert len(str(info.value)) < 300
