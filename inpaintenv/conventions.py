@@ -27,7 +27,7 @@ import numpy as np
 
 __all__ = [
     "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "check_depth", "check_int", "check_mask", "check_max_depth",
-    "check_seed", "check_seeds", "corrupt",
+    "check_seed", "check_seeds", "corrupt", "is_real_number",
 ]
 
 #: Fixed range used to normalise depth and to compute PSNR (the study's 80 m).
@@ -124,6 +124,14 @@ def _is_int(value: object) -> bool:
     except TypeError:
         return False
     return True
+
+
+def is_real_number(value: object) -> bool:
+    """True for Python and NumPy integers and floats, never for bool, str or None.
+
+    For numeric parameters that must be refused rather than coerced (``"80"``, ``True``).
+    """
+    return not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, float, np.integer, np.floating))
 
 
 def _show(value: object) -> str:
@@ -261,7 +269,7 @@ def check_max_depth(value: object, name: str = "max_depth") -> float:
         If it is NaN, infinite, zero or negative.
     """
     msg = f"{name} must be a finite positive number of metres, got {_show(value)}"
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+    if not is_real_number(value):
         raise TypeError(msg)
     v = float(value)
     if not math.isfinite(v) or v <= 0:

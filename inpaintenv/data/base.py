@@ -8,7 +8,13 @@ from typing import Any, overload
 
 import numpy as np
 
-from ..conventions import check_depth, check_int, check_seed, check_seeds
+from ..conventions import (
+    check_depth,
+    check_int,
+    check_seed,
+    check_seeds,
+    is_real_number,
+)
 
 __all__ = [
     "DepthDataset", "ArrayDataset", "ConcatDataset", "Subset", "as_dataset", "select_drives",
@@ -378,7 +384,7 @@ def subset(dataset: DepthDataset, fraction: float, seed: int = 0) -> Subset:
     """
     _require_dataset(dataset, "subset's dataset")
     seed = check_seed(seed, "seed")
-    if isinstance(fraction, (bool, np.bool_)) or not isinstance(fraction, (int, float, np.integer, np.floating)):
+    if not is_real_number(fraction):
         raise TypeError(f"fraction must be a number in (0, 1], got {fraction!r}")
     if not 0.0 < fraction <= 1.0:
         raise ValueError(f"fraction must be in (0, 1], got {fraction}")

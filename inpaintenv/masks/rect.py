@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+
 import numpy as np
 
+from ..conventions import is_real_number
 from .base import OcclusionProtocol, _check_rng, _check_shape
 
 __all__ = ["RectV1"]
@@ -55,7 +57,7 @@ class RectV1(OcclusionProtocol):
             raise ValueError(f"need 1 <= min_rects <= max_rects, got {min_rects}, {max_rects}")
         for key, value in (("min_area", min_area), ("max_area", max_area),
                            ("max_relative_aspect", max_relative_aspect)):
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            if not is_real_number(value):
                 raise TypeError(f"{key} must be a number, got {value!r}")
         if not 0 < min_area <= max_area <= 1:
             raise ValueError(f"need 0 < min_area <= max_area <= 1, got {min_area}, {max_area}")
