@@ -17,7 +17,6 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
 
-from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.masks import OcclusionProtocol
 
@@ -58,7 +57,7 @@ class OcclusionFrames(Dataset):
 
     Each item is a random crop (or the whole frame) with a fresh occlusion drawn from
     ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Every
-    frame is validated (:func:`~inpaintenv.conventions.check_depth`) as it is loaded,
+    frame is validated (:meth:`~inpaintenv.data.DepthDataset.checked_frame`) as it is loaded,
     so NaN, inf or negative depth in any frame stops training with an error naming
     the frame instead of surfacing later as a NaN loss or training silently. Set
     :attr:`epoch` before iterating an epoch (workers are re-created per epoch, so they
@@ -86,12 +85,7 @@ class OcclusionFrames(Dataset):
     def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
         index = int(index)
         rng = sample_rng(self.seed, self.epoch, index)
-        gt = check_depth(self.frames[index], name=f"training frame {frame_label(self.frames, index)}", ndim=(2,))
-        if gt.shape != tuple(self.frames.frame_shape):
-            raise ValueError(
-                f"training frame {frame_label(self.frames, index)} has shape {gt.shape}, but the "
-                f"dataset's frame_shape is {tuple(self.frames.frame_shape)}"
-            )
+        gt = self.frames.checked_frame(index, f"training frame {frame_label(self.frames, index)}")
         (fh, fw), (ch, cw) = gt.shape, self.crop
         top = int(rng.integers(0, fh - ch + 1))
         left = int(rng.integers(0, fw - cw + 1))

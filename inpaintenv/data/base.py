@@ -102,13 +102,27 @@ class DepthDataset(Sequence, ABC):
         idx = check_seeds(indices, "indices", upper=len(self), distinct=False, allow_empty=True)
         out = np.empty((len(idx), *self.frame_shape), dtype=np.float32)
         for k, i in enumerate(idx):
-            name = f"frame {i} ({self.frame_ids[i]})"
-            frame = check_depth(self[i], name=name, ndim=(2,))
-            if frame.shape != tuple(self.frame_shape):
-                # Assigning into out would broadcast e.g. a (1, W) frame without a word.
-                raise ValueError(f"{name} has shape {frame.shape}, the dataset says {tuple(self.frame_shape)}")
-            out[k] = frame
+            out[k] = self.checked_frame(i, f"frame {i} ({self.frame_ids[i]})")
         return out
+
+    def checked_frame(self, index: int, name: str) -> np.ndarray:
+        """Frame ``index`` after checking the depth convention and the dataset's frame shape.
+
+        Every consumer of a dataset (batches, the environment, training) loads frames
+        through this, so a bad custom dataset is reported by ``name`` where it is read,
+        not blamed later on a method or a NaN loss.
+
+        Raises
+        ------
+        ValueError
+            If the frame is NaN/inf, negative, above ``DEPTH_LIMIT``, not 2-D or not
+            ``frame_shape``.
+        """
+        frame = check_depth(self[index], name=name, ndim=(2,))
+        if frame.shape != tuple(self.frame_shape):
+            # Assigning it into a batch would broadcast e.g. a (1, W) frame without a word.
+            raise ValueError(f"{name} has shape {frame.shape}, the dataset says {tuple(self.frame_shape)}")
+        return frame
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
         arr = self.load_batch(range(len(self)))

@@ -32,7 +32,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..conventions import DEFAULT_MAX_DEPTH, DEPTH_LIMIT, check_depth, check_int, check_max_depth
+from ..conventions import DEFAULT_MAX_DEPTH, DEPTH_LIMIT, check_int, check_max_depth
 from ..data.base import DepthDataset, as_dataset
 from ..masks import OcclusionProtocol, get_protocol
 from ..metrics import frame_metrics
@@ -262,10 +262,8 @@ class DepthInpaintEnv(gym.Env):
         }
 
     def _load(self, index: int) -> np.ndarray:
-        # check_depth also refuses depth above DEPTH_LIMIT, the observation space's bound.
-        gt = check_depth(self.dataset[index], name=f"frame {index}", ndim=(2,))
-        if gt.shape != self.frame_shape:
-            raise ValueError(f"frame {index} has shape {gt.shape}, the dataset says {self.frame_shape}")
+        # The check also refuses depth above DEPTH_LIMIT, the observation space's bound.
+        gt = self.dataset.checked_frame(index, f"frame {index}")
         return np.array(gt, dtype=np.float32, copy=True)
 
     def _check_action(self, action: Any) -> np.ndarray:
