@@ -34,6 +34,26 @@ def kitti_root() -> Path:
     return root
 
 
+def layout_frames(root: Path, split: str, camera: str = "image_02") -> dict[str, int]:
+    """Ground-truth PNGs per drive, counted from the official layout on disk.
+
+    Tests compare the loader against this count instead of pinning the slice's size,
+    which grows when more real frames are found.
+    """
+    counts = {}
+    for drive in sorted((Path(root) / split).glob("*_sync")):
+        n = len(list((drive / "proj_depth" / "groundtruth" / camera).glob("*.png")))
+        if n:
+            counts[drive.name] = n
+    return counts
+
+
+@pytest.fixture(scope="session")
+def kitti_layout(kitti_root):
+    """``kitti_layout(split)``: ground-truth frames per drive of the real slice, from disk."""
+    return lambda split, camera="image_02": layout_frames(kitti_root, split, camera)
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(0)

@@ -116,11 +116,12 @@ def test_show_out_must_be_a_png_file(tmp_path, capsys, monkeypatch, out):
 
 
 @pytest.mark.kitti
-def test_cli_on_real_kitti(kitti_root, tmp_path, capsys):
+def test_cli_on_real_kitti(kitti_root, kitti_layout, tmp_path, capsys):
     root = str(kitti_root)
     assert main(["info", "--kitti-root", root, "--split", "train", "--json", "--sample", "2"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert info["frames"] == 80 and info["drives"] == 2
+    on_disk = kitti_layout("train")
+    assert info["frames"] == sum(on_disk.values()) and info["drives"] == len(on_disk)
     rc = main(["evaluate", "-m", "nearest", "--kitti-root", root, "--split", "val", "-q",
                "--out", str(tmp_path)])
     assert rc == 0

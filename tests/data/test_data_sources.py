@@ -16,12 +16,13 @@ def test_default_is_synthetic_even_with_the_environment_variable(monkeypatch, tm
 
 
 @pytest.mark.kitti
-def test_kitti_when_a_root_is_given(kitti_root):
+def test_kitti_when_a_root_is_given(kitti_root, kitti_layout):
     full = open_source(kitti_root)
-    assert isinstance(full, KittiDepth) and len(full) == 80
+    assert isinstance(full, KittiDepth) and len(full) == sum(kitti_layout("train").values())
     first = open_source(kitti_root, n_frames=7)
     assert isinstance(first, Subset) and first.frame_ids == full.frame_ids[:7]
-    assert len(open_source(kitti_root, split="val", n_frames=10)) == 1
+    n_val = sum(kitti_layout("val").values())
+    assert len(open_source(kitti_root, split="val", n_frames=10)) == min(n_val, 10)
 
 
 @pytest.mark.parametrize("kwargs, match", [({"n_frames": 0}, "n_frames"), ({"n_frames": 2.5}, "n_frames")])

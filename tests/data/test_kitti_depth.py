@@ -189,12 +189,14 @@ def test_summary(tree):
 
 # --------------------------------------------------------------------------- real slice
 @pytest.mark.kitti
-def test_real_train_slice(kitti_root):
+def test_real_train_slice(kitti_root, kitti_layout):
     ds = KittiDepth(kitti_root, split="train")
-    assert len(ds) == 80 and ds.frame_shape == (352, 1216)
+    on_disk = kitti_layout("train")
+    assert len(ds) == sum(on_disk.values()) and ds.frame_shape == (352, 1216)
     drives, counts = np.unique(ds.groups, return_counts=True)
-    assert dict(zip(drives, counts)) == {"2011_09_26_drive_9001_sync": 68, "2011_09_26_drive_9002_sync": 12}
-    assert ds.raw_sizes() == {(1242, 375): 80}
+    assert dict(zip(drives, counts.tolist())) == on_disk
+    # every train drive of the slice is a 2011_09_26 recording (1242x375 raw frames)
+    assert ds.raw_sizes() == {(1242, 375): len(ds)}
     d = ds[10]
     valid = d[d > 0]
     assert 0.1 < valid.size / d.size < 0.5  # semi-dense
