@@ -21,6 +21,7 @@ import numpy as np
 
 from inpaintenv.conventions import check_depth
 
+from ._scan import AxisScan
 from .classical._base import in_inverse_depth
 from .classical.harmonic import harmonic_fill
 from .classical.scanline import scanline_fill
@@ -215,6 +216,44 @@ def gap_distances(known: np.ndarray) -> np.ndarray:
     return np.stack([left, right, up.T, down.T]).astype(np.float32)
 
 
+#: Fills made from one row (``"row"``) or column (``"col"``) scan; True = inverse depth.
+_SCANNED: dict[str, tuple[str, bool]] = {
+    "scanline": ("row", False), "scanline-inverse": ("row", True),
+    "vertical": ("col", False), "vertical-inverse": ("col", True),
+}
+
+
+class _Scans:
+    """The row and column :class:`~estimators._scan.AxisScan` of one frame, each made once."""
+
+    def __init__(self, values: np.ndarray, known: np.ndarray):
+        self.values, self.known = values, known
+        self._scans: dict[str, AxisScan] = {}
+
+    def get(self, axis: str) -> tuple[AxisScan, np.ndarray]:
+        if axis not in self._scans:
+            self._scans[axis] = AxisScan(self.known if axis == "row" else self.known.T)
+        return self._scans[axis], (self.values if axis == "row" else self.values.T)
+
+    def fill(self, name: str) -> np.ndarray:
+        if name not in _SCANNED:
+            return _FILLS[name](self.values, self.known)
+        axis, inverse = _SCANNED[name]
+        scan, values = self.get(axis)
+        out = scan.interp_inverse(values) if inverse else scan.interp(values)
+        return out if axis == "row" else out.T
+
+    def gaps(self) -> list[np.ndarray]:
+        (rows, _), (cols, _) = self.get("row"), self.get("col")
+        up, down = cols.gaps(NO_MEASUREMENT_DISTANCE)
+        return [*rows.gaps(NO_MEASUREMENT_DISTANCE), up.T, down.T]
+
+    def ends(self) -> list[np.ndarray]:
+        (rows, values), (cols, values_t) = self.get("row"), self.get("col")
+        up, down = cols.ends(values_t)
+        return [*rows.ends(values), up.T, down.T]
+
+
 def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndarray:
     """Classical fills of one corrupted frame.
 
@@ -234,8 +273,9 @@ def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndar
     names = _check_names(names)
     x = check_depth(x, name="x", allow_nan=True, ndim=(2,))
     known = x > 0
-    values = np.where(known, x, 0.0)
-    return np.stack([_FILLS[n](values, known) for n in names]).astype(np.float32)
+    values = np.where(known, x, 0.0).astype(np.float32)
+    scans = _Scans(values, known)
+    return np.stack([scans.fill(n) for n in names]).astype(np.float32)
 
 
 def prior_features(
@@ -261,13 +301,18 @@ def prior_features(
         (1/0), valid (1 where measured), the candidate fills in metres, then the gap
         lengths, then the endpoint depths.
     """
-    fills = candidate_fills(x, names)
-    hole = np.isnan(x)
-    depth = np.where(x > 0, x, 0.0)
-    base = np.stack([depth, hole, depth > 0]).astype(np.float32)
-    parts = [base, fills]
+    names = _check_names(names)
+    x = check_depth(x, name="x", allow_nan=True, ndim=(2,))
+    known = x > 0
+    depth = np.where(known, x, 0.0).astype(np.float32)
+    # One row and one column scan serve the row/column fills, gaps and endpoints.
+    scans = _Scans(depth, known)
+    parts = [depth, np.isnan(x), known, *(scans.fill(n) for n in names)]
     if gaps:
-        parts.append(gap_distances(depth > 0))
+        parts += scans.gaps()
     if endpoints:
-        parts.append(endpoint_values(depth, depth > 0))
-    return np.concatenate(parts)
+        parts += scans.ends()
+    out = np.empty((len(parts), *x.shape), np.float32)
+    for channel, part in zip(out, parts):
+        channel[...] = part
+    return out

@@ -1,0 +1,98 @@
+"""One scan per axis for every row/column feature of :mod:`estimators.priors`.
+
+The row-wise and column-wise candidate fills (depth and inverse depth), the gap lengths
+and the endpoint depths all start from the same thing: the nearest measurement before
+and after each pixel along an axis. Computed once per axis here and shared, they cost
+about a third of computing each feature on its own, with the same numbers as
+:func:`estimators.classical.scanline.scanline_fill`,
+:func:`estimators.classical._base.in_inverse_depth`,
+:func:`estimators.priors.gap_distances` and :func:`estimators.priors.endpoint_values`
+(checked by ``tests/estimators/test_scan.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["AxisScan", "fill_empty_rows"]
+
+
+class AxisScan:
+    """Nearest measurement at or before / at or after each pixel along axis 1.
+
+    Parameters
+    ----------
+    known : numpy.ndarray
+        ``(H, W)`` bool, True where measured (transpose it to scan columns).
+    """
+
+    def __init__(self, known: np.ndarray):
+        h, w = known.shape
+        cols = np.arange(w, dtype=np.int32)
+        self.known = known
+        self.width = w
+        self.cols = cols
+        # -1 / w mark "no measurement on that side".
+        self.left = np.maximum.accumulate(np.where(known, cols, np.int32(-1)), axis=1)
+        self.right = np.minimum.accumulate(np.where(known, cols, np.int32(w))[:, ::-1], axis=1)[:, ::-1]
+        self.has_left = self.left >= 0
+        self.has_right = self.right < w
+        self.line_ok = self.has_left[:, -1]  # the line holds at least one measurement
+        self._left_idx = np.maximum(self.left, 0)
+        self._right_idx = np.minimum(self.right, w - 1)
+        span = np.maximum(self.right - self.left, 1).astype(np.float32)
+        self._t = (cols - self.left).astype(np.float32) / span
+
+    def gaps(self, far: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels to the nearest measurement before / after, capped at ``far``."""
+        before = np.where(self.has_left, np.minimum(self.cols - self.left, far), far)
+        after = np.where(self.has_right, np.minimum(self.right - self.cols, far), far)
+        return before.astype(np.float32), after.astype(np.float32)
+
+    def ends(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Depth of the nearest measurement before / after (0 where none)."""
+        v_left = np.take_along_axis(values, self._left_idx, axis=1)
+        v_right = np.take_along_axis(values, self._right_idx, axis=1)
+        return np.where(self.has_left, v_left, 0.0), np.where(self.has_right, v_right, 0.0)
+
+    def interp(self, values: np.ndarray) -> np.ndarray:
+        """Linear interpolation between the nearest measurements (``float32`` ``values``).
+
+        Open-ended gaps repeat their one measured end; lines without any measurement are
+        then interpolated across the nearest filled lines (as ``scanline_fill`` does).
+        """
+        v_left = np.take_along_axis(values, self._left_idx, axis=1)
+        v_right = np.take_along_axis(values, self._right_idx, axis=1)
+        v_left, v_right = np.where(self.has_left, v_left, v_right), np.where(self.has_right, v_right, v_left)
+        out = v_left + self._t * (v_right - v_left)
+        if not self.line_ok.all():
+            out = fill_empty_rows(out, self.line_ok)
+        return np.where(self.known, values, out)
+
+    def interp_inverse(self, values: np.ndarray) -> np.ndarray:
+        """:meth:`interp` of inverse depth, returned as depth (0 where nothing is known)."""
+        inv = np.divide(1.0, values, out=np.zeros(values.shape), where=self.known).astype(np.float32)
+        filled = self.interp(inv)
+        depth = np.divide(1.0, filled, out=np.zeros(values.shape), where=filled > 0)
+        return np.where(self.known, values, depth).astype(np.float32)
+
+
+def fill_empty_rows(filled: np.ndarray, row_ok: np.ndarray) -> np.ndarray:
+    """Rows with ``row_ok`` False, linearly interpolated between the nearest ok rows.
+
+    Rows before the first / after the last ok row repeat it.
+    """
+    h = filled.shape[0]
+    rows = np.arange(h)
+    ok = np.flatnonzero(row_ok)
+    if len(ok) == 0:
+        return filled
+    below = np.maximum.accumulate(np.where(row_ok, rows, -1))
+    above = np.minimum.accumulate(np.where(row_ok, rows, h)[::-1])[::-1]
+    has_b, has_a = below >= 0, above < h
+    b = np.where(has_b, below, above)
+    a = np.where(has_a, above, below)
+    span = np.maximum(a - b, 1).astype(np.float32)
+    t = ((rows - b).astype(np.float32) / span)[:, None]
+    out = filled[b] + t * (filled[a] - filled[b])
+    return np.where(row_ok[:, None], filled, out)
