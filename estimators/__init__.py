@@ -42,10 +42,11 @@ __all__ = [
     "UNetInpainter",
     "AutoencoderInpainter",
     "PriorUNetInpainter",
+    "BlendInpainter",
 ]
 
 #: Exported lazily so that ``import estimators`` never imports torch.
-_NEURAL = {"UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior"}
+_NEURAL = {"UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior", "BlendInpainter": "blend"}
 
 
 def __getattr__(name: str):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from estimators import (  # lazy: imports torch here
     AutoencoderInpainter,
+    BlendInpainter,
     ConstantInpainter,
     HarmonicInpainter,
     IPBasicInpainter,
@@ -41,4 +42,6 @@ ESTIMATORS = [
     UNetInpainter(width=4, depth=1, batch_size=2, epochs=1, random_state=0, num_threads=1),
     AutoencoderInpainter(width=4, depth=1, batch_size=2, epochs=1, input_mask=True, depth_scale="frame", random_state=0, num_threads=1),
     PriorUNetInpainter(width=4, levels=1, batch_size=2, max_steps=2, random_state=0, num_threads=1),
+    BlendInpainter(width=4, layers=1, epochs=1, masks_per_frame=1, pixels_per_frame=50, batch_pixels=64,
+                   num_threads=1),
 ]

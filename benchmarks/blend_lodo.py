@@ -1,0 +1,246 @@
+"""Leave-one-drive-out experiments for the learned blend, on cached per-pixel features.
+
+The learned blend (:class:`estimators.prior.PriorUNetInpainter`, ``arch="pixel"``) sees,
+for every pixel to fill, classical candidate fills, gap lengths and endpoint depths
+(:func:`estimators.priors.prior_features`). Those features are the expensive part, so
+this script computes them once per (frame, occlusion) and then trains many small MLP
+variants on the cached pixels, leave-one-drive-out:
+
+``cache``
+    For every frame with ground truth of the ``train`` (and ``val``) drives of a KITTI
+    root: ``--train-masks`` rect-v1 occlusions with training seeds (>= 1000, never the
+    evaluation seeds) of which ``--pixels`` hole pixels with ground truth are kept, and
+    the evaluation occlusions (seeds ``--seeds``, the masks the benchmark draws for
+    ``--drives <drive>``) with every hole pixel with ground truth.
+``fit``
+    For each variant and each held-out train drive: train on the other train drives'
+    training pixels, predict the held-out drive's (and the ``val`` frames') evaluation
+    pixels, and print per drive the mean per-frame hole RMSE, that of the strongest
+    classical candidate on the same frames, and their ratio with a paired 95 % bootstrap
+    interval over frames.
+
+This is where recipes are chosen: on the held-out drives of the folds, by drive-level
+cross-validation; the shipped model is then trained by ``inpaintenv train`` on every
+train drive and checked with ``inpaintenv benchmark`` (docs/model_card.md).
+
+Examples
+--------
+    python benchmarks/blend_lodo.py cache --kitti-root <KITTI root> --out lodo-cache
+    python benchmarks/blend_lodo.py fit --cache lodo-cache --variant base --variant thin
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from estimators.priors import AVAILABLE_CANDIDATES, prior_features
+from inpaintenv.data import KittiDepth
+from inpaintenv.masks import get_protocol
+
+#: Channels kept per pixel: every candidate, 4 gap lengths, 4 endpoint depths.
+CHANNELS = list(AVAILABLE_CANDIDATES) + ["gap-l", "gap-r", "gap-u", "gap-d", "end-l", "end-r", "end-u", "end-d"]
+TRAIN_SEED0 = 1000
+
+
+def _frame_features(x: np.ndarray) -> np.ndarray:
+    f = prior_features(x, AVAILABLE_CANDIDATES, gaps=True, endpoints=True)
+    return f[3:]  # drop depth / hole / valid
+
+
+def thin(gt: np.ndarray, hole: np.ndarray, keep: float, rng: np.random.Generator) -> np.ndarray:
+    """Corrupted input with a fraction ``1 - keep`` of the measured pixels outside the hole dropped."""
+    x = np.where(hole, np.nan, gt).astype(np.float32)
+    drop = (gt > 0) & ~hole & (rng.random(gt.shape) > keep)
+    x[drop] = 0.0
+    return x
+
+
+def _one(gt: np.ndarray, hole: np.ndarray, n_pixels: int | None, seed: int, keep: float) -> dict:
+    rng = np.random.default_rng(seed)
+    x = thin(gt, hole, keep, rng) if keep < 1 else np.where(hole, np.nan, gt).astype(np.float32)
+    feats = _frame_features(x)
+    rows, cols = np.nonzero(hole & (gt > 0))
+    if n_pixels is not None and len(rows) > n_pixels:
+        pick = np.sort(rng.choice(len(rows), n_pixels, replace=False))
+        rows, cols = rows[pick], cols[pick]
+    return {"x": feats[:, rows, cols].T.astype(np.float32), "y": gt[rows, cols].astype(np.float32),
+            "row": rows.astype(np.int16)}
+
+
+def cmd_cache(args: argparse.Namespace) -> None:
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    protocol = get_protocol("rect-v1")
+    jobs, meta = [], []
+    for split in ("train", "val"):
+        for drive in sorted({str(g) for g in KittiDepth(args.kitti_root, split=split).groups}):
+            ds = KittiDepth(args.kitti_root, split=split, drives=[drive])
+            frames = ds.load_batch(range(len(ds)))
+            for i, gt in enumerate(frames):
+                if not (gt > 0).any():
+                    continue
+                for s in args.seeds:  # the benchmark's masks for --drives <drive>
+                    hole = protocol.mask(gt.shape, s, i)
+                    jobs.append(delayed(_one)(gt, hole, None, s, 1.0))
+                    meta.append({"split": split, "drive": drive, "frame": i, "kind": "eval", "seed": s})
+                if split == "train":
+                    for m in range(args.train_masks):
+                        s = TRAIN_SEED0 + m
+                        hole = protocol.mask(gt.shape, s, i)
+                        for keep in args.keep:
+                            jobs.append(delayed(_one)(gt, hole, args.pixels, s * 7 + i, keep))
+                            meta.append({"split": split, "drive": drive, "frame": i, "kind": f"train-{keep:g}",
+                                         "seed": s})
+    print(f"{len(jobs)} (frame, occlusion) feature sets to compute", flush=True)
+    start = time.perf_counter()
+    results = Parallel(n_jobs=args.jobs, verbose=5)(jobs)
+    print(f"computed in {time.perf_counter() - start:.0f} s", flush=True)
+    for kind in sorted({m["kind"] for m in meta}):
+        idx = [k for k, m in enumerate(meta) if m["kind"] == kind]
+        np.savez(out / f"{kind}.npz",
+                 x=np.concatenate([results[k]["x"] for k in idx]),
+                 y=np.concatenate([results[k]["y"] for k in idx]),
+                 row=np.concatenate([results[k]["row"] for k in idx]),
+                 sample=np.concatenate([np.full(len(results[k]["y"]), n, np.int32) for n, k in enumerate(idx)]))
+        (out / f"{kind}.json").write_text(json.dumps([meta[k] for k in idx]))
+    (out / "channels.json").write_text(json.dumps(CHANNELS))
+
+
+#: Recipes compared by ``fit``: candidate subset, endpoint channels, row context, which
+#: training inputs (``keep``: fraction of measured pixels kept), network size.
+SIX = ["scanline", "scanline-inverse", "vertical", "harmonic", "vertical-inverse", "harmonic-inverse"]
+VARIANTS: dict[str, dict] = {
+    "base": {"candidates": SIX, "endpoints": False, "keep": ["1"], "width": 128, "layers": 3},
+    "endpoints": {"candidates": SIX, "endpoints": True, "keep": ["1"], "width": 128, "layers": 3},
+    "rowctx": {"candidates": SIX + ["row-median", "row-far"], "endpoints": True, "keep": ["1"], "width": 128,
+               "layers": 3},
+    "thin": {"candidates": SIX, "endpoints": True, "keep": ["1", "0.65"], "width": 128, "layers": 3},
+    "small": {"candidates": SIX, "endpoints": True, "keep": ["1", "0.65"], "width": 64, "layers": 2},
+    "cheap": {"candidates": ["scanline", "scanline-inverse", "vertical-inverse", "harmonic-inverse"],
+              "endpoints": True, "keep": ["1", "0.65"], "width": 64, "layers": 2},
+}
+CLASSICAL = ["scanline", "scanline-inverse", "harmonic", "harmonic-inverse"]
+
+
+def _columns(variant: dict) -> tuple[list[int], int, int]:
+    cand = [CHANNELS.index(c) for c in variant["candidates"]]
+    gaps = [CHANNELS.index(c) for c in ("gap-l", "gap-r", "gap-u", "gap-d")]
+    ends = [CHANNELS.index(c) for c in ("end-l", "end-r", "end-u", "end-d")] if variant["endpoints"] else []
+    return cand + gaps + ends, len(cand), len(ends)
+
+
+def _load(cache: Path, kind: str) -> tuple[dict, list[dict]]:
+    with np.load(cache / f"{kind}.npz") as z:
+        data = {k: z[k] for k in z.files}
+    return data, json.loads((cache / f"{kind}.json").read_text())
+
+
+def _estimator(variant: dict, seed: int, epochs: int):
+    from estimators.blend import BlendInpainter
+
+    return BlendInpainter(candidates=tuple(variant["candidates"]), endpoints=variant["endpoints"],
+                          width=variant["width"], layers=variant["layers"], epochs=epochs, random_state=seed)
+
+
+def _predict(est, x: np.ndarray) -> np.ndarray:
+    """The estimator's hole prediction (flip average, floor) on cached pixel features."""
+    import torch
+
+    k = len(est.candidates)
+    mirrored = est._mirror_order()
+    with torch.inference_mode():
+        xt = torch.from_numpy(np.ascontiguousarray(x))
+        out = [0.5 * (est.model_.blend(c) + est.model_.blend(c[:, mirrored])) for c in xt.split(1 << 15)]
+        pred = torch.cat(out).numpy()
+    return np.maximum(pred, 0.5 * x[:, :k].min(axis=1))
+
+
+def _per_sample_rmse(err2: np.ndarray, sample: np.ndarray, n: int) -> np.ndarray:
+    return np.sqrt(np.bincount(sample, err2, n) / np.maximum(np.bincount(sample, None, n), 1))
+
+
+def _ratio_ci(a: np.ndarray, b: np.ndarray, seed: int = 0, n_boot: int = 2000) -> tuple[float, float, float]:
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, len(a), (n_boot, len(a)))
+    boots = a[idx].mean(1) / b[idx].mean(1)
+    return float(a.mean() / b.mean()), float(np.quantile(boots, 0.025)), float(np.quantile(boots, 0.975))
+
+
+def cmd_fit(args: argparse.Namespace) -> None:
+    cache = Path(args.cache)
+    ev, ev_meta = _load(cache, "eval")
+    train_sets = {}
+    n_ev = len(ev_meta)
+    drives_of = np.array([m["drive"] for m in ev_meta])
+    split_of = np.array([m["split"] for m in ev_meta])
+    train_drives = sorted(set(drives_of[split_of == "train"]))
+    classical = {c: _per_sample_rmse((ev["x"][:, CHANNELS.index(c)] - ev["y"]) ** 2, ev["sample"], n_ev)
+                 for c in CLASSICAL}
+    results = {}
+    for name in args.variant:
+        variant = VARIANTS[name]
+        cols, k, n_ends = _columns(variant)
+        for keep in variant["keep"]:
+            if keep not in train_sets:
+                train_sets[keep] = _load(cache, f"train-{keep}")
+        results[name] = {}
+        folds = args.folds or train_drives
+        for held in folds:
+            xs, ys = [], []
+            for keep in variant["keep"]:
+                data, meta = train_sets[keep]
+                ok = np.array([m["drive"] != held for m in meta])[data["sample"]]
+                xs.append(data["x"][ok][:, cols])
+                ys.append(data["y"][ok])
+            start = time.perf_counter()
+            est = _estimator(variant, args.seed, args.epochs)
+            est.model_, _ = est._fit_pixels(np.concatenate(xs), np.concatenate(ys))
+            fit_s = time.perf_counter() - start
+            pred = _predict(est, ev["x"][:, cols])
+            rmse = _per_sample_rmse((pred - ev["y"]) ** 2, ev["sample"], n_ev)
+            for scored in [held] + (["val"] if args.val else []):
+                sel = (drives_of == held) if scored == held else (split_of == "val")
+                best = min(CLASSICAL, key=lambda c: classical[c][sel].mean())
+                r, lo, hi = _ratio_ci(rmse[sel], classical[best][sel])
+                label = scored if scored != "val" else f"val (model without {held})"
+                results[name][label] = {"frames": int(sel.sum()), "hole_rmse": float(rmse[sel].mean()),
+                                        "classical": best, "classical_rmse": float(classical[best][sel].mean()),
+                                        "ratio": r, "ci": [lo, hi]}
+                print(f"{name:10s} {label:48s} n={sel.sum():3d} learned {rmse[sel].mean():6.3f} m  "
+                      f"{best:16s} {classical[best][sel].mean():6.3f} m  ratio {r:.3f} [{lo:.3f}, {hi:.3f}]  "
+                      f"(fit {fit_s:.0f} s)", flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1))
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("cache", help="compute per-pixel features of every frame once")
+    c.add_argument("--kitti-root", required=True)
+    c.add_argument("--out", required=True)
+    c.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    c.add_argument("--train-masks", type=int, default=3)
+    c.add_argument("--pixels", type=int, default=3000)
+    c.add_argument("--keep", type=float, nargs="+", default=[1.0], help="fractions of measured pixels kept in training inputs")
+    c.add_argument("--jobs", type=int, default=2)
+    f = sub.add_parser("fit", help="train variants leave-one-drive-out on the cache and score them")
+    f.add_argument("--cache", required=True)
+    f.add_argument("--variant", action="append", choices=list(VARIANTS), required=True)
+    f.add_argument("--folds", nargs="+", help="held-out train drives (default: each in turn)")
+    f.add_argument("--epochs", type=int, default=4)
+    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--val", action="store_true", help="also score the val frames with each fold's model")
+    f.add_argument("--json", help="write the results here")
+    args = p.parse_args(argv)
+    {"cache": cmd_cache, "fit": cmd_fit}[args.cmd](args)
+
+
+if __name__ == "__main__":
+    main()

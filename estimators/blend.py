@@ -1,0 +1,433 @@
+"""BlendInpainter: a learned per-pixel blend of classical fills, trained in minutes.
+
+For every pixel to fill, a small MLP (:class:`~estimators.nets.pixel_blend.PixelBlendNet`)
+reads classical candidate fills (row- and column-wise interpolation of depth and inverse
+depth, harmonic interpolation of inverse depth), the gap lengths to the nearest
+measurement in the four directions and those measurements' depths, and outputs blend
+weights for the candidates plus a scale-free residual.
+
+The candidates are the expensive part, and they depend only on the frame and its hole,
+so ``fit`` computes them once per (frame, occlusion), samples hole pixels with ground
+truth, and trains the MLP on the pooled pixels for a few epochs. Training on a few
+hundred KITTI frames takes minutes on a CPU (the step-based loop of
+:class:`~estimators.prior.PriorUNetInpainter` recomputes the candidates at every step).
+Prediction runs the MLP on the pixels to fill only.
+
+>>> from estimators.blend import BlendInpainter                     # doctest: +SKIP
+>>> est = BlendInpainter.pretrained()                                # shipped release
+>>> est.predict(depth_with_nan_holes)                                # metres
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from joblib import Parallel, delayed
+
+from inpaintenv.conventions import check_depth
+from inpaintenv.data.base import DepthDataset
+from inpaintenv.masks import get_protocol
+
+from . import _checkpoint as ckpt
+from ._training import frame_label, torch_threads
+from .base import BaseInpainter
+from .nets.pixel_blend import CHUNK, PixelBlendNet
+from .priors import AVAILABLE_CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
+
+__all__ = ["BLEND_CANDIDATES", "BlendInpainter"]
+
+#: Default candidates: cheap row/column scans (one scan per axis serves all four, see
+#: :mod:`estimators._scan`) and the harmonic fill of inverse depth.
+BLEND_CANDIDATES: tuple[str, ...] = (
+    "scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse",
+)
+
+#: Folder of the shipped models (``NAME.safetensors`` + ``NAME.json``).
+PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+
+
+def _pixel_samples(
+    gt: np.ndarray, hole: np.ndarray, keep: float, n_pixels: int, names: tuple[str, ...], endpoints: bool,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Features and ground truth of up to ``n_pixels`` hole pixels with ground truth."""
+    x = np.where(hole, np.nan, gt).astype(np.float32)
+    if keep < 1.0:
+        # Sparser input than the ground truth it comes from (official KITTI maps are
+        # sparser than rebuilt ones): drop measured pixels outside the hole.
+        x[(gt > 0) & ~hole & (rng.random(gt.shape) >= keep)] = 0.0
+    rows, cols = np.nonzero(hole & (gt > 0))
+    if len(rows) > n_pixels:
+        pick = np.sort(rng.choice(len(rows), n_pixels, replace=False))
+        rows, cols = rows[pick], cols[pick]
+    feats = prior_features(x, names, gaps=True, endpoints=endpoints)[3:]
+    return feats[:, rows, cols].T.copy(), gt[rows, cols].astype(np.float32)
+
+
+class BlendInpainter(BaseInpainter):
+    """Learned per-pixel blend of classical fills plus a scale-free residual.
+
+    Parameters
+    ----------
+    candidates : tuple of str, default :data:`BLEND_CANDIDATES`
+        Classical fills the blend chooses between (any of
+        :data:`estimators.priors.AVAILABLE_CANDIDATES`).
+    endpoints : bool, default True
+        Also give the depth of the nearest measurement left, right, above and below.
+    width : int, default 64
+        Hidden units per layer.
+    layers : int, default 2
+        Hidden layers.
+    relative : bool, default True
+        Scale-free blend: depths enter as log-ratios to the candidates' geometric mean
+        and the residual is a fraction of it, so a frame twice as deep gets a
+        prediction twice as deep (the model cannot key on one drive's depth range).
+    keep : tuple of float, default (1.0,)
+        Training inputs per occlusion, one per fraction of the measured pixels kept
+        outside the hole (e.g. ``(1.0, 0.65)`` adds a thinned copy, closer to the
+        sparser official KITTI maps).
+    masks_per_frame : int, default 3
+        Occlusions drawn per training frame (from ``protocol``).
+    pixels_per_frame : int, default 3000
+        Hole pixels with ground truth sampled per (frame, occlusion, keep).
+    epochs : int, default 4
+        Passes over the pooled pixels.
+    batch_pixels : int, default 8192
+        Pixels per optimiser step.
+    lr : float, default 2e-3
+        Peak learning rate (one-cycle schedule, Adam).
+    protocol : str, default "rect-v1"
+        Occlusion protocol of training.
+    tta : bool, default True
+        Average each prediction with that of the mirrored frame.
+    random_state : int, default 0
+        Seeds occlusions, pixel sampling, thinning, initialisation and batch order.
+    num_threads : int, optional
+        torch threads (None: leave torch's setting).
+    n_jobs : int, optional
+        Frames whose features are computed in parallel during ``fit`` (joblib threads;
+        None = 1, -1 = all cores).
+    keep_observed : bool, default True
+        Return measured input pixels unchanged.
+    verbose : bool, default False
+        Print progress of ``fit``.
+
+    Attributes
+    ----------
+    model_ : PixelBlendNet
+    history_ : dict
+        ``epoch_loss``: mean training MSE (m²) per epoch.
+    n_pixels_ : int
+        Training pixels.
+    fit_seconds_ : float
+        Wall-clock time of ``fit``.
+    training_frames_ : int
+        Frames with ground truth used.
+
+    Notes
+    -----
+    Every candidate is mirror-symmetric, so the flip average needs no second frame: a
+    mirrored pixel's features are its own with the left/right channels swapped. Pixels
+    with no measurement outside the holes (LiDAR gaps) take the candidates' mean; the
+    network runs on the pixels to fill (NaN) only, which is what keeps it fast.
+    """
+
+    def __init__(
+        self,
+        *,
+        candidates: tuple[str, ...] = BLEND_CANDIDATES,
+        endpoints: bool = True,
+        width: int = 64,
+        layers: int = 2,
+        relative: bool = True,
+        keep: tuple[float, ...] = (1.0,),
+        masks_per_frame: int = 3,
+        pixels_per_frame: int = 3000,
+        epochs: int = 4,
+        batch_pixels: int = 8192,
+        lr: float = 2e-3,
+        protocol: str = "rect-v1",
+        tta: bool = True,
+        random_state: int = 0,
+        num_threads: int | None = None,
+        n_jobs: int | None = None,
+        keep_observed: bool = True,
+        verbose: bool = False,
+    ):
+        self.candidates = candidates
+        self.endpoints = endpoints
+        self.width = width
+        self.layers = layers
+        self.relative = relative
+        self.keep = keep
+        self.masks_per_frame = masks_per_frame
+        self.pixels_per_frame = pixels_per_frame
+        self.epochs = epochs
+        self.batch_pixels = batch_pixels
+        self.lr = lr
+        self.protocol = protocol
+        self.tta = tta
+        self.random_state = random_state
+        self.num_threads = num_threads
+        self.n_jobs = n_jobs
+        self.keep_observed = keep_observed
+        self.verbose = verbose
+
+    # -- parameters ----------------------------------------------------------------------
+    def _check_params(self) -> None:
+        names = self.candidates
+        if isinstance(names, str) or not isinstance(names, (tuple, list)) or not names or any(
+            n not in AVAILABLE_CANDIDATES for n in names
+        ):
+            raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
+        for name in ("endpoints", "relative", "tta", "keep_observed", "verbose"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        for name, low in (("width", 1), ("layers", 1), ("masks_per_frame", 1), ("pixels_per_frame", 1),
+                          ("epochs", 1), ("batch_pixels", 1), ("random_state", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+        keep = self.keep
+        if isinstance(keep, (str, bytes)) or not isinstance(keep, (tuple, list)) or not keep or any(
+            isinstance(k, bool) or not isinstance(k, (int, float, np.floating)) or not 0.0 < k <= 1.0 for k in keep
+        ):
+            raise ValueError(f"keep must be a non-empty tuple of fractions in (0, 1], got {keep!r}")
+        if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not np.isfinite(self.lr) or self.lr <= 0:
+            raise ValueError(f"lr must be a finite number > 0, got {self.lr!r}")
+        get_protocol(self.protocol)  # unknown protocol: its own clear error
+
+    def _model_params(self) -> dict[str, Any]:
+        """The parameters the weights depend on."""
+        return {"candidates": list(self.candidates), "endpoints": bool(self.endpoints), "width": int(self.width),
+                "layers": int(self.layers), "relative": bool(self.relative)}
+
+    def _check_model_params(self) -> None:
+        if self._model_params() != self.model_params_:
+            changed = sorted(k for k, v in self._model_params().items() if self.model_params_.get(k) != v)
+            raise ValueError(
+                f"{', '.join(changed)} changed since the weights were made ({self.model_params_}); "
+                "refit, or set them back"
+            )
+
+    def _build_model(self) -> PixelBlendNet:
+        return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.layers),
+                             n_endpoints=len(ENDPOINT_CHANNELS) if self.endpoints else 0,
+                             relative=bool(self.relative))
+
+    def _mirror_order(self) -> list[int]:
+        """Pixel-feature channel order of the mirrored frame (left and right swapped)."""
+        k = len(self.candidates)
+        order = list(range(k + len(GAP_CHANNELS) + (len(ENDPOINT_CHANNELS) if self.endpoints else 0)))
+        order[k], order[k + 1] = k + 1, k
+        if self.endpoints:
+            e = k + len(GAP_CHANNELS)
+            order[e], order[e + 1] = e + 1, e
+        return order
+
+    # -- fitting ---------------------------------------------------------------------------
+    def _fit(self, dataset: DepthDataset) -> None:
+        self._check_params()
+        start = time.perf_counter()
+        x, y = self.training_pixels(dataset)
+        if not len(y):
+            raise ValueError("no training frame has ground truth inside its sampled holes; nothing to learn")
+        with torch_threads(self.num_threads):
+            self.model_, self.history_ = self._fit_pixels(x, y)
+        self.model_params_ = self._model_params()
+        self.n_pixels_ = len(y)
+        self.fit_seconds_ = time.perf_counter() - start
+
+    def training_pixels(self, dataset: DepthDataset) -> tuple[np.ndarray, np.ndarray]:
+        """Features ``(P, C)`` and ground truth ``(P,)`` of the sampled training pixels.
+
+        Frame ``i`` gets ``masks_per_frame`` occlusions from its own random stream
+        (``random_state``, ``i``), independent of the evaluation masks
+        (``protocol.mask(shape, seed, i)``), and one input per ``keep`` fraction.
+        """
+        protocol = get_protocol(self.protocol)
+        names, endpoints = tuple(self.candidates), bool(self.endpoints)
+
+        def one_frame(i: int) -> list[tuple[np.ndarray, np.ndarray]]:
+            gt = check_depth(dataset[i], name=f"training frame {frame_label(dataset, i)}", ndim=(2,))
+            if not (gt > 0).any():
+                return []
+            rng = np.random.default_rng([int(self.random_state), i, 0xB1E9D])
+            out = []
+            for _ in range(int(self.masks_per_frame)):
+                hole = protocol.sample(gt.shape, rng)
+                out += [_pixel_samples(gt, hole, float(k), int(self.pixels_per_frame), names, endpoints, rng)
+                        for k in self.keep]
+            return out
+
+        jobs = Parallel(n_jobs=self.n_jobs, prefer="threads", verbose=5 if self.verbose else 0)(
+            delayed(one_frame)(i) for i in range(len(dataset))
+        )
+        parts = [p for frame in jobs for p in frame]
+        self.training_frames_ = sum(1 for frame in jobs if frame)
+        if not parts:
+            return np.zeros((0, 0), np.float32), np.zeros(0, np.float32)
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    def _fit_pixels(self, x: np.ndarray, y: np.ndarray) -> tuple[PixelBlendNet, dict[str, list[float]]]:
+        """Train a fresh network on pixel features ``x`` (``(P, C)``) and depths ``y`` (metres)."""
+        seed = int(self.random_state)
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            net = self._build_model()
+        rng = np.random.default_rng([seed, 0x5EED])
+        batch = int(self.batch_pixels)
+        per_epoch = max(1, len(y) // batch)
+        optimizer = torch.optim.Adam(net.parameters(), lr=float(self.lr))
+        schedule = torch.optim.lr_scheduler.OneCycleLR(
+            optimizer, max_lr=float(self.lr), total_steps=per_epoch * int(self.epochs), pct_start=0.05
+        )
+        xt, yt = torch.from_numpy(np.ascontiguousarray(x, np.float32)), torch.from_numpy(y)
+        mirrored = self._mirror_order()
+        history: dict[str, list[float]] = {"epoch_loss": []}
+        net.train()
+        for epoch in range(int(self.epochs)):
+            order = torch.from_numpy(rng.permutation(len(y))[: per_epoch * batch])
+            losses = []
+            for idx in order.split(batch):
+                xb = xt[idx]
+                if rng.random() < 0.5:  # flip augmentation: the mirrored frame's pixels
+                    xb = xb[:, mirrored]
+                loss = (net.blend(xb) - yt[idx]).square().mean()
+                if not torch.isfinite(loss):
+                    raise FloatingPointError(f"training loss became {loss.item()} in epoch {epoch}; lower lr")
+                optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                optimizer.step()
+                schedule.step()
+                losses.append(float(loss.detach()))
+            history["epoch_loss"].append(float(np.mean(losses)))
+            if self.verbose:
+                print(f"epoch {epoch + 1}/{self.epochs}: loss {history['epoch_loss'][-1]:.3f} m²", flush=True)
+        net.eval()
+        return net, history
+
+    # -- prediction ------------------------------------------------------------------------
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        self._check_params()
+        self._check_model_params()
+        out = np.empty(X.shape, np.float32)
+        with torch_threads(self.num_threads), torch.inference_mode():
+            for i, frame in enumerate(X):
+                out[i] = self._predict_frame(frame)
+        return out
+
+    def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
+        k = len(self.candidates)
+        feats = prior_features(frame, tuple(self.candidates), gaps=True, endpoints=bool(self.endpoints))
+        pred = np.where(feats[2] > 0, feats[0], feats[3:3 + k].mean(axis=0))
+        hole = feats[1] > 0
+        if not hole.any():
+            return pred
+        pixels = torch.from_numpy(np.ascontiguousarray(feats[3:, hole].T))
+        mirrored = self._mirror_order() if self.tta else None
+        values = []
+        for p in pixels.split(CHUNK):
+            v = self.model_.blend(p)
+            if mirrored is not None:
+                v = 0.5 * (v + self.model_.blend(p[:, mirrored]))
+            values.append(v)
+        # Floor at half the smallest candidate: a residual pushing a far pixel towards
+        # 0 m barely moves RMSE but explodes inverse-depth errors.
+        floor = 0.5 * pixels[:, :k].min(dim=1).values
+        pred[hole] = torch.maximum(torch.cat(values), floor).numpy()
+        return pred
+
+    # -- persistence -----------------------------------------------------------------------
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the fitted model to the folder ``path`` (``model.safetensors`` + ``config.json``).
+
+        Returns
+        -------
+        pathlib.Path
+            The folder; read it back with :meth:`load`.
+        """
+        if not getattr(self, "is_fitted_", False):
+            raise ValueError("BlendInpainter is not fitted; call fit first")
+        self._check_model_params()
+        params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
+        config = {"class": type(self).__name__, "params": params, "model_params": self.model_params_,
+                  "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
+                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]}}
+        return ckpt.write_checkpoint(path, config, self.model_.state_dict())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> BlendInpainter:
+        """Load a model written by :meth:`save`.
+
+        Raises
+        ------
+        estimators._checkpoint.CheckpointError
+            Missing, corrupt or foreign files, or a checkpoint of another class.
+        """
+        config, weights, _, _ = ckpt.read_checkpoint(path)
+        if config.get("class") != cls.__name__:
+            raise ckpt.CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
+        params = dict(config["params"])
+        for name in ("candidates", "keep"):
+            params[name] = tuple(params[name])
+        try:
+            est = cls(**params)
+        except TypeError as e:
+            raise ckpt.CheckpointError(f"{path} has parameters this version does not know: {e}") from None
+        est._check_params()
+        est.model_ = est._build_model()
+        try:
+            est.model_.load_state_dict(weights)
+        except RuntimeError as e:
+            raise ckpt.CheckpointError(f"{path}: weights do not fit the recorded parameters: {e}") from None
+        est.model_.eval()
+        est.model_params_ = dict(config["model_params"])
+        fit = config.get("fit", {})
+        est.n_pixels_ = fit.get("n_pixels", 0)
+        est.training_frames_ = fit.get("training_frames", 0)
+        est.fit_seconds_ = fit.get("fit_seconds", float("nan"))
+        est.history_ = {"epoch_loss": list(fit.get("epoch_loss", []))}
+        est.is_fitted_ = True
+        return est
+
+    @classmethod
+    def pretrained(cls, name: str, **overrides: Any) -> BlendInpainter:
+        """Load a shipped release (``estimators/pretrained/NAME.{safetensors,json}``).
+
+        Parameters
+        ----------
+        name : str
+            Release name, e.g. ``"kitti-blend-v4"``.
+        **overrides
+            Prediction-time parameters (``tta``, ``num_threads``, ``keep_observed``).
+
+        Raises
+        ------
+        KeyError
+            No release of this class under ``name``.
+        ValueError
+            An override of a parameter the weights depend on.
+        """
+        meta = PRETRAINED_DIR / f"{name}.json"
+        if not isinstance(name, str) or not meta.is_file() or json.loads(meta.read_text()).get("class") != cls.__name__:
+            shipped = sorted(p.stem for p in PRETRAINED_DIR.glob("*.json")
+                             if json.loads(p.read_text()).get("class") == cls.__name__)
+            raise KeyError(f"no pretrained {cls.__name__} {name!r}; shipped: {shipped}")
+        import shutil
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            shutil.copyfile(PRETRAINED_DIR / f"{name}.safetensors", Path(tmp) / ckpt.MODEL_FILE)
+            shutil.copyfile(meta, Path(tmp) / ckpt.CONFIG_FILE)
+            est = cls.load(tmp)
+        if overrides:
+            est.set_params(**overrides)
+            est._check_model_params()
+        return est

@@ -1,0 +1,134 @@
+"""BlendInpainter: pixel sampling, training, hole-only prediction, persistence, errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from estimators._checkpoint import CheckpointError
+from estimators.blend import BlendInpainter
+from estimators.priors import prior_features
+from inpaintenv.data import ArrayDataset
+
+
+def _streets(n: int = 6, h: int = 40, w: int = 96, seed: int = 0) -> np.ndarray:
+    """Ground-plane-like frames: inverse depth linear in the row, LiDAR-like gaps."""
+    rng = np.random.default_rng(seed)
+    rows = np.arange(h, dtype=np.float32)[:, None]
+    frames = []
+    for k in range(n):
+        depth = 400.0 / (rows + 8.0 + 2 * k) + 0.02 * np.arange(w, dtype=np.float32)[None]
+        depth = np.broadcast_to(depth, (h, w)).copy()
+        depth[rng.random((h, w)) < 0.4] = 0.0
+        frames.append(depth)
+    return np.stack(frames).astype(np.float32)
+
+
+TINY = dict(width=8, layers=1, epochs=2, masks_per_frame=2, pixels_per_frame=200, batch_pixels=128, num_threads=1)
+
+
+@pytest.fixture(scope="module")
+def fitted() -> BlendInpainter:
+    return BlendInpainter(**TINY).fit(ArrayDataset(_streets(), groups=list("aabbcc")))
+
+
+def _corrupt(gt: np.ndarray) -> np.ndarray:
+    x = gt.copy()
+    x[10:25, 30:70] = np.nan
+    return x
+
+
+def test_fit_learns_more_than_the_candidate_mean(fitted):
+    gt = _streets(n=2, seed=5)
+    x = np.stack([_corrupt(g) for g in gt])
+    hole = np.isnan(x) & (gt > 0)
+    untrained = BlendInpainter(**{**TINY, "epochs": 1})
+    untrained.model_ = untrained._build_model()  # head starts at zero: the candidates' mean
+    untrained.model_params_, untrained.is_fitted_ = untrained._model_params(), True
+    err = lambda est: np.sqrt(np.mean((est.predict(x)[hole] - gt[hole]) ** 2))  # noqa: E731
+    assert err(fitted) < err(untrained)
+    assert fitted.n_pixels_ > 0 and fitted.training_frames_ == 6
+    assert len(fitted.history_["epoch_loss"]) == TINY["epochs"]
+
+
+def test_network_runs_on_the_pixels_to_fill_only(fitted):
+    x = _corrupt(_streets(n=1, seed=3)[0])
+    out = fitted.predict(x)
+    feats = prior_features(x, fitted.candidates, gaps=True, endpoints=True)
+    k = len(fitted.candidates)
+    gaps_outside = (x == 0)
+    # LiDAR gaps outside the hole: the candidates' mean; measured pixels: kept.
+    np.testing.assert_allclose(out[gaps_outside], feats[3:3 + k].mean(0)[gaps_outside], rtol=1e-6)
+    np.testing.assert_array_equal(out[x > 0], x[x > 0])
+    assert np.isfinite(out).all() and (out[np.isnan(x)] > 0).all()
+
+
+def test_flip_average_is_mirror_symmetric(fitted):
+    x = _corrupt(_streets(n=1, seed=4)[0])
+    out = fitted.predict(x)
+    mirrored = fitted.predict(x[:, ::-1].copy())[:, ::-1]
+    np.testing.assert_allclose(out, mirrored, rtol=1e-4, atol=1e-4)
+
+
+def test_training_is_reproducible():
+    data = ArrayDataset(_streets(n=3))
+    a = BlendInpainter(**TINY).fit(data)
+    b = BlendInpainter(**TINY).fit(data)
+    for p, q in zip(a.model_.parameters(), b.model_.parameters()):
+        torch.testing.assert_close(p, q, rtol=0, atol=0)
+
+
+def test_thinned_copies_add_training_pixels():
+    data = ArrayDataset(_streets(n=3))
+    one = BlendInpainter(**TINY).training_pixels(data)
+    two = BlendInpainter(**{**TINY, "keep": (1.0, 0.5)}).training_pixels(data)
+    assert len(two[1]) > len(one[1])
+    assert one[0].shape[1] == two[0].shape[1] == 5 + 4 + 4  # candidates, gaps, endpoints
+
+
+def test_save_load_round_trip(fitted, tmp_path):
+    path = fitted.save(tmp_path / "model")
+    again = BlendInpainter.load(path)
+    x = _corrupt(_streets(n=1, seed=6)[0])
+    np.testing.assert_array_equal(again.predict(x), fitted.predict(x))
+    assert again.get_params() == fitted.get_params()
+
+
+def test_changed_architecture_after_fit_is_refused(fitted, tmp_path):
+    est = BlendInpainter.load(fitted.save(tmp_path / "model"))
+    est.set_params(width=16)
+    with pytest.raises(ValueError, match="width changed since the weights were made"):
+        est.predict(_corrupt(_streets(n=1)[0]))
+
+
+def test_load_errors(tmp_path, fitted):
+    with pytest.raises(CheckpointError, match="no checkpoint directory"):
+        BlendInpainter.load(tmp_path / "nope")
+    path = fitted.save(tmp_path / "m")
+    (path / "model.safetensors").write_bytes(b"garbage")
+    with pytest.raises(CheckpointError, match="checksum"):
+        BlendInpainter.load(path)
+
+
+@pytest.mark.parametrize("params, match", [
+    ({"keep": (0.0,)}, "keep must be"),
+    ({"keep": "1"}, "keep must be"),
+    ({"candidates": ("telepathy",)}, "candidates must be"),
+    ({"width": 0}, "width must be"),
+    ({"lr": float("nan")}, "lr must be"),
+    ({"protocol": "nope"}, "nope"),
+])
+def test_bad_parameters(params, match):
+    with pytest.raises((ValueError, KeyError), match=match):
+        BlendInpainter(**{**TINY, **params}).fit(_streets(n=2))
+
+
+def test_no_ground_truth_in_any_hole_is_a_clear_error():
+    with pytest.raises(ValueError, match="no training frame has ground truth"):
+        BlendInpainter(**TINY).fit(np.zeros((2, 40, 96), np.float32))
+
+
+def test_unknown_release_lists_the_shipped_ones():
+    with pytest.raises(KeyError, match="no pretrained BlendInpainter 'nope'"):
+        BlendInpainter.pretrained("nope")
