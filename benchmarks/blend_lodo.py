@@ -115,15 +115,19 @@ def cmd_cache(args: argparse.Namespace) -> None:
 #: Recipes compared by ``fit``: candidate subset, endpoint channels, row context, which
 #: training inputs (``keep``: fraction of measured pixels kept), network size.
 SIX = ["scanline", "scanline-inverse", "vertical", "harmonic", "vertical-inverse", "harmonic-inverse"]
+FIVE = ["scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"]
+_SMALL = {"endpoints": True, "width": 64, "layers": 2}
 VARIANTS: dict[str, dict] = {
-    "base": {"candidates": SIX, "endpoints": False, "keep": ["1"], "width": 128, "layers": 3},
-    "endpoints": {"candidates": SIX, "endpoints": True, "keep": ["1"], "width": 128, "layers": 3},
-    "rowctx": {"candidates": SIX + ["row-median", "row-far"], "endpoints": True, "keep": ["1"], "width": 128,
-               "layers": 3},
-    "thin": {"candidates": SIX, "endpoints": True, "keep": ["1", "0.65"], "width": 128, "layers": 3},
-    "small": {"candidates": SIX, "endpoints": True, "keep": ["1", "0.65"], "width": 64, "layers": 2},
-    "cheap": {"candidates": ["scanline", "scanline-inverse", "vertical-inverse", "harmonic-inverse"],
-              "endpoints": True, "keep": ["1", "0.65"], "width": 64, "layers": 2},
+    # kitti-rect-v3's inputs (six candidates, gaps, no endpoints) at its size
+    "v3-inputs": {"candidates": SIX, "endpoints": False, "keep": ["1"], "width": 128, "layers": 3},
+    "six": {"candidates": SIX, "keep": ["1"], **_SMALL},
+    "five": {"candidates": FIVE, "keep": ["1"], **_SMALL},
+    "five-thin": {"candidates": FIVE, "keep": ["1", "0.65"], **_SMALL},
+    "six-thin": {"candidates": SIX, "keep": ["1", "0.65"], **_SMALL},
+    "rowctx-thin": {"candidates": FIVE + ["row-median", "row-far"], "keep": ["1", "0.65"], **_SMALL},
+    "five-thin-wide": {"candidates": FIVE, "keep": ["1", "0.65"], "endpoints": True, "width": 128, "layers": 3},
+    "four-thin": {"candidates": ["scanline", "scanline-inverse", "vertical-inverse", "harmonic-inverse"],
+                  "keep": ["1", "0.65"], **_SMALL},
 }
 CLASSICAL = ["scanline", "scanline-inverse", "harmonic", "harmonic-inverse"]
 

@@ -37,10 +37,11 @@ from inpaintenv.masks import get_protocol
 from . import _checkpoint as ckpt
 from ._training import frame_label, torch_threads
 from .base import BaseInpainter
-from .nets.pixel_blend import CHUNK, PixelBlendNet
+from .nets import pixel_blend
+from .nets.pixel_blend import PixelBlendNet
 from .priors import AVAILABLE_CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
 
-__all__ = ["BLEND_CANDIDATES", "BlendInpainter"]
+__all__ = ["BLEND_CANDIDATES", "DEFAULT_BLEND", "BlendInpainter", "pretrained_blend"]
 
 #: Default candidates: cheap row/column scans (one scan per axis serves all four, see
 #: :mod:`estimators._scan`) and the harmonic fill of inverse depth.
@@ -50,6 +51,8 @@ BLEND_CANDIDATES: tuple[str, ...] = (
 
 #: Folder of the shipped models (``NAME.safetensors`` + ``NAME.json``).
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+#: The shipped release that ``blend-pretrained`` (alias ``unet-pretrained``) loads.
+DEFAULT_BLEND = "kitti-rect-v4"
 
 
 def _pixel_samples(
@@ -333,7 +336,7 @@ class BlendInpainter(BaseInpainter):
         pixels = torch.from_numpy(np.ascontiguousarray(feats[3:, hole].T))
         mirrored = self._mirror_order() if self.tta else None
         values = []
-        for p in pixels.split(CHUNK):
+        for p in pixels.split(pixel_blend.CHUNK):
             v = self.model_.blend(p)
             if mirrored is not None:
                 v = 0.5 * (v + self.model_.blend(p[:, mirrored]))
@@ -398,13 +401,13 @@ class BlendInpainter(BaseInpainter):
         return est
 
     @classmethod
-    def pretrained(cls, name: str, **overrides: Any) -> BlendInpainter:
+    def pretrained(cls, name: str = DEFAULT_BLEND, **overrides: Any) -> BlendInpainter:
         """Load a shipped release (``estimators/pretrained/NAME.{safetensors,json}``).
 
         Parameters
         ----------
         name : str
-            Release name, e.g. ``"kitti-blend-v4"``.
+            Release name (default :data:`DEFAULT_BLEND`).
         **overrides
             Prediction-time parameters (``tta``, ``num_threads``, ``keep_observed``).
 
@@ -431,3 +434,8 @@ class BlendInpainter(BaseInpainter):
             est.set_params(**overrides)
             est._check_model_params()
         return est
+
+
+def pretrained_blend(name: str = DEFAULT_BLEND, **overrides: Any) -> BlendInpainter:
+    """Factory for the registry: a shipped :class:`BlendInpainter` release (see :meth:`BlendInpainter.pretrained`)."""
+    return BlendInpainter.pretrained(name, **overrides)

@@ -13,6 +13,9 @@ import os
 import time
 from typing import Any
 
+import inspect
+
+from .blend import BlendInpainter
 from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
@@ -133,17 +136,32 @@ def describe_preset(name: str) -> str:
     raise KeyError(f"unknown preset {name!r}; known presets: {', '.join(available_presets())}")
 
 
-def make_preset(name: str, **overrides: Any) -> PriorUNetInpainter:
+#: Keywords the training runner passes to every preset; dropped for estimators without them.
+_RUNNER_KEYWORDS = ("checkpoint_dir", "verbose")
+
+
+def make_preset(name: str, **overrides: Any) -> Any:
     """The unfitted estimator of preset ``name`` (keywords in ``overrides`` replace its own).
 
     Raises
     ------
     KeyError
         Unknown preset (the message lists the known ones).
+    ValueError
+        An override the preset's estimator does not have (e.g. ``max_steps`` for a
+        :class:`~estimators.blend.BlendInpainter`, which trains for ``epochs``).
     """
     if name not in PRESETS:
         raise KeyError(f"unknown single-stage preset {name!r}; known: {', '.join(PRESETS)}")
     cls, params, _ = PRESETS[name]
+    accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
+    overrides = {k: v for k, v in overrides.items() if k in accepted or k not in _RUNNER_KEYWORDS}
+    unknown = sorted(set(overrides) - accepted)
+    if unknown:
+        raise ValueError(
+            f"preset {name!r} ({cls.__name__}) has no parameter {', '.join(unknown)}; "
+            f"its parameters: {', '.join(sorted(accepted))}"
+        )
     return cls(**{**params, **overrides})
 
 

@@ -16,6 +16,7 @@ test-time flip averaging differ. See ``docs/model_card.md`` for the shipped mode
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -28,7 +29,8 @@ import torch
 
 from . import _checkpoint as ckpt
 from . import neural
-from .nets.pixel_blend import CHUNK, PixelBlendNet
+from .nets import pixel_blend
+from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
 from .neural import _NeuralInpainter
 from .priors import AVAILABLE_CANDIDATES, CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
@@ -54,7 +56,9 @@ def available_pretrained() -> list[str]:
     """Names accepted by :meth:`PriorUNetInpainter.pretrained`."""
     if not PRETRAINED_DIR.is_dir():
         return []
-    return sorted(p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file())
+    # The folder also holds releases of other classes (estimators.blend).
+    return sorted(p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file()
+                  and json.loads(p.read_text()).get("class") == "PriorUNetInpainter")
 
 
 class PriorUNetInpainter(_NeuralInpainter):
@@ -394,7 +398,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         mirrored = self._mirror_order() if self.tta else None
         parts = []
         with autocast:
-            for p in pixels.split(CHUNK):
+            for p in pixels.split(pixel_blend.CHUNK):
                 value = model.blend(p).float()
                 if mirrored is not None:
                     value = 0.5 * (value + model.blend(p[:, mirrored]).float())
