@@ -163,7 +163,7 @@ def add_evaluate(subparsers: Any) -> None:
     p.add_argument("--max-depth", type=float, default=DEFAULT_MAX_DEPTH, help="PSNR range in metres (default 80)")
     p.add_argument("--n-jobs", type=int, help="n_jobs passed to each method")
     p.add_argument("--by-drive", action="store_true", help="also print a table per drive")
-    p.add_argument("--out", metavar="DIR", help="write results.json, results.csv and table.md here")
+    p.add_argument("--out", metavar="DIR", help="write results.json, results.csv, table.md and table.csv here")
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_evaluate)
@@ -172,6 +172,7 @@ def add_evaluate(subparsers: Any) -> None:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from .evaluate import EvaluationResult, evaluate
     from .registry import make_method
+    from .tables import summary_table, table_to_csv
 
     # Check the options and build every method first, so a typo fails before any long run.
     seeds = check_seeds(args.seed or [0], "--seed")
@@ -196,7 +197,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         result.to_json(out / "results.json")
         result.to_csv(out / "results.csv")
         (out / "table.md").write_text(table + "\n")
-        print(f"\nwrote {out / 'results.json'}, {out / 'results.csv'}, {out / 'table.md'}", file=sys.stderr)
+        table_to_csv(summary_table(result), out / "table.csv")
+        print(f"\nwrote {out / 'results.json'}, {out / 'results.csv'}, {out / 'table.md'}, {out / 'table.csv'}",
+              file=sys.stderr)
     return 0
 
 

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from . import tables
 from .conventions import DEFAULT_MAX_DEPTH, check_int, check_max_depth, check_seeds
 from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
@@ -227,12 +228,16 @@ class EvaluationResult:
 
     # -- output ------------------------------------------------------------------------
     def to_json(self, path: str | Path) -> Path:
-        """Write ``{"meta", "table", "by_drive", "rows"}`` as JSON (NaN written as null)."""
+        """Write ``{"meta", "table", "by_drive", "rows"}`` as JSON (NaN written as null).
+
+        ``table`` and ``by_drive`` are :func:`inpaintenv.tables.summary_table` entries:
+        means with interval bounds (null when undefined) and the frames in each mean.
+        """
         path = Path(path)
         doc = {
             "meta": self.meta,
-            "table": self.table,
-            "by_drive": self.by_drive(),
+            "table": tables.summary_table(self),
+            "by_drive": tables.summary_table(self, ("method", "protocol", "drive")),
             "rows": self.rows,
         }
         path.write_text(json.dumps(json_safe(doc), indent=1))
@@ -262,41 +267,27 @@ class EvaluationResult:
             rows = [parse_row(r) for r in csv.DictReader(f)]
         return cls(rows=rows, meta={})
 
-    def to_markdown(self, table: list[dict[str, Any]] | None = None) -> str:
-        """The aggregate table as Markdown (RMSE/MAE in m, iRMSE in 1/km, PSNR in dB)."""
-        table = self.table if table is None else table
-        cols = [
-            ("method", "method", None),
-            ("protocol", "protocol", None),
-            ("n_frames", "frames", "d"),
-            ("n_skipped_hole", "skipped", "d"),
-            ("hole_rmse", "hole RMSE", ".3f"),
-            ("hole_mae", "hole MAE", ".3f"),
-            ("hole_irmse", "hole iRMSE", ".2f"),
-            ("hole_psnr", "hole PSNR", ".2f"),
-            ("all_rmse", "all RMSE", ".3f"),
-            ("all_mae", "all MAE", ".3f"),
-            ("all_psnr", "all PSNR", ".2f"),
-            ("ms_per_frame", "ms/frame", ".1f"),
-        ]
-        extra = [k for k in ("drive", "seed") if table and k in table[0]]
-        cols[2:2] = [(k, k, None) for k in extra]
-        lines = [
-            "| " + " | ".join(h for _, h, _ in cols) + " |",
-            "|" + "|".join("---" if fmt is None else "---:" for _, _, fmt in cols) + "|",
-        ]
-        for entry in table:
-            cells = []
-            for key, _, fmt in cols:
-                v = entry.get(key)
-                if fmt is None:
-                    cells.append(str(v))
-                elif v is None or (isinstance(v, float) and math.isnan(v)):
-                    cells.append("–")
-                else:
-                    cells.append(format(int(v) if fmt == "d" else float(v), fmt))
-            lines.append("| " + " | ".join(cells) + " |")
-        return "\n".join(lines)
+    def to_markdown(
+        self, table: list[dict[str, Any]] | None = None, *, keys: Sequence[str] | None = None
+    ) -> str:
+        """The table of these rows as Markdown, in the one format of every table.
+
+        Means over frames with their 95 % bootstrap interval, units in the header,
+        ``frames`` and ``skipped`` columns and the notes explaining them underneath (see
+        :func:`inpaintenv.tables.to_markdown`).
+
+        Parameters
+        ----------
+        table : list of dict, optional
+            An aggregate table of these rows (e.g. :meth:`by_drive`); only its grouping
+            is used: ``method``, ``protocol`` and whichever of ``drive``, ``seed`` it has.
+        keys : sequence of str, optional
+            Row columns to group by instead (default ``("method", "protocol")``).
+        """
+        if keys is None:
+            extra = [k for k in ("drive", "seed") if table and k in table[0]]
+            keys = ("method", "protocol", *extra)
+        return tables.to_markdown(tables.summary_table(self, keys), keys)
 
     def __repr__(self) -> str:
         return f"EvaluationResult({len(self.rows)} rows, methods={self.methods})"

@@ -50,6 +50,10 @@ def test_evaluate_writes_json_csv_and_prints_table(tmp_path, capsys):
     csv_rows = EvaluationResult.from_csv(out / "results.csv").rows
     assert [r["hole_rmse"] for r in csv_rows] == pytest.approx([r["hole_rmse"] for r in res.rows], nan_ok=True)
     assert (out / "table.md").read_text().startswith("| method |")
+    # The table as CSV: 6 (seed, frame) pairs per method, so an interval (not n=1) per row.
+    table_csv = (out / "table.csv").read_text().splitlines()
+    assert table_csv[0].startswith("method,protocol,n_frames,n_skipped_hole,hole_rmse,hole_rmse_low")
+    assert len(table_csv) == 3
 
 
 def test_evaluate_unknown_method_is_one_line_error(capsys):

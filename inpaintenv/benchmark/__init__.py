@@ -4,11 +4,11 @@ This subpackage (with :mod:`inpaintenv.cli`) is the only part of ``inpaintenv`` 
 knows methods by name; it builds them through :mod:`inpaintenv.registry`.
 """
 
+from ..stats import bootstrap_mean_ci, bootstrap_ratio_ci
 from .headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
 from .identity import method_identity
 from .report import summary_table, to_markdown, write_report
 from .runner import RunMismatchError, RunStateError, run_benchmark
-from .stats import bootstrap_mean_ci, bootstrap_ratio_ci
 from .suites import SUITES, LazyMethod, suite_methods
 
 __all__ = [

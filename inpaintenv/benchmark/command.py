@@ -46,7 +46,7 @@ def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_opti
     p.add_argument("--out", default="benchmark-results", metavar="DIR", help="output folder (default benchmark-results)")
     p.add_argument("--no-resume", action="store_true", help="discard rows already in --out")
     p.add_argument("--figure-frames", type=int, default=2, metavar="N",
-                   help="frames drawn as study-style panels (default 2; 0 = no figures)")
+                   help="frames drawn as study-style panels, spread over the drives (default 2; 0 = no figures)")
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_benchmark)
@@ -85,7 +85,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..cli import open_source_from_args
     from ..data import split_by_drive
     from ..data.synthetic import SyntheticStreets
-    from .figures import frame_panel, plot_error_vs_distance, plot_error_vs_hole_size
+    from .figures import write_figures
     from .headline import headline_markdown, learned_vs_classical
     from .report import summary_table, to_markdown, write_report
     from .runner import run_benchmark
@@ -146,14 +146,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
     if args.figure_frames > 0:
         fig_dir = Path(args.out) / "figures"
-        chosen = {n: materialise(n, methods[n]) for n in _figure_methods(table, methods)}
-        indices = list(range(min(args.figure_frames, len(dataset))))
-        for i in indices:
-            frame_panel(chosen, dataset, i, fig_dir / f"frame_{i:04d}.png", protocol=protocols[0], seed=seeds[0])
-        plot_error_vs_hole_size(result, fig_dir / "error_vs_hole_size.png")
-        plot_error_vs_distance(
-            chosen, dataset, list(range(min(8, len(dataset)))), fig_dir / "error_vs_distance.png",
-            protocol=protocols[0], seed=seeds[0],
+        write_figures(
+            result, {n: (lambda n=n: materialise(n, methods[n])) for n in methods}, dataset, fig_dir,
+            panel_methods=list(_figure_methods(table, methods)), n_panels=args.figure_frames,
+            protocol=protocols[0], seed=seeds[0], log=log,
         )
         log(f"figures in {fig_dir}")
     log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")

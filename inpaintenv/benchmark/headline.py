@@ -16,7 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..evaluate import EvaluationResult
-from .stats import bootstrap_ratio_ci
+from ..stats import bootstrap_ratio_ci
+from ..tables import interval_cell, table_notes
 from .suites import CLASSICAL, STUDY_CLASSICAL
 
 __all__ = ["CLASSICAL_METHODS", "learned_vs_classical", "headline_markdown"]
@@ -63,9 +64,11 @@ def learned_vs_classical(
     list of dict
         One entry per group that has at least one method of each kind: the ``keys``,
         ``learned`` / ``classical`` (method names), their mean ``*_hole_rmse``,
-        ``hole_ratio`` with ``hole_ratio_low`` / ``hole_ratio_high``,
-        ``all_over_classical_hole`` (learned all-pixel RMSE ÷ classical hole RMSE) and
-        ``n_frames`` (frame-masks in the paired comparison).
+        ``hole_ratio`` with ``hole_ratio_low`` / ``hole_ratio_high`` (NaN from a single
+        frame) and ``hole_ratio_n`` (frame-masks in the paired comparison),
+        ``all_over_classical_hole`` (learned all-pixel RMSE ÷ classical hole RMSE),
+        ``n_frames`` (frame-masks both methods scored) and ``n_skipped_hole`` (those of
+        them without ground truth in their hole, left out), as in every table.
     """
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}")
@@ -84,6 +87,9 @@ def learned_vs_classical(
         best_l = min(learned, key=mean.__getitem__)
         best_c = min(strong, key=mean.__getitem__)
         shared = sorted(set(hole[best_l]) & set(hole[best_c]))
+        both = {(r["seed"], r["index"]) for r in by_method[best_l]} & {
+            (r["seed"], r["index"]) for r in by_method[best_c]
+        }
         if not shared:
             continue
         a = np.array([hole[best_l][k] for k in shared])
@@ -96,25 +102,43 @@ def learned_vs_classical(
             "learned": best_l, "learned_hole_rmse": float(a.mean()),
             "classical": best_c, "classical_hole_rmse": float(b.mean()),
             "hole_ratio": float(ratio), "hole_ratio_low": float(low), "hole_ratio_high": float(high),
+            "hole_ratio_n": len(shared),
             "all_over_classical_hole": all_mean / float(b.mean()),
-            "n_frames": len(shared),
+            "n_frames": len(both), "n_skipped_hole": len(both) - len(shared),
         })
     return out
 
 
 def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protocol", "drive")) -> str:
-    """Markdown table of :func:`learned_vs_classical` (empty string when there is nothing to compare)."""
+    """Markdown table of :func:`learned_vs_classical`, notes underneath (empty string when
+    there is nothing to compare).
+
+    ``frames`` and ``skipped`` count as in every table; the ratio follows the interval rule
+    of :func:`inpaintenv.tables.interval_cell`.
+    """
     if not rows:
         return ""
-    heads = list(keys) + ["frames", "best learned (hole RMSE m)", "strongest classical (hole RMSE m)",
+    heads = list(keys) + ["frames", "skipped", "best learned (hole RMSE m)", "strongest classical (hole RMSE m)",
                           "ratio [95 % CI]", "learned all ÷ classical hole"]
-    lines = ["| " + " | ".join(heads) + " |", "|" + "|".join(["---"] * len(keys) + ["---:"] + ["---"] * 2 + ["---:"] * 2) + "|"]
+    lines = [
+        "| " + " | ".join(heads) + " |",
+        "|" + "|".join(["---"] * len(keys) + ["---:"] * 2 + ["---"] * 2 + ["---:"] * 2) + "|",
+    ]
+    ratios = []
     for r in rows:
+        ratios.append(interval_cell(
+            r["hole_ratio"], r["hole_ratio_low"], r["hole_ratio_high"], r["hole_ratio_n"], ".2f", brackets=True
+        ))
         lines.append("| " + " | ".join([str(r[k]) for k in keys] + [
             str(r["n_frames"]),
+            str(r["n_skipped_hole"]),
             f"{r['learned']} {r['learned_hole_rmse']:.2f}",
             f"{r['classical']} {r['classical_hole_rmse']:.2f}",
-            f"{r['hole_ratio']:.2f} [{r['hole_ratio_low']:.2f}, {r['hole_ratio_high']:.2f}]",
+            ratios[-1],
             f"{r['all_over_classical_hole']:.2f}",
         ]) + " |")
-    return "\n".join(lines)
+    notes = table_notes(
+        ratios, frames="frame-masks both methods scored",
+        values="ratio of the mean hole RMSEs [paired 95 % percentile-bootstrap interval] (2,000 resamples, seed 0)",
+    )
+    return "\n".join(lines + [""] + notes)

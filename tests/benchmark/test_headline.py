@@ -42,8 +42,9 @@ def test_groups_by_drive_and_skips_frames_without_hole_truth():
     by_drive = {r["drive"]: r for r in out}
     assert by_drive["d0"]["hole_ratio"] == pytest.approx(0.5)
     d1 = by_drive["d1"]
-    assert d1["n_frames"] == 1 and d1["hole_ratio"] == pytest.approx(2.0)
-    assert d1["hole_ratio_low"] == d1["hole_ratio_high"] == d1["hole_ratio"]  # one frame: no interval
+    assert (d1["n_frames"], d1["n_skipped_hole"], d1["hole_ratio_n"]) == (2, 1, 1)
+    assert d1["hole_ratio"] == pytest.approx(2.0)
+    assert math.isnan(d1["hole_ratio_low"]) and math.isnan(d1["hole_ratio_high"])  # one frame: no interval
 
 
 def test_nothing_to_compare_without_both_kinds():
@@ -59,7 +60,7 @@ def test_custom_classical_set_and_markdown():
     (row,) = learned_vs_classical(EvaluationResult(rows=rows, meta={}), classical={"b"})
     assert row["learned"] == "a" and math.isclose(row["hole_ratio"], 0.75)
     md = headline_markdown([row])
-    assert "| rect-v1 | d0 | 2 | a 3.00 | b 4.00 | 0.75 [" in md
+    assert "| rect-v1 | d0 | 2 | 0 | a 3.00 | b 4.00 | 0.75 [" in md
 
 
 def test_report_and_json_carry_the_headline(small_gt, tmp_path):

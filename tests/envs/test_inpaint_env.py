@@ -282,7 +282,7 @@ def test_render_panel_shape_and_dtype(dataset):
     before = env.render()
     assert before.dtype == np.uint8 and before.ndim == 3 and before.shape[2] == 3
     assert before.shape[1] == SHAPE[1]
-    assert before.shape[0] == 5 * (SHAPE[0] + 18)
+    assert before.shape[0] == 4 * (SHAPE[0] + 18) + 2 * 30  # four tiles, two colour bars
     env.step(np.ones(SHAPE, np.float32))
     after = env.render()
     assert after.dtype == np.uint8 and after.shape[1] == SHAPE[1]

@@ -5,21 +5,30 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from inpaintenv.envs.render import LABEL_HEIGHT, colorize_depth, colorize_error, render_panel
+from inpaintenv.envs.render import (
+    COLORBAR_HEIGHT,
+    LABEL_HEIGHT,
+    colorize_depth,
+    colorize_error,
+    render_panel,
+)
+from inpaintenv.style import NO_DATA, to_uint8
+
+GREY = to_uint8(np.array(NO_DATA))
 
 
-def test_colorize_depth_black_for_no_data():
+def test_colorize_depth_grey_for_no_data():
     d = np.array([[0.0, 10.0], [40.0, np.nan]], np.float32)
     rgb = colorize_depth(d, 80.0)
     assert rgb.shape == (2, 2, 3) and rgb.dtype == np.uint8
-    assert (rgb[0, 0] == 0).all() and (rgb[1, 1] == 0).all()
+    assert (rgb[0, 0] == GREY).all() and (rgb[1, 1] == GREY).all()
     assert rgb[0, 1].any() and not np.array_equal(rgb[0, 1], rgb[1, 0])
 
 
 def test_colorize_error_masks_invalid():
     e = np.array([[1.0, 5.0]], np.float32)
     rgb = colorize_error(e, np.array([[True, False]]), 10.0)
-    assert (rgb[0, 1] == 0).all() and rgb[0, 0].any()
+    assert (rgb[0, 1] == GREY).all() and not (rgb[0, 0] == GREY).all()
 
 
 def test_render_panel_layout():
@@ -28,14 +37,16 @@ def test_render_panel_layout():
     hole = np.zeros((20, 30), bool)
     hole[5:10, 5:15] = True
     panel = render_panel(gt, hole, gt + 1.0, title=["a", "b"])
-    assert panel.dtype == np.uint8 and panel.shape == (2 * (LABEL_HEIGHT + 2) + 5 * (20 + LABEL_HEIGHT), 30, 3)
+    tiles = 4 * (20 + LABEL_HEIGHT) + 2 * COLORBAR_HEIGHT
+    assert panel.dtype == np.uint8 and panel.shape == (2 * (LABEL_HEIGHT + 2) + tiles, 30, 3)
     no_pred = render_panel(gt, hole)
-    assert no_pred.shape == (5 * (20 + LABEL_HEIGHT), 30, 3)
+    assert no_pred.shape == (tiles, 30, 3)
     # Reconstruction and error tiles are black without a reconstruction.
     tile = 20 + LABEL_HEIGHT
-    assert not no_pred[3 * tile + LABEL_HEIGHT : 4 * tile].any()
-    assert not no_pred[4 * tile + LABEL_HEIGHT :].any()
-    assert render_panel(gt, hole, gt + 1.0)[4 * tile + LABEL_HEIGHT :].any()
+    error_top = 3 * tile + COLORBAR_HEIGHT + LABEL_HEIGHT
+    assert not no_pred[2 * tile + LABEL_HEIGHT : 3 * tile].any()
+    assert not no_pred[error_top : error_top + 20].any()
+    assert render_panel(gt, hole, gt + 1.0)[error_top : error_top + 20].any()
 
 
 def test_render_panel_bad_input():

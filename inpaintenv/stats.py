@@ -1,4 +1,10 @@
-"""Bootstrap confidence intervals of per-frame means."""
+"""Bootstrap confidence intervals of per-frame means.
+
+Used by every table of the package (:mod:`inpaintenv.tables`): ``evaluate``'s and the
+benchmark's. An interval needs at least two frames: with one frame the bounds are NaN
+(written as ``null`` / an empty cell), never the mean itself, so a single frame cannot
+pass for a zero-width interval.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +12,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["bootstrap_mean_ci", "bootstrap_ratio_ci"]
+__all__ = ["FEW_FRAMES", "bootstrap_mean_ci", "bootstrap_ratio_ci"]
+
+#: Below this many frames an interval is marked as rough: a percentile bootstrap from so
+#: few frames is too narrow (a nominal 95 % interval from 5 skewed per-frame errors covers
+#: the true mean ~81 % of the time, from 10 ~89 %; docs/scripts/bootstrap_coverage.py),
+#: so tables flag it instead of presenting it like the others.
+FEW_FRAMES = 10
+
+_NAN = float("nan")
 
 
 def bootstrap_mean_ci(
@@ -34,18 +48,17 @@ def bootstrap_mean_ci(
     Returns
     -------
     (mean, low, high) : tuple of float
-        NaN for all three when no finite value remains; ``low == high == mean`` for a
-        single frame.
+        NaN for all three when no finite value remains; ``low`` and ``high`` are NaN for
+        a single frame (an interval from one frame does not exist).
     """
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    _check_confidence(confidence)
     v = np.asarray(values, dtype=np.float64).reshape(-1)
     v = v[np.isfinite(v)]
     if v.size == 0:
-        return (float("nan"),) * 3
+        return _NAN, _NAN, _NAN
     mean = float(v.mean())
     if v.size == 1:
-        return mean, mean, mean
+        return mean, _NAN, _NAN
     means = v[_resample(v.size, n_resamples, seed)].mean(axis=1)
     return (mean, *_percentile_interval(means, confidence))
 
@@ -73,19 +86,23 @@ def bootstrap_ratio_ci(
     Returns
     -------
     (ratio, low, high) : tuple of float
-        ``low == high == ratio`` for a single pair.
+        ``low`` and ``high`` are NaN for a single pair.
     """
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    _check_confidence(confidence)
     a = np.asarray(a, dtype=np.float64).reshape(-1)
     b = np.asarray(b, dtype=np.float64).reshape(-1)
     if a.size != b.size or a.size == 0:
         raise ValueError(f"a and b must be non-empty and paired, got {a.size} and {b.size} values")
     ratio = float(a.mean() / b.mean())
     if a.size == 1:
-        return ratio, ratio, ratio
+        return ratio, _NAN, _NAN
     idx = _resample(a.size, n_resamples, seed)
     return (ratio, *_percentile_interval(a[idx].mean(axis=1) / b[idx].mean(axis=1), confidence))
+
+
+def _check_confidence(confidence: float) -> None:
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
 
 
 def _resample(n: int, n_resamples: int, seed: int) -> np.ndarray:

@@ -1,0 +1,206 @@
+"""The one table format of the package: ``evaluate``'s and the benchmark's.
+
+:func:`summary_table` turns per-frame rows into one entry per group (mean over frames
+with a percentile-bootstrap interval, the frames that entered each mean, the skipped
+frames); :func:`to_markdown` lays entries out with units in the header and explains
+``frames``, ``skipped`` and the interval marks under the table. :func:`interval_cell`
+writes one value with its interval, by the rule every table follows:
+
+* no interval from one frame: ``15.30 (n=1)``, and ``null`` bounds in JSON / CSV;
+* an interval from fewer than :data:`~inpaintenv.stats.FEW_FRAMES` frames is marked ``†``.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .stats import FEW_FRAMES, bootstrap_mean_ci
+
+if TYPE_CHECKING:  # typing only: evaluate imports this module
+    from .evaluate import EvaluationResult
+
+__all__ = [
+    "FEW_MARK", "REPORT_METRICS", "interval_cell", "summary_table", "table_notes", "table_to_csv", "to_markdown",
+]
+
+#: (key, header with unit, format) of every table: the study's Table I/II columns first.
+REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
+    ("hole_rmse", "hole RMSE (m)", ".2f"),
+    ("hole_psnr", "hole PSNR (dB)", ".1f"),
+    ("all_rmse", "all RMSE (m)", ".2f"),
+    ("all_psnr", "all PSNR (dB)", ".1f"),
+    ("hole_mae", "hole MAE (m)", ".2f"),
+    ("hole_irmse", "hole iRMSE (1/km)", ".1f"),
+)
+#: Mark of an interval from fewer than FEW_FRAMES frames.
+FEW_MARK = "†"
+
+
+def summary_table(
+    result: EvaluationResult,
+    keys: Sequence[str] = ("method", "protocol"),
+    *,
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> list[dict[str, Any]]:
+    """Mean over frames with a bootstrap interval for every report metric, per group.
+
+    Parameters
+    ----------
+    result : EvaluationResult
+        Per-frame rows.
+    keys : sequence of str
+        Row columns that define a group (e.g. ``("method", "protocol", "drive")``).
+    confidence : float
+        Coverage of the intervals, in (0, 1).
+    seed : int
+        Seed of the bootstrap resampling.
+
+    Returns
+    -------
+    list of dict
+        One entry per group, in order of first appearance: everything
+        :meth:`EvaluationResult.group_table` holds (the ``keys``, every metric's mean,
+        ``n_frames``, ``n_skipped_hole``, ``hole_fraction``, ``ms_per_frame``) and, per
+        metric of :data:`REPORT_METRICS`, ``{metric}_low`` / ``{metric}_high`` (NaN when
+        fewer than two frames entered the mean) and ``{metric}_n`` (frames in the mean).
+        Frames without ground truth in their hole are left out of every mean.
+    """
+    groups: dict[tuple, list[dict[str, Any]]] = {}
+    for row in result.rows:
+        groups.setdefault(tuple(row[k] for k in keys), []).append(row)
+    table = result.group_table(keys)
+    for entry in table:
+        rows = groups[tuple(entry[k] for k in keys)]
+        for metric, _, _ in REPORT_METRICS:
+            # The rule of metrics.aggregate: a frame without hole truth tested nothing.
+            vals = np.array(
+                [r[metric] if r["hole_count"] and r[metric] is not None else np.nan for r in rows], dtype=float
+            )
+            _, low, high = bootstrap_mean_ci(vals, confidence=confidence, seed=seed)
+            entry[f"{metric}_low"], entry[f"{metric}_high"] = low, high
+            entry[f"{metric}_n"] = int(np.isfinite(vals).sum())
+    return table
+
+
+def _missing(value: Any) -> bool:
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def interval_cell(
+    value: float | None, low: float | None, high: float | None, n: int, fmt: str, *, brackets: bool = False
+) -> str:
+    """One value with its interval, by the rule of every table.
+
+    Parameters
+    ----------
+    value, low, high : float or None
+        The estimate and its interval bounds (None or NaN when undefined).
+    n : int
+        Frames the estimate comes from.
+    fmt : str
+        Format of the numbers, e.g. ``".2f"``.
+    brackets : bool
+        ``value [low, high]`` instead of ``value ± half-width``.
+
+    Returns
+    -------
+    str
+        ``–`` without a value; ``value (n=1)`` without an interval; the interval followed
+        by :data:`FEW_MARK` when it comes from fewer than ``FEW_FRAMES`` frames.
+    """
+    if _missing(value):
+        return "–"
+    text = format(value, fmt)
+    if n < 2 or _missing(low) or _missing(high):
+        return f"{text} (n={n})"
+    if brackets:
+        text += f" [{format(low, fmt)}, {format(high, fmt)}]"
+    else:
+        text += f" ± {format(max(high - value, value - low), fmt)}"
+    return text + (FEW_MARK if n < FEW_FRAMES else "")
+
+
+#: What the values of a table are, said under it.
+MEAN_VALUES = "mean over frames ± half-width of the 95 % percentile-bootstrap interval (2,000 resamples, seed 0)"
+
+
+def table_notes(
+    cells: Sequence[str], *, frames: str = "(seed, frame) pairs scored", values: str = MEAN_VALUES
+) -> list[str]:
+    """The lines explaining a table, printed under it.
+
+    Parameters
+    ----------
+    cells : sequence of str
+        Every value cell of the table (the marks to explain are looked up in them).
+    frames : str
+        What the ``frames`` column counts.
+    values : str
+        What the value cells are.
+    """
+    notes = [
+        (f"frames: {frames}; skipped: of those, the ones whose hole holds no ground truth, "
+         f"left out of every mean (a mean covers frames − skipped). Values: {values}.")
+    ]
+    if any("(n=1)" in c for c in cells):
+        notes.append("(n=1): one frame, so no interval.")
+    if any(c.endswith(FEW_MARK) for c in cells):
+        notes.append(
+            f"{FEW_MARK} interval from fewer than {FEW_FRAMES} frames: a bootstrap from so few "
+            "frames is too narrow, read it as a rough range."
+        )
+    return notes
+
+
+def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "protocol")) -> str:
+    """Markdown of :func:`summary_table` entries, the notes explaining it underneath.
+
+    Columns: the ``keys``, ``frames``, ``skipped``, the :data:`REPORT_METRICS` (units in
+    the header; each cell by :func:`interval_cell`) and ``ms/frame``.
+    """
+    heads = list(keys) + ["frames", "skipped"] + [h for _, h, _ in REPORT_METRICS] + ["ms/frame"]
+    lines = [
+        "| " + " | ".join(heads) + " |",
+        "|" + "|".join(["---"] * len(keys) + ["---:"] * (len(heads) - len(keys))) + "|",
+    ]
+    values: list[str] = []
+    for entry in table:
+        metric_cells = [
+            interval_cell(entry.get(m), entry.get(f"{m}_low"), entry.get(f"{m}_high"), entry.get(f"{m}_n", 0), f)
+            for m, _, f in REPORT_METRICS
+        ]
+        values += metric_cells
+        ms = entry.get("ms_per_frame")
+        cells = [str(entry[k]) for k in keys] + [str(entry["n_frames"]), str(entry["n_skipped_hole"])]
+        cells += metric_cells + ["–" if _missing(ms) else f"{ms:.1f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines + [""] + table_notes(values))
+
+
+def table_to_csv(
+    table: list[dict[str, Any]], path: str | os.PathLike, keys: Sequence[str] = ("method", "protocol")
+) -> Path:
+    """Write :func:`summary_table` entries as CSV; an undefined bound is an empty cell.
+
+    Columns: the ``keys``, ``n_frames``, ``n_skipped_hole``, per metric of
+    :data:`REPORT_METRICS` ``{metric}``, ``{metric}_low``, ``{metric}_high``,
+    ``{metric}_n``, then ``hole_fraction`` and ``ms_per_frame``.
+    """
+    path = Path(path)
+    fields = list(keys) + ["n_frames", "n_skipped_hole"]
+    fields += [f"{m}{s}" for m, _, _ in REPORT_METRICS for s in ("", "_low", "_high", "_n")]
+    fields += ["hole_fraction", "ms_per_frame"]
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+        writer.writeheader()
+        for entry in table:
+            writer.writerow({k: "" if _missing(entry.get(k)) else entry.get(k) for k in fields})
+    return path

@@ -1,0 +1,73 @@
+"""The benchmark's figures: one colour per method, every drive, no needless re-prediction
+(issue 16, items 6 and 10)."""
+
+from __future__ import annotations
+
+import matplotlib.colors as mcolors
+import numpy as np
+import pytest
+
+from inpaintenv import style
+from inpaintenv.benchmark import figures
+from inpaintenv.cli import main
+from inpaintenv.data import ArrayDataset
+
+pytest.importorskip("estimators.classical")
+
+METHODS = ["scanline", "constant", "nearest", "harmonic", "ipbasic"]
+# 16 synthetic frames: two drives of 8.
+ARGV = ["benchmark", *[a for m in METHODS for a in ("-m", m)], "--n-frames", "16", "--frame-shape", "64", "192",
+        "--holdout", "0", "--figure-frames", "1", "--quiet"]
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """Per figure file name: {line label: colour} and the axes titles; and the count of re-predictions."""
+    record: dict[str, dict] = {"predict": 0}
+    save = figures._save
+    run = figures.run_method
+
+    def spy_save(fig, path, dpi):
+        lines = {ln.get_label(): mcolors.to_hex(ln.get_color()) for ax in fig.axes for ln in ax.get_lines()}
+        record[path.name] = {"lines": lines, "titles": [ax.get_title() for ax in fig.axes]}
+        return save(fig, path, dpi)
+
+    def spy_run(*args, **kwargs):
+        record["predict"] += 1
+        return run(*args, **kwargs)
+
+    monkeypatch.setattr(figures, "_save", spy_save)
+    monkeypatch.setattr(figures, "run_method", spy_run)
+    return record
+
+
+def test_one_colour_per_method_in_every_figure_and_frames_from_every_drive(tmp_path, drawn):
+    assert main([*ARGV, "--out", str(tmp_path)]) == 0
+    run_colours = {m: mcolors.to_hex(c) for m, c in style.method_colours(METHODS).items()}
+    size = drawn["error_vs_hole_size.png"]["lines"]
+    distance = drawn["error_vs_distance.png"]["lines"]
+    assert size == run_colours  # every method, in its run colour
+    assert distance and all(distance[m] == run_colours[m] for m in distance)  # the best four, same colours
+    assert "spread over 2 of 2 drives" in drawn["error_vs_distance.png"]["titles"][0]
+    assert "every frame-mask of the run (16)" in drawn["error_vs_hole_size.png"]["titles"][0]
+
+
+def test_rerun_with_everything_done_does_not_predict_again(tmp_path, drawn, capsys):
+    argv = [a for a in ARGV if a != "--quiet"] + ["--out", str(tmp_path)]
+    assert main(argv) == 0
+    first = drawn["predict"]
+    err = capsys.readouterr().err
+    assert first == 4 * 8  # the four best methods on the 8 spread frames, once each (panel frames shared)
+    line = next(x for x in err.splitlines() if x.startswith("figures: running"))
+    assert "4 methods again on 8 frames spread over 2 of 2 drives" in line and "the rows do not keep" in line
+    assert main(argv) == 0
+    assert drawn["predict"] == first  # nothing new: figures already show these rows
+    assert "already show these rows; not redrawn" in capsys.readouterr().err
+
+
+def test_spread_indices_cover_the_drives_in_turn():
+    data = ArrayDataset(np.ones((10, 4, 4), np.float32), groups=["a"] * 6 + ["b"] * 3 + ["c"])
+    picked = figures.spread_indices(data, 5)
+    assert [str(data.groups[i]) for i in picked[:3]] == ["a", "b", "c"]
+    assert picked == [0, 6, 9, 5, 8]  # a: first and last of its 6, b: first and last of its 3, c: its one
+    assert sorted(figures.spread_indices(data, 50)) == list(range(10))
