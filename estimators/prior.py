@@ -48,7 +48,7 @@ ARCHS = ("pixel", "unet")
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
 
 #: The shipped model that :meth:`PriorUNetInpainter.pretrained` and the registry's
-#: ``unet-pretrained`` load by default (older releases stay loadable by name).
+#: ``blend-pretrained`` (alias ``unet-pretrained``) load by default (older releases stay loadable by name).
 DEFAULT_PRETRAINED = "kitti-rect-v3"
 
 
@@ -471,7 +471,7 @@ class PriorUNetInpainter(_NeuralInpainter):
 def pretrained_kitti(name: str = DEFAULT_PRETRAINED, **overrides: Any) -> PriorUNetInpainter:
     """Factory for the registry: a shipped model (by default :data:`DEFAULT_PRETRAINED`).
 
-    ``unet-pretrained`` calls it with no name; ``unet-pretrained-mixed`` with
+    ``blend-pretrained`` calls it with no name; ``blend-pretrained-mixed`` with
     ``name="kitti-mixed-v1"``. See :meth:`PriorUNetInpainter.pretrained`.
     """
     return PriorUNetInpainter.pretrained(name, **overrides)

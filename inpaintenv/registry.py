@@ -19,7 +19,10 @@ import importlib
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["MethodSpec", "PRETRAINED_RELEASES", "available_methods", "get_spec", "make_method", "register_method"]
+__all__ = [
+    "MethodSpec", "PRETRAINED_RELEASES", "available_aliases", "available_methods", "canonical_name", "get_spec",
+    "make_method", "register_alias", "register_method", "resolve_class",
+]
 
 
 @dataclass(frozen=True)
@@ -46,6 +49,13 @@ class MethodSpec:
 
 _CLASSICAL = "estimators.classical"
 _METHODS: dict[str, MethodSpec] = {}
+#: alias -> canonical name (old names kept working after a method was renamed).
+_ALIASES: dict[str, str] = {}
+
+
+def _check_name(name: str) -> None:
+    if not isinstance(name, str) or not name or name != name.strip() or ":" in name:
+        raise ValueError(f"method names must be non-empty, without spaces at the ends or ':', got {name!r}")
 
 
 def register_method(
@@ -59,18 +69,49 @@ def register_method(
     ValueError
         If ``name`` is taken (unless ``overwrite``) or malformed.
     """
-    if not name or name != name.strip() or ":" in name:
-        raise ValueError(f"method names must be non-empty, without spaces at the ends or ':', got {name!r}")
-    if name in _METHODS and not overwrite:
+    _check_name(name)
+    if (name in _METHODS or name in _ALIASES) and not overwrite:
         raise ValueError(f"method {name!r} is already registered")
+    _ALIASES.pop(name, None)
     spec = MethodSpec(module, cls, dict(kwargs or {}), description)
     _METHODS[name] = spec
     return spec
 
 
+def register_alias(alias: str, target: str) -> None:
+    """Make ``alias`` another name of the registered method ``target``.
+
+    :func:`get_spec` and :func:`make_method` accept the alias; :func:`canonical_name`
+    turns it into ``target``, the name results are recorded under.
+
+    Raises
+    ------
+    ValueError
+        If ``alias`` is malformed or already a method or alias name.
+    KeyError
+        If ``target`` is not a registered method (aliases of aliases are not allowed).
+    """
+    _check_name(alias)
+    if alias in _METHODS or alias in _ALIASES:
+        raise ValueError(f"method {alias!r} is already registered")
+    if target not in _METHODS:
+        raise KeyError(f"cannot alias {alias!r} to {target!r}: no method of that name is registered")
+    _ALIASES[alias] = target
+
+
 def available_methods() -> list[str]:
-    """Registered method names, in registration order."""
+    """Registered (canonical) method names, in registration order; aliases are not listed."""
     return list(_METHODS)
+
+
+def available_aliases() -> dict[str, str]:
+    """Every alias and the canonical method name it stands for."""
+    return dict(_ALIASES)
+
+
+def canonical_name(name: str) -> str:
+    """The canonical name of ``name``: the method an alias stands for, else ``name`` itself."""
+    return _ALIASES.get(name, name)
 
 
 def get_spec(name: str) -> MethodSpec:
@@ -83,18 +124,43 @@ def get_spec(name: str) -> MethodSpec:
     KeyError
         For an unknown name; the message lists the known names (and close matches).
     """
+    name = canonical_name(name)
     if name in _METHODS:
         return _METHODS[name]
     if ":" in name:
         module, _, cls = name.partition(":")
         if module and cls:
             return MethodSpec(module, cls, {}, "custom class")
-    close = difflib.get_close_matches(name, list(_METHODS), n=3)
+    close = difflib.get_close_matches(name, [*_METHODS, *_ALIASES], n=3)
     hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
     raise KeyError(
         f"unknown method {name!r}.{hint} Known methods: {', '.join(available_methods())} "
         "(or 'package.module:ClassName')"
     )
+
+
+def resolve_class(name: str) -> Any:
+    """Import the class (or factory) of method ``name`` without building it.
+
+    Cheap enough to check every name of a run before any work (a shipped model's
+    weights are loaded only when :func:`make_method` calls the factory).
+
+    Raises
+    ------
+    KeyError
+        Unknown name.
+    ImportError
+        The module cannot be imported or has no such class.
+    """
+    spec = get_spec(name)
+    try:
+        module = importlib.import_module(spec.module)
+    except ImportError as exc:
+        raise ImportError(f"method {name!r} needs module {spec.module!r}, which cannot be imported: {exc}") from exc
+    try:
+        return getattr(module, spec.cls)
+    except AttributeError:
+        raise ImportError(f"method {name!r}: module {spec.module!r} has no class {spec.cls!r}") from None
 
 
 def make_method(name: str, **overrides: Any) -> Any:
@@ -103,7 +169,8 @@ def make_method(name: str, **overrides: Any) -> Any:
     Parameters
     ----------
     name : str
-        A registered name (see :func:`available_methods`) or ``"package.module:Class"``.
+        A registered name or alias (see :func:`available_methods`,
+        :func:`available_aliases`) or ``"package.module:Class"``.
     **overrides
         Constructor keywords replacing or adding to the registered ones.
 
@@ -122,14 +189,7 @@ def make_method(name: str, **overrides: Any) -> Any:
         An override the class does not accept.
     """
     spec = get_spec(name)
-    try:
-        module = importlib.import_module(spec.module)
-    except ImportError as exc:
-        raise ImportError(f"method {name!r} needs module {spec.module!r}, which cannot be imported: {exc}") from exc
-    try:
-        cls = getattr(module, spec.cls)
-    except AttributeError:
-        raise ImportError(f"method {name!r}: module {spec.module!r} has no class {spec.cls!r}") from None
+    cls = resolve_class(name)
     kwargs = {**spec.kwargs, **overrides}
     try:
         return cls(**kwargs)
@@ -157,20 +217,24 @@ for _name, _cls, _kw, _desc in [
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc)
 
-# The shipped learned model (estimators.prior.DEFAULT_PRETRAINED; needs torch). A factory,
-# not a class: it loads the weights. See docs/model_card.md.
+# The shipped learned models (need torch): a per-pixel MLP (~35 k parameters) that blends
+# classical fills, so their names say "blend". A factory, not a class: it loads the weights.
+# See docs/model_card.md.
 register_method(
-    "unet-pretrained", "estimators.prior", "pretrained_kitti", {},
-    "learned per-pixel blend of classical fills, pretrained on one KITTI drive (CC BY-NC-SA 3.0)",
+    "blend-pretrained", "estimators.prior", "pretrained_kitti", {},
+    "learned per-pixel blend of classical fills (the default release, estimators.prior.DEFAULT_PRETRAINED), "
+    "pretrained on one KITTI drive (CC BY-NC-SA 3.0)",
 )
-
 register_method(
-    "unet-pretrained-mixed", "estimators.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
+    "blend-pretrained-mixed", "estimators.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
     "the same learned blend trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
+# Their names until issue 16: they are not U-Nets, but old commands keep working.
+register_alias("unet-pretrained", "blend-pretrained")
+register_alias("unet-pretrained-mixed", "blend-pretrained-mixed")
 
 # Every shipped release under its own name, so that older results stay re-runnable after
-# the default moves on (``unet-pretrained`` is whichever release is current).
+# the default moves on (``blend-pretrained`` is whichever release is current).
 PRETRAINED_RELEASES: tuple[str, ...] = ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3", "kitti-mixed-v1")
 for _release in PRETRAINED_RELEASES:
     register_method(

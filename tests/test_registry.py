@@ -69,3 +69,38 @@ def test_every_shipped_release_has_its_own_method_name():
     est = make_method("kitti-rect-v1")
     assert est.get_params()["relative"] is False  # v1 predates the scale-free blend
     assert make_method("kitti-rect-v3").get_params() == make_method("unet-pretrained").get_params()
+
+
+def test_aliases_resolve_to_the_canonical_name():
+    from inpaintenv.registry import available_aliases, canonical_name, register_alias
+
+    assert available_aliases()["unet-pretrained"] == "blend-pretrained"
+    assert available_aliases()["unet-pretrained-mixed"] == "blend-pretrained-mixed"
+    assert "unet-pretrained" not in available_methods() and "blend-pretrained" in available_methods()
+    assert get_spec("unet-pretrained") is get_spec("blend-pretrained")
+    assert get_spec("unet-pretrained-mixed").kwargs == {"name": "kitti-mixed-v1"}
+    assert canonical_name("unet-pretrained") == "blend-pretrained" and canonical_name("telea") == "telea"
+    with pytest.raises(ValueError, match="already"):
+        register_alias("telea", "ns")
+    with pytest.raises(KeyError, match="no method"):
+        register_alias("new-name", "not-a-method")
+
+
+def test_suites_use_canonical_names():
+    from inpaintenv.benchmark.suites import SUITES
+
+    assert set(available_methods()) >= {n for names in SUITES.values() for n in names}
+    assert "blend-pretrained" in SUITES["default"] and "unet-pretrained" not in SUITES["default"]
+
+
+def test_old_name_still_builds_the_shipped_blend():
+    pytest.importorskip("torch")
+    assert make_method("unet-pretrained").get_params() == make_method("blend-pretrained").get_params()
+
+
+def test_info_lists_aliases(capsys):
+    from inpaintenv.cli import main
+
+    assert main(["info", "--n-frames", "2", "--frame-shape", "32", "96", "--sample", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "unet-pretrained -> blend-pretrained" in out

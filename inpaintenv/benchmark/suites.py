@@ -21,8 +21,8 @@ CLASSICAL = [
     "harmonic", "harmonic-inverse", "ipbasic", "scanline", "scanline-inverse", "scanline-2d", "nearest",
     "telea", "ns", "bilateral", "constant",
 ]
-#: The learned models shipped with the package (added to the registry by estimators).
-PRETRAINED = ["unet-pretrained", "unet-pretrained-mixed"]
+#: The learned models shipped with the package (per-pixel blends of classical fills; need torch).
+PRETRAINED = ["blend-pretrained", "blend-pretrained-mixed"]
 
 SUITES: dict[str, list[str]] = {
     "default": PRETRAINED + CLASSICAL + STUDY_CLASSICAL,
