@@ -29,8 +29,17 @@ import numpy as np
 
 from .conventions import DEFAULT_MAX_DEPTH, check_max_depth, check_seed, check_seeds
 from .data.base import as_dataset
+from .method_options import (
+    add_bad_frame_option,
+    add_checkpoint_option,
+    check_method_names,
+    parse_checkpoints,
+)
 
 __all__ = ["SUBCOMMANDS", "add_source_options", "build_parser", "main", "open_source_from_args"]
+
+#: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
+INTERRUPTED = 130
 
 #: Errors reported as one line ("inpaintenv: error: ...") with exit status 1, not a traceback.
 USER_ERRORS: tuple[type[BaseException], ...] = (
@@ -127,12 +136,14 @@ def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
 
 def cmd_info(args: argparse.Namespace) -> int:
     from .masks import available_protocols
-    from .registry import available_methods
+    from .registry import available_aliases, available_methods
 
     ds = open_source_from_args(args)
     info = describe_source(ds, args.sample)
     info["frames_used"] = len(ds)
     if args.json:
+        info["methods"] = available_methods()
+        info["aliases"] = available_aliases()
         print(json.dumps(info, indent=1))
         return 0
     for key, value in info.items():
@@ -143,6 +154,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"{key:>16}: {value}")
     print(f"{'protocols':>16}: {', '.join(available_protocols())}")
     print(f"{'methods':>16}: {', '.join(available_methods())}")
+    print(f"{'aliases':>16}: {', '.join(f'{a} -> {t}' for a, t in available_aliases().items())}")
     return 0
 
 
@@ -154,8 +166,9 @@ def add_evaluate(subparsers: Any) -> None:
         "evaluate", help="score methods on a data source and protocol",
         description="Score methods by name on seeded (frame, occlusion) pairs; print a Markdown table.",
     )
-    p.add_argument("--method", "-m", action="append", required=True, metavar="NAME",
+    p.add_argument("--method", "-m", action="append", metavar="NAME",
                    help="method name (repeatable); see `inpaintenv info` for the list")
+    add_checkpoint_option(p)
     p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
     p.add_argument("--seed", type=int, action="append", metavar="S",
                    help="evaluation seed (repeatable; default 0)")
@@ -164,40 +177,73 @@ def add_evaluate(subparsers: Any) -> None:
     p.add_argument("--n-jobs", type=int, help="n_jobs passed to each method")
     p.add_argument("--by-drive", action="store_true", help="also print a table per drive")
     p.add_argument("--out", metavar="DIR", help="write results.json, results.csv, table.md and table.csv here")
+    add_bad_frame_option(p)
     add_source_options(p)
     add_common_options(p)
-    p.set_defaults(func=cmd_evaluate)
+    p.set_defaults(func=cmd_evaluate, on_interrupt=_evaluate_interrupted)
+
+
+def _evaluate_interrupted(args: argparse.Namespace) -> str:
+    if args.out:
+        return (f"the rows scored so far are kept in {Path(args.out) / 'partial-rows.jsonl'}; evaluate does not "
+                "resume, rerun the same command to score from the start (`inpaintenv benchmark` resumes)")
+    return ("nothing is kept without --out; rerun the same command to score from the start "
+            "(`inpaintenv benchmark` resumes)")
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from .evaluate import EvaluationResult, evaluate
+    from .evaluate import EvaluationResult, evaluate, skipped_markdown
+    from .masks import get_protocol
     from .registry import make_method
     from .tables import summary_table, table_to_csv
 
     # Check the options and build every method first, so a typo fails before any long run.
     seeds = check_seeds(args.seed or [0], "--seed")
     check_max_depth(args.max_depth, "--max-depth")
-    methods = [(name, make_method(name, **_method_overrides(args))) for name in args.method]
+    names = check_method_names(args.method or [])
+    checkpoints = parse_checkpoints(args.checkpoint, names)
+    if not names and not checkpoints:
+        raise ValueError("give at least one --method NAME or --checkpoint NAME=PATH")
+    get_protocol(args.protocol)
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder")
+    methods = [(name, make_method(name, **_method_overrides(args))) for name in names]
+    methods += [(name, make_method("checkpoint", path=path)) for name, path in checkpoints.items()]
     ds = open_source_from_args(args)
+    on_batch = None
+    if out is not None:
+        # Rows land here as they are scored, so a Ctrl-C keeps them (see _evaluate_interrupted).
+        out.mkdir(parents=True, exist_ok=True)
+        partial = out / "partial-rows.jsonl"
+        partial.unlink(missing_ok=True)  # created by the first scored batch, never left empty
+
+        def on_batch(rows: list[dict[str, Any]]) -> None:
+            with partial.open("a") as f:
+                f.writelines(json.dumps(row) + "\n" for row in rows)
+
     results = [
         evaluate(method, ds, protocol=args.protocol, seeds=seeds, batch_size=args.batch_size,
-                 max_depth=args.max_depth, progress=not args.quiet, name=name)
+                 max_depth=args.max_depth, progress=not args.quiet, name=name, on_batch=on_batch,
+                 on_bad_frame=args.on_bad_frame)
         for name, method in methods
     ]
     result = EvaluationResult.concat(results)
     result.meta["command"] = "inpaintenv " + " ".join(args.argv)
     table = result.to_markdown()
+    skipped = skipped_markdown(result.meta.get("skipped_frames") or [])
+    if skipped:
+        table += "\n\n" + skipped
     print(table)
     if args.by_drive:
         print()
         print(result.to_markdown(result.by_drive()))
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         result.to_json(out / "results.json")
         result.to_csv(out / "results.csv")
         (out / "table.md").write_text(table + "\n")
         table_to_csv(summary_table(result), out / "table.csv")
+        (out / "partial-rows.jsonl").unlink(missing_ok=True)
         print(f"\nwrote {out / 'results.json'}, {out / 'results.csv'}, {out / 'table.md'}, {out / 'table.csv'}",
               file=sys.stderr)
     return 0
@@ -302,7 +348,62 @@ def add_train(subparsers: Any) -> None:
     p.add_argument("--device", choices=["auto", "cpu", "cuda"], help="override the preset's device")
     add_source_options(p)
     add_common_options(p)
-    p.set_defaults(func=cmd_train)
+    p.set_defaults(func=cmd_train, on_interrupt=_train_interrupted)
+
+
+def _train_interrupted(args: argparse.Namespace) -> str:
+    return (f"the checkpoints written so far are kept in {Path(args.out) / 'checkpoints'} (one at the end of "
+            "every epoch); rerun the same command to resume from the last one")
+
+
+#: The record of a training command in its --out, compared by the next run there.
+TRAIN_ARGS_FILE = "train_args.json"
+#: Overrides that do not change what is trained (the estimators leave them out of the
+#: key of their checkpoint folders, so a change still resumes).
+_RUN_INDEPENDENT_OVERRIDES = ("num_threads",)
+_OVERRIDE_FLAGS = {"max_steps": "--max-steps", "random_state": "--seed", "num_threads": "--threads", "device": "--device"}
+
+
+def train_resume_note(out: Path, record: dict[str, Any]) -> str:
+    """Whether ``inpaintenv train`` into ``out`` resumes or starts over, and why.
+
+    ``record`` (preset, overrides, source) is compared with the one the previous run in
+    ``out`` left in :data:`TRAIN_ARGS_FILE`. Training checkpoints are keyed by every
+    parameter that shapes the run (``--max-steps`` included), so any difference starts a
+    new run; the same command continues from the last checkpoint.
+    """
+    ckpts = out / "checkpoints"
+    has_ckpt = ckpts.is_dir() and any(ckpts.rglob("state.json"))
+    path = out / TRAIN_ARGS_FILE
+    try:
+        previous = json.loads(path.read_text()) if path.is_file() else None
+    except (ValueError, OSError):
+        previous = None
+
+    def keyed(r: dict[str, Any]) -> dict[str, Any]:
+        over = {k: v for k, v in (r.get("overrides") or {}).items() if k not in _RUN_INDEPENDENT_OVERRIDES}
+        return {"preset": r.get("preset"), "overrides": over, "source": r.get("source")}
+
+    if previous is None:
+        if has_ckpt:
+            return (f"{ckpts} holds checkpoints of an earlier run: training resumes from them if the preset, "
+                    "overrides and data are the same, and starts over otherwise")
+        return f"starting a new training run in {out}"
+    before, now = keyed(previous), keyed(record)
+    if before == now:
+        if has_ckpt:
+            return f"resuming the run in {out}: same preset, overrides and data, so training continues from its last checkpoint"
+        return f"restarting the run in {out} from step 0: same settings, but it stopped before its first checkpoint"
+    changes = []
+    for key in ("preset", "source"):
+        if before[key] != now[key]:
+            changes.append(f"--{'preset' if key == 'preset' else 'data'} changed ({before[key]} -> {now[key]})")
+    for key in sorted(set(before["overrides"]) | set(now["overrides"])):
+        old, new = before["overrides"].get(key, "preset's"), now["overrides"].get(key, "preset's")
+        if old != new:
+            changes.append(f"{_OVERRIDE_FLAGS.get(key, key)} changed ({old} -> {new})")
+    return (f"starting over in {out}: {'; '.join(changes)}. Checkpoints are keyed by every training parameter, "
+            f"so the earlier run is not continued (its checkpoints stay in {ckpts})")
 
 
 def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
@@ -351,7 +452,12 @@ def cmd_train(args: argparse.Namespace) -> int:
             overrides[key] = value
     ds = open_source_from_args(args)
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder")
     out.mkdir(parents=True, exist_ok=True)
+    record = {"preset": args.preset, "overrides": overrides, "source": repr(ds)}
+    print(train_resume_note(out, record), file=sys.stderr)
+    (out / TRAIN_ARGS_FILE).write_text(json.dumps(record, indent=1))
     print(f"training preset {args.preset} on {ds!r} -> {out}", file=sys.stderr)
     est = train_preset(args.preset, ds, checkpoint_dir=out / "checkpoints", verbose=not args.quiet, **overrides)
     model_path = est.save(out / "model")
@@ -398,10 +504,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit status (0 = success, 1 = error in the inputs).
+    """Run the CLI; returns the exit status (0 = success, 1 = error in the inputs,
+    130 = interrupted by Ctrl-C).
 
-    Errors in the inputs print one line to stderr; set ``INPAINTENV_TRACEBACK=1`` to get
-    the traceback instead.
+    Errors in the inputs, and Ctrl-C, print one line to stderr (for Ctrl-C: what was kept
+    and how to resume); set ``INPAINTENV_TRACEBACK=1`` to get the traceback instead.
 
     Parameters
     ----------
@@ -413,6 +520,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.argv = argv
     try:
         return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        # Ctrl-C: one line saying what is kept and how to continue, not a traceback from
+        # wherever the signal landed (often deep inside torch).
+        if os.environ.get("INPAINTENV_TRACEBACK"):
+            raise
+        note = args.on_interrupt(args) if getattr(args, "on_interrupt", None) else "nothing was written"
+        print(f"inpaintenv {args.command}: interrupted; {note}", file=sys.stderr)
+        return INTERRUPTED
     except USER_ERRORS as exc:
         if os.environ.get("INPAINTENV_TRACEBACK"):
             raise

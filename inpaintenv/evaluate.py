@@ -38,8 +38,8 @@ from .masks import OcclusionProtocol, get_protocol
 from .metrics import METRIC_NAMES, REGIONS, aggregate, frame_metrics
 
 __all__ = [
-    "EvaluationResult", "MethodOutputError", "evaluate", "json_safe", "method_name", "parse_row",
-    "resolve_source", "run_method",
+    "BAD_FRAME_ERRORS", "BadFrameError", "EvaluationResult", "MethodOutputError", "evaluate", "json_safe",
+    "merge_skipped", "method_name", "parse_row", "resolve_source", "run_method", "skipped_markdown",
 ]
 
 #: Per-frame metric columns, in report order.
@@ -56,6 +56,16 @@ _STR_COLUMNS = ("method", "protocol", "frame_id", "drive")
 
 class MethodOutputError(ValueError):
     """A method returned an unusable reconstruction (wrong shape, NaN/inf, negative)."""
+
+
+class BadFrameError(ValueError):
+    """A ground-truth frame cannot be read or breaks the depth convention (the message names it)."""
+
+
+#: What loading an unreadable frame raises: a corrupt, truncated, 8-bit or vanished PNG
+#: (``DepthFormatError``, ``OSError``) or a frame breaking the depth convention (``ValueError``).
+BAD_FRAME_ERRORS: tuple[type[BaseException], ...] = (ValueError, OSError)
+_SKIP_HINT = "skip unreadable frames with --on-bad-frame skip (on_bad_frame='skip' in Python)"
 
 
 # ---------------------------------------------------------------------------------------
@@ -224,18 +234,24 @@ class EvaluationResult:
         seeds = list(dict.fromkeys(s for r in results for s in r.meta.get("seeds", [])))
         if seeds:
             meta["seeds"] = seeds
+        skipped = merge_skipped(r.meta.get("skipped_frames") or [] for r in results)
+        if skipped:
+            meta["skipped_frames"] = skipped
         return cls(rows=rows, meta=meta)
 
     # -- output ------------------------------------------------------------------------
     def to_json(self, path: str | Path) -> Path:
-        """Write ``{"meta", "table", "by_drive", "rows"}`` as JSON (NaN written as null).
+        """Write ``{"meta", "skipped_frames", "table", "by_drive", "rows"}`` as JSON (NaN written as null).
 
         ``table`` and ``by_drive`` are :func:`inpaintenv.tables.summary_table` entries:
         means with interval bounds (null when undefined) and the frames in each mean.
+        ``skipped_frames`` lists the unreadable frames left out (``on_bad_frame="skip"``)
+        with the reason; it is empty when none were.
         """
         path = Path(path)
         doc = {
-            "meta": self.meta,
+            "meta": {k: v for k, v in self.meta.items() if k != "skipped_frames"},
+            "skipped_frames": self.meta.get("skipped_frames") or [],
             "table": tables.summary_table(self),
             "by_drive": tables.summary_table(self, ("method", "protocol", "drive")),
             "rows": self.rows,
@@ -248,7 +264,10 @@ class EvaluationResult:
         """Read a result written by :meth:`to_json`."""
         doc = json.loads(Path(path).read_text())
         rows = [parse_row(r) for r in doc["rows"]]
-        return cls(rows=rows, meta=doc.get("meta", {}))
+        meta = dict(doc.get("meta", {}))
+        if doc.get("skipped_frames"):
+            meta["skipped_frames"] = doc["skipped_frames"]
+        return cls(rows=rows, meta=meta)
 
     def to_csv(self, path: str | Path) -> Path:
         """Write the per-frame rows as CSV (NaN written as an empty cell)."""
@@ -291,6 +310,47 @@ class EvaluationResult:
 
     def __repr__(self) -> str:
         return f"EvaluationResult({len(self.rows)} rows, methods={self.methods})"
+
+
+def merge_skipped(lists: Iterable[Sequence[dict[str, Any]]]) -> list[dict[str, Any]]:
+    """Skipped-frame records of several results, one per frame, by frame index."""
+    merged: dict[int, dict[str, Any]] = {}
+    for records in lists:
+        for rec in records:
+            merged.setdefault(int(rec["index"]), dict(rec))
+    return [merged[i] for i in sorted(merged)]
+
+
+def skipped_markdown(skipped: Sequence[dict[str, Any]]) -> str:
+    """The skipped frames as a Markdown list (empty string when none were skipped)."""
+    if not skipped:
+        return ""
+    n = len(skipped)
+    lines = [f"Unreadable frames left out: {n} (--on-bad-frame skip; not counted in frames or skipped):", ""]
+    lines += [f"- frame {r['index']} ({r['frame_id']}): {r['reason']}" for r in skipped]
+    return "\n".join(lines)
+
+
+def _load_batch(
+    dataset: DepthDataset, idx: list[int], on_bad_frame: str
+) -> tuple[np.ndarray, list[int], list[dict[str, Any]]]:
+    """Ground truth of frames ``idx``: ``(gt, kept indices, skipped-frame records)``."""
+    try:
+        return dataset.load_batch(idx), idx, []
+    except BAD_FRAME_ERRORS as exc:
+        if on_bad_frame == "error":
+            raise BadFrameError(f"{exc}; {_SKIP_HINT}") from exc
+    # Skip mode: load frame by frame to keep every good frame of the batch.
+    frames, kept, skipped = [], [], []
+    for i in idx:
+        try:
+            frames.append(dataset.load_batch([i])[0])
+            kept.append(i)
+        except BAD_FRAME_ERRORS as exc:
+            skipped.append({"index": i, "frame_id": str(dataset.frame_ids[i]), "drive": str(dataset.groups[i]),
+                            "reason": str(exc)})
+    gt = np.stack(frames) if frames else np.empty((0, *dataset.frame_shape), np.float32)
+    return gt, kept, skipped
 
 
 def json_safe(obj: Any) -> Any:
@@ -341,6 +401,7 @@ def evaluate(
     name: str | None = None,
     indices: Sequence[int] | None = None,
     on_batch: Callable[[list[dict[str, Any]]], None] | None = None,
+    on_bad_frame: str = "error",
 ) -> EvaluationResult:
     """Score ``method`` on every (seed, frame) pair of ``source`` under ``protocol``.
 
@@ -377,6 +438,10 @@ def evaluate(
     on_batch : callable, optional
         Called with the rows of every scored batch as soon as they exist (e.g. to append
         them to a file, so a killed run loses at most one batch).
+    on_bad_frame : {"error", "skip"}
+        A frame that cannot be read (corrupt, truncated or 8-bit PNG) or breaks the depth
+        convention stops the evaluation with :class:`BadFrameError` naming it ("error"),
+        or is left out and recorded in ``meta["skipped_frames"]`` with the reason ("skip").
 
     Returns
     -------
@@ -387,6 +452,9 @@ def evaluate(
     MethodOutputError
         If the method returns a wrong shape, NaN/inf or negative depth (the message names
         the method).
+    BadFrameError
+        With ``on_bad_frame="error"``, on a frame that cannot be read (the message names
+        the file or frame).
     TypeError
         If ``seeds``, ``indices``, ``n_frames`` or ``batch_size`` is not made of
         integers (floats, bools and strings are refused, not coerced), or ``max_depth``
@@ -415,10 +483,13 @@ def evaluate(
     else:
         frame_list = check_seeds(indices, "indices", upper=total)
     shape = tuple(dataset.frame_shape)
+    if on_bad_frame not in ("error", "skip"):
+        raise ValueError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
     rows: list[dict[str, Any]] = []
+    skipped: list[dict[str, Any]] = []
     bar = tqdm(
         total=len(frame_list) * len(seed_list), desc=f"evaluate {label}", unit="frame",
         disable=None if progress else True, leave=False,
@@ -427,7 +498,11 @@ def evaluate(
         for start in range(0, len(frame_list), batch_size):
             idx = frame_list[start : start + batch_size]
             # Load ground truth once per batch and reuse it for every seed.
-            gt = dataset.load_batch(idx)
+            gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
+            skipped.extend(bad)
+            bar.update(len(bad) * len(seed_list))
+            if not idx:
+                continue
             for seed in seed_list:
                 hole = proto.masks(shape, seed, idx)
                 x = gt.copy()
@@ -473,6 +548,8 @@ def evaluate(
         "max_depth": float(max_depth),
         "inpaintenv_version": inpaintenv.__version__,
     }
+    if skipped:
+        meta["skipped_frames"] = skipped
     return EvaluationResult(rows=rows, meta=meta)
 
 

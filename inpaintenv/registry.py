@@ -20,8 +20,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 __all__ = [
-    "MethodSpec", "PRETRAINED_RELEASES", "available_aliases", "available_methods", "canonical_name", "get_spec",
-    "make_method", "register_alias", "register_method", "resolve_class",
+    "PRETRAINED_RELEASES",
+    "MethodSpec",
+    "available_aliases",
+    "available_methods",
+    "canonical_name",
+    "get_spec",
+    "make_method",
+    "register_alias",
+    "register_method",
+    "resolve_class",
 ]
 
 

@@ -16,7 +16,22 @@ __all__ = ["add_benchmark", "cmd_benchmark"]
 SYNTHETIC_HOLDOUT = 0.25
 
 
+def suites_epilog() -> str:
+    """What each suite of :data:`~.suites.SUITES` contains, for ``--help`` (generated, never hand-kept)."""
+    import textwrap
+
+    from .suites import SUITES
+
+    lines = ["suites:"]
+    for name, members in SUITES.items():
+        lines += textwrap.wrap(
+            f"{name} ({len(members)}): {', '.join(members)}", width=88, initial_indent="  ", subsequent_indent="      "
+        )
+    return "\n".join(lines)
+
+
 def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_options: Callable) -> None:
+    from ..method_options import add_bad_frame_option, add_checkpoint_option
     from .suites import SUITES
 
     p = subparsers.add_parser(
@@ -25,15 +40,15 @@ def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_opti
             "Score a suite of methods on a drive-level test split with fixed seeds; write "
             "results.json (every per-frame metric and the environment), results.csv, "
             "results.md (mean ± 95 % bootstrap interval) and figures. Resumable: rerun the "
-            "same command to continue a killed run."
+            "same command to continue a killed run; one run at a time per --out."
         ),
+        epilog=suites_epilog(), formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--suite", default="default", choices=sorted(SUITES),
-                   help="named list of methods (default: default)")
+                   help="named list of methods (default: default; listed below)")
     p.add_argument("--method", "-m", action="append", metavar="NAME",
                    help="method by name instead of a suite (repeatable)")
-    p.add_argument("--checkpoint", action="append", metavar="NAME=PATH", default=[],
-                   help="also score a saved neural model under NAME (repeatable)")
+    add_checkpoint_option(p)
     p.add_argument("--protocol", action="append", metavar="NAME",
                    help="occlusion protocol (repeatable; default rect-v1)")
     p.add_argument("--seed", type=int, action="append", metavar="S", help="evaluation seed (repeatable; default 0)")
@@ -47,28 +62,38 @@ def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_opti
     p.add_argument("--no-resume", action="store_true", help="discard rows already in --out")
     p.add_argument("--figure-frames", type=int, default=2, metavar="N",
                    help="frames drawn as study-style panels, spread over the drives (default 2; 0 = no figures)")
+    add_bad_frame_option(p)
     add_source_options(p)
     add_common_options(p)
-    p.set_defaults(func=cmd_benchmark)
+    p.set_defaults(func=cmd_benchmark, on_interrupt=interrupted_note)
 
 
-def _checkpoint_methods(specs: list[str]) -> dict[str, Any]:
+def interrupted_note(args: argparse.Namespace) -> str:
+    """What a Ctrl-C leaves behind, for the CLI's one line."""
+    return f"the rows scored so far are kept in {Path(args.out) / 'rows'}; rerun the same command to resume"
+
+
+def _checkpoint_methods(specs: list[str], taken: list[str]) -> dict[str, Any]:
+    from ..method_options import parse_checkpoints
     from ..registry import make_method
     from .identity import files_identity
     from .suites import LazyMethod
 
-    out: dict[str, Any] = {}
-    for spec in specs:
-        name, sep, path = spec.partition("=")
-        if not sep or not name or not path:
-            raise ValueError(f"--checkpoint takes NAME=PATH, got {spec!r}")
-        if not Path(path).exists():
-            raise FileNotFoundError(f"checkpoint not found: {path}")
-        # Hash the files now (cheap) so a resume can tell checkpoints apart unloaded.
-        out[name] = LazyMethod(
-            lambda path=path: make_method("checkpoint", path=path), identity=files_identity(path)
-        )
-    return out
+    # Hash the files now (cheap) so a resume can tell checkpoints apart unloaded.
+    return {
+        name: LazyMethod(lambda path=path: make_method("checkpoint", path=path), identity=files_identity(path))
+        for name, path in parse_checkpoints(specs, taken).items()
+    }
+
+
+def _test_split(dataset: Any, holdout: float) -> Any:
+    """The drive-level test split of ``dataset`` holding ``holdout`` of its drives."""
+    from ..data import split_by_drive
+
+    try:
+        return split_by_drive(dataset, test_size=holdout, seed=0)[1]
+    except ValueError as exc:
+        raise ValueError(f"--holdout {holdout:g}: {exc}; pass --holdout 0 to score all frames") from None
 
 
 def _figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int = 4) -> dict[str, Any]:
@@ -83,29 +108,40 @@ def _figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..cli import open_source_from_args
-    from ..data import split_by_drive
+    from ..conventions import check_int, check_seeds
     from ..data.synthetic import SyntheticStreets
+    from ..evaluate import skipped_markdown
+    from ..masks import get_protocol
+    from ..method_options import check_method_names
     from .figures import write_figures
     from .headline import headline_markdown, learned_vs_classical
+    from .lock import run_lock
     from .report import summary_table, to_markdown, write_report
     from .runner import run_benchmark
     from .suites import LazyMethod, build_method, suite_methods
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    # Every argument is resolved and checked before any frame is scored: a typo in the
+    # last option must not cost the hour spent on the first methods.
     overrides = {} if args.n_jobs is None else {"n_jobs": args.n_jobs}
     if args.method:
         methods: dict[str, Any] = {
-            name: LazyMethod(lambda name=name: build_method(name, overrides)) for name in args.method
+            name: LazyMethod(lambda name=name: build_method(name, overrides)) for name in check_method_names(args.method)
         }
-        for name in args.method:  # fail on a typo before any long run
-            from ..registry import get_spec
-
-            get_spec(name)
     else:
         methods = suite_methods(args.suite, overrides=overrides, warn=log)
-    methods.update(_checkpoint_methods(args.checkpoint))
+    methods.update(_checkpoint_methods(args.checkpoint, list(methods)))
     if not methods:
         raise ValueError("no method to run")
+    protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
+    if len(set(protocols)) != len(protocols):
+        raise ValueError(f"--protocol values must be distinct, got {protocols}")
+    seeds = check_seeds(args.seed or [0], "--seed")
+    check_int(args.batch_size, "--batch-size", minimum=1)
+    check_int(args.figure_frames, "--figure-frames", minimum=0)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder for the run")
 
     dataset = open_source_from_args(args)
     holdout = args.holdout
@@ -114,10 +150,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if not 0.0 <= holdout < 1.0:
         raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
     if holdout > 0:
-        dataset = split_by_drive(dataset, test_size=holdout, seed=0)[1]
-    protocols = args.protocol or ["rect-v1"]
-    seeds = args.seed or [0]
-    log(f"benchmark: {len(methods)} methods × {len(protocols)} protocols × {len(seeds)} seeds on {dataset!r}")
+        dataset = _test_split(dataset, holdout)
 
     built: dict[str, Any] = {}
 
@@ -126,31 +159,41 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             built[name] = method() if getattr(method, "lazy", False) else method
         return built[name]
 
-    cached = {
-        name: LazyMethod(
-            lambda name=name, m=m: materialise(name, m),
-            optional=getattr(m, "optional", False), identity=getattr(m, "identity", None),
+    with run_lock(out, log):
+        # Methods named on the command line are built now (a checkpoint loads in a second):
+        # a damaged model fails here, not after the others were scored.
+        for name, method in methods.items():
+            if not getattr(method, "optional", False):
+                materialise(name, method)
+        cached = {
+            name: LazyMethod(
+                lambda name=name, m=m: materialise(name, m),
+                optional=getattr(m, "optional", False), identity=getattr(m, "identity", None),
+            )
+            for name, m in methods.items()
+        }
+        result = run_benchmark(
+            cached, dataset, protocols=protocols, seeds=seeds, out_dir=out,
+            resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
+            on_bad_frame=args.on_bad_frame,
         )
-        for name, m in methods.items()
-    }
-    result = run_benchmark(
-        cached, dataset, protocols=protocols, seeds=seeds, out_dir=args.out,
-        resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
-    )
-    command = "inpaintenv " + " ".join(getattr(args, "argv", []))
-    paths = write_report(result, args.out, meta={"command": command, "holdout": holdout})
-    table = summary_table(result)
-    print(to_markdown(table))
-    headline = headline_markdown(learned_vs_classical(result))
-    if headline:
-        print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
-    if args.figure_frames > 0:
-        fig_dir = Path(args.out) / "figures"
-        write_figures(
-            result, {n: (lambda n=n: materialise(n, methods[n])) for n in methods}, dataset, fig_dir,
-            panel_methods=list(_figure_methods(table, methods)), n_panels=args.figure_frames,
-            protocol=protocols[0], seed=seeds[0], log=log,
-        )
-        log(f"figures in {fig_dir}")
-    log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
+        command = "inpaintenv " + " ".join(getattr(args, "argv", []))
+        paths = write_report(result, out, meta={"command": command, "holdout": holdout})
+        table = summary_table(result)
+        print(to_markdown(table))
+        skipped = result.meta.get("skipped_frames") or []
+        if skipped:
+            print("\n" + skipped_markdown(skipped))
+        headline = headline_markdown(learned_vs_classical(result))
+        if headline:
+            print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
+        if args.figure_frames > 0:
+            fig_dir = out / "figures"
+            write_figures(
+                result, {n: (lambda n=n: materialise(n, methods[n])) for n in methods}, dataset, fig_dir,
+                panel_methods=list(_figure_methods(table, methods)), n_panels=args.figure_frames,
+                protocol=protocols[0], seed=seeds[0], log=log, exclude={r["index"] for r in skipped},
+            )
+            log(f"figures in {fig_dir}")
+        log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
     return 0

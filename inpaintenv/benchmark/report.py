@@ -10,7 +10,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from ..evaluate import EvaluationResult, json_safe
+from ..evaluate import EvaluationResult, json_safe, skipped_markdown
 from ..tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
 from .headline import headline_markdown, learned_vs_classical
 
@@ -46,7 +46,8 @@ def write_report(
 ) -> dict[str, Path]:
     """Write the report of a run into ``out_dir``.
 
-    ``results.json`` (every per-frame row, the tables, the headline, the environment),
+    ``results.json`` (every per-frame row, the tables, the headline, the environment, and
+    ``skipped_frames``: unreadable frames left out, with the reason),
     ``results.csv`` (per-frame rows), ``table.csv`` / ``by_drive.csv`` (the tables: mean,
     interval bounds and frames in the mean per metric; empty bounds where no interval
     exists) and ``results.md`` (overall and per-drive tables, and the best learned vs
@@ -64,8 +65,10 @@ def write_report(
     table = summary_table(result)
     per_drive = summary_table(result, drive_keys)
     headline = learned_vs_classical(result)
+    full_meta = {**result.meta, **(meta or {})}
     doc = {
-        "meta": {**result.meta, **(meta or {})},
+        "meta": {k: v for k, v in full_meta.items() if k != "skipped_frames"},
+        "skipped_frames": full_meta.get("skipped_frames") or [],
         "environment": environment_info(),
         "table": table,
         "by_drive": per_drive,
@@ -88,6 +91,10 @@ def write_report(
         "",
         to_markdown(table),
         "",
+    ]
+    if doc["skipped_frames"]:
+        md += [skipped_markdown(doc["skipped_frames"]), ""]
+    md += [
         "## Per drive",
         "",
         to_markdown(per_drive, drive_keys),

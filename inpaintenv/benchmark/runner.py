@@ -6,12 +6,17 @@ batch is scored, so a killed run continues where it stopped: on restart, every
 (source, frames, protocols, seeds) and records what each method is (its identity, see
 :mod:`.identity`); resuming into a folder of a different run, or reusing rows that another
 model made under the same name, is an error.
+
+A run holds the folder's lock (:mod:`.lock`) from start to end, so two runs never write
+the same rows. Progress goes to tqdm bars on a terminal and, in a log, to a line every
+:data:`PROGRESS_INTERVAL` seconds (:class:`~inpaintenv.progress.ProgressReporter`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -20,12 +25,23 @@ from typing import Any
 
 from ..conventions import check_int, check_seeds
 from ..data.base import DepthDataset
-from ..evaluate import EvaluationResult, evaluate, parse_row, resolve_source
+from ..evaluate import (
+    EvaluationResult,
+    evaluate,
+    merge_skipped,
+    parse_row,
+    resolve_source,
+)
 from ..masks import get_protocol
+from ..progress import ProgressReporter, format_duration, stderr_is_terminal
 from .identity import method_identity
+from .lock import run_lock
 
 __all__ = ["run_benchmark", "RunMismatchError", "RunStateError"]
 
+
+#: Seconds between progress lines when stderr is not a terminal (a log file).
+PROGRESS_INTERVAL = 10.0
 
 #: Errors meaning "this method cannot be built here" (missing package or weights).
 UNAVAILABLE = (ImportError, KeyError, FileNotFoundError)
@@ -146,8 +162,12 @@ def run_benchmark(
     batch_size: int = 4,
     progress: bool = True,
     log: Callable[[str], None] | None = None,
+    on_bad_frame: str = "error",
 ) -> EvaluationResult:
     """Score every method under every protocol and seed; return all per-frame rows.
+
+    The run holds the lock of ``out_dir`` (:mod:`.lock`) throughout: a second run on the
+    same folder fails at once instead of scoring everything twice.
 
     Parameters
     ----------
@@ -171,6 +191,14 @@ def run_benchmark(
         row file in the folder is deleted first and ``run.json`` is replaced.
     batch_size : int
         Frames per call of a method (>= 1).
+    progress : bool
+        Progress on stderr: tqdm bars on a terminal; otherwise (a log file) a line every
+        10 s with frames done, rate and time left, sent to ``log``.
+    log : callable, optional
+        Receives the run's messages (plan, estimates, skipped methods).
+    on_bad_frame : {"error", "skip"}
+        What an unreadable ground-truth frame does (see :func:`inpaintenv.evaluate.evaluate`);
+        skipped frames are listed in the result's ``meta["skipped_frames"]``.
 
     Returns
     -------
@@ -184,16 +212,46 @@ def run_benchmark(
         rows of a method name that another model made (its recorded identity differs).
     RunStateError
         On resume, if ``out_dir/run.json`` is damaged.
+    RunLockedError
+        If another live process is running in ``out_dir``.
     ValueError, TypeError
         On no methods, no frames, or invalid ``protocols``, ``seeds``, ``n_frames`` or
         ``batch_size``.
     """
     protocols, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size)
+    if on_bad_frame not in ("error", "skip"):
+        raise ValueError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
     dataset = resolve_source(source)
     if len(dataset) == 0:
         raise ValueError("the data source has no frames")
+    with run_lock(out_dir, log):
+        return _run_locked(
+            methods, dataset, protocols, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
+            log or (lambda msg: None), on_bad_frame,
+        )
+
+
+def _plan_line(methods: Mapping[str, Any], total: int, protocols: list[str], seeds: list[int], n_done: int,
+               n_todo: int) -> str:
+    def n(k: int, word: str) -> str:
+        return f"{k} {word}{'s' * (k != 1)}"
+
+    return (f"benchmark: {n(total, 'frame')} × {n(len(methods), 'method')} × {n(len(protocols), 'protocol')} × "
+            f"{n(len(seeds), 'seed')} = {n_done + n_todo} frame scores; {n_done} already done, {n_todo} to score")
+
+
+def _known_cost(rows_by_protocol: Mapping[str, list[dict[str, Any]]]) -> float | None:
+    """Seconds per frame of a method from the ``ms`` of rows an earlier run wrote."""
+    ms = [r["ms"] for rows in rows_by_protocol.values() for r in rows if math.isfinite(r.get("ms", math.nan))]
+    return sum(ms) / len(ms) / 1000.0 if ms else None
+
+
+def _run_locked(
+    methods: Mapping[str, Any], dataset: DepthDataset, protocols: list[str], seeds: list[int],
+    n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
+    say: Callable[[str], None], on_bad_frame: str,
+) -> EvaluationResult:
     total = len(dataset) if n_frames is None else min(len(dataset), int(n_frames))
-    out = Path(out_dir)
     rows_dir = out / "rows"
     rows_dir.mkdir(parents=True, exist_ok=True)
     fingerprint = _fingerprint(dataset, total, protocols, seeds)
@@ -216,19 +274,19 @@ def run_benchmark(
         # rows left behind could later be resumed under a fingerprint they do not match.
         for stale in rows_dir.glob("*.jsonl"):
             stale.unlink()
-    say = log or (lambda msg: None)
 
     # Rows already on disk, and identities known without building anything: a changed
     # method is refused before any scoring starts.
     paths = {
         name: {p: rows_dir / f"{_slug(name)}__{_slug(p)}.jsonl" for p in protocols} for name in methods
     }
-    done = {
-        name: {
-            p: {(r["seed"], r["index"]) for r in _read_rows(path) if r["method"] == name}
-            for p, path in by_protocol.items()
-        }
+    existing = {
+        name: {p: [r for r in _read_rows(path) if r["method"] == name] for p, path in by_protocol.items()}
         for name, by_protocol in paths.items()
+    }
+    done = {
+        name: {p: {(r["seed"], r["index"]) for r in rows} for p, rows in by_protocol.items()}
+        for name, by_protocol in existing.items()
     }
     cheap: dict[str, str | None] = {
         name: getattr(m, "identity", None) if getattr(m, "lazy", False) else method_identity(m)
@@ -239,11 +297,27 @@ def run_benchmark(
             _check_identity(name, out, identities.get(name), identity, any(done[name].values()))
     _write_run_file(run_file, fingerprint, identities)
 
+    todos = {
+        name: {p: {s: [i for i in range(total) if (s, i) not in done[name][p]] for s in seeds} for p in protocols}
+        for name in methods
+    }
+    per_method = {name: sum(len(v) for t in todos[name].values() for v in t.values()) for name in methods}
+    n_todo_all = sum(per_method.values())
+    say(_plan_line(methods, total, protocols, seeds, len(methods) * len(protocols) * len(seeds) * total - n_todo_all,
+                   n_todo_all))
+    known = {name: c for name in methods if (c := _known_cost(existing[name])) is not None}
+    if n_todo_all and all(name in known for name, k in per_method.items() if k):
+        eta = sum(known[name] * k for name, k in per_method.items() if k)
+        say(f"estimate: about {format_duration(eta)} (from the ms/frame of the rows already scored)")
+    # A terminal gets tqdm bars from evaluate(); a log gets periodic lines instead.
+    reporter = ProgressReporter(per_method, say, seconds_per_frame=known, interval=PROGRESS_INTERVAL) if (
+        progress and n_todo_all and not stderr_is_terminal()
+    ) else None
+    skipped: list[list[dict[str, Any]]] = []
+
     results: list[EvaluationResult] = []
     for name, method in methods.items():
-        todo = {
-            p: {s: [i for i in range(total) if (s, i) not in done[name][p]] for s in seeds} for p in protocols
-        }
+        todo = todos[name]
         n_todo = {p: sum(len(v) for v in todo[p].values()) for p in protocols}
         for p in protocols:
             if n_todo[p]:
@@ -259,6 +333,8 @@ def run_benchmark(
                 if not getattr(method, "optional", False):
                     raise
                 say(f"skipping {name!r}: not available here ({exc})")
+                if reporter is not None:
+                    reporter.drop(name)
                 continue
             if identity is None:
                 identity = method_identity(method)
@@ -267,26 +343,40 @@ def run_benchmark(
             # Recorded before any row is written, so a killed run's rows are attributed.
             identities[name] = identity
             _write_run_file(run_file, fingerprint, identities)
+        if reporter is not None:
+            reporter.begin(name)
         for protocol in protocols:
             path = paths[name][protocol]
             if path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n"):
                 # A kill mid-write left a partial last line: end it so new rows start clean.
                 with path.open("a") as f:
                     f.write("\n")
-            with path.open("a") as f:
+            # Opened at the first scored batch: a run stopped by its first frame (a corrupt
+            # PNG) must not leave an empty row file behind.
+            handle: list[Any] = []
 
-                def append(batch_rows: list[dict[str, Any]]) -> None:
-                    for row in batch_rows:
-                        f.write(json.dumps(row) + "\n")
-                    f.flush()
+            def append(batch_rows: list[dict[str, Any]], path: Path = path, handle: list[Any] = handle) -> None:
+                if not handle:
+                    handle.append(path.open("a"))
+                for row in batch_rows:
+                    handle[0].write(json.dumps(row) + "\n")
+                handle[0].flush()
+                if reporter is not None:
+                    reporter.update(len(batch_rows))
 
+            try:
                 for seed, indices in todo[protocol].items():
                     if not indices:
                         continue
-                    evaluate(
+                    part = evaluate(
                         method, dataset, protocol, seeds=[seed], indices=indices,
                         batch_size=batch_size, progress=progress, name=name, on_batch=append,
+                        on_bad_frame=on_bad_frame,
                     )
+                    skipped.append(part.meta.get("skipped_frames") or [])
+            finally:
+                if handle:
+                    handle[0].close()
             keep = {(s, i) for s in seeds for i in range(total)}
             rows = [r for r in _read_rows(path) if r["method"] == name and (r["seed"], r["index"]) in keep]
             # One row per (seed, frame) even if a crash left a duplicate line behind.
@@ -299,4 +389,10 @@ def run_benchmark(
     combined.meta.update(
         {"source": repr(dataset), "protocols": protocols, "seeds": seeds, "n_frames": total}
     )
+    combined.meta.pop("skipped_frames", None)
+    merged = merge_skipped(skipped)
+    if merged:
+        combined.meta["skipped_frames"] = merged
+        say(f"skipped {len(merged)} unreadable frame{'s' * (len(merged) != 1)}: "
+            + "; ".join(f"{r['frame_id']} ({r['reason']})" for r in merged[:3]) + ("; ..." if len(merged) > 3 else ""))
     return combined

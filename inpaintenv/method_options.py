@@ -1,0 +1,120 @@
+"""Options naming the methods of a run, shared by ``inpaintenv evaluate`` and ``benchmark``.
+
+``--checkpoint NAME=PATH`` (a saved neural model) and ``--on-bad-frame``, and the checks
+of ``--method`` names. Every name and path is resolved here, before any frame is scored,
+so a typo fails in a second instead of after an hour of other methods. ``cli.py`` and
+:mod:`inpaintenv.benchmark.command` both import this module; it imports neither.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+
+from .registry import canonical_name, resolve_class
+
+__all__ = [
+    "BAD_FRAME_CHOICES", "CHECKPOINT_FOLDER", "add_bad_frame_option", "add_checkpoint_option",
+    "check_checkpoint_folder", "check_method_names", "parse_checkpoints",
+]
+
+#: What a checkpoint folder holds, for error messages.
+CHECKPOINT_FOLDER = (
+    "a checkpoint folder holds model.safetensors and config.json (written by `inpaintenv train` "
+    "as <out>/model, or by .save()), or is a training run folder with state.json"
+)
+#: Values of ``--on-bad-frame``.
+BAD_FRAME_CHOICES = ("error", "skip")
+
+
+def add_checkpoint_option(parser: argparse.ArgumentParser) -> None:
+    """``--checkpoint NAME=PATH`` (repeatable)."""
+    parser.add_argument("--checkpoint", action="append", metavar="NAME=PATH", default=[],
+                        help="also score a saved neural model (its folder) under NAME (repeatable)")
+
+
+def add_bad_frame_option(parser: argparse.ArgumentParser) -> None:
+    """``--on-bad-frame error|skip``."""
+    parser.add_argument(
+        "--on-bad-frame", choices=BAD_FRAME_CHOICES, default="error",
+        help="an unreadable ground-truth frame (corrupt or 8-bit PNG) stops the run (error, the default) "
+             "or is skipped and listed in the report and results.json (skip)",
+    )
+
+
+def check_method_names(names: Sequence[str]) -> list[str]:
+    """The canonical names of ``--method`` values, each checked to be importable.
+
+    Aliases become the name they stand for (rows are recorded under it); nothing is
+    built, so no weights are loaded.
+
+    Raises
+    ------
+    ValueError
+        For ``checkpoint`` (it needs a path: ``--checkpoint NAME=PATH``) or a repeated name.
+    KeyError, ImportError
+        For an unknown name or a method whose module cannot be imported.
+    """
+    out: list[str] = []
+    for name in names:
+        canonical = canonical_name(name)
+        if canonical == "checkpoint":
+            raise ValueError("-m checkpoint needs a path: pass --checkpoint NAME=PATH instead "
+                             f"({CHECKPOINT_FOLDER})")
+        resolve_class(canonical)
+        if canonical in out:
+            raise ValueError(f"method {name!r} is given twice (as {canonical!r})")
+        out.append(canonical)
+    return out
+
+
+def check_checkpoint_folder(path: str | Path, name: str = "--checkpoint") -> Path:
+    """``path`` if it is a checkpoint folder (see :data:`CHECKPOINT_FOLDER`), else one clear error.
+
+    Raises
+    ------
+    FileNotFoundError
+        If nothing is at ``path``.
+    ValueError
+        If ``path`` is a file (e.g. the ``model.safetensors`` inside the folder) or a
+        folder without a model.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"{name}: checkpoint not found: {p}; {CHECKPOINT_FOLDER}")
+    if not p.is_dir():
+        hint = f" (pass its folder {p.parent})" if p.name in ("model.safetensors", "config.json") else ""
+        raise ValueError(f"{name}: {p} is a file, not a checkpoint folder{hint}; {CHECKPOINT_FOLDER}")
+    has_model = (p / "model.safetensors").is_file() and (p / "config.json").is_file()
+    if not has_model and not (p / "state.json").is_file():
+        raise ValueError(f"{name}: {p} is not a checkpoint folder; {CHECKPOINT_FOLDER}")
+    return p
+
+
+def parse_checkpoints(specs: Sequence[str], taken: Sequence[str] = ()) -> dict[str, Path]:
+    """``--checkpoint NAME=PATH`` values as ``{name: folder}``, every folder checked.
+
+    Parameters
+    ----------
+    specs : sequence of str
+        The option's values.
+    taken : sequence of str
+        Method names already in the run (a checkpoint may not reuse one).
+
+    Raises
+    ------
+    ValueError
+        Malformed value, a name given twice, or a path that is not a checkpoint folder.
+    FileNotFoundError
+        A path that does not exist.
+    """
+    out: dict[str, Path] = {}
+    for spec in specs:
+        name, sep, path = spec.partition("=")
+        if not sep or not name or not path:
+            raise ValueError(f"--checkpoint takes NAME=PATH, got {spec!r}")
+        if name in out or name in taken:
+            raise ValueError(f"--checkpoint name {name!r} is used twice in this run; give each model its own NAME")
+        out[name] = check_checkpoint_folder(path, f"--checkpoint {name}")
+    return out

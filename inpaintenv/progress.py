@@ -1,0 +1,130 @@
+"""Progress lines for runs whose stderr is not a terminal (a log file, CI, ``nohup``).
+
+A terminal gets tqdm bars. A log gets, instead, one line every ``interval`` seconds with
+frames done / total, the rate and the time left, and one line per task (e.g. a method)
+after its first batch with its own cost, which is the first estimate worth having: the
+methods of a suite differ in cost by 50x, so the time left is summed per task, each at
+its own measured rate (tasks not started yet at a known rate, or the average so far).
+
+>>> lines = []
+>>> clock = iter([0.0, 0.0, 2.0, 20.0]).__next__
+>>> rep = ProgressReporter({"a": 4, "b": 4}, lines.append, interval=10, clock=clock)
+>>> rep.begin("a"); rep.update(2); rep.update(2)
+>>> lines[0]
+'a: 1.00 s/frame from its first batch, about 4 s for its 4 frames'
+>>> lines[1]
+'progress: 4/8 frames (50 %), 0.2 frames/s, about 20 s left'
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Mapping
+
+__all__ = ["ProgressReporter", "format_duration", "stderr_is_terminal"]
+
+
+def stderr_is_terminal() -> bool:
+    """True when stderr is an interactive terminal (tqdm bars), False for a file or pipe."""
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):  # replaced or closed stream
+        return False
+
+
+def format_duration(seconds: float) -> str:
+    """``"45 s"``, ``"3 min 05 s"``, ``"2 h 07 min"``."""
+    s = max(0, round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {(s % 3600) // 60:02d} min"
+
+
+class ProgressReporter:
+    """Counts scored frames per task and writes progress lines to ``log``.
+
+    Parameters
+    ----------
+    todo : mapping of str to int
+        Frames to score per task (e.g. per method), in the order they run.
+    log : callable
+        Receives each line.
+    seconds_per_frame : mapping of str to float, optional
+        Known cost of some tasks (e.g. from rows scored by an earlier run).
+    interval : float
+        Seconds between periodic lines.
+    clock : callable
+        Monotonic clock (seconds); replaceable in tests.
+    """
+
+    def __init__(
+        self,
+        todo: Mapping[str, int],
+        log: Callable[[str], None],
+        *,
+        seconds_per_frame: Mapping[str, float] | None = None,
+        interval: float = 10.0,
+        clock: Callable[[], float] = time.monotonic,
+    ):
+        self.todo = {k: int(v) for k, v in todo.items()}
+        self.total = sum(self.todo.values())
+        self.log = log
+        self.known = dict(seconds_per_frame or {})
+        self.interval = float(interval)
+        self.clock = clock
+        self.done: dict[str, int] = {k: 0 for k in self.todo}
+        self.spent: dict[str, float] = {k: 0.0 for k in self.todo}
+        self.current: str | None = None
+        self._mark = self._last_line = clock()
+
+    def estimate(self) -> float | None:
+        """Seconds left, or None while nothing is measured or known."""
+        measured = {k: self.spent[k] / self.done[k] for k in self.todo if self.done[k]}
+        rates = {**self.known, **measured}
+        if not rates:
+            return None
+        average = sum(self.spent.values()) / max(1, sum(self.done.values())) if measured else (
+            sum(rates.values()) / len(rates)
+        )
+        return sum((self.todo[k] - self.done[k]) * rates.get(k, average) for k in self.todo)
+
+    def drop(self, task: str) -> None:
+        """Leave ``task`` out (e.g. a method not available here): its frames are not to do."""
+        self.total -= self.todo[task] - self.done[task]
+        self.todo[task] = self.done[task]
+
+    def begin(self, task: str) -> None:
+        """Start timing ``task`` (a key of ``todo``)."""
+        self.current = task
+        self._mark = self.clock()
+
+    def update(self, n: int) -> None:
+        """Count ``n`` more frames of the current task; log a line when one is due."""
+        if self.current is None:
+            raise RuntimeError("ProgressReporter.update before begin")
+        now = self.clock()
+        task = self.current
+        first = self.done[task] == 0
+        self.spent[task] += now - self._mark
+        self.done[task] += n
+        self._mark = now
+        if first and self.todo[task]:
+            spf = self.spent[task] / self.done[task]
+            self.log(f"{task}: {spf:.2f} s/frame from its first batch, about "
+                     f"{format_duration(spf * self.todo[task])} for its {self.todo[task]} frames")
+        if now - self._last_line >= self.interval:
+            self._last_line = now
+            self.log(self.line(now))
+
+    def line(self, now: float | None = None) -> str:
+        """``progress: done/total frames (pct), rate, time left``."""
+        done = sum(self.done.values())
+        elapsed = sum(self.spent.values())
+        rate = f"{done / elapsed:.1f} frames/s" if elapsed > 0 else "rate unknown"
+        left = self.estimate()
+        when = "time left unknown" if left is None else f"about {format_duration(left)} left"
+        pct = 100 * done / self.total if self.total else 100.0
+        return f"progress: {done}/{self.total} frames ({pct:.0f} %), {rate}, {when}"

@@ -1,0 +1,70 @@
+"""Progress of a benchmark whose stderr is a log file, not a terminal (issue 16, item 2)."""
+
+from __future__ import annotations
+
+import pytest
+
+from inpaintenv.benchmark import runner
+from inpaintenv.benchmark.suites import SUITES
+from inpaintenv.cli import build_parser, main
+from inpaintenv.progress import ProgressReporter, format_duration
+
+pytest.importorskip("estimators.classical")
+
+ARGV = ["benchmark", "-m", "scanline", "-m", "constant", "--frame-shape", "32", "96", "--n-frames", "8",
+        "--holdout", "0", "--figure-frames", "0", "--batch-size", "2"]
+
+
+def test_log_gets_plan_estimates_and_periodic_progress(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(runner, "PROGRESS_INTERVAL", 0.0)  # a line at every batch
+    assert main([*ARGV, "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err  # capsys: stderr is not a terminal
+    assert ("benchmark: 8 frames × 2 methods × 1 protocol × 1 seed = 16 frame scores; "
+            "0 already done, 16 to score") in err
+    assert "scanline: " in err and "s/frame from its first batch, about" in err and "for its 8 frames" in err
+    progress = [line for line in err.splitlines() if line.startswith("progress: ")]
+    assert progress[-1].startswith("progress: 16/16 frames (100 %)") and "frames/s" in progress[-1]
+    assert any(line.startswith("progress: 2/16 frames (12 %)") and "left" in line for line in progress)
+
+
+def test_resume_estimates_from_the_rows_already_scored(tmp_path, capsys):
+    assert main([*ARGV, "--out", str(tmp_path)]) == 0
+    for rows in (tmp_path / "rows").glob("*.jsonl"):  # as if killed half-way
+        rows.write_text("".join(rows.read_text().splitlines(keepends=True)[:4]))
+    capsys.readouterr()
+    assert main([*ARGV, "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err
+    assert "8 already done, 8 to score" in err
+    assert "estimate: about " in err and "(from the ms/frame of the rows already scored)" in err
+
+
+def test_quiet_stays_quiet(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(runner, "PROGRESS_INTERVAL", 0.0)
+    assert main([*ARGV, "--out", str(tmp_path), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_help_lists_every_suite_and_its_methods(capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["benchmark", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name, members in SUITES.items():
+        assert f"{name} ({len(members)}): {', '.join(members)}" in text
+
+
+def test_reporter_sums_time_left_per_method_at_its_own_rate():
+    lines: list[str] = []
+    now = [0.0]
+    rep = ProgressReporter({"slow": 10, "fast": 10}, lines.append, seconds_per_frame={"fast": 0.1},
+                           interval=10, clock=lambda: now[0])
+    rep.begin("slow")
+    now[0] = 4.0
+    rep.update(2)  # 2 s/frame measured
+    assert lines == ["slow: 2.00 s/frame from its first batch, about 20 s for its 10 frames"]
+    now[0] = 12.0
+    rep.update(4)  # 6 done in 12 s; left: 4 x 2 s + 10 x 0.1 s
+    assert lines[-1] == "progress: 6/20 frames (30 %), 0.5 frames/s, about 9 s left"
+
+
+def test_format_duration():
+    assert [format_duration(s) for s in (4.4, 65, 3725)] == ["4 s", "1 min 05 s", "1 h 02 min"]
