@@ -5,8 +5,8 @@ every row twice. The first run takes an exclusive ``fcntl.flock`` on ``run.lock`
 writes its pid, host and start time into it; a second run fails at once with a line
 naming the holder. The kernel drops a flock when its process dies (even on SIGKILL),
 so a lock left by a killed run is free: the next run takes it over and says so. Where
-``fcntl`` does not exist (Windows), the file is created exclusively instead and a holder
-whose pid is not alive on this host counts as stale.
+``fcntl`` does not exist (Windows) or the file system has no flock, the file is created
+exclusively instead and a holder whose pid is not alive on this host counts as stale.
 
 The lock is re-entrant within a process (the CLI and :func:`run_benchmark` both take
 it) and released on exit from the ``with`` block, including on errors and Ctrl-C.
@@ -33,7 +33,7 @@ __all__ = ["LOCK_FILE", "RunLockedError", "run_lock"]
 #: Name of the lock file inside a run folder.
 LOCK_FILE = "run.lock"
 
-# Locks this process holds: resolved path -> [open file, depth of nesting].
+# Locks this process holds: resolved path -> [open file, depth of nesting, flocked?].
 _HELD: dict[Path, list[Any]] = {}
 
 
@@ -74,7 +74,8 @@ def _me() -> dict[str, Any]:
     }
 
 
-def _acquire_flock(path: Path, say: Callable[[str], None]) -> Any:
+def _acquire_flock(path: Path, say: Callable[[str], None]) -> Any | None:
+    """The open, flocked lock file; None if this file system has no flock."""
     f = open(path, "a+")  # noqa: SIM115 - held until release
     try:
         fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -85,6 +86,9 @@ def _acquire_flock(path: Path, say: Callable[[str], None]) -> Any:
             f"{path.parent} is in use by another run ({_holder_text(holder)}); wait for it to finish "
             "or choose another --out"
         ) from None
+    except OSError:  # a file system without flock (some network mounts): lock file + pid check
+        f.close()
+        return None
     previous = _read_holder(f)
     if previous:
         # Written by a run that never released it: it was killed (the kernel dropped its flock).
@@ -96,7 +100,8 @@ def _acquire_flock(path: Path, say: Callable[[str], None]) -> Any:
     return f
 
 
-def _acquire_exclusive(path: Path, say: Callable[[str], None]) -> Any:  # pragma: no cover - Windows
+def _acquire_exclusive(path: Path, say: Callable[[str], None]) -> Any:  # pragma: no cover - no flock
+    """The lock file created exclusively; a holder not alive on this host is stale."""
     for _ in range(2):
         try:
             fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_RDWR)
@@ -145,8 +150,11 @@ def run_lock(out_dir: str | os.PathLike, log: Callable[[str], None] | None = Non
         held[1] += 1
     else:
         say = log or (lambda msg: None)
-        f = _acquire_flock(path, say) if fcntl is not None else _acquire_exclusive(path, say)
-        _HELD[path] = held = [f, 1]
+        f = _acquire_flock(path, say) if fcntl is not None else None
+        flocked = f is not None
+        if f is None:
+            f = _acquire_exclusive(path, say)
+        _HELD[path] = held = [f, 1, flocked]
     try:
         yield path
     finally:
@@ -154,13 +162,13 @@ def run_lock(out_dir: str | os.PathLike, log: Callable[[str], None] | None = Non
         if held[1] == 0:
             del _HELD[path]
             f = held[0]
-            if fcntl is not None:
+            if held[2]:
                 # Emptied, not deleted: deleting a flocked file lets two runs lock two inodes.
                 f.seek(0)
                 f.truncate()
                 f.flush()
                 fcntl.flock(f.fileno(), fcntl.LOCK_UN)
                 f.close()
-            else:  # pragma: no cover - Windows
+            else:  # pragma: no cover - no flock here
                 f.close()
                 path.unlink(missing_ok=True)
