@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -57,11 +57,15 @@ def _save(fig: Any, path: str | Path, dpi: int) -> Path:
     return path
 
 
-def spread_indices(dataset: DepthDataset, k: int) -> list[int]:
+def spread_indices(dataset: DepthDataset, k: int, exclude: Collection[int] = ()) -> list[int]:
     """``k`` frame positions spread over the drives: round robin over the drives (in order
-    of first appearance), evenly spaced within each drive."""
+    of first appearance), evenly spaced within each drive; never one of ``exclude``
+    (e.g. frames that could not be read)."""
     groups = np.asarray(dataset.groups)
-    by_drive = [np.flatnonzero(groups == g) for g in dict.fromkeys(groups.tolist())]
+    keep = np.ones(len(groups), dtype=bool)
+    keep[[i for i in exclude if 0 <= i < len(groups)]] = False
+    by_drive = [d for g in dict.fromkeys(groups.tolist()) if len(d := np.flatnonzero((groups == g) & keep))]
+    groups = groups[keep]
     share = [len(d) for d in by_drive]
     take = [0] * len(by_drive)
     for _ in range(min(k, len(groups))):  # one more frame for the drive with the fewest taken
@@ -292,6 +296,7 @@ def write_figures(
     protocol: str,
     seed: int,
     log: Callable[[str], None] = lambda msg: None,
+    exclude: Collection[int] = (),
 ) -> list[Path]:
     """Write a run's figures into ``out_dir``; skip them when they already show these rows.
 
@@ -313,10 +318,12 @@ def write_figures(
         Masks of the panels and ``error_vs_distance.png``.
     log : callable
         Receives one line before any method is run again (what, why, how long).
+    exclude : collection of int
+        Frames never drawn (the unreadable frames a run skipped).
     """
     out = Path(out_dir)
     colours = style.method_colours(result.methods)  # one colour per method, in run order
-    indices = spread_indices(dataset, max(n_panels, DISTANCE_FRAMES))
+    indices = spread_indices(dataset, max(n_panels, DISTANCE_FRAMES), exclude)
     panels = indices[:n_panels]
     names = [out / f"frame_{i:04d}.png" for i in panels] + [out / "error_vs_hole_size.png", out / "error_vs_distance.png"]
     settings = {"panel_methods": list(panel_methods), "panels": panels, "distance": indices,
