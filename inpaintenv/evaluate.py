@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from . import tables
+from ._version import __version__
 from .conventions import DEFAULT_MAX_DEPTH, check_int, check_max_depth, check_seeds
 from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
@@ -536,8 +537,6 @@ def evaluate(
     # Report rows seed-major (all frames of seed 0, then seed 1, ...).
     order = {s: j for j, s in enumerate(seed_list)}
     rows.sort(key=lambda r: (order[r["seed"]], r["index"]))
-    import inpaintenv
-
     meta = {
         "methods": [label],
         "protocol": proto.name,
@@ -546,7 +545,7 @@ def evaluate(
         "source": repr(dataset),
         "frame_shape": list(shape),
         "max_depth": float(max_depth),
-        "inpaintenv_version": inpaintenv.__version__,
+        "inpaintenv_version": __version__,
     }
     if skipped:
         meta["skipped_frames"] = skipped
