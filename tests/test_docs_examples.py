@@ -19,7 +19,6 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from conftest import find_kitti_root
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md"))]
@@ -27,7 +26,6 @@ BLOCK = re.compile(
     r"^(?:[ \t]*<!--\s*doc-example:\s*(?P<mark>.*?)\s*-->[ \t]*\n)?(?P<indent>[ \t]*)```python[^\n]*\n(?P<code>.*?)^(?P=indent)```",
     flags=re.DOTALL | re.MULTILINE,
 )
-KITTI_ROOT = find_kitti_root()
 
 
 def examples(name: str) -> list[tuple[int, str, str]]:
@@ -51,7 +49,11 @@ def test_every_page_with_python_is_run():
 
 
 @pytest.mark.parametrize("name", [pytest.param(p, marks=pytest.mark.slow) if p in SLOW else p for p in PAGES])
-def test_doc_examples_run(name, tmp_path, monkeypatch, capsys):
+def test_doc_examples_run(name, tmp_path, monkeypatch, capsys, request):
+    try:  # the shared fixture finds the real slice, and skips when there is none
+        kitti_root = request.getfixturevalue("kitti_root")
+    except pytest.skip.Exception:
+        kitti_root = None
     monkeypatch.chdir(tmp_path)
     namespace: dict[str, object] = {"__name__": "__doc_example__"}
     needs_kitti = []
@@ -59,10 +61,10 @@ def test_doc_examples_run(name, tmp_path, monkeypatch, capsys):
         if mark.startswith("skip"):
             continue
         if mark == "kitti":
-            if not KITTI_ROOT:
+            if kitti_root is None:
                 needs_kitti.append(line)
                 continue
-            code = code.replace('"<KITTI root>"', repr(str(KITTI_ROOT)))
+            code = code.replace('"<KITTI root>"', repr(str(kitti_root)))
         # Running the documented code is the point of this test.
         exec(compile(code.replace("/tmp/", f"{tmp_path}/"), f"{name}:{line}", "exec"), namespace)  # noqa: S102
     if needs_kitti:
