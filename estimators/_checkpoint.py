@@ -16,6 +16,9 @@ producing a silently different model.
 A training run directory holds immutable checkpoint directories ``ckpt-<step>`` and a
 pointer file ``state.json`` = ``{"last": ..., "best": ...}`` that is replaced
 atomically, so a crash while writing never leaves ``last`` half-written.
+
+:class:`CheckpointMixin` gives the neural inpainters ``save`` / ``load`` on top of these
+files; :data:`CLASSES` maps the class name a checkpoint records to its class.
 """
 
 from __future__ import annotations
@@ -247,3 +250,104 @@ def write_run_checkpoint(
     for child in run_dir.iterdir():
         if child.is_dir() and child.name not in (last, best) and child.name.startswith(("ckpt-", "best-")):
             shutil.rmtree(child, ignore_errors=True)
+
+
+#: Neural estimator classes by the name a checkpoint's ``config.json`` records.
+CLASSES: dict[str, type] = {}
+
+
+def checkpoint_class(name: Any) -> type | None:
+    """The estimator class a checkpoint names, or None if no such class is known.
+
+    A class not registered yet is looked up among the ``estimators`` package's public
+    names, whose lazy export imports (and so registers) the module defining it: loading
+    a ``PriorUNetInpainter`` checkpoint works without this module or ``estimators.neural``
+    importing ``estimators.prior``.
+    """
+    if not isinstance(name, str):
+        return None
+    if name not in CLASSES:
+        import estimators
+
+        if name in getattr(estimators, "__all__", ()):
+            getattr(estimators, name)
+    return CLASSES.get(name)
+
+
+def cpu_state(model: torch.nn.Module, clone: bool = False) -> dict[str, torch.Tensor]:
+    """``model``'s state dict on the CPU, contiguous (``clone``: a copy training cannot change)."""
+    state = {k: v.detach().to("cpu").contiguous() for k, v in model.state_dict().items()}
+    return {k: v.clone() for k, v in state.items()} if clone else state
+
+
+def progress_history(fitted: dict[str, Any]) -> dict[str, Any]:
+    """History stored in a training-run checkpoint summary (or an empty one)."""
+    return fitted.get("history") or {"step_loss": [], "epoch_loss": [], "val_hole_rmse": [], "best_epoch": None}
+
+
+class CheckpointMixin:
+    """``save`` and ``load`` of a neural inpainter: parameters and fitted state as JSON,
+    weights as safetensors (the file format is above)."""
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the fitted model to the directory ``path`` (safetensors + JSON).
+
+        Returns
+        -------
+        pathlib.Path
+            The checkpoint directory; read it back with :meth:`load`.
+        """
+        if not hasattr(self, "model_"):
+            from sklearn.exceptions import NotFittedError
+
+            raise NotFittedError(f"this {type(self).__name__} is not fitted; nothing to save")
+        # The config is written from the current parameters: they must still describe the weights.
+        self._check_model_params()
+        config = {
+            "class": type(self).__name__,
+            "params": self._config_params(),
+            "seed": getattr(self, "seed_", None),
+            "fitted": {"n_steps_": getattr(self, "n_steps_", 0), "history_": getattr(self, "history_", None)},
+        }
+        return write_checkpoint(path, config, cpu_state(self.model_))
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> Any:
+        """Load a model written by :meth:`save`, or the best (else last) model of a run dir.
+
+        Raises
+        ------
+        CheckpointError
+            If the checkpoint is missing, truncated, corrupt, or of another class.
+        """
+        path = Path(path)
+        state = read_run_state(path) if path.is_dir() else None
+        if state is not None:
+            path = path / (state.get("best") or state["last"])
+        config, weights, _, _ = read_checkpoint(path)
+        klass = checkpoint_class(config.get("class"))
+        if klass is None or not issubclass(klass, cls):
+            raise CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
+        params = dict(config["params"])
+        if params.get("crop") is not None:
+            params["crop"] = tuple(params["crop"])
+        if isinstance(params.get("warm_start"), str) and params["warm_start"].startswith("<"):
+            params["warm_start"] = None  # an in-memory estimator cannot be restored; weights are
+        try:
+            est = klass(**params)
+        except TypeError as e:
+            raise CheckpointError(f"{path} has parameters this version does not know: {e}") from None
+        model = est._build_model(0)
+        try:
+            model.load_state_dict(weights)
+        except RuntimeError as e:
+            raise CheckpointError(f"{path}: weights do not fit the saved architecture: {e}") from None
+        est.model_ = model.eval()
+        fitted = config.get("fitted") or {}
+        est.history_ = fitted.get("history_") or progress_history(fitted)
+        est.n_steps_ = int(fitted.get("n_steps_", fitted.get("step", 0)) or 0)
+        est.seed_ = config.get("seed")
+        est.model_params_ = est._model_params()
+        est.is_fitted_ = True
+        return est
+

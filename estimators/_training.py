@@ -1,4 +1,4 @@
-"""Training data pipeline and tensor helpers of the neural inpainters.
+"""Training of the neural inpainters: the data pipeline, tensor helpers and the loop.
 
 Reproducibility: every random choice of a training sample (crop offset, occlusion mask)
 comes from a generator seeded by ``(seed, epoch, index)`` alone, and the visiting order
@@ -11,17 +11,31 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
+import math
+import os
 from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
+from tqdm.auto import tqdm
 
-from inpaintenv.data.base import DepthDataset
-from inpaintenv.masks import OcclusionProtocol
+from inpaintenv.conventions import check_depth
+from inpaintenv.data.base import DepthDataset, split_by_drive
+from inpaintenv.masks import OcclusionProtocol, get_protocol
+from inpaintenv.metrics import aggregate, frame_metrics
+
+from . import _checkpoint as ckpt
+from ._checkpoint import CheckpointMixin, cpu_state
+from .losses import inpainting_loss
+from .nets import UNet
 
 __all__ = [
     "OcclusionFrames",
+    "TrainingMixin",
     "crop_shape",
     "data_fingerprint",
     "encode_input",
@@ -180,3 +194,238 @@ def torch_threads(n: int | None) -> Iterator[int]:
     finally:
         if n is not None:
             torch.set_num_threads(before)
+
+
+#: Parameters that change nothing about the trained weights: left out of the run-directory
+#: hash so that e.g. changing ``verbose`` still resumes the same run.
+_RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed")
+
+
+class TrainingMixin:
+    """The training loop of a neural inpainter: run directory, resume, warm start, the
+    optimiser steps and per-epoch validation (``fit`` of :class:`estimators.neural._NeuralInpainter`).
+
+    Relies on the parameter mixin (``_check_params``, ``_device``, ``_build_model``, ...)
+    and the checkpoint mixin of the same class.
+    """
+
+    def _run_dir(self, dataset: DepthDataset, seed: int) -> Path | None:
+        if self.checkpoint_dir is None:
+            return None
+        params = {k: v for k, v in self._config_params().items() if k not in _RUN_INDEPENDENT}
+        key = json.dumps({"params": params, "seed": seed, "data": data_fingerprint(dataset)}, sort_keys=True)
+        digest = hashlib.sha256(key.encode()).hexdigest()[:16]
+        return Path(self.checkpoint_dir) / f"{type(self).__name__}-{digest}"
+
+    def _fit(self, dataset: DepthDataset) -> None:
+        self._check_params()
+        check_depth(dataset[0], name="X[0]")
+        self._check_frame_size(dataset.frame_shape)
+        seed = int(self.random_state) if self.random_state is not None else int(
+            np.random.SeedSequence().generate_state(1)[0]
+        )
+        device = self._device()
+        with torch_threads(self.num_threads) as n_threads:
+            self.n_threads_ = n_threads
+            self._train(dataset, seed, device)
+        self.seed_ = seed
+        self.model_params_ = self._model_params()
+
+    def _train(self, dataset: DepthDataset, seed: int, device: torch.device) -> None:
+        if self.validation_fraction is not None:
+            train_ds, val_ds = split_by_drive(dataset, self.validation_fraction, seed=seed)
+        else:
+            train_ds, val_ds = dataset, None
+        protocol = get_protocol(self.protocol)
+        model = self._build_model(seed)
+        if self.warm_start is True:
+            # scikit-learn's meaning: continue from this estimator's previous fit, if any.
+            if hasattr(self, "model_"):
+                _copy_encoder(self.model_, model)
+                model.load_state_dict(self.model_.state_dict())
+        elif self.warm_start is not None and self.warm_start is not False:
+            _copy_encoder(self._warm_start_model(), model)
+        optimizer, autocast, scaler = self._prepare_training(model, device)
+        step_model = self._compiled(model)
+
+        n_batches = math.ceil(len(train_ds) / self.batch_size)
+        total = self.epochs * n_batches if self.max_steps is None else min(self.max_steps, self.epochs * n_batches)
+        progress: dict[str, Any] = {
+            "epoch": 0, "batch": 0, "step": 0, "finished": False,
+            "history": {"step_loss": [], "epoch_loss": [], "val_hole_rmse": [], "best_epoch": None},
+        }
+        best_state: dict[str, torch.Tensor] | None = None
+        run_dir = self._run_dir(dataset, seed)
+        self.run_dir_ = run_dir
+        config = {"class": type(self).__name__, "params": self._config_params(), "seed": seed,
+                  "torch_threads": torch.get_num_threads()}
+        if run_dir is not None:
+            resumed = self._resume(run_dir, model, optimizer, device)
+            if resumed is not None:
+                progress, best_state = resumed
+
+        hist = progress["history"]
+        data = OcclusionFrames(train_ds, protocol, self.crop, seed)
+        pin = device.type == "cuda"
+
+        def save(*, new_best: bool = False) -> None:
+            if run_dir is None:
+                return
+            tensors, meta = ckpt.flatten_optimizer_state(optimizer.state_dict())
+            ckpt.write_run_checkpoint(
+                run_dir, progress["step"], {**config, "fitted": _fitted_summary(progress)},
+                cpu_state(model), {**progress, "optimizer": meta}, tensors, best_is_current=new_best,
+            )
+
+        bar = tqdm(total=total, initial=progress["step"], disable=not self.verbose, desc=type(self).__name__, leave=False)
+        running = None
+        try:
+            while not progress["finished"]:
+                epoch = progress["epoch"]
+                data.epoch = epoch
+                order = epoch_order(len(train_ds), seed, epoch)[progress["batch"] * self.batch_size:]
+                stopped = False
+                model.train()
+                for gt, hole in make_loader(data, order, self.batch_size, self.num_workers, pin):
+                    loss = self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device)
+                    hist["step_loss"].append(loss)
+                    progress["step"] += 1
+                    progress["batch"] += 1
+                    running = loss if running is None else 0.9 * running + 0.1 * loss
+                    bar.update(1)
+                    bar.set_postfix(loss=f"{running:.4f}", epoch=epoch)
+                    if self.max_steps is not None and progress["step"] >= self.max_steps:
+                        stopped = True
+                        break
+                    if self.checkpoint_every and progress["step"] % self.checkpoint_every == 0:
+                        save()
+                # End of an epoch (or of a run stopped by max_steps mid-epoch).
+                start = sum(1 for _ in hist["epoch_loss"])
+                done_steps = hist["step_loss"][progress.get("epoch_start_step", 0):]
+                hist["epoch_loss"].append(float(np.mean(done_steps)) if done_steps else float("nan"))
+                new_best = False
+                if val_ds is not None:
+                    rmse = self._validation_rmse(model, val_ds, protocol, seed, device)
+                    hist["val_hole_rmse"].append(rmse)
+                    prev = [v for v in hist["val_hole_rmse"][:-1] if not math.isnan(v)]
+                    if not math.isnan(rmse) and (not prev or rmse < min(prev)):
+                        hist["best_epoch"] = start
+                        best_state = cpu_state(model, clone=True)
+                        new_best = True
+                    model.train()
+                progress["epoch"] = epoch + 1
+                progress["batch"] = 0
+                progress["epoch_start_step"] = progress["step"]
+                progress["finished"] = stopped or progress["epoch"] >= self.epochs
+                save(new_best=new_best)
+        finally:
+            bar.close()
+
+        if best_state is not None:
+            model.load_state_dict(best_state)
+        self.model_ = model.to("cpu", memory_format=torch.contiguous_format).eval()
+        self.history_ = hist
+        self.n_steps_ = progress["step"]
+
+    def _prepare_training(self, model: torch.nn.Module, device: torch.device) -> tuple[Any, Any, Any]:
+        """Move ``model`` to ``device`` (channels-last if asked) and build the Adam optimizer,
+        the autocast context and the CUDA gradient scaler (None when not needed).
+
+        Shared by :meth:`_train` and ``estimators.distributed`` so both train alike.
+        """
+        model.to(device)
+        if self.channels_last:
+            model.to(memory_format=torch.channels_last)
+        optimizer = torch.optim.Adam(model.parameters(), lr=self.lr, weight_decay=self.weight_decay)
+        autocast, needs_scaler = self._autocast(device)
+        scaler = torch.amp.GradScaler("cuda") if needs_scaler else None
+        return optimizer, autocast, scaler
+
+    def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
+        gt = gt.to(device, non_blocking=True)
+        hole = hole.to(device, non_blocking=True)
+        target = gt / self.max_depth
+        observed = torch.where(hole, torch.zeros_like(gt), gt)
+        scale = self._input_scale(observed)
+        x = encode_input(observed, hole, scale, self.input_mask)
+        if self.channels_last:
+            x = x.contiguous(memory_format=torch.channels_last)
+        optimizer.zero_grad(set_to_none=True)
+        with autocast:
+            pred = model(x)[:, 0]
+        # The loss always compares depths divided by max_depth, whatever the input scale.
+        pred = pred.float() * (scale / self.max_depth)
+        loss = inpainting_loss(pred, target, gt > 0, hole, self.hole_weight, self.tv_weight)
+        if not torch.isfinite(loss):
+            raise FloatingPointError(
+                f"training loss became {loss.item()} at step; lower lr or disable amp"
+            )
+        if scaler is not None:
+            scaler.scale(loss).backward()
+            scaler.step(optimizer)
+            scaler.update()
+        else:
+            loss.backward()
+            optimizer.step()
+        return float(loss.detach())
+
+    def _resume(self, run_dir: Path, model: UNet, optimizer, device) -> tuple[dict, dict | None] | None:
+        state = ckpt.read_run_state(run_dir)
+        if state is None:
+            return None
+        _, weights, progress, optim = ckpt.read_checkpoint(run_dir / state["last"], training=True)
+        model.load_state_dict(weights)
+        meta = progress.pop("optimizer")
+        optimizer.load_state_dict(ckpt.unflatten_optimizer_state(optim, meta))
+        for k in ("optimizer_sha256", "weights_sha256"):
+            progress.pop(k, None)
+        best = None
+        if state.get("best"):
+            _, best, _, _ = ckpt.read_checkpoint(run_dir / state["best"])
+        return progress, best
+
+    def _warm_start_model(self) -> UNet:
+        ws = self.warm_start
+        if isinstance(ws, CheckpointMixin):
+            if not hasattr(ws, "model_"):
+                raise ValueError(
+                    "warm_start estimator is not fitted (note: clone(), as in GridSearchCV, "
+                    "drops fitted state; pass a path written by .save() instead)"
+                )
+            return ws.model_
+        if isinstance(ws, (str, os.PathLike)):
+            return CheckpointMixin.load(ws).model_
+        raise TypeError(f"warm_start must be None, a path, or a fitted neural inpainter, got {type(ws).__name__}")
+
+    def _validation_rmse(self, model, val_ds: DepthDataset, protocol, seed: int, device) -> float:
+        parts = []
+        for start in range(0, len(val_ds), self.batch_size):
+            idx = range(start, min(start + self.batch_size, len(val_ds)))
+            gt = np.stack([
+                check_depth(val_ds[i], name=f"validation frame {frame_label(val_ds, i)}", ndim=(2,)) for i in idx
+            ])
+            hole = protocol.masks(val_ds.frame_shape, seed, idx)
+            x = np.where(hole, np.nan, gt).astype(np.float32)
+            pred = self._forward(model, x, device)
+            pred = np.where(x > 0, x, np.maximum(pred, 0.0)) if self.keep_observed else pred
+            parts.append(frame_metrics(pred, gt, hole, max_depth=self.max_depth))
+        table = aggregate({k: np.concatenate([np.atleast_1d(p[k]) for p in parts]) for k in parts[0]})
+        return float(table["hole_rmse"])
+
+
+def _fitted_summary(progress: dict[str, Any]) -> dict[str, Any]:
+    return {"n_steps_": progress["step"], "history_": progress["history"]}
+
+
+def _copy_encoder(source: UNet, target: UNet) -> None:
+    """Copy ``source.encoder`` into ``target.encoder``; shapes must agree."""
+    src, dst = source.encoder.state_dict(), target.encoder.state_dict()
+    mismatch = [k for k in dst if k not in src or src[k].shape != dst[k].shape]
+    if mismatch:
+        raise ValueError(
+            "warm_start encoder does not match this model (width/depth/input_mask must be "
+            f"equal): source in_channels={source.in_channels}, width={source.width}, depth={source.depth}; "
+            f"target in_channels={target.in_channels}, width={target.width}, depth={target.depth}"
+        )
+    target.encoder.load_state_dict({k: src[k].to("cpu") for k in dst})
+

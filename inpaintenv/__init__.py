@@ -6,12 +6,12 @@ occlusions and scores any reconstruction.
 
 from __future__ import annotations
 
+from ._version import __version__
 from .conventions import DEFAULT_MAX_DEPTH, corrupt
 from .envs import DepthInpaintEnv
 from .envs import register_envs as _register_envs
 from .evaluate import EvaluationResult, evaluate
 
-__version__ = "0.1.0"
 __all__ = ["DEFAULT_MAX_DEPTH", "DepthInpaintEnv", "EvaluationResult", "corrupt", "evaluate", "__version__"]
 
 _register_envs()

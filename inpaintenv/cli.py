@@ -3,7 +3,7 @@
 Each subcommand lives in two small functions: ``add_<name>(subparsers)`` declares its
 options and ``cmd_<name>(args)`` runs it. More subcommands (``benchmark``, ``train``)
 are added by appending their ``add_`` function to :data:`SUBCOMMANDS`; the shared
-data-source options come from :func:`add_source_options` / :func:`open_source_from_args`.
+data-source options come from :mod:`inpaintenv.cli_options` (re-exported here).
 
 Examples
 --------
@@ -12,7 +12,7 @@ Examples
     inpaintenv info
     inpaintenv evaluate --method telea --method telea-hole --n-frames 8 --out results/
     inpaintenv show --method ipbasic --index 3 --out panel.png
-    inpaintenv info --kitti-root ../shared/kitti --split train
+    inpaintenv info --kitti-root <KITTI root> --split train
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from .cli_options import add_common_options, add_source_options, open_source_from_args
 from .conventions import DEFAULT_MAX_DEPTH, check_max_depth, check_seed, check_seeds
 from .data.base import as_dataset
 from .method_options import (
@@ -45,70 +46,6 @@ INTERRUPTED = 130
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, KeyError, TypeError, FileNotFoundError, ImportError, IndexError, OSError,
 )
-
-
-# ---------------------------------------------------------------------------------------
-# Shared options
-# ---------------------------------------------------------------------------------------
-def add_source_options(parser: argparse.ArgumentParser) -> None:
-    """Options choosing the data source: built-in synthetic streets, or real KITTI."""
-    g = parser.add_argument_group("data source (default: built-in SyntheticStreets)")
-    g.add_argument("--kitti-root", metavar="PATH", help="root of a KITTI depth-completion tree")
-    g.add_argument("--split", default="train", help="KITTI split: train, val or val_selection, or several joined by commas, "
-                   "e.g. train,val (default train)")
-    g.add_argument("--camera", default="image_02", choices=["image_02", "image_03", "both"],
-                   help="KITTI camera (default image_02)")
-    g.add_argument(
-        "--kind", default="groundtruth", choices=["groundtruth", "velodyne_raw", "dense"],
-        help="ground truth to score against (default groundtruth; dense: synthetic only)",
-    )
-    g.add_argument("--drives", nargs="+", metavar="DRIVE", help="keep only these drives")
-    g.add_argument("--exclude-drives", nargs="+", metavar="DRIVE",
-                   help="drop these drives (e.g. the ones a model was trained on)")
-    g.add_argument("--n-frames", type=int, metavar="N", help="use only the first N frames")
-    g.add_argument(
-        "--frame-shape", type=int, nargs=2, metavar=("H", "W"),
-        help="synthetic frame size (default 352 1216, KITTI's crop)",
-    )
-    g.add_argument("--data-seed", type=int, default=0, help="seed of the synthetic streets (default 0)")
-
-
-def add_common_options(parser: argparse.ArgumentParser) -> None:
-    """Options every subcommand takes."""
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
-
-
-def open_source_from_args(args: argparse.Namespace) -> Any:
-    """Build the data source selected by :func:`add_source_options`' options.
-
-    Uses :func:`inpaintenv.data.open_source`: ``--kitti-root`` gives ``KittiDepth``
-    (first ``--n-frames`` frames), otherwise the built-in ``SyntheticStreets``
-    (``--n-frames`` frames, 64 by default; ``--frame-shape`` sets their size).
-    """
-    from .data import open_source
-
-    if args.n_frames is not None and args.n_frames < 1:
-        raise ValueError(f"--n-frames must be >= 1, got {args.n_frames}")
-    if args.frame_shape:
-        if args.kitti_root:
-            raise ValueError("--frame-shape applies to the synthetic source only (KITTI is cropped to 352x1216)")
-        from .data import SyntheticStreets
-        from .data.sources import DEFAULT_SYNTHETIC_FRAMES
-
-        from .data import select_drives
-
-        return select_drives(
-            SyntheticStreets(
-                n=args.n_frames or DEFAULT_SYNTHETIC_FRAMES, seed=args.data_seed, kind=args.kind,
-                frame_shape=tuple(args.frame_shape),
-            ),
-            args.drives, args.exclude_drives,
-        )
-    return open_source(
-        args.kitti_root, split=args.split, kind=args.kind, n_frames=args.n_frames,
-        seed=args.data_seed, camera=args.camera, drives=args.drives,
-        exclude_drives=args.exclude_drives,
-    )
 
 
 def _method_overrides(args: argparse.Namespace) -> dict[str, Any]:
@@ -490,7 +427,7 @@ SUBCOMMANDS: list[Callable[[Any], None]] = [add_info, add_evaluate, add_show, ad
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand of :data:`SUBCOMMANDS`."""
-    from . import __version__
+    from ._version import __version__
 
     parser = argparse.ArgumentParser(
         prog="inpaintenv",

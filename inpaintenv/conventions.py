@@ -10,6 +10,10 @@ Ground truth never contains NaN; method inputs carry NaN exactly inside the hole
 Depth never exceeds :data:`DEPTH_LIMIT` (65535 / 256 m), the most KITTI's 16-bit PNG
 encoding can hold, so raw PNG values (metres x 256) passed by mistake are refused.
 
+A 3-D array is a batch of frames, each at least :data:`MIN_FRAME_SIDE` pixels high and wide:
+an image ``(H, W, 3)`` or ``(H, W, 1)`` would otherwise be read as ``H`` frames of width 3
+or 1 and scored as such. A single 2-D frame may be any size (it has no axis to misread).
+
 Seeds, frame indices and counts are plain non-negative integers
 (:func:`check_int`, :func:`check_seed`, :func:`check_seeds`): a float, a bool or a
 string is refused rather than truncated, so ``seeds="12"`` never becomes ``[1, 2]``.
@@ -26,7 +30,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "check_depth", "check_int", "check_mask", "check_max_depth",
+    "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MIN_FRAME_SIDE", "check_depth", "check_int", "check_mask", "check_max_depth",
     "check_seed", "check_seeds", "corrupt", "is_real_number",
 ]
 
@@ -34,6 +38,10 @@ __all__ = [
 DEFAULT_MAX_DEPTH: float = 80.0
 #: The largest depth KITTI's 16-bit PNG encoding can hold (65535 / 256 = 255.996 m).
 DEPTH_LIMIT: float = 65535.0 / 256.0
+#: Smallest height and width of a frame in an ``(N, H, W)`` batch. A smaller axis is far
+#: more likely a channel axis (colour 3 or 4, grey 1) than a frame that narrow; 8 px is
+#: below any depth sensor's image and above any channel count.
+MIN_FRAME_SIDE: int = 8
 
 
 def check_depth(
@@ -66,8 +74,9 @@ def check_depth(
     TypeError
         If ``depth`` is not a real-valued numeric array, or is a masked array.
     ValueError
-        On a wrong number of dimensions, a 3-D array whose last axis has size 1 (a
-        channel axis, not ``N`` frames of width 1), an empty array, infinite values,
+        On a wrong number of dimensions, a 3-D array that cannot be a batch of frames
+        (a last axis of size 1, 3 or 4 -- a channel axis -- or frames smaller than
+        :data:`MIN_FRAME_SIDE` pixels), an empty array, infinite values,
         NaN where not allowed, negative depth, or depth above :data:`DEPTH_LIMIT`.
     """
     if isinstance(depth, np.ma.MaskedArray):
@@ -87,12 +96,8 @@ def check_depth(
     if arr.ndim not in ndim:
         want = " or ".join(f"{d}-D" for d in ndim)
         raise ValueError(f"{name} must be {want} (H, W) / (N, H, W), got shape {arr.shape}")
-    if arr.ndim == 3 and arr.shape[-1] == 1 and 3 in ndim:
-        # (H, W, 1) would otherwise be read as H frames of width 1: silently wrong scores.
-        raise ValueError(
-            f"{name} has shape {arr.shape}: a trailing size-1 axis looks like a channel axis; "
-            "pass (H, W) or (N, H, W)"
-        )
+    if arr.ndim == 3:
+        _check_batch_shape(arr.shape, name)
     if arr.size == 0:
         raise ValueError(f"{name} is empty (shape {arr.shape})")
     arr = arr.astype(np.float32, copy=False)
@@ -113,6 +118,23 @@ def check_depth(
             "KITTI 16-bit PNG can hold: raw PNG values? divide by 256"
         )
     return arr
+
+
+def _check_batch_shape(shape: tuple[int, ...], name: str) -> None:
+    """Refuse an ``(N, H, W)`` shape whose frames cannot be depth maps (see :data:`MIN_FRAME_SIDE`)."""
+    if shape[0] == 0 or shape[1] == 0 or shape[2] == 0:
+        return  # reported as empty by the caller
+    if shape[-1] in (1, 3, 4):
+        kind = "a channel axis" if shape[-1] == 1 else "colour channels (an RGB/RGBA image)"
+        raise ValueError(
+            f"{name} has shape {shape}: a trailing size-{shape[-1]} axis looks like {kind}; pass (H, W) "
+            f"or (N, H, W) depth, not {shape[0]} frames of width {shape[-1]}"
+        )
+    if min(shape[1:]) < MIN_FRAME_SIDE:
+        raise ValueError(
+            f"{name} has shape {shape}: read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a "
+            f"depth frame in an (N, H, W) batch is at least {MIN_FRAME_SIDE}x{MIN_FRAME_SIDE}"
+        )
 
 
 def _is_int(value: object) -> bool:

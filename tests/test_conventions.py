@@ -7,6 +7,7 @@ import pytest
 
 from inpaintenv.conventions import (
     DEPTH_LIMIT,
+    MIN_FRAME_SIDE,
     check_depth,
     check_int,
     check_mask,
@@ -69,9 +70,26 @@ def test_check_depth_refuses_a_trailing_channel_axis(shape):
         check_depth(np.ones(shape), name="X")
 
 
-@pytest.mark.parametrize("shape", [(4, 6), (1, 4, 6), (3, 4, 6), (4, 1), (2, 1, 6)])
-def test_check_depth_keeps_small_frames(shape):
+@pytest.mark.parametrize("shape", [(4, 6), (4, 1), (1, 8, 8), (3, 8, 12), (2, 352, 1216)])
+def test_check_depth_keeps_small_single_frames_and_batches_of_real_frames(shape):
+    # A 2-D frame has no axis to misread; a batch's frames are at least MIN_FRAME_SIDE.
     assert check_depth(np.ones(shape)).shape == shape
+
+
+@pytest.mark.parametrize("shape", [(352, 1216, 3), (352, 1216, 4), (40, 64, 3)])
+def test_check_depth_refuses_a_colour_image(shape):
+    # (H, W, 3) used to be read as H frames of W x 3 pixels.
+    with pytest.raises(ValueError, match=rf"X has shape \({shape[0]}, {shape[1]}, {shape[2]}\): a trailing "
+                                         rf"size-{shape[2]} axis looks like colour channels .*, not {shape[0]} frames"):
+        check_depth(np.ones(shape), name="X", allow_nan=True)
+
+
+@pytest.mark.parametrize("shape", [(3, 4, 6), (2, 1, 6), (1, 7, 64), (5, 64, 2), (10, 3, 40)])
+def test_check_depth_refuses_frames_smaller_than_the_minimum(shape):
+    assert MIN_FRAME_SIDE == 8
+    with pytest.raises(ValueError, match=rf"read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a depth "
+                                         r"frame in an \(N, H, W\) batch is at least 8x8"):
+        check_depth(np.ones(shape))
 
 
 def test_check_depth_refuses_raw_png_codes():

@@ -42,7 +42,7 @@ def reference_metrics(pred, gt, hole, max_depth=80.0):
     return out
 
 
-def random_case(rng, shape=(7, 9)):
+def random_case(rng, shape=(8, 9)):  # batches of frames need >= MIN_FRAME_SIDE (8) px
     gt = rng.uniform(1, 60, shape).astype(np.float32)
     gt[rng.random(shape) < 0.4] = 0.0
     pred = np.abs(gt + rng.normal(0, 3, shape)).astype(np.float32)
@@ -93,9 +93,9 @@ def test_psnr_uses_max_depth_and_is_finite_for_perfect_prediction():
 
 
 def test_frames_without_hole_ground_truth_are_skipped_in_the_mean():
-    gt = np.full((2, 4, 4), 10.0, dtype=np.float32)
+    gt = np.full((2, 8, 8), 10.0, dtype=np.float32)
     gt[1, :2] = 0.0  # frame 1 has no ground truth where its hole is
-    hole = np.zeros((2, 4, 4), bool)
+    hole = np.zeros((2, 8, 8), bool)
     hole[:, :2] = True
     pred = gt + np.array([2.0, 5.0], dtype=np.float32)[:, None, None]
     per_frame = frame_metrics(pred, gt, hole)
@@ -109,22 +109,22 @@ def test_frames_without_hole_ground_truth_are_skipped_in_the_mean():
 
 
 def test_pooled_aggregation_weights_pixels():
-    gt = np.full((2, 4, 4), 10.0, dtype=np.float32)
-    hole = np.zeros((2, 4, 4), bool)
-    hole[0, :1] = True  # 4 pixels with error 1
-    hole[1, :3] = True  # 12 pixels with error 3
+    gt = np.full((2, 8, 8), 10.0, dtype=np.float32)
+    hole = np.zeros((2, 8, 8), bool)
+    hole[0, :1] = True  # 8 pixels with error 1
+    hole[1, :3] = True  # 24 pixels with error 3
     pred = gt + np.array([1.0, 3.0], dtype=np.float32)[:, None, None]
     pooled = aggregate(frame_metrics(pred, gt, hole), how="pooled")
-    assert pooled["hole_rmse"] == pytest.approx(math.sqrt((4 * 1 + 12 * 9) / 16))
-    assert pooled["hole_mae"] == pytest.approx((4 + 36) / 16)
+    assert pooled["hole_rmse"] == pytest.approx(math.sqrt((8 * 1 + 24 * 9) / 32))
+    assert pooled["hole_mae"] == pytest.approx((8 + 72) / 32)
     assert pooled["hole_psnr"] == pytest.approx(20 * math.log10(80 / pooled["hole_rmse"]))
     mean = aggregate(frame_metrics(pred, gt, hole))
     assert mean["hole_rmse"] == pytest.approx(2.0)
 
 
 def test_aggregate_accepts_rows():
-    gt = np.full((2, 3, 3), 5.0, dtype=np.float32)
-    hole = np.ones((2, 3, 3), bool)
+    gt = np.full((2, 8, 8), 5.0, dtype=np.float32)
+    hole = np.ones((2, 8, 8), bool)
     per_frame = frame_metrics(gt + 1, gt, hole)
     rows = [{k: float(v[i]) for k, v in per_frame.items()} for i in range(2)]
     assert aggregate(rows) == aggregate(per_frame)
@@ -184,8 +184,8 @@ def test_raw_png_codes_as_ground_truth_are_refused():
 
 
 def test_aggregate_refuses_columns_of_different_lengths():
-    gt = np.full((2, 3, 3), 5.0, dtype=np.float32)
-    per_frame = dict(frame_metrics(gt + 1, gt, np.ones((2, 3, 3), bool)))
+    gt = np.full((2, 8, 8), 5.0, dtype=np.float32)
+    per_frame = dict(frame_metrics(gt + 1, gt, np.ones((2, 8, 8), bool)))
     per_frame["hole_rmse"] = per_frame["hole_rmse"][:1]
     with pytest.raises(ValueError, match="one length"):
         aggregate(per_frame)

@@ -107,7 +107,7 @@ def _figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from ..cli import open_source_from_args
+    from ..cli_options import open_source_from_args
     from ..conventions import check_int, check_seeds
     from ..data.synthetic import SyntheticStreets
     from ..evaluate import skipped_markdown

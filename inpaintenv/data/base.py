@@ -325,7 +325,9 @@ def as_dataset(data: Any) -> DepthDataset:
     if isinstance(data, DepthDataset):
         return data
     if isinstance(data, np.ndarray) and data.ndim == 2:
-        data = data[None]
+        # One frame, checked as (H, W): a single frame may be any size, while an
+        # (N, H, W) batch's frames must be at least MIN_FRAME_SIDE (check_depth).
+        return ArrayDataset([check_depth(data, name="frames", ndim=(2,))])
     return ArrayDataset(data)
 
 

@@ -66,7 +66,7 @@ def test_rerun_with_everything_done_does_not_predict_again(tmp_path, drawn, caps
 
 
 def test_spread_indices_cover_the_drives_in_turn():
-    data = ArrayDataset(np.ones((10, 4, 4), np.float32), groups=["a"] * 6 + ["b"] * 3 + ["c"])
+    data = ArrayDataset(np.ones((10, 8, 8), np.float32), groups=["a"] * 6 + ["b"] * 3 + ["c"])
     picked = figures.spread_indices(data, 5)
     assert [str(data.groups[i]) for i in picked[:3]] == ["a", "b", "c"]
     assert picked == [0, 6, 9, 5, 8]  # a: first and last of its 6, b: first and last of its 3, c: its one

@@ -35,10 +35,10 @@ def test_drive_selection_errors():
 def test_concat_dataset_indexing():
     from inpaintenv.data import ArrayDataset, ConcatDataset
 
-    a = ArrayDataset(np.ones((2, 4, 5), np.float32), groups=["a", "a"])
-    b = ArrayDataset(np.full((3, 4, 5), 2.0, np.float32), groups=["b", "b", "b"])
+    a = ArrayDataset(np.ones((2, 8, 9), np.float32), groups=["a", "a"])
+    b = ArrayDataset(np.full((3, 8, 9), 2.0, np.float32), groups=["b", "b", "b"])
     c = ConcatDataset([a, b])
     assert len(c) == 5 and list(c.groups) == ["a", "a", "b", "b", "b"]
     assert c[1][0, 0] == 1.0 and c[2][0, 0] == 2.0 and c[-1][0, 0] == 2.0
     with pytest.raises(ValueError, match="different frame sizes"):
-        ConcatDataset([a, ArrayDataset(np.ones((1, 3, 3), np.float32))])
+        ConcatDataset([a, ArrayDataset(np.ones((1, 9, 8), np.float32))])

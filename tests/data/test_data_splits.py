@@ -107,13 +107,13 @@ def test_splits_refuse_arrays_and_non_integer_seeds(ds):
 
 
 def test_load_batch_refuses_float_indices_and_checks_frames():
-    a = ArrayDataset(np.ones((3, 4, 5), np.float32))
+    a = ArrayDataset(np.ones((3, 8, 9), np.float32))
     with pytest.raises(TypeError, match=r"indices must be non-negative integers, got \[0.7\]"):
         a.load_batch([0.7])
     with pytest.raises(ValueError, match="outside 0..2"):
         a.load_batch([3])
-    assert a.load_batch([]).shape == (0, 4, 5)
-    assert a.load_batch(np.array([2, 2])).shape == (2, 4, 5)  # repeats are fine when loading
+    assert a.load_batch([]).shape == (0, 8, 9)
+    assert a.load_batch(np.array([2, 2])).shape == (2, 8, 9)  # repeats are fine when loading
 
     class Bad(DepthDataset):
         frame_shape = (4, 5)

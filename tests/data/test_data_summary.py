@@ -10,8 +10,8 @@ from inpaintenv.data import ArrayDataset, SyntheticStreets
 
 @pytest.fixture
 def frames() -> ArrayDataset:
-    arr = np.zeros((4, 6, 8), np.float32)
-    arr[:, :3] = 10.0  # the top half measured: density exactly 0.5
+    arr = np.zeros((4, 8, 8), np.float32)
+    arr[:, :4] = 10.0  # the top half measured: density exactly 0.5
     return ArrayDataset(arr, groups=["a", "a", "a", "b"])
 
 
@@ -20,7 +20,7 @@ def test_summary_of_any_dataset(frames):
     assert s["source"] == "ArrayDataset"
     assert s["frames"] == 4 and s["drives"] == 2
     assert s["frames_per_drive"] == {"a": 3, "b": 1}
-    assert s["frame_shape"] == [6, 8]
+    assert s["frame_shape"] == [8, 8]
     assert s["valid_density"] == pytest.approx(0.5)
     assert s["sampled_frames"] == 4
 

@@ -14,6 +14,7 @@ from fuzz_settings import fast
 from hypothesis import given
 from hypothesis import strategies as st
 
+from inpaintenv.conventions import MIN_FRAME_SIDE
 from inpaintenv.metrics import METRIC_NAMES, REGIONS, aggregate, frame_metrics
 
 SPECIALS = (np.nan, np.inf, -np.inf, -1.0, 0.0)
@@ -51,7 +52,7 @@ def reference(pred: np.ndarray, gt: np.ndarray, hole: np.ndarray, max_depth: flo
 def cases(draw):
     """(pred, gt, hole) with random shape, density, dtype and injected special values."""
     n = draw(st.integers(1, 3))
-    h, w = draw(st.integers(1, 9)), draw(st.integers(1, 9))
+    h, w = draw(st.integers(1, 11)), draw(st.integers(1, 11))
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     shape = (n, h, w)
     gt = rng.uniform(0.5, 90.0, shape).astype(np.float32)
@@ -71,7 +72,8 @@ def cases(draw):
 def test_error_nan_skip_or_the_reference(case):
     pred, gt, hole = case
     bad_gt = not np.isfinite(gt).all() or (gt < 0).any()
-    bad_gt |= gt.ndim == 3 and gt.shape[-1] == 1  # (N, H, 1) reads as a channel axis: refused
+    # (N, H, 1/3/4) reads as a channel axis, and a batch's frames are at least MIN_FRAME_SIDE: refused
+    bad_gt |= gt.ndim == 3 and (gt.shape[-1] in (1, 3, 4) or min(gt.shape[1:]) < MIN_FRAME_SIDE)
     scored = pred[gt > 0]
     bad_pred = not np.isfinite(scored).all() or (scored < 0).any()
     if bad_gt or bad_pred:

@@ -1,7 +1,7 @@
 """BaseInpainter.predict input validation on random arrays, through cheap classical methods.
 
 Any input either raises the documented ``TypeError`` (not a real numeric array) or
-``ValueError`` (wrong ndim, empty, inf, negative, no NaN to fill), or gives float32
+``ValueError`` (wrong ndim, a channel axis or frames below MIN_FRAME_SIDE, empty, inf, negative, no NaN to fill), or gives float32
 depth of the input's shape, finite and non-negative, with measured pixels kept.
 """
 
@@ -14,6 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from estimators.classical import ConstantInpainter, NearestInpainter, TeleaInpainter
+from inpaintenv.conventions import MIN_FRAME_SIDE
 
 ESTIMATORS = [NearestInpainter, ConstantInpainter, TeleaInpainter]
 NUMERIC = [np.float16, np.float32, np.float64, np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16]
@@ -23,7 +24,8 @@ OTHER = [np.bool_, np.complex64, np.object_, np.str_]
 @st.composite
 def inputs(draw):
     ndim = draw(st.sampled_from([0, 1, 2, 2, 3, 3, 4]))
-    shape = tuple(draw(st.integers(0 if ndim and draw(st.booleans()) else 1, 7)) for _ in range(ndim))
+    # Sides up to 10 so 3-D batches fall on both sides of MIN_FRAME_SIDE (8).
+    shape = tuple(draw(st.integers(0 if ndim and draw(st.booleans()) else 1, 10)) for _ in range(ndim))
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     x = rng.uniform(0.5, 80.0, shape)
     x[rng.random(shape) < draw(st.sampled_from([0.0, 0.5, 1.0]))] = 0.0  # 1.0: all-zero map
@@ -42,7 +44,8 @@ def expected_error(x: np.ndarray) -> type[Exception] | None:
         return TypeError
     if x.ndim not in (2, 3) or x.size == 0:
         return ValueError
-    if x.ndim == 3 and x.shape[-1] == 1:  # (H, W, 1) reads as a channel axis: refused
+    # (H, W, 1/3/4) reads as a channel axis, and a batch's frames are at least MIN_FRAME_SIDE: refused
+    if x.ndim == 3 and (x.shape[-1] in (1, 3, 4) or min(x.shape[1:]) < MIN_FRAME_SIDE):
         return ValueError
     f = x.astype(np.float64)
     if np.isinf(f).any() or (f < 0).any() or not np.isnan(f).any():

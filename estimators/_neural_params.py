@@ -1,0 +1,286 @@
+"""Parameters of the neural inpainters: validation, the device and precision they ask for,
+and the record of the parameters the trained weights depend on.
+
+One job of :class:`estimators.neural._NeuralInpainter`, split out as scikit-learn keeps
+``_validate_params`` and skorch its parameter handling beside the estimator: the class
+stores its ``__init__`` arguments as given, and this mixin checks and interprets them at
+``fit`` / ``predict`` time.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import math
+from typing import Any
+
+import numpy as np
+import torch
+
+from inpaintenv.masks import get_protocol
+
+from ._checkpoint import cpu_state
+from ._training import crop_shape
+from .nets import UNet
+
+__all__ = ["MAX_CHANNELS", "NeuralParamsMixin"]
+
+_AMP_CHOICES = (True, False, "cpu-bf16")
+_DEPTH_SCALES = ("fixed", "frame")
+_COMPILE_MODES = ("default", "reduce-overhead", "max-autotune", "max-autotune-no-cudagraphs")
+#: Accepted ``max_depth`` range (metres). Depths are divided by it: far outside this
+#: range the network's inputs and targets overflow or vanish in float32 and training
+#: fails with a NaN loss that says nothing about the cause.
+_MAX_DEPTH_RANGE = (0.1, 1e5)
+#: Most channels allowed at the deepest U-Net level (``width * 2**depth``). The U-Net
+#: doubles its channels per level, so each extra level about quadruples the parameters:
+#: 2048 (e.g. width=128, depth=4) is already ~100 M parameters, while width=4, depth=12
+#: (16,384 channels) needs tens of GB and gets the process killed.
+MAX_CHANNELS = 2048
+
+
+class NeuralParamsMixin:
+    """Checks and interprets the parameters of a neural inpainter (documented on
+    :class:`estimators.neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
+
+    # -- parameters ----------------------------------------------------------------
+    def _check_params(self) -> None:
+        def int_at_least(name: str, low: int, optional: bool = False) -> None:
+            v = getattr(self, name)
+            if optional and v is None:
+                return
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+                raise ValueError(f"{name} must be an integer >= {low}{' or None' if optional else ''}, got {v!r}")
+
+        def positive(name: str, allow_zero: bool = False) -> None:
+            v = getattr(self, name)
+            ok = isinstance(v, (int, float, np.number)) and not isinstance(v, bool) and math.isfinite(v)
+            if not ok or v < 0 or (v == 0 and not allow_zero):
+                raise ValueError(f"{name} must be a finite number {'>=' if allow_zero else '>'} 0, got {v!r}")
+
+        int_at_least("width", 1)
+        int_at_least("depth", 1)
+        int_at_least("batch_size", 1)
+        int_at_least("epochs", 1)
+        int_at_least("max_steps", 1, optional=True)
+        int_at_least("num_threads", 1, optional=True)
+        int_at_least("num_workers", 0)
+        int_at_least("checkpoint_every", 1, optional=True)
+        for name in ("max_depth", "lr"):
+            positive(name)
+        low, high = _MAX_DEPTH_RANGE
+        if not low <= self.max_depth <= high:
+            raise ValueError(
+                f"max_depth is the depth normalisation range in metres and must be in "
+                f"[{low:g}, {high:g}] (the study uses 80), got {self.max_depth!r}"
+            )
+        for name in ("hole_weight", "tv_weight", "weight_decay"):
+            positive(name, allow_zero=True)
+        if self.crop is not None:
+            c = self.crop
+            if not (isinstance(c, (tuple, list)) and len(c) == 2 and all(
+                isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1 for v in c
+            )):
+                raise ValueError(f"crop must be None or a pair of positive integers (h, w), got {c!r}")
+        if self.validation_fraction is not None and not (
+            isinstance(self.validation_fraction, float) and 0.0 < self.validation_fraction < 1.0
+        ):
+            raise ValueError(f"validation_fraction must be None or a float in (0, 1), got {self.validation_fraction!r}")
+        if self.amp not in _AMP_CHOICES or isinstance(self.amp, (int, float)) and not isinstance(self.amp, bool):
+            raise ValueError(f"amp must be one of {_AMP_CHOICES}, got {self.amp!r}")
+        if self.random_state is not None and (
+            isinstance(self.random_state, bool) or not isinstance(self.random_state, (int, np.integer))
+            or self.random_state < 0
+        ):
+            raise ValueError(f"random_state must be a non-negative int or None, got {self.random_state!r}")
+        if not (
+            isinstance(self.compile, (bool, np.bool_, dict))
+            or (isinstance(self.compile, str) and self.compile in _COMPILE_MODES)
+        ):
+            raise ValueError(
+                f"compile must be True, False, a dict of torch.compile arguments or one of "
+                f"{_COMPILE_MODES}, got {self.compile!r}"
+            )
+        self._check_capacity()
+        if self.depth_scale not in _DEPTH_SCALES:
+            raise ValueError(f"depth_scale must be one of {_DEPTH_SCALES}, got {self.depth_scale!r}")
+        get_protocol(self.protocol)  # KeyError listing the known protocols
+
+    def _model_param_names(self) -> tuple[str, ...]:
+        """Parameters the trained weights depend on: the architecture and how depth is
+        scaled into and out of the network (not training-only or prediction-time ones)."""
+        return ("width", "depth", "input_mask", "depth_scale", "max_depth")
+
+    def _model_params(self) -> dict[str, Any]:
+        """Current values of :meth:`_model_param_names`, as plain comparable values."""
+        return {name: _plain(getattr(self, name)) for name in self._model_param_names()}
+
+    def _check_model_params(self, hint: str = "refit or set it back") -> None:
+        """Raise if a parameter the fitted weights depend on changed since fit/load.
+
+        Without this, ``set_params(max_depth=20)`` after fit would silently rescale the
+        output and ``set_params(width=8)`` would run the width-4 model while
+        ``get_params`` says 8.
+        """
+        fitted = getattr(self, "model_params_", None)
+        if fitted is None:  # pickled by a version that did not record them
+            return
+        for name, value in fitted.items():
+            current = _plain(getattr(self, name, None))
+            if current != value:
+                raise ValueError(
+                    f"{name}={current!r} differs from the {value!r} this model was trained with; {hint}"
+                )
+
+    def _check_capacity(self) -> None:
+        """Refuse networks far larger than any sensible use (channels double per level)."""
+        # Compare without computing 2**depth for an absurd depth.
+        if self.depth > MAX_CHANNELS.bit_length() or int(self.width) << int(self.depth) > MAX_CHANNELS:
+            d = self._depth_param
+            count = str(int(self.width) << int(self.depth)) if self.depth <= 64 else "astronomically many"
+            raise ValueError(
+                f"width={self.width}, {d}={self.depth} gives {count} channels at the deepest level "
+                f"(width * 2**{d}), more than the {MAX_CHANNELS} allowed (channels double per level, "
+                f"so parameters about quadruple); lower {d} or width"
+            )
+
+    def _downsampling(self) -> tuple[int, str]:
+        """Total downsampling factor of the network and the parameters that set it."""
+        need = 2 ** int(self.depth)
+        return need, f"depth={self.depth} (2**depth = {need} px)"
+
+    def _check_frame_size(self, frame_shape: tuple[int, int]) -> None:
+        """Refuse training samples smaller than the network's total downsampling.
+
+        The network pads any input to a multiple of it, so this is not about crashing:
+        on smaller samples the deepest levels see nothing but padding.
+        """
+        ch, cw = crop_shape(frame_shape, self.crop)
+        need, what = self._downsampling()
+        if min(ch, cw) < need:
+            kind = "crops" if self.crop is not None else "frames"
+            raise ValueError(
+                f"{what} needs training {kind} of at least {need} px per side, got {ch}x{cw}; "
+                f"lower it or train on larger {kind}"
+            )
+
+    def _device(self) -> torch.device:
+        """The torch device to fit/predict on; a clear ValueError for anything unusable.
+
+        Accepted: "auto", "cpu", "cuda", "cuda:N" (N < the number of GPUs) and "mps"
+        where available. Other torch device types ("meta", "xla", ...) would only fail
+        later, deep inside autocast or a kernel.
+        """
+        choices = "'auto', 'cpu', 'cuda', 'cuda:N' or 'mps'"
+        if self.device == "auto":
+            return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+        if not isinstance(self.device, (str, torch.device)):
+            raise TypeError(f"device must be one of {choices}, got {self.device!r}")
+        try:
+            dev = torch.device(self.device)
+        except (RuntimeError, TypeError, ValueError):
+            raise ValueError(f"device must be one of {choices}, got {self.device!r}") from None
+        if dev.type == "cpu":
+            return dev
+        if dev.type == "cuda":
+            if not torch.cuda.is_available():
+                raise ValueError(f"device={self.device!r} but no CUDA device is available; use device='auto' or 'cpu'")
+            if dev.index is not None and dev.index >= torch.cuda.device_count():
+                raise ValueError(
+                    f"device={self.device!r} but only {torch.cuda.device_count()} CUDA device(s) are visible"
+                )
+            return dev
+        if dev.type == "mps":
+            if not torch.backends.mps.is_available():
+                raise ValueError(f"device={self.device!r} but MPS is not available here; use device='auto' or 'cpu'")
+            return dev
+        raise ValueError(f"device must be one of {choices}, got {self.device!r} (device type {dev.type!r} is not supported)")
+
+    def _autocast(self, device: torch.device) -> tuple[Any, bool]:
+        """Autocast context for ``device`` and whether fp16 gradient scaling is needed."""
+        # As documented: autocast on CUDA, and on CPU only with "cpu-bf16"; never on
+        # other devices (MPS), whose autocast support varies across torch versions.
+        if self.amp is False or device.type not in ("cpu", "cuda") or (device.type == "cpu" and self.amp != "cpu-bf16"):
+            return contextlib.nullcontext(), False
+        if device.type == "cuda" and self.amp is True and not torch.cuda.is_bf16_supported():
+            return torch.autocast("cuda", dtype=torch.float16), True
+        return torch.autocast(device.type, dtype=torch.bfloat16), False
+
+    def _input_scale(self, observed: torch.Tensor) -> torch.Tensor | float:
+        """Metres per network unit: ``max_depth``, or each frame's mean observed depth.
+
+        ``observed`` is ``(N, H, W)`` metres with 0 in holes and where unmeasured; the
+        frame scale is returned as ``(N, 1, 1)`` so it broadcasts over pixels. A frame
+        with nothing observed falls back to ``max_depth``; the floor of 1 m keeps a
+        frame of a few very near points from blowing up the input.
+        """
+        if self.depth_scale == "fixed":
+            return self.max_depth
+        valid = observed > 0
+        count = valid.sum(dim=(1, 2), keepdim=True)
+        mean = observed.sum(dim=(1, 2), keepdim=True) / count.clamp(min=1)
+        return torch.where(count > 0, mean.clamp(min=1.0), torch.full_like(mean, self.max_depth))
+
+    @property
+    def in_channels(self) -> int:
+        """Network input channels: 1 (depth) or 3 (depth, hole mask, validity mask)."""
+        return 3 if self.input_mask else 1
+
+    def _build_model(self, seed: int) -> UNet:
+        # Seed the initial weights without touching the caller's global torch RNG.
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            return UNet(self.in_channels, int(self.width), int(self.depth), skip=self._skip)
+
+    # -- JSON form (run-directory hash, checkpoint config) ---------------------------
+    def _config_params(self) -> dict[str, Any]:
+        """Parameters as JSON-able values (warm_start estimators become a weight hash)."""
+        params = self.get_params(deep=False)
+        ws = params["warm_start"]
+        if isinstance(ws, bool):
+            params["warm_start"] = ws
+            if ws and hasattr(self, "model_"):
+                params["warm_start"] = f"<previous fit sha256:{_weights_hash(self)}>"
+        elif isinstance(ws, NeuralParamsMixin):
+            params["warm_start"] = f"<{type(ws).__name__} weights sha256:{_weights_hash(ws)}>" if hasattr(ws, "model_") else f"<unfitted {type(ws).__name__}>"
+        elif ws is not None:
+            params["warm_start"] = str(ws)
+        if params["crop"] is not None:
+            params["crop"] = [int(v) for v in params["crop"]]
+        if params["checkpoint_dir"] is not None:
+            params["checkpoint_dir"] = str(params["checkpoint_dir"])
+        return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in params.items()}
+
+    def _compiled(self, model: torch.nn.Module) -> torch.nn.Module:
+        """``model`` through ``torch.compile`` as the ``compile`` parameter asks, else itself.
+
+        The compiled wrapper shares the module's parameters, so optimiser, checkpoints
+        and ``train()``/``eval()`` keep working on the plain module.
+        """
+        if isinstance(self.compile, dict):
+            kwargs = dict(self.compile)
+        elif isinstance(self.compile, str):
+            kwargs = {"mode": self.compile}
+        elif self.compile:  # True or numpy.True_ (the parameter check accepts both)
+            kwargs = {}
+        else:
+            return model
+        return torch.compile(model, **kwargs)
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with NumPy scalars as Python ones and lists as tuples, for comparison."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return tuple(_plain(v) for v in value)
+    return value
+
+
+def _weights_hash(est: Any) -> str:
+    h = hashlib.sha256()
+    for k, v in sorted(cpu_state(est.model_).items()):
+        h.update(k.encode())
+        h.update(v.float().numpy().tobytes())
+    return h.hexdigest()[:16]
+

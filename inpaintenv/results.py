@@ -1,0 +1,254 @@
+"""The result of an evaluation: per-frame rows, aggregate tables, JSON / CSV / Markdown.
+
+:class:`EvaluationResult` is what :func:`inpaintenv.evaluate.evaluate` returns and what
+the benchmark's run folder stores; it is defined here, apart from the evaluation loop,
+so that reading and reporting rows needs none of the loop's machinery.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import tables
+from .conventions import DEFAULT_MAX_DEPTH
+from .metrics import METRIC_NAMES, REGIONS, aggregate
+
+__all__ = [
+    "ID_COLUMNS", "METRIC_COLUMNS", "ROW_COLUMNS", "EvaluationResult", "json_safe", "merge_skipped", "parse_row",
+    "skipped_markdown",
+]
+
+
+#: Per-frame metric columns, in report order.
+METRIC_COLUMNS: tuple[str, ...] = tuple(
+    f"{r}_{m}" for r in REGIONS for m in METRIC_NAMES
+) + tuple(f"{r}_count" for r in REGIONS)
+
+
+#: Identifying columns of a per-frame row, in report order.
+ID_COLUMNS: tuple[str, ...] = ("method", "protocol", "seed", "index", "frame_id", "drive")
+
+
+#: All per-frame columns, in report order.
+ROW_COLUMNS: tuple[str, ...] = ID_COLUMNS + ("hole_fraction",) + METRIC_COLUMNS + ("ms",)
+_INT_COLUMNS = ("seed", "index", "hole_count", "all_count")
+_STR_COLUMNS = ("method", "protocol", "frame_id", "drive")
+
+
+def _mean(values: Iterable[float]) -> float:
+    vals = [v for v in values if v is not None and not math.isnan(v)]
+    return float(np.mean(vals)) if vals else float("nan")
+
+
+@dataclass
+class EvaluationResult:
+    """Per-frame rows and the aggregate table of one or more evaluations.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One row per (method, seed, frame): the columns of :data:`ROW_COLUMNS` --
+        ``method``, ``protocol``, ``seed``, ``index`` (position in the source, which also
+        seeds the mask), ``frame_id``, ``drive``, ``hole_fraction`` (occluded share of
+        the frame), every metric of :func:`~inpaintenv.metrics.frame_metrics` (hole
+        metrics are NaN when the hole holds no valid ground truth), and ``ms`` (wall
+        clock of the method per frame; a batch's time is split evenly over its frames).
+    meta : dict
+        How the rows were produced (source, protocol, seeds, max_depth, version).
+    """
+
+    rows: list[dict[str, Any]]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    # -- aggregation -------------------------------------------------------------------
+    def group_table(self, keys: Sequence[str] = ("method", "protocol")) -> list[dict[str, Any]]:
+        """Aggregate the rows grouped by ``keys`` (mean over frames).
+
+        Each output row holds the key values, :func:`inpaintenv.metrics.aggregate`'s
+        result (``{region}_{metric}``, ``n_frames``, ``n_skipped_hole``), the mean
+        ``hole_fraction`` and ``ms_per_frame``. Groups keep the order of first
+        appearance.
+        """
+        groups: dict[tuple, list[dict[str, Any]]] = {}
+        for row in self.rows:
+            groups.setdefault(tuple(row[k] for k in keys), []).append(row)
+        max_depth = float(self.meta.get("max_depth", DEFAULT_MAX_DEPTH))
+        table = []
+        for key, rows in groups.items():
+            metrics = [{c: row[c] for c in METRIC_COLUMNS} for row in rows]
+            agg = aggregate(metrics, how="mean", max_depth=max_depth)
+            entry: dict[str, Any] = dict(zip(keys, key))
+            entry.update(agg)
+            entry["n_frames"] = int(agg["n_frames"])
+            entry["hole_fraction"] = _mean(r["hole_fraction"] for r in rows)
+            entry["ms_per_frame"] = _mean(r["ms"] for r in rows)
+            table.append(entry)
+        return table
+
+    @property
+    def table(self) -> list[dict[str, Any]]:
+        """One aggregate row per (method, protocol): mean over all frames and seeds."""
+        return self.group_table(("method", "protocol"))
+
+    def by_drive(self) -> list[dict[str, Any]]:
+        """One aggregate row per (method, protocol, drive)."""
+        return self.group_table(("method", "protocol", "drive"))
+
+    def by_seed(self) -> list[dict[str, Any]]:
+        """One aggregate row per (method, protocol, seed)."""
+        return self.group_table(("method", "protocol", "seed"))
+
+    @property
+    def methods(self) -> list[str]:
+        """Method names in order of appearance."""
+        return list(dict.fromkeys(r["method"] for r in self.rows))
+
+    @classmethod
+    def concat(cls, results: Sequence[EvaluationResult]) -> EvaluationResult:
+        """Join several results (e.g. one per method) into one."""
+        if not results:
+            raise ValueError("no results to concatenate")
+        rows = [row for r in results for row in r.rows]
+        meta = dict(results[0].meta)
+        meta["methods"] = list(dict.fromkeys(m for r in results for m in r.meta.get("methods", [])))
+        protocols = list(dict.fromkeys(r.meta["protocol"] for r in results if "protocol" in r.meta))
+        if len(protocols) > 1:
+            meta["protocol"] = protocols
+        seeds = list(dict.fromkeys(s for r in results for s in r.meta.get("seeds", [])))
+        if seeds:
+            meta["seeds"] = seeds
+        skipped = merge_skipped(r.meta.get("skipped_frames") or [] for r in results)
+        if skipped:
+            meta["skipped_frames"] = skipped
+        return cls(rows=rows, meta=meta)
+
+    # -- output ------------------------------------------------------------------------
+    def to_json(self, path: str | Path) -> Path:
+        """Write ``{"meta", "skipped_frames", "table", "by_drive", "rows"}`` as JSON (NaN written as null).
+
+        ``table`` and ``by_drive`` are :func:`inpaintenv.tables.summary_table` entries:
+        means with interval bounds (null when undefined) and the frames in each mean.
+        ``skipped_frames`` lists the unreadable frames left out (``on_bad_frame="skip"``)
+        with the reason; it is empty when none were.
+        """
+        path = Path(path)
+        doc = {
+            "meta": {k: v for k, v in self.meta.items() if k != "skipped_frames"},
+            "skipped_frames": self.meta.get("skipped_frames") or [],
+            "table": tables.summary_table(self),
+            "by_drive": tables.summary_table(self, ("method", "protocol", "drive")),
+            "rows": self.rows,
+        }
+        path.write_text(json.dumps(json_safe(doc), indent=1))
+        return path
+
+    @classmethod
+    def from_json(cls, path: str | Path) -> EvaluationResult:
+        """Read a result written by :meth:`to_json`."""
+        doc = json.loads(Path(path).read_text())
+        rows = [parse_row(r) for r in doc["rows"]]
+        meta = dict(doc.get("meta", {}))
+        if doc.get("skipped_frames"):
+            meta["skipped_frames"] = doc["skipped_frames"]
+        return cls(rows=rows, meta=meta)
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write the per-frame rows as CSV (NaN written as an empty cell)."""
+        path = Path(path)
+        with path.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(ROW_COLUMNS), extrasaction="ignore")
+            writer.writeheader()
+            for row in self.rows:
+                writer.writerow({k: _csv_cell(row.get(k)) for k in ROW_COLUMNS})
+        return path
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> EvaluationResult:
+        """Read per-frame rows written by :meth:`to_csv` (``meta`` is empty)."""
+        with Path(path).open(newline="") as f:
+            rows = [parse_row(r) for r in csv.DictReader(f)]
+        return cls(rows=rows, meta={})
+
+    def to_markdown(
+        self, table: list[dict[str, Any]] | None = None, *, keys: Sequence[str] | None = None
+    ) -> str:
+        """The table of these rows as Markdown, in the one format of every table.
+
+        Means over frames with their 95 % bootstrap interval, units in the header,
+        ``frames`` and ``skipped`` columns and the notes explaining them underneath (see
+        :func:`inpaintenv.tables.to_markdown`).
+
+        Parameters
+        ----------
+        table : list of dict, optional
+            An aggregate table of these rows (e.g. :meth:`by_drive`); only its grouping
+            is used: ``method``, ``protocol`` and whichever of ``drive``, ``seed`` it has.
+        keys : sequence of str, optional
+            Row columns to group by instead (default ``("method", "protocol")``).
+        """
+        if keys is None:
+            extra = [k for k in ("drive", "seed") if table and k in table[0]]
+            keys = ("method", "protocol", *extra)
+        return tables.to_markdown(tables.summary_table(self, keys), keys)
+
+    def __repr__(self) -> str:
+        return f"EvaluationResult({len(self.rows)} rows, methods={self.methods})"
+
+
+def merge_skipped(lists: Iterable[Sequence[dict[str, Any]]]) -> list[dict[str, Any]]:
+    """Skipped-frame records of several results, one per frame, by frame index."""
+    merged: dict[int, dict[str, Any]] = {}
+    for records in lists:
+        for rec in records:
+            merged.setdefault(int(rec["index"]), dict(rec))
+    return [merged[i] for i in sorted(merged)]
+
+
+def skipped_markdown(skipped: Sequence[dict[str, Any]]) -> str:
+    """The skipped frames as a Markdown list (empty string when none were skipped)."""
+    if not skipped:
+        return ""
+    n = len(skipped)
+    lines = [f"Unreadable frames left out: {n} (--on-bad-frame skip; not counted in frames or skipped):", ""]
+    lines += [f"- frame {r['index']} ({r['frame_id']}): {r['reason']}" for r in skipped]
+    return "\n".join(lines)
+
+
+def json_safe(obj: Any) -> Any:
+    """``obj`` with every float NaN replaced by None (valid JSON), recursively."""
+    if isinstance(obj, float) and math.isnan(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    return obj
+
+
+def _csv_cell(v: Any) -> Any:
+    if isinstance(v, float) and math.isnan(v):
+        return ""
+    return v
+
+
+def parse_row(raw: dict[str, Any]) -> dict[str, Any]:
+    """Restore column types of a row read back from JSON or CSV."""
+    row: dict[str, Any] = {}
+    for k, v in raw.items():
+        if k in _STR_COLUMNS:
+            row[k] = str(v)
+        elif v is None or v == "":
+            row[k] = float("nan")
+        elif k in _INT_COLUMNS:
+            row[k] = int(v)
+        else:
+            row[k] = float(v)
+    return row

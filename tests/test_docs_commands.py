@@ -1,0 +1,210 @@
+"""The shell commands in README.md and docs/**/*.md name things that exist (issue 18).
+
+Every fenced ```bash / ```sh / ```console block is read line by line (backslash
+continuations joined, ``&&`` / ``;`` / ``|`` split, ``NAME=value`` lines of the block
+substituted into later ones). For each command:
+
+* ``inpaintenv SUB ...``: parsed by the real argparse parser in-process (no data run),
+  so a renamed flag or subcommand fails here;
+* ``python path.py ...``: the script exists in the repository and every ``--flag`` used is
+  declared by an ``add_argument`` call in it (read from its source, not run);
+* ``python -m module`` / ``torchrun ... -m module``: the module can be found;
+* no path leaves the repository (``../shared/...``): docs say ``<KITTI root>``.
+
+Placeholders such as ``<KITTI root>`` or ``<held-out drive>`` stand for one argument.
+Unlabelled fences whose first line is a command must be labelled ``bash`` so this test sees them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import contextlib
+import functools
+import importlib.util
+import io
+import re
+import shlex
+import sys
+from pathlib import Path
+
+import pytest
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    tomllib = pytest.importorskip("tomli")
+
+from inpaintenv.cli import build_parser
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))]
+SHELL = ("bash", "sh", "console", "shell")
+FENCE = re.compile(r"^( *)```(\w*)[^\n]*\n(.*?)^\1```", flags=re.DOTALL | re.MULTILINE)
+PLACEHOLDER = re.compile(r"<[A-Za-z][^<>\n]*>")
+PROGRAMS = ("python", "inpaintenv", "torchrun", "pip")
+KEYWORDS = ("do", "then", "else", "time", "exec")
+
+
+def blocks(name: str, languages: tuple[str, ...]) -> list[tuple[int, str]]:
+    """(line number, body) of the fenced blocks of ``name`` in one of ``languages``."""
+    text = (ROOT / name).read_text()
+    return [(text[: m.start()].count("\n") + 1, m.group(3)) for m in FENCE.finditer(text) if m.group(2) in languages]
+
+
+def commands(body: str) -> list[list[str]]:
+    """The commands of a shell block as argument lists (see the module docstring)."""
+    out: list[list[str]] = []
+    env: dict[str, str] = {}
+    text = re.sub(r"\\\n", " ", body)
+    for line in text.splitlines():
+        line = line.strip().removeprefix("$ ")
+        line = PLACEHOLDER.sub("PLACEHOLDER", line)
+        if not line or line.startswith("#"):
+            continue
+        for name, value in env.items():
+            line = re.sub(rf"\$\{{?{name}\}}?\b", value, line)
+        for part in re.split(r"&&|\|\||;|\|", line):
+            try:
+                words = shlex.split(part, comments=True)
+            except ValueError as e:  # unbalanced quotes
+                raise AssertionError(f"cannot parse shell line {line!r}: {e}") from None
+            assign = [w for w in words if re.fullmatch(r"[A-Za-z_]\w*=.*", w)]
+            if assign and len(assign) == len(words):  # NAME=value lines set variables
+                env.update(w.split("=", 1) for w in assign)
+                continue
+            # `VAR=x cmd` (an environment prefix) and loop/condition keywords precede the program.
+            while words and (re.fullmatch(r"[A-Za-z_]\w*=.*", words[0]) or words[0] in KEYWORDS):
+                words.pop(0)
+            if words:
+                out.append(words)
+    return out
+
+
+def doc_commands() -> list[tuple[str, list[str]]]:
+    return [(f"{name}:{line}", cmd) for name in DOCS for line, body in blocks(name, SHELL) for cmd in commands(body)]
+
+
+def script_flags(path: Path) -> set[str]:
+    """Option strings (``--x``, ``-x``) declared by ``add_argument`` calls in a script."""
+    flags = {"-h", "--help"}
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "add_argument":
+            flags |= {a.value for a in node.args if isinstance(a, ast.Constant) and str(a.value).startswith("-")}
+    return flags
+
+
+def used_flags(args: list[str]) -> list[str]:
+    return [a.split("=", 1)[0] for a in args if a.startswith("-") and a != "-" and not re.fullmatch(r"-[\d.]+", a)]
+
+
+@functools.cache
+def parser() -> argparse.ArgumentParser:
+    return build_parser()
+
+
+def check_inpaintenv(args: list[str]) -> str | None:
+    """None if ``inpaintenv ARGS`` parses, else argparse's message."""
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            parser().parse_args(args)
+    except SystemExit as e:
+        if e.code:
+            return err.getvalue().strip().splitlines()[-1]
+    return None
+
+
+def check_module(name: str) -> str | None:
+    try:
+        found = importlib.util.find_spec(name)
+    except ModuleNotFoundError:
+        found = None
+    return None if found else f"module {name} not found"
+
+
+def check_python(args: list[str]) -> str | None:
+    """Check ``python ARGS``: a script of the repository with its declared flags, or ``-m module``."""
+    if args[:1] == ["-m"]:
+        return check_module(args[1])
+    if args[:1] == ["-c"] or not args:
+        return None
+    script = ROOT / args[0].removeprefix("PLACEHOLDER/")  # <this repository>/benchmarks/x.py
+    if not script.is_file():
+        return f"script {args[0]} does not exist in the repository"
+    unknown = sorted(set(used_flags(args[1:])) - script_flags(script))
+    return f"{args[0]} declares no option {unknown}" if unknown else None
+
+
+def check_pip(args: list[str]) -> str | None:
+    """``pip install -e ".[extra]"``: the extras exist in pyproject.toml."""
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"].get("optional-dependencies", {})
+    for arg in args:
+        if m := re.fullmatch(r"\.\[([\w,-]+)\]", arg):
+            unknown = sorted(set(m[1].split(",")) - set(extras))
+            if unknown:
+                return f"pyproject.toml has no extra {unknown} (it has {sorted(extras)})"
+    return None
+
+
+def check(cmd: list[str]) -> str | None:
+    """None if the command is right, else what is wrong with it."""
+    outside = [w for w in cmd if re.search(r"(^|[=/])\.\./", w) or w.startswith("/work/")]
+    if outside:
+        return f"path outside the repository {outside}; docs say <KITTI root> for the data"
+    program, args = cmd[0], cmd[1:]
+    if program == "inpaintenv":
+        return check_inpaintenv(args)
+    if program in ("python", "python3"):
+        return check_python(args)
+    if program == "pip":
+        return check_pip(args)
+    if program == "torchrun":
+        return check_module(args[args.index("-m") + 1]) if "-m" in args else check_python([a for a in args if not a.startswith("-")][-1:])
+    return None
+
+
+def test_commands_are_collected():
+    cmds = [c for _, c in doc_commands()]
+    assert sum(c[0] == "inpaintenv" for c in cmds) >= 5
+    assert any(c[0] == "python" and c[1].startswith("benchmarks/") for c in cmds)
+    assert commands('K=<KITTI root>\ninpaintenv info --kitti-root $K \\\n  --split val && python -m pytest -q\n') == [
+        ["inpaintenv", "info", "--kitti-root", "PLACEHOLDER", "--split", "val"], ["python", "-m", "pytest", "-q"]]
+
+
+def test_the_checks_catch_wrong_commands(tmp_path):
+    assert check(["inpaintenv", "benchmark", "--no-such-flag"]) is not None
+    assert check(["inpaintenv", "no-such-command"]) is not None
+    assert check(["inpaintenv", "benchmark", "--kitti-root", "PLACEHOLDER", "-m", "harmonic"]) is None
+    assert "does not exist" in check(["python", "benchmarks/no_such_script.py"])
+    assert "declares no option" in check(["python", "benchmarks/bench_masks.py", "--no-such-flag"])
+    assert check(["python", "benchmarks/bench_masks.py", "--stats", "10"]) is None
+    assert "outside the repository" in check(["inpaintenv", "info", "--kitti-root", "../shared/kitti"])
+    assert check(["python", "-m", "no_such_module_here"]) is not None
+    assert check(["python", "PLACEHOLDER/benchmarks/bench_masks.py", "--stats", "10"]) is None
+    assert check(["pip", "install", "-e", ".[test]"]) is None
+    assert "no extra" in check(["pip", "install", "-e", ".[no-such-extra]"])
+    assert commands("for p in a b; do inpaintenv train --preset $p; done") == [
+        ["for", "p", "in", "a", "b"], ["inpaintenv", "train", "--preset", "$p"], ["done"]]
+
+
+@pytest.mark.parametrize("where, cmd", doc_commands(), ids=lambda v: v if isinstance(v, str) else None)
+def test_doc_command_names_what_exists(where, cmd):
+    problem = check(cmd)
+    assert problem is None, f"{where}: {shlex.join(cmd)}: {problem}"
+
+
+@pytest.mark.parametrize("name", DOCS)
+def test_command_blocks_are_labelled(name):
+    # An unlabelled fence that starts with a command would escape the checks above.
+    unlabelled = [line for line, body in blocks(name, ("",)) if body.strip() and (
+        body.split()[0] in PROGRAMS or re.fullmatch(r"[A-Za-z_]\w*=.*", body.split()[0]))]
+    assert not unlabelled, f"{name}: label the command blocks at lines {unlabelled} as ```bash"
+
+
+@pytest.mark.parametrize("name", DOCS)
+def test_docs_name_no_path_outside_the_repository(name):
+    text = (ROOT / name).read_text()
+    assert "../shared" not in text and "/work/" not in text, f"{name}: say <KITTI root> (or INPAINTENV_KITTI_ROOT)"
+
+
