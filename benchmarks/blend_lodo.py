@@ -85,7 +85,7 @@ def cmd_cache(args: argparse.Namespace) -> None:
             for i, gt in enumerate(frames):
                 if not (gt > 0).any():
                     continue
-                for s in args.seeds:  # the benchmark's masks for --drives <drive>
+                for s in (args.seeds if not args.train_only else []):  # the benchmark's masks for --drives <drive>
                     hole = protocol.mask(gt.shape, s, i)
                     jobs.append(delayed(_one)(gt, hole, None, s, 1.0))
                     meta.append({"split": split, "drive": drive, "frame": i, "kind": "eval", "seed": s})
@@ -126,6 +126,12 @@ VARIANTS: dict[str, dict] = {
     "six-thin": {"candidates": SIX, "keep": ["1", "0.65"], **_SMALL},
     "rowctx-thin": {"candidates": FIVE + ["row-median", "row-far"], "keep": ["1", "0.65"], **_SMALL},
     "five-thin-wide": {"candidates": FIVE, "keep": ["1", "0.65"], "endpoints": True, "width": 128, "layers": 3},
+    "six-thin-wide": {"candidates": SIX, "keep": ["1", "0.65"], "endpoints": True, "width": 128, "layers": 3,
+                      "epochs": 8},
+    "six-thin3": {"candidates": SIX, "keep": ["1", "0.65", "0.4"], **_SMALL},
+    "six-thin3-wide": {"candidates": SIX, "keep": ["1", "0.65", "0.4"], "endpoints": True, "width": 128,
+                       "layers": 3, "epochs": 8},
+    "rowctx6-thin3": {"candidates": SIX + ["row-median", "row-far"], "keep": ["1", "0.65", "0.4"], **_SMALL},
     "four-thin": {"candidates": ["scanline", "scanline-inverse", "vertical-inverse", "harmonic-inverse"],
                   "keep": ["1", "0.65"], **_SMALL},
 }
@@ -203,11 +209,14 @@ def cmd_fit(args: argparse.Namespace) -> None:
                 xs.append(data["x"][ok][:, cols])
                 ys.append(data["y"][ok])
             start = time.perf_counter()
-            est = _estimator(variant, args.seed, args.epochs)
+            est = _estimator(variant, args.seed, variant.get("epochs", args.epochs))
             est.model_, _ = est._fit_pixels(np.concatenate(xs), np.concatenate(ys))
             fit_s = time.perf_counter() - start
-            pred = _predict(est, ev["x"][:, cols])
-            rmse = _per_sample_rmse((pred - ev["y"]) ** 2, ev["sample"], n_ev)
+            # Only the pixels scored with this fold's model: the held-out drive's and val's.
+            scored_samples = (drives_of == held) | ((split_of == "val") & args.val)
+            px = scored_samples[ev["sample"]]
+            pred = _predict(est, ev["x"][px][:, cols])
+            rmse = _per_sample_rmse((pred - ev["y"][px]) ** 2, ev["sample"][px], n_ev)
             for scored in [held] + (["val"] if args.val else []):
                 sel = (drives_of == held) if scored == held else (split_of == "val")
                 best = min(CLASSICAL, key=lambda c: classical[c][sel].mean())
@@ -234,6 +243,7 @@ def main(argv: list[str] | None = None) -> None:
     c.add_argument("--pixels", type=int, default=3000)
     c.add_argument("--keep", type=float, nargs="+", default=[1.0], help="fractions of measured pixels kept in training inputs")
     c.add_argument("--jobs", type=int, default=2)
+    c.add_argument("--train-only", action="store_true", help="only the training pixels (e.g. another --keep)")
     f = sub.add_parser("fit", help="train variants leave-one-drive-out on the cache and score them")
     f.add_argument("--cache", required=True)
     f.add_argument("--variant", action="append", choices=list(VARIANTS), required=True)

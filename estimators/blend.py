@@ -439,3 +439,7 @@ class BlendInpainter(BaseInpainter):
 def pretrained_blend(name: str = DEFAULT_BLEND, **overrides: Any) -> BlendInpainter:
     """Factory for the registry: a shipped :class:`BlendInpainter` release (see :meth:`BlendInpainter.pretrained`)."""
     return BlendInpainter.pretrained(name, **overrides)
+
+
+# load_checkpoint (estimators.neural) finds classes by the name a checkpoint records.
+ckpt.CLASSES.setdefault("BlendInpainter", BlendInpainter)

@@ -16,6 +16,7 @@ interpretation are in ``_neural_params.py``, the training loop in ``_training.py
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -289,6 +290,12 @@ def load_checkpoint(path: str | os.PathLike) -> _NeuralInpainter:
     CheckpointError
         If the checkpoint is missing, corrupt, or of an unknown class.
     """
-    # A class defined elsewhere (PriorUNetInpainter) is imported by name when the
-    # checkpoint names it (_checkpoint.checkpoint_class), so this module never imports it.
+    # A class defined elsewhere (PriorUNetInpainter, BlendInpainter) is imported by name
+    # when the checkpoint names it (_checkpoint.checkpoint_class), so this module never
+    # imports it. Estimators with their own training (BlendInpainter) load themselves.
+    config_file = Path(path) / ckpt.CONFIG_FILE
+    if config_file.is_file():
+        klass = ckpt.checkpoint_class(ckpt._read_json(config_file).get("class"))
+        if klass is not None and not issubclass(klass, _NeuralInpainter):
+            return klass.load(path)
     return _NeuralInpainter.load(path)
