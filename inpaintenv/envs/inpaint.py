@@ -285,14 +285,16 @@ class DepthInpaintEnv(gym.Env):
             )
         if arr.shape != self.frame_shape:
             raise ValueError(f"action has shape {arr.shape}, expected {self.frame_shape}")
-        # Checked as the action space holds it: float64 values are rounded to float32 first.
-        arr = arr.astype(np.float32, copy=False)
-        if in_depth_range(arr):  # two reductions settle the common case
-            return arr
+        # Checked as the action space holds it: float64 values are rounded to float32
+        # first. A float64 too large for float32 overflows to inf: reported as too deep below.
+        with np.errstate(over="ignore"):
+            arr32 = arr.astype(np.float32, copy=False)
+        if in_depth_range(arr32):  # two reductions settle the common case
+            return arr32
         if not np.isfinite(arr).all():
             raise ValueError("action contains NaN or inf; fill every pixel with a depth in metres")
         if (arr < 0).any():
             raise ValueError(f"action contains negative depth (min {float(arr.min()):.3g} m)")
         raise ValueError(
-            f"action exceeds the action space's bound {DEPTH_LIMIT} m (max {float(arr.max()):.1f} m)"
+            f"action exceeds the action space's bound {DEPTH_LIMIT} m (max {float(arr.max()):.6g} m)"
         )
