@@ -64,7 +64,7 @@ def frame_metrics(
     pred_arr, gt, hole = _check_inputs(pred, gt, hole)
     # NaN/inf would pass a plain "<= 0" test and give NaN/inf PSNR in every row.
     max_depth = check_max_depth(max_depth)
-    return ScoredPixels(gt, hole).metrics(pred_arr, max_depth=max_depth)
+    return ScoredPixels(gt, hole, check_input=False).metrics(pred_arr, max_depth=max_depth)
 
 
 class ScoredPixels:
@@ -83,6 +83,10 @@ class ScoredPixels:
         (checked with :func:`~inpaintenv.conventions.check_depth`).
     hole : numpy.ndarray
         Boolean (or 0/1) occlusion mask of the same shape.
+    check_input : bool, default True
+        False skips checking ``gt`` and ``hole``, for callers that have just checked
+        them (float32 ground truth from :func:`~inpaintenv.conventions.check_depth`, a
+        boolean mask of its shape); unchecked input then gives wrong numbers silently.
 
     Attributes
     ----------
@@ -93,9 +97,10 @@ class ScoredPixels:
         truth, and valid ground truth inside the hole.
     """
 
-    def __init__(self, gt: np.ndarray, hole: np.ndarray):
-        gt = check_depth(gt, name="ground truth")
-        hole = check_mask(hole, gt.shape)
+    def __init__(self, gt: np.ndarray, hole: np.ndarray, *, check_input: bool = True):
+        if check_input:
+            gt = check_depth(gt, name="ground truth")
+            hole = check_mask(hole, gt.shape)
         self.shape: tuple[int, ...] = gt.shape
         self._single = gt.ndim == 2
         flat_gt, flat_hole = gt.reshape(-1), hole.reshape(-1)
@@ -155,17 +160,12 @@ class ScoredPixels:
         for region in REGIONS:
             n, runs, denom = self._regions[region]
             e, ie = (err, inv_err) if region == "all" else (err[in_hole], inv_err[in_hole])
-            with np.errstate(invalid="ignore", divide="ignore"):
-                rmse = np.sqrt(_frame_sums(e * e, runs) / denom)
-                mae = _frame_sums(np.abs(e), runs) / denom
-                irmse = np.sqrt(_frame_sums(ie * ie, runs) / denom)
-                imae = _frame_sums(np.abs(ie), runs) / denom
-                psnr = 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
+            rmse = np.sqrt(_frame_sums(e * e, runs) / denom)
             out[f"{region}_rmse"] = rmse
-            out[f"{region}_mae"] = mae
-            out[f"{region}_irmse"] = irmse
-            out[f"{region}_imae"] = imae
-            out[f"{region}_psnr"] = psnr
+            out[f"{region}_mae"] = _frame_sums(np.abs(e), runs) / denom
+            out[f"{region}_irmse"] = np.sqrt(_frame_sums(ie * ie, runs) / denom)
+            out[f"{region}_imae"] = _frame_sums(np.abs(ie), runs) / denom
+            out[f"{region}_psnr"] = 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
             out[f"{region}_count"] = np.asarray(n, dtype=np.int64)
         if self._single:
             out = {k: v[0] for k, v in out.items()}

@@ -7,7 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from inpaintenv.metrics import ScoredPixels, aggregate, depth_binned_errors, frame_metrics
+from inpaintenv.metrics import (
+    ScoredPixels,
+    aggregate,
+    depth_binned_errors,
+    frame_metrics,
+)
 
 
 def reference_metrics(pred, gt, hole, max_depth=80.0):

@@ -32,7 +32,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..conventions import DEFAULT_MAX_DEPTH, DEPTH_LIMIT, check_int, check_max_depth, in_depth_range
+from ..conventions import (
+    DEFAULT_MAX_DEPTH,
+    DEPTH_LIMIT,
+    check_int,
+    check_max_depth,
+    in_depth_range,
+)
 from ..data.base import DepthDataset, as_dataset
 from ..masks import OcclusionProtocol, get_protocol
 from ..metrics import ScoredPixels
@@ -213,8 +219,9 @@ class DepthInpaintEnv(gym.Env):
         depth = gt.copy()
         np.copyto(depth, np.float32(0.0), where=hole)  # cheaper than np.where's select
         self._obs_depth = depth
-        # Ground truth and hole are gathered here, so step reads only the action.
-        self._scored = ScoredPixels(gt, hole)
+        # Ground truth and hole are gathered here, so step reads only the action. Both
+        # were checked above (checked_frame, the protocol's own bool mask).
+        self._scored = ScoredPixels(gt, hole, check_input=False)
         self._episode = {
             "frame_id": str(self.dataset.frame_ids[i]),
             "drive": str(self.dataset.groups[i]),

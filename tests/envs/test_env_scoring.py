@@ -97,9 +97,9 @@ def test_step_scores_with_the_pixels_gathered_at_reset(dataset, monkeypatch):
     calls = {"init": 0, "metrics": 0}
 
     class Counting(ScoredPixels):
-        def __init__(self, gt, hole):
+        def __init__(self, gt, hole, **kwargs):
             calls["init"] += 1
-            super().__init__(gt, hole)
+            super().__init__(gt, hole, **kwargs)
 
         def metrics(self, pred, *, max_depth=80.0):
             calls["metrics"] += 1
