@@ -6,8 +6,10 @@ Episode = one frame:
   the env's generator when absent) and draws its occlusion as
   ``protocol.mask(frame_shape, s, i)`` -- the very mask :func:`inpaintenv.evaluate`
   uses for evaluation seed ``s`` (``s`` drawn from the env's generator when absent).
-* ``step(reconstruction)`` scores the ``(H, W)`` reconstruction in metres with
-  :func:`inpaintenv.metrics.frame_metrics`; reward = −hole RMSE, ``terminated=True``.
+* ``step(reconstruction)`` scores the ``(H, W)`` reconstruction in metres with the
+  metrics of :func:`inpaintenv.metrics.frame_metrics` (through the
+  :class:`~inpaintenv.metrics.ScoredPixels` gathered at ``reset``, so a step reads only
+  the action); reward = −hole RMSE, ``terminated=True``.
 
 Decisions (see ``docs/env.md``):
 
