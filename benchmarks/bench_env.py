@@ -21,8 +21,8 @@ synthetic 352x1216 frames and prints so.
 The "before" of a speed-up is this same script run against an older checkout in the same
 session, so both figures share the machine's load::
 
-    git worktree add /tmp/inpaintenv-old <commit>
-    PYTHONPATH=/tmp/inpaintenv-old python benchmarks/bench_env.py --kitti-root <KITTI root>
+    git worktree add <old checkout> <commit>
+    PYTHONPATH=<old checkout> python benchmarks/bench_env.py --kitti-root <KITTI root>
 
 Usage::
 
