@@ -11,6 +11,7 @@ tested nothing, and its all-pixel error would be ~0 with a huge PSNR).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 
 import numpy as np
@@ -351,7 +352,7 @@ def depth_binned_errors(
     sq = err * err
     total_sse = sq.sum()
     rows = []
-    for lo, hi in zip(edges_arr[:-1], edges_arr[1:]):
+    for lo, hi in itertools.pairwise(edges_arr):
         in_bin = (g >= lo) & (g < hi)
         n = int(in_bin.sum())
         rows.append({

@@ -280,17 +280,17 @@ def test_depth_bins_empty_bin_is_nan_not_an_error():
 @pytest.mark.parametrize(
     "change, match",
     [
-        (dict(hole=np.zeros((8, 8), bool)), "no hole pixel has ground truth"),
-        (dict(edges=(10, 0)), "increasing"),
-        (dict(edges=(5,)), "increasing"),
-        (dict(pred=np.ones((8, 7), np.float32)), "shape"),
-        (dict(pred=np.full((8, 8), np.nan, np.float32)), "NaN"),
-        (dict(pred=np.full((8, 8), -1.0, np.float32)), "negative"),
+        ({"hole": np.zeros((8, 8), bool)}, "no hole pixel has ground truth"),
+        ({"edges": (10, 0)}, "increasing"),
+        ({"edges": (5,)}, "increasing"),
+        ({"pred": np.ones((8, 7), np.float32)}, "shape"),
+        ({"pred": np.full((8, 8), np.nan, np.float32)}, "NaN"),
+        ({"pred": np.full((8, 8), -1.0, np.float32)}, "negative"),
     ],
 )
 def test_depth_bins_reject_bad_input(change, match):
-    args = dict(pred=np.ones((8, 8), np.float32), gt=np.full((8, 8), 3.0, np.float32),
-                hole=np.ones((8, 8), bool), edges=(0, 10, np.inf))
+    args = {"pred": np.ones((8, 8), np.float32), "gt": np.full((8, 8), 3.0, np.float32),
+                "hole": np.ones((8, 8), bool), "edges": (0, 10, np.inf)}
     args.update(change)
     with pytest.raises(ValueError, match=match):
         depth_binned_errors(args["pred"], args["gt"], args["hole"], edges=args["edges"])

@@ -237,7 +237,7 @@ def test_custom_dataset_frame_above_the_bound_is_named_on_reset(frames):
     class Raw(DepthDataset):
         frame_shape = SHAPE
         groups = np.asarray(["d"])
-        frame_ids = ["d/0"]
+        frame_ids = ("d/0",)
 
         def _load(self, index):
             return np.full(SHAPE, 300.0, np.float32)
