@@ -31,7 +31,7 @@ import numpy as np
 
 __all__ = [
     "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MIN_FRAME_SIDE", "check_depth", "check_int", "check_mask", "check_max_depth",
-    "check_seed", "check_seeds", "corrupt", "is_real_number",
+    "check_seed", "check_seeds", "corrupt", "in_depth_range", "is_real_number",
 ]
 
 #: Fixed range used to normalise depth and to compute PSNR (the study's 80 m).
@@ -101,6 +101,9 @@ def check_depth(
     if arr.size == 0:
         raise ValueError(f"{name} is empty (shape {arr.shape})")
     arr = arr.astype(np.float32, copy=False)
+    if in_depth_range(arr):
+        return arr
+    # Something is off: find out what, for the message.
     nan = np.isnan(arr)
     if np.isinf(arr).any():
         raise ValueError(f"{name} contains infinite values; use 0 for 'no measurement'")
@@ -135,6 +138,17 @@ def _check_batch_shape(shape: tuple[int, ...], name: str) -> None:
             f"{name} has shape {shape}: read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a "
             f"depth frame in an (N, H, W) batch is at least {MIN_FRAME_SIDE}x{MIN_FRAME_SIDE}"
         )
+
+
+def in_depth_range(arr: np.ndarray) -> bool:
+    """True if every value of the float array ``arr`` is in ``[0, DEPTH_LIMIT]``.
+
+    Two reductions (min, max) decide it, instead of one full-frame pass (and temporary)
+    per refusal reason; callers explain a False themselves. NaN propagates through
+    ``min``/``max`` and fails both comparisons, ``-inf``/``inf`` fail one, so a False
+    covers NaN, inf, negative depth and depth above :data:`DEPTH_LIMIT`.
+    """
+    return bool(arr.min() >= 0 and arr.max() <= DEPTH_LIMIT)
 
 
 def _is_int(value: object) -> bool:

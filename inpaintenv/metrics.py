@@ -11,13 +11,16 @@ tested nothing, and its all-pixel error would be ~0 with a huge PSNR).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 
 import numpy as np
 
 from .conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask, check_max_depth
 
-__all__ = ["DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "aggregate", "depth_binned_errors", "frame_metrics"]
+__all__ = [
+    "DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "ScoredPixels", "aggregate", "depth_binned_errors", "frame_metrics",
+]
 
 REGIONS = ("hole", "all")
 METRIC_NAMES = ("rmse", "mae", "irmse", "imae", "psnr")
@@ -60,61 +63,137 @@ def frame_metrics(
         0-d array for a single frame). Hole metrics are NaN where ``hole_count == 0``.
     """
     pred_arr, gt, hole = _check_inputs(pred, gt, hole)
-    single = gt.ndim == 2
     # NaN/inf would pass a plain "<= 0" test and give NaN/inf PSNR in every row.
     max_depth = check_max_depth(max_depth)
-    if single:
-        gt, pred_arr, hole = gt[None], pred_arr[None], hole[None]
+    return ScoredPixels(gt, hole, check_input=False).metrics(pred_arr, max_depth=max_depth)
 
-    valid = gt > 0
-    # Work on the scored pixels only (KITTI ground truth covers ~25 % of a frame): one
-    # gather instead of several full-frame float64 temporaries. The arithmetic stays in
-    # float64 on that compact vector, so results match a pixel-by-pixel reference.
-    p = _checked_scored(pred_arr[valid])
-    g = gt[valid].astype(np.float64)
-    in_hole = hole[valid]
-    # Boolean indexing walks frames in order: frame k's pixels are one contiguous run.
-    n_all = np.count_nonzero(valid, axis=(1, 2))
-    err = p - g
-    inv_err = 1000.0 / np.maximum(p, MIN_INVERSE_DEPTH) - 1000.0 / g
-    out: dict[str, np.ndarray] = {}
-    for region in REGIONS:
-        if region == "all":
-            n, e, ie = n_all, err, inv_err
-        else:
-            n = _frame_sums(in_hole, n_all).astype(np.int64)
-            e, ie = err[in_hole], inv_err[in_hole]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            denom = np.where(n > 0, n, np.nan)
-            rmse = np.sqrt(_frame_sums(e * e, n) / denom)
-            mae = _frame_sums(np.abs(e), n) / denom
-            irmse = np.sqrt(_frame_sums(ie * ie, n) / denom)
-            imae = _frame_sums(np.abs(ie), n) / denom
-            psnr = 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
-        out[f"{region}_rmse"] = rmse
-        out[f"{region}_mae"] = mae
-        out[f"{region}_irmse"] = irmse
-        out[f"{region}_imae"] = imae
-        out[f"{region}_psnr"] = psnr
-        out[f"{region}_count"] = np.asarray(n, dtype=np.int64)
-    if single:
-        out = {k: v[0] for k, v in out.items()}
-    return out
+
+class ScoredPixels:
+    """The pixels a frame (or batch) is scored on, gathered once: valid ground truth.
+
+    :func:`frame_metrics` builds one per call. Code that serves a frame before it is
+    scored (the environment: ``reset`` then ``step``) builds it when the frame is served
+    and scores the submission with :meth:`metrics`, so ground truth and hole are
+    gathered once and only the prediction is read at scoring time. The numbers are
+    :func:`frame_metrics`'s: it runs this very code.
+
+    Parameters
+    ----------
+    gt : numpy.ndarray
+        Ground truth in metres, ``(H, W)`` or ``(N, H, W)``, 0 = no measurement
+        (checked with :func:`~inpaintenv.conventions.check_depth`).
+    hole : numpy.ndarray
+        Boolean (or 0/1) occlusion mask of the same shape.
+    check_input : bool, default True
+        False skips checking ``gt`` and ``hole``, for callers that have just checked
+        them (float32 ground truth from :func:`~inpaintenv.conventions.check_depth`, a
+        boolean mask of its shape); unchecked input then gives wrong numbers silently.
+
+    Attributes
+    ----------
+    shape : tuple of int
+        Shape of ``gt``.
+    all_count, hole_count : numpy.ndarray
+        Scored pixels per frame (``(N,)`` int64, or 0-d for one frame): valid ground
+        truth, and valid ground truth inside the hole.
+    """
+
+    def __init__(self, gt: np.ndarray, hole: np.ndarray, *, check_input: bool = True):
+        if check_input:
+            gt = check_depth(gt, name="ground truth")
+            hole = check_mask(hole, gt.shape)
+        self.shape: tuple[int, ...] = gt.shape
+        self._single = gt.ndim == 2
+        flat_gt, flat_hole = gt.reshape(-1), hole.reshape(-1)
+        # Flat indices from one scan, then cheap takes: boolean-mask gathers rescan the
+        # whole frame each time and were most of the cost of scoring a KITTI frame.
+        # Flat order walks frames in order: frame k's pixels are one contiguous run.
+        self._index = np.flatnonzero(flat_gt > 0)
+        self._gt = flat_gt.take(self._index).astype(np.float64)
+        self._in_hole = flat_hole.take(self._index)
+        # Pixels per frame from where each frame starts in the sorted index (counting
+        # along an axis of the full-size mask costs as much as the gather itself).
+        n_frames = 1 if self._single else len(gt)
+        starts = np.arange(n_frames + 1) * (flat_gt.size // n_frames)
+        n_all = np.diff(np.searchsorted(self._index, starts))
+        n_hole = np.diff(np.searchsorted(self._index[self._in_hole], starts))
+        self.all_count = n_all[0] if self._single else n_all
+        self.hole_count = n_hole[0] if self._single else n_hole
+        # Per region: pixels per frame, their layout for _frame_sums, and the divisor
+        # of the means (NaN for a frame without any: its metrics are NaN).
+        self._regions = {
+            region: (n, _runs(n), np.where(n > 0, n, np.nan)) for region, n in (("hole", n_hole), ("all", n_all))
+        }
+
+    def metrics(self, pred: np.ndarray, *, max_depth: float = DEFAULT_MAX_DEPTH) -> dict[str, np.ndarray]:
+        """The metrics of :func:`frame_metrics` for the prediction ``pred``.
+
+        Parameters
+        ----------
+        pred : numpy.ndarray
+            Reconstruction in metres, of the ground truth's shape; must be finite and
+            non-negative wherever ground truth exists.
+        max_depth : float
+            Range for PSNR (80 m by default).
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            As :func:`frame_metrics`.
+
+        Raises
+        ------
+        ValueError
+            On a wrong shape, NaN/inf or negative depth at a scored pixel, or an invalid
+            ``max_depth``.
+        TypeError
+            If ``pred`` is not numeric.
+        """
+        pred_arr = _check_pred(pred, self.shape)
+        max_depth = check_max_depth(max_depth)
+        p = _checked_scored(pred_arr.reshape(-1).take(self._index))
+        # The arithmetic stays in float64 on the compact vector of scored pixels, so
+        # results match a pixel-by-pixel reference.
+        g, in_hole = self._gt, self._in_hole
+        err = p - g
+        inv_err = 1000.0 / np.maximum(p, MIN_INVERSE_DEPTH) - 1000.0 / g
+        out: dict[str, np.ndarray] = {}
+        for region in REGIONS:
+            n, runs, denom = self._regions[region]
+            e, ie = (err, inv_err) if region == "all" else (err[in_hole], inv_err[in_hole])
+            rmse = np.sqrt(_frame_sums(e * e, runs) / denom)
+            out[f"{region}_rmse"] = rmse
+            out[f"{region}_mae"] = _frame_sums(np.abs(e), runs) / denom
+            out[f"{region}_irmse"] = np.sqrt(_frame_sums(ie * ie, runs) / denom)
+            out[f"{region}_imae"] = _frame_sums(np.abs(ie), runs) / denom
+            out[f"{region}_psnr"] = 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
+            out[f"{region}_count"] = np.asarray(n, dtype=np.int64)
+        if self._single:
+            out = {k: v[0] for k, v in out.items()}
+        return out
 
 
 def _check_inputs(pred: np.ndarray, gt: np.ndarray, hole: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(pred, gt, hole)`` as arrays after checking ground truth, shapes, dtype and mask."""
     gt = check_depth(gt, name="ground truth")
+    return _check_pred(pred, gt.shape), gt, check_mask(hole, gt.shape)
+
+
+def _check_pred(pred: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``pred`` as an array after checking its shape (the ground truth's) and numeric dtype."""
     pred_arr = np.asarray(pred)
-    if pred_arr.shape != gt.shape:
-        raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {gt.shape}")
+    if pred_arr.shape != shape:
+        raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {shape}")
     if not (np.issubdtype(pred_arr.dtype, np.floating) or np.issubdtype(pred_arr.dtype, np.integer)):
         raise TypeError(f"prediction must be numeric, got dtype {pred_arr.dtype}")
-    return pred_arr, gt, check_mask(hole, gt.shape)
+    return pred_arr
 
 
 def _checked_scored(scored_pred: np.ndarray) -> np.ndarray:
     """The prediction at scored pixels as float64, which must be finite and non-negative."""
+    # min and max settle the common case (NaN fails the first comparison, inf the second).
+    if scored_pred.size == 0 or (scored_pred.min() >= 0 and scored_pred.max() < np.inf):
+        return scored_pred.astype(np.float64)
     if not np.isfinite(scored_pred).all():
         raise ValueError("prediction has NaN or inf at pixels with ground truth; fill every pixel")
     if (scored_pred < 0).any():
@@ -122,15 +201,23 @@ def _checked_scored(scored_pred: np.ndarray) -> np.ndarray:
     return scored_pred.astype(np.float64)
 
 
-def _frame_sums(values: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """Per-frame sums of ``values``, which hold ``counts[k]`` consecutive entries of frame k."""
-    out = np.zeros(len(counts), dtype=np.float64)
+def _runs(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Layout of values holding ``counts[k]`` consecutive entries of frame k, for :func:`_frame_sums`.
+
+    Returns the start of each non-empty frame's run and the mask of non-empty frames.
+    """
     nonempty = counts > 0
-    if nonempty.any():
+    return (np.cumsum(counts) - counts)[nonempty], nonempty
+
+
+def _frame_sums(values: np.ndarray, runs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Per-frame sums of ``values`` laid out as ``runs`` (see :func:`_runs`); 0 for empty frames."""
+    starts, nonempty = runs
+    out = np.zeros(len(nonempty), dtype=np.float64)
+    if starts.size:
         # reduceat sums from each start to the next one; empty frames are left out so
         # their (meaningless) reduceat entries never appear.
-        starts = np.cumsum(counts) - counts
-        out[nonempty] = np.add.reduceat(values.astype(np.float64, copy=False), starts[nonempty])
+        out[nonempty] = np.add.reduceat(values.astype(np.float64, copy=False), starts)
     return out
 
 
@@ -265,7 +352,7 @@ def depth_binned_errors(
     sq = err * err
     total_sse = sq.sum()
     rows = []
-    for lo, hi in zip(edges_arr[:-1], edges_arr[1:]):
+    for lo, hi in itertools.pairwise(edges_arr):
         in_bin = (g >= lo) & (g < hi)
         n = int(in_bin.sum())
         rows.append({

@@ -15,6 +15,7 @@ from inpaintenv.conventions import (
     check_seed,
     check_seeds,
     corrupt,
+    in_depth_range,
 )
 
 
@@ -39,6 +40,7 @@ def test_check_depth_converts_integers_and_keeps_float32_without_copy():
         (np.ones(3), ValueError, "2-D"),
         (np.ones((0, 3)), ValueError, "empty"),
         (np.array([[1.0, np.inf]]), ValueError, "infinite"),
+        (np.array([[1.0, -np.inf]]), ValueError, "infinite"),
         (np.array([[1.0, np.nan]]), ValueError, "NaN"),
         (np.array([[1.0, -2.0]]), ValueError, "negative"),
         (np.array([["a"]]), TypeError, "numeric"),
@@ -53,6 +55,21 @@ def test_check_depth_errors(value, error, message):
 def test_check_depth_allows_nan_when_asked():
     out = check_depth(np.array([[1.0, np.nan]]), allow_nan=True)
     assert np.isnan(out[0, 1])
+    # NaN fails the quick range check; the full checks still find what else is wrong.
+    with pytest.raises(ValueError, match="negative"):
+        check_depth(np.array([[np.nan, -1.0]]), allow_nan=True)
+
+
+@pytest.mark.parametrize(
+    "bad, expected",
+    [(None, True), (np.nan, False), (np.inf, False), (-np.inf, False), (-1e-6, False),
+     (DEPTH_LIMIT, True), (np.nextafter(np.float32(DEPTH_LIMIT), np.float32(np.inf)), False), (0.0, True)],
+)
+def test_in_depth_range_finds_one_bad_pixel(bad, expected):
+    frame = np.full((64, 96), 10.0, np.float32)
+    if bad is not None:
+        frame[37, 51] = bad
+    assert in_depth_range(frame) is expected
 
 
 def test_check_mask():

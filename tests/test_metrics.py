@@ -7,7 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from inpaintenv.metrics import aggregate, depth_binned_errors, frame_metrics
+from inpaintenv.metrics import (
+    ScoredPixels,
+    aggregate,
+    depth_binned_errors,
+    frame_metrics,
+)
 
 
 def reference_metrics(pred, gt, hole, max_depth=80.0):
@@ -68,6 +73,47 @@ def test_batch_equals_per_frame():
         single = frame_metrics(p, g, h)
         for key in single:
             np.testing.assert_allclose(batch[key][k], single[key])
+
+
+def test_scored_pixels_score_like_frame_metrics_and_the_reference():
+    rng = np.random.default_rng(4)
+    cases = [random_case(rng, (12, 17)) for _ in range(3)]
+    pred, gt, hole = (np.stack(c) for c in zip(*cases))
+    gt[1] = 0.0  # a frame without ground truth: NaN metrics, zero counts
+    hole[2] = False  # a frame without a hole: NaN hole metrics
+    scored = ScoredPixels(gt, hole)
+    np.testing.assert_array_equal(scored.all_count, (gt > 0).sum(axis=(1, 2)))
+    np.testing.assert_array_equal(scored.hole_count, ((gt > 0) & hole).sum(axis=(1, 2)))
+    for max_depth in (80.0, 50.0):
+        got = scored.metrics(pred, max_depth=max_depth)  # scored twice from one gather
+        batch = frame_metrics(pred, gt, hole, max_depth=max_depth)
+        for key in batch:
+            np.testing.assert_array_equal(got[key], batch[key])
+        for k in range(3):
+            want = reference_metrics(pred[k], gt[k], hole[k], max_depth=max_depth)
+            for key, value in want.items():
+                assert got[key][k] == pytest.approx(value, rel=1e-9, nan_ok=True), (k, key)
+    single = ScoredPixels(gt[0], hole[0])
+    assert single.all_count == scored.all_count[0] and single.metrics(pred[0])["hole_rmse"].shape == ()
+
+
+def test_scored_pixels_check_their_inputs():
+    ok = np.ones((3, 3), np.float32)
+    with pytest.raises(ValueError, match="NaN"):
+        ScoredPixels(np.full((3, 3), np.nan, np.float32), np.ones((3, 3), bool))
+    with pytest.raises(ValueError, match="mask"):
+        ScoredPixels(ok, np.ones((2, 3), bool))
+    scored = ScoredPixels(ok, np.ones((3, 3), bool))
+    with pytest.raises(ValueError, match="shape"):
+        scored.metrics(np.ones((3, 4), np.float32))
+    with pytest.raises(TypeError, match="numeric"):
+        scored.metrics(np.full((3, 3), "a"))
+    with pytest.raises(ValueError, match="NaN or inf"):
+        scored.metrics(np.where(np.eye(3, dtype=bool), np.inf, 1.0))
+    with pytest.raises(ValueError, match="negative"):
+        scored.metrics(np.where(np.eye(3, dtype=bool), -1.0, 1.0))
+    with pytest.raises(ValueError, match="max_depth"):
+        scored.metrics(ok, max_depth=float("nan"))
 
 
 def test_pixels_without_ground_truth_do_not_count():
@@ -234,17 +280,17 @@ def test_depth_bins_empty_bin_is_nan_not_an_error():
 @pytest.mark.parametrize(
     "change, match",
     [
-        (dict(hole=np.zeros((8, 8), bool)), "no hole pixel has ground truth"),
-        (dict(edges=(10, 0)), "increasing"),
-        (dict(edges=(5,)), "increasing"),
-        (dict(pred=np.ones((8, 7), np.float32)), "shape"),
-        (dict(pred=np.full((8, 8), np.nan, np.float32)), "NaN"),
-        (dict(pred=np.full((8, 8), -1.0, np.float32)), "negative"),
+        ({"hole": np.zeros((8, 8), bool)}, "no hole pixel has ground truth"),
+        ({"edges": (10, 0)}, "increasing"),
+        ({"edges": (5,)}, "increasing"),
+        ({"pred": np.ones((8, 7), np.float32)}, "shape"),
+        ({"pred": np.full((8, 8), np.nan, np.float32)}, "NaN"),
+        ({"pred": np.full((8, 8), -1.0, np.float32)}, "negative"),
     ],
 )
 def test_depth_bins_reject_bad_input(change, match):
-    args = dict(pred=np.ones((8, 8), np.float32), gt=np.full((8, 8), 3.0, np.float32),
-                hole=np.ones((8, 8), bool), edges=(0, 10, np.inf))
+    args = {"pred": np.ones((8, 8), np.float32), "gt": np.full((8, 8), 3.0, np.float32),
+                "hole": np.ones((8, 8), bool), "edges": (0, 10, np.inf)}
     args.update(change)
     with pytest.raises(ValueError, match=match):
         depth_binned_errors(args["pred"], args["gt"], args["hole"], edges=args["edges"])

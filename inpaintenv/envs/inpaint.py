@@ -6,8 +6,10 @@ Episode = one frame:
   the env's generator when absent) and draws its occlusion as
   ``protocol.mask(frame_shape, s, i)`` -- the very mask :func:`inpaintenv.evaluate`
   uses for evaluation seed ``s`` (``s`` drawn from the env's generator when absent).
-* ``step(reconstruction)`` scores the ``(H, W)`` reconstruction in metres with
-  :func:`inpaintenv.metrics.frame_metrics`; reward = −hole RMSE, ``terminated=True``.
+* ``step(reconstruction)`` scores the ``(H, W)`` reconstruction in metres with the
+  metrics of :func:`inpaintenv.metrics.frame_metrics` (through the
+  :class:`~inpaintenv.metrics.ScoredPixels` gathered at ``reset``, so a step reads only
+  the action); reward = −hole RMSE, ``terminated=True``.
 
 Decisions (see ``docs/env.md``):
 
@@ -32,10 +34,16 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..conventions import DEFAULT_MAX_DEPTH, DEPTH_LIMIT, check_int, check_max_depth
+from ..conventions import (
+    DEFAULT_MAX_DEPTH,
+    DEPTH_LIMIT,
+    check_int,
+    check_max_depth,
+    in_depth_range,
+)
 from ..data.base import DepthDataset, as_dataset
 from ..masks import OcclusionProtocol, get_protocol
-from ..metrics import frame_metrics
+from ..metrics import ScoredPixels
 from .render import render_panel
 
 __all__ = ["DEPTH_LIMIT", "MAX_FRAME_DRAWS", "MAX_MASK_REDRAWS", "DepthInpaintEnv", "draw_scored_hole"]
@@ -147,6 +155,8 @@ class DepthInpaintEnv(gym.Env):
         self._gt: np.ndarray | None = None
         self._hole: np.ndarray | None = None
         self._pred: np.ndarray | None = None
+        self._obs_depth: np.ndarray | None = None
+        self._scored: ScoredPixels | None = None
         self._episode: dict[str, Any] = {}
         self._metrics: dict[str, Any] | None = None
         self._done = True
@@ -203,17 +213,27 @@ class DepthInpaintEnv(gym.Env):
                 f"{MAX_FRAME_DRAWS} random frames had no valid ground truth inside any "
                 f"{self.protocol.name} hole; does the dataset hold any measurement?"
             )
-        self._gt, self._hole, self._pred, self._metrics = gt, hole, None, None
+        # Only render() reads the frame after reset: keep a copy only then (an array
+        # dataset hands out views of the caller's array).
+        self._gt = np.array(gt, copy=True) if self.render_mode is not None else None
+        self._hole, self._pred, self._metrics = hole, None, None
+        # Built once per episode: reset hands out a copy, step the original (see step).
+        depth = gt.copy()
+        np.copyto(depth, np.float32(0.0), where=hole)  # cheaper than np.where's select
+        self._obs_depth = depth
+        # Ground truth and hole are gathered here, so step reads only the action. Both
+        # were checked above (checked_frame, the protocol's own bool mask).
+        self._scored = ScoredPixels(gt, hole, check_input=False)
         self._episode = {
             "frame_id": str(self.dataset.frame_ids[i]),
             "drive": str(self.dataset.groups[i]),
             "index": i,
             "mask_seed": s,
             "mask_redraws": redraws,
-            "hole_fraction": float(hole.mean()),
+            "hole_fraction": np.count_nonzero(hole) / hole.size,
         }
         self._done = False
-        return self._observation(), dict(self._episode)
+        return {"depth": depth.copy(), "hole": hole.astype(np.uint8)}, dict(self._episode)
 
     def step(
         self, action: Any
@@ -229,15 +249,23 @@ class DepthInpaintEnv(gym.Env):
         RuntimeError
             If called before ``reset`` or after the episode ended.
         """
-        if self._done or self._gt is None or self._hole is None:
+        if self._done or self._scored is None or self._obs_depth is None or self._hole is None:
             raise RuntimeError("the episode is over or has not started; call reset() first")
         pred = self._check_action(action)
-        m = frame_metrics(pred, self._gt, self._hole, max_depth=self.max_depth)
+        m = self._scored.metrics(pred, max_depth=self.max_depth)
         metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items()}
-        self._pred, self._metrics = pred, metrics
+        # Only render() reads the reconstruction later: copy it only then (the caller's
+        # array is never kept, and a 352x1216 copy per step is not free).
+        self._pred = np.array(pred, dtype=np.float32, copy=True) if self.render_mode is not None else None
+        self._metrics = metrics
         self._done = True
         info = {**metrics, **self._episode}
-        return self._observation(), -metrics["hole_rmse"], True, False, info
+        # Every call returns fresh arrays (callers may keep or modify them). The episode
+        # is over, so the env's own depth observation is handed over instead of copied;
+        # the hole is copied since render() still reads it.
+        obs = {"depth": self._obs_depth, "hole": self._hole.astype(np.uint8)}
+        self._obs_depth = None
+        return obs, -metrics["hole_rmse"], True, False, info
 
     def render(self) -> np.ndarray | None:
         """The RGB uint8 panel of the current frame (``render_mode="rgb_array"``), else None."""
@@ -253,18 +281,10 @@ class DepthInpaintEnv(gym.Env):
         return render_panel(self._gt, self._hole, self._pred, max_depth=self.max_depth, title=title)
 
     # -- helpers ---------------------------------------------------------------------
-    def _observation(self) -> dict[str, np.ndarray]:
-        assert self._gt is not None and self._hole is not None
-        # Fresh arrays every call: callers may keep or modify what they receive.
-        return {
-            "depth": np.where(self._hole, np.float32(0.0), self._gt).astype(np.float32),
-            "hole": self._hole.astype(np.uint8),
-        }
-
     def _load(self, index: int) -> np.ndarray:
         # The check also refuses depth above DEPTH_LIMIT, the observation space's bound.
-        gt = self.dataset.checked_frame(index, f"frame {index}")
-        return np.array(gt, dtype=np.float32, copy=True)
+        # No copy: reset builds its own observation and scored pixels from the frame.
+        return self.dataset.checked_frame(index, f"frame {index}")
 
     def _check_action(self, action: Any) -> np.ndarray:
         arr = np.asarray(action)
@@ -274,13 +294,16 @@ class DepthInpaintEnv(gym.Env):
             )
         if arr.shape != self.frame_shape:
             raise ValueError(f"action has shape {arr.shape}, expected {self.frame_shape}")
-        arr = arr.astype(np.float32)  # a copy: the caller's array is never kept
+        # Checked as the action space holds it: float64 values are rounded to float32
+        # first. A float64 too large for float32 overflows to inf: reported as too deep below.
+        with np.errstate(over="ignore"):
+            arr32 = arr.astype(np.float32, copy=False)
+        if in_depth_range(arr32):  # two reductions settle the common case
+            return arr32
         if not np.isfinite(arr).all():
             raise ValueError("action contains NaN or inf; fill every pixel with a depth in metres")
         if (arr < 0).any():
             raise ValueError(f"action contains negative depth (min {float(arr.min()):.3g} m)")
-        if (arr > DEPTH_LIMIT).any():
-            raise ValueError(
-                f"action exceeds the action space's bound {DEPTH_LIMIT} m (max {float(arr.max()):.1f} m)"
-            )
-        return arr
+        raise ValueError(
+            f"action exceeds the action space's bound {DEPTH_LIMIT} m (max {float(arr.max()):.6g} m)"
+        )

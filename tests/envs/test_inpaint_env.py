@@ -131,6 +131,12 @@ def test_step_outside_episode_raises(dataset):
         env.step(np.zeros(SHAPE, np.float32))
 
 
+def _one_pixel(value, dtype=np.float32):
+    action = np.full(SHAPE, 5.0, dtype)
+    action[SHAPE[0] // 2, SHAPE[1] // 3] = value
+    return action
+
+
 @pytest.mark.parametrize(
     "action, exc, match",
     [
@@ -140,6 +146,12 @@ def test_step_outside_episode_raises(dataset):
         (np.full(SHAPE, np.inf, np.float32), ValueError, "NaN or inf"),
         (np.full(SHAPE, -1.0, np.float32), ValueError, "negative"),
         (np.full(SHAPE, 1e4, np.float32), ValueError, "bound"),
+        # One bad pixel in an otherwise valid reconstruction (the quick min/max check).
+        (_one_pixel(np.nan), ValueError, "NaN"),
+        (_one_pixel(-np.inf), ValueError, "NaN or inf"),
+        (_one_pixel(-0.5), ValueError, "negative"),
+        (_one_pixel(DEPTH_LIMIT + 1.0), ValueError, "bound"),
+        (_one_pixel(1e300, np.float64), ValueError, "bound"),  # inf once stored as float32
         (np.ones(SHAPE, np.int32), TypeError, "dtype"),
         (np.ones(SHAPE, bool), TypeError, "dtype"),
         ("deep", TypeError, "dtype"),
@@ -225,7 +237,7 @@ def test_custom_dataset_frame_above_the_bound_is_named_on_reset(frames):
     class Raw(DepthDataset):
         frame_shape = SHAPE
         groups = np.asarray(["d"])
-        frame_ids = ["d/0"]
+        frame_ids = ("d/0",)
 
         def _load(self, index):
             return np.full(SHAPE, 300.0, np.float32)
