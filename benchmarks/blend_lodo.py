@@ -132,6 +132,12 @@ VARIANTS: dict[str, dict] = {
     "six-thin3-wide": {"candidates": SIX, "keep": ["1", "0.65", "0.4"], "endpoints": True, "width": 128,
                        "layers": 3, "epochs": 8},
     "rowctx6-thin3": {"candidates": SIX + ["row-median", "row-far"], "keep": ["1", "0.65", "0.4"], **_SMALL},
+    "six-thin3-w128x2": {"candidates": SIX, "keep": ["1", "0.65", "0.4"], "endpoints": True, "width": 128,
+                         "layers": 2, "epochs": 8},
+    "six-thin3-w128x2-notta": {"candidates": SIX, "keep": ["1", "0.65", "0.4"], "endpoints": True, "width": 128,
+                               "layers": 2, "epochs": 8, "tta": False},
+    "six-thin3-wide-nores": {"candidates": SIX, "keep": ["1", "0.65", "0.4"], "endpoints": True, "width": 128,
+                             "layers": 3, "epochs": 8, "residual": False},
     "four-thin": {"candidates": ["scanline", "scanline-inverse", "vertical-inverse", "harmonic-inverse"],
                   "keep": ["1", "0.65"], **_SMALL},
 }
@@ -155,7 +161,8 @@ def _estimator(variant: dict, seed: int, epochs: int):
     from estimators.blend import BlendInpainter
 
     return BlendInpainter(candidates=tuple(variant["candidates"]), endpoints=variant["endpoints"],
-                          width=variant["width"], layers=variant["layers"], epochs=epochs, random_state=seed)
+                          width=variant["width"], layers=variant["layers"], residual=variant.get("residual", True),
+                          tta=variant.get("tta", True), epochs=epochs, random_state=seed)
 
 
 def _predict(est, x: np.ndarray) -> np.ndarray:
@@ -166,7 +173,10 @@ def _predict(est, x: np.ndarray) -> np.ndarray:
     mirrored = est._mirror_order()
     with torch.inference_mode():
         xt = torch.from_numpy(np.ascontiguousarray(x))
-        out = [0.5 * (est.model_.blend(c) + est.model_.blend(c[:, mirrored])) for c in xt.split(1 << 15)]
+        if est.tta:
+            out = [0.5 * (est.model_.blend(c) + est.model_.blend(c[:, mirrored])) for c in xt.split(1 << 15)]
+        else:
+            out = [est.model_.blend(c) for c in xt.split(1 << 15)]
         pred = torch.cat(out).numpy()
     return np.maximum(pred, 0.5 * x[:, :k].min(axis=1))
 

@@ -91,6 +91,9 @@ class BlendInpainter(BaseInpainter):
         Scale-free blend: depths enter as log-ratios to the candidates' geometric mean
         and the residual is a fraction of it, so a frame twice as deep gets a
         prediction twice as deep (the model cannot key on one drive's depth range).
+    residual : bool, default True
+        Add a learned residual (a fraction of the candidates' geometric mean) to the
+        blend; False keeps every prediction within the candidates' range.
     keep : tuple of float, default (1.0,)
         Training inputs per occlusion, one per fraction of the measured pixels kept
         outside the hole (e.g. ``(1.0, 0.65)`` adds a thinned copy, closer to the
@@ -149,6 +152,7 @@ class BlendInpainter(BaseInpainter):
         width: int = 64,
         layers: int = 2,
         relative: bool = True,
+        residual: bool = True,
         keep: tuple[float, ...] = (1.0,),
         masks_per_frame: int = 3,
         pixels_per_frame: int = 3000,
@@ -168,6 +172,7 @@ class BlendInpainter(BaseInpainter):
         self.width = width
         self.layers = layers
         self.relative = relative
+        self.residual = residual
         self.keep = keep
         self.masks_per_frame = masks_per_frame
         self.pixels_per_frame = pixels_per_frame
@@ -189,7 +194,7 @@ class BlendInpainter(BaseInpainter):
             n not in AVAILABLE_CANDIDATES for n in names
         ):
             raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
-        for name in ("endpoints", "relative", "tta", "keep_observed", "verbose"):
+        for name in ("endpoints", "relative", "residual", "tta", "keep_observed", "verbose"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         for name, low in (("width", 1), ("layers", 1), ("masks_per_frame", 1), ("pixels_per_frame", 1),
@@ -209,7 +214,7 @@ class BlendInpainter(BaseInpainter):
     def _model_params(self) -> dict[str, Any]:
         """The parameters the weights depend on."""
         return {"candidates": list(self.candidates), "endpoints": bool(self.endpoints), "width": int(self.width),
-                "layers": int(self.layers), "relative": bool(self.relative)}
+                "layers": int(self.layers), "relative": bool(self.relative), "residual": bool(self.residual)}
 
     def _check_model_params(self) -> None:
         if self._model_params() != self.model_params_:
@@ -222,7 +227,7 @@ class BlendInpainter(BaseInpainter):
     def _build_model(self) -> PixelBlendNet:
         return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.layers),
                              n_endpoints=len(ENDPOINT_CHANNELS) if self.endpoints else 0,
-                             relative=bool(self.relative))
+                             relative=bool(self.relative), residual=bool(self.residual))
 
     def _mirror_order(self) -> list[int]:
         """Pixel-feature channel order of the mirrored frame (left and right swapped)."""

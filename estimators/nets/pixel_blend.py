@@ -57,6 +57,9 @@ class PixelBlendNet(nn.Module):
         ``log(value / ref)`` with ``ref`` the geometric mean of the pixel's candidates,
         and the residual is a fraction of ``ref``. Multiplying all depths by ``s`` then
         multiplies the prediction by ``s`` (the model cannot key on a drive's depth range).
+    residual : bool, default True
+        Add the learned residual to the blend; without it the prediction is a convex
+        combination of the candidates (the head keeps its residual output, unused).
 
     Notes
     -----
@@ -67,6 +70,7 @@ class PixelBlendNet(nn.Module):
     def __init__(
         self, n_candidates: int = 4, n_gaps: int = 4, width: int = 128, layers: int = 3, n_endpoints: int = 0,
         relative: bool = False,
+        residual: bool = True,
     ):
         super().__init__()
         for name, value, low in (("n_candidates", n_candidates, 1), ("n_gaps", n_gaps, 0),
@@ -76,6 +80,7 @@ class PixelBlendNet(nn.Module):
         self.n_candidates, self.n_gaps, self.width, self.layers = n_candidates, n_gaps, width, layers
         self.n_endpoints = n_endpoints
         self.relative = bool(relative)
+        self.residual = bool(residual)
         dims = [n_candidates + n_gaps + n_endpoints] + [width] * layers
         mods: list[nn.Module] = []
         for a, b in itertools.pairwise(dims):
@@ -108,7 +113,9 @@ class PixelBlendNet(nn.Module):
             z = torch.cat([cands / DEPTH_SCALE, gaps, pixels[:, g:] / DEPTH_SCALE], dim=1)
             scale = DEPTH_SCALE
         out = self.head(self.body(z))
-        return (torch.softmax(out[:, :k], dim=1) * cands).sum(dim=1) + scale * out[:, k]
+        blend = (torch.softmax(out[:, :k], dim=1) * cands).sum(dim=1)
+        # Without the residual the output stays within the candidates' range.
+        return blend + scale * out[:, k] if self.residual else blend
 
     def forward(self, x: torch.Tensor, where: torch.Tensor | None = None) -> torch.Tensor:
         """Predict at the pixels ``where`` (``(P,)`` metres) or on the whole map.
@@ -135,4 +142,4 @@ class PixelBlendNet(nn.Module):
 
     def extra_repr(self) -> str:
         return (f"n_candidates={self.n_candidates}, n_gaps={self.n_gaps}, n_endpoints={self.n_endpoints}, "
-                f"width={self.width}, layers={self.layers}, relative={self.relative}")
+                f"width={self.width}, layers={self.layers}, relative={self.relative}, residual={self.residual}")
