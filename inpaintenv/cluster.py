@@ -117,10 +117,15 @@ def open_client(scheduler: str | None, *, timeout: float = CONNECT_TIMEOUT) -> I
     kind, value = parse_scheduler(scheduler)
     dd = _distributed("--scheduler")
     if kind == "local":
-        with dd.LocalCluster(
-            n_workers=value, threads_per_worker=1, processes=True, host="127.0.0.1",
-            dashboard_address=None,
-        ) as cluster, dd.Client(cluster) as client:
+        try:
+            # Loopback only, dashboard included: a local run opens no port to the network.
+            cluster = dd.LocalCluster(
+                n_workers=value, threads_per_worker=1, processes=True, host="127.0.0.1",
+                dashboard_address="127.0.0.1:0",
+            )
+        except (OSError, RuntimeError, TimeoutError) as exc:
+            raise ClusterError(f"cannot start {value} local Dask workers: {_one_line(exc)}") from None
+        with cluster, dd.Client(cluster) as client:
             yield client
         return
     try:

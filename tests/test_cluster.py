@@ -20,14 +20,19 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from estimators.classical import NearestInpainter  # noqa: E402
-from inpaintenv import cluster  # noqa: E402
-from inpaintenv.benchmark import run_benchmark  # noqa: E402
-from inpaintenv.cli import main  # noqa: E402
-from inpaintenv.cluster import ClusterError, WorkerDataError, open_client, parse_scheduler  # noqa: E402
-from inpaintenv.data import KittiDepth, SyntheticStreets  # noqa: E402
-from inpaintenv.data.io import write_depth_png  # noqa: E402
-from inpaintenv.evaluate import evaluate  # noqa: E402
+from estimators.classical import NearestInpainter
+from inpaintenv import cluster
+from inpaintenv.benchmark import run_benchmark
+from inpaintenv.cli import main
+from inpaintenv.cluster import (
+    ClusterError,
+    WorkerDataError,
+    open_client,
+    parse_scheduler,
+)
+from inpaintenv.data import KittiDepth, SyntheticStreets
+from inpaintenv.data.io import write_depth_png
+from inpaintenv.evaluate import MethodOutputError, evaluate
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -48,10 +53,27 @@ class SlowNearest:
         return NearestInpainter(n_jobs=1).predict(x)
 
 
+class StopsOnFlag:
+    """Nearest fill that returns NaN (an unusable output) while ``flag`` exists: a run that
+    fails part-way, leaving some rows written."""
+
+    batched = True
+    name = "stops-on-flag"
+
+    def __init__(self, flag: str):
+        self.flag = flag
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        time.sleep(0.1)
+        if os.path.exists(self.flag):
+            return np.full_like(x, np.nan)
+        return NearestInpainter(n_jobs=1).predict(x)
+
+
 @pytest.fixture(scope="module")
 def client():
     with distributed.LocalCluster(
-        n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+        n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address="127.0.0.1:0",
     ) as local, distributed.Client(local) as c:
         yield c
 
@@ -71,7 +93,7 @@ def read_row_file(path):
 
 
 def test_evaluate_on_cluster_gives_the_serial_rows(client, streets):
-    kw = dict(protocol="freeform-v1", seeds=[0, 2], batch_size=3, progress=False)
+    kw = {"protocol": "freeform-v1", "seeds": [0, 2], "batch_size": 3, "progress": False}
     got = []
     dist = evaluate(NearestInpainter(n_jobs=1), streets, client=client, on_batch=got.append, **kw)
     serial = evaluate(NearestInpainter(n_jobs=1), streets, **kw)
@@ -86,13 +108,13 @@ def test_evaluate_on_cluster_gives_the_serial_rows(client, streets):
 
 def test_run_benchmark_on_cluster_writes_the_serial_row_files(client, streets, tmp_path):
     methods = {"nearest": NearestInpainter(n_jobs=1), "slow": SlowNearest(0.0)}
-    kw = dict(protocols=["rect-v1", "lidar-dropout-v1"], seeds=[1], batch_size=4, progress=False)
+    kw = {"protocols": ["rect-v1", "lidar-dropout-v1"], "seeds": [1], "batch_size": 4, "progress": False}
     dist = run_benchmark(methods, streets, out_dir=tmp_path / "dist", client=client, **kw)
     serial = run_benchmark(methods, streets, out_dir=tmp_path / "serial", **kw)
     assert without_ms(dist.rows) == without_ms(serial.rows)
     for path in sorted((tmp_path / "serial" / "rows").glob("*.jsonl")):
         other = tmp_path / "dist" / "rows" / path.name
-        key = lambda r: (r["seed"], r["index"])  # noqa: E731
+        key = lambda r: (r["seed"], r["index"])
         assert without_ms(sorted(read_row_file(other), key=key)) == without_ms(sorted(read_row_file(path), key=key))
 
 
@@ -112,7 +134,7 @@ def _worker_pids(client):
 
 def test_sigkilled_worker_loses_no_row(client, tmp_path):
     source = SyntheticStreets(n=16, frame_shape=SHAPE)
-    kw = dict(protocols=["rect-v1"], seeds=[0, 1], batch_size=2, progress=False)
+    kw = {"protocols": ["rect-v1"], "seeds": [0, 1], "batch_size": 2, "progress": False}
     out = tmp_path / "dist"
     rows_file = out / "rows" / "slow__rect-v1.jsonl"
     pids = _worker_pids(client)
@@ -142,6 +164,48 @@ def test_sigkilled_worker_loses_no_row(client, tmp_path):
     serial = run_benchmark({"slow": SlowNearest(0.0)}, source, out_dir=tmp_path / "serial", **kw)
     assert without_ms(dist.rows) == without_ms(serial.rows)
     client.wait_for_workers(2, timeout=60)  # the nanny restarts the killed worker
+
+
+def test_failed_distributed_run_resumes_with_every_row_once(client, tmp_path):
+    source = SyntheticStreets(n=16, frame_shape=SHAPE)
+    flag = tmp_path / "stop"
+    method = {"stops": StopsOnFlag(str(flag))}
+    kw = {"protocols": ["rect-v1"], "seeds": [0, 1], "batch_size": 2, "progress": False}
+    out = tmp_path / "dist"
+    rows_file = out / "rows" / "stops__rect-v1.jsonl"
+
+    def stop_after_first_rows():
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and not (rows_file.exists() and rows_file.stat().st_size):
+            time.sleep(0.01)
+        flag.touch()
+
+    stopper = threading.Thread(target=stop_after_first_rows)
+    stopper.start()
+    try:
+        with pytest.raises(MethodOutputError):
+            run_benchmark(method, source, out_dir=out, client=client, **kw)
+    finally:
+        stopper.join()
+    first = read_row_file(rows_file)
+    assert 0 < len(first) < 32
+    flag.unlink()
+    resumed = run_benchmark(method, source, out_dir=out, client=client, **kw)
+    keys = [(r["seed"], r["index"]) for r in read_row_file(rows_file)]
+    assert sorted(keys) == sorted((s, i) for s in (0, 1) for i in range(16))  # every row exactly once
+    serial = run_benchmark(method, source, out_dir=tmp_path / "serial", **kw)
+    assert without_ms(resumed.rows) == without_ms(serial.rows)
+
+
+@pytest.mark.slow
+def test_local_scheduler_listens_on_loopback_only(streets):
+    with open_client("local:1") as local:
+        addresses = [local.scheduler.address, *local.nthreads()]
+        assert all(a.startswith("tcp://127.0.0.1:") for a in addresses), addresses
+        assert local.nthreads() and set(local.nthreads().values()) == {1}
+        dist = evaluate(NearestInpainter(n_jobs=1), streets, n_frames=4, progress=False, client=local)
+    serial = evaluate(NearestInpainter(n_jobs=1), streets, n_frames=4, progress=False)
+    assert without_ms(dist.rows) == without_ms(serial.rows)
 
 
 def _tiny_kitti(root, n=4):
@@ -221,10 +285,10 @@ def test_scheduler_values():
     assert parse_scheduler("tcp://10.0.0.5:8786") == ("address", "tcp://10.0.0.5:8786")
 
 
-def test_unreachable_scheduler_is_one_line(capsys):
-    with pytest.raises(ClusterError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"):
-        with open_client("tcp://127.0.0.1:9", timeout=1):
-            pass
+def test_unreachable_scheduler_is_one_line():
+    with pytest.raises(ClusterError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"), \
+            open_client("tcp://127.0.0.1:9", timeout=1):
+        pass
 
 
 def test_without_dask_the_error_names_the_extra(monkeypatch, capsys):
@@ -246,6 +310,6 @@ def test_inpaintenv_imports_without_dask():
         "import inpaintenv, inpaintenv.cli, inpaintenv.evaluate, inpaintenv.benchmark, inpaintenv.cluster\n"
         "print('ok')"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=False)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
