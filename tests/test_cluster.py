@@ -203,6 +203,8 @@ def test_local_scheduler_listens_on_loopback_only(streets):
         addresses = [local.scheduler.address, *local.nthreads()]
         assert all(a.startswith("tcp://127.0.0.1:") for a in addresses), addresses
         assert local.nthreads() and set(local.nthreads().values()) == {1}
+        # Dask's default (65536) made every frame-sized array a fresh mmap: 2x slower.
+        assert set(local.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_").values()) == {None}
         dist = evaluate(NearestInpainter(n_jobs=1), streets, n_frames=4, progress=False, client=local)
     serial = evaluate(NearestInpainter(n_jobs=1), streets, n_frames=4, progress=False)
     assert without_ms(dist.rows) == without_ms(serial.rows)
