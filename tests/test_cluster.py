@@ -315,3 +315,17 @@ def test_inpaintenv_imports_without_dask():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=False)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+@pytest.mark.slow
+def test_scaling_doc_examples_run(tmp_path, monkeypatch, capsys):
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "scaling.md").read_text()
+    code = "\n".join(re.findall(r"```python\n(.*?)```", text, flags=re.DOTALL))
+    monkeypatch.chdir(tmp_path)
+    # Run as a script would: the Dask example guards its cluster with __name__ == "__main__".
+    exec(compile(code.replace("/tmp/", f"{tmp_path}/"), "docs/scaling.md", "exec"), {"__name__": "__main__"})  # noqa: S102
+    out = capsys.readouterr().out
+    assert out.count("| ScanlineInpainter | rect-v1 |") == 1 and "| TeleaInpainter | rect-v1 |" in out
+    assert (tmp_path / "scaling-example" / "rows" / "scanline__rect-v1.jsonl").exists()
