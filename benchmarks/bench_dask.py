@@ -15,7 +15,8 @@ cluster start-up shown apart, not counted), and CPU seconds of every process inv
 workers) with the CPU efficiency ``serial CPU / distributed CPU``: on a shared machine
 the wall figures depend on free cores, the CPU ones show what Dask itself adds. Then
 what scoring the full KITTI release would cost, from the serial CPU seconds per frame
-measured here. Without ``--kitti-root`` (or ``$INPAINTENV_KITTI_ROOT``) it uses SyntheticStreets.
+measured here. Configurations run in interleaved rounds (``--repeats``) and the fastest round of
+each is kept. Without ``--kitti-root`` (or ``$INPAINTENV_KITTI_ROOT``) it uses SyntheticStreets.
 """
 
 from __future__ import annotations
@@ -104,6 +105,7 @@ def main() -> None:
     parser.add_argument("--release-seeds", type=int, default=5, help="seeds of the full run (default 5)")
     parser.add_argument("--cluster-workers", type=int, nargs="+", default=[2, 64, 256],
                         help="cluster sizes for the full-release estimate (default 2 64 256)")
+    parser.add_argument("--repeats", type=int, default=2, help="interleaved rounds, best kept (default 2)")
     parser.add_argument("--idle-seconds", type=float, default=10.0,
                         help="seconds an idle cluster is watched for its background CPU (default 10)")
     parser.add_argument("--json", type=Path, help="also write every measurement here")
@@ -126,22 +128,30 @@ def main() -> None:
     cpu: dict[str, dict[str, float]] = {}
     startup: dict[str, float] = {}
     idle: dict[str, float] = {}
+    def keep(config: str, w: dict[str, float], c: dict[str, float]) -> None:
+        # Best round per configuration: the load of a shared machine only ever adds time.
+        if config not in wall or sum(w.values()) < sum(wall[config].values()):
+            wall[config], cpu[config] = w, c
+
     with tempfile.TemporaryDirectory() as tmp:
-        wall["serial"], cpu["serial"], reference = _run_suite(methods, dataset, args, Path(tmp) / "serial", None)
-        for n in args.workers:
-            spec = f"local:{n}"
-            t0 = time.perf_counter()
-            with open_client(spec) as client:
-                client.run(_one_thread, tuple({type(m).__module__ for m in methods.values()}))
-                startup[spec] = time.perf_counter() - t0
-                wall[spec], cpu[spec], rows = _run_suite(methods, dataset, args, Path(tmp) / spec, client)
-                # What the scheduler, nannies and workers burn doing nothing (heartbeats,
-                # event loops): part of the CPU overhead grows with the run's wall time.
-                c0, t0 = _cpu_seconds(client), time.perf_counter()
-                time.sleep(args.idle_seconds)
-                idle[spec] = (_cpu_seconds(client) - c0) / (time.perf_counter() - t0)
-            if _strip(rows) != _strip(reference):
-                raise SystemExit(f"{spec} rows differ from the serial run's")
+        for round_ in range(args.repeats):  # interleaved, so a change of load hits every configuration
+            w, c, reference = _run_suite(methods, dataset, args, Path(tmp) / f"serial-{round_}", None)
+            keep("serial", w, c)
+            for n in args.workers:
+                spec = f"local:{n}"
+                t0 = time.perf_counter()
+                with open_client(spec) as client:
+                    client.run(_one_thread, tuple({type(m).__module__ for m in methods.values()}))
+                    startup[spec] = min(startup.get(spec, float("inf")), time.perf_counter() - t0)
+                    w, c, rows = _run_suite(methods, dataset, args, Path(tmp) / f"{spec}-{round_}", client)
+                    keep(spec, w, c)
+                    # What the scheduler, nannies and workers burn doing nothing (heartbeats,
+                    # event loops): part of the CPU overhead grows with the run's wall time.
+                    c0, t0 = _cpu_seconds(client), time.perf_counter()
+                    time.sleep(args.idle_seconds)
+                    idle[spec] = (_cpu_seconds(client) - c0) / (time.perf_counter() - t0)
+                if _strip(rows) != _strip(reference):
+                    raise SystemExit(f"{spec} rows differ from the serial run's")
     print(f"load average at end {os.getloadavg()[0]:.2f}; every configuration wrote the serial rows (all but ms)\n")
 
     serial_wall, serial_cpu = sum(wall["serial"].values()), sum(cpu["serial"].values())

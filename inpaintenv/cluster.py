@@ -20,6 +20,7 @@ Example
 from __future__ import annotations
 
 import argparse
+import os
 import pickle
 import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -42,6 +43,8 @@ SHARD_TIMEOUT = 600.0
 RETRIES = 1
 #: Dask's configuration of the environment of worker processes started by a nanny.
 PRE_SPAWN_ENVIRON = "distributed.nanny.pre-spawn-environ"
+#: Dask's default MALLOC_TRIM_THRESHOLD_ for workers (bytes), unset by ``local:N``.
+DASK_MALLOC_TRIM = 65536
 _EXTRA_HINT = 'Dask is not installed: pip install "inpaintenv[dask]"'
 
 
@@ -111,7 +114,9 @@ def open_client(scheduler: str | None, *, timeout: float = CONNECT_TIMEOUT) -> I
     ImportError
         If Dask is not installed (the message names the extra).
     ClusterError
-        If the scheduler cannot be reached.
+        If the scheduler cannot be reached, or the local workers cannot start.
+    ValueError
+        If ``scheduler`` is neither form (see :func:`parse_scheduler`).
     """
     if scheduler is None:
         yield None
@@ -121,10 +126,14 @@ def open_client(scheduler: str | None, *, timeout: float = CONNECT_TIMEOUT) -> I
     if kind == "local":
         import dask
 
+        # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in workers, which makes glibc
+        # unmap and re-fault every frame-sized array: evaluation ran 2x slower. Unset it,
+        # also where an earlier nanny left it in this process's environment (nannies
+        # write it there, and a variable set here overrides Dask's configuration).
+        if os.environ.get("MALLOC_TRIM_THRESHOLD_") == str(DASK_MALLOC_TRIM):
+            del os.environ["MALLOC_TRIM_THRESHOLD_"]
         try:
             # Loopback only, dashboard included: a local run opens no port to the network.
-            # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in workers, which makes glibc
-            # unmap and re-fault every frame-sized array: evaluation ran 2x slower. Unset.
             with dask.config.set({f"{PRE_SPAWN_ENVIRON}.MALLOC_TRIM_THRESHOLD_": None}):
                 cluster = dd.LocalCluster(
                     n_workers=value, threads_per_worker=1, processes=True, host="127.0.0.1",
