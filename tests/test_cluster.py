@@ -118,6 +118,18 @@ def test_run_benchmark_on_cluster_writes_the_serial_row_files(client, streets, t
         assert without_ms(sorted(read_row_file(other), key=key)) == without_ms(sorted(read_row_file(path), key=key))
 
 
+@pytest.mark.slow
+def test_torch_method_on_workers_gives_the_serial_rows(client):
+    pytest.importorskip("torch")
+    from inpaintenv.registry import make_method
+
+    method = make_method("unet-pretrained")  # a learned model: torch on the workers
+    source = SyntheticStreets(n=4, frame_shape=(96, 320))
+    dist = evaluate(method, source, batch_size=2, progress=False, client=client)
+    serial = evaluate(method, source, batch_size=2, progress=False)
+    assert without_ms(dist.rows) == without_ms(serial.rows)
+
+
 def test_cli_benchmark_with_scheduler_address(client, tmp_path, capsys):
     args = ["benchmark", "-m", "nearest", "-m", "constant", "--n-frames", "8", "--frame-shape", *map(str, SHAPE),
             "--holdout", "0", "--figure-frames", "0", "-q"]
