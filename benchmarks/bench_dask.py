@@ -3,6 +3,7 @@
 Usage (from the project root)::
 
     python benchmarks/bench_dask.py --kitti-root <KITTI root> --frames 16 --workers 1 2
+    python benchmarks/bench_dask.py --kitti-root <KITTI root> --frames 16 --malloc-check
 
 Scores every method of a suite (``classical`` by default) with ``run_benchmark`` into a
 fresh run folder, once in this process and once per LocalCluster size
@@ -15,7 +16,9 @@ cluster start-up shown apart, not counted), and CPU seconds of every process inv
 workers) with the CPU efficiency ``serial CPU / distributed CPU``: on a shared machine
 the wall figures depend on free cores, the CPU ones show what Dask itself adds. Then
 what scoring the full KITTI release would cost, from the serial CPU seconds per frame
-measured here. Configurations run in interleaved rounds (``--repeats``) and the fastest round of
+measured here. ``--malloc-check`` instead times ``evaluate`` per frame in fresh processes with
+and without the ``MALLOC_TRIM_THRESHOLD_=65536`` Dask's nanny gives its workers (which
+``local:N`` unsets). Configurations run in interleaved rounds (``--repeats``) and the fastest round of
 each is kept. Without ``--kitti-root`` (or ``$INPAINTENV_KITTI_ROOT``) it uses SyntheticStreets.
 """
 
@@ -55,6 +58,31 @@ def _one_thread(modules: tuple[str, ...] = ()) -> None:
     cv2.setNumThreads(1)
     for module in modules:
         importlib.import_module(module)
+
+
+def malloc_trim_effect(kitti_root: str | None, frames: int, repeats: int = 3) -> dict[str, float]:
+    """ms per frame of ``evaluate`` (``constant`` method) in a fresh process, without and
+    with Dask's worker setting ``MALLOC_TRIM_THRESHOLD_=65536`` (best of ``repeats``)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import time; from inpaintenv.data import open_source; from inpaintenv.evaluate import evaluate; "
+        "from inpaintenv.registry import make_method; "
+        f"ds = open_source({kitti_root!r}, split='train', n_frames={frames}); m = make_method('constant'); "
+        "evaluate(m, ds, n_frames=1, progress=False); best = float('inf')\n"
+        f"for _ in range({repeats}):\n"
+        "    t = time.perf_counter(); evaluate(m, ds, progress=False); best = min(best, time.perf_counter() - t)\n"
+        "print(1000 * best / len(ds))"
+    )
+    out = {}
+    for label, trim in (("unset", None), ("65536", "65536")):
+        env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+        if trim is not None:
+            env["MALLOC_TRIM_THRESHOLD_"] = trim
+        run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+        out[label] = float(run.stdout.strip().splitlines()[-1])
+    return out
 
 
 def _strip(rows: list[dict[str, Any]]) -> list[str]:
@@ -108,9 +136,16 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=2, help="interleaved rounds, best kept (default 2)")
     parser.add_argument("--idle-seconds", type=float, default=10.0,
                         help="seconds an idle cluster is watched for its background CPU (default 10)")
+    parser.add_argument("--malloc-check", action="store_true",
+                        help="only time evaluate() per frame with and without Dask's MALLOC_TRIM_THRESHOLD_=65536")
     parser.add_argument("--json", type=Path, help="also write every measurement here")
     args = parser.parse_args()
 
+    if args.malloc_check:
+        ms = malloc_trim_effect(args.kitti_root, args.frames)
+        print(f"evaluate(constant), {args.frames} frames, ms/frame: MALLOC_TRIM_THRESHOLD_ unset {ms['unset']:.1f}, "
+              f"=65536 (Dask's worker default) {ms['65536']:.1f}: {ms['65536'] / ms['unset']:.2f}x")
+        return
     _one_thread()
     dataset = open_source(args.kitti_root, split="train", n_frames=args.frames)
     methods = {}

@@ -247,6 +247,20 @@ def test_worker_that_cannot_read_the_data_fails_with_one_line(client, tmp_path):
     assert str(root / "train" / "2011_09_26_drive_0001_sync") in message
 
 
+def test_skipped_bad_frames_come_back_from_the_workers(client, tmp_path):
+    root = tmp_path / "kitti"
+    _tiny_kitti(root, n=6)
+    bad = sorted(root.rglob("*.png"))[2]
+    dataset = KittiDepth(root, crop=None)
+    bad.write_bytes(b"not a png")  # corrupt after indexing, as a damaged file would be
+    kw = {"seeds": [0, 1], "batch_size": 2, "progress": False, "on_bad_frame": "skip"}
+    dist = evaluate(NearestInpainter(n_jobs=1), dataset, client=client, **kw)
+    serial = evaluate(NearestInpainter(n_jobs=1), dataset, **kw)
+    assert [r["index"] for r in dist.meta["skipped_frames"]] == [2]
+    assert dist.meta == serial.meta
+    assert without_ms(dist.rows) == without_ms(serial.rows) and len(dist.rows) == 2 * 5
+
+
 def test_cli_reports_a_worker_read_error_in_one_line(client, tmp_path, monkeypatch, capsys):
     root = tmp_path / "kitti"
     _tiny_kitti(root)

@@ -3,20 +3,12 @@ a benchmark, not a test; tests/test_cluster.py covers the distributed path)."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_dask.py"
 
 
 @pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_dask", _PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def bench(load_benchmark):
+    return load_benchmark("bench_dask")
 
 
 def test_release_cost_multiplies_frames_protocols_seeds_and_methods(bench):
