@@ -127,9 +127,10 @@ def open_client(scheduler: str | None, *, timeout: float = CONNECT_TIMEOUT) -> I
         import dask
 
         # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in workers, which makes glibc
-        # unmap and re-fault every frame-sized array: evaluation ran 2x slower. Unset it,
-        # also where an earlier nanny left it in this process's environment (nannies
-        # write it there, and a variable set here overrides Dask's configuration).
+        # unmap and re-fault every frame-sized array: evaluate() ran ~2x slower
+        # (benchmarks/bench_dask.py --malloc-check). Unset it, also where an earlier nanny
+        # left it in this process's environment (nannies write it there, and a variable
+        # set here overrides Dask's configuration).
         if os.environ.get("MALLOC_TRIM_THRESHOLD_") == str(DASK_MALLOC_TRIM):
             del os.environ["MALLOC_TRIM_THRESHOLD_"]
         try:

@@ -37,7 +37,7 @@ from ..progress import ProgressReporter, format_duration, stderr_is_terminal
 from .identity import method_identity
 from .lock import run_lock
 
-__all__ = ["run_benchmark", "RunMismatchError", "RunStateError"]
+__all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
 
 #: Seconds between progress lines when stderr is not a terminal (a log file).
