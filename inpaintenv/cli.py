@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from .cli_options import add_common_options, add_source_options, open_source_from_args
+from .cluster import ClusterError, add_scheduler_option, open_client, parse_scheduler
 from .conventions import DEFAULT_MAX_DEPTH, check_max_depth, check_seed, check_seeds
 from .data.base import as_dataset
 from .method_options import (
@@ -44,7 +45,7 @@ INTERRUPTED = 130
 
 #: Errors reported as one line ("inpaintenv: error: ...") with exit status 1, not a traceback.
 USER_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, KeyError, TypeError, FileNotFoundError, ImportError, IndexError, OSError,
+    ValueError, KeyError, TypeError, FileNotFoundError, ImportError, IndexError, OSError, ClusterError,
 )
 
 
@@ -115,6 +116,7 @@ def add_evaluate(subparsers: Any) -> None:
     p.add_argument("--by-drive", action="store_true", help="also print a table per drive")
     p.add_argument("--out", metavar="DIR", help="write results.json, results.csv, table.md and table.csv here")
     add_bad_frame_option(p)
+    add_scheduler_option(p)
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_evaluate, on_interrupt=_evaluate_interrupted)
@@ -142,6 +144,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if not names and not checkpoints:
         raise ValueError("give at least one --method NAME or --checkpoint NAME=PATH")
     get_protocol(args.protocol)
+    if args.scheduler is not None:
+        parse_scheduler(args.scheduler)
     out = Path(args.out) if args.out else None
     if out is not None and out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder")
@@ -159,12 +163,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             with partial.open("a") as f:
                 f.writelines(json.dumps(row) + "\n" for row in rows)
 
-    results = [
-        evaluate(method, ds, protocol=args.protocol, seeds=seeds, batch_size=args.batch_size,
-                 max_depth=args.max_depth, progress=not args.quiet, name=name, on_batch=on_batch,
-                 on_bad_frame=args.on_bad_frame)
-        for name, method in methods
-    ]
+    with open_client(args.scheduler) as client:
+        results = [
+            evaluate(method, ds, protocol=args.protocol, seeds=seeds, batch_size=args.batch_size,
+                     max_depth=args.max_depth, progress=not args.quiet, name=name, on_batch=on_batch,
+                     on_bad_frame=args.on_bad_frame, client=client)
+            for name, method in methods
+        ]
     result = EvaluationResult.concat(results)
     result.meta["command"] = "inpaintenv " + " ".join(args.argv)
     table = result.to_markdown()

@@ -186,6 +186,7 @@ def evaluate(
     indices: Sequence[int] | None = None,
     on_batch: Callable[[list[dict[str, Any]]], None] | None = None,
     on_bad_frame: str = "error",
+    client: Any = None,
 ) -> EvaluationResult:
     """Score ``method`` on every (seed, frame) pair of ``source`` under ``protocol``.
 
@@ -226,6 +227,12 @@ def evaluate(
         A frame that cannot be read (corrupt, truncated or 8-bit PNG) or breaks the depth
         convention stops the evaluation with :class:`BadFrameError` naming it ("error"),
         or is left out and recorded in ``meta["skipped_frames"]`` with the reason ("skip").
+    client : dask.distributed.Client, optional
+        Score on this Dask cluster (``pip install "inpaintenv[dask]"``): each batch of
+        ``batch_size`` frames is one task, run for every seed by a worker that loads the
+        frames itself, so ``method`` and ``source`` must pickle. ``on_batch`` and the
+        progress bar follow the batches as they finish (in any order); the rows are the
+        ones of a local run, all but ``ms``. See :mod:`inpaintenv.cluster`.
 
     Returns
     -------
@@ -239,6 +246,10 @@ def evaluate(
     BadFrameError
         With ``on_bad_frame="error"``, on a frame that cannot be read (the message names
         the file or frame).
+    inpaintenv.cluster.WorkerDataError, inpaintenv.cluster.ClusterError
+        With ``client``: a worker cannot read the data (the message names the worker and
+        the file), or the cluster cannot finish the run (no worker, workers that keep
+        dying, no batch finishing within ``inpaintenv.cluster.SHARD_TIMEOUT`` seconds).
     TypeError
         If ``seeds``, ``indices``, ``n_frames`` or ``batch_size`` is not made of
         integers (floats, bools and strings are refused, not coerced), or ``max_depth``
@@ -279,41 +290,48 @@ def evaluate(
         disable=None if progress else True, leave=False,
     )
     try:
-        for start in range(0, len(frame_list), batch_size):
-            idx = frame_list[start : start + batch_size]
-            # Load ground truth once per batch and reuse it for every seed.
-            gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
-            skipped.extend(bad)
-            bar.update(len(bad) * len(seed_list))
-            if not idx:
-                continue
-            for seed in seed_list:
-                hole = proto.masks(shape, seed, idx)
-                x = gt.copy()
-                x[hole] = np.nan
-                pred, ms = _run(call, batched, x, label)
-                metrics = frame_metrics(pred, gt, hole, max_depth=max_depth)
-                fractions = hole.mean(axis=(1, 2))
-                batch_rows: list[dict[str, Any]] = []
-                for k, i in enumerate(idx):
-                    row: dict[str, Any] = {
-                        "method": label,
-                        "protocol": proto.name,
-                        "seed": seed,
-                        "index": i,
-                        "frame_id": str(dataset.frame_ids[i]),
-                        "drive": str(dataset.groups[i]),
-                        "hole_fraction": float(fractions[k]),
-                    }
-                    for c in METRIC_COLUMNS:
-                        v = metrics[c][k]
-                        row[c] = int(v) if c.endswith("_count") else float(v)
-                    row["ms"] = ms
-                    batch_rows.append(row)
-                rows.extend(batch_rows)
-                if on_batch is not None:
-                    on_batch(batch_rows)
-                bar.update(len(idx))
+        if client is not None:
+            rows, skipped = _score_on_cluster(
+                client, bar, on_batch, [frame_list[s : s + batch_size] for s in range(0, len(frame_list), batch_size)],
+                method=method, dataset=dataset, protocol=proto, seeds=seed_list, max_depth=max_depth, name=label,
+                on_bad_frame=on_bad_frame,
+            )
+        else:
+            for start in range(0, len(frame_list), batch_size):
+                idx = frame_list[start : start + batch_size]
+                # Load ground truth once per batch and reuse it for every seed.
+                gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
+                skipped.extend(bad)
+                bar.update(len(bad) * len(seed_list))
+                if not idx:
+                    continue
+                for seed in seed_list:
+                    hole = proto.masks(shape, seed, idx)
+                    x = gt.copy()
+                    x[hole] = np.nan
+                    pred, ms = _run(call, batched, x, label)
+                    metrics = frame_metrics(pred, gt, hole, max_depth=max_depth)
+                    fractions = hole.mean(axis=(1, 2))
+                    batch_rows: list[dict[str, Any]] = []
+                    for k, i in enumerate(idx):
+                        row: dict[str, Any] = {
+                            "method": label,
+                            "protocol": proto.name,
+                            "seed": seed,
+                            "index": i,
+                            "frame_id": str(dataset.frame_ids[i]),
+                            "drive": str(dataset.groups[i]),
+                            "hole_fraction": float(fractions[k]),
+                        }
+                        for c in METRIC_COLUMNS:
+                            v = metrics[c][k]
+                            row[c] = int(v) if c.endswith("_count") else float(v)
+                        row["ms"] = ms
+                        batch_rows.append(row)
+                    rows.extend(batch_rows)
+                    if on_batch is not None:
+                        on_batch(batch_rows)
+                    bar.update(len(idx))
     finally:
         bar.close()
 
@@ -333,6 +351,34 @@ def evaluate(
     if skipped:
         meta["skipped_frames"] = skipped
     return EvaluationResult(rows=rows, meta=meta)
+
+
+def _score_on_cluster(
+    client: Any, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None, batches: list[list[int]],
+    **shared: Any,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Rows and skipped frames of ``batches``, each scored by :func:`_score_shard` on a Dask worker."""
+    from .cluster import map_shards  # lazy: Dask is an optional extra
+
+    def received(part: EvaluationResult) -> None:
+        bar.update(len(part.rows) + len(part.meta.get("skipped_frames", [])) * len(shared["seeds"]))
+        if on_batch is not None and part.rows:
+            on_batch(part.rows)
+
+    parts = map_shards(client, _score_shard, batches, shared=shared, on_result=received)
+    rows = [row for part in parts for row in part.rows]
+    return rows, [rec for part in parts for rec in part.meta.get("skipped_frames", [])]
+
+
+def _score_shard(
+    indices: list[int], *, method: Any, dataset: DepthDataset, protocol: OcclusionProtocol,
+    seeds: list[int], max_depth: float, name: str, on_bad_frame: str,
+) -> EvaluationResult:
+    """One batch of a distributed :func:`evaluate`, run on a Dask worker."""
+    return evaluate(
+        method, dataset, protocol, seeds, indices=indices, batch_size=len(indices),
+        max_depth=max_depth, progress=False, name=name, on_bad_frame=on_bad_frame,
+    )
 
 
 def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.ndarray, float]:

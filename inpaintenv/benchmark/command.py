@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from ..cluster import add_scheduler_option, open_client, parse_scheduler
+
 __all__ = ["add_benchmark", "cmd_benchmark"]
 
 #: Share of drives held out as the test split of the synthetic default source.
@@ -63,6 +65,7 @@ def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_opti
     p.add_argument("--figure-frames", type=int, default=2, metavar="N",
                    help="frames drawn as study-style panels, spread over the drives (default 2; 0 = no figures)")
     add_bad_frame_option(p)
+    add_scheduler_option(p)
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_benchmark, on_interrupt=interrupted_note)
@@ -139,6 +142,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     seeds = check_seeds(args.seed or [0], "--seed")
     check_int(args.batch_size, "--batch-size", minimum=1)
     check_int(args.figure_frames, "--figure-frames", minimum=0)
+    if args.scheduler is not None:
+        parse_scheduler(args.scheduler)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder for the run")
@@ -172,11 +177,12 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             )
             for name, m in methods.items()
         }
-        result = run_benchmark(
-            cached, dataset, protocols=protocols, seeds=seeds, out_dir=out,
-            resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
-            on_bad_frame=args.on_bad_frame,
-        )
+        with open_client(args.scheduler) as client:
+            result = run_benchmark(
+                cached, dataset, protocols=protocols, seeds=seeds, out_dir=out,
+                resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
+                on_bad_frame=args.on_bad_frame, client=client,
+            )
         command = "inpaintenv " + " ".join(getattr(args, "argv", []))
         paths = write_report(result, out, meta={"command": command, "holdout": holdout})
         table = summary_table(result)

@@ -37,7 +37,7 @@ from ..progress import ProgressReporter, format_duration, stderr_is_terminal
 from .identity import method_identity
 from .lock import run_lock
 
-__all__ = ["run_benchmark", "RunMismatchError", "RunStateError"]
+__all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
 
 #: Seconds between progress lines when stderr is not a terminal (a log file).
@@ -163,6 +163,7 @@ def run_benchmark(
     progress: bool = True,
     log: Callable[[str], None] | None = None,
     on_bad_frame: str = "error",
+    client: Any = None,
 ) -> EvaluationResult:
     """Score every method under every protocol and seed; return all per-frame rows.
 
@@ -199,6 +200,10 @@ def run_benchmark(
     on_bad_frame : {"error", "skip"}
         What an unreadable ground-truth frame does (see :func:`inpaintenv.evaluate.evaluate`);
         skipped frames are listed in the result's ``meta["skipped_frames"]``.
+    client : dask.distributed.Client, optional
+        Score every (method, protocol, seed) on this Dask cluster, one task per batch
+        (see :func:`inpaintenv.evaluate.evaluate`); rows land in ``out_dir`` as batches
+        finish, so a distributed run resumes like a local one.
 
     Returns
     -------
@@ -227,7 +232,7 @@ def run_benchmark(
     with run_lock(out_dir, log):
         return _run_locked(
             methods, dataset, protocols, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
-            log or (lambda msg: None), on_bad_frame,
+            log or (lambda msg: None), on_bad_frame, client,
         )
 
 
@@ -249,7 +254,7 @@ def _known_cost(rows_by_protocol: Mapping[str, list[dict[str, Any]]]) -> float |
 def _run_locked(
     methods: Mapping[str, Any], dataset: DepthDataset, protocols: list[str], seeds: list[int],
     n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
-    say: Callable[[str], None], on_bad_frame: str,
+    say: Callable[[str], None], on_bad_frame: str, client: Any,
 ) -> EvaluationResult:
     total = len(dataset) if n_frames is None else min(len(dataset), int(n_frames))
     rows_dir = out / "rows"
@@ -371,7 +376,7 @@ def _run_locked(
                     part = evaluate(
                         method, dataset, protocol, seeds=[seed], indices=indices,
                         batch_size=batch_size, progress=progress, name=name, on_batch=append,
-                        on_bad_frame=on_bad_frame,
+                        on_bad_frame=on_bad_frame, client=client,
                     )
                     skipped.append(part.meta.get("skipped_frames") or [])
             finally:

@@ -2,22 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 import torch
 
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "scaling_training.py"
-
 
 @pytest.fixture(scope="module")
-def st():
-    spec = importlib.util.spec_from_file_location("scaling_training", _PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def st(load_benchmark):
+    return load_benchmark("scaling_training")
 
 
 def test_count_flops_exact_on_one_convolution(st):
