@@ -38,10 +38,14 @@ class AxisScan:
         self.has_left = self.left >= 0
         self.has_right = self.right < w
         self.line_ok = self.has_left[:, -1]  # the line holds at least one measurement
-        self._left_idx = np.maximum(self.left, 0)
-        self._right_idx = np.minimum(self.right, w - 1)
+        # Flat indices of the two measurements: one np.take per array gathers them.
+        row_start = (np.arange(h, dtype=np.int64) * w)[:, None]
+        self._left_flat = row_start + np.maximum(self.left, 0)
+        self._right_flat = row_start + np.minimum(self.right, w - 1)
         span = np.maximum(self.right - self.left, 1).astype(np.float32)
         self._t = (cols - self.left).astype(np.float32) / span
+        self._ends: tuple[np.ndarray, np.ndarray] | None = None
+        self._ends_of: tuple | None = None
 
     def gaps(self, far: int) -> tuple[np.ndarray, np.ndarray]:
         """Pixels to the nearest measurement before / after, capped at ``far``."""
@@ -49,30 +53,50 @@ class AxisScan:
         after = np.where(self.has_right, np.minimum(self.right - self.cols, far), far)
         return before.astype(np.float32), after.astype(np.float32)
 
+    def _gather(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``values`` at the measurement before / after each pixel.
+
+        The callers of one scan pass the same measured depth (a view of one buffer), so
+        the gather is made once and reused while the buffer is the same.
+        """
+        key = (values.__array_interface__["data"][0], values.shape, values.strides)
+        if self._ends is None or self._ends_of != key:
+            flat = np.ravel(values)
+            self._ends, self._ends_of = (np.take(flat, self._left_flat), np.take(flat, self._right_flat)), key
+        return self._ends
+
     def ends(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Depth of the nearest measurement before / after (0 where none)."""
-        v_left = np.take_along_axis(values, self._left_idx, axis=1)
-        v_right = np.take_along_axis(values, self._right_idx, axis=1)
+        v_left, v_right = self._gather(values)
         return np.where(self.has_left, v_left, 0.0), np.where(self.has_right, v_right, 0.0)
+
+    def _interp_ends(self, v_left: np.ndarray, v_right: np.ndarray) -> np.ndarray:
+        # Open-ended gaps repeat their one measured end.
+        v_left, v_right = np.where(self.has_left, v_left, v_right), np.where(self.has_right, v_right, v_left)
+        # On a measured pixel left = right = itself and t = 0: its own value, exactly.
+        out = v_left + self._t * (v_right - v_left)
+        if not self.line_ok.all():
+            out = fill_empty_rows(out, self.line_ok)
+        return out
 
     def interp(self, values: np.ndarray) -> np.ndarray:
         """Linear interpolation between the nearest measurements (``float32`` ``values``).
 
         Open-ended gaps repeat their one measured end; lines without any measurement are
         then interpolated across the nearest filled lines (as ``scanline_fill`` does).
+        ``values`` must be the measured depth this scan's callers share (0 where unknown).
         """
-        v_left = np.take_along_axis(values, self._left_idx, axis=1)
-        v_right = np.take_along_axis(values, self._right_idx, axis=1)
-        v_left, v_right = np.where(self.has_left, v_left, v_right), np.where(self.has_right, v_right, v_left)
-        out = v_left + self._t * (v_right - v_left)
-        if not self.line_ok.all():
-            out = fill_empty_rows(out, self.line_ok)
-        return np.where(self.known, values, out)
+        return np.where(self.known, values, self._interp_ends(*self._gather(values)))
 
     def interp_inverse(self, values: np.ndarray) -> np.ndarray:
         """:meth:`interp` of inverse depth, returned as depth (0 where nothing is known)."""
-        inv = np.divide(1.0, values, out=np.zeros(values.shape), where=self.known).astype(np.float32)
-        filled = self.interp(inv)
+        # Inverse depth of the two measurements, as in_inverse_depth computes it (float64
+        # division, float32 result); the gathered ends are measured pixels, or unused.
+        inv_left, inv_right = (
+            np.divide(1.0, v, out=np.zeros(v.shape), where=has).astype(np.float32)
+            for v, has in zip(self._gather(values), (self.has_left, self.has_right))
+        )
+        filled = self._interp_ends(inv_left, inv_right)
         depth = np.divide(1.0, filled, out=np.zeros(values.shape), where=filled > 0)
         return np.where(self.known, values, depth).astype(np.float32)
 
