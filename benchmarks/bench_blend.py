@@ -20,11 +20,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import time
 
 import numpy as np
-import torch
 
 from estimators.blend import DEFAULT_BLEND, BlendInpainter
 from estimators.classical import HarmonicInpainter
@@ -49,12 +49,12 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--kitti-root", help="real frames (every frame with ground truth, spread over the train split)")
     p.add_argument("--frames", type=int, default=4, help="frames timed (default 4)")
     p.add_argument("--repeat", type=int, default=3, help="calls per frame; the fastest counts (default 3)")
-    p.add_argument("--threads", type=int, default=2, help="torch and OpenCV threads (default 2)")
+    p.add_argument("--threads", type=int, help="torch threads of the blend's network (default: the model's "
+                   "predict_threads, 1 for the shipped release)")
     args = p.parse_args(argv)
-    if args.frames < 1 or args.repeat < 1 or args.threads < 1:
+    if args.frames < 1 or args.repeat < 1 or (args.threads is not None and args.threads < 1):
         p.error("--frames, --repeat and --threads must be >= 1")
 
-    torch.set_num_threads(args.threads)
     if args.kitti_root:
         ds = KittiDepth(args.kitti_root, split="train")
         picks = np.linspace(0, len(ds) - 1, 4 * args.frames).astype(int)
@@ -64,7 +64,8 @@ def main(argv: list[str] | None = None) -> dict:
     protocol = get_protocol("rect-v1")
     inputs = [np.where(protocol.mask(f.shape, 0, i), np.nan, f).astype(np.float32) for i, f in enumerate(frames)]
     est = BlendInpainter.load(args.model) if args.model else BlendInpainter.pretrained(args.name)
-    est.set_params(num_threads=args.threads)
+    if args.threads is not None:
+        est.set_params(predict_threads=args.threads)
     harmonic = HarmonicInpainter()
     names = tuple(est.candidates)
     est.predict(inputs[0])  # warm-up (thread pools, allocator)
@@ -78,7 +79,8 @@ def main(argv: list[str] | None = None) -> dict:
         })
     med = {k: round(statistics.median(r[k] for r in rows), 1) for k in rows[0]}
     result = {
-        "model": args.model or args.name, "frame": list(frames[0].shape), "frames": len(rows), "threads": args.threads,
+        "model": args.model or args.name, "frame": list(frames[0].shape), "frames": len(rows),
+        "predict_threads": est.predict_threads, "cores": os.cpu_count(),
         **{f"median_{k}": v for k, v in med.items()},
         "median_network_ms": round(med["blend_ms"] - med["features_ms"], 1),
         "blend_over_harmonic": round(med["blend_ms"] / med["harmonic_ms"], 2),

@@ -138,6 +138,9 @@ VARIANTS: dict[str, dict] = {
                                "layers": 2, "epochs": 8, "tta": False},
     "six-thin3-wide-nores": {"candidates": SIX, "keep": ["1", "0.65", "0.4"], "endpoints": True, "width": 128,
                              "layers": 3, "epochs": 8, "residual": False},
+    "five-thin3": {"candidates": FIVE, "keep": ["1", "0.65", "0.4"], **_SMALL},
+    "five-thin3-e6": {"candidates": FIVE, "keep": ["1", "0.65", "0.4"], **_SMALL, "epochs": 6},
+    "five-thin3-notta": {"candidates": FIVE, "keep": ["1", "0.65", "0.4"], **_SMALL, "tta": False},
     "four-thin": {"candidates": ["scanline", "scanline-inverse", "vertical-inverse", "harmonic-inverse"],
                   "keep": ["1", "0.65"], **_SMALL},
 }

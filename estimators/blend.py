@@ -115,7 +115,14 @@ class BlendInpainter(BaseInpainter):
     random_state : int, default 0
         Seeds occlusions, pixel sampling, thinning, initialisation and batch order.
     num_threads : int, optional
-        torch threads (None: leave torch's setting).
+        torch threads while fitting (None: leave torch's setting).
+    predict_threads : int or None, default 1
+        torch threads while predicting (None: leave torch's setting). One is the
+        default: the network's share of a frame is ~30 ms, threads gain little on it,
+        and on a busy machine (the benchmark beside other work) two threads made
+        ``predict`` 2.3x slower than one (471 vs 205 ms per KITTI frame, measured with
+        ``benchmarks/bench_blend.py`` while two benchmarks ran). Parallelise over
+        frames instead (``inpaintenv benchmark --scheduler local:N``).
     n_jobs : int, optional
         Frames whose features are computed in parallel during ``fit`` (joblib threads;
         None = 1, -1 = all cores).
@@ -163,6 +170,7 @@ class BlendInpainter(BaseInpainter):
         tta: bool = True,
         random_state: int = 0,
         num_threads: int | None = None,
+        predict_threads: int | None = 1,
         n_jobs: int | None = None,
         keep_observed: bool = True,
         verbose: bool = False,
@@ -183,6 +191,7 @@ class BlendInpainter(BaseInpainter):
         self.tta = tta
         self.random_state = random_state
         self.num_threads = num_threads
+        self.predict_threads = predict_threads
         self.n_jobs = n_jobs
         self.keep_observed = keep_observed
         self.verbose = verbose
@@ -209,6 +218,10 @@ class BlendInpainter(BaseInpainter):
             raise ValueError(f"keep must be a non-empty tuple of fractions in (0, 1], got {keep!r}")
         if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not np.isfinite(self.lr) or self.lr <= 0:
             raise ValueError(f"lr must be a finite number > 0, got {self.lr!r}")
+        for name in ("num_threads", "predict_threads"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+                raise ValueError(f"{name} must be None or an integer >= 1, got {value!r}")
         get_protocol(self.protocol)  # unknown protocol: its own clear error
 
     def _model_params(self) -> dict[str, Any]:
@@ -326,7 +339,7 @@ class BlendInpainter(BaseInpainter):
         self._check_params()
         self._check_model_params()
         out = np.empty(X.shape, np.float32)
-        with torch_threads(self.num_threads), torch.inference_mode():
+        with torch_threads(self.predict_threads), torch.inference_mode():
             for i, frame in enumerate(X):
                 out[i] = self._predict_frame(frame)
         return out
@@ -338,17 +351,19 @@ class BlendInpainter(BaseInpainter):
         hole = feats[1] > 0
         if not hole.any():
             return pred
-        pixels = torch.from_numpy(np.ascontiguousarray(feats[3:, hole].T))
+        # Channel-major (C, P): the per-candidate work runs on contiguous rows.
+        channels = torch.from_numpy(feats[3:, hole])
         mirrored = self._mirror_order() if self.tta else None
         values = []
-        for p in pixels.split(pixel_blend.CHUNK):
-            v = self.model_.blend(p)
+        for c in channels.split(pixel_blend.CHUNK, dim=1):
+            c = c.contiguous()
+            v = self.model_.blend_channels(c)
             if mirrored is not None:
-                v = 0.5 * (v + self.model_.blend(p[:, mirrored]))
+                v = 0.5 * (v + self.model_.blend_channels(c[mirrored]))
             values.append(v)
         # Floor at half the smallest candidate: a residual pushing a far pixel towards
         # 0 m barely moves RMSE but explodes inverse-depth errors.
-        floor = 0.5 * pixels[:, :k].min(dim=1).values
+        floor = 0.5 * channels[:k].min(dim=0).values
         pred[hole] = torch.maximum(torch.cat(values), floor).numpy()
         return pred
 
@@ -414,7 +429,7 @@ class BlendInpainter(BaseInpainter):
         name : str
             Release name (default :data:`DEFAULT_BLEND`).
         **overrides
-            Prediction-time parameters (``tta``, ``num_threads``, ``keep_observed``).
+            Prediction-time parameters (``tta``, ``predict_threads``, ``keep_observed``).
 
         Raises
         ------

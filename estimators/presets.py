@@ -34,8 +34,23 @@ _BLEND_V2: dict[str, Any] = dict(
     flip=True, tta=True, num_threads=1, random_state=0,
 )
 
+#: kitti-rect-v4's recipe (BlendInpainter): chosen by leave-one-drive-out cross-validation
+#: on the train drives (benchmarks/blend_lodo.py; docs/reference/selection.md).
+_BLEND_V4: dict[str, Any] = dict(
+    candidates=("scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"),
+    endpoints=True, width=64, layers=2, relative=True, residual=True, keep=(1.0, 0.65, 0.4), masks_per_frame=3,
+    pixels_per_frame=3000, epochs=3, batch_pixels=8192, lr=2e-3, protocol="rect-v1", tta=True, random_state=0,
+    num_threads=2, n_jobs=2,
+)
+
 #: name -> (estimator class, constructor keywords, one-line description).
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
+    # kitti-rect-v4, the default learned release: minutes on 2 CPU cores.
+    "blend-kitti": (
+        BlendInpainter, _BLEND_V4,
+        "per-pixel learned blend of five classical fills (BlendInpainter), features computed once per frame and "
+        "occlusion, thinned-input copies (keep 1, 0.65, 0.4), rect-v1; the shipped kitti-rect-v4",
+    ),
     # kitti-rect-v3: kitti-rect-v2's recipe with the scale-free blend (relative=True), 1500 steps.
     "cpu-1h": (
         PriorUNetInpainter, {**_BLEND_V2, "relative": True, "max_steps": 1500},

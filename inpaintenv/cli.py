@@ -281,7 +281,8 @@ def add_train(subparsers: Any) -> None:
             "Rerun the same command to resume an interrupted run."
         ),
     )
-    p.add_argument("--preset", default="cpu-1h", help="training recipe (default cpu-1h; --list shows all)")
+    p.add_argument("--preset", default="blend-kitti",
+                   help="training recipe (default blend-kitti, the shipped kitti-rect-v4; --list shows all)")
     p.add_argument("--list", action="store_true", help="list the presets and exit")
     p.add_argument("--out", default="runs/model", metavar="DIR", help="output folder (default runs/model)")
     p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")
@@ -362,7 +363,11 @@ def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
         k = max(1, steps.size // 50)
         smooth = np.convolve(steps, np.ones(k) / k, mode="valid")
         ax.plot(np.arange(k, steps.size + 1), smooth, lw=1.5, label=f"mean of {k} steps")
-    ax.set_xlabel("step")
+        ax.set_xlabel("step")
+    else:  # estimators trained by epochs over pooled samples (BlendInpainter) log epoch losses only
+        epochs = np.asarray(history.get("epoch_loss") or [], dtype=float)
+        ax.plot(np.arange(1, epochs.size + 1), epochs, "o-", label="loss per epoch")
+        ax.set_xlabel("epoch")
     ax.set_ylabel("training loss")
     ax.grid(alpha=0.3)
     val = [v for v in history.get("val_hole_rmse") or [] if v is not None]

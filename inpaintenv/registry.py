@@ -225,28 +225,36 @@ for _name, _cls, _kw, _desc in [
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc)
 
-# The shipped learned models (need torch): a per-pixel MLP (~35 k parameters) that blends
-# classical fills, so their names say "blend". A factory, not a class: it loads the weights.
+# The shipped learned models (need torch): small per-pixel MLPs that blend classical
+# fills, so their names say "blend". Factories, not classes: they load the weights.
 # See docs/model_card.md.
 register_method(
-    "blend-pretrained", "estimators.prior", "pretrained_kitti", {},
-    "learned per-pixel blend of classical fills (the default release, estimators.prior.DEFAULT_PRETRAINED), "
-    "pretrained on one KITTI drive (CC BY-NC-SA 3.0)",
+    "blend-pretrained", "estimators.blend", "pretrained_blend", {},
+    "learned per-pixel blend of classical fills (the default release, estimators.blend.DEFAULT_BLEND = "
+    "kitti-rect-v4), trained on three KITTI drives (CC BY-NC-SA 3.0)",
 )
 register_method(
     "blend-pretrained-mixed", "estimators.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
-    "the same learned blend trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
+    "the learned blend of kitti-rect-v3 trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
 # Their names until issue 16: they are not U-Nets, but old commands keep working.
 register_alias("unet-pretrained", "blend-pretrained")
 register_alias("unet-pretrained-mixed", "blend-pretrained-mixed")
 
-# Every shipped release under its own name, so that older results stay re-runnable after
-# the default moves on (``blend-pretrained`` is whichever release is current).
-PRETRAINED_RELEASES: tuple[str, ...] = ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3", "kitti-mixed-v1")
-for _release in PRETRAINED_RELEASES:
+# Every shipped release under its own name -> the module whose factory loads it, so that
+# older results stay re-runnable after the default moves on (``blend-pretrained`` is
+# whichever release is current).
+_RELEASE_LOADERS: dict[str, tuple[str, str]] = {
+    "kitti-rect-v1": ("estimators.prior", "pretrained_kitti"),
+    "kitti-rect-v2": ("estimators.prior", "pretrained_kitti"),
+    "kitti-rect-v3": ("estimators.prior", "pretrained_kitti"),
+    "kitti-mixed-v1": ("estimators.prior", "pretrained_kitti"),
+    "kitti-rect-v4": ("estimators.blend", "pretrained_blend"),
+}
+PRETRAINED_RELEASES: tuple[str, ...] = tuple(_RELEASE_LOADERS)
+for _release, (_module, _factory) in _RELEASE_LOADERS.items():
     register_method(
-        _release, "estimators.prior", "pretrained_kitti", {"name": _release},
+        _release, _module, _factory, {"name": _release},
         f"the shipped release {_release} of the learned blend (docs/model_card.md; CC BY-NC-SA 3.0)",
     )
 

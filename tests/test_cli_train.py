@@ -51,3 +51,24 @@ def test_staged_preset_warm_starts_the_second_stage(tmp_path):
     x = ds[0].copy()
     x[20:40, 30:60] = np.nan
     assert np.isfinite(est.predict(x)).all()
+
+
+def test_train_blend_preset_end_to_end_and_scored_by_checkpoint(tmp_path, capsys, monkeypatch):
+    """The shipped recipe's preset (blend-kitti) trains, saves, and the benchmark loads it
+    by --checkpoint; --max-steps, which it has no use for, is a one-line error."""
+    import estimators.presets as presets
+
+    cls, params, desc = presets.PRESETS["blend-kitti"]
+    small = {**params, "masks_per_frame": 1, "pixels_per_frame": 200, "epochs": 1, "keep": (1.0,)}
+    monkeypatch.setitem(presets.PRESETS, "blend-kitti", (cls, small, desc))
+    out = tmp_path / "run"
+    source = ["--n-frames", "6", "--frame-shape", "64", "192"]
+    assert main(["train", "--preset", "blend-kitti", *source, "--out", str(out), "--quiet"]) == 0
+    log = json.loads((out / "training_log.json").read_text())
+    assert log["estimator"] == "BlendInpainter" and len(log["history"]["epoch_loss"]) == 1
+    assert main(["benchmark", "--checkpoint", f"mine={out / 'model'}", "--method", "constant", *source,
+                 "--holdout", "0", "--out", str(tmp_path / "bench"), "--figure-frames", "0", "--quiet"]) == 0
+    assert "| mine | rect-v1 |" in capsys.readouterr().out
+    assert main(["train", "--preset", "blend-kitti", "--max-steps", "3", *source, "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "has no parameter max_steps" in err and "Traceback" not in err

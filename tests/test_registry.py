@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -61,14 +63,17 @@ def test_overrides_and_bad_override():
 def test_every_shipped_release_has_its_own_method_name():
     """Older results stay re-runnable: each file in estimators/pretrained is a method."""
     pytest.importorskip("torch")
-    from estimators.prior import available_pretrained
+    from estimators.blend import DEFAULT_BLEND, PRETRAINED_DIR
 
     from inpaintenv.registry import PRETRAINED_RELEASES
 
-    assert set(PRETRAINED_RELEASES) == set(available_pretrained())
+    shipped = {p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file()}
+    assert set(PRETRAINED_RELEASES) == shipped
     est = make_method("kitti-rect-v1")
     assert est.get_params()["relative"] is False  # v1 predates the scale-free blend
-    assert make_method("kitti-rect-v3").get_params() == make_method("unet-pretrained").get_params()
+    for name in PRETRAINED_RELEASES:  # each loads as the class its JSON names
+        assert type(make_method(name)).__name__ == json.loads((PRETRAINED_DIR / f"{name}.json").read_text())["class"]
+    assert make_method(DEFAULT_BLEND).get_params() == make_method("unet-pretrained").get_params()
 
 
 def test_aliases_resolve_to_the_canonical_name():

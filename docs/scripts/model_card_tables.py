@@ -106,6 +106,10 @@ def release_rows(name: str, folder: Path = PRETRAINED) -> dict[str, str]:
         "optimiser steps trained": str(config.get("fitted", {}).get("n_steps_", "–")),
         "seed": str(config.get("seed", "–")),
     }
+    if "fit" in config:  # a BlendInpainter: trained on pooled pixel samples, seeded by random_state
+        rows.pop("optimiser steps trained")
+        rows["seed"] = str(config["params"].get("random_state", "–"))
+        rows["training frames / pixels"] = f"{config['fit']['training_frames']:,} / {config['fit']['n_pixels']:,}"
     rows.update({f"`{k}`": f"`{_cell(v)}`" for k, v in sorted(config["params"].items())})
     return rows
 

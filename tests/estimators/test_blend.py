@@ -117,6 +117,8 @@ def test_load_errors(tmp_path, fitted):
     ({"candidates": ("telepathy",)}, "candidates must be"),
     ({"width": 0}, "width must be"),
     ({"lr": float("nan")}, "lr must be"),
+    ({"predict_threads": 0}, "predict_threads must be"),
+    ({"num_threads": 1.5}, "num_threads must be"),
     ({"protocol": "nope"}, "nope"),
 ])
 def test_bad_parameters(params, match):

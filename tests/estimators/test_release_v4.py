@@ -1,0 +1,75 @@
+"""The shipped default release (kitti-rect-v4, a BlendInpainter): loads, is fast, keeps
+measurements, matches its training recipe, and beats the classical methods on the real
+frame it never saw (the official val frame of the shared KITTI slice)."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+import pytest
+
+from estimators.blend import DEFAULT_BLEND, PRETRAINED_DIR, BlendInpainter
+from estimators.presets import PRESETS
+from inpaintenv.data import SyntheticStreets
+from inpaintenv.masks import get_protocol
+from inpaintenv.registry import make_method
+
+
+@pytest.fixture(scope="module")
+def release() -> BlendInpainter:
+    return BlendInpainter.pretrained()
+
+
+def test_default_learned_method_is_this_release(release):
+    assert DEFAULT_BLEND == "kitti-rect-v4"
+    for name in ("blend-pretrained", "unet-pretrained", "kitti-rect-v4"):
+        assert make_method(name).get_params() == release.get_params()
+
+
+def test_recipe_of_the_preset_made_these_weights():
+    # `inpaintenv train --preset blend-kitti` reproduces the release: same parameters.
+    _, params, _ = PRESETS["blend-kitti"]
+    shipped = json.loads((PRETRAINED_DIR / f"{DEFAULT_BLEND}.json").read_text())["params"]
+    for key, value in params.items():
+        assert shipped[key] == (list(value) if isinstance(value, tuple) else value), key
+
+
+def test_full_frame_prediction_keeps_measurements_and_is_fast(release):
+    gt = SyntheticStreets(n=1, seed=3)[0]
+    assert gt.shape == (352, 1216)
+    hole = get_protocol("rect-v1").mask(gt.shape, 0, 0)
+    x = np.where(hole, np.nan, gt).astype(np.float32)
+    release.predict(x)  # warm-up
+    start = time.perf_counter()
+    out = release.predict(x)
+    seconds = time.perf_counter() - start
+    assert out.shape == x.shape and np.isfinite(out).all() and (out[hole] > 0).all()
+    measured = (gt > 0) & ~hole
+    np.testing.assert_array_equal(out[measured], gt[measured])
+    # The goal is 0.3 s on 2 idle cores (benchmarks/bench_blend.py); a loaded CI
+    # machine gets 10x that before this order-of-magnitude check fails.
+    assert seconds < 3.0, f"predict took {seconds:.2f} s on a 352x1216 frame"
+
+
+@pytest.mark.kitti
+def test_beats_every_classical_method_on_the_official_val_frame(kitti_root):
+    """The official val frame (another recording day, never trained on), five mask seeds:
+    hole RMSE below that of the strongest method of estimators.classical."""
+    from inpaintenv.data import KittiDepth
+    from inpaintenv.evaluate import evaluate
+    from inpaintenv.registry import make_method as build
+    from inpaintenv.benchmark.suites import CLASSICAL, STUDY_CLASSICAL
+
+    val = KittiDepth(kitti_root, split="val")
+    seeds = [0, 1, 2, 3, 4]
+
+    def mean_hole_rmse(method) -> float:
+        rows = evaluate(method, val, "rect-v1", seeds, progress=False).rows
+        return float(np.nanmean([r["hole_rmse"] for r in rows]))
+
+    learned = mean_hole_rmse(BlendInpainter.pretrained())
+    classical = {name: mean_hole_rmse(build(name)) for name in CLASSICAL + STUDY_CLASSICAL if name != "constant"}
+    best = min(classical, key=classical.get)
+    assert learned < classical[best], f"kitti-rect-v4 {learned:.2f} m vs {best} {classical[best]:.2f} m"
