@@ -72,9 +72,10 @@ def main(argv: list[str] | None = None) -> dict:
     rows = []
     for x in inputs:
         rows.append({
-            "blend_ms": _best_ms(lambda: est.predict(x), args.repeat),
-            "features_ms": _best_ms(lambda: prior_features(x, names, gaps=True, endpoints=est.endpoints), args.repeat),
-            "harmonic_ms": _best_ms(lambda: harmonic.predict(x), args.repeat),
+            "blend_ms": _best_ms(lambda x=x: est.predict(x), args.repeat),
+            "features_ms": _best_ms(lambda x=x: prior_features(x, names, gaps=True, endpoints=est.endpoints),
+                                    args.repeat),
+            "harmonic_ms": _best_ms(lambda x=x: harmonic.predict(x), args.repeat),
             "pixels_to_fill": int(np.isnan(x).sum()),
         })
     med = {k: round(statistics.median(r[k] for r in rows), 1) for k in rows[0]}

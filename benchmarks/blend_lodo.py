@@ -208,7 +208,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
     results = {}
     for name in args.variant:
         variant = VARIANTS[name]
-        cols, k, n_ends = _columns(variant)
+        cols, _, _ = _columns(variant)
         for keep in variant["keep"]:
             if keep not in train_sets:
                 train_sets[keep] = _load(cache, f"train-{keep}")

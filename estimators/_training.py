@@ -201,6 +201,26 @@ def torch_threads(n: int | None) -> Iterator[int]:
 _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed")
 
 
+def backward_step(loss: torch.Tensor, optimizer: torch.optim.Optimizer, scaler: Any) -> float:
+    """Back-propagate ``loss`` and step ``optimizer`` (through the AMP ``scaler`` if any).
+
+    Raises
+    ------
+    FloatingPointError
+        If the loss is NaN or infinite (the step is not taken).
+    """
+    if not torch.isfinite(loss):
+        raise FloatingPointError(f"training loss became {loss.item()} at step; lower lr or disable amp")
+    if scaler is not None:
+        scaler.scale(loss).backward()
+        scaler.step(optimizer)
+        scaler.update()
+    else:
+        loss.backward()
+        optimizer.step()
+    return float(loss.detach())
+
+
 class TrainingMixin:
     """The training loop of a neural inpainter: run directory, resume, warm start, the
     optimiser steps and per-epoch validation (``fit`` of :class:`estimators.neural._NeuralInpainter`).
@@ -356,18 +376,7 @@ class TrainingMixin:
         # The loss always compares depths divided by max_depth, whatever the input scale.
         pred = pred.float() * (scale / self.max_depth)
         loss = inpainting_loss(pred, target, gt > 0, hole, self.hole_weight, self.tv_weight)
-        if not torch.isfinite(loss):
-            raise FloatingPointError(
-                f"training loss became {loss.item()} at step; lower lr or disable amp"
-            )
-        if scaler is not None:
-            scaler.scale(loss).backward()
-            scaler.step(optimizer)
-            scaler.update()
-        else:
-            loss.backward()
-            optimizer.step()
-        return float(loss.detach())
+        return backward_step(loss, optimizer, scaler)
 
     def _resume(self, run_dir: Path, model: UNet, optimizer, device) -> tuple[dict, dict | None] | None:
         state = ckpt.read_run_state(run_dir)

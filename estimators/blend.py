@@ -39,7 +39,12 @@ from ._training import frame_label, torch_threads
 from .base import BaseInpainter
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
-from .priors import AVAILABLE_CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
+from .priors import (
+    AVAILABLE_CANDIDATES,
+    ENDPOINT_CHANNELS,
+    GAP_CHANNELS,
+    prior_features,
+)
 
 __all__ = ["BLEND_CANDIDATES", "DEFAULT_BLEND", "BlendInpainter", "pretrained_blend"]
 

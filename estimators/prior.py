@@ -32,6 +32,7 @@ from . import neural
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
+from ._training import backward_step
 from .neural import _NeuralInpainter
 from .priors import AVAILABLE_CANDIDATES, CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
 
@@ -339,17 +340,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         with autocast:
             pred = predict()
         # L2 in metres on the hole: the benchmark's metric is hole RMSE.
-        loss = (pred.float() - target).square().mean()
-        if not torch.isfinite(loss):
-            raise FloatingPointError(f"training loss became {loss.item()}; lower lr or disable amp")
-        if scaler is not None:
-            scaler.scale(loss).backward()
-            scaler.step(optimizer)
-            scaler.update()
-        else:
-            loss.backward()
-            optimizer.step()
-        return float(loss.detach())
+        return backward_step((pred.float() - target).square().mean(), optimizer, scaler)
 
     # -- prediction ----------------------------------------------------------------------
     def _forward(self, model: PriorUNet | PixelBlendNet, X: np.ndarray, device: torch.device) -> np.ndarray:

@@ -46,7 +46,7 @@ def test_fit_learns_more_than_the_candidate_mean(fitted):
     untrained = BlendInpainter(**{**TINY, "epochs": 1})
     untrained.model_ = untrained._build_model()  # head starts at zero: the candidates' mean
     untrained.model_params_, untrained.is_fitted_ = untrained._model_params(), True
-    err = lambda est: np.sqrt(np.mean((est.predict(x)[hole] - gt[hole]) ** 2))  # noqa: E731
+    err = lambda est: np.sqrt(np.mean((est.predict(x)[hole] - gt[hole]) ** 2))
     assert err(fitted) < err(untrained)
     assert fitted.n_pixels_ > 0 and fitted.training_frames_ == 6
     assert len(fitted.history_["epoch_loss"]) == TINY["epochs"]

@@ -8,14 +8,19 @@ import pytest
 from estimators._scan import fill_empty_rows
 from estimators.classical._base import in_inverse_depth
 from estimators.classical.scanline import scanline_fill
-from estimators.priors import AVAILABLE_CANDIDATES, endpoint_values, gap_distances, prior_features
+from estimators.priors import (
+    AVAILABLE_CANDIDATES,
+    endpoint_values,
+    gap_distances,
+    prior_features,
+)
 
 
 def _reference(x: np.ndarray) -> np.ndarray:
     """prior_features built from the single-feature functions, one at a time."""
     known = x > 0
     v = np.where(known, x, 0.0).astype(np.float32)
-    vertical = lambda a, k: scanline_fill(a.T, k.T).T  # noqa: E731
+    vertical = lambda a, k: scanline_fill(a.T, k.T).T
     fills = {
         "scanline": scanline_fill(v, known),
         "scanline-inverse": in_inverse_depth(scanline_fill, v, known),
