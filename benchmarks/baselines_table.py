@@ -6,8 +6,7 @@ Usage (the command behind docs/baselines.md)::
     python benchmarks/baselines_table.py --drives 2011_09_26_drive_9001_sync --every 4
     python benchmarks/baselines_table.py --methods harmonic scanline-inverse
 
-Frames come from ``$INPAINTENV_KITTI_ROOT`` (else ``../shared/kitti`` beside the
-repository), cropped to 352×1216 by :class:`inpaintenv.data.kitti.KittiDepth`, and are
+Frames come from ``--root`` or ``$INPAINTENV_KITTI_ROOT``, cropped to 352×1216 by :class:`inpaintenv.data.kitti.KittiDepth`, and are
 scored by :func:`inpaintenv.evaluate.evaluate`. Each method runs with ``n_jobs=1`` so
 that ms/frame is single-core time.
 """
@@ -57,9 +56,10 @@ METHODS = {
 TUNING_DRIVE = "2011_09_26_drive_9001_sync"
 
 
-def default_root() -> Path:
+def default_root() -> Path | None:
+    """``$INPAINTENV_KITTI_ROOT`` (None when unset: then ``--root`` is required)."""
     env = os.environ.get("INPAINTENV_KITTI_ROOT")
-    return Path(env) if env else Path(__file__).resolve().parents[1].parent / "shared" / "kitti"
+    return Path(env) if env else None
 
 
 def load_frames(root: Path, splits: list[str], drives: list[str] | None, every: int) -> list[DepthDataset]:
@@ -90,6 +90,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--by-drive", action="store_true", help="also print one table per drive")
     args = parser.parse_args(argv)
 
+    if args.root is None:
+        parser.error("needs real KITTI: pass --root <KITTI root> or set INPAINTENV_KITTI_ROOT")
     sources = load_frames(args.root, args.splits, args.drives, args.every)
     results = []
     for name in args.methods:

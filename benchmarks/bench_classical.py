@@ -6,7 +6,7 @@ Usage::
     python benchmarks/bench_classical.py --frames 8 --repeats 3 --backends threading loky
 
 Input: ground-truth frames of the real KITTI slice (``$INPAINTENV_KITTI_ROOT`` or
-``../shared/kitti``) with rect-v1 holes (seed 0); without the slice, synthetic
+``<KITTI root>``) with rect-v1 holes (seed 0); without the slice, synthetic
 semi-dense frames. Reports the best of ``--repeats`` runs of ``predict`` on a batch of
 ``--frames`` frames, as frames/s, and the speed-up of ``n_jobs=2`` over ``n_jobs=1``.
 Timings depend on what else runs on the machine: run it on an idle one.

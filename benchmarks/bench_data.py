@@ -2,7 +2,7 @@
 
 Usage (from the project root)::
 
-    python benchmarks/bench_data.py [--kitti-root ../shared/kitti] [--n-kitti 40] [--n-synthetic 16]
+    python benchmarks/bench_data.py [--kitti-root <KITTI root>] [--n-kitti 40] [--n-synthetic 16]
 
 Prints one row per source: frames, wall seconds, CPU seconds, frames/s (wall) and
 milliseconds per frame (CPU time of this process, which is less disturbed by other
@@ -34,16 +34,16 @@ def _time(load, indices) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    default = os.environ.get("INPAINTENV_KITTI_ROOT", str(ROOT.parent / "shared" / "kitti"))
+    default = os.environ.get("INPAINTENV_KITTI_ROOT")
     parser.add_argument(
-        "--kitti-root", default=default, help="KITTI root (default: $INPAINTENV_KITTI_ROOT or ../shared/kitti)"
+        "--kitti-root", default=default, help="KITTI root (default: $INPAINTENV_KITTI_ROOT)"
     )
     parser.add_argument("--n-kitti", type=int, default=40, help="KITTI frames to read")
     parser.add_argument("--n-synthetic", type=int, default=16, help="synthetic frames to generate per kind")
     args = parser.parse_args()
 
     rows = []
-    if Path(args.kitti_root).is_dir():
+    if args.kitti_root and Path(args.kitti_root).is_dir():
         for kind in ("groundtruth", "velodyne_raw"):
             ds = KittiDepth(args.kitti_root, split="train", kind=kind)
             idx = np.arange(min(args.n_kitti, len(ds)))

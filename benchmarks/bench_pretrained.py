@@ -8,7 +8,7 @@ left-right flip average). Input is in memory, so PNG decoding is not part of the
 Examples
 --------
     python benchmarks/bench_pretrained.py                      # kitti-rect-v3, synthetic frame
-    python benchmarks/bench_pretrained.py --kitti-root ../shared/kitti --name kitti-mixed-v1
+    python benchmarks/bench_pretrained.py --kitti-root <KITTI root> --name kitti-mixed-v1
     python benchmarks/bench_pretrained.py --chunk 8192 --chunk 262144   # network chunk sizes
 
 Timing is the median over ``--repeat`` runs after one warm-up run.

@@ -2,7 +2,7 @@
 
 Examples
 --------
-    python benchmarks/compile_parity.py runs/unet-frame/model --kitti-root ../shared/kitti \\
+    python benchmarks/compile_parity.py runs/unet-frame/model --kitti-root <KITTI root> \\
         --drives 2011_09_26_drive_9002_sync --frames 2
 
 Without ``--kitti-root`` the frames are SyntheticStreets frames.

@@ -8,7 +8,7 @@ never on the drives reported as unseen.
 
 Examples
 --------
-    python benchmarks/error_anatomy.py --kitti-root ../shared/kitti kitti-rect-v3 -m harmonic-inverse
+    python benchmarks/error_anatomy.py --kitti-root <KITTI root> kitti-rect-v3 -m harmonic-inverse
 """
 
 from __future__ import annotations

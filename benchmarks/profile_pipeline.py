@@ -9,7 +9,7 @@ Usage (from the project root)::
     python benchmarks/profile_pipeline.py --scaling              # cost vs frames and resolution
 
 Input: ground-truth PNGs of the real KITTI slice (``$INPAINTENV_KITTI_ROOT`` or
-``../shared/kitti``, split ``train``), bottom-centre cropped to 352x1216; without the
+``<KITTI root>``, split ``train``), bottom-centre cropped to 352x1216; without the
 slice (or with ``--synthetic``), ``SyntheticStreets`` frames written to temporary
 16-bit PNGs so the decode stage is still measured. Every stage runs on the same batch
 of ``--frames`` frames; each stage is repeated ``--repeats`` times and the best run is
@@ -72,8 +72,8 @@ def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, float, Any]:
 
 def png_paths(args: argparse.Namespace, tmp: Path) -> tuple[list[Path], str]:
     """Paths of ``args.frames`` ground-truth PNGs and a description of the source."""
-    root = Path(args.kitti_root)
-    if not args.synthetic and (root / "train").is_dir():
+    root = Path(args.kitti_root) if args.kitti_root else None
+    if not args.synthetic and root is not None and (root / "train").is_dir():
         ds = KittiDepth(root, split="train")
         # Evenly spread over the slice's drives.
         idx = np.linspace(5, len(ds) - 6, args.frames).round().astype(int)
@@ -113,8 +113,8 @@ def make_method(name: str) -> Any:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    default = os.environ.get("INPAINTENV_KITTI_ROOT", str(ROOT.parent / "shared" / "kitti"))
-    parser.add_argument("--kitti-root", default=default, help="KITTI root (default: $INPAINTENV_KITTI_ROOT or ../shared/kitti)")
+    default = os.environ.get("INPAINTENV_KITTI_ROOT")
+    parser.add_argument("--kitti-root", default=default, help="KITTI root (default: $INPAINTENV_KITTI_ROOT)")
     parser.add_argument("--synthetic", action="store_true", help="use synthetic frames even if KITTI is present")
     parser.add_argument("--frames", type=int, default=8, help="frames in the batch")
     parser.add_argument("--repeats", type=int, default=3, help="runs per stage (best kept)")

@@ -5,9 +5,9 @@ The selection frames of ``benchmarks/pretrained_selection.py`` (drive 9001, fram
 
 Examples
 --------
-    python benchmarks/selection_scores.py --kitti-root ../shared/kitti kitti-mixed-v1 selection-runs/relative
-    python benchmarks/selection_scores.py --kitti-root ../shared/kitti -m harmonic -m harmonic-inverse
-    python benchmarks/selection_scores.py --kitti-root ../shared/kitti kitti-rect-v3+kitti-mixed-v1 --protocol rect-v1
+    python benchmarks/selection_scores.py --kitti-root <KITTI root> kitti-mixed-v1 selection-runs/relative
+    python benchmarks/selection_scores.py --kitti-root <KITTI root> -m harmonic -m harmonic-inverse
+    python benchmarks/selection_scores.py --kitti-root <KITTI root> kitti-rect-v3+kitti-mixed-v1 --protocol rect-v1
 
 A model is a shipped name (see ``estimators.prior.available_pretrained``) or a
 directory written by ``est.save``; ``a+b`` averages models' predictions.

@@ -2,7 +2,7 @@
 
 Run from the project root::
 
-    python docs/scripts/data_density.py [--kitti-root ../shared/kitti] [--n-synthetic 48]
+    python docs/scripts/data_density.py [--kitti-root <KITTI root>] [--n-synthetic 48]
 
 For each source and kind: frames measured, mean/min/max fraction of pixels > 0 in the
 352x1216 crop, and the first row (from the top of the crop) where more than 1 % of
@@ -33,13 +33,13 @@ def density_row(name: str, ds: DepthDataset) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    default = os.environ.get("INPAINTENV_KITTI_ROOT", str(ROOT.parent / "shared" / "kitti"))
+    default = os.environ.get("INPAINTENV_KITTI_ROOT")
     parser.add_argument("--kitti-root", default=default)
     parser.add_argument("--n-synthetic", type=int, default=48)
     args = parser.parse_args()
     print(f"{'source':<34} {'frames':>6} {'mean':>7} {'min':>7} {'max':>7} {'row >1 %':>9}")
     for kind in ("groundtruth", "velodyne_raw"):
-        if Path(args.kitti_root).is_dir():
+        if args.kitti_root and Path(args.kitti_root).is_dir():
             print(density_row(f"KITTI train {kind}", KittiDepth(args.kitti_root, "train", kind=kind)))
         print(density_row(f"SyntheticStreets {kind}", SyntheticStreets(args.n_synthetic, seed=0, kind=kind)))
     print(density_row("SyntheticStreets dense", SyntheticStreets(args.n_synthetic, seed=0, kind="dense")))

@@ -2,7 +2,7 @@
 
 Run from the project root::
 
-    python docs/scripts/data_synthetic_vs_kitti.py [--kitti-root ../shared/kitti]
+    python docs/scripts/data_synthetic_vs_kitti.py [--kitti-root <KITTI root>]
 """
 
 from __future__ import annotations
@@ -31,11 +31,13 @@ def _show(ax, depth: np.ndarray, title: str) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    default = os.environ.get("INPAINTENV_KITTI_ROOT", str(ROOT.parent / "shared" / "kitti"))
+    default = os.environ.get("INPAINTENV_KITTI_ROOT")
     parser.add_argument("--kitti-root", default=default)
     parser.add_argument("--out", default=str(ROOT / "docs" / "img" / "data_synthetic_vs_kitti.png"))
     args = parser.parse_args()
 
+    if not args.kitti_root:
+        parser.error("needs real KITTI: pass --kitti-root <KITTI root> or set INPAINTENV_KITTI_ROOT")
     real_gt = KittiDepth(args.kitti_root, split="train", kind="groundtruth")
     real_raw = KittiDepth(args.kitti_root, split="train", kind="velodyne_raw")
     i = 20  # a frame with both kinds present (gt starts at frame 5 of a drive)

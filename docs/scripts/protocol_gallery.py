@@ -1,13 +1,13 @@
 """Make docs/img/protocol_<name>.png: sample masks of each occlusion protocol in red on KITTI.
 
 The background is a real KITTI ground-truth frame (read at run time from
-``--kitti-root``, ``$INPAINTENV_KITTI_ROOT`` or ``../shared/kitti``; falls back to a
+``--kitti-root``, ``$INPAINTENV_KITTI_ROOT`` or ``<KITTI root>``; falls back to a
 ``SyntheticStreets`` frame, and says so in the title, when no KITTI slice is found).
 Each panel is the mask of ``(protocol, seed=0, index=i)`` for ``i = 0..5``.
 
 Run from the project root::
 
-    python docs/scripts/protocol_gallery.py [--kitti-root ../shared/kitti] [--protocols rect-v1 ...]
+    python docs/scripts/protocol_gallery.py [--kitti-root <KITTI root>] [--protocols rect-v1 ...]
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def overlay(depth: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    default = os.environ.get("INPAINTENV_KITTI_ROOT", str(ROOT.parent / "shared" / "kitti"))
+    default = os.environ.get("INPAINTENV_KITTI_ROOT")
     parser.add_argument("--kitti-root", default=default)
     parser.add_argument("--protocols", nargs="*", default=available_protocols())
     parser.add_argument("--out-dir", default=str(ROOT / "docs" / "img"))
