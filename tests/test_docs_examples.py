@@ -54,6 +54,8 @@ def test_doc_examples_run(name, tmp_path, monkeypatch, capsys, request):
         kitti_root = request.getfixturevalue("kitti_root")
     except pytest.skip.Exception:
         kitti_root = None
+    if kitti_root is not None:  # blocks relying on the variable (KittiDepth(root=None)) find it too
+        monkeypatch.setenv("INPAINTENV_KITTI_ROOT", str(kitti_root))
     monkeypatch.chdir(tmp_path)
     namespace: dict[str, object] = {"__name__": "__doc_example__"}
     needs_kitti = []
