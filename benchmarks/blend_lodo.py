@@ -141,6 +141,9 @@ VARIANTS: dict[str, dict] = {
     "five-thin3": {"candidates": FIVE, "keep": ["1", "0.65", "0.4"], **_SMALL},
     "five-thin3-e6": {"candidates": FIVE, "keep": ["1", "0.65", "0.4"], **_SMALL, "epochs": 6},
     "five-thin3-notta": {"candidates": FIVE, "keep": ["1", "0.65", "0.4"], **_SMALL, "tta": False},
+    "five-thin3-nores": {"candidates": FIVE, "keep": ["1", "0.65", "0.4"], **_SMALL, "residual": False},
+    "five-harmonic-thin3": {"candidates": ["scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic"],
+                            "keep": ["1", "0.65", "0.4"], **_SMALL},
     "four-thin": {"candidates": ["scanline", "scanline-inverse", "vertical-inverse", "harmonic-inverse"],
                   "keep": ["1", "0.65"], **_SMALL},
 }
