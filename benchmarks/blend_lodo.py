@@ -176,7 +176,7 @@ def _predict(est, x: np.ndarray) -> np.ndarray:
     import torch
 
     k = len(est.candidates)
-    mirrored = est._mirror_order()
+    mirrored = est.model_.mirror_order()
     with torch.inference_mode():
         xt = torch.from_numpy(np.ascontiguousarray(x))
         if est.tta:

@@ -247,16 +247,6 @@ class BlendInpainter(BaseInpainter):
                              n_endpoints=len(ENDPOINT_CHANNELS) if self.endpoints else 0,
                              relative=bool(self.relative), residual=bool(self.residual))
 
-    def _mirror_order(self) -> list[int]:
-        """Pixel-feature channel order of the mirrored frame (left and right swapped)."""
-        k = len(self.candidates)
-        order = list(range(k + len(GAP_CHANNELS) + (len(ENDPOINT_CHANNELS) if self.endpoints else 0)))
-        order[k], order[k + 1] = k + 1, k
-        if self.endpoints:
-            e = k + len(GAP_CHANNELS)
-            order[e], order[e + 1] = e + 1, e
-        return order
-
     # -- fitting ---------------------------------------------------------------------------
     def _fit(self, dataset: DepthDataset) -> None:
         self._check_params()
@@ -315,7 +305,7 @@ class BlendInpainter(BaseInpainter):
             optimizer, max_lr=float(self.lr), total_steps=per_epoch * int(self.epochs), pct_start=0.05
         )
         xt, yt = torch.from_numpy(np.ascontiguousarray(x, np.float32)), torch.from_numpy(y)
-        mirrored = self._mirror_order()
+        mirrored = net.mirror_order()
         history: dict[str, list[float]] = {"epoch_loss": []}
         net.train()
         for epoch in range(int(self.epochs)):
@@ -350,27 +340,8 @@ class BlendInpainter(BaseInpainter):
         return out
 
     def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
-        k = len(self.candidates)
         feats = prior_features(frame, tuple(self.candidates), gaps=True, endpoints=bool(self.endpoints))
-        pred = np.where(feats[2] > 0, feats[0], feats[3:3 + k].mean(axis=0))
-        hole = feats[1] > 0
-        if not hole.any():
-            return pred
-        # Channel-major (C, P): the per-candidate work runs on contiguous rows.
-        channels = torch.from_numpy(feats[3:, hole])
-        mirrored = self._mirror_order() if self.tta else None
-        values = []
-        for c in channels.split(pixel_blend.CHUNK, dim=1):
-            c = c.contiguous()
-            v = self.model_.blend_channels(c)
-            if mirrored is not None:
-                v = 0.5 * (v + self.model_.blend_channels(c[mirrored]))
-            values.append(v)
-        # Floor at half the smallest candidate: a residual pushing a far pixel towards
-        # 0 m barely moves RMSE but explodes inverse-depth errors.
-        floor = 0.5 * channels[:k].min(dim=0).values
-        pred[hole] = torch.maximum(torch.cat(values), floor).numpy()
-        return pred
+        return pixel_blend.fill_holes(self.model_, torch.from_numpy(feats[None]), flip_average=bool(self.tta))[0].numpy()
 
     # -- persistence -----------------------------------------------------------------------
     def save(self, path: str | os.PathLike) -> Path:

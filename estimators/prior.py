@@ -353,7 +353,8 @@ class PriorUNetInpainter(_NeuralInpainter):
                 chunk = X[start:start + self.batch_size]
                 x = self._features(chunk)
                 if self.arch == "pixel":
-                    pred = self._blend_holes(model, x, device, autocast)
+                    pred = pixel_blend.fill_holes(model, x, flip_average=bool(self.tta), device=device,
+                                                  autocast=autocast)
                 else:
                     x = x.to(device)
                     if self.channels_last:
@@ -368,48 +369,6 @@ class PriorUNetInpainter(_NeuralInpainter):
                     pred = torch.maximum(pred, 0.5 * x[:, 3:3 + k].min(dim=1).values).cpu()
                 out[start:start + len(chunk)] = pred.numpy()
         return out
-
-    def _blend_holes(self, model: PixelBlendNet, x: torch.Tensor, device: torch.device, autocast) -> torch.Tensor:
-        """The per-pixel blend on the pixels to fill (NaN) only.
-
-        The network's cost grows with the pixels it runs on, and only the pixels to fill
-        are asked for: measured pixels keep their depth, other unmeasured ones (LiDAR
-        gaps outside the hole) take the candidates' mean, which is what the blend starts
-        from before training. The flip average needs no second frame: every candidate is
-        mirror-symmetric, so a mirrored pixel's features are its own with the left and
-        right gap (and endpoint) channels swapped.
-        """
-        k = len(self.candidates)
-        feats = x[:, 3:]
-        pred = torch.where(x[:, 2] > 0.5, x[:, 0], feats[:, :k].mean(dim=1))
-        hole = x[:, 1] > 0.5
-        pixels = feats.permute(0, 2, 3, 1)[hole].to(device)
-        if not len(pixels):
-            return pred
-        mirrored = self._mirror_order() if self.tta else None
-        parts = []
-        with autocast:
-            for p in pixels.split(pixel_blend.CHUNK):
-                value = model.blend(p).float()
-                if mirrored is not None:
-                    value = 0.5 * (value + model.blend(p[:, mirrored]).float())
-                parts.append(value)
-        # Floor at half the smallest candidate: the residual can otherwise push a far
-        # pixel to ~0 m, which barely moves RMSE but explodes inverse-depth errors
-        # (sel set: hole iRMSE 123 -> 40 /km, hole RMSE unchanged).
-        floor = 0.5 * pixels[:, :k].min(dim=1).values
-        pred[hole] = torch.maximum(torch.cat(parts), floor).cpu()
-        return pred
-
-    def _mirror_order(self) -> list[int]:
-        """Pixel-feature channel order (after depth, hole, valid) of the mirrored frame."""
-        order = list(range(len(self.candidates) + len(GAP_CHANNELS) + (len(ENDPOINT_CHANNELS) if self._endpoints else 0)))
-        k = len(self.candidates)
-        order[k], order[k + 1] = k + 1, k
-        if self._endpoints:
-            e = k + len(GAP_CHANNELS)
-            order[e], order[e + 1] = e + 1, e
-        return order
 
     # -- shipped weights -------------------------------------------------------------------
     @classmethod

@@ -18,12 +18,14 @@ unknown pixels costs time in proportion to those pixels alone.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
+from typing import Any
 
 import torch
 from torch import nn
 
-__all__ = ["PixelBlendNet"]
+__all__ = ["PixelBlendNet", "fill_holes"]
 
 DEPTH_SCALE = 80.0
 #: log1p(pixels) / GAP_SCALE keeps the gap inputs near [0, 1] (log1p(2048) ≈ 7.6).
@@ -95,6 +97,20 @@ class PixelBlendNet(nn.Module):
         """Expected input channels ``3 + K + n_gaps + n_endpoints``."""
         return 3 + self.n_candidates + self.n_gaps + self.n_endpoints
 
+    def mirror_order(self) -> list[int]:
+        """Pixel-feature channel order of the mirrored frame: left and right swapped.
+
+        Every candidate fill is mirror-symmetric, so a mirrored pixel's features are its
+        own with the left/right gap (and endpoint) channels exchanged.
+        """
+        k = self.n_candidates
+        order = list(range(k + self.n_gaps + self.n_endpoints))
+        order[k], order[k + 1] = k + 1, k
+        if self.n_endpoints:
+            e = k + self.n_gaps
+            order[e], order[e + 1] = e + 1, e
+        return order
+
     def blend(self, pixels: torch.Tensor) -> torch.Tensor:
         """``(P, K + n_gaps + n_endpoints)`` raw pixel features (metres, pixels) -> ``(P,)`` metres."""
         return self.blend_channels(pixels.T)
@@ -153,3 +169,55 @@ class PixelBlendNet(nn.Module):
     def extra_repr(self) -> str:
         return (f"n_candidates={self.n_candidates}, n_gaps={self.n_gaps}, n_endpoints={self.n_endpoints}, "
                 f"width={self.width}, layers={self.layers}, relative={self.relative}, residual={self.residual}")
+
+
+def fill_holes(
+    model: PixelBlendNet, x: torch.Tensor, *, flip_average: bool = True, device: torch.device | None = None,
+    autocast: Any = None,
+) -> torch.Tensor:
+    """Depth maps from ``(N, 3 + C, H, W)`` features, the network run on the hole pixels only.
+
+    The network's cost grows with the pixels it runs on, and only the pixels to fill are
+    asked for: measured pixels keep their depth, other unmeasured ones (LiDAR gaps
+    outside the hole) take the candidates' mean, which is what the blend starts from
+    before training.
+
+    Parameters
+    ----------
+    model : PixelBlendNet
+    x : torch.Tensor
+        Features as built by :func:`estimators.priors.prior_features` (depth, hole,
+        valid, candidates, gap lengths, endpoints), on the CPU.
+    flip_average : bool
+        Average with the mirrored frame's prediction (:meth:`PixelBlendNet.mirror_order`).
+    device : torch.device, optional
+        Where the network runs (default: the CPU).
+    autocast : context manager, optional
+        Mixed-precision context for the network.
+
+    Returns
+    -------
+    torch.Tensor
+        ``(N, H, W)`` metres on the CPU. Hole pixels are floored at half the smallest
+        candidate: a residual pushing a far pixel towards 0 m barely moves RMSE but
+        explodes inverse-depth errors.
+    """
+    k = model.n_candidates
+    feats = x[:, 3:]
+    pred = torch.where(x[:, 2] > 0.5, x[:, 0], feats[:, :k].mean(dim=1))
+    hole = x[:, 1] > 0.5
+    # Channel-major (C, P): the per-candidate work runs on contiguous rows.
+    channels = feats.permute(1, 0, 2, 3)[:, hole]
+    if not channels.shape[1]:
+        return pred
+    mirrored = model.mirror_order() if flip_average else None
+    values = []
+    with autocast if autocast is not None else contextlib.nullcontext():
+        for c in channels.split(CHUNK, dim=1):
+            c = c.contiguous() if device is None else c.to(device).contiguous()
+            v = model.blend_channels(c).float()
+            if mirrored is not None:
+                v = 0.5 * (v + model.blend_channels(c[mirrored]).float())
+            values.append(v.cpu())
+    pred[hole] = torch.maximum(torch.cat(values), 0.5 * channels[:k].min(dim=0).values)
+    return pred
