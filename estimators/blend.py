@@ -40,9 +40,9 @@ from .base import BaseInpainter
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
 from .priors import (
-    AVAILABLE_CANDIDATES,
     ENDPOINT_CHANNELS,
     GAP_CHANNELS,
+    check_candidates,
     prior_features,
 )
 
@@ -203,11 +203,7 @@ class BlendInpainter(BaseInpainter):
 
     # -- parameters ----------------------------------------------------------------------
     def _check_params(self) -> None:
-        names = self.candidates
-        if isinstance(names, str) or not isinstance(names, (tuple, list)) or not names or any(
-            n not in AVAILABLE_CANDIDATES for n in names
-        ):
-            raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
+        check_candidates(self.candidates)
         for name in ("endpoints", "relative", "residual", "tta", "keep_observed", "verbose"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")

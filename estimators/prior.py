@@ -34,7 +34,7 @@ from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
 from ._training import backward_step
 from .neural import _NeuralInpainter
-from .priors import AVAILABLE_CANDIDATES, CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, prior_features
+from .priors import CANDIDATES, ENDPOINT_CHANNELS, GAP_CHANNELS, check_candidates, prior_features
 
 __all__ = [
     "ARCHS", "DEFAULT_PRETRAINED", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti",
@@ -205,11 +205,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         pb = self.pixel_batches
         if isinstance(pb, bool) or not isinstance(pb, (int, np.integer)) or pb < 1:
             raise ValueError(f"pixel_batches must be an integer >= 1, got {pb!r}")
-        names = self.candidates
-        if isinstance(names, str) or not isinstance(names, (tuple, list)) or not names or any(
-            n not in AVAILABLE_CANDIDATES for n in names
-        ):
-            raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
+        check_candidates(self.candidates)
         for name in ("flip", "tta", "endpoints", "relative"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")

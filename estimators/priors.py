@@ -26,7 +26,7 @@ from .classical._base import in_inverse_depth
 from .classical.harmonic import harmonic_fill
 from .classical.scanline import scanline_fill
 
-__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "gap_distances", "prior_features", "row_band_quantile"]
+__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "row_band_quantile"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
@@ -126,12 +126,28 @@ _FILLS = {
 AVAILABLE_CANDIDATES: tuple[str, ...] = tuple(_FILLS)
 
 
-def _check_names(names: Sequence[str]) -> tuple[str, ...]:
-    names = tuple(names)
-    unknown = [n for n in names if n not in _FILLS]
-    if not names or unknown:
-        raise ValueError(f"candidates must be a non-empty subset of {AVAILABLE_CANDIDATES}, got {names!r}")
-    return names
+def check_candidates(names: Sequence[str]) -> tuple[str, ...]:
+    """``names`` as a tuple, after checking it is a non-empty sequence of known fills.
+
+    Parameters
+    ----------
+    names : sequence of str (a tuple or a list; a plain string is refused)
+        Candidate fills, from :data:`AVAILABLE_CANDIDATES`.
+
+    Returns
+    -------
+    tuple of str
+
+    Raises
+    ------
+    ValueError
+        A string, another type, an empty sequence or an unknown name.
+    """
+    if isinstance(names, str) or not isinstance(names, Sequence) or not names or any(
+        n not in _FILLS for n in names
+    ):
+        raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
+    return tuple(names)
 
 
 def _nearest_known_columns(known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -270,7 +286,7 @@ def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndar
         ``(len(names), H, W)`` float32 metres, equal to ``x`` where it is measured
         (zeros everywhere if nothing is measured).
     """
-    names = _check_names(names)
+    names = check_candidates(names)
     x = check_depth(x, name="x", allow_nan=True, ndim=(2,))
     known = x > 0
     values = np.where(known, x, 0.0).astype(np.float32)
@@ -301,7 +317,7 @@ def prior_features(
         (1/0), valid (1 where measured), the candidate fills in metres, then the gap
         lengths, then the endpoint depths.
     """
-    names = _check_names(names)
+    names = check_candidates(names)
     x = check_depth(x, name="x", allow_nan=True, ndim=(2,))
     known = x > 0
     depth = np.where(known, x, 0.0).astype(np.float32)

@@ -115,6 +115,7 @@ def test_load_errors(tmp_path, fitted):
     ({"keep": (0.0,)}, "keep must be"),
     ({"keep": "1"}, "keep must be"),
     ({"candidates": ("telepathy",)}, "candidates must be"),
+    ({"candidates": "scanline"}, "candidates must be a non-empty tuple"),
     ({"width": 0}, "width must be"),
     ({"lr": float("nan")}, "lr must be"),
     ({"predict_threads": 0}, "predict_threads must be"),

@@ -76,3 +76,12 @@ def test_fill_empty_rows_interpolates_between_filled_rows():
     np.testing.assert_allclose(out[:, 0], [2.0, 2.0, 4.0, 6.0, 8.0, 8.0])
     # nothing filled: returned as is
     np.testing.assert_array_equal(fill_empty_rows(filled, np.zeros(6, bool)), filled)
+
+
+def test_candidate_names_are_checked_once_for_functions_and_estimators():
+    x = np.full((8, 8), 5.0, np.float32)
+    x[2:4, 2:4] = np.nan
+    for bad in ("scanline", (), ("telepathy",)):
+        with pytest.raises(ValueError, match="candidates must be a non-empty tuple from"):
+            prior_features(x, bad)
+    assert prior_features(x, ["scanline"]).shape == (4, 8, 8)  # a list is fine
