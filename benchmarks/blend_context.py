@@ -41,11 +41,10 @@ from joblib import Parallel, delayed
 from torch import nn
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from blend_lodo import _ratio_ci, thin
+from blend_lodo import _ratio_ci, corrupted_input, frames_by_drive
 
 from estimators.blend import BlendInpainter
 from estimators.priors import candidate_fills
-from inpaintenv.data import KittiDepth
 from inpaintenv.masks import get_protocol
 
 FACTOR = 4
@@ -84,7 +83,7 @@ def lowres_inputs(x: np.ndarray, blend: np.ndarray, gt: np.ndarray) -> tuple[np.
 def _sample(model_dir: Path, gt: np.ndarray, hole: np.ndarray, seed: int, keep: float, evaluation: bool) -> dict:
     torch.set_num_threads(1)
     est = BlendInpainter.load(model_dir)
-    x = thin(gt, hole, keep, np.random.default_rng(seed)) if keep < 1 else np.where(hole, np.nan, gt).astype(np.float32)
+    x = corrupted_input(gt, hole, keep, np.random.default_rng(seed))
     blend = est.predict(x)
     inputs, targets = lowres_inputs(x, blend, gt)
     out = {"inputs": inputs, "targets": targets}
@@ -97,11 +96,7 @@ def _sample(model_dir: Path, gt: np.ndarray, hole: np.ndarray, seed: int, keep: 
 
 def cmd_cache(args: argparse.Namespace) -> None:
     protocol = get_protocol("rect-v1")
-    frames = {}
-    for split in ("train", "val"):
-        for drive in sorted({str(g) for g in KittiDepth(args.kitti_root, split=split).groups}):
-            ds = KittiDepth(args.kitti_root, split=split, drives=[drive])
-            frames[(split, drive)] = ds.load_batch(range(len(ds)))
+    frames = frames_by_drive(args.kitti_root)
     held_out = sorted(d for s, d in frames if s == "train")
     for held in held_out:
         path = Path(args.out) / f"{held}.pt"

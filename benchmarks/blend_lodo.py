@@ -61,54 +61,85 @@ def thin(gt: np.ndarray, hole: np.ndarray, keep: float, rng: np.random.Generator
     return x
 
 
-def _one(gt: np.ndarray, hole: np.ndarray, n_pixels: int | None, seed: int, keep: float) -> dict:
-    rng = np.random.default_rng(seed)
-    x = thin(gt, hole, keep, rng) if keep < 1 else np.where(hole, np.nan, gt).astype(np.float32)
-    feats = _frame_features(x)
+def corrupted_input(gt: np.ndarray, hole: np.ndarray, keep: float, rng: np.random.Generator) -> np.ndarray:
+    """The model's input: NaN in the hole, measured pixels thinned by :func:`thin` when ``keep < 1``."""
+    return thin(gt, hole, keep, rng) if keep < 1 else np.where(hole, np.nan, gt).astype(np.float32)
+
+
+def hole_pixels(gt: np.ndarray, hole: np.ndarray, n_pixels: int | None,
+                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the hole pixels with ground truth, at most ``n_pixels`` drawn by ``rng``."""
     rows, cols = np.nonzero(hole & (gt > 0))
     if n_pixels is not None and len(rows) > n_pixels:
         pick = np.sort(rng.choice(len(rows), n_pixels, replace=False))
         rows, cols = rows[pick], cols[pick]
+    return rows, cols
+
+
+def frames_by_drive(kitti_root: str) -> dict[tuple[str, str], list[np.ndarray]]:
+    """Every ground-truth map of the ``train`` and ``val`` drives, keyed by (split, drive)."""
+    frames = {}
+    for split in ("train", "val"):
+        for drive in sorted({str(g) for g in KittiDepth(kitti_root, split=split).groups}):
+            ds = KittiDepth(kitti_root, split=split, drives=[drive])
+            frames[(split, drive)] = ds.load_batch(range(len(ds)))
+    return frames
+
+
+def save_cache(out: Path, results: list[dict], meta: list[dict]) -> None:
+    """One ``KIND.npz`` (each result's arrays concatenated, plus ``sample``) and ``KIND.json`` per kind."""
+    for kind in sorted({m["kind"] for m in meta}):
+        idx = [k for k, m in enumerate(meta) if m["kind"] == kind]
+        arrays = {key: np.concatenate([results[k][key] for k in idx]) for key in results[idx[0]]}
+        arrays["sample"] = np.concatenate([np.full(len(results[k]["y"]), n, np.int32) for n, k in enumerate(idx)])
+        np.savez(out / f"{kind}.npz", **arrays)
+        (out / f"{kind}.json").write_text(json.dumps([meta[k] for k in idx]))
+
+
+def _one(gt: np.ndarray, hole: np.ndarray, n_pixels: int | None, seed: int, keep: float,
+         evaluation: bool = False) -> dict:
+    rng = np.random.default_rng(seed)
+    feats = _frame_features(corrupted_input(gt, hole, keep, rng))
+    rows, cols = hole_pixels(gt, hole, n_pixels, rng)
     return {"x": feats[:, rows, cols].T.astype(np.float32), "y": gt[rows, cols].astype(np.float32),
             "row": rows.astype(np.int16)}
 
 
-def cmd_cache(args: argparse.Namespace) -> None:
-    out = Path(args.out)
+def build_cache(kitti_root: str, out: Path, one, seeds: list[int], train_masks: int, keeps: list[float],
+                pixels: int, n_jobs: int, train_kind=lambda keep: f"train-{keep:g}") -> None:
+    """Compute ``one(gt, hole, n_pixels, seed, keep, evaluation)`` for every frame with ground truth and save it.
+
+    Evaluation occlusions are the benchmark's (``seeds``, every hole pixel); training ones
+    use seeds from :data:`TRAIN_SEED0` and keep ``pixels`` per (occlusion, keep fraction).
+    """
     out.mkdir(parents=True, exist_ok=True)
     protocol = get_protocol("rect-v1")
     jobs, meta = [], []
-    for split in ("train", "val"):
-        for drive in sorted({str(g) for g in KittiDepth(args.kitti_root, split=split).groups}):
-            ds = KittiDepth(args.kitti_root, split=split, drives=[drive])
-            frames = ds.load_batch(range(len(ds)))
-            for i, gt in enumerate(frames):
-                if not (gt > 0).any():
-                    continue
-                for s in (args.seeds if not args.train_only else []):  # the benchmark's masks for --drives <drive>
+    for (split, drive), frames in frames_by_drive(kitti_root).items():
+        for i, gt in enumerate(frames):
+            if not (gt > 0).any():
+                continue
+            for s in seeds:  # the benchmark's masks for --drives <drive>
+                jobs.append(delayed(one)(gt, protocol.mask(gt.shape, s, i), None, s, 1.0, True))
+                meta.append({"split": split, "drive": drive, "frame": i, "kind": "eval", "seed": s})
+            if split == "train":
+                for m in range(train_masks):
+                    s = TRAIN_SEED0 + m
                     hole = protocol.mask(gt.shape, s, i)
-                    jobs.append(delayed(_one)(gt, hole, None, s, 1.0))
-                    meta.append({"split": split, "drive": drive, "frame": i, "kind": "eval", "seed": s})
-                if split == "train":
-                    for m in range(args.train_masks):
-                        s = TRAIN_SEED0 + m
-                        hole = protocol.mask(gt.shape, s, i)
-                        for keep in args.keep:
-                            jobs.append(delayed(_one)(gt, hole, args.pixels, s * 7 + i, keep))
-                            meta.append({"split": split, "drive": drive, "frame": i, "kind": f"train-{keep:g}",
-                                         "seed": s})
+                    for keep in keeps:
+                        jobs.append(delayed(one)(gt, hole, pixels, s * 7 + i, keep, False))
+                        meta.append({"split": split, "drive": drive, "frame": i, "kind": train_kind(keep), "seed": s})
     print(f"{len(jobs)} (frame, occlusion) feature sets to compute", flush=True)
     start = time.perf_counter()
-    results = Parallel(n_jobs=args.jobs, verbose=5)(jobs)
+    results = Parallel(n_jobs=n_jobs, verbose=5)(jobs)
     print(f"computed in {time.perf_counter() - start:.0f} s", flush=True)
-    for kind in sorted({m["kind"] for m in meta}):
-        idx = [k for k, m in enumerate(meta) if m["kind"] == kind]
-        np.savez(out / f"{kind}.npz",
-                 x=np.concatenate([results[k]["x"] for k in idx]),
-                 y=np.concatenate([results[k]["y"] for k in idx]),
-                 row=np.concatenate([results[k]["row"] for k in idx]),
-                 sample=np.concatenate([np.full(len(results[k]["y"]), n, np.int32) for n, k in enumerate(idx)]))
-        (out / f"{kind}.json").write_text(json.dumps([meta[k] for k in idx]))
+    save_cache(out, results, meta)
+
+
+def cmd_cache(args: argparse.Namespace) -> None:
+    out = Path(args.out)
+    build_cache(args.kitti_root, out, _one, [] if args.train_only else args.seeds, args.train_masks, args.keep,
+                args.pixels, args.jobs)
     (out / "channels.json").write_text(json.dumps(CHANNELS))
 
 

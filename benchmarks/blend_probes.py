@@ -40,16 +40,19 @@ from pathlib import Path
 import cv2
 import numpy as np
 import torch
-from joblib import Parallel, delayed
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from blend_lodo import _per_sample_rmse, _ratio_ci, thin
+from blend_lodo import (
+    _per_sample_rmse,
+    _ratio_ci,
+    build_cache,
+    corrupted_input,
+    hole_pixels,
+)
 
 from estimators.blend import BLEND_CANDIDATES
 from estimators.nets.pixel_blend import GAP_SCALE, MIN_DEPTH, PixelBlendNet
 from estimators.priors import candidate_fills, prior_features
-from inpaintenv.data import KittiDepth
-from inpaintenv.masks import get_protocol
 
 K = len(BLEND_CANDIDATES)
 #: Cached columns: K candidates, 4 gaps, 4 endpoints; self-validation (K + 2) x 2
@@ -62,7 +65,7 @@ VARIANTS = {"base": [], "svh": SV_H, "svhv": SV_H + SV_V}
 #: The classical methods scored beside the blend (columns of the cache).
 CLASSICAL = {"scanline": 0, "scanline-inverse": 1, "harmonic": HARMONIC, "harmonic-inverse": 4}
 MIN_PROBE_PIXELS = 20
-TRAIN_SEED0, KEEP = 1000, (1.0, 0.65, 0.4)
+KEEP = (1.0, 0.65, 0.4)
 
 
 def probe_regions(hole: np.ndarray, direction: str = "h") -> tuple[np.ndarray, np.ndarray, int]:
@@ -133,50 +136,19 @@ def self_validation(x: np.ndarray, names: tuple[str, ...] = BLEND_CANDIDATES, di
 
 def _one(gt: np.ndarray, hole: np.ndarray, n_pixels: int | None, seed: int, keep: float, evaluation: bool) -> dict:
     rng = np.random.default_rng(seed)
-    x = thin(gt, hole, keep, rng) if keep < 1 else np.where(hole, np.nan, gt).astype(np.float32)
+    x = corrupted_input(gt, hole, keep, rng)
     parts = [prior_features(x, BLEND_CANDIDATES, gaps=True, endpoints=True)[3:],
              self_validation(x, BLEND_CANDIDATES, "h"), self_validation(x, BLEND_CANDIDATES, "v")]
     if evaluation:
         parts.append(candidate_fills(x, ["harmonic"]))
     feats = np.concatenate(parts)
-    rows, cols = np.nonzero(hole & (gt > 0))
-    if n_pixels is not None and len(rows) > n_pixels:
-        pick = np.sort(rng.choice(len(rows), n_pixels, replace=False))
-        rows, cols = rows[pick], cols[pick]
+    rows, cols = hole_pixels(gt, hole, n_pixels, rng)
     return {"x": feats[:, rows, cols].T.astype(np.float32), "y": gt[rows, cols].astype(np.float32)}
 
 
 def cmd_cache(args: argparse.Namespace) -> None:
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    protocol = get_protocol("rect-v1")
-    jobs, meta = [], []
-    for split in ("train", "val"):
-        for drive in sorted({str(g) for g in KittiDepth(args.kitti_root, split=split).groups}):
-            ds = KittiDepth(args.kitti_root, split=split, drives=[drive])
-            for i, gt in enumerate(ds.load_batch(range(len(ds)))):
-                if not (gt > 0).any():
-                    continue
-                for s in args.seeds:  # the benchmark's masks for --drives <drive>
-                    jobs.append(delayed(_one)(gt, protocol.mask(gt.shape, s, i), None, s, 1.0, True))
-                    meta.append({"split": split, "drive": drive, "frame": i, "kind": "eval", "seed": s})
-                if split == "train":
-                    for m in range(args.train_masks):
-                        s = TRAIN_SEED0 + m
-                        hole = protocol.mask(gt.shape, s, i)
-                        for keep in KEEP:
-                            jobs.append(delayed(_one)(gt, hole, args.pixels, s * 7 + i, keep, False))
-                            meta.append({"split": split, "drive": drive, "frame": i, "kind": "train", "seed": s})
-    print(f"{len(jobs)} (frame, occlusion) feature sets to compute", flush=True)
-    start = time.perf_counter()
-    results = Parallel(n_jobs=args.jobs, verbose=2)(jobs)
-    print(f"computed in {time.perf_counter() - start:.0f} s", flush=True)
-    for kind in ("eval", "train"):
-        idx = [k for k, m in enumerate(meta) if m["kind"] == kind]
-        np.savez(out / f"{kind}.npz", x=np.concatenate([results[k]["x"] for k in idx]),
-                 y=np.concatenate([results[k]["y"] for k in idx]),
-                 sample=np.concatenate([np.full(len(results[k]["y"]), n, np.int32) for n, k in enumerate(idx)]))
-        (out / f"{kind}.json").write_text(json.dumps([meta[k] for k in idx]))
+    build_cache(args.kitti_root, Path(args.out), _one, args.seeds, args.train_masks, list(KEEP), args.pixels,
+                args.jobs, train_kind=lambda keep: "train")
 
 
 class ExtraInputBlend(PixelBlendNet):

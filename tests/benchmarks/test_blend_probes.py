@@ -101,3 +101,39 @@ def test_context_net_starts_as_the_blend_and_inputs_are_scale_free(load_benchmar
     trained = ctx.train_context(torch.from_numpy(np.stack([inputs] * 8)), torch.from_numpy(np.stack([targets] * 8)),
                                 epochs=1, seed=0)
     assert torch.isfinite(trained(torch.from_numpy(inputs[None]))).all()
+
+
+@pytest.fixture(scope="module")
+def tiny_kitti(tmp_path_factory):
+    """Three train drives and one val drive of one frame each, in the KITTI layout."""
+    from inpaintenv.data.io import write_depth_png
+
+    root = tmp_path_factory.mktemp("kitti")
+    rng = np.random.default_rng(0)
+    for split, drive in [("train", f"2011_09_26_drive_900{k}_sync") for k in (1, 2, 4)] + [
+            ("val", "2011_10_03_drive_9101_sync")]:
+        folder = root / split / drive / "proj_depth" / "groundtruth" / "image_02"
+        folder.mkdir(parents=True)
+        depth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
+        write_depth_png(folder / "0000000005.png", depth.astype(np.float32))
+    return root
+
+
+@pytest.mark.slow
+def test_cache_then_oracle_on_a_kitti_tree(probes, load_benchmark, tiny_kitti, tmp_path):
+    cache = tmp_path / "cache"
+    probes.main(["cache", "--kitti-root", str(tiny_kitti), "--out", str(cache), "--seeds", "0",
+                 "--train-masks", "1", "--pixels", "200", "--jobs", "1"])
+    meta = json.loads((cache / "train.json").read_text())
+    assert len(meta) == 3 * len(probes.KEEP)  # one occlusion per train frame, one input per keep fraction
+    with np.load(cache / "eval.npz") as z:
+        assert z["x"].shape[1] == probes.HARMONIC + 1 and len(np.unique(z["sample"])) == 4
+    assert set(probes.main(["oracle", "--cache", str(cache)])) == {m["drive"] for m in meta} | {
+        "2011_10_03_drive_9101_sync"}
+    # blend_lodo's cache shares the frame loop: per-keep training files and a channel list
+    lodo = load_benchmark("blend_lodo")
+    lodo.main(["cache", "--kitti-root", str(tiny_kitti), "--out", str(tmp_path / "lodo"), "--seeds", "0",
+               "--train-masks", "1", "--pixels", "200", "--keep", "1.0", "0.65", "--jobs", "1"])
+    assert sorted(p.name for p in (tmp_path / "lodo").glob("*.npz")) == ["eval.npz", "train-0.65.npz", "train-1.npz"]
+    with np.load(tmp_path / "lodo" / "train-0.65.npz") as z:
+        assert z["x"].shape == (3 * 200, len(lodo.CHANNELS)) and set(z) == {"x", "y", "row", "sample"}
