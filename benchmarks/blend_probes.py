@@ -27,6 +27,7 @@ Examples
     python benchmarks/blend_probes.py oracle --cache probe-cache
     python benchmarks/blend_probes.py fit --cache probe-cache --variant base --variant svh --variant svhv
     python benchmarks/blend_probes.py fit --cache probe-cache --variant base --far-weight 1 --far-weight 3
+    python benchmarks/blend_probes.py time --kitti-root <KITTI root>
 """
 
 from __future__ import annotations
@@ -53,6 +54,8 @@ from blend_lodo import (
 from estimators.blend import BLEND_CANDIDATES
 from estimators.nets.pixel_blend import GAP_SCALE, MIN_DEPTH, PixelBlendNet
 from estimators.priors import candidate_fills, prior_features
+from inpaintenv.data import KittiDepth
+from inpaintenv.masks import get_protocol
 
 K = len(BLEND_CANDIDATES)
 #: Cached columns: K candidates, 4 gaps, 4 endpoints; self-validation (K + 2) x 2
@@ -283,6 +286,24 @@ def cmd_fit(args: argparse.Namespace) -> dict:
     return results
 
 
+def cmd_time(args: argparse.Namespace) -> dict:
+    """Milliseconds per frame of the blend's features and of one direction's self-validation."""
+    ds = KittiDepth(args.kitti_root, split="train", drives=[args.drive])
+    protocol = get_protocol("rect-v1")
+    times: dict[str, list[float]] = {"features_ms": [], "self_validation_h_ms": []}
+    for i in range(min(args.frames, len(ds))):
+        gt = ds[i]
+        x = np.where(protocol.mask(gt.shape, 0, i), np.nan, gt).astype(np.float32)
+        self_validation(x)  # warm-up
+        for key, work, kwargs in (("features_ms", prior_features, {"gaps": True, "endpoints": True}),
+                                  ("self_validation_h_ms", self_validation, {"direction": "h"})):
+            start = time.perf_counter()
+            work(x, BLEND_CANDIDATES, **kwargs)
+            times[key].append(round(1000 * (time.perf_counter() - start), 1))
+    print(json.dumps(times))
+    return times
+
+
 def main(argv: list[str] | None = None) -> dict | None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -302,8 +323,12 @@ def main(argv: list[str] | None = None) -> dict | None:
     f.add_argument("--epochs", type=int, default=3)
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--json", help="write the results here")
+    t = sub.add_parser("time", help="ms per frame of the blend's features and of self-validation")
+    t.add_argument("--kitti-root", required=True)
+    t.add_argument("--drive", default="2011_09_26_drive_9002_sync")
+    t.add_argument("--frames", type=int, default=4)
     args = p.parse_args(argv)
-    result = {"cache": cmd_cache, "oracle": cmd_oracle, "fit": cmd_fit}[args.cmd](args)
+    result = {"cache": cmd_cache, "oracle": cmd_oracle, "fit": cmd_fit, "time": cmd_time}[args.cmd](args)
     if getattr(args, "json", None):
         Path(args.json).write_text(json.dumps(result, indent=1))
     return result

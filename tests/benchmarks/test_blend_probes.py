@@ -137,3 +137,9 @@ def test_cache_then_oracle_on_a_kitti_tree(probes, load_benchmark, tiny_kitti, t
     assert sorted(p.name for p in (tmp_path / "lodo").glob("*.npz")) == ["eval.npz", "train-0.65.npz", "train-1.npz"]
     with np.load(tmp_path / "lodo" / "train-0.65.npz") as z:
         assert z["x"].shape == (3 * 200, len(lodo.CHANNELS)) and set(z) == {"x", "y", "row", "sample"}
+
+
+def test_time_reports_both_costs_per_frame(probes, tiny_kitti):
+    out = probes.main(["time", "--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync"])
+    assert len(out["features_ms"]) == len(out["self_validation_h_ms"]) == 1  # the drive has one frame
+    assert min(out["features_ms"] + out["self_validation_h_ms"]) > 0
