@@ -106,11 +106,12 @@ def _one(gt: np.ndarray, hole: np.ndarray, n_pixels: int | None, seed: int, keep
 
 
 def build_cache(kitti_root: str, out: Path, one, seeds: list[int], train_masks: int, keeps: list[float],
-                pixels: int, n_jobs: int, train_kind=lambda keep: f"train-{keep:g}") -> None:
+                pixels: int, n_jobs: int, train_kind=lambda keep: f"train-{keep:g}", eval_keep: float = 1.0) -> None:
     """Compute ``one(gt, hole, n_pixels, seed, keep, evaluation)`` for every frame with ground truth and save it.
 
     Evaluation occlusions are the benchmark's (``seeds``, every hole pixel); training ones
     use seeds from :data:`TRAIN_SEED0` and keep ``pixels`` per (occlusion, keep fraction).
+    ``eval_keep < 1`` thins the evaluation inputs too (sparser maps, like the official ones).
     """
     out.mkdir(parents=True, exist_ok=True)
     protocol = get_protocol("rect-v1")
@@ -120,7 +121,7 @@ def build_cache(kitti_root: str, out: Path, one, seeds: list[int], train_masks: 
             if not (gt > 0).any():
                 continue
             for s in seeds:  # the benchmark's masks for --drives <drive>
-                jobs.append(delayed(one)(gt, protocol.mask(gt.shape, s, i), None, s, 1.0, True))
+                jobs.append(delayed(one)(gt, protocol.mask(gt.shape, s, i), None, s, eval_keep, True))
                 meta.append({"split": split, "drive": drive, "frame": i, "kind": "eval", "seed": s})
             if split == "train":
                 for m in range(train_masks):

@@ -151,7 +151,7 @@ def _one(gt: np.ndarray, hole: np.ndarray, n_pixels: int | None, seed: int, keep
 
 def cmd_cache(args: argparse.Namespace) -> None:
     build_cache(args.kitti_root, Path(args.out), _one, args.seeds, args.train_masks, list(KEEP), args.pixels,
-                args.jobs, train_kind=lambda keep: "train")
+                args.jobs, train_kind=lambda keep: "train", eval_keep=args.eval_keep)
 
 
 class ExtraInputBlend(PixelBlendNet):
@@ -314,6 +314,8 @@ def main(argv: list[str] | None = None) -> dict | None:
     c.add_argument("--train-masks", type=int, default=3)
     c.add_argument("--pixels", type=int, default=3000)
     c.add_argument("--jobs", type=int, default=2)
+    c.add_argument("--eval-keep", type=float, default=1.0,
+                   help="fraction of measured pixels kept in the evaluation inputs (default: all)")
     o = sub.add_parser("oracle", help="best candidate per pixel / per frame with hindsight, per drive")
     o.add_argument("--cache", required=True)
     f = sub.add_parser("fit", help="train variants leave-one-drive-out and score them")

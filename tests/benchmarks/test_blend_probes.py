@@ -130,6 +130,12 @@ def test_cache_then_oracle_on_a_kitti_tree(probes, load_benchmark, tiny_kitti, t
         assert z["x"].shape[1] == probes.HARMONIC + 1 and len(np.unique(z["sample"])) == 4
     assert set(probes.main(["oracle", "--cache", str(cache)])) == {m["drive"] for m in meta} | {
         "2011_10_03_drive_9101_sync"}
+    sparse = tmp_path / "sparse"  # evaluation inputs thinned, no training pixels
+    probes.main(["cache", "--kitti-root", str(tiny_kitti), "--out", str(sparse), "--seeds", "0",
+                 "--train-masks", "0", "--eval-keep", "0.5", "--jobs", "1"])
+    assert sorted(p.name for p in sparse.glob("*.npz")) == ["eval.npz"]
+    with np.load(cache / "eval.npz") as full, np.load(sparse / "eval.npz") as thinned:
+        assert np.array_equal(full["y"], thinned["y"]) and not np.array_equal(full["x"], thinned["x"])
     # blend_lodo's cache shares the frame loop: per-keep training files and a channel list
     lodo = load_benchmark("blend_lodo")
     lodo.main(["cache", "--kitti-root", str(tiny_kitti), "--out", str(tmp_path / "lodo"), "--seeds", "0",
