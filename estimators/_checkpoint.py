@@ -29,6 +29,8 @@ import os
 import shutil
 import tempfile
 import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +45,8 @@ __all__ = [
     "flatten_optimizer_state",
     "read_checkpoint",
     "read_run_state",
+    "release_folder",
+    "shipped_releases",
     "unflatten_optimizer_state",
     "write_checkpoint",
     "write_run_checkpoint",
@@ -250,6 +254,32 @@ def write_run_checkpoint(
     for child in run_dir.iterdir():
         if child.is_dir() and child.name not in (last, best) and child.name.startswith(("ckpt-", "best-")):
             shutil.rmtree(child, ignore_errors=True)
+
+
+#: Folder of the shipped releases: ``NAME.safetensors`` + ``NAME.json`` (a checkpoint's
+#: two files under flat names).
+PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+
+
+def shipped_releases(class_name: str, directory: Path = PRETRAINED_DIR) -> list[str]:
+    """Names of the complete releases in ``directory`` whose config records ``class_name``."""
+    if not directory.is_dir():
+        return []
+    return sorted(p.stem for p in directory.glob("*.json") if p.with_suffix(".safetensors").is_file()
+                  and json.loads(p.read_text()).get("class") == class_name)
+
+
+@contextmanager
+def release_folder(name: str, directory: Path = PRETRAINED_DIR) -> Iterator[Path]:
+    """A temporary checkpoint folder holding release ``name``'s two files.
+
+    The shipped pair is a checkpoint's files under flat names; copied (they are small)
+    into one folder, they are read by the same checksum-verifying loader as any checkpoint.
+    """
+    with tempfile.TemporaryDirectory() as tmp:
+        for suffix, target in ((".safetensors", MODEL_FILE), (".json", CONFIG_FILE)):
+            shutil.copyfile(directory / f"{name}{suffix}", Path(tmp) / target)
+        yield Path(tmp)
 
 
 #: Neural estimator classes by the name a checkpoint's ``config.json`` records.

@@ -20,7 +20,6 @@ Prediction runs the MLP on the pixels to fill only.
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from pathlib import Path
@@ -55,7 +54,7 @@ BLEND_CANDIDATES: tuple[str, ...] = (
 )
 
 #: Folder of the shipped models (``NAME.safetensors`` + ``NAME.json``).
-PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+PRETRAINED_DIR = ckpt.PRETRAINED_DIR
 #: The shipped release that ``blend-pretrained`` (alias ``unet-pretrained``) loads.
 DEFAULT_BLEND = "kitti-rect-v4"
 
@@ -410,18 +409,11 @@ class BlendInpainter(BaseInpainter):
         ValueError
             An override of a parameter the weights depend on.
         """
-        meta = PRETRAINED_DIR / f"{name}.json"
-        if not isinstance(name, str) or not meta.is_file() or json.loads(meta.read_text()).get("class") != cls.__name__:
-            shipped = sorted(p.stem for p in PRETRAINED_DIR.glob("*.json")
-                             if json.loads(p.read_text()).get("class") == cls.__name__)
+        shipped = ckpt.shipped_releases(cls.__name__)
+        if not isinstance(name, str) or name not in shipped:
             raise KeyError(f"no pretrained {cls.__name__} {name!r}; shipped: {shipped}")
-        import shutil
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as tmp:
-            shutil.copyfile(PRETRAINED_DIR / f"{name}.safetensors", Path(tmp) / ckpt.MODEL_FILE)
-            shutil.copyfile(meta, Path(tmp) / ckpt.CONFIG_FILE)
-            est = cls.load(tmp)
+        with ckpt.release_folder(name) as folder:
+            est = cls.load(folder)
         if overrides:
             est.set_params(**overrides)
             est._check_model_params()

@@ -16,12 +16,8 @@ test-time flip averaging differ. See ``docs/model_card.md`` for the shipped mode
 
 from __future__ import annotations
 
-import json
 import os
-import shutil
-import tempfile
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,7 +42,7 @@ ARCHS = ("pixel", "unet")
 
 #: Folder of the shipped models: ``NAME.safetensors`` (weights) + ``NAME.json`` (the
 #: ``config.json`` of a checkpoint written by :meth:`PriorUNetInpainter.save`).
-PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+PRETRAINED_DIR = ckpt.PRETRAINED_DIR
 
 #: The shipped model that :meth:`PriorUNetInpainter.pretrained` and the registry's
 #: ``blend-pretrained`` (alias ``unet-pretrained``) load by default (older releases stay loadable by name).
@@ -55,11 +51,8 @@ DEFAULT_PRETRAINED = "kitti-rect-v3"
 
 def available_pretrained() -> list[str]:
     """Names accepted by :meth:`PriorUNetInpainter.pretrained`."""
-    if not PRETRAINED_DIR.is_dir():
-        return []
     # The folder also holds releases of other classes (estimators.blend).
-    return sorted(p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file()
-                  and json.loads(p.read_text()).get("class") == "PriorUNetInpainter")
+    return ckpt.shipped_releases("PriorUNetInpainter")
 
 
 class PriorUNetInpainter(_NeuralInpainter):
@@ -392,12 +385,8 @@ class PriorUNetInpainter(_NeuralInpainter):
         """
         if not isinstance(name, str) or name not in available_pretrained():
             raise KeyError(f"no pretrained model {name!r}; shipped: {available_pretrained()}")
-        # The shipped pair is a checkpoint directory's two files under flat names; copy
-        # them (small) into one so the shared, checksum-verifying loader reads them.
-        with tempfile.TemporaryDirectory() as tmp:
-            for src, dst in ((".safetensors", ckpt.MODEL_FILE), (".json", ckpt.CONFIG_FILE)):
-                shutil.copyfile(PRETRAINED_DIR / f"{name}{src}", Path(tmp) / dst)
-            est = cls.load(tmp)
+        with ckpt.release_folder(name) as folder:
+            est = cls.load(folder)
         if overrides:
             est.set_params(**overrides)
             est._check_model_params(
