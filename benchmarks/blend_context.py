@@ -30,6 +30,7 @@ Examples
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 from pathlib import Path
@@ -41,7 +42,7 @@ from joblib import Parallel, delayed
 from torch import nn
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from blend_lodo import _ratio_ci, corrupted_input, frames_by_drive
+from blend_lodo import corrupted_input, frames_by_drive, versus_strongest
 
 from estimators.blend import BlendInpainter
 from estimators.priors import candidate_fills
@@ -80,9 +81,15 @@ def lowres_inputs(x: np.ndarray, blend: np.ndarray, gt: np.ndarray) -> tuple[np.
     return inputs.astype(np.float32), np.stack([n, mean_of(gt), mean_of(blend)]).astype(np.float32)
 
 
+@functools.lru_cache(maxsize=1)
+def _fold_blend(model_dir: Path) -> BlendInpainter:
+    """The fold's blend, read once per worker process (each job would otherwise read and verify it again)."""
+    return BlendInpainter.load(model_dir)
+
+
 def _sample(model_dir: Path, gt: np.ndarray, hole: np.ndarray, seed: int, keep: float, evaluation: bool) -> dict:
     torch.set_num_threads(1)
-    est = BlendInpainter.load(model_dir)
+    est = _fold_blend(model_dir)
     x = corrupted_input(gt, hole, keep, np.random.default_rng(seed))
     blend = est.predict(x)
     inputs, targets = lowres_inputs(x, blend, gt)
@@ -202,12 +209,12 @@ def cmd_fit(args: argparse.Namespace) -> dict:
                 drives.append(m["drive"])
         arrays = {k: np.array(v) for k, v in rmse.items()}
         drives_arr = np.array(drives)
+        classical = {c: arrays[c] for c in CLASSICAL}
         report[held] = {}
         for drive in sorted(set(drives)):
             sel = drives_arr == drive
-            best = min(CLASSICAL, key=lambda c: arrays[c][sel].mean())
             for name in ("blend", "blend+context"):
-                ratio, lo, hi = _ratio_ci(arrays[name][sel], arrays[best][sel])
+                best, ratio, lo, hi = versus_strongest(arrays[name], classical, sel)
                 report[held][f"{drive} {name}"] = {"frames": int(sel.sum()), "ratio": ratio, "ci": [lo, hi]}
                 print(f"without {held:28s} scored {drive:28s} n={sel.sum():3d} {name:14s} "
                       f"{arrays[name][sel].mean():6.3f} m  {best:16s} {arrays[best][sel].mean():6.3f} m  "

@@ -189,7 +189,7 @@ def _columns(variant: dict) -> tuple[list[int], int, int]:
     return cand + gaps + ends, len(cand), len(ends)
 
 
-def _load(cache: Path, kind: str) -> tuple[dict, list[dict]]:
+def load_cache(cache: Path, kind: str) -> tuple[dict, list[dict]]:
     with np.load(cache / f"{kind}.npz") as z:
         data = {k: z[k] for k in z.files}
     return data, json.loads((cache / f"{kind}.json").read_text())
@@ -203,20 +203,22 @@ def _estimator(variant: dict, seed: int, epochs: int):
                           tta=variant.get("tta", True), epochs=epochs, random_state=seed)
 
 
-def _predict(est, x: np.ndarray) -> np.ndarray:
-    """The estimator's hole prediction (flip average, floor) on cached pixel features."""
+def predict_pixels(net, x: np.ndarray, tta: bool = True) -> np.ndarray:
+    """A :class:`~estimators.nets.pixel_blend.PixelBlendNet`'s hole prediction on cached pixel features.
+
+    Flip-averaged (``tta``) and floored at half the smallest candidate, as the estimator predicts.
+    """
     import torch
 
-    k = len(est.candidates)
-    mirrored = est.model_.mirror_order()
+    mirrored = net.mirror_order()
     with torch.inference_mode():
-        xt = torch.from_numpy(np.ascontiguousarray(x))
-        if est.tta:
-            out = [0.5 * (est.model_.blend(c) + est.model_.blend(c[:, mirrored])) for c in xt.split(1 << 15)]
+        chunks = torch.from_numpy(np.ascontiguousarray(x)).split(1 << 15)
+        if tta:
+            out = [0.5 * (net.blend(c) + net.blend(c[:, mirrored])) for c in chunks]
         else:
-            out = [est.model_.blend(c) for c in xt.split(1 << 15)]
+            out = [net.blend(c) for c in chunks]
         pred = torch.cat(out).numpy()
-    return np.maximum(pred, 0.5 * x[:, :k].min(axis=1))
+    return np.maximum(pred, 0.5 * x[:, :net.n_candidates].min(axis=1))
 
 
 def _per_sample_rmse(err2: np.ndarray, sample: np.ndarray, n: int) -> np.ndarray:
@@ -230,9 +232,21 @@ def _ratio_ci(a: np.ndarray, b: np.ndarray, seed: int = 0, n_boot: int = 2000) -
     return float(a.mean() / b.mean()), float(np.quantile(boots, 0.025)), float(np.quantile(boots, 0.975))
 
 
+def strongest(classical: dict[str, np.ndarray], sel: np.ndarray) -> str:
+    """The method of ``classical`` (per-frame RMSE arrays) with the lowest mean over the frames ``sel``."""
+    return min(classical, key=lambda c: classical[c][sel].mean())
+
+
+def versus_strongest(learned: np.ndarray, classical: dict[str, np.ndarray],
+                     sel: np.ndarray) -> tuple[str, float, float, float]:
+    """:func:`strongest` on ``sel``, and ``learned``'s ratio to it with its paired 95 % interval."""
+    best = strongest(classical, sel)
+    return (best, *_ratio_ci(learned[sel], classical[best][sel]))
+
+
 def cmd_fit(args: argparse.Namespace) -> None:
     cache = Path(args.cache)
-    ev, ev_meta = _load(cache, "eval")
+    ev, ev_meta = load_cache(cache, "eval")
     train_sets = {}
     n_ev = len(ev_meta)
     drives_of = np.array([m["drive"] for m in ev_meta])
@@ -246,7 +260,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
         cols, _, _ = _columns(variant)
         for keep in variant["keep"]:
             if keep not in train_sets:
-                train_sets[keep] = _load(cache, f"train-{keep}")
+                train_sets[keep] = load_cache(cache, f"train-{keep}")
         results[name] = {}
         folds = args.folds or train_drives
         for held in folds:
@@ -263,12 +277,11 @@ def cmd_fit(args: argparse.Namespace) -> None:
             # Only the pixels scored with this fold's model: the held-out drive's and val's.
             scored_samples = (drives_of == held) | ((split_of == "val") & args.val)
             px = scored_samples[ev["sample"]]
-            pred = _predict(est, ev["x"][px][:, cols])
+            pred = predict_pixels(est.model_, ev["x"][px][:, cols], est.tta)
             rmse = _per_sample_rmse((pred - ev["y"][px]) ** 2, ev["sample"][px], n_ev)
             for scored in [held] + (["val"] if args.val else []):
                 sel = (drives_of == held) if scored == held else (split_of == "val")
-                best = min(CLASSICAL, key=lambda c: classical[c][sel].mean())
-                r, lo, hi = _ratio_ci(rmse[sel], classical[best][sel])
+                best, r, lo, hi = versus_strongest(rmse, classical, sel)
                 label = scored if scored != "val" else f"val (model without {held})"
                 results[name][label] = {"frames": int(sel.sum()), "hole_rmse": float(rmse[sel].mean()),
                                         "classical": best, "classical_rmse": float(classical[best][sel].mean()),

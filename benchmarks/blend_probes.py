@@ -45,10 +45,13 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from blend_lodo import (
     _per_sample_rmse,
-    _ratio_ci,
     build_cache,
     corrupted_input,
     hole_pixels,
+    load_cache,
+    predict_pixels,
+    strongest,
+    versus_strongest,
 )
 
 from estimators.blend import BLEND_CANDIDATES
@@ -201,21 +204,6 @@ def fit_pixels(x: np.ndarray, y: np.ndarray, n_extra: int, seed: int = 0, epochs
     return net.eval()
 
 
-def predict_pixels(net: ExtraInputBlend, x: np.ndarray) -> np.ndarray:
-    """Flip-averaged prediction floored at half the smallest candidate, as the estimator does."""
-    mirrored = net.mirror_order()
-    with torch.inference_mode():
-        chunks = torch.from_numpy(np.ascontiguousarray(x)).split(1 << 15)
-        pred = torch.cat([0.5 * (net.blend(c) + net.blend(c[:, mirrored])) for c in chunks]).numpy()
-    return np.maximum(pred, 0.5 * x[:, :K].min(axis=1))
-
-
-def _load(cache: Path, kind: str) -> tuple[dict, list[dict]]:
-    with np.load(cache / f"{kind}.npz") as z:
-        data = {k: z[k] for k in z.files}
-    return data, json.loads((cache / f"{kind}.json").read_text())
-
-
 def _groups(meta: list[dict]) -> np.ndarray:
     return np.array([m["drive"] for m in meta])
 
@@ -229,7 +217,7 @@ def _has_pixels(ev: dict, n: int) -> np.ndarray:
 
 
 def cmd_oracle(args: argparse.Namespace) -> dict:
-    ev, meta = _load(Path(args.cache), "eval")
+    ev, meta = load_cache(Path(args.cache), "eval")
     n, drives = len(meta), _groups(meta)
     ok = _has_pixels(ev, n)
     classical = _classical(ev, n)
@@ -240,7 +228,7 @@ def cmd_oracle(args: argparse.Namespace) -> dict:
     out = {}
     for drive in sorted(set(drives)):
         sel = (drives == drive) & ok
-        best = min(classical, key=lambda c: classical[c][sel].mean())
+        best = strongest(classical, sel)
         ref = classical[best][sel].mean()
         out[drive] = {"frames": int(sel.sum()), "classical": best, "classical_rmse": float(ref),
                       "pixel_oracle": float(per_pixel[sel].mean() / ref),
@@ -252,8 +240,8 @@ def cmd_oracle(args: argparse.Namespace) -> dict:
 
 def cmd_fit(args: argparse.Namespace) -> dict:
     cache = Path(args.cache)
-    ev, ev_meta = _load(cache, "eval")
-    train, train_meta = _load(cache, "train")
+    ev, ev_meta = load_cache(cache, "eval")
+    train, train_meta = load_cache(cache, "train")
     n, drives = len(ev_meta), _groups(ev_meta)
     ok = _has_pixels(ev, n)
     val = np.array([m["split"] == "val" for m in ev_meta])
@@ -276,8 +264,7 @@ def cmd_fit(args: argparse.Namespace) -> dict:
                     px = sel[ev["sample"]]
                     rmse = _per_sample_rmse((predict_pixels(net, ev["x"][px][:, cols]) - ev["y"][px]) ** 2,
                                             ev["sample"][px], n)
-                    best = min(classical, key=lambda c: classical[c][sel].mean())
-                    r, lo, hi = _ratio_ci(rmse[sel], classical[best][sel])
+                    best, r, lo, hi = versus_strongest(rmse, classical, sel)
                     results[label][scored] = {"frames": int(sel.sum()), "hole_rmse": float(rmse[sel].mean()),
                                               "classical": best, "ratio": r, "ci": [lo, hi]}
                     print(f"{label:24s} {scored:48s} n={sel.sum():3d} learned {rmse[sel].mean():6.3f} m  "
