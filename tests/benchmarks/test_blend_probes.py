@@ -103,22 +103,6 @@ def test_context_net_starts_as_the_blend_and_inputs_are_scale_free(load_benchmar
     assert torch.isfinite(trained(torch.from_numpy(inputs[None]))).all()
 
 
-@pytest.fixture(scope="module")
-def tiny_kitti(tmp_path_factory):
-    """Three train drives and one val drive of one frame each, in the KITTI layout."""
-    from inpaintenv.data.io import write_depth_png
-
-    root = tmp_path_factory.mktemp("kitti")
-    rng = np.random.default_rng(0)
-    for split, drive in [("train", f"2011_09_26_drive_900{k}_sync") for k in (1, 2, 4)] + [
-            ("val", "2011_10_03_drive_9101_sync")]:
-        folder = root / split / drive / "proj_depth" / "groundtruth" / "image_02"
-        folder.mkdir(parents=True)
-        depth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
-        write_depth_png(folder / "0000000005.png", depth.astype(np.float32))
-    return root
-
-
 @pytest.mark.slow
 def test_cache_then_oracle_on_a_kitti_tree(probes, load_benchmark, tiny_kitti, tmp_path):
     cache = tmp_path / "cache"
