@@ -77,6 +77,8 @@ def test_fit_scores_each_held_out_drive_and_val(probes, tmp_path):
     rows = out["svh far-weight 1"]
     assert set(rows) == set(drives) | {f"val (model without {d})" for d in drives}
     assert all(r["ratio"] > 0 and r["ci"][0] <= r["ratio"] <= r["ci"][1] for r in rows.values())
+    # Falling back per frame to the classical fill is never worse than either alone.
+    assert all(r["gate_oracle"] <= min(r["ratio"], 1.0) + 1e-9 for r in rows.values())
     assert json.loads((tmp_path / "fit.json").read_text()) == json.loads(json.dumps(out))
 
 
