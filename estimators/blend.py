@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -106,6 +107,13 @@ class BlendInpainter(BaseInpainter):
         Occlusions drawn per training frame (from ``protocol``).
     pixels_per_frame : int, default 3000
         Hole pixels with ground truth sampled per (frame, occlusion, keep).
+    max_pixels : int or None, default 20_000_000
+        Cap on the pooled training pixels: 14 float32 values each at the default
+        inputs, so 1.1 GB. Where frames × ``masks_per_frame`` × ``len(keep)`` ×
+        ``pixels_per_frame`` would exceed it, fewer pixels are sampled per (frame,
+        occlusion, keep), at least one, with a warning; None: no cap. Uncapped, the
+        ``blend-kitti`` preset (3 occlusions × 3 keep fractions × 3000 pixels) on the
+        85,898 frames of KITTI's training release would need 130 GB.
     epochs : int, default 4
         Passes over the pooled pixels.
     batch_pixels : int, default 8192
@@ -142,6 +150,9 @@ class BlendInpainter(BaseInpainter):
         ``epoch_loss``: mean training MSE (m²) per epoch.
     n_pixels_ : int
         Training pixels.
+    pixels_per_sample_ : int
+        Hole pixels sampled per (frame, occlusion, keep): ``pixels_per_frame``, or fewer
+        under ``max_pixels``.
     fit_seconds_ : float
         Wall-clock time of ``fit``.
     training_frames_ : int
@@ -167,6 +178,7 @@ class BlendInpainter(BaseInpainter):
         keep: tuple[float, ...] = (1.0,),
         masks_per_frame: int = 3,
         pixels_per_frame: int = 3000,
+        max_pixels: int | None = 20_000_000,
         epochs: int = 4,
         batch_pixels: int = 8192,
         lr: float = 2e-3,
@@ -188,6 +200,7 @@ class BlendInpainter(BaseInpainter):
         self.keep = keep
         self.masks_per_frame = masks_per_frame
         self.pixels_per_frame = pixels_per_frame
+        self.max_pixels = max_pixels
         self.epochs = epochs
         self.batch_pixels = batch_pixels
         self.lr = lr
@@ -218,7 +231,7 @@ class BlendInpainter(BaseInpainter):
             raise ValueError(f"keep must be a non-empty tuple of fractions in (0, 1], got {keep!r}")
         if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not np.isfinite(self.lr) or self.lr <= 0:
             raise ValueError(f"lr must be a finite number > 0, got {self.lr!r}")
-        for name in ("num_threads", "predict_threads"):
+        for name in ("num_threads", "predict_threads", "max_pixels"):
             value = getattr(self, name)
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
                 raise ValueError(f"{name} must be None or an integer >= 1, got {value!r}")
@@ -264,6 +277,7 @@ class BlendInpainter(BaseInpainter):
         """
         protocol = get_protocol(self.protocol)
         names, endpoints = tuple(self.candidates), bool(self.endpoints)
+        n_pixels = self._pixels_per_sample(len(dataset))
 
         def one_frame(i: int) -> list[tuple[np.ndarray, np.ndarray]]:
             gt = check_depth(dataset[i], name=f"training frame {frame_label(dataset, i)}", ndim=(2,))
@@ -273,7 +287,7 @@ class BlendInpainter(BaseInpainter):
             out = []
             for _ in range(int(self.masks_per_frame)):
                 hole = protocol.sample(gt.shape, rng)
-                out += [_pixel_samples(gt, hole, float(k), int(self.pixels_per_frame), names, endpoints, rng)
+                out += [_pixel_samples(gt, hole, float(k), n_pixels, names, endpoints, rng)
                         for k in self.keep]
             return out
 
@@ -285,6 +299,22 @@ class BlendInpainter(BaseInpainter):
         if not parts:
             return np.zeros((0, 0), np.float32), np.zeros(0, np.float32)
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    def _pixels_per_sample(self, n_frames: int) -> int:
+        """``pixels_per_frame``, lowered so that ``n_frames`` frames stay within ``max_pixels``."""
+        per = int(self.pixels_per_frame)
+        samples = n_frames * int(self.masks_per_frame) * len(self.keep)
+        if self.max_pixels is not None and samples * per > self.max_pixels:
+            per = max(1, int(self.max_pixels) // max(samples, 1))
+            warnings.warn(
+                f"{n_frames} frames x {self.masks_per_frame} occlusion(s) x {len(self.keep)} keep fraction(s) x "
+                f"{self.pixels_per_frame} pixels = {samples * int(self.pixels_per_frame)} training pixels exceed "
+                f"max_pixels={self.max_pixels}: sampling {per} pixels per (frame, occlusion, keep) instead "
+                "(raise max_pixels if memory allows)",
+                UserWarning, stacklevel=3,
+            )
+        self.pixels_per_sample_ = per
+        return per
 
     def _fit_pixels(self, x: np.ndarray, y: np.ndarray) -> tuple[PixelBlendNet, dict[str, list[float]]]:
         """Train a fresh network on pixel features ``x`` (``(P, C)``) and depths ``y`` (metres)."""

@@ -87,6 +87,26 @@ def test_thinned_copies_add_training_pixels():
     assert one[0].shape[1] == two[0].shape[1] == 5 + 4 + 4  # candidates, gaps, endpoints
 
 
+def test_max_pixels_caps_the_pooled_training_pixels():
+    data = ArrayDataset(_streets(n=3))  # 3 frames x 2 occlusions x 1 keep x 200 pixels = 1200 at most
+    est = BlendInpainter(**{**TINY, "max_pixels": 300})
+    with pytest.warns(UserWarning, match="= 1200 training pixels exceed max_pixels=300: sampling 50 pixels per"):
+        x, y = est.training_pixels(data)
+    assert est.pixels_per_sample_ == 50 and 0 < len(y) <= 300 and len(x) == len(y)
+
+
+def test_max_pixels_above_the_need_changes_nothing():
+    import warnings
+
+    data = ArrayDataset(_streets(n=3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        capped = BlendInpainter(**{**TINY, "max_pixels": 1200}).training_pixels(data)
+    free = BlendInpainter(**{**TINY, "max_pixels": None}).training_pixels(data)
+    np.testing.assert_array_equal(capped[0], free[0])
+    np.testing.assert_array_equal(capped[1], free[1])
+
+
 def test_save_load_round_trip(fitted, tmp_path):
     path = fitted.save(tmp_path / "model")
     again = BlendInpainter.load(path)
@@ -120,6 +140,7 @@ def test_load_errors(tmp_path, fitted):
     ({"lr": float("nan")}, "lr must be"),
     ({"predict_threads": 0}, "predict_threads must be"),
     ({"num_threads": 1.5}, "num_threads must be"),
+    ({"max_pixels": 0}, "max_pixels must be"),
     ({"protocol": "nope"}, "nope"),
 ])
 def test_bad_parameters(params, match):
