@@ -137,7 +137,7 @@ def predict(net: NConvNet, x: np.ndarray) -> np.ndarray:
     with torch.inference_mode():
         out = net(d[None], c[None])[0, 0].numpy() * scale
     known = np.nan_to_num(x) > 0
-    # The bias can push a fill below zero; half a metre is the nearest a KITTI depth gets.
+    # The bias can push a fill below zero; 0.5 m is a floor nearer than any KITTI depth (>= 2 m here).
     return np.where(known, x, np.maximum(out, 0.5)).astype(np.float32)
 
 
