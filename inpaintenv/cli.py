@@ -288,6 +288,9 @@ def add_train(subparsers: Any) -> None:
     p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")
     p.add_argument("--seed", type=int, metavar="S", help="override the preset's random_state")
     p.add_argument("--threads", type=int, metavar="N", help="torch threads (override)")
+    p.add_argument("--jobs", type=int, metavar="N",
+                   help="frames whose training features are computed in parallel (override of n_jobs; "
+                        "blend presets; -1 = all cores)")
     p.add_argument("--device", choices=["auto", "cpu", "cuda"], help="override the preset's device")
     add_source_options(p)
     add_common_options(p)
@@ -303,8 +306,10 @@ def _train_interrupted(args: argparse.Namespace) -> str:
 TRAIN_ARGS_FILE = "train_args.json"
 #: Overrides that do not change what is trained (the estimators leave them out of the
 #: key of their checkpoint folders, so a change still resumes).
-_RUN_INDEPENDENT_OVERRIDES = ("num_threads",)
-_OVERRIDE_FLAGS = {"max_steps": "--max-steps", "random_state": "--seed", "num_threads": "--threads", "device": "--device"}
+#: Overrides that change how fast, not what, is trained (a rerun with another value resumes).
+_RUN_INDEPENDENT_OVERRIDES = ("num_threads", "n_jobs")
+_OVERRIDE_FLAGS = {"max_steps": "--max-steps", "random_state": "--seed", "num_threads": "--threads",
+                   "n_jobs": "--jobs", "device": "--device"}
 
 
 def train_resume_note(out: Path, record: dict[str, Any]) -> str:
@@ -394,7 +399,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     describe_preset(args.preset)  # unknown name: one-line error listing the presets
     overrides: dict[str, Any] = {}
     for key, value in (("max_steps", args.max_steps), ("random_state", args.seed),
-                       ("num_threads", args.threads), ("device", args.device)):
+                       ("num_threads", args.threads), ("n_jobs", args.jobs), ("device", args.device)):
         if value is not None:
             overrides[key] = value
     ds = open_source_from_args(args)
@@ -419,6 +424,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         "source": repr(ds),
         "fit_seconds": getattr(est, "fit_seconds_", None),
         "n_steps": getattr(est, "n_steps_", None),
+        "pixels_per_sample": getattr(est, "pixels_per_sample_", None),  # blend presets: below max_pixels?
         "stages": getattr(est, "stages_", None),
         "history": history,
     }

@@ -53,14 +53,19 @@ def test_staged_preset_warm_starts_the_second_stage(tmp_path):
     assert np.isfinite(est.predict(x)).all()
 
 
-def test_train_blend_preset_end_to_end_and_scored_by_checkpoint(tmp_path, capsys, monkeypatch):
-    """The shipped recipe's preset (blend-kitti) trains, saves, and the benchmark loads it
-    by --checkpoint; --max-steps, which it has no use for, is a one-line error."""
-    import estimators.presets as presets
+@pytest.fixture
+def small_blend_preset(monkeypatch):
+    """blend-kitti with one occlusion, 200 pixels, one epoch, no thinned copies: seconds to train."""
+    from estimators import presets
 
     cls, params, desc = presets.PRESETS["blend-kitti"]
     small = {**params, "masks_per_frame": 1, "pixels_per_frame": 200, "epochs": 1, "keep": (1.0,)}
     monkeypatch.setitem(presets.PRESETS, "blend-kitti", (cls, small, desc))
+
+
+def test_train_blend_preset_end_to_end_and_scored_by_checkpoint(tmp_path, capsys, small_blend_preset):
+    """The shipped recipe's preset (blend-kitti) trains, saves, and the benchmark loads it
+    by --checkpoint; --max-steps, which it has no use for, is a one-line error."""
     out = tmp_path / "run"
     source = ["--n-frames", "6", "--frame-shape", "64", "192"]
     assert main(["train", "--preset", "blend-kitti", *source, "--out", str(out), "--quiet"]) == 0
@@ -72,3 +77,24 @@ def test_train_blend_preset_end_to_end_and_scored_by_checkpoint(tmp_path, capsys
     assert main(["train", "--preset", "blend-kitti", "--max-steps", "3", *source, "--out", str(out)]) == 1
     err = capsys.readouterr().err
     assert "has no parameter max_steps" in err and "Traceback" not in err
+
+
+def test_train_jobs_sets_the_blend_feature_workers_and_does_not_restart_the_run(tmp_path, capsys,
+                                                                                 small_blend_preset):
+    """--jobs only changes how fast the blend's features are computed: the same weights, the
+    same run; a preset whose estimator has no n_jobs says so in one line."""
+    source = ["--n-frames", "6", "--frame-shape", "64", "192", "--quiet"]
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert main(["train", "--preset", "blend-kitti", *source, "--jobs", "1", "--out", str(one)]) == 0
+    weights_one_job = (one / "model" / "model.safetensors").read_bytes()
+    capsys.readouterr()
+    assert main(["train", "--preset", "blend-kitti", *source, "--jobs", "2", "--out", str(one)]) == 0
+    assert "starting over" not in capsys.readouterr().err  # --jobs does not key the run
+    assert main(["train", "--preset", "blend-kitti", *source, "--jobs", "2", "--out", str(two)]) == 0
+    logs = [json.loads((d / "training_log.json").read_text()) for d in (one, two)]
+    assert logs[0]["params"]["n_jobs"] == 2 and logs[0]["pixels_per_sample"] == 200
+    assert (two / "model" / "model.safetensors").read_bytes() == weights_one_job
+    capsys.readouterr()
+    assert main(["train", "--preset", "smoke", *source, "--jobs", "2", "--out", str(tmp_path / "u")]) == 1
+    err = capsys.readouterr().err
+    assert "has no parameter n_jobs" in err and "Traceback" not in err

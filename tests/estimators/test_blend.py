@@ -141,6 +141,7 @@ def test_load_errors(tmp_path, fitted):
     ({"predict_threads": 0}, "predict_threads must be"),
     ({"num_threads": 1.5}, "num_threads must be"),
     ({"max_pixels": 0}, "max_pixels must be"),
+    ({"n_jobs": 0}, "n_jobs must be"),
     ({"protocol": "nope"}, "nope"),
 ])
 def test_bad_parameters(params, match):
