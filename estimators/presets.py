@@ -9,17 +9,17 @@ The CLI's ``inpaintenv train --preset NAME`` calls :func:`train_preset`.
 
 from __future__ import annotations
 
+import inspect
 import os
 import time
 from typing import Any
-
-import inspect
 
 from .blend import BlendInpainter
 from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
-__all__ = ["PRESETS", "STAGED_PRESETS", "available_presets", "describe_preset", "make_preset", "train_preset"]
+__all__ = ["PRESETS", "STAGED_PRESETS", "available_presets", "describe_preset", "make_preset", "preset_runs_joblib",
+           "train_preset"]
 
 #: The CPU-budget configuration shared by the study's variants below.
 _STUDY_CPU: dict[str, Any] = dict(
@@ -149,6 +149,16 @@ def describe_preset(name: str) -> str:
         stages, desc = STAGED_PRESETS[name]
         return f"{' -> '.join(c.__name__ for c, *_ in stages)}: {desc}"
     raise KeyError(f"unknown preset {name!r}; known presets: {', '.join(available_presets())}")
+
+
+def preset_runs_joblib(name: str) -> bool:
+    """Whether preset ``name`` computes its training features with joblib (its estimator has ``n_jobs``).
+
+    Those presets can spread that work over a Dask cluster (``joblib.parallel_backend("dask")``,
+    ``inpaintenv train --scheduler``); the step-based ones train in one process.
+    """
+    describe_preset(name)  # unknown name: the KeyError listing the presets
+    return name in PRESETS and "n_jobs" in inspect.signature(PRESETS[name][0].__init__).parameters
 
 
 #: Keywords the training runner passes to every preset; dropped for estimators without them.

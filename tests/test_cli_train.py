@@ -98,3 +98,28 @@ def test_train_jobs_sets_the_blend_feature_workers_and_does_not_restart_the_run(
     assert main(["train", "--preset", "smoke", *source, "--jobs", "2", "--out", str(tmp_path / "u")]) == 1
     err = capsys.readouterr().err
     assert "has no parameter n_jobs" in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_train_scheduler_computes_the_blend_features_on_dask_workers(tmp_path, capsys, small_blend_preset):
+    """--scheduler ADDRESS runs the features on the cluster's workers (loopback only here), with
+    the same weights as in this process; a step-based preset and a malformed address are
+    one-line errors."""
+    distributed = pytest.importorskip("distributed")
+    source = ["--n-frames", "6", "--frame-shape", "64", "192", "--quiet"]
+    here, there = tmp_path / "here", tmp_path / "there"
+    assert main(["train", "--preset", "blend-kitti", *source, "--out", str(here)]) == 0
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        before = cluster.scheduler.transition_counter
+        assert main(["train", "--preset", "blend-kitti", *source, "--scheduler", cluster.scheduler_address,
+                     "--out", str(there)]) == 0
+        assert cluster.scheduler.transition_counter - before >= 6  # at least one task per frame ran there
+    assert (there / "model" / "model.safetensors").read_bytes() == (here / "model" / "model.safetensors").read_bytes()
+    capsys.readouterr()
+    assert main(["train", "--preset", "smoke", *source, "--scheduler", "local:2", "--out", str(tmp_path / "u")]) == 1
+    err = capsys.readouterr().err
+    assert "--scheduler spreads the training features of the blend presets; smoke trains step by step" in err
+    assert "Traceback" not in err and not (tmp_path / "u").exists()  # refused before any work
+    assert main(["train", "--preset", "blend-kitti", *source, "--scheduler", "nowhere", "--out", str(tmp_path / "v")]) == 1
+    assert "--scheduler takes tcp://HOST:PORT or local:N" in capsys.readouterr().err

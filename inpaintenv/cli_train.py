@@ -1,0 +1,206 @@
+"""``inpaintenv train``: fit a named preset, resumably, and write the model, its log and curves."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .cli_options import add_common_options, add_source_options, open_source_from_args
+from .cluster import open_client, parse_scheduler
+
+
+def add_train(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "train", help="train a neural estimator from a named preset",
+        description=(
+            "Train a neural inpainter with a named recipe (see --list). Writes the model "
+            "(safetensors + JSON), resumable checkpoints, training_log.json and loss.png. "
+            "Rerun the same command to resume an interrupted run."
+        ),
+    )
+    p.add_argument("--preset", default="blend-kitti",
+                   help="training recipe (default blend-kitti, the shipped kitti-rect-v4; --list shows all)")
+    p.add_argument("--list", action="store_true", help="list the presets and exit")
+    p.add_argument("--out", default="runs/model", metavar="DIR", help="output folder (default runs/model)")
+    p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")
+    p.add_argument("--seed", type=int, metavar="S", help="override the preset's random_state")
+    p.add_argument("--threads", type=int, metavar="N", help="torch threads (override)")
+    p.add_argument("--jobs", type=int, metavar="N",
+                   help="frames whose training features are computed in parallel (override of n_jobs; "
+                        "blend presets; -1 = all cores)")
+    p.add_argument("--device", choices=["auto", "cpu", "cuda"], help="override the preset's device")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="compute the blend presets' training features on a Dask cluster: tcp://HOST:PORT of a "
+                        'running scheduler, or local:N worker processes here (needs pip install "inpaintenv[dask]")')
+    add_source_options(p)
+    add_common_options(p)
+    p.set_defaults(func=cmd_train, on_interrupt=_train_interrupted)
+
+
+def _joblib_on(client: Any) -> Any:
+    """joblib's Dask backend while ``client`` is open (its workers run the joblib tasks), else nothing."""
+    if client is None:
+        return contextlib.nullcontext()
+    import joblib
+
+    return joblib.parallel_backend("dask")
+
+
+def _train_interrupted(args: argparse.Namespace) -> str:
+    return (f"the checkpoints written so far are kept in {Path(args.out) / 'checkpoints'} (one at the end of "
+            "every epoch); rerun the same command to resume from the last one")
+
+
+#: The record of a training command in its --out, compared by the next run there.
+TRAIN_ARGS_FILE = "train_args.json"
+#: Overrides that change how fast, not what, is trained (the estimators leave them out of
+#: the key of their checkpoint folders, so a change still resumes).
+_RUN_INDEPENDENT_OVERRIDES = ("num_threads", "n_jobs")
+_OVERRIDE_FLAGS = {"max_steps": "--max-steps", "random_state": "--seed", "num_threads": "--threads",
+                   "n_jobs": "--jobs", "device": "--device"}
+
+
+def train_resume_note(out: Path, record: dict[str, Any]) -> str:
+    """Whether ``inpaintenv train`` into ``out`` resumes or starts over, and why.
+
+    ``record`` (preset, overrides, source) is compared with the one the previous run in
+    ``out`` left in :data:`TRAIN_ARGS_FILE`. Training checkpoints are keyed by every
+    parameter that shapes the run (``--max-steps`` included), so any difference starts a
+    new run; the same command continues from the last checkpoint.
+    """
+    ckpts = out / "checkpoints"
+    has_ckpt = ckpts.is_dir() and any(ckpts.rglob("state.json"))
+    path = out / TRAIN_ARGS_FILE
+    try:
+        previous = json.loads(path.read_text()) if path.is_file() else None
+    except (ValueError, OSError):
+        previous = None
+
+    def keyed(r: dict[str, Any]) -> dict[str, Any]:
+        over = {k: v for k, v in (r.get("overrides") or {}).items() if k not in _RUN_INDEPENDENT_OVERRIDES}
+        return {"preset": r.get("preset"), "overrides": over, "source": r.get("source")}
+
+    if previous is None:
+        if has_ckpt:
+            return (f"{ckpts} holds checkpoints of an earlier run: training resumes from them if the preset, "
+                    "overrides and data are the same, and starts over otherwise")
+        return f"starting a new training run in {out}"
+    before, now = keyed(previous), keyed(record)
+    if before == now:
+        if has_ckpt:
+            return f"resuming the run in {out}: same preset, overrides and data, so training continues from its last checkpoint"
+        return f"restarting the run in {out} from step 0: same settings, but it stopped before its first checkpoint"
+    changes = []
+    for key in ("preset", "source"):
+        if before[key] != now[key]:
+            changes.append(f"--{'preset' if key == 'preset' else 'data'} changed ({before[key]} -> {now[key]})")
+    for key in sorted(set(before["overrides"]) | set(now["overrides"])):
+        old, new = before["overrides"].get(key, "preset's"), now["overrides"].get(key, "preset's")
+        if old != new:
+            changes.append(f"{_OVERRIDE_FLAGS.get(key, key)} changed ({old} -> {new})")
+    return (f"starting over in {out}: {'; '.join(changes)}. Checkpoints are keyed by every training parameter, "
+            f"so the earlier run is not continued (its checkpoints stay in {ckpts})")
+
+
+def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
+    """Loss per step (raw and smoothed) and validation hole RMSE per epoch, to PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    steps = np.asarray(history.get("step_loss") or [], dtype=float)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    if steps.size:
+        ax.plot(np.arange(1, steps.size + 1), steps, alpha=0.3, lw=0.8, label="loss per step")
+        k = max(1, steps.size // 50)
+        smooth = np.convolve(steps, np.ones(k) / k, mode="valid")
+        ax.plot(np.arange(k, steps.size + 1), smooth, lw=1.5, label=f"mean of {k} steps")
+        ax.set_xlabel("step")
+    else:  # estimators trained by epochs over pooled samples (BlendInpainter) log epoch losses only
+        epochs = np.asarray(history.get("epoch_loss") or [], dtype=float)
+        ax.plot(np.arange(1, epochs.size + 1), epochs, "o-", label="loss per epoch")
+        ax.set_xlabel("epoch")
+    ax.set_ylabel("training loss")
+    ax.grid(alpha=0.3)
+    val = [v for v in history.get("val_hole_rmse") or [] if v is not None]
+    if val:
+        ax2 = ax.twinx()
+        ax2.plot(np.linspace(0, max(steps.size, 1), len(val) + 1)[1:], val, "o-", color="C3", label="validation hole RMSE")
+        ax2.set_ylabel("validation hole RMSE (m)")
+        ax2.legend(loc="upper center", fontsize=8)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from estimators.presets import (
+        available_presets,
+        describe_preset,
+        preset_runs_joblib,
+        train_preset,
+    )
+
+    if args.list:
+        for name in available_presets():
+            print(f"{name:18s} {describe_preset(name)}")
+        return 0
+    describe_preset(args.preset)  # unknown name: one-line error listing the presets
+    if args.scheduler is not None:
+        parse_scheduler(args.scheduler)
+        if not preset_runs_joblib(args.preset):
+            raise ValueError(
+                f"--scheduler spreads the training features of the blend presets; {args.preset} trains step by "
+                "step in one process (several processes or GPUs: torchrun -m estimators.distributed)"
+            )
+    overrides: dict[str, Any] = {}
+    for key, value in (("max_steps", args.max_steps), ("random_state", args.seed),
+                       ("num_threads", args.threads), ("n_jobs", args.jobs), ("device", args.device)):
+        if value is not None:
+            overrides[key] = value
+    ds = open_source_from_args(args)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    record = {"preset": args.preset, "overrides": overrides, "source": repr(ds)}
+    print(train_resume_note(out, record), file=sys.stderr)
+    (out / TRAIN_ARGS_FILE).write_text(json.dumps(record, indent=1))
+    print(f"training preset {args.preset} on {ds!r} -> {out}", file=sys.stderr)
+    with open_client(args.scheduler) as client, _joblib_on(client):
+        est = train_preset(args.preset, ds, checkpoint_dir=out / "checkpoints", verbose=not args.quiet,
+                           **overrides)
+    model_path = est.save(out / "model")
+    history = getattr(est, "history_", None) or {}
+    log = {
+        "command": "inpaintenv " + " ".join(getattr(args, "argv", [])),
+        "preset": args.preset,
+        "overrides": overrides,
+        "estimator": type(est).__name__,
+        "params": {k: repr(v) if not isinstance(v, (int, float, str, bool, type(None), list, tuple)) else v
+                   for k, v in est.get_params().items()},
+        "source": repr(ds),
+        "fit_seconds": getattr(est, "fit_seconds_", None),
+        "n_steps": getattr(est, "n_steps_", None),
+        "pixels_per_sample": getattr(est, "pixels_per_sample_", None),  # blend presets: below max_pixels?
+        "stages": getattr(est, "stages_", None),
+        "history": history,
+    }
+    from .evaluate import json_safe
+
+    (out / "training_log.json").write_text(json.dumps(json_safe(log), indent=1))
+    plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}")
+    print(f"model: {model_path}")
+    print(f"log: {out / 'training_log.json'}, curves: {out / 'loss.png'}")
+    print(f"score it: inpaintenv benchmark --checkpoint mine={model_path} ...")
+    return 0
