@@ -16,6 +16,7 @@ from .cluster import open_client, parse_scheduler
 
 
 def add_train(subparsers: Any) -> None:
+    """Add the ``train`` subcommand to ``subparsers`` (an ``argparse`` subparsers action)."""
     p = subparsers.add_parser(
         "train", help="train a neural estimator from a named preset",
         description=(
@@ -144,6 +145,8 @@ def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    """Run ``inpaintenv train``: check the arguments, fit the preset (on ``--scheduler``'s
+    workers where given), write the model, ``training_log.json`` and ``loss.png``; returns 0."""
     from estimators.presets import (
         available_presets,
         describe_preset,
