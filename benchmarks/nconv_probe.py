@@ -41,6 +41,7 @@ from blend_lodo import corrupted_input, frames_by_drive, versus_strongest
 
 from estimators.priors import candidate_fills
 from inpaintenv.masks import get_protocol
+from inpaintenv.metrics import ScoredPixels
 
 #: Classical fills scored beside the network (the strongest per drive is the reference).
 CLASSICAL = ("harmonic", "harmonic-inverse", "scanline", "scanline-inverse")
@@ -193,14 +194,14 @@ def score(net: NConvNet, frames: list[np.ndarray], seeds: list[int]) -> dict[str
     for i, gt in enumerate(frames):
         for s in seeds:
             hole = protocol.mask(gt.shape, s, i)
-            px = hole & (gt > 0)
-            if not px.any():
+            scored = ScoredPixels(gt, hole)  # the benchmark's scorer: ground truth gathered once
+            if not scored.hole_count:
                 continue
             x = np.where(hole, np.nan, gt).astype(np.float32)
             fills = dict(zip(CLASSICAL, candidate_fills(x, CLASSICAL)))
             fills["nconv"] = predict(net, x)
             for name, fill in fills.items():
-                out[name].append(float(np.sqrt(np.mean((fill[px] - gt[px]) ** 2))))
+                out[name].append(float(scored.metrics(fill)["hole_rmse"]))
     return {k: np.array(v) for k, v in out.items()}
 
 

@@ -12,6 +12,7 @@ Every inpainter is a scikit-learn estimator:
 
 from __future__ import annotations
 
+import numbers
 from abc import abstractmethod
 from collections.abc import Iterator
 from typing import Any
@@ -175,6 +176,17 @@ class BaseInpainter(BaseEstimator):
         return out[0] if x.ndim == 2 else out
 
     @abstractmethod
+    def _check_n_jobs(self) -> None:
+        """Raise a clear error unless ``n_jobs`` is None or a non-zero integer (joblib's meaning)."""
+        n_jobs = self.n_jobs
+        if n_jobs is not None and (
+            isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0
+        ):
+            raise ValueError(
+                f"{type(self).__name__}: n_jobs must be None or a non-zero integer "
+                f"(-1 = all cores), got {n_jobs!r}"
+            )
+
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         """Predict a validated ``(N, H, W)`` float32 batch (NaN = fill); must not modify X."""
 

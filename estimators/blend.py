@@ -235,9 +235,7 @@ class BlendInpainter(BaseInpainter):
             value = getattr(self, name)
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
                 raise ValueError(f"{name} must be None or an integer >= 1, got {value!r}")
-        n_jobs = self.n_jobs
-        if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0):
-            raise ValueError(f"n_jobs must be None, -1 (all cores) or an integer >= 1, got {n_jobs!r}")
+        self._check_n_jobs()
         get_protocol(self.protocol)  # unknown protocol: its own clear error
 
     def _model_params(self) -> dict[str, Any]:

@@ -103,14 +103,7 @@ class ClassicalInpainter(BaseInpainter):
     def _check_params(self) -> None:
         """Raise a clear error on an invalid parameter; extend in subclasses."""
         self._check_bool("keep_observed")
-        n_jobs = self.n_jobs
-        if n_jobs is not None and (
-            isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0
-        ):
-            raise ValueError(
-                f"{type(self).__name__}: n_jobs must be None or a non-zero integer "
-                f"(-1 = all cores), got {n_jobs!r}"
-            )
+        self._check_n_jobs()
 
     def _check_bool(self, name: str) -> None:
         value = getattr(self, name)
