@@ -39,15 +39,20 @@ def test_benchmark_errors_are_one_line(tmp_path, capsys):
     assert "NAME=PATH" in capsys.readouterr().err
 
 
-def test_benchmark_on_unseen_real_drives(kitti_root, tmp_path, capsys):
+def test_benchmark_on_unseen_real_drives(kitti_root, kitti_layout, tmp_path, capsys):
+    excluded = "2011_09_26_drive_9001_sync"
     argv = [
         "benchmark", "--kitti-root", str(kitti_root), "--split", "train,val",
-        "--exclude-drives", "2011_09_26_drive_9001_sync", "--method", "scanline",
+        "--exclude-drives", excluded, "--method", "scanline",
         "--n-frames", "3", "--figure-frames", "0", "--out", str(tmp_path), "--quiet",
     ]
     assert main(argv) == 0
     doc = json.loads((tmp_path / "results.json").read_text())
-    assert {r["drive"] for r in doc["rows"]} == {"2011_09_26_drive_9002_sync"}
+    # --n-frames takes the first frames in layout order, from the drives left after the exclusion
+    kept = [d for d in kitti_layout("train") if d != excluded]
+    scored = {r["drive"] for r in doc["rows"]}
+    assert excluded not in scored and kept[0] in scored and scored <= set(kept)
+    assert len(doc["rows"]) == 3
     assert all(r["hole_rmse"] > 0 for r in doc["rows"])
 
 

@@ -195,8 +195,15 @@ def test_real_train_slice(kitti_root, kitti_layout):
     assert len(ds) == sum(on_disk.values()) and ds.frame_shape == (352, 1216)
     drives, counts = np.unique(ds.groups, return_counts=True)
     assert dict(zip(drives, counts.tolist())) == on_disk
-    # every train drive of the slice is a 2011_09_26 recording (1242x375 raw frames)
-    assert ds.raw_sizes() == {(1242, 375): len(ds)}
+    # KITTI's raw frame size is fixed per recording day (calibration): every frame has one
+    # of the day sizes KITTI ships, and all frames of one day share it.
+    sizes = ds.raw_sizes()
+    assert sum(sizes.values()) == len(ds)
+    assert set(sizes) <= {(1242, 375), (1224, 370), (1226, 370), (1238, 374), (1241, 376)}
+    day_sizes: dict[str, set] = {}
+    for drive, header in zip(ds.groups, ds.headers()):
+        day_sizes.setdefault(drive[:10], set()).add((header.width, header.height))
+    assert all(len(s) == 1 for s in day_sizes.values()), day_sizes
     d = ds[10]
     valid = d[d > 0]
     assert 0.1 < valid.size / d.size < 0.5  # semi-dense
