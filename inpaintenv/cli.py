@@ -270,7 +270,21 @@ def add_benchmark(subparsers: Any) -> None:
     add(subparsers, add_source_options, add_common_options)
 
 
-SUBCOMMANDS: list[Callable[[Any], None]] = [add_info, add_evaluate, add_show, add_benchmark, add_train]
+def add_export(subparsers: Any) -> None:
+    from .submission.command import add_export as add
+
+    add(subparsers, add_source_options, add_common_options)
+
+
+def add_score(subparsers: Any) -> None:
+    from .submission.command import add_score as add
+
+    add(subparsers, add_common_options)
+
+
+SUBCOMMANDS: list[Callable[[Any], None]] = [
+    add_info, add_evaluate, add_show, add_benchmark, add_train, add_export, add_score,
+]
 
 
 def build_parser() -> argparse.ArgumentParser:

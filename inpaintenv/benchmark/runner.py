@@ -302,14 +302,17 @@ def _run_locked(
             _check_identity(name, out, identities.get(name), identity, any(done[name].values()))
     _write_run_file(run_file, fingerprint, identities)
 
+    # A method with ``scored_pairs`` (a submission missing some files) scores only those (seed, frame) pairs.
+    allowed = {name: getattr(m, "scored_pairs", None) for name, m in methods.items()}
     todos = {
-        name: {p: {s: [i for i in range(total) if (s, i) not in done[name][p]] for s in seeds} for p in protocols}
+        name: {p: {s: [i for i in range(total) if (s, i) not in done[name][p]
+                       and (allowed[name] is None or (s, i) in allowed[name])] for s in seeds} for p in protocols}
         for name in methods
     }
     per_method = {name: sum(len(v) for t in todos[name].values() for v in t.values()) for name in methods}
     n_todo_all = sum(per_method.values())
-    say(_plan_line(methods, total, protocols, seeds, len(methods) * len(protocols) * len(seeds) * total - n_todo_all,
-                   n_todo_all))
+    n_done_all = sum(len(d) for by_protocol in done.values() for d in by_protocol.values())
+    say(_plan_line(methods, total, protocols, seeds, n_done_all, n_todo_all))
     known = {name: c for name in methods if (c := _known_cost(existing[name])) is not None}
     if n_todo_all and all(name in known for name, k in per_method.items() if k):
         eta = sum(known[name] * k for name, k in per_method.items() if k)

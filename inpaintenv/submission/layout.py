@@ -1,0 +1,105 @@
+"""Where exported inputs, hole masks and predictions live, and how they are encoded.
+
+Relative paths follow KITTI's depth-completion layout, one tree per protocol and seed::
+
+    <protocol>/seed_<s>/<split>/<drive>/proj_depth/velodyne_raw/<camera>/<frame>.png   occluded input
+    <protocol>/seed_<s>/<split>/<drive>/proj_depth/hole/<camera>/<frame>.png           hole mask
+
+so ``<export>/<protocol>/seed_<s>`` reads as a KITTI root for tools that load
+``proj_depth/velodyne_raw`` inputs. A prediction goes to ``<predictions>/<input's relative
+path>``. The protocol folder ties a prediction to the masks it was made for: predictions
+made for another protocol are not found under this manifest's paths.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "DEPTH_ENCODING", "HOLE_ENCODING", "HOLE_FOLDER", "HOLE_VALUE", "INPUT_FOLDER", "array_sha256", "file_sha256",
+    "frame_parts", "hole_bits_sha256", "input_key", "is_inside", "relative_paths",
+]
+
+#: Folder of the occluded inputs (where KITTI keeps a method's sparse input).
+INPUT_FOLDER = "velodyne_raw"
+#: Folder of the hole masks.
+HOLE_FOLDER = "hole"
+#: Value of a hole pixel in the 8-bit mask PNG (0 elsewhere); white = fill, for viewers.
+HOLE_VALUE = 255
+DEPTH_ENCODING = "16-bit single-channel PNG, metres = value / 256, 0 = hole or no measurement"
+HOLE_ENCODING = f"8-bit single-channel PNG, {HOLE_VALUE} = hole (pixels to fill), 0 = not"
+
+_SAFE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("._") or "frame"
+
+
+def frame_parts(frame_ids: Sequence[str], drives: Sequence[str]) -> list[tuple[str, str, str]]:
+    """``(drive, camera, frame)`` folder names of every frame, distinct per frame.
+
+    KITTI and SyntheticStreets ids are ``"<drive>/<camera>/<frame>"`` and keep their
+    names; other ids (a custom dataset) become ``(<drive>, "image_02", <position>)``.
+    """
+    parts = []
+    for i, (fid, drive) in enumerate(zip(frame_ids, drives)):
+        pieces = str(fid).split("/")
+        if len(pieces) == 3 and all(_SAFE.match(p) for p in pieces):
+            parts.append((pieces[0], pieces[1], pieces[2]))
+        else:
+            parts.append((_slug(str(drive)), "image_02", f"{i:010d}"))
+    if len(set(parts)) != len(parts):
+        # Ids that collide as folder names: number the frames instead.
+        parts = [(_slug(str(d)), "image_02", f"{i:010d}") for i, d in enumerate(drives)]
+    return parts
+
+
+def relative_paths(protocol: str, seed: int, split: str, parts: tuple[str, str, str]) -> tuple[str, str]:
+    """``(input, hole)`` relative paths (POSIX) of one frame under ``(protocol, seed)``."""
+    drive, camera, frame = parts
+    base = f"{protocol}/seed_{seed}/{split}/{drive}/proj_depth"
+    return f"{base}/{INPUT_FOLDER}/{camera}/{frame}.png", f"{base}/{HOLE_FOLDER}/{camera}/{frame}.png"
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """sha256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def array_sha256(array: np.ndarray) -> str:
+    """sha256 of an array's bytes in C order (its dtype and shape are recorded beside it)."""
+    return hashlib.sha256(np.ascontiguousarray(array).tobytes()).hexdigest()
+
+
+def hole_bits_sha256(hole: np.ndarray) -> str:
+    """sha256 of a boolean mask packed to bits: what ``score`` recomputes to check the masks."""
+    return hashlib.sha256(np.packbits(np.asarray(hole, dtype=bool)).tobytes()).hexdigest()
+
+
+def input_key(x: np.ndarray) -> str:
+    """sha256 of one corrupted input as :func:`inpaintenv.evaluate.evaluate` builds it.
+
+    ``x`` is the float32 ``(H, W)`` ground truth with NaN in the hole. ``score`` finds the
+    prediction of an input by this key, so the frame and seed need not be passed along.
+    """
+    return array_sha256(np.asarray(x, dtype=np.float32))
+
+
+def is_inside(path: Path, folder: Path) -> bool:
+    """Whether ``path`` is ``folder`` or lies under it (both resolved)."""
+    try:
+        path.resolve().relative_to(folder.resolve())
+    except ValueError:
+        return False
+    return True

@@ -1,0 +1,270 @@
+"""A folder of prediction PNGs: checked as a whole, then served to ``evaluate`` as a method.
+
+:func:`check_predictions` reads the manifest's ground truth and masks and every
+prediction once, before anything is written, and reports every missing, unexpected or
+unusable file in one line. :class:`SubmittedPredictions` is then an ordinary method for
+:func:`inpaintenv.evaluate.evaluate` and the benchmark runner: it finds the prediction of
+each input it is given by the input's content (:func:`~.layout.input_key`), so the rows,
+masks and metrics are exactly those of any other method, on one machine or a cluster.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from ..data.base import DepthDataset
+from ..data.io import depth_from_uint16
+from ..masks import OcclusionProtocol, get_protocol
+from .layout import hole_bits_sha256, input_key, is_inside
+from .manifest import Manifest, ManifestError
+from .truth import verify_frame
+
+__all__ = ["ON_MISSING", "CheckedPredictions", "SubmissionError", "SubmittedPredictions", "check_predictions",
+           "manifest_protocol"]
+
+#: Values of ``--on-missing``.
+ON_MISSING = ("error", "skip")
+_SHOWN = 3  # files named in a message before "and N more"
+
+
+class SubmissionError(ValueError):
+    """Predictions that cannot be scored: missing, unexpected or unusable files (all listed)."""
+
+
+def _listing(paths: list[str]) -> str:
+    more = len(paths) - _SHOWN
+    return ", ".join(paths[:_SHOWN]) + (f" and {more} more" if more > 0 else "")
+
+
+def manifest_protocol(manifest: Manifest) -> OcclusionProtocol:
+    """The installed protocol of ``manifest``, checked to be the one it was exported with.
+
+    Raises
+    ------
+    ManifestError
+        If the protocol is unknown here or its description (parameters) differs.
+    """
+    name = manifest.protocol_name
+    try:
+        proto = get_protocol(name)
+    except KeyError:
+        raise ManifestError(f"{manifest.path} was exported with protocol {name!r}, which this inpaintenv "
+                            f"does not have; score with inpaintenv {manifest.inpaintenv_version}") from None
+    here = json.loads(json.dumps(proto.describe()))
+    if here != manifest.protocol.get("description"):
+        raise ManifestError(f"protocol {name} here differs from the one {manifest.path} was exported with (its "
+                            f"parameters changed); score with inpaintenv {manifest.inpaintenv_version}")
+    return proto
+
+
+def decode_prediction(data: bytes, name: str, shape: tuple[int, int]) -> np.ndarray | str:
+    """The stored uint16 values of a prediction PNG, or what is wrong with it (one phrase)."""
+    raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
+    if raw is None:
+        return f"{name} is not a readable PNG"
+    if raw.ndim != 2:
+        return f"{name} has {raw.shape[2]} channels (a depth map is single-channel)"
+    if raw.dtype != np.uint16:
+        return f"{name} is {8 * raw.dtype.itemsize}-bit (depth is a 16-bit PNG, metres × 256)"
+    if raw.shape != shape:
+        return f"{name} is {raw.shape[1]}x{raw.shape[0]}, the input {shape[1]}x{shape[0]} (W x H)"
+    return raw
+
+
+class SubmittedPredictions:
+    """A method that returns the predictions of a checked folder (see :func:`check_predictions`).
+
+    Called like any batched method with ``(N, H, W)`` corrupted inputs; each input must be
+    one of the manifest's. Each file is read again and checked against the sha256 taken
+    when the folder was checked, so a file changed during the run is an error, not a
+    silently different score.
+
+    Attributes
+    ----------
+    name : str
+    identity : str
+        ``"predictions:<sha256>"`` of the scored files' names and bytes: a resumed run
+        refuses rows made from other files under the same name.
+    scored_pairs : frozenset of (int, int)
+        The (seed, frame) pairs this folder has a prediction for; the benchmark runner
+        scores only these.
+    """
+
+    batched = True
+
+    def __init__(self, name: str, files: dict[str, tuple[str, str]], pairs: set[tuple[int, int]], identity: str):
+        self.name = name
+        self.identity = identity
+        self.scored_pairs = frozenset(pairs)
+        self._files = dict(files)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float32)
+        out = np.empty_like(x)
+        for k in range(len(x)):
+            entry = self._files.get(input_key(x[k]))
+            if entry is None:
+                raise SubmissionError(f"{self.name}: no prediction for this input (not one of the manifest's inputs, "
+                                      "or one whose prediction was missing)")
+            path, digest = entry
+            data = Path(path).read_bytes()
+            if hashlib.sha256(data).hexdigest() != digest:
+                raise SubmissionError(f"prediction {path} changed while it was being scored; run score again")
+            raw = decode_prediction(data, path, x.shape[1:])
+            if isinstance(raw, str):
+                raise SubmissionError(raw)
+            out[k] = depth_from_uint16(raw)
+        return out
+
+
+@dataclass
+class CheckedPredictions:
+    """What :func:`check_predictions` found: the method to score, and what it left out."""
+
+    method: SubmittedPredictions
+    missing: list[str] = field(default_factory=list)
+    unexpected: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON record of the submission for ``results.json``."""
+        return {"identity": self.method.identity, "scored": len(self.method.scored_pairs),
+                "missing": self.missing, "unexpected": self.unexpected}
+
+
+def _missing_hint(manifest: Manifest, unexpected: list[str]) -> str:
+    """Why predictions may sit at other paths: another protocol's or export's tree."""
+    tops = sorted({p.split("/", 1)[0] for p in unexpected} - {manifest.protocol_name})
+    if tops:
+        return (f"; the folder holds predictions under {', '.join(f'{t}/' for t in tops)}, this manifest's inputs are "
+                f"under {manifest.protocol_name}/: score them with the manifest of their own export")
+    return ""
+
+
+def check_predictions(
+    manifest: Manifest,
+    dataset: DepthDataset,
+    predictions: str | Path,
+    *,
+    name: str,
+    on_missing: str = "error",
+    allow_unfilled: bool = False,
+    progress: Callable[[int], None] | None = None,
+) -> CheckedPredictions:
+    """Check the ground truth, the masks and every prediction of ``manifest``; build the method.
+
+    Parameters
+    ----------
+    manifest : Manifest
+    dataset : DepthDataset
+        The manifest's ground truth (:func:`~.truth.open_truth`), frames in its order.
+    predictions : path
+        Folder holding ``<input's relative path>`` for every item of the manifest.
+    name : str
+        Method name of the submission.
+    on_missing : {"error", "skip"}
+        A missing prediction, or a PNG the manifest does not list, is an error ("error"), or
+        is left out and recorded ("skip").
+    allow_unfilled : bool
+        Accept 0 (no depth) at hole pixels; they are then scored as 0 m.
+    progress : callable, optional
+        Called with 1 after every (frame, seed) checked.
+
+    Raises
+    ------
+    ManifestError
+        The protocol, a mask or a ground-truth frame differs from the export (named).
+    FileNotFoundError
+        A ground-truth file is missing, or ``predictions`` is not a folder.
+    SubmissionError
+        One line listing missing, unexpected and unusable predictions.
+    """
+    if on_missing not in ON_MISSING:
+        raise ValueError(f"on_missing must be 'error' or 'skip', got {on_missing!r}")
+    folder = Path(predictions)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"predictions folder {folder} does not exist")
+    if folder.resolve() == manifest.root.resolve():
+        raise SubmissionError(f"the predictions folder {folder} is the export itself (its inputs have 0 in the holes); "
+                              "give the folder your method wrote")
+    proto = manifest_protocol(manifest)
+    shape = tuple(manifest.frame_shape)
+    if tuple(dataset.frame_shape) != shape:
+        raise ManifestError(f"the ground truth has frames of {dataset.frame_shape}, {manifest.path} of {shape}")
+    expected = {item.input: item for item in manifest.items}
+    # The export's own files never count as predictions (a folder nested in it, say).
+    present = {p.relative_to(folder).as_posix() for p in folder.rglob("*.png")
+               if p.is_file() and not is_inside(p, manifest.root)}
+    missing = sorted(set(expected) - present)
+    unexpected = sorted(present - set(expected))
+    if on_missing == "error" and (missing or unexpected):
+        parts = []
+        if missing:
+            parts.append(f"{len(missing)} of {len(expected)} predictions are missing under {folder}: {_listing(missing)}")
+        if unexpected:
+            parts.append(f"{len(unexpected)} PNG files there are not predictions of this manifest: {_listing(unexpected)}")
+        raise SubmissionError("; ".join(parts) + _missing_hint(manifest, unexpected)
+                              + " (write each prediction at its input's relative path, or pass --on-missing skip)")
+    if len(missing) == len(expected):
+        raise SubmissionError(f"no prediction of {manifest.path} is under {folder}{_missing_hint(manifest, unexpected)}")
+
+    by_frame: dict[int, list[Any]] = {}
+    for item in manifest.items:
+        by_frame.setdefault(item.index, []).append(item)
+    bad: list[str] = []
+    unfilled: list[str] = []
+    files: dict[str, tuple[str, str]] = {}
+    pairs: set[tuple[int, int]] = set()
+    digests: list[tuple[str, str]] = []
+    for frame in manifest.frames:
+        gt = dataset.load_batch([frame.index])[0]
+        verify_frame(manifest, frame, gt)
+        for item in by_frame.get(frame.index, []):
+            hole = proto.mask(shape, item.seed, item.index)
+            if hole_bits_sha256(hole) != item.hole_bits_sha256:
+                raise ManifestError(
+                    f"the {proto.name} mask of frame {item.index} seed {item.seed} drawn here differs from the "
+                    f"exported one ({item.hole}); score with inpaintenv {manifest.inpaintenv_version}"
+                )
+            if item.input in present:
+                path = folder / item.input
+                data = path.read_bytes()
+                raw = decode_prediction(data, item.input, shape)  # type: ignore[arg-type]
+                if isinstance(raw, str):
+                    bad.append(raw)
+                else:
+                    zeros = int(np.count_nonzero(raw[hole] == 0))
+                    if zeros and not allow_unfilled:
+                        unfilled.append(f"{item.input} ({zeros} px)")
+                    digest = hashlib.sha256(data).hexdigest()
+                    x = gt.copy()
+                    x[hole] = np.nan  # the input evaluate() builds for this (frame, seed)
+                    key = input_key(x)
+                    if key in files and files[key][1] != digest:
+                        # Two (frame, seed) pairs with one input: evaluate() cannot tell them apart.
+                        bad.append(f"{item.input} differs from {files[key][0]} made for the same input")
+                    files[key] = (str(path), digest)
+                    digests.append((item.input, digest))
+                    pairs.add((item.seed, item.index))
+            if progress is not None:
+                progress(1)
+    problems = []
+    if bad:
+        problems.append(f"{len(bad)} predictions are unusable: {_listing(bad)}")
+    if unfilled:
+        problems.append(f"{len(unfilled)} predictions leave hole pixels at 0 (unfilled): {_listing(unfilled)}; "
+                        "fill every hole pixel, or pass --allow-unfilled to score 0 as 0 m")
+    if problems:
+        raise SubmissionError("; ".join(problems))
+    h = hashlib.sha256()
+    for rel, digest in sorted(digests):
+        h.update(f"{rel}\0{digest}\n".encode())
+    method = SubmittedPredictions(name, files, pairs, identity=f"predictions:{h.hexdigest()}")
+    return CheckedPredictions(method=method, missing=missing, unexpected=unexpected)

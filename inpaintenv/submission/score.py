@@ -1,0 +1,173 @@
+"""Score a folder of predictions against the ground truth an export was made from.
+
+The submission becomes an ordinary method (:class:`~.predictions.SubmittedPredictions`) and
+is scored by :func:`inpaintenv.evaluate.evaluate` -- the same masks, rows and metrics as
+any method scored in-process -- or, with ``out_dir``, by the benchmark runner, so its rows
+land in a resumable run folder beside those of the methods scored in the same call.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+from ..data.base import DepthDataset
+from ..evaluate import EvaluationResult, evaluate
+from .manifest import Manifest, read_manifest
+from .predictions import CheckedPredictions, check_predictions
+from .truth import open_truth
+
+__all__ = ["prepare", "score", "without_ms"]
+
+
+def prepare(
+    manifest: str | os.PathLike | Manifest,
+    predictions: str | os.PathLike,
+    *,
+    name: str,
+    kitti_root: str | os.PathLike | None = None,
+    source: DepthDataset | None = None,
+    on_missing: str = "error",
+    allow_unfilled: bool = False,
+    progress: bool = False,
+) -> tuple[Manifest, DepthDataset, CheckedPredictions]:
+    """Read the manifest, open its ground truth and check every prediction (see :func:`score`).
+
+    Returns
+    -------
+    manifest : Manifest
+    dataset : DepthDataset
+        The ground truth, frames in the manifest's order.
+    checked : CheckedPredictions
+        ``checked.method`` is the submission as a method.
+    """
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    m = manifest if isinstance(manifest, Manifest) else read_manifest(manifest)
+    if kitti_root is None and source is None and m.ground_truth.get("type") == "kitti":
+        from ..data.kitti import KITTI_ROOT_ENV
+
+        kitti_root = os.environ.get(KITTI_ROOT_ENV) or None
+    dataset = open_truth(m, kitti_root, source)
+    from tqdm.auto import tqdm  # lazy: only needed when looping
+
+    with tqdm(total=len(m.items), desc="check predictions", unit="file", disable=None if progress else True,
+              leave=False) as bar:
+        checked = check_predictions(m, dataset, predictions, name=name, on_missing=on_missing,
+                                    allow_unfilled=allow_unfilled, progress=bar.update)
+    return m, dataset, checked
+
+
+def without_ms(result: EvaluationResult, name: str) -> EvaluationResult:
+    """``result`` with ``ms`` = NaN in the rows of ``name``: its time was reading files, not running a method."""
+    rows = [{**r, "ms": math.nan} if r["method"] == name else r for r in result.rows]
+    return EvaluationResult(rows=rows, meta=dict(result.meta))
+
+
+def score(
+    manifest: str | os.PathLike | Manifest,
+    predictions: str | os.PathLike,
+    *,
+    name: str = "submission",
+    kitti_root: str | os.PathLike | None = None,
+    source: DepthDataset | None = None,
+    on_missing: str = "error",
+    allow_unfilled: bool = False,
+    out_dir: str | os.PathLike | None = None,
+    methods: Mapping[str, Any] | None = None,
+    resume: bool = True,
+    batch_size: int = 4,
+    progress: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> EvaluationResult:
+    """Score the predictions in ``predictions`` for the inputs of ``manifest``.
+
+    Everything is checked before anything is scored or written: the protocol and every
+    mask against the manifest, every ground-truth frame against its recorded sha256, and
+    every prediction (present, a 16-bit single-channel PNG of the frame's size, no 0 in
+    a hole pixel). Problems with predictions are reported together in one
+    :class:`~.predictions.SubmissionError`.
+
+    Parameters
+    ----------
+    manifest : path-like or Manifest
+        ``manifest.json`` of an export, or its folder.
+    predictions : path-like
+        Folder holding one prediction per input, at the input's relative path (16-bit
+        PNG, metres × 256).
+    name : str
+        Method name of the submission in the rows.
+    kitti_root : path-like, optional
+        Root holding the ground truth of a KITTI export (default ``$INPAINTENV_KITTI_ROOT``).
+    source : DepthDataset, optional
+        The dataset of an export made in Python from a custom dataset.
+    on_missing : {"error", "skip"}
+        Missing predictions (and PNG files the manifest does not list) stop the scoring
+        ("error") or are left out ("skip"; listed in ``meta["submission"]``).
+    allow_unfilled : bool
+        Score 0 at hole pixels as 0 m instead of refusing the prediction.
+    out_dir : path-like, optional
+        Write the rows into this benchmark run folder (resumable; ``rows/``, ``run.json``)
+        through :func:`inpaintenv.benchmark.run_benchmark`. The report files are the CLI's
+        job (:func:`inpaintenv.benchmark.write_report`).
+    methods : mapping of str to method, optional
+        More methods to score on the same frames and masks in the same run (needs
+        ``out_dir``), e.g. ``{"harmonic": make_method("harmonic")}``.
+    resume : bool
+        Keep rows already in ``out_dir``.
+    batch_size : int
+        Frames per batch.
+    progress : bool
+        Progress bars on stderr (when it is a terminal).
+    log : callable, optional
+        Receives the run's messages.
+
+    Returns
+    -------
+    EvaluationResult
+        Per-frame rows as :func:`~inpaintenv.evaluate.evaluate` makes them; the
+        submission's ``ms`` is NaN (it ran elsewhere). ``meta["submission"]`` records the
+        manifest, the folder, the predictions' identity and what was missing.
+
+    Raises
+    ------
+    ManifestError, SubmissionError
+        See :func:`~.predictions.check_predictions` (both are ``ValueError``).
+    FileNotFoundError
+        A missing manifest, predictions folder or ground-truth file (named).
+    """
+    extra = dict(methods or {})
+    if name in extra:
+        raise ValueError(f"the submission's name {name!r} is also the name of a method of the run; choose another")
+    if extra and out_dir is None:
+        raise ValueError("methods= needs out_dir= (a run folder holds the rows of several methods)")
+    m, dataset, checked = prepare(manifest, predictions, name=name, kitti_root=kitti_root, source=source,
+                                  on_missing=on_missing, allow_unfilled=allow_unfilled, progress=progress)
+    say = log or (lambda msg: None)
+    if checked.missing:
+        say(f"{name}: {len(checked.missing)} missing predictions left out (--on-missing skip)")
+    method = checked.method
+    if out_dir is None:
+        parts = []
+        for seed in m.seeds:
+            indices = sorted(i for s, i in method.scored_pairs if s == seed)
+            if indices:
+                parts.append(evaluate(method, dataset, m.protocol_name, seeds=[seed], indices=indices,
+                                      batch_size=batch_size, progress=progress, name=name))
+        result = EvaluationResult.concat(parts)
+        result.meta.update({"seeds": m.seeds})
+    else:
+        from ..benchmark.runner import run_benchmark
+
+        result = run_benchmark(
+            {name: method, **extra}, dataset, protocols=[m.protocol_name], seeds=m.seeds, out_dir=Path(out_dir),
+            resume=resume, batch_size=batch_size, progress=progress, log=say,
+        )
+    result = without_ms(result, name)
+    result.meta["submission"] = {
+        "name": name, "manifest": str(m.path), "predictions": str(predictions), **checked.summary(),
+    }
+    return result

@@ -1,0 +1,189 @@
+"""The ground truth behind an export: recorded at ``export``, rebuilt and checked at ``score``.
+
+* KITTI frames are recorded by their file (relative to the KITTI root) and that file's
+  sha256; ``score`` reads exactly those files from the root it is given
+  (:class:`ManifestFrames`), so no directory scan is needed and a changed or missing file
+  is named.
+* SyntheticStreets frames are recorded by the generator's parameters and the frame's
+  position; the sha256 is of the generated float32 frame.
+* Any other dataset (Python only) is recorded by the sha256 of each float32 frame;
+  ``score`` then needs the same dataset passed in.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..data.base import ConcatDataset, DepthDataset, Subset
+from ..data.io import depth_from_uint16, read_depth_png_raw
+from ..data.kitti import KittiDepth, bottom_center_crop
+from ..data.synthetic import SyntheticStreets
+from .layout import array_sha256, file_sha256
+from .manifest import Frame, Manifest, ManifestError
+
+__all__ = ["ManifestFrames", "describe_truth", "open_truth", "verify_frame"]
+
+ARRAY_HASH = "sha256 of the float32 frame in metres, C order"
+
+
+def _leaves(ds: DepthDataset) -> list[tuple[DepthDataset, int]]:
+    """``(dataset, position)`` each frame of ``ds`` is read from, through subsets and concatenations."""
+    if isinstance(ds, Subset):
+        parent = _leaves(ds.parent)
+        return [parent[int(i)] for i in ds.indices]
+    if isinstance(ds, ConcatDataset):
+        return [leaf for part in ds.parts for leaf in _leaves(part)]
+    return [(ds, i) for i in range(len(ds))]
+
+
+def _synthetic_params(ds: SyntheticStreets) -> dict[str, Any]:
+    return {"n": ds.n, "seed": ds.seed, "kind": ds.kind, "frame_shape": list(ds.frame_shape),
+            "frames_per_drive": ds.frames_per_drive}
+
+
+def describe_truth(dataset: DepthDataset) -> tuple[dict[str, Any], list[tuple[str, dict[str, Any]]]]:
+    """How ``dataset``'s frames are rebuilt: the manifest's ``ground_truth`` and, per frame,
+    ``(split, fields)`` where ``fields`` go into its :class:`~.manifest.Frame` (all but the sha256
+    of generated frames, which the exporter computes from the frame it loads).
+    """
+    leaves = _leaves(dataset)
+    owners = {id(owner): owner for owner, _ in leaves}
+    if all(isinstance(o, KittiDepth) for o in owners.values()):
+        crops = {o.crop for o in owners.values()}
+        kinds = {o.kind for o in owners.values()}
+        if len(crops) == 1 and len(kinds) == 1:
+            crop = crops.pop()
+            record = {"type": "kitti", "kind": kinds.pop(), "crop": None if crop is None else list(crop),
+                      "hash": "sha256 of the ground-truth PNG file"}
+            per_frame = []
+            for owner, i in leaves:
+                path = owner.paths[i]
+                per_frame.append((owner.split, {
+                    "ground_truth": path.relative_to(owner.root).as_posix(), "ground_truth_sha256": file_sha256(path),
+                }))
+            return record, per_frame
+    if all(isinstance(o, SyntheticStreets) for o in owners.values()):
+        params = {repr(_synthetic_params(o)) for o in owners.values()}
+        if len(params) == 1:
+            owner = next(iter(owners.values()))
+            record = {"type": "synthetic", **_synthetic_params(owner), "hash": ARRAY_HASH}
+            return record, [("synthetic", {"position": i}) for _, i in leaves]
+    return {"type": "custom", "description": repr(dataset), "hash": ARRAY_HASH}, [("custom", {}) for _ in leaves]
+
+
+class ManifestFrames(DepthDataset):
+    """The KITTI ground truth an export lists, read from ``root`` and checked file by file.
+
+    Frames come in the manifest's order, so a frame's position (which seeds its mask) is
+    the one it had when exported.
+
+    Parameters
+    ----------
+    manifest : Manifest
+        A manifest of a KITTI export.
+    root : path-like
+        The KITTI root holding the listed files (it may differ from the export's).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``root`` is not a folder.
+    """
+
+    def __init__(self, manifest: Manifest, root: str | os.PathLike):
+        self.root = Path(root).expanduser()
+        if not self.root.is_dir():
+            raise FileNotFoundError(f"KITTI root {self.root} does not exist or is not a folder")
+        crop = manifest.ground_truth.get("crop")
+        self.crop = None if crop is None else (int(crop[0]), int(crop[1]))
+        self.frame_shape = tuple(manifest.frame_shape)  # type: ignore[assignment]
+        self.groups = np.asarray([f.drive for f in manifest.frames])
+        self.frame_ids = [f.frame_id for f in manifest.frames]
+        self._frames = list(manifest.frames)
+        self._manifest = manifest.path
+
+    def path(self, index: int) -> Path:
+        """The ground-truth file of frame ``index``."""
+        return self.root / str(self._frames[index].ground_truth)
+
+    def _load(self, index: int) -> np.ndarray:
+        path = self.path(index)
+        if not path.is_file():
+            raise FileNotFoundError(f"ground truth {path} listed in {self._manifest} is missing")
+        digest = file_sha256(path)
+        if digest != self._frames[index].ground_truth_sha256:
+            raise ManifestError(
+                f"ground truth {path} is not the file {self._manifest} was exported from (sha256 "
+                f"{digest[:12]}…, the manifest says {self._frames[index].ground_truth_sha256[:12]}…)"
+            )
+        raw = read_depth_png_raw(path)
+        if self.crop is not None:
+            raw = bottom_center_crop(raw, self.crop, name=str(path), copy=False)
+        return depth_from_uint16(raw)
+
+    def __repr__(self) -> str:
+        return f"ManifestFrames(KITTI, {len(self)} frames of {self._manifest.parent.name}, frame_shape={self.frame_shape})"
+
+
+def open_truth(manifest: Manifest, kitti_root: str | os.PathLike | None = None,
+               source: DepthDataset | None = None) -> DepthDataset:
+    """The ground truth ``manifest`` was exported from, frames in the manifest's order.
+
+    Parameters
+    ----------
+    manifest : Manifest
+    kitti_root : path-like, optional
+        Needed for a KITTI export.
+    source : DepthDataset, optional
+        The dataset a custom (Python) export was made from; checked frame by frame later
+        (:func:`verify_frame`).
+
+    Raises
+    ------
+    ValueError
+        If what the export needs is not given.
+    """
+    kind = manifest.ground_truth.get("type")
+    if source is not None:
+        from ..data.base import as_dataset
+
+        source = as_dataset(source)
+        if len(source) != len(manifest.frames):
+            raise ManifestError(f"source has {len(source)} frames, {manifest.path} lists {len(manifest.frames)}")
+        return source
+    if kind == "kitti":
+        if kitti_root is None:
+            raise ValueError(f"{manifest.path} was exported from KITTI: pass --kitti-root <KITTI root> "
+                             "(kitti_root= in Python) or set $INPAINTENV_KITTI_ROOT")
+        return ManifestFrames(manifest, kitti_root)
+    if kind == "synthetic":
+        gt = manifest.ground_truth
+        streets = SyntheticStreets(n=int(gt["n"]), seed=int(gt["seed"]), kind=str(gt["kind"]),
+                                   frame_shape=tuple(gt["frame_shape"]), frames_per_drive=int(gt["frames_per_drive"]))
+        return Subset(streets, [int(f.position) for f in manifest.frames])  # type: ignore[arg-type]
+    raise ValueError(f"{manifest.path} was exported from a Python dataset ({manifest.ground_truth.get('description')}); "
+                     "score it in Python with score(..., source=<that dataset>)")
+
+
+def verify_frame(manifest: Manifest, frame: Frame, gt: np.ndarray) -> None:
+    """Check a loaded frame of a generated or custom source against its recorded sha256.
+
+    KITTI files are checked where they are read (:class:`ManifestFrames`).
+
+    Raises
+    ------
+    ManifestError
+        Naming the frame, if it differs from the one exported.
+    """
+    if manifest.ground_truth.get("type") == "kitti":
+        return
+    digest = array_sha256(np.asarray(gt, dtype=np.float32))
+    if digest != frame.ground_truth_sha256:
+        raise ManifestError(
+            f"ground truth of frame {frame.index} ({frame.frame_id}) differs from the one {manifest.path} "
+            "was exported from: score with the data (and inpaintenv version) of the export"
+        )
