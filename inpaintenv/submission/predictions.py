@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +38,10 @@ _SHOWN = 3  # files named in a message before "and N more"
 
 class SubmissionError(ValueError):
     """Predictions that cannot be scored: missing, unexpected or unusable files (all listed)."""
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'s' * (n != 1)}"
 
 
 def _listing(paths: list[str]) -> str:
@@ -141,7 +146,7 @@ class CheckedPredictions:
 
 def _missing_hint(manifest: Manifest, unexpected: list[str]) -> str:
     """Why predictions may sit at other paths: another protocol's or export's tree."""
-    tops = sorted({p.split("/", 1)[0] for p in unexpected} - {manifest.protocol_name})
+    tops = sorted({p.split("/", 1)[0] for p in unexpected if re.match(r"[^/]+/seed_\d+/", p)} - {manifest.protocol_name})
     if tops:
         return (f"; the folder holds predictions under {', '.join(f'{t}/' for t in tops)}, this manifest's inputs are "
                 f"under {manifest.protocol_name}/: score them with the manifest of their own export")
@@ -204,16 +209,9 @@ def check_predictions(
                if p.is_file() and not is_inside(p, manifest.root)}
     missing = sorted(set(expected) - present)
     unexpected = sorted(present - set(expected))
-    if on_missing == "error" and (missing or unexpected):
-        parts = []
-        if missing:
-            parts.append(f"{len(missing)} of {len(expected)} predictions are missing under {folder}: {_listing(missing)}")
-        if unexpected:
-            parts.append(f"{len(unexpected)} PNG files there are not predictions of this manifest: {_listing(unexpected)}")
-        raise SubmissionError("; ".join(parts) + _missing_hint(manifest, unexpected)
-                              + " (write each prediction at its input's relative path, or pass --on-missing skip)")
     if len(missing) == len(expected):
-        raise SubmissionError(f"no prediction of {manifest.path} is under {folder}{_missing_hint(manifest, unexpected)}")
+        raise SubmissionError(f"none of the {len(expected)} predictions of {manifest.path} is under {folder} (the "
+                              f"first goes to {missing[0]}){_missing_hint(manifest, unexpected)}")
 
     by_frame: dict[int, list[Any]] = {}
     for item in manifest.items:
@@ -255,12 +253,22 @@ def check_predictions(
                     pairs.add((item.seed, item.index))
             if progress is not None:
                 progress(1)
+    # Every problem of the folder in one line, so one look at it says everything to fix.
     problems = []
+    if on_missing == "error" and missing:
+        problems.append(f"{_count(len(missing), 'prediction')} of {len(expected)} missing under {folder}: "
+                        f"{_listing(missing)}")
+    if on_missing == "error" and unexpected:
+        problems.append(f"{_count(len(unexpected), 'PNG file')} there {'is' if len(unexpected) == 1 else 'are'} not "
+                        f"{'a prediction' if len(unexpected) == 1 else 'predictions'} of this manifest: "
+                        f"{_listing(unexpected)}{_missing_hint(manifest, unexpected)}")
+    if problems:
+        problems[-1] += " (write each prediction at its input's relative path, or pass --on-missing skip)"
     if bad:
-        problems.append(f"{len(bad)} predictions are unusable: {_listing(bad)}")
+        problems.append(f"{_count(len(bad), 'prediction')} unusable: {_listing(bad)}")
     if unfilled:
-        problems.append(f"{len(unfilled)} predictions leave hole pixels at 0 (unfilled): {_listing(unfilled)}; "
-                        "fill every hole pixel, or pass --allow-unfilled to score 0 as 0 m")
+        problems.append(f"{_count(len(unfilled), 'prediction')} with hole pixels left at 0 (unfilled): "
+                        f"{_listing(unfilled)}; fill every hole pixel, or pass --allow-unfilled to score 0 as 0 m")
     if problems:
         raise SubmissionError("; ".join(problems))
     h = hashlib.sha256()
