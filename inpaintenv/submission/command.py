@@ -66,8 +66,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     if holdout > 0:
         dataset = _test_split(dataset, holdout)
     manifest = export(out, dataset, args.protocol, seeds, overwrite=args.overwrite, progress=not args.quiet)
-    print(f"exported {len(manifest.items)} inputs ({len(manifest.frames)} frames × {len(seeds)} "
-          f"seed{'s' * (len(seeds) != 1)}, protocol {manifest.protocol_name}) to {out}")
+    n_frames = len(manifest.frames)
+    print(f"exported {len(manifest.items)} input{'s' * (len(manifest.items) != 1)} ({n_frames} "
+          f"frame{'s' * (n_frames != 1)} × {len(seeds)} seed{'s' * (len(seeds) != 1)}, protocol "
+          f"{manifest.protocol_name}) to {out}")
     print(f"each prediction goes to <predictions>/<input's path>, e.g. {manifest.items[0].input}")
     print(f"then: inpaintenv score --manifest {manifest.path} --predictions <predictions> --name <method>")
     return 0
