@@ -21,6 +21,7 @@ import numpy as np
 
 from .._version import __version__
 from ..conventions import check_int, check_seeds
+from ..data.base import Subset
 from ..data.io import KITTI_DEPTH_SCALE, write_depth_png
 from ..evaluate import resolve_source
 from ..masks import OcclusionProtocol, get_protocol
@@ -118,8 +119,6 @@ def export(
     if n_frames is not None:
         total = min(total, check_int(n_frames, "n_frames", minimum=1))
     if total < len(dataset):
-        from ..data.base import Subset
-
         dataset = Subset(dataset, range(total))
     out = Path(out)
     replace = _prepare_out(out, overwrite)

@@ -178,6 +178,8 @@ def read_manifest(path: str | os.PathLike) -> Manifest:
             f"{p} has format version {doc.get('format_version')!r}; this inpaintenv reads version "
             f"{FORMAT_VERSION}: export again with this version"
         )
+    if not isinstance(doc.get("protocol"), dict) or "name" not in doc["protocol"]:
+        raise ManifestError(f"{p} lacks the protocol's name")
     try:
         frames = [Frame(**f) for f in doc["frames"]]
         items = [Item(**i) for i in doc["items"]]
@@ -189,7 +191,6 @@ def read_manifest(path: str | os.PathLike) -> Manifest:
             ground_truth=dict(doc["ground_truth"]), frames=frames, items=items,
             inpaintenv_version=str(doc["inpaintenv_version"]), extra={k: v for k, v in doc.items() if k not in known},
         )
-        manifest.protocol_name  # noqa: B018 - a KeyError here names the missing field
     except KeyError as exc:
         raise ManifestError(f"{p} lacks the field {exc.args[0]!r}") from None
     except (TypeError, ValueError, IndexError) as exc:

@@ -25,7 +25,7 @@ from ..data.base import DepthDataset
 from ..data.io import depth_from_uint16
 from ..masks import OcclusionProtocol, get_protocol
 from .layout import hole_bits_sha256, input_key, is_inside
-from .manifest import Manifest, ManifestError
+from .manifest import Item, Manifest, ManifestError
 from .truth import verify_frame
 
 __all__ = ["ON_MISSING", "CheckedPredictions", "SubmissionError", "SubmittedPredictions", "check_predictions",
@@ -153,6 +153,34 @@ def _missing_hint(manifest: Manifest, unexpected: list[str]) -> str:
     return ""
 
 
+def _pngs_under(folder: Path, export: Path) -> set[str]:
+    """Relative paths of the PNG files under ``folder``, leaving out an export folder inside it."""
+    inside = export.resolve().relative_to(folder.resolve()).as_posix() + "/" if is_inside(export, folder) else None
+    found = {p.relative_to(folder).as_posix() for p in folder.rglob("*.png") if p.is_file()}
+    return {p for p in found if inside is None or not p.startswith(inside)}
+
+
+def _problems(manifest: Manifest, folder: Path, n_expected: int, missing: list[str], unexpected: list[str],
+              bad: list[str], unfilled: list[str]) -> str:
+    """Every problem of a predictions folder in one line ("" if none), so one look says everything to fix."""
+    parts = []
+    if missing:
+        parts.append(f"{_count(len(missing), 'prediction')} of {n_expected} missing under {folder}: {_listing(missing)}")
+    if unexpected:
+        one = len(unexpected) == 1
+        parts.append(f"{_count(len(unexpected), 'PNG file')} there {'is' if one else 'are'} not "
+                     f"{'a prediction' if one else 'predictions'} of this manifest: {_listing(unexpected)}"
+                     f"{_missing_hint(manifest, unexpected)}")
+    if parts:
+        parts[-1] += " (write each prediction at its input's relative path, or pass --on-missing skip)"
+    if bad:
+        parts.append(f"{_count(len(bad), 'prediction')} unusable: {_listing(bad)}")
+    if unfilled:
+        parts.append(f"{_count(len(unfilled), 'prediction')} with hole pixels left at 0 (unfilled): "
+                     f"{_listing(unfilled)}; fill every hole pixel, or pass --allow-unfilled to score 0 as 0 m")
+    return "; ".join(parts)
+
+
 def check_predictions(
     manifest: Manifest,
     dataset: DepthDataset,
@@ -203,17 +231,14 @@ def check_predictions(
     shape = tuple(manifest.frame_shape)
     if tuple(dataset.frame_shape) != shape:
         raise ManifestError(f"the ground truth has frames of {dataset.frame_shape}, {manifest.path} of {shape}")
-    expected = {item.input: item for item in manifest.items}
-    # The export's own files never count as predictions (a folder nested in it, say).
-    present = {p.relative_to(folder).as_posix() for p in folder.rglob("*.png")
-               if p.is_file() and not is_inside(p, manifest.root)}
-    missing = sorted(set(expected) - present)
-    unexpected = sorted(present - set(expected))
+    expected = {item.input for item in manifest.items}
+    present = _pngs_under(folder, manifest.root)
+    missing, unexpected = sorted(expected - present), sorted(present - expected)
     if len(missing) == len(expected):
         raise SubmissionError(f"none of the {len(expected)} predictions of {manifest.path} is under {folder} (the "
                               f"first goes to {missing[0]}){_missing_hint(manifest, unexpected)}")
 
-    by_frame: dict[int, list[Any]] = {}
+    by_frame: dict[int, list[Item]] = {}
     for item in manifest.items:
         by_frame.setdefault(item.index, []).append(item)
     bad: list[str] = []
@@ -231,46 +256,33 @@ def check_predictions(
                     f"the {proto.name} mask of frame {item.index} seed {item.seed} drawn here differs from the "
                     f"exported one ({item.hole}); score with inpaintenv {manifest.inpaintenv_version}"
                 )
-            if item.input in present:
-                path = folder / item.input
-                data = path.read_bytes()
-                raw = decode_prediction(data, item.input, shape)  # type: ignore[arg-type]
-                if isinstance(raw, str):
-                    bad.append(raw)
-                else:
-                    zeros = int(np.count_nonzero(raw[hole] == 0))
-                    if zeros and not allow_unfilled:
-                        unfilled.append(f"{item.input} ({zeros} px)")
-                    digest = hashlib.sha256(data).hexdigest()
-                    x = gt.copy()
-                    x[hole] = np.nan  # the input evaluate() builds for this (frame, seed)
-                    key = input_key(x)
-                    if key in files and files[key][1] != digest:
-                        # Two (frame, seed) pairs with one input: evaluate() cannot tell them apart.
-                        bad.append(f"{item.input} differs from {files[key][0]} made for the same input")
-                    files[key] = (str(path), digest)
-                    digests.append((item.input, digest))
-                    pairs.add((item.seed, item.index))
             if progress is not None:
                 progress(1)
-    # Every problem of the folder in one line, so one look at it says everything to fix.
-    problems = []
-    if on_missing == "error" and missing:
-        problems.append(f"{_count(len(missing), 'prediction')} of {len(expected)} missing under {folder}: "
-                        f"{_listing(missing)}")
-    if on_missing == "error" and unexpected:
-        problems.append(f"{_count(len(unexpected), 'PNG file')} there {'is' if len(unexpected) == 1 else 'are'} not "
-                        f"{'a prediction' if len(unexpected) == 1 else 'predictions'} of this manifest: "
-                        f"{_listing(unexpected)}{_missing_hint(manifest, unexpected)}")
+            if item.input not in present:
+                continue
+            path = folder / item.input
+            data = path.read_bytes()
+            raw = decode_prediction(data, item.input, shape)  # type: ignore[arg-type]
+            if isinstance(raw, str):
+                bad.append(raw)
+                continue
+            zeros = int(np.count_nonzero(raw[hole] == 0))
+            if zeros and not allow_unfilled:
+                unfilled.append(f"{item.input} ({zeros} px)")
+            digest = hashlib.sha256(data).hexdigest()
+            x = gt.copy()
+            x[hole] = np.nan  # the input evaluate() builds for this (frame, seed)
+            key = input_key(x)
+            if key in files and files[key][1] != digest:
+                # Two (frame, seed) pairs with one input: evaluate() cannot tell them apart.
+                bad.append(f"{item.input} differs from {files[key][0]} made for the same input")
+            files[key] = (str(path), digest)
+            digests.append((item.input, digest))
+            pairs.add((item.seed, item.index))
+    problems = _problems(manifest, folder, len(expected), missing if on_missing == "error" else [],
+                         unexpected if on_missing == "error" else [], bad, unfilled)
     if problems:
-        problems[-1] += " (write each prediction at its input's relative path, or pass --on-missing skip)"
-    if bad:
-        problems.append(f"{_count(len(bad), 'prediction')} unusable: {_listing(bad)}")
-    if unfilled:
-        problems.append(f"{_count(len(unfilled), 'prediction')} with hole pixels left at 0 (unfilled): "
-                        f"{_listing(unfilled)}; fill every hole pixel, or pass --allow-unfilled to score 0 as 0 m")
-    if problems:
-        raise SubmissionError("; ".join(problems))
+        raise SubmissionError(problems)
     h = hashlib.sha256()
     for rel, digest in sorted(digests):
         h.update(f"{rel}\0{digest}\n".encode())

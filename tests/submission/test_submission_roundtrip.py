@@ -93,8 +93,8 @@ def test_kitti_inputs_are_the_env_observations(kitti_run):
 
 
 def test_all_pixel_metrics_are_the_kitti_devkit_formulas(kitti_run, kitti_root):
-    """RMSE and MAE in metres, iRMSE and iMAE in 1/km, over every pixel with ground truth, as
-    the devkit's evaluate_depth.cpp computes them, from the PNG files alone."""
+    """Per frame, over every pixel with ground truth, from the PNG files alone: RMSE and MAE in
+    metres, iRMSE and iMAE in 1/km (evaluate_depth.cpp's sums; it prints 1/m, the leaderboard 1/km)."""
     _, manifest, scored, _, predictions = kitti_run
     rows = {(r["seed"], r["index"]): r for r in scored.rows}
     h, w = manifest.frame_shape
