@@ -176,7 +176,9 @@ def run_benchmark(
         Display name -> callable or estimator (see :func:`inpaintenv.evaluate.evaluate`).
         Values may also be zero-argument factories marked with ``lazy=True`` attribute
         (:class:`~inpaintenv.benchmark.LazyMethod`); they are built when some frame still
-        needs scoring, or to confirm their identity on resume unless they carry one.
+        needs scoring, or to confirm their identity on resume unless they carry one. A
+        method with a ``scored_pairs`` attribute (a set of ``(seed, frame index)``, e.g. a
+        submission missing some files) is scored on those pairs only.
     source : DepthDataset, array or None
         Ground truth to score on (None: the built-in SyntheticStreets default).
     protocols : str or sequence of str
