@@ -126,7 +126,7 @@ class ManifestFrames(DepthDataset):
         return depth_from_uint16(raw)
 
     def __repr__(self) -> str:
-        return f"ManifestFrames(KITTI, {len(self)} frames of {self._manifest.parent.name}, frame_shape={self.frame_shape})"
+        return f"ManifestFrames(KITTI, {len(self)} frames, frame_shape={self.frame_shape})"
 
 
 def open_truth(manifest: Manifest, kitti_root: str | os.PathLike | None = None,

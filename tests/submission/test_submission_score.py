@@ -11,6 +11,9 @@ import numpy as np
 import pytest
 
 from inpaintenv.cli import main
+from inpaintenv.evaluate import METRIC_COLUMNS, evaluate
+from inpaintenv.submission import read_manifest
+from inpaintenv.submission.truth import open_truth
 
 pytest.importorskip("estimators.classical")
 
@@ -39,7 +42,7 @@ def rows_by_method(out):
     return doc, rows
 
 
-def test_score_writes_the_benchmark_run_folder_with_classical_rows(exported, tmp_path, capsys):
+def test_score_writes_the_benchmark_run_folder_with_classical_rows(exported, tmp_path, capsys, fill_method):
     out = tmp_path / "run"
     argv = score_argv(exported, exported / "predictions", out, "-m", "harmonic", "--figure-frames", "1")
     assert main(argv) == 0
@@ -53,6 +56,13 @@ def test_score_writes_the_benchmark_run_folder_with_classical_rows(exported, tmp
     assert doc["meta"]["command"].startswith("inpaintenv score")
     assert doc["meta"]["submission"]["missing"] == [] and doc["meta"]["submission"]["identity"].startswith("predictions:")
     assert set(rows["telea-script"]) == set(rows["harmonic"]) and len(rows["harmonic"]) == 16
+    # The submission's rows are evaluate()'s of the same method, bit for bit (through JSON).
+    manifest = read_manifest(exported / "inputs")
+    reference = evaluate(fill_method, open_truth(manifest), "rect-v1", manifest.seeds, progress=False)
+    for ref in reference.rows:
+        row = rows["telea-script"][(ref["seed"], ref["index"])]
+        assert [row[c] for c in ("frame_id", "hole_fraction", *METRIC_COLUMNS)] == [
+            ref[c] for c in ("frame_id", "hole_fraction", *METRIC_COLUMNS)]
     # The classical rows are exactly those `inpaintenv benchmark` makes on the same data.
     bench = tmp_path / "bench"
     assert main(["benchmark", *DATA, "-m", "harmonic", "--seed", "0", "--seed", "1", "--figure-frames", "0",
