@@ -126,9 +126,8 @@ def cmd_score(args: argparse.Namespace) -> int:
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, build_method
     from ..conventions import check_int
-    from ..evaluate import EvaluationResult
     from ..method_options import check_method_names
-    from .score import prepare, without_ms
+    from .score import prepare, submission_meta, without_ms
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # Every option, the manifest, the ground truth and every prediction are checked before
@@ -148,8 +147,7 @@ def cmd_score(args: argparse.Namespace) -> int:
         on_missing=args.on_missing, allow_unfilled=args.allow_unfilled, progress=not args.quiet,
     )
     if checked.missing or checked.unexpected:
-        log(f"{args.name}: left out {len(checked.missing)} missing predictions and ignored "
-            f"{len(checked.unexpected)} unlisted PNG files (--on-missing skip); results.json lists them")
+        log(f"{args.name}: {checked.left_out()} (--on-missing skip); results.json lists them")
     run_methods = {args.name: checked.method, **methods}
     protocol, seeds = manifest.protocol_name, manifest.seeds
     with run_lock(out, log):
@@ -157,11 +155,10 @@ def cmd_score(args: argparse.Namespace) -> int:
             run_methods, dataset, protocols=[protocol], seeds=seeds, out_dir=out, resume=not args.no_resume,
             batch_size=args.batch_size, progress=not args.quiet, log=log,
         )
-        report = without_ms(result, args.name)
-        submission = {"name": args.name, "manifest": str(manifest.path), "predictions": str(args.predictions),
-                      **checked.summary()}
+        report = without_ms(result, args.name)  # the rows keep the time spent reading the files
         command = "inpaintenv " + " ".join(getattr(args, "argv", []))
-        paths = write_report(report, out, meta={"command": command, "submission": submission})
+        paths = write_report(report, out, meta={
+            "command": command, "submission": submission_meta(args.name, manifest, args.predictions, checked)})
         table = summary_table(report)
         print(to_markdown(table))
         headline = headline_markdown(learned_vs_classical(report))
@@ -170,12 +167,9 @@ def cmd_score(args: argparse.Namespace) -> int:
         if args.figure_frames > 0:
             # Panels only of frames the submission has a prediction for under the first seed.
             absent = {i for i in range(len(dataset)) if (seeds[0], i) not in checked.method.scored_pairs}
-            # The figures' time estimate reads ms; the submission's reading time is close to 0.
-            timed = EvaluationResult(rows=[{**r, "ms": 0.0} if r["method"] == args.name else r for r in result.rows],
-                                     meta=result.meta)
             fig_dir = out / "figures"
             write_figures(
-                timed, {n: (lambda m=m: m() if getattr(m, "lazy", False) else m) for n, m in run_methods.items()},
+                result, {n: (lambda m=m: m() if getattr(m, "lazy", False) else m) for n, m in run_methods.items()},
                 dataset, fig_dir, panel_methods=list(_figure_methods(table, run_methods)), n_panels=args.figure_frames,
                 protocol=protocol, seed=seeds[0], log=log, exclude=absent,
             )

@@ -138,6 +138,11 @@ class CheckedPredictions:
     missing: list[str] = field(default_factory=list)
     unexpected: list[str] = field(default_factory=list)
 
+    def left_out(self) -> str:
+        """What ``on_missing="skip"`` left out, in words."""
+        return (f"left out {_count(len(self.missing), 'missing prediction')}, ignored "
+                f"{_count(len(self.unexpected), 'unlisted PNG file')}")
+
     def summary(self) -> dict[str, Any]:
         """JSON record of the submission for ``results.json``."""
         return {"identity": self.method.identity, "scored": len(self.method.scored_pairs),

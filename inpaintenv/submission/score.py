@@ -20,7 +20,7 @@ from .manifest import Manifest, read_manifest
 from .predictions import CheckedPredictions, check_predictions
 from .truth import open_truth
 
-__all__ = ["prepare", "score", "without_ms"]
+__all__ = ["prepare", "score", "submission_meta", "without_ms"]
 
 
 def prepare(
@@ -59,6 +59,12 @@ def prepare(
         checked = check_predictions(m, dataset, predictions, name=name, on_missing=on_missing,
                                     allow_unfilled=allow_unfilled, progress=bar.update)
     return m, dataset, checked
+
+
+def submission_meta(name: str, manifest: Manifest, predictions: str | os.PathLike,
+                    checked: CheckedPredictions) -> dict[str, Any]:
+    """``meta["submission"]`` of a scored folder: where it came from, its identity, what was left out."""
+    return {"name": name, "manifest": str(manifest.path), "predictions": str(predictions), **checked.summary()}
 
 
 def without_ms(result: EvaluationResult, name: str) -> EvaluationResult:
@@ -147,8 +153,8 @@ def score(
     m, dataset, checked = prepare(manifest, predictions, name=name, kitti_root=kitti_root, source=source,
                                   on_missing=on_missing, allow_unfilled=allow_unfilled, progress=progress)
     say = log or (lambda msg: None)
-    if checked.missing:
-        say(f"{name}: {len(checked.missing)} missing predictions left out (--on-missing skip)")
+    if checked.missing or checked.unexpected:
+        say(f"{name}: {checked.left_out()} (on_missing='skip')")
     method = checked.method
     if out_dir is None:
         parts = []
@@ -167,7 +173,5 @@ def score(
             resume=resume, batch_size=batch_size, progress=progress, log=say,
         )
     result = without_ms(result, name)
-    result.meta["submission"] = {
-        "name": name, "manifest": str(m.path), "predictions": str(predictions), **checked.summary(),
-    }
+    result.meta["submission"] = submission_meta(name, m, predictions, checked)
     return result
