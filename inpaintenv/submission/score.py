@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data.base import DepthDataset
+from ..data.kitti import KITTI_ROOT_ENV
 from ..evaluate import EvaluationResult, evaluate
 from .manifest import Manifest, read_manifest
 from .predictions import CheckedPredictions, check_predictions
@@ -34,7 +35,9 @@ def prepare(
     allow_unfilled: bool = False,
     progress: bool = False,
 ) -> tuple[Manifest, DepthDataset, CheckedPredictions]:
-    """Read the manifest, open its ground truth and check every prediction (see :func:`score`).
+    """Read the manifest, open its ground truth and check every prediction.
+
+    The parameters are those of :func:`score`; nothing is scored or written.
 
     Returns
     -------
@@ -48,8 +51,6 @@ def prepare(
         raise ValueError(f"name must be a non-empty string, got {name!r}")
     m = manifest if isinstance(manifest, Manifest) else read_manifest(manifest)
     if kitti_root is None and source is None and m.ground_truth.get("type") == "kitti":
-        from ..data.kitti import KITTI_ROOT_ENV
-
         kitti_root = os.environ.get(KITTI_ROOT_ENV) or None
     dataset = open_truth(m, kitti_root, source)
     from tqdm.auto import tqdm  # lazy: only needed when looping
