@@ -127,7 +127,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from ..benchmark.suites import LazyMethod, build_method
     from ..conventions import check_int
     from ..method_options import check_method_names
-    from .score import prepare, submission_meta, without_ms
+    from .score import check_run_folder, prepare, submission_meta, without_ms
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # Every option, the manifest, the ground truth and every prediction are checked before
@@ -148,6 +148,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     )
     if checked.missing or checked.unexpected:
         log(f"{args.name}: {checked.left_out()} (--on-missing skip); results.json lists them")
+    out = check_run_folder(out, manifest, args.predictions)
     run_methods = {args.name: checked.method, **methods}
     protocol, seeds = manifest.protocol_name, manifest.seeds
     with run_lock(out, log):

@@ -17,11 +17,12 @@ from typing import Any
 from ..data.base import DepthDataset
 from ..data.kitti import KITTI_ROOT_ENV
 from ..evaluate import EvaluationResult, evaluate
+from .layout import is_inside
 from .manifest import Manifest, read_manifest
 from .predictions import CheckedPredictions, check_predictions
 from .truth import open_truth
 
-__all__ = ["prepare", "score", "submission_meta", "without_ms"]
+__all__ = ["check_run_folder", "prepare", "score", "submission_meta", "without_ms"]
 
 
 def prepare(
@@ -60,6 +61,23 @@ def prepare(
         checked = check_predictions(m, dataset, predictions, name=name, on_missing=on_missing,
                                     allow_unfilled=allow_unfilled, progress=bar.update)
     return m, dataset, checked
+
+
+def check_run_folder(out: str | os.PathLike, manifest: Manifest, predictions: str | os.PathLike) -> Path:
+    """``out`` as a Path if it may hold the run: not a file, outside the export and the predictions.
+
+    Raises
+    ------
+    ValueError
+        Naming the folder it lies in (its figures would become unlisted PNG files there).
+    """
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"--out {path} is a file; give a folder for the run")
+    for folder, what in ((manifest.root, "export"), (Path(predictions), "predictions")):
+        if is_inside(path, folder):
+            raise ValueError(f"--out {path} lies in the {what} folder {folder}; give a run folder outside it")
+    return path
 
 
 def submission_meta(name: str, manifest: Manifest, predictions: str | os.PathLike,
@@ -169,6 +187,7 @@ def score(
     else:
         from ..benchmark.runner import run_benchmark
 
+        out_dir = check_run_folder(out_dir, m, predictions)
         result = run_benchmark(
             {name: method, **extra}, dataset, protocols=[m.protocol_name], seeds=m.seeds, out_dir=Path(out_dir),
             resume=resume, batch_size=batch_size, progress=progress, log=say,

@@ -174,6 +174,16 @@ def test_the_export_itself_is_not_a_submission(exported, tmp_path, capsys):
     assert len(err.splitlines()) == 1 and "is the export itself" in err
 
 
+@pytest.mark.parametrize("inside", ["inputs", "predictions"])
+def test_the_run_folder_stays_out_of_the_export_and_the_predictions(exported, capsys, inside):
+    # Its figures would otherwise be PNG files the next check finds among the predictions.
+    out = exported / inside / "run"
+    assert main(score_argv(exported, exported / "predictions", out)) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "give a run folder outside it" in err
+    assert not out.exists()
+
+
 def test_a_protocol_changed_since_the_export_is_refused(exported, tmp_path, capsys):
     shutil.copytree(exported / "inputs", tmp_path / "inputs")
     path = tmp_path / "inputs" / "manifest.json"
