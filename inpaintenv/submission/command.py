@@ -113,7 +113,10 @@ def add_score(subparsers: Any, add_common_options: Callable) -> None:
 
 
 def _score_interrupted(args: argparse.Namespace) -> str:
-    return f"the rows scored so far are kept in {Path(args.out) / 'rows'}; rerun the same command to resume"
+    rows = Path(args.out) / "rows"
+    if not rows.is_dir():  # stopped while the predictions were being checked
+        return "nothing was written"
+    return f"the rows scored so far are kept in {rows}; rerun the same command to resume"
 
 
 def cmd_score(args: argparse.Namespace) -> int:
