@@ -115,6 +115,7 @@ class Manifest:
 
     @property
     def protocol_name(self) -> str:
+        """The protocol's name, e.g. ``"rect-v1"`` (the top folder of every exported file)."""
         return str(self.protocol["name"])
 
     def read_input(self, item: Item) -> np.ndarray:
