@@ -49,7 +49,8 @@ def check_inpaint_input(X: Any, *, require_hole: bool = True) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        float32 array; the input itself when it already is float32 (never modified).
+        C-contiguous float32 array (so the input's memory layout never changes a
+        result); the input itself when it already is one (never modified).
     """
     arr = check_depth(X, name="X", allow_nan=True)
     if require_hole and not np.isnan(arr).any():

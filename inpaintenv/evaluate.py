@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ._version import __version__
-from .conventions import DEFAULT_MAX_DEPTH, check_int, check_max_depth, check_seeds
+from .conventions import DEFAULT_MAX_DEPTH, as_depth_array, check_int, check_max_depth, check_seeds
 from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
 from .metrics import frame_metrics
@@ -125,16 +125,17 @@ def resolve_source(source: Any = None) -> DepthDataset:
 def _check_output(out: Any, expected: tuple[int, ...], name: str) -> np.ndarray:
     """Validate a method's reconstruction; errors name the method."""
     try:
-        arr = np.asarray(out)
+        # The input rule of the whole package: a float array, never an integer (an
+        # 8-bit image), masked or sparse one.
+        arr = as_depth_array(out, "output")
+    except TypeError as exc:
+        raise MethodOutputError(f"method {name!r}: {exc}") from None
     except Exception as exc:  # e.g. a ragged list
         raise MethodOutputError(f"method {name!r} returned something that is not an array: {exc}") from exc
-    if arr.dtype == object or arr.dtype == np.bool_ or not (
-        np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
-    ):
-        raise MethodOutputError(f"method {name!r} returned dtype {arr.dtype}; expected depth in metres")
     if arr.shape != expected:
         raise MethodOutputError(f"method {name!r} returned shape {arr.shape}, expected {expected}")
-    arr = arr.astype(np.float32, copy=False)
+    with np.errstate(over="ignore"):  # float64 beyond float32's range: reported as inf
+        arr = arr.astype(np.float32, copy=False)
     finite = np.isfinite(arr)
     if not finite.all():
         raise MethodOutputError(

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask, check_max_depth
+from .conventions import DEFAULT_MAX_DEPTH, as_depth_array, check_depth, check_mask, check_max_depth
 
 __all__ = [
     "DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "ScoredPixels", "aggregate", "depth_binned_errors", "frame_metrics",
@@ -180,12 +180,10 @@ def _check_inputs(pred: np.ndarray, gt: np.ndarray, hole: np.ndarray) -> tuple[n
 
 
 def _check_pred(pred: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``pred`` as an array after checking its shape (the ground truth's) and numeric dtype."""
-    pred_arr = np.asarray(pred)
+    """``pred`` as an array after checking its dtype (:func:`~inpaintenv.conventions.as_depth_array`) and shape."""
+    pred_arr = as_depth_array(pred, "prediction")
     if pred_arr.shape != shape:
         raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {shape}")
-    if not (np.issubdtype(pred_arr.dtype, np.floating) or np.issubdtype(pred_arr.dtype, np.integer)):
-        raise TypeError(f"prediction must be numeric, got dtype {pred_arr.dtype}")
     return pred_arr
 
 

@@ -7,6 +7,7 @@ import pytest
 
 from inpaintenv.conventions import (
     DEPTH_LIMIT,
+    MIN_DEPTH,
     MIN_FRAME_SIDE,
     check_depth,
     check_int,
@@ -28,10 +29,54 @@ def test_corrupt_marks_holes_with_nan_and_keeps_input():
     assert not np.isnan(gt).any()
 
 
-def test_check_depth_converts_integers_and_keeps_float32_without_copy():
+def test_check_depth_keeps_float32_without_copy_and_converts_other_floats():
     a = np.ones((2, 2), np.float32)
     assert check_depth(a) is a
-    assert check_depth(np.ones((2, 2), np.uint16)).dtype == np.float32
+    for dtype in (np.float16, np.float64):
+        assert check_depth(np.ones((2, 2), dtype)).dtype == np.float32
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int32, np.int64])
+def test_check_depth_refuses_integer_depth(dtype):
+    # One rule everywhere (issue 24): integer depth is an 8-bit image, PNG codes or mm.
+    with pytest.raises(TypeError, match=rf"X has integer dtype {np.dtype(dtype).name}; depth is floating-point metres"):
+        check_depth(np.ones((8, 8), dtype), name="X")
+
+
+@pytest.mark.parametrize("order", ["F", "strided"])
+def test_check_depth_returns_c_contiguous_depth(order):
+    x = np.arange(2 * 8 * 12, dtype=np.float32).reshape(2, 8, 12)
+    given = np.asfortranarray(x) if order == "F" else np.repeat(x, 2, axis=2)[:, :, ::2]
+    out = check_depth(given)
+    assert out.flags.c_contiguous
+    np.testing.assert_array_equal(out, x)
+
+
+def test_check_depth_refuses_scipy_sparse():
+    from scipy import sparse
+
+    with pytest.raises(TypeError, match=r"X is a scipy.sparse csr_matrix; depth maps are dense arrays: pass X.toarray\(\)"):
+        check_depth(sparse.csr_matrix(np.eye(8)), name="X")
+
+
+@pytest.mark.parametrize("tiny", [1e-30, 1e-42, 5e-4, 1e-50])
+def test_check_depth_refuses_depth_below_the_physical_floor(tiny):
+    # 1e-42 is a float32 subnormal, 1e-50 is 0 in float32 (a float64 input is checked as given).
+    x = np.full((8, 8), 10.0)
+    x[0, :3] = 0.0
+    x[3, 4] = tiny
+    with pytest.raises(ValueError, match=rf"X has 1 pixels of positive depth below 0.001 m \(smallest {tiny:.3g} m\)"):
+        check_depth(x, name="X", allow_nan=True)
+    assert MIN_DEPTH == 1e-3
+    x[3, 4] = MIN_DEPTH
+    check_depth(x)
+
+
+def test_check_depth_reports_a_float32_overflow_as_too_deep_not_infinite():
+    x = np.full((8, 8), 1e39)  # float64: inf once cast to float32
+    x[0, 0] = np.nan
+    with pytest.raises(ValueError, match=r"X has depth up to 1e\+39 m, above 255.996 m, the most a KITTI 16-bit PNG can hold$"):
+        check_depth(x, name="X", allow_nan=True)
 
 
 @pytest.mark.parametrize(
@@ -111,8 +156,10 @@ def test_check_depth_refuses_frames_smaller_than_the_minimum(shape):
 
 def test_check_depth_refuses_raw_png_codes():
     raw = np.full((3, 4), 15359, dtype=np.uint16)  # 60 m stored as metres x 256
-    with pytest.raises(ValueError, match=r"X has depth up to 15359 m, above 255.996 m.*divide by 256"):
+    with pytest.raises(TypeError, match=r"X has integer dtype uint16.*divide by 256"):
         check_depth(raw, name="X")
+    with pytest.raises(ValueError, match=r"X has depth up to 1.536e\+04 m, above 255.996 m.*divide by 256"):
+        check_depth(raw.astype(np.float32), name="X")
     # The largest encodable depth itself is fine.
     assert check_depth(np.full((2, 2), DEPTH_LIMIT)).max() == pytest.approx(DEPTH_LIMIT)
 

@@ -158,6 +158,9 @@ def test_method_cannot_corrupt_later_frames_by_writing_input(gt_ds):
         (lambda x: np.zeros((3, 3)), "shape"),
         (lambda x: -np.ones_like(x), "negative"),
         (lambda x: np.full(x.shape, "a"), "dtype"),
+        # One input rule everywhere (issue 24): the env and the loader refuse these too.
+        (lambda x: np.nan_to_num(x, nan=5.0).astype(np.uint8), "output has integer dtype uint8"),
+        (lambda x: np.ma.masked_invalid(x).filled(5.0).view(np.ma.MaskedArray), "output is a numpy masked array"),
     ],
 )
 def test_bad_output_names_method(gt_ds, bad, match):
@@ -217,10 +220,24 @@ def test_channel_axis_source_is_refused(small_gt):
         evaluate(lambda x: np.nan_to_num(x, nan=1.0), small_gt[0][..., None], progress=False)
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int64])
+def test_integer_source_is_refused_like_an_8bit_png(small_gt, dtype):
+    # An 8-bit (N, H, W) source used to be scored (hole RMSE 92.2); the loader refuses 8-bit PNGs.
+    with pytest.raises(TypeError, match=f"frames has integer dtype {np.dtype(dtype).name}; depth is floating-point"):
+        evaluate(lambda x: np.nan_to_num(x, nan=1.0), np.rint(small_gt).astype(dtype), progress=False)
+
+
+def test_masked_source_is_refused(small_gt):
+    with pytest.raises(TypeError, match="frames is a numpy masked array"):
+        evaluate(lambda x: np.nan_to_num(x, nan=1.0), np.ma.masked_equal(small_gt, 0.0), progress=False)
+
+
 def test_raw_png_codes_are_refused(small_gt):
     raw = np.rint(small_gt * 256).astype(np.uint16)
+    with pytest.raises(TypeError, match="integer dtype uint16.*divide by 256"):
+        evaluate(lambda x: np.nan_to_num(x, nan=1.0), raw, progress=False)
     with pytest.raises(ValueError, match="divide by 256"):
-        evaluate(lambda x: np.nan_to_num(x, nan=0.0), raw, progress=False)
+        evaluate(lambda x: np.nan_to_num(x, nan=1.0), raw.astype(np.float32), progress=False)
 
 
 class _Unchecked(DepthDataset):

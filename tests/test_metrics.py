@@ -224,7 +224,7 @@ def test_max_depth_must_be_finite_and_positive(max_depth, error):
 
 
 def test_raw_png_codes_as_ground_truth_are_refused():
-    raw = np.full((3, 3), 15359, np.uint16)
+    raw = np.full((3, 3), 15359.0, np.float32)
     with pytest.raises(ValueError, match="divide by 256"):
         frame_metrics(np.ones((3, 3), np.float32), raw, np.ones((3, 3), bool))
 

@@ -37,6 +37,7 @@ from gymnasium import spaces
 from ..conventions import (
     DEFAULT_MAX_DEPTH,
     DEPTH_LIMIT,
+    as_depth_array,
     check_int,
     check_max_depth,
     in_depth_range,
@@ -243,7 +244,7 @@ class DepthInpaintEnv(gym.Env):
         Raises
         ------
         TypeError
-            If ``action`` is not a floating-point array.
+            If ``action`` is not a plain floating-point array (integer, masked, sparse).
         ValueError
             On a wrong shape, NaN/inf, negative depth or depth above ``DEPTH_LIMIT``.
         RuntimeError
@@ -287,11 +288,9 @@ class DepthInpaintEnv(gym.Env):
         return self.dataset.checked_frame(index, f"frame {index}")
 
     def _check_action(self, action: Any) -> np.ndarray:
-        arr = np.asarray(action)
-        if arr.dtype == object or not np.issubdtype(arr.dtype, np.floating):
-            raise TypeError(
-                f"action must be a float array of depth in metres (float32), got dtype {arr.dtype}"
-            )
+        # The package's one input rule: a plain float array (masked arrays, integers,
+        # sparse matrices are refused as everywhere else).
+        arr = as_depth_array(action, "action")
         if arr.shape != self.frame_shape:
             raise ValueError(f"action has shape {arr.shape}, expected {self.frame_shape}")
         # Checked as the action space holds it: float64 values are rounded to float32

@@ -153,7 +153,11 @@ def _one_pixel(value, dtype=np.float32):
         (_one_pixel(DEPTH_LIMIT + 1.0), ValueError, "bound"),
         (_one_pixel(1e300, np.float64), ValueError, "bound"),  # inf once stored as float32
         (np.ones(SHAPE, np.int32), TypeError, "dtype"),
+        (np.ones(SHAPE, np.uint8), TypeError, "action has integer dtype uint8"),
         (np.ones(SHAPE, bool), TypeError, "dtype"),
+        # Scored on the data under the mask until issue 24; refused as everywhere else.
+        (np.ma.masked_array(np.full(SHAPE, 5.0, np.float32), mask=np.eye(*SHAPE, dtype=bool)), TypeError,
+         "action is a numpy masked array"),
         ("deep", TypeError, "dtype"),
     ],
 )

@@ -148,6 +148,25 @@ def test_readonly_memmap_input(estimator, gt, x, tmp_path):
     np.testing.assert_array_equal(est.predict(ro), est.predict(x))
 
 
+def _layouts(x: np.ndarray) -> dict[str, np.ndarray]:
+    """``x``'s values in C order, Fortran order and as a strided view of a larger array."""
+    big = np.zeros((x.shape[0], 2 * x.shape[1], 3 * x.shape[2]), x.dtype)
+    strided = big[:, ::2, ::3]
+    strided[:] = x
+    return {"C": np.ascontiguousarray(x), "F": np.asfortranarray(x), "strided": strided,
+            "transposed": np.ascontiguousarray(np.swapaxes(x, 1, 2)).swapaxes(1, 2)}
+
+
+@estimator_param
+def test_memory_layout_gives_identical_bits(estimator, gt, x):
+    # Issue 24: Fortran-ordered input changed harmonic's output by up to 1.9e-6 m.
+    est = fitted(estimator, gt)
+    want = est.predict(x)
+    for layout, given in _layouts(x).items():
+        np.testing.assert_array_equal(est.predict(given), want, err_msg=layout)
+        np.testing.assert_array_equal(est.predict(given[1]), want[1], err_msg=f"{layout}, one frame")
+
+
 @estimator_param
 def test_batch_equals_per_frame(estimator, gt, x):
     est = fitted(estimator, gt)
@@ -188,6 +207,12 @@ def test_frame_without_measurements(estimator, gt):
     assert np.isfinite(out).all() and (out >= 0).all()
 
 
+def _sparse_eye():
+    from scipy import sparse
+
+    return sparse.csr_matrix(np.eye(8))
+
+
 @estimator_param
 @pytest.mark.parametrize(
     "bad, error, match",
@@ -201,9 +226,17 @@ def test_frame_without_measurements(estimator, gt):
         (np.array([[np.nan, np.inf], [1.0, 2.0]]), ValueError, "infinite"),
         (np.array([[np.nan, -1.0], [1.0, 2.0]]), ValueError, "negative"),
         (np.ones((4, 4), np.float32), ValueError, "no NaN"),
-        (np.ones((4, 4), np.int64), ValueError, "no NaN"),
+        (np.ones((4, 4), np.int64), TypeError, "integer dtype int64"),
+        (np.full((8, 8), 7, np.uint8), TypeError, "integer dtype uint8"),
+        (np.ma.masked_invalid(np.full((8, 8), np.nan)), TypeError, "masked array"),
+        # 1e39 overflows float32: the message says what is really wrong, not "infinite".
+        (np.where(np.eye(8, dtype=bool), np.nan, 1e39), ValueError, r"depth up to 1e\+39 m, above 255.996 m"),
+        (np.where(np.eye(8, dtype=bool), np.nan, 1e-30), ValueError, "below 0.001 m"),
+        (np.where(np.eye(8, dtype=bool), np.nan, 1e-42).astype(np.float32), ValueError, "below 0.001 m"),
+        (_sparse_eye(), TypeError, r"scipy.sparse csr_matrix; depth maps are dense arrays: pass X.toarray\(\)"),
     ],
-    ids=["1d", "4d", "empty", "bool", "object", "complex", "inf", "negative", "no-nan", "int-no-nan"],
+    ids=["1d", "4d", "empty", "bool", "object", "complex", "inf", "negative", "no-nan", "int64", "uint8", "masked",
+         "float32-overflow", "tiny", "subnormal", "sparse"],
 )
 def test_predict_validation(estimator, gt, bad, error, match):
     est = fitted(estimator, gt)
