@@ -6,6 +6,12 @@ surface, dilate with a 5×5 diamond, close small gaps, fill small holes (7×7), 
 the top-most measurement of each column upwards, fill large holes (31×31), then a
 median and a Gaussian (or bilateral) blur, and invert back. Holes wider than the
 kernels (large occlusions) would stay empty, so a fallback fills what is left.
+
+One difference from the published code (``ip_basic/depth_map_utils.py``,
+``fill_in_fast``): there the 31×31 large-hole fill runs only with ``extrapolate=True``;
+here ``large_hole_kernel`` runs it either way (kept: the tuned defaults and every
+published number of ``ipbasic`` use it). ``large_hole_kernel=None`` follows the
+published code (large-hole fill only when extrapolating).
 """
 
 from __future__ import annotations
@@ -25,6 +31,8 @@ DIAMOND_KERNEL_5 = np.array(
     [[0, 0, 1, 0, 0], [0, 1, 1, 1, 0], [1, 1, 1, 1, 1], [0, 1, 1, 1, 0], [0, 0, 1, 0, 0]],
     dtype=np.uint8,
 )
+#: The published code's large-hole kernel (``FULL_KERNEL_31``).
+PUBLISHED_LARGE_KERNEL = 31
 BLURS = ("gaussian", "bilateral", "none")
 FALLBACKS = ("scanline", "nearest", "harmonic")
 
@@ -58,8 +66,12 @@ class IPBasicInpainter(ClassicalInpainter):
         the max of a dilation picks the nearer surface. Measured depth must stay below
         ``max_depth - 0.1`` (the smallest inverted value kept apart from "empty");
         ``predict`` raises ``ValueError`` on deeper input rather than clip it.
-    large_hole_kernel : int, default=31
-        Size of the square kernel of the large-hole fill (odd).
+    large_hole_kernel : int or None, default=31
+        Size of the square kernel of the large-hole fill (odd), run whether or not
+        ``extrapolate`` is set -- unlike the published ``fill_in_fast``, which runs its
+        31×31 fill only when extrapolating. None follows the published code: a 31×31
+        fill with ``extrapolate=True``, none without (what stays empty goes to
+        ``fallback``).
     extrapolate : bool, default=False
         Extend each column's top-most value to the top of the image (the paper's step;
         off by default because it scored worse on the tuning drive, see
@@ -77,7 +89,7 @@ class IPBasicInpainter(ClassicalInpainter):
     """
 
     def __init__(
-        self, *, max_depth: float = 100.0, large_hole_kernel: int = 31, extrapolate: bool = False,
+        self, *, max_depth: float = 100.0, large_hole_kernel: int | None = 31, extrapolate: bool = False,
         blur: str = "gaussian", fallback: str = "harmonic", keep_observed: bool = True,
         n_jobs: int | None = None,
     ):
@@ -94,7 +106,8 @@ class IPBasicInpainter(ClassicalInpainter):
         self._check_positive("max_depth")
         if self.max_depth <= 0.1:
             raise ValueError(f"IPBasicInpainter: max_depth must exceed 0.1 m, got {self.max_depth!r}")
-        self._check_int("large_hole_kernel", 1, odd=True)
+        if self.large_hole_kernel is not None:
+            self._check_int("large_hole_kernel", 1, odd=True)
         self._check_bool("extrapolate")
         self._check_option("blur", BLURS)
         self._check_option("fallback", FALLBACKS)
@@ -125,7 +138,12 @@ class IPBasicInpainter(ClassicalInpainter):
         d = _fill_empty(d, 7)
         if self.extrapolate:
             d = _extend_to_top(d)
-        d = _fill_empty(d, self.large_hole_kernel)
+        kernel = self.large_hole_kernel
+        if kernel is None:
+            # The published fill_in_fast: the large fill belongs to the extrapolation step.
+            kernel = PUBLISHED_LARGE_KERNEL if self.extrapolate else None
+        if kernel is not None:
+            d = _fill_empty(d, kernel)
         empty = ~(d > 0)
         if empty.any():
             fillers = {"scanline": scanline_fill, "nearest": nearest_fill, "harmonic": harmonic_fill}

@@ -174,6 +174,48 @@ def test_ipbasic_fills_holes_wider_than_its_kernels():
     np.testing.assert_allclose(out, 12.0, atol=1e-3)
 
 
+def _published_fast_fill(depth: np.ndarray, max_depth: float = 100.0) -> np.ndarray:
+    """IP-Basic's published fast fill without extrapolation, Gaussian blur, from its description."""
+    import cv2
+
+    d = depth.copy()
+    valid = d > 0.1
+    d[valid] = max_depth - d[valid]
+    d = cv2.dilate(d, np.array([[0, 0, 1, 0, 0], [0, 1, 1, 1, 0], [1] * 5, [0, 1, 1, 1, 0], [0, 0, 1, 0, 0]], np.uint8))
+    d = cv2.morphologyEx(d, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
+    empty = d < 0.1
+    d[empty] = cv2.dilate(d, np.ones((7, 7), np.uint8))[empty]
+    # No large-hole fill without extrapolation.
+    d = cv2.medianBlur(d, 5)
+    valid = d > 0.1
+    d[valid] = cv2.GaussianBlur(d, (5, 5), 0)[valid]
+    valid = d > 0.1
+    d[valid] = max_depth - d[valid]
+    return d
+
+
+def test_ipbasic_large_hole_kernel_none_follows_the_published_code():
+    rng = np.random.default_rng(3)
+    depth = (np.linspace(40.0, 5.0, 64, dtype=np.float32)[:, None] + rng.uniform(0, 2, (64, 96))).astype(np.float32)
+    depth[rng.random(depth.shape) < 0.5] = 0.0
+    # A small hole: the 7x7 fill closes it, so the published code fills every pixel.
+    small = _holed(depth, 30, 40, 6, 6)
+    want = _published_fast_fill(np.nan_to_num(small, nan=0.0))
+    assert (want > 0).all()
+    got = IPBasicInpainter(large_hole_kernel=None, keep_observed=False).predict(small)
+    np.testing.assert_array_equal(got, want)
+    # A hole wider than the 7x7 fill: the published code runs its 31x31 fill only when
+    # extrapolating (issue 24); None does the same and leaves the rest to the fallback.
+    wide = _holed(depth, 10, 20, 40, 50)
+    published = IPBasicInpainter(large_hole_kernel=None, fallback="nearest").predict(wide)
+    np.testing.assert_array_equal(published, IPBasicInpainter(large_hole_kernel=1, fallback="nearest").predict(wide))
+    assert not np.array_equal(published, IPBasicInpainter(fallback="nearest").predict(wide))
+    np.testing.assert_array_equal(
+        IPBasicInpainter(large_hole_kernel=None, extrapolate=True).predict(wide),
+        IPBasicInpainter(large_hole_kernel=31, extrapolate=True).predict(wide),
+    )
+
+
 def test_ipbasic_prefers_the_nearer_surface_at_a_depth_edge():
     depth = np.full((40, 40), 30.0, np.float32)
     depth[:, 20:] = 5.0
