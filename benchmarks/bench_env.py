@@ -122,7 +122,7 @@ def vector_loop(dataset: ArrayDataset, mode: str, steps: int, num_envs: int = 2)
     """``gym.make_vec`` with same-step autoreset: every step ends ``num_envs`` episodes."""
     envs = gym.make_vec(
         ENV_ID, num_envs=num_envs, vectorization_mode=mode,
-        vector_kwargs={"autoreset_mode": gym.vector.AutoresetMode.SAME_STEP}, dataset=dataset,
+        vector_kwargs={"autoreset_mode": gym.vector.AutoresetMode.SAME_STEP}, dataset=dataset, unfilled="zero",
     )
 
     def run() -> int:
@@ -171,7 +171,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     memory = ArrayDataset(frames)
     results: dict[str, tuple[float, float]] = {}
     results["plain NumPy loop (reference)"] = best_rate(plain_loop(frames, args.episodes), args.repeats)
-    env = gym.make(ENV_ID, dataset=memory)
+    # unfilled="zero": the loops submit the observation (holes at 0 m), as the plain loop scores it.
+    env = gym.make(ENV_ID, dataset=memory, unfilled="zero")
     results["env reset+step (in memory)"] = best_rate(env_loop(env, args.episodes), args.repeats)
     for mode in ("sync", "async"):
         run = vector_loop(memory, mode, max(1, args.episodes // 2))
@@ -180,7 +181,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         finally:
             run.close()  # type: ignore[attr-defined]
     if root is not None and source.endswith("train frames"):
-        kitti_env = gym.make("inpaintenv/KittiInpaint-v0", root=root, split="train")
+        kitti_env = gym.make("inpaintenv/KittiInpaint-v0", root=root, split="train", unfilled="zero")
         n_png = max(1, min(args.episodes, 40))
         results["env reset+step (KITTI PNG)"] = best_rate(env_loop(kitti_env, n_png), args.repeats)
 
@@ -198,7 +199,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     results["evaluate() overhead (batch 8)"] = best_rate(_evaluate_run(batch, n_batches), args.repeats)
 
     if args.profile:
-        profile_env(gym.make(ENV_ID, dataset=memory), args.episodes)
+        profile_env(gym.make(ENV_ID, dataset=memory, unfilled="zero"), args.episodes)
     plain = results["plain NumPy loop (reference)"][0]
     print(f"python {platform.python_version()}, numpy {np.__version__}, gymnasium {gym.__version__}, "
           f"{platform.machine()}, {os.cpu_count()} CPUs, frames {shape[0]}x{shape[1]}: {source}")

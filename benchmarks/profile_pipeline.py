@@ -206,7 +206,7 @@ def scaling(args: argparse.Namespace) -> None:
         batched = True
 
         def __call__(self, x: np.ndarray) -> np.ndarray:
-            return np.nan_to_num(x, nan=0.0)
+            return np.nan_to_num(x, nan=1.0)  # filled: 0 m would be refused as unfilled
 
     methods = [("none", MetricsOnly())] + [(m, make_method(m)) for m in args.methods]
     # The frames the sweeps use (positions 0-4 of every 40 are skipped).

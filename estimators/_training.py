@@ -417,7 +417,8 @@ class TrainingMixin:
             x = np.where(hole, np.nan, gt).astype(np.float32)
             pred = self._forward(model, x, device)
             pred = np.where(x > 0, x, np.maximum(pred, 0.0)) if self.keep_observed else pred
-            parts.append(frame_metrics(pred, gt, hole, max_depth=self.max_depth))
+            # A net's output clipped at 0 m is its estimate: scored as 0 m (as in score()).
+            parts.append(frame_metrics(pred, gt, hole, max_depth=self.max_depth, unfilled="zero"))
         table = aggregate({k: np.concatenate([np.atleast_1d(p[k]) for p in parts]) for k in parts[0]})
         return float(table["hole_rmse"])
 

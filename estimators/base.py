@@ -203,11 +203,17 @@ class BaseInpainter(BaseEstimator):
         """
         parts: list[dict[str, np.ndarray]] = []
         for x, gt, hole in iter_scoring_batches(X, y, protocol=protocol, seed=seed):
-            parts.append(frame_metrics(self.predict(x), gt, hole, max_depth=max_depth))
+            # predict fills every pixel by contract, so a 0 m here is the method's estimate
+            # (a regression clipped at 0, the study's hole-only fills), scored as 0 m, never
+            # "unfilled": model selection must not stop on a poor candidate.
+            parts.append(frame_metrics(self.predict(x), gt, hole, max_depth=max_depth, unfilled="zero"))
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
     def score(self, X: Any, y: Any = None) -> float:
         """Minus the mean per-frame hole RMSE in metres (greater is better).
+
+        A prediction of 0 m is scored as 0 m (``predict`` fills every pixel, so it is
+        an estimate, not an unfilled pixel; see :func:`inpaintenv.metrics.frame_metrics`).
 
         Parameters
         ----------

@@ -35,6 +35,7 @@ from .data.base import as_dataset
 from .method_options import (
     add_bad_frame_option,
     add_checkpoint_option,
+    add_unfilled_option,
     check_method_names,
     parse_checkpoints,
 )
@@ -117,6 +118,7 @@ def add_evaluate(subparsers: Any) -> None:
     p.add_argument("--by-drive", action="store_true", help="also print a table per drive")
     p.add_argument("--out", metavar="DIR", help="write results.json, results.csv, table.md and table.csv here")
     add_bad_frame_option(p)
+    add_unfilled_option(p)
     add_scheduler_option(p)
     add_source_options(p)
     add_common_options(p)
@@ -134,7 +136,7 @@ def _evaluate_interrupted(args: argparse.Namespace) -> str:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from .evaluate import EvaluationResult, evaluate, skipped_markdown
     from .masks import get_protocol
-    from .registry import make_method
+    from .registry import make_method, unfilled_policy
     from .tables import summary_table, table_to_csv
 
     # Check the options and build every method first, so a typo fails before any long run.
@@ -150,8 +152,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else None
     if out is not None and out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder")
-    methods = [(name, make_method(name, **_method_overrides(args))) for name in names]
-    methods += [(name, make_method("checkpoint", path=path)) for name, path in checkpoints.items()]
+    methods = [(name, make_method(name, **_method_overrides(args)), unfilled_policy(name)) for name in names]
+    methods += [(name, make_method("checkpoint", path=path), "error") for name, path in checkpoints.items()]
     ds = open_source_from_args(args)
     on_batch = None
     if out is not None:
@@ -168,8 +170,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         results = [
             evaluate(method, ds, protocol=args.protocol, seeds=seeds, batch_size=args.batch_size,
                      max_depth=args.max_depth, progress=not args.quiet, name=name, on_batch=on_batch,
-                     on_bad_frame=args.on_bad_frame, client=client)
-            for name, method in methods
+                     on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled or policy)
+            for name, method, policy in methods
         ]
     result = EvaluationResult.concat(results)
     result.meta["command"] = "inpaintenv " + " ".join(args.argv)
@@ -206,6 +208,7 @@ def add_show(subparsers: Any) -> None:
     p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
     p.add_argument("--max-depth", type=float, default=DEFAULT_MAX_DEPTH, help="colour scale top in metres")
     p.add_argument("--out", default="panel.png", help="PNG to write (default panel.png)")
+    add_unfilled_option(p)
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_show)
@@ -222,8 +225,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     from .envs.render import render_panel
     from .evaluate import run_method
     from .masks import get_protocol
-    from .metrics import frame_metrics
-    from .registry import make_method
+    from .metrics import frame_metrics, interpolate_background
+    from .registry import make_method, unfilled_policy
 
     out = Path(args.out)
     # OpenCV picks the format from the suffix and fails with its own traceback otherwise.
@@ -243,8 +246,10 @@ def cmd_show(args: argparse.Namespace) -> int:
     pred = None
     if method is not None:
         batch, ms = run_method(method, corrupt(gt, hole)[None], args.method)
-        pred = batch[0]
-        m = {k: float(v) for k, v in frame_metrics(pred, gt, hole, max_depth=args.max_depth).items()}
+        policy = args.unfilled or unfilled_policy(args.method)
+        # Shown as scored: after the devkit's interpolation when that is the policy.
+        pred = interpolate_background(batch[0]) if policy == "interpolate" else batch[0]
+        m = {k: float(v) for k, v in frame_metrics(pred, gt, hole, max_depth=args.max_depth, unfilled=policy).items()}
         lines.append(
             f"{args.method}: hole RMSE {_fmt(m['hole_rmse'], ' m')} MAE {_fmt(m['hole_mae'], ' m')} "
             f"PSNR {_fmt(m['hole_psnr'], ' dB', 2)} | all RMSE {_fmt(m['all_rmse'], ' m')} "

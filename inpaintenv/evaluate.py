@@ -30,7 +30,7 @@ from ._version import __version__
 from .conventions import DEFAULT_MAX_DEPTH, as_depth_array, check_int, check_max_depth, check_seeds
 from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
-from .metrics import frame_metrics
+from .metrics import UnfilledPixelsError, check_unfilled, frame_metrics
 
 # The result type and its row format live in results.py; these names stay importable here.
 from .results import (  # noqa: F401
@@ -188,6 +188,7 @@ def evaluate(
     on_batch: Callable[[list[dict[str, Any]]], None] | None = None,
     on_bad_frame: str = "error",
     client: Any = None,
+    unfilled: str = "error",
 ) -> EvaluationResult:
     """Score ``method`` on every (seed, frame) pair of ``source`` under ``protocol``.
 
@@ -234,6 +235,13 @@ def evaluate(
         frames itself, so ``method`` and ``source`` must pickle. ``on_batch`` and the
         progress bar follow the batches as they finish (in any order); the rows are the
         ones of a local run, all but ``ms``. See :mod:`inpaintenv.cluster`.
+    unfilled : {"error", "interpolate", "zero"}
+        A reconstruction left at 0 m where ground truth exists (an unfilled pixel) stops
+        the evaluation with :class:`MethodOutputError` counting them ("error", the
+        default); or is filled first by the KITTI devkit's background interpolation
+        ("interpolate", :func:`inpaintenv.metrics.interpolate_background`); or is scored
+        as 0 m ("zero", how the study scored its hole-only baselines). Recorded in
+        ``meta["unfilled"]``.
 
     Returns
     -------
@@ -242,8 +250,9 @@ def evaluate(
     Raises
     ------
     MethodOutputError
-        If the method returns a wrong shape, NaN/inf or negative depth (the message names
-        the method).
+        If the method returns a wrong shape, a non-float, masked or sparse array, NaN/inf
+        or negative depth, or (``unfilled="error"``) 0 m where ground truth exists (the
+        message names the method).
     BadFrameError
         With ``on_bad_frame="error"``, on a frame that cannot be read (the message names
         the file or frame).
@@ -281,6 +290,7 @@ def evaluate(
     shape = tuple(dataset.frame_shape)
     if on_bad_frame not in ("error", "skip"):
         raise ValueError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
+    check_unfilled(unfilled)
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
@@ -295,7 +305,7 @@ def evaluate(
             rows, skipped = _score_on_cluster(
                 client, bar, on_batch, [frame_list[s : s + batch_size] for s in range(0, len(frame_list), batch_size)],
                 method=method, dataset=dataset, protocol=proto, seeds=seed_list, max_depth=max_depth, name=label,
-                on_bad_frame=on_bad_frame,
+                on_bad_frame=on_bad_frame, unfilled=unfilled,
             )
         else:
             for start in range(0, len(frame_list), batch_size):
@@ -311,7 +321,10 @@ def evaluate(
                     x = gt.copy()
                     x[hole] = np.nan
                     pred, ms = _run(call, batched, x, label)
-                    metrics = frame_metrics(pred, gt, hole, max_depth=max_depth)
+                    try:
+                        metrics = frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled=unfilled)
+                    except UnfilledPixelsError as exc:
+                        raise MethodOutputError(f"method {label!r}: {exc}") from None
                     fractions = hole.mean(axis=(1, 2))
                     batch_rows: list[dict[str, Any]] = []
                     for k, i in enumerate(idx):
@@ -347,6 +360,7 @@ def evaluate(
         "source": repr(dataset),
         "frame_shape": list(shape),
         "max_depth": float(max_depth),
+        "unfilled": unfilled,
         "inpaintenv_version": __version__,
     }
     if skipped:
@@ -373,12 +387,12 @@ def _score_on_cluster(
 
 def _score_shard(
     indices: list[int], *, method: Any, dataset: DepthDataset, protocol: OcclusionProtocol,
-    seeds: list[int], max_depth: float, name: str, on_bad_frame: str,
+    seeds: list[int], max_depth: float, name: str, on_bad_frame: str, unfilled: str,
 ) -> EvaluationResult:
     """One batch of a distributed :func:`evaluate`, run on a Dask worker."""
     return evaluate(
         method, dataset, protocol, seeds, indices=indices, batch_size=len(indices),
-        max_depth=max_depth, progress=False, name=name, on_bad_frame=on_bad_frame,
+        max_depth=max_depth, progress=False, name=name, on_bad_frame=on_bad_frame, unfilled=unfilled,
     )
 
 

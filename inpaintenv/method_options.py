@@ -1,6 +1,6 @@
 """Options naming the methods of a run, shared by ``inpaintenv evaluate`` and ``benchmark``.
 
-``--checkpoint NAME=PATH`` (a saved neural model) and ``--on-bad-frame``, and the checks
+``--checkpoint NAME=PATH`` (a saved neural model), ``--on-bad-frame``, ``--unfilled``, and the checks
 of ``--method`` names. Every name and path is resolved here, before any frame is scored,
 so a typo fails in a second instead of after an hour of other methods. ``cli.py`` and
 :mod:`inpaintenv.benchmark.command` both import this module; it imports neither.
@@ -15,8 +15,8 @@ from pathlib import Path
 from .registry import canonical_name, resolve_class
 
 __all__ = [
-    "BAD_FRAME_CHOICES", "CHECKPOINT_FOLDER", "add_bad_frame_option", "add_checkpoint_option",
-    "check_checkpoint_folder", "check_method_names", "parse_checkpoints",
+    "BAD_FRAME_CHOICES", "CHECKPOINT_FOLDER", "UNFILLED_CHOICES", "add_bad_frame_option", "add_checkpoint_option",
+    "add_unfilled_option", "check_checkpoint_folder", "check_method_names", "parse_checkpoints",
 ]
 
 #: What a checkpoint folder holds, for error messages.
@@ -26,6 +26,8 @@ CHECKPOINT_FOLDER = (
 )
 #: Values of ``--on-bad-frame``.
 BAD_FRAME_CHOICES = ("error", "skip")
+#: Values of ``--unfilled`` (:data:`inpaintenv.metrics.UNFILLED`).
+UNFILLED_CHOICES = ("error", "interpolate", "zero")
 
 
 def add_checkpoint_option(parser: argparse.ArgumentParser) -> None:
@@ -40,6 +42,16 @@ def add_bad_frame_option(parser: argparse.ArgumentParser) -> None:
         "--on-bad-frame", choices=BAD_FRAME_CHOICES, default="error",
         help="an unreadable ground-truth frame (corrupt or 8-bit PNG) stops the run (error, the default) "
              "or is skipped and listed in the report and results.json (skip)",
+    )
+
+
+def add_unfilled_option(parser: argparse.ArgumentParser) -> None:
+    """``--unfilled error|interpolate|zero`` (default: each method's registered policy)."""
+    parser.add_argument(
+        "--unfilled", choices=UNFILLED_CHOICES,
+        help="a reconstruction left at 0 m where ground truth exists: stop with a count (error), fill it "
+             "by the KITTI devkit's background interpolation first (interpolate), or score it as 0 m (zero); "
+             "default: error, but zero for the study's hole-only baselines (telea-hole, ns-hole, bilateral-hole)",
     )
 
 

@@ -3,10 +3,19 @@
 Only pixels with ground truth (``gt > 0``) count: ``S = gt > 0``; hole metrics use
 ``S ∩ H``, global ("all") metrics use ``S``. Per frame we report RMSE and MAE in metres,
 iRMSE and iMAE in 1/km (KITTI devkit), and PSNR = ``20·log10(max_depth / RMSE)`` in dB.
-Aggregation is the mean over frames (the study's and the devkit's convention) or, on
-request, pooled over pixels. A frame whose hole holds no valid ground truth has NaN hole
-metrics, is counted in ``n_skipped_hole`` and enters no mean (neither hole nor all: it
-tested nothing, and its all-pixel error would be ~0 with a huge PSNR).
+Aggregation is the mean over frames (the study's convention) or, on request, pooled
+over pixels. A frame whose hole holds no valid ground truth has NaN hole metrics, is
+counted in ``n_skipped_hole`` and enters no mean (neither hole nor all: it tested
+nothing, and its all-pixel error would be ~0 with a PSNR of ~158 dB), so the hole and
+all-pixel columns describe the same frames.
+
+The KITTI devkit (``evaluate_depth.cpp``) differs in three ways. Its per-frame formulas
+are these (equal in float64), but it averages *every* frame
+(``aggregate(..., all_frames="every")`` gives that mean). It reports m and 1/m; we report
+m and 1/km for iRMSE/iMAE (the leaderboard: mm and 1/km). And it inverts the prediction
+as is, after filling unfilled (0) pixels by its background interpolation; we clamp the
+prediction to :data:`MIN_INVERSE_DEPTH` (0.1 m) before inverting, so a prediction near
+0 m gives a large finite inverse error instead of inf.
 """
 
 from __future__ import annotations
@@ -19,7 +28,8 @@ import numpy as np
 from .conventions import DEFAULT_MAX_DEPTH, as_depth_array, check_depth, check_mask, check_max_depth
 
 __all__ = [
-    "DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "ScoredPixels", "aggregate", "depth_binned_errors", "frame_metrics",
+    "DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "UNFILLED", "ScoredPixels", "UnfilledPixelsError", "aggregate",
+    "check_unfilled", "depth_binned_errors", "frame_metrics", "interpolate_background",
 ]
 
 REGIONS = ("hole", "all")
@@ -31,6 +41,71 @@ MIN_INVERSE_DEPTH = 0.1
 MIN_PSNR_RMSE = 1e-6
 #: Default true-depth bins (metres) of :func:`depth_binned_errors`.
 DEPTH_BIN_EDGES = (0.0, 10.0, 20.0, 30.0, 50.0, np.inf)
+#: How a prediction left at 0 m (unfilled) where ground truth exists is scored:
+#: ``"error"`` refuses it (the default), ``"interpolate"`` fills such pixels first by the
+#: KITTI devkit's background interpolation (:func:`interpolate_background`), ``"zero"``
+#: scores them as 0 m (how the study scored its hole-only baselines).
+UNFILLED = ("error", "interpolate", "zero")
+
+
+class UnfilledPixelsError(ValueError):
+    """A prediction is 0 m (unfilled) at pixels with ground truth and ``unfilled="error"``."""
+
+
+def check_unfilled(value: object, name: str = "unfilled") -> str:
+    """``value`` if it is one of :data:`UNFILLED`, else a ValueError listing them."""
+    if not isinstance(value, str) or value not in UNFILLED:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, UNFILLED))}, got {value!r}")
+    return value
+
+
+def interpolate_background(pred: np.ndarray) -> np.ndarray:
+    """Fill the unfilled (0 m, or NaN) pixels of a prediction as the KITTI devkit does.
+
+    The devkit (``io_depth.h``, ``interpolateBackground``) runs before it scores a
+    prediction. Per row, a run of unfilled pixels between two filled ones takes the
+    *smaller* of the two depths (the nearer surface: the rule comes from the devkit's
+    disparity code, where the smaller value is the background); runs at the row's ends
+    take the nearest filled value. Then, per column, rows still empty (rows without any
+    filled pixel) above the first or below the last filled row take that row's value;
+    empty rows between filled ones, and frames without any filled pixel, stay 0.
+
+    Parameters
+    ----------
+    pred : numpy.ndarray
+        ``(H, W)`` or ``(N, H, W)`` depth in metres; ``> 0`` is filled.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 copy of ``pred``'s shape.
+    """
+    d = np.array(pred, dtype=np.float32)
+    frames = d.reshape(-1, *d.shape[-2:])
+    h, w = frames.shape[1:]
+    rows = frames.reshape(-1, w)  # a view: filled in place
+    filled = rows > 0  # NaN > 0 is False: NaN counts as unfilled
+    col = np.arange(w)
+    left = np.maximum.accumulate(np.where(filled, col, -1), axis=1)  # last filled at or before
+    right = np.minimum.accumulate(np.where(filled, col, w)[:, ::-1], axis=1)[:, ::-1]  # next at or after
+    r = np.arange(len(rows))[:, None]
+    lv, rv = rows[r, np.clip(left, 0, w - 1)], rows[r, np.clip(right, 0, w - 1)]
+    has_l, has_r = left >= 0, right < w
+    rows[:] = np.where(
+        filled, rows,
+        np.where(has_l & has_r, np.minimum(lv, rv), np.where(has_l, lv, np.where(has_r, rv, 0.0))),
+    )
+    # Columns: after the row pass a row is entirely filled or entirely empty.
+    full = frames[:, :, 0] > 0  # (N, H)
+    has = full.any(axis=1)
+    first = np.argmax(full, axis=1)
+    last = h - 1 - np.argmax(full[:, ::-1], axis=1)
+    n = np.arange(len(frames))
+    y = np.arange(h)[None, :]
+    source = np.where(y < first[:, None], first[:, None], np.where(y > last[:, None], last[:, None], y))
+    source = np.where(has[:, None] & ~full, source, y)  # empty rows inside stay (source = itself)
+    frames[:] = frames[n[:, None], source]
+    return np.nan_to_num(d, nan=0.0)
 
 
 def frame_metrics(
@@ -39,6 +114,7 @@ def frame_metrics(
     hole: np.ndarray,
     *,
     max_depth: float = DEFAULT_MAX_DEPTH,
+    unfilled: str = "error",
 ) -> dict[str, np.ndarray]:
     """Per-frame metrics for one frame or a batch, vectorised.
 
@@ -53,6 +129,10 @@ def frame_metrics(
         Boolean occlusion mask of the same shape.
     max_depth : float
         Range for PSNR (80 m by default).
+    unfilled : {"error", "interpolate", "zero"}
+        A prediction of 0 m where ground truth exists is unfilled: refused with
+        :class:`UnfilledPixelsError` (default), filled first by the KITTI devkit's
+        :func:`interpolate_background`, or scored as 0 m (see :data:`UNFILLED`).
 
     Returns
     -------
@@ -65,7 +145,7 @@ def frame_metrics(
     pred_arr, gt, hole = _check_inputs(pred, gt, hole)
     # NaN/inf would pass a plain "<= 0" test and give NaN/inf PSNR in every row.
     max_depth = check_max_depth(max_depth)
-    return ScoredPixels(gt, hole, check_input=False).metrics(pred_arr, max_depth=max_depth)
+    return ScoredPixels(gt, hole, check_input=False).metrics(pred_arr, max_depth=max_depth, unfilled=unfilled)
 
 
 class ScoredPixels:
@@ -125,7 +205,9 @@ class ScoredPixels:
             region: (n, _runs(n), np.where(n > 0, n, np.nan)) for region, n in (("hole", n_hole), ("all", n_all))
         }
 
-    def metrics(self, pred: np.ndarray, *, max_depth: float = DEFAULT_MAX_DEPTH) -> dict[str, np.ndarray]:
+    def metrics(
+        self, pred: np.ndarray, *, max_depth: float = DEFAULT_MAX_DEPTH, unfilled: str = "error"
+    ) -> dict[str, np.ndarray]:
         """The metrics of :func:`frame_metrics` for the prediction ``pred``.
 
         Parameters
@@ -135,6 +217,8 @@ class ScoredPixels:
             non-negative wherever ground truth exists.
         max_depth : float
             Range for PSNR (80 m by default).
+        unfilled : {"error", "interpolate", "zero"}
+            What a prediction of 0 m at a scored pixel means (see :data:`UNFILLED`).
 
         Returns
         -------
@@ -143,15 +227,28 @@ class ScoredPixels:
 
         Raises
         ------
+        UnfilledPixelsError
+            With ``unfilled="error"``, if ``pred`` is 0 m at a pixel with ground truth.
         ValueError
             On a wrong shape, NaN/inf or negative depth at a scored pixel, or an invalid
-            ``max_depth``.
+            ``max_depth`` or ``unfilled``.
         TypeError
-            If ``pred`` is not numeric.
+            If ``pred`` is not a floating-point array.
         """
         pred_arr = _check_pred(pred, self.shape)
         max_depth = check_max_depth(max_depth)
+        check_unfilled(unfilled)
         p = _checked_scored(pred_arr.reshape(-1).take(self._index))
+        if unfilled != "zero" and p.size and p.min() == 0:
+            zero = p == 0
+            if unfilled == "error":
+                raise UnfilledPixelsError(
+                    f"prediction is 0 m (unfilled) at {int(zero.sum())} pixels with ground truth, "
+                    f"{int(np.count_nonzero(zero & self._in_hole))} of them in the hole; fill them, or set unfilled "
+                    "to 'interpolate' (the KITTI devkit's background interpolation) or 'zero' (score them as 0 m)"
+                )
+            # Only 0-m pixels change, so a prediction without any at a scored pixel is left as is.
+            p = _checked_scored(interpolate_background(pred_arr).reshape(-1).take(self._index))
         # The arithmetic stays in float64 on the compact vector of scored pixels, so
         # results match a pixel-by-pixel reference.
         g, in_hole = self._gt, self._in_hole
@@ -224,6 +321,7 @@ def aggregate(
     *,
     how: str = "mean",
     max_depth: float = DEFAULT_MAX_DEPTH,
+    all_frames: str = "scored",
 ) -> dict[str, float]:
     """Aggregate per-frame metrics over frames.
 
@@ -237,12 +335,17 @@ def aggregate(
         PSNR then comes from the pooled RMSE.
     max_depth : float
         Range for the pooled PSNR; a finite positive number.
+    all_frames : {"scored", "every"}
+        Frames of the all-pixel means: ``"scored"`` (default), the frames whose hole
+        holds ground truth, the very frames of the hole means; ``"every"``, every frame
+        with ground truth, as the KITTI devkit averages.
 
     Returns
     -------
     dict of str to float
         ``{region}_{metric}`` plus ``n_frames`` and ``n_skipped_hole`` (frames without
-        valid ground truth in the hole, left out of every mean).
+        valid ground truth in the hole, left out of the hole means and, unless
+        ``all_frames="every"``, of the all-pixel means).
 
     Raises
     ------
@@ -254,6 +357,8 @@ def aggregate(
     """
     if how not in ("mean", "pooled"):
         raise ValueError(f"how must be 'mean' or 'pooled', got {how!r}")
+    if all_frames not in ("scored", "every"):
+        raise ValueError(f"all_frames must be 'scored' or 'every', got {all_frames!r}")
     max_depth = check_max_depth(max_depth)
     if isinstance(per_frame, list):
         if not per_frame:
@@ -278,7 +383,7 @@ def aggregate(
     out["n_skipped_hole"] = int((~scored).sum())
     for region in REGIONS:
         count = cols[f"{region}_count"]
-        ok = scored & (count > 0)
+        ok = (count > 0) if region == "all" and all_frames == "every" else scored & (count > 0)
         for metric in METRIC_NAMES:
             key = f"{region}_{metric}"
             if key not in cols:

@@ -30,6 +30,7 @@ __all__ = [
     "register_alias",
     "register_method",
     "resolve_class",
+    "unfilled_policy",
 ]
 
 
@@ -47,12 +48,19 @@ class MethodSpec:
         Constructor keywords that define the variant (e.g. ``{"fill": "hole"}``).
     description : str
         One line for listings.
+    unfilled : {"error", "interpolate", "zero"}
+        How the benchmark and ``inpaintenv evaluate`` score this method's 0 m pixels
+        where ground truth exists, unless the run says otherwise (``--unfilled``):
+        ``"error"`` (refuse) for every method but the study's hole-only baselines,
+        which leave unmeasured surroundings at 0 m by design and were scored so
+        (``"zero"``); see :data:`inpaintenv.metrics.UNFILLED`.
     """
 
     module: str
     cls: str
     kwargs: dict[str, Any] = field(default_factory=dict)
     description: str = ""
+    unfilled: str = "error"
 
 
 _CLASSICAL = "estimators.classical"
@@ -68,20 +76,25 @@ def _check_name(name: str) -> None:
 
 def register_method(
     name: str, module: str, cls: str, kwargs: dict[str, Any] | None = None,
-    description: str = "", *, overwrite: bool = False,
+    description: str = "", *, overwrite: bool = False, unfilled: str = "error",
 ) -> MethodSpec:
     """Add a named method (e.g. a trained neural model) to the registry.
+
+    ``unfilled`` is how runs score the method's 0 m pixels by default (see
+    :class:`MethodSpec`).
 
     Raises
     ------
     ValueError
-        If ``name`` is taken (unless ``overwrite``) or malformed.
+        If ``name`` is taken (unless ``overwrite``) or malformed, or ``unfilled`` is unknown.
     """
     _check_name(name)
+    if unfilled not in ("error", "interpolate", "zero"):  # inpaintenv.metrics.UNFILLED (not imported: cheap module)
+        raise ValueError(f"unfilled must be 'error', 'interpolate' or 'zero', got {unfilled!r}")
     if (name in _METHODS or name in _ALIASES) and not overwrite:
         raise ValueError(f"method {name!r} is already registered")
     _ALIASES.pop(name, None)
-    spec = MethodSpec(module, cls, dict(kwargs or {}), description)
+    spec = MethodSpec(module, cls, dict(kwargs or {}), description, unfilled)
     _METHODS[name] = spec
     return spec
 
@@ -147,6 +160,11 @@ def get_spec(name: str) -> MethodSpec:
     )
 
 
+def unfilled_policy(name: str) -> str:
+    """How runs score method ``name``'s unfilled (0 m) pixels by default (:class:`MethodSpec`)."""
+    return get_spec(name).unfilled
+
+
 def resolve_class(name: str) -> Any:
     """Import the class (or factory) of method ``name`` without building it.
 
@@ -206,7 +224,8 @@ def make_method(name: str, **overrides: Any) -> Any:
 
 
 # The classical baselines: both the study's way (fill="hole": only the occlusion is
-# filled, LiDAR gaps stay 0) and the right way (fill="invalid": every missing pixel).
+# filled, LiDAR gaps stay 0 and can flow into the hole as 0 m, scored as 0 m as the study
+# did) and the right way (fill="invalid": every missing pixel).
 for _name, _cls, _kw, _desc in [
     ("telea", "TeleaInpainter", {"fill": "invalid"}, "OpenCV Telea, fills every missing pixel"),
     ("telea-hole", "TeleaInpainter", {"fill": "hole"}, "OpenCV Telea as the study ran it (hole only)"),
@@ -223,7 +242,7 @@ for _name, _cls, _kw, _desc in [
     ("scanline-2d", "ScanlineInpainter", {"vertical": True}, "row- and column-wise interpolation, blended by gap length"),
     ("constant", "ConstantInpainter", {}, "median of the measured pixels"),
 ]:
-    register_method(_name, _CLASSICAL, _cls, _kw, _desc)
+    register_method(_name, _CLASSICAL, _cls, _kw, _desc, unfilled="zero" if _kw.get("fill") == "hole" else "error")
 
 # The shipped learned models (need torch): small per-pixel MLPs that blend classical
 # fills, so their names say "blend". Factories, not classes: they load the weights.

@@ -169,6 +169,32 @@ def test_bad_output_names_method(gt_ds, bad, match):
     assert "badmethod" in str(info.value)
 
 
+def test_unfilled_hole_pixels_are_refused_with_a_count(gt_ds):
+    # Issue 24: nan_to_num(x, nan=0.0) was scored as 0 m without a word.
+    with pytest.raises(MethodOutputError, match=r"^method 'zeros': prediction is 0 m \(unfilled\) at \d+ pixels with "
+                                                r"ground truth, \d+ of them in the hole; fill them, or set unfilled"):
+        evaluate(lambda x: np.nan_to_num(x, nan=0.0), gt_ds, progress=False, name="zeros")
+    with pytest.raises(ValueError, match="unfilled must be one of 'error', 'interpolate', 'zero'"):
+        evaluate(lambda x: np.nan_to_num(x, nan=1.0), gt_ds, progress=False, unfilled=True)
+
+
+def test_unfilled_policies_score_as_the_metrics_say(gt_ds):
+    zeros = lambda x: np.nan_to_num(x, nan=0.0)  # noqa: E731
+    for policy in ("zero", "interpolate"):
+        res = evaluate(zeros, gt_ds, seeds=[0, 1], progress=False, unfilled=policy)
+        assert res.meta["unfilled"] == policy
+        proto = get_protocol("rect-v1")
+        for row in res.rows:
+            gt = gt_ds[row["index"]]
+            hole = proto.mask(gt.shape, row["seed"], row["index"])
+            want = frame_metrics(zeros(np.where(hole, np.nan, gt)), gt, hole, unfilled=policy)
+            assert row["hole_rmse"] == pytest.approx(float(want["hole_rmse"]))
+    zero = evaluate(zeros, gt_ds, progress=False, unfilled="zero").table[0]
+    ipol = evaluate(zeros, gt_ds, progress=False, unfilled="interpolate").table[0]
+    assert ipol["hole_rmse"] < zero["hole_rmse"]
+    assert evaluate(lambda x: np.nan_to_num(x, nan=1.0), gt_ds, progress=False).meta["unfilled"] == "error"
+
+
 def test_bad_arguments(gt_ds):
     ok = lambda x: np.nan_to_num(x, nan=1.0)
     with pytest.raises(TypeError, match="callable"):

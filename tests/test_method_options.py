@@ -81,8 +81,12 @@ def test_evaluate_takes_checkpoint_name_path(tmp_path, capsys):
     frames = np.stack([np.linspace(30.0, 5.0, 32, dtype=np.float32)[:, None] + np.zeros((1, 96), np.float32)] * 2)
     model = UNetInpainter(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1)
     path = model.fit(ArrayDataset(frames, groups=["a", "b"])).save(tmp_path / "ck")
-    assert main(["evaluate", "-m", "constant", "--checkpoint", f"mine={path}", "--frame-shape", "32", "96",
-                 "--n-frames", "2", "--quiet"]) == 0
+    args = ["evaluate", "-m", "constant", "--checkpoint", f"mine={path}", "--frame-shape", "32", "96",
+            "--n-frames", "2", "--quiet"]
+    # The one-epoch model's output, clipped at 0 m, is 0 m in places: refused unless --unfilled says how to score it.
+    assert main(args) == 1
+    assert "method 'mine': prediction is 0 m (unfilled) at" in capsys.readouterr().err
+    assert main([*args, "--unfilled", "zero"]) == 0
     out = capsys.readouterr().out
     assert "| mine | rect-v1 |" in out and "| constant | rect-v1 |" in out
 

@@ -9,9 +9,11 @@ import pytest
 
 from inpaintenv.metrics import (
     ScoredPixels,
+    UnfilledPixelsError,
     aggregate,
     depth_binned_errors,
     frame_metrics,
+    interpolate_background,
 )
 
 
@@ -152,6 +154,131 @@ def test_frames_without_hole_ground_truth_are_skipped_in_the_mean():
     assert table["hole_rmse"] == pytest.approx(2.0)
     # The skipped frame tested nothing, so it leaves the all-pixel mean too.
     assert table["all_rmse"] == pytest.approx(2.0)
+
+
+def devkit_frame_errors(pred: np.ndarray, gt: np.ndarray) -> dict[str, float]:
+    """One frame's errors by the KITTI devkit's depthError (evaluate_depth.cpp), in float64.
+
+    Every pixel with ground truth counts; depth in m, inverse depth in 1/m; no clamp.
+    """
+    valid = gt > 0
+    g, p = gt[valid].astype(np.float64), pred[valid].astype(np.float64)
+    err, inv = np.abs(g - p), np.abs(1.0 / g - 1.0 / p)
+    return {"mae": err.mean(), "rmse": math.sqrt((err**2).mean()), "imae": inv.mean(),
+            "irmse": math.sqrt((inv**2).mean())}
+
+
+def test_all_pixel_means_against_the_devkit_formulas():
+    rng = np.random.default_rng(7)
+    gt = rng.uniform(2, 70, (5, 16, 24)).astype(np.float32)
+    gt[rng.random(gt.shape) < 0.6] = 0.0
+    hole = np.zeros(gt.shape, bool)
+    hole[:, 4:12, 6:18] = True
+    gt[2, 4:12, 6:18] = 0.0  # frame 2: no ground truth in its hole
+    # Predictions of at least 0.1 m, where our clamp before inversion changes nothing.
+    pred = np.maximum(gt + rng.normal(0, 2, gt.shape), 0.5).astype(np.float32)
+    devkit = [devkit_frame_errors(pred[k], gt[k]) for k in range(len(gt))]
+    per_frame = frame_metrics(pred, gt, hole)
+    units = {"rmse": 1.0, "mae": 1.0, "irmse": 1000.0, "imae": 1000.0}  # ours 1/km, the devkit's 1/m
+    # Per frame: the devkit's formulas (float64), every frame.
+    for m, scale in units.items():
+        np.testing.assert_allclose(per_frame[f"all_{m}"], [d[m] * scale for d in devkit], rtol=1e-12)
+    # The devkit averages every frame: all_frames="every" (issue 24) ...
+    every = aggregate(per_frame, all_frames="every")
+    # ... while by default the all-pixel means cover the frames of the hole means.
+    scored = aggregate(per_frame)
+    assert scored["n_skipped_hole"] == every["n_skipped_hole"] == 1
+    for m, scale in units.items():
+        assert every[f"all_{m}"] == pytest.approx(np.mean([d[m] for d in devkit]) * scale, rel=1e-12)
+        assert scored[f"all_{m}"] == pytest.approx(np.mean([d[m] for k, d in enumerate(devkit) if k != 2]) * scale,
+                                                   rel=1e-12)
+    assert every["hole_rmse"] == scored["hole_rmse"]
+    with pytest.raises(ValueError, match="all_frames must be 'scored' or 'every', got 'all'"):
+        aggregate(per_frame, all_frames="all")
+
+
+def devkit_interpolate(pred: np.ndarray) -> np.ndarray:
+    """The devkit's interpolateBackground, pixel by pixel as io_depth.h describes it (0 = invalid)."""
+    d = pred.astype(np.float64).copy()
+    h, w = d.shape
+    valid = d > 0
+    for v in range(h):
+        count = 0
+        for u in range(w):
+            if valid[v, u]:
+                if count >= 1 and u - count > 0:
+                    d[v, u - count : u] = min(d[v, u - count - 1], d[v, u])
+                count = 0
+            else:
+                count += 1
+        filled = np.flatnonzero(valid[v])
+        if filled.size:
+            d[v, : filled[0]] = d[v, filled[0]]
+            d[v, filled[-1] + 1 :] = d[v, filled[-1]]
+            valid[v] = True
+    for u in range(w):
+        filled = np.flatnonzero(valid[:, u])
+        if filled.size:
+            d[: filled[0], u] = d[filled[0], u]
+            d[filled[-1] + 1 :, u] = d[filled[-1], u]
+    return d
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_interpolate_background_is_the_devkit_s(seed):
+    rng = np.random.default_rng(seed)
+    pred = rng.uniform(1, 80, (2, 12, 17)).astype(np.float32)
+    pred[rng.random(pred.shape) < [[[0.3]], [[0.9]]]] = 0.0
+    pred[0, 3] = 0.0  # an empty row between filled ones stays empty
+    pred[0, :2] = 0.0  # empty rows at the top take the first filled row
+    pred[1, -1] = 0.0
+    got = interpolate_background(pred)
+    assert got.dtype == np.float32 and got.shape == pred.shape
+    for k in range(2):
+        np.testing.assert_array_equal(got[k], devkit_interpolate(pred[k]).astype(np.float32))
+        np.testing.assert_array_equal(interpolate_background(pred[k]), got[k])
+    assert (got[0, 3] == 0).all() and (got[0, 0] == got[0, 2]).all()
+    np.testing.assert_array_equal(interpolate_background(np.zeros((8, 8))), 0.0)
+
+
+def _unfilled_case():
+    gt = np.full((2, 8, 10), 10.0, np.float32)
+    hole = np.zeros(gt.shape, bool)
+    hole[:, 2:5, 3:7] = True
+    pred = gt.copy()
+    pred[0, 2:5, 3:7] = 12.0
+    pred[1, 3, 4:6] = 0.0  # two hole pixels left unfilled
+    pred[1, 6, 0] = 0.0  # and one pixel outside the hole
+    return pred, gt, hole
+
+
+def test_unfilled_pixels_are_refused_with_a_count():
+    # Issue 24: a 0 m hole pixel was scored as 0 m without a word (NaN was refused).
+    pred, gt, hole = _unfilled_case()
+    with pytest.raises(UnfilledPixelsError, match=r"^prediction is 0 m \(unfilled\) at 3 pixels with ground truth, 2 of "
+                                                 r"them in the hole; fill them, or set unfilled to 'interpolate'"):
+        frame_metrics(pred, gt, hole)
+    with pytest.raises(UnfilledPixelsError, match="at 3 pixels"):
+        ScoredPixels(gt, hole).metrics(pred)
+    # 0 m where there is no ground truth is not scored, so not refused.
+    gt2 = gt.copy()
+    gt2[pred == 0] = 0.0
+    assert np.isfinite(frame_metrics(pred, gt2, hole)["hole_rmse"]).all()
+    with pytest.raises(ValueError, match="unfilled must be one of 'error', 'interpolate', 'zero', got 'skip'"):
+        frame_metrics(pred, gt, hole, unfilled="skip")
+
+
+def test_unfilled_policies_zero_and_interpolate():
+    pred, gt, hole = _unfilled_case()
+    zero = frame_metrics(pred, gt, hole, unfilled="zero")
+    assert zero["hole_rmse"][1] == pytest.approx(math.sqrt(2 * 10.0**2 / 12))
+    ipol = frame_metrics(pred, gt, hole, unfilled="interpolate")
+    want = frame_metrics(interpolate_background(pred), gt, hole)
+    for k, v in want.items():
+        np.testing.assert_array_equal(ipol[k], v)
+    assert ipol["hole_rmse"][1] == 0.0  # the devkit fills the gaps from their neighbours (10 m)
+    # Frame 0 has nothing unfilled: every policy scores it alike.
+    assert zero["hole_rmse"][0] == ipol["hole_rmse"][0] == pytest.approx(2.0)
 
 
 def test_pooled_aggregation_weights_pixels():

@@ -33,7 +33,7 @@ def suites_epilog() -> str:
 
 
 def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_options: Callable) -> None:
-    from ..method_options import add_bad_frame_option, add_checkpoint_option
+    from ..method_options import add_bad_frame_option, add_checkpoint_option, add_unfilled_option
     from .suites import SUITES
 
     p = subparsers.add_parser(
@@ -65,6 +65,7 @@ def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_opti
     p.add_argument("--figure-frames", type=int, default=2, metavar="N",
                    help="frames drawn as study-style panels, spread over the drives (default 2; 0 = no figures)")
     add_bad_frame_option(p)
+    add_unfilled_option(p)
     add_scheduler_option(p)
     add_source_options(p)
     add_common_options(p)
@@ -116,6 +117,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..evaluate import skipped_markdown
     from ..masks import get_protocol
     from ..method_options import check_method_names
+    from ..registry import unfilled_policy
     from .figures import write_figures
     from .headline import headline_markdown, learned_vs_classical
     from .lock import run_lock
@@ -129,7 +131,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     overrides = {} if args.n_jobs is None else {"n_jobs": args.n_jobs}
     if args.method:
         methods: dict[str, Any] = {
-            name: LazyMethod(lambda name=name: build_method(name, overrides)) for name in check_method_names(args.method)
+            name: LazyMethod(lambda name=name: build_method(name, overrides), unfilled=unfilled_policy(name))
+            for name in check_method_names(args.method)
         }
     else:
         methods = suite_methods(args.suite, overrides=overrides, warn=log)
@@ -174,6 +177,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             name: LazyMethod(
                 lambda name=name, m=m: materialise(name, m),
                 optional=getattr(m, "optional", False), identity=getattr(m, "identity", None),
+                unfilled=getattr(m, "unfilled", "error"),
             )
             for name, m in methods.items()
         }
@@ -181,7 +185,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             result = run_benchmark(
                 cached, dataset, protocols=protocols, seeds=seeds, out_dir=out,
                 resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
-                on_bad_frame=args.on_bad_frame, client=client,
+                on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled,
             )
         command = "inpaintenv " + " ".join(getattr(args, "argv", []))
         paths = write_report(result, out, meta={"command": command, "holdout": holdout})
@@ -199,6 +203,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                 result, {n: (lambda n=n: materialise(n, methods[n])) for n in methods}, dataset, fig_dir,
                 panel_methods=list(_figure_methods(table, methods)), n_panels=args.figure_frames,
                 protocol=protocols[0], seed=seeds[0], log=log, exclude={r["index"] for r in skipped},
+                unfilled=result.meta.get("unfilled", {}),
             )
             log(f"figures in {fig_dir}")
         log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")

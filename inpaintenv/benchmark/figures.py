@@ -26,7 +26,7 @@ from ..conventions import corrupt
 from ..data.base import DepthDataset
 from ..evaluate import EvaluationResult, run_method
 from ..masks import get_protocol
-from ..metrics import frame_metrics
+from ..metrics import frame_metrics, interpolate_background
 
 __all__ = [
     "DISTANCE_BINS", "DISTANCE_FRAMES", "FramePredictions", "frame_panel", "plot_error_vs_distance",
@@ -98,10 +98,18 @@ class FramePredictions:
         Occlusion protocol of the masks.
     seed : int
         Mask seed (frame ``i`` gets ``protocol.mask(shape, seed, i)``, as in the rows).
+    unfilled : mapping of str to str, optional
+        Method name -> its ``unfilled`` policy in the run (default ``"error"``): with
+        ``"interpolate"`` the reconstruction is shown and scored after the KITTI devkit's
+        background interpolation, as the rows scored it.
     """
 
-    def __init__(self, methods: Mapping[str, Any], dataset: DepthDataset, protocol: str, seed: int):
+    def __init__(
+        self, methods: Mapping[str, Any], dataset: DepthDataset, protocol: str, seed: int,
+        unfilled: Mapping[str, str] | None = None,
+    ):
         self.methods, self.dataset, self.seed = dict(methods), dataset, seed
+        self.unfilled = dict(unfilled or {})
         self.protocol = get_protocol(protocol)
         self._frames: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._preds: dict[tuple[str, int], np.ndarray] = {}
@@ -118,8 +126,14 @@ class FramePredictions:
         if (name, index) not in self._preds:
             gt, hole = self.frame(index)
             pred, _ = run_method(self.methods[name], corrupt(gt, hole)[None], name)
+            if self.policy(name) == "interpolate":
+                pred = interpolate_background(pred)
             self._preds[(name, index)] = pred[0]
         return self._preds[(name, index)]
+
+    def policy(self, name: str) -> str:
+        """Method ``name``'s ``unfilled`` policy in the run."""
+        return self.unfilled.get(name, "error")
 
 
 def _colourbar(fig: Any, axes: Any, cmap: str, vmax: float, label: str) -> None:
@@ -166,7 +180,7 @@ def frame_panel(
     inp = style.draw_holes(style.depth_rgb(np.where(hole, 0.0, gt), max_depth), hole, hatch=True, scale=k)
     truth = style.draw_holes(style.depth_rgb(gt, max_depth), hole, scale=k)
     for r, (name, pred) in enumerate(preds.items()):
-        m = frame_metrics(pred, gt, hole, max_depth=max_depth)
+        m = frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled=predictions.policy(name))
         scores = (
             f"{name}\nhole RMSE {float(m['hole_rmse']):.2f} m, PSNR {float(m['hole_psnr']):.1f} dB | "
             f"all {float(m['all_rmse']):.2f} m, {float(m['all_psnr']):.1f} dB"
@@ -297,6 +311,7 @@ def write_figures(
     seed: int,
     log: Callable[[str], None] = lambda msg: None,
     exclude: Collection[int] = (),
+    unfilled: Mapping[str, str] | None = None,
 ) -> list[Path]:
     """Write a run's figures into ``out_dir``; skip them when they already show these rows.
 
@@ -320,6 +335,8 @@ def write_figures(
         Receives one line before any method is run again (what, why, how long).
     exclude : collection of int
         Frames never drawn (the unreadable frames a run skipped).
+    unfilled : mapping of str to str, optional
+        Each method's ``unfilled`` policy in the run (``meta["unfilled"]`` of the runner's result).
     """
     out = Path(out_dir)
     colours = style.method_colours(result.methods)  # one colour per method, in run order
@@ -350,7 +367,7 @@ def write_figures(
         "not keep; error_vs_hole_size comes from the rows"
     )
     built = {name: methods[name]() for name in panel_methods}
-    predictions = FramePredictions(built, dataset, protocol, seed)
+    predictions = FramePredictions(built, dataset, protocol, seed, unfilled)
     for i in panels:
         frame_panel(built, dataset, i, out / f"frame_{i:04d}.png", protocol=protocol, seed=seed,
                     colours=colours, predictions=predictions)

@@ -33,6 +33,7 @@ from ..evaluate import (
     resolve_source,
 )
 from ..masks import get_protocol
+from ..metrics import check_unfilled
 from ..progress import ProgressReporter, format_duration, stderr_is_terminal
 from .identity import method_identity
 from .lock import run_lock
@@ -164,6 +165,7 @@ def run_benchmark(
     log: Callable[[str], None] | None = None,
     on_bad_frame: str = "error",
     client: Any = None,
+    unfilled: str | None = None,
 ) -> EvaluationResult:
     """Score every method under every protocol and seed; return all per-frame rows.
 
@@ -206,6 +208,13 @@ def run_benchmark(
         Score every (method, protocol, seed) on this Dask cluster, one task per batch
         (see :func:`inpaintenv.evaluate.evaluate`); rows land in ``out_dir`` as batches
         finish, so a distributed run resumes like a local one.
+    unfilled : {"error", "interpolate", "zero"}, optional
+        How every method's 0 m pixels where ground truth exists are scored (see
+        :func:`inpaintenv.evaluate.evaluate`). None (default): each method's own
+        ``unfilled`` attribute (:class:`~inpaintenv.benchmark.LazyMethod`, from the
+        registry: ``"zero"`` for the study's hole-only baselines), else ``"error"``. A
+        run-wide value is part of the run's fingerprint, so rows scored otherwise are
+        never resumed into it. The policy of each method is in ``meta["unfilled"]``.
 
     Returns
     -------
@@ -228,13 +237,18 @@ def run_benchmark(
     protocols, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size)
     if on_bad_frame not in ("error", "skip"):
         raise ValueError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
+    policies = {
+        name: check_unfilled(unfilled if unfilled is not None else getattr(m, "unfilled", "error"),
+                             "unfilled" if unfilled is not None else f"the unfilled policy of {name!r}")
+        for name, m in methods.items()
+    }
     dataset = resolve_source(source)
     if len(dataset) == 0:
         raise ValueError("the data source has no frames")
     with run_lock(out_dir, log):
         return _run_locked(
             methods, dataset, protocols, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
-            log or (lambda msg: None), on_bad_frame, client,
+            log or (lambda msg: None), on_bad_frame, client, policies, unfilled,
         )
 
 
@@ -256,12 +270,16 @@ def _known_cost(rows_by_protocol: Mapping[str, list[dict[str, Any]]]) -> float |
 def _run_locked(
     methods: Mapping[str, Any], dataset: DepthDataset, protocols: list[str], seeds: list[int],
     n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
-    say: Callable[[str], None], on_bad_frame: str, client: Any,
+    say: Callable[[str], None], on_bad_frame: str, client: Any, policies: dict[str, str], unfilled: str | None,
 ) -> EvaluationResult:
     total = len(dataset) if n_frames is None else min(len(dataset), int(n_frames))
     rows_dir = out / "rows"
     rows_dir.mkdir(parents=True, exist_ok=True)
     fingerprint = _fingerprint(dataset, total, protocols, seeds)
+    if unfilled is not None:
+        # Only a run-wide choice: a method's own policy is part of what the method is, and
+        # a run.json without the key (older runs, default runs) stays resumable.
+        fingerprint["unfilled"] = unfilled
     run_file = out / "run.json"
     # name -> identity of the method that wrote its rows (see .identity); a name missing
     # here (e.g. a run.json from before identities were recorded) is unknown and accepted.
@@ -381,7 +399,7 @@ def _run_locked(
                     part = evaluate(
                         method, dataset, protocol, seeds=[seed], indices=indices,
                         batch_size=batch_size, progress=progress, name=name, on_batch=append,
-                        on_bad_frame=on_bad_frame, client=client,
+                        on_bad_frame=on_bad_frame, client=client, unfilled=policies[name],
                     )
                     skipped.append(part.meta.get("skipped_frames") or [])
             finally:
@@ -397,7 +415,8 @@ def _run_locked(
         raise ValueError("no method could be run here (see the messages above)")
     combined = EvaluationResult.concat(results)
     combined.meta.update(
-        {"source": repr(dataset), "protocols": protocols, "seeds": seeds, "n_frames": total}
+        {"source": repr(dataset), "protocols": protocols, "seeds": seeds, "n_frames": total,
+         "unfilled": {name: policies[name] for name in combined.methods}}
     )
     combined.meta.pop("skipped_frames", None)
     merged = merge_skipped(skipped)

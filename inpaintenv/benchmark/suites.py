@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..registry import available_methods, make_method
+from ..registry import available_methods, make_method, unfilled_policy
 
 __all__ = ["SUITES", "suite_methods", "LazyMethod"]
 
@@ -42,14 +42,21 @@ class LazyMethod:
     ``identity`` says what the method is without building it (e.g.
     ``"checkpoint:<sha256 of its files>"``, see :mod:`inpaintenv.benchmark.identity`);
     when None, the runner builds the method to learn its identity if a resume needs it.
+
+    ``unfilled`` is how the runner scores the method's 0 m pixels where ground truth
+    exists unless the run sets one policy for all (:func:`~inpaintenv.registry.unfilled_policy`).
     """
 
     lazy = True
 
-    def __init__(self, factory: Callable[[], Any], optional: bool = False, identity: str | None = None):
+    def __init__(
+        self, factory: Callable[[], Any], optional: bool = False, identity: str | None = None,
+        unfilled: str = "error",
+    ):
         self.factory = factory
         self.optional = optional
         self.identity = identity
+        self.unfilled = unfilled
 
     def __call__(self) -> Any:
         return self.factory()
@@ -77,7 +84,9 @@ def suite_methods(
         if name not in known:
             warn(f"skipping {name!r}: not registered here (its package or weights are missing)")
             continue
-        out[name] = LazyMethod(lambda name=name: build_method(name, overrides or {}), optional=True)
+        out[name] = LazyMethod(
+            lambda name=name: build_method(name, overrides or {}), optional=True, unfilled=unfilled_policy(name)
+        )
     return out
 
 

@@ -30,6 +30,7 @@ def make_kitti_env(
     protocol: str = "rect-v1",
     max_depth: float = DEFAULT_MAX_DEPTH,
     render_mode: str | None = None,
+    unfilled: str = "error",
 ) -> DepthInpaintEnv:
     """``inpaintenv/KittiInpaint-v0``: the env on real KITTI depth (:class:`KittiDepth`).
 
@@ -39,7 +40,7 @@ def make_kitti_env(
     from ..data.kitti import KittiDepth
 
     dataset = KittiDepth(root, **_given(split=split, camera=camera, kind=kind, crop=crop))
-    return DepthInpaintEnv(dataset, protocol=protocol, max_depth=max_depth, render_mode=render_mode)
+    return DepthInpaintEnv(dataset, protocol=protocol, max_depth=max_depth, render_mode=render_mode, unfilled=unfilled)
 
 
 def make_synthetic_env(
@@ -49,6 +50,7 @@ def make_synthetic_env(
     protocol: str = "rect-v1",
     max_depth: float = DEFAULT_MAX_DEPTH,
     render_mode: str | None = None,
+    unfilled: str = "error",
 ) -> DepthInpaintEnv:
     """``inpaintenv/SyntheticInpaint-v0``: the env on the built-in :class:`SyntheticStreets`.
 
@@ -58,4 +60,4 @@ def make_synthetic_env(
     from ..data.synthetic import SyntheticStreets
 
     dataset = SyntheticStreets(**_given(n=n, seed=seed, frame_shape=frame_shape))
-    return DepthInpaintEnv(dataset, protocol=protocol, max_depth=max_depth, render_mode=render_mode)
+    return DepthInpaintEnv(dataset, protocol=protocol, max_depth=max_depth, render_mode=render_mode, unfilled=unfilled)

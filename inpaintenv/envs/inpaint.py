@@ -21,8 +21,10 @@ Decisions (see ``docs/env.md``):
   given in ``options`` raises ``ValueError``. So every step has a defined reward.
 * **Bad actions raise**, they are never scored with a penalty: a non-array or non-float
   dtype raises ``TypeError``; a wrong shape, NaN/inf, negative depth or depth above the
-  action space's bound raises ``ValueError``. A penalty would hide bugs in a method
-  behind a bad but plausible score.
+  action space's bound raises ``ValueError``, and so does an action left at 0 m where
+  ground truth exists (unfilled) unless ``unfilled`` says how to score it, as in
+  :func:`inpaintenv.evaluate.evaluate`. A penalty would hide bugs in a method behind a
+  bad but plausible score.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from ..conventions import (
 )
 from ..data.base import DepthDataset, as_dataset
 from ..masks import OcclusionProtocol, get_protocol
-from ..metrics import ScoredPixels
+from ..metrics import ScoredPixels, check_unfilled
 from .render import render_panel
 
 __all__ = ["DEPTH_LIMIT", "MAX_FRAME_DRAWS", "MAX_MASK_REDRAWS", "DepthInpaintEnv", "draw_scored_hole"]
@@ -100,6 +102,10 @@ class DepthInpaintEnv(gym.Env):
         Range of PSNR and of the render colour scale, metres: finite, in
         ``(0, DEPTH_LIMIT]``.
     render_mode : {None, "rgb_array"}
+    unfilled : {"error", "interpolate", "zero"}
+        An action of 0 m where ground truth exists is refused (``ValueError`` counting
+        the pixels; the default), filled first by the KITTI devkit's background
+        interpolation, or scored as 0 m, as in :func:`inpaintenv.evaluate.evaluate`.
 
     Observation
     -----------
@@ -130,6 +136,7 @@ class DepthInpaintEnv(gym.Env):
         protocol: str | OcclusionProtocol = "rect-v1",
         max_depth: float = DEFAULT_MAX_DEPTH,
         render_mode: str | None = None,
+        unfilled: str = "error",
     ):
         self.dataset: DepthDataset = as_dataset(dataset)
         if len(self.dataset) == 0:
@@ -144,6 +151,7 @@ class DepthInpaintEnv(gym.Env):
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
         self.render_mode = render_mode
+        self.unfilled = check_unfilled(unfilled)
         shape = tuple(int(s) for s in self.dataset.frame_shape)
         self.frame_shape: tuple[int, int] = shape  # type: ignore[assignment]
         self.observation_space = spaces.Dict(
@@ -246,14 +254,15 @@ class DepthInpaintEnv(gym.Env):
         TypeError
             If ``action`` is not a plain floating-point array (integer, masked, sparse).
         ValueError
-            On a wrong shape, NaN/inf, negative depth or depth above ``DEPTH_LIMIT``.
+            On a wrong shape, NaN/inf, negative depth, depth above ``DEPTH_LIMIT``, or
+            (``unfilled="error"``) 0 m where ground truth exists.
         RuntimeError
             If called before ``reset`` or after the episode ended.
         """
         if self._done or self._scored is None or self._obs_depth is None or self._hole is None:
             raise RuntimeError("the episode is over or has not started; call reset() first")
         pred = self._check_action(action)
-        m = self._scored.metrics(pred, max_depth=self.max_depth)
+        m = self._scored.metrics(pred, max_depth=self.max_depth, unfilled=self.unfilled)
         metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items()}
         # Only render() reads the reconstruction later: copy it only then (the caller's
         # array is never kept, and a 352x1216 copy per step is not free).

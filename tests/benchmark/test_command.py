@@ -74,8 +74,9 @@ def test_rerun_with_another_checkpoint_under_the_same_name_is_refused(tmp_path, 
             p.add_(0.5)  # another model of the same class and parameters
     ck_b = other.save(tmp_path / "ckB")
     out = tmp_path / "out"
+    # --unfilled zero: the one-epoch model's clipped output is 0 m in places (refused by default).
     common = ["-m", "constant", "--frame-shape", "64", "160", "--n-frames", "4", "--holdout", "0",
-              "--figure-frames", "0", "--out", str(out), "--quiet"]
+              "--figure-frames", "0", "--out", str(out), "--quiet", "--unfilled", "zero"]
     assert main(["benchmark", "--checkpoint", f"mine={ck_a}", *common]) == 0
     table = capsys.readouterr().out
     assert main(["benchmark", "--checkpoint", f"mine={ck_b}", *common]) == 1
@@ -97,3 +98,18 @@ def test_corrupt_resume_state_is_one_line_naming_the_file(tmp_path, capsys):
     err = capsys.readouterr().err
     assert str(tmp_path / "run.json") in err and "--no-resume" in err
     assert main([*argv, "--no-resume"]) == 0
+
+
+def test_study_baselines_are_scored_at_0_m_unless_the_run_says_otherwise(tmp_path, capsys):
+    from inpaintenv.cli import main
+
+    # telea-hole leaves 0 m in holes next to unmeasured pixels by design (the study's way):
+    # its registered policy scores them as 0 m; --unfilled error refuses them, with a count.
+    common = ["-m", "telea-hole", "--n-frames", "4", "--holdout", "0", "--figure-frames", "1", "--quiet"]
+    assert main(["benchmark", *common, "--out", str(tmp_path / "a")]) == 0
+    results = json.loads((tmp_path / "a" / "results.json").read_text())
+    assert results["meta"]["unfilled"] == {"telea-hole": "zero"}
+    capsys.readouterr()
+    assert main(["benchmark", *common, "--out", str(tmp_path / "b"), "--unfilled", "error"]) == 1
+    assert "method 'telea-hole': prediction is 0 m (unfilled) at" in capsys.readouterr().err
+    assert main(["benchmark", *common, "--out", str(tmp_path / "c"), "--unfilled", "interpolate"]) == 0

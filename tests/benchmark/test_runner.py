@@ -230,3 +230,31 @@ def test_corrupt_resume_state_names_the_file(dataset, tmp_path):
     # Starting over replaces it.
     res = run_benchmark({"m": median_fill}, dataset, out_dir=tmp_path, progress=False, resume=False)
     assert len(res.rows) == len(dataset)
+
+
+def holes_at_zero(x: np.ndarray) -> np.ndarray:
+    return np.nan_to_num(x, nan=0.0)
+
+
+def test_unfilled_pixels_follow_the_run_or_the_method_policy(dataset, tmp_path):
+    from inpaintenv.benchmark import LazyMethod
+    from inpaintenv.evaluate import MethodOutputError
+
+    kw = dict(protocols="rect-v1", seeds=0, progress=False)
+    # Issue 24: refused by default, with the count, naming the method.
+    with pytest.raises(MethodOutputError, match=r"method 'zeros': prediction is 0 m \(unfilled\) at \d+ pixels"):
+        run_benchmark({"zeros": holes_at_zero}, dataset, out_dir=tmp_path / "a", **kw)
+    # A method's own policy (the registry's "zero" for the study's hole-only baselines) ...
+    lazy = {"zeros": LazyMethod(lambda: holes_at_zero, unfilled="zero"), "ten": ten_metres}
+    res = run_benchmark(lazy, dataset, out_dir=tmp_path / "b", **kw)
+    assert res.meta["unfilled"] == {"zeros": "zero", "ten": "error"}
+    # ... and a run-wide one, which is part of the run's fingerprint.
+    ipol = run_benchmark(lazy, dataset, out_dir=tmp_path / "c", unfilled="interpolate", **kw)
+    assert ipol.meta["unfilled"] == {"zeros": "interpolate", "ten": "interpolate"}
+    assert ipol.table[0]["hole_rmse"] < res.table[0]["hole_rmse"]
+    with pytest.raises(RunMismatchError, match="holds results of a different run"):
+        run_benchmark(lazy, dataset, out_dir=tmp_path / "c", unfilled="zero", **kw)
+    with pytest.raises(ValueError, match="unfilled must be one of"):
+        run_benchmark(lazy, dataset, out_dir=tmp_path / "d", unfilled="skip", **kw)
+    # A default run writes no policy into run.json: folders of earlier versions resume.
+    assert "unfilled" not in json.loads((tmp_path / "b" / "run.json").read_text())

@@ -70,7 +70,7 @@ def _check_episodes(env, frames, n_episodes, max_depth=80.0):
             env.reset(options=same)  # the same frame and mask again
             _, reward, _, _, step_info = env.step(action)
             assert_same_metrics(step_info, boolean_mask_metrics(action, gt, hole, max_depth))
-            full = frame_metrics(action, gt, hole, max_depth=max_depth)
+            full = frame_metrics(action, gt, hole, max_depth=max_depth, unfilled="zero")
             assert_same_metrics(step_info, {k: float(v) for k, v in full.items()})
             assert reward == -step_info["hole_rmse"]
         obs, info = env.reset()
@@ -79,7 +79,8 @@ def _check_episodes(env, frames, n_episodes, max_depth=80.0):
 @pytest.mark.parametrize("max_depth", [80.0, 120.0])
 def test_step_metrics_match_the_boolean_mask_reference(frame_factory, max_depth):
     frames = frame_factory(4, seed=3)
-    env = gym.make("inpaintenv/DepthInpaint-v0", dataset=ArrayDataset(frames), max_depth=max_depth)
+    # unfilled="zero": the observation itself (holes at 0 m) is one of the actions scored.
+    env = gym.make("inpaintenv/DepthInpaint-v0", dataset=ArrayDataset(frames), max_depth=max_depth, unfilled="zero")
     _check_episodes(env, frames, n_episodes=5, max_depth=max_depth)
 
 
@@ -88,7 +89,7 @@ def test_step_metrics_match_the_reference_on_real_kitti_frames(kitti_root):
     from inpaintenv.data import KittiDepth
 
     frames = KittiDepth(kitti_root, split="train").load_batch(range(3))
-    env = gym.make("inpaintenv/DepthInpaint-v0", dataset=ArrayDataset(frames))
+    env = gym.make("inpaintenv/DepthInpaint-v0", dataset=ArrayDataset(frames), unfilled="zero")
     _check_episodes(env, frames, n_episodes=2)
 
 
@@ -101,9 +102,9 @@ def test_step_scores_with_the_pixels_gathered_at_reset(dataset, monkeypatch):
             calls["init"] += 1
             super().__init__(gt, hole, **kwargs)
 
-        def metrics(self, pred, *, max_depth=80.0):
+        def metrics(self, pred, **kwargs):
             calls["metrics"] += 1
-            return super().metrics(pred, max_depth=max_depth)
+            return super().metrics(pred, **kwargs)
 
     def no_frame_metrics(*args, **kwargs):
         raise AssertionError("the env must not call frame_metrics (it regathers the whole frame)")
@@ -112,7 +113,7 @@ def test_step_scores_with_the_pixels_gathered_at_reset(dataset, monkeypatch):
     monkeypatch.setattr(metrics_module, "frame_metrics", no_frame_metrics)
     if hasattr(inpaint_module, "frame_metrics"):
         monkeypatch.setattr(inpaint_module, "frame_metrics", no_frame_metrics)
-    env = DepthInpaintEnv(dataset)
+    env = DepthInpaintEnv(dataset, unfilled="zero")
     obs, _ = env.reset(seed=0)
     assert calls == {"init": 1, "metrics": 0}
     env.step(obs["depth"])
@@ -122,7 +123,7 @@ def test_step_scores_with_the_pixels_gathered_at_reset(dataset, monkeypatch):
 
 
 def test_observations_are_fresh_arrays(dataset):
-    env = DepthInpaintEnv(dataset)
+    env = DepthInpaintEnv(dataset, unfilled="zero")
     obs, info = env.reset(seed=0)
     want_depth, want_hole = obs["depth"].copy(), obs["hole"].copy()
     obs["depth"][:] = 99.0  # the caller fills in place: the step observation is unaffected
@@ -137,7 +138,7 @@ def test_observations_are_fresh_arrays(dataset):
 
 
 def test_scoring_does_not_depend_on_the_dataset_array_after_reset(frames):
-    env = DepthInpaintEnv(ArrayDataset(frames))
+    env = DepthInpaintEnv(ArrayDataset(frames), unfilled="zero")
     obs, info = env.reset(seed=0)
     want = boolean_mask_metrics(obs["depth"], frames[info["index"]].copy(), obs["hole"].astype(bool))
     frames[info["index"]] = 1.0  # the array dataset holds a view of the caller's frames
@@ -156,7 +157,7 @@ def test_env_within_2x_of_a_plain_numpy_loop():
     rng = np.random.default_rng(0)
     frames = rng.uniform(2.0, 80.0, (4, 352, 1216)).astype(np.float32)
     frames[rng.random(frames.shape) < 0.8] = 0.0  # KITTI's ground truth covers ~20 %
-    env = gym.make("inpaintenv/DepthInpaint-v0", dataset=ArrayDataset(frames))
+    env = gym.make("inpaintenv/DepthInpaint-v0", dataset=ArrayDataset(frames), unfilled="zero")
     plain, served = bench_env.plain_loop(frames, 30), bench_env.env_loop(env, 30)
     best = {"plain": np.inf, "env": np.inf}
     for _ in range(3):  # interleaved, so both see the same machine

@@ -14,6 +14,7 @@ import inpaintenv  # noqa: F401  (registers the env ids)
 from inpaintenv.data import ArrayDataset
 from inpaintenv.envs import DEPTH_LIMIT, DepthInpaintEnv, draw_scored_hole
 from inpaintenv.masks import get_protocol
+from inpaintenv.metrics import frame_metrics
 
 SHAPE = (24, 40)  # as in conftest.py
 
@@ -126,9 +127,32 @@ def test_step_outside_episode_raises(dataset):
     with pytest.raises(RuntimeError, match="reset"):
         env.step(np.zeros(SHAPE, np.float32))
     env.reset(seed=0)
-    env.step(np.zeros(SHAPE, np.float32))
+    env.step(np.ones(SHAPE, np.float32))
     with pytest.raises(RuntimeError, match="reset"):
-        env.step(np.zeros(SHAPE, np.float32))
+        env.step(np.ones(SHAPE, np.float32))
+
+
+def test_unfilled_action_is_refused_unless_the_env_says_how_to_score_it(dataset):
+    # Issue 24: 0 m left in the hole was scored as 0 m; NaN was refused.
+    env = DepthInpaintEnv(dataset)
+    _, info = env.reset(seed=0, options={"index": 1, "mask_seed": 3})
+    gt = dataset[1]
+    hole = env._hole
+    action = np.where(hole, 0.0, gt).astype(np.float32)
+    n = int((hole & (gt > 0)).sum())
+    with pytest.raises(ValueError, match=rf"^prediction is 0 m \(unfilled\) at {n} pixels with ground truth, {n} of them"):
+        env.step(action)
+    _, reward, *_ = env.step(np.where(hole, 7.0, gt).astype(np.float32))  # the episode stayed open
+    assert np.isfinite(reward)
+    for policy in ("zero", "interpolate"):
+        env = DepthInpaintEnv(dataset, unfilled=policy)
+        env.reset(seed=0, options={"index": 1, "mask_seed": 3})
+        _, reward, *_ = env.step(action)
+        want = frame_metrics(action, gt, hole, unfilled=policy)["hole_rmse"]
+        assert reward == pytest.approx(-float(want))
+    with pytest.raises(ValueError, match="unfilled must be one of"):
+        DepthInpaintEnv(dataset, unfilled="ignore")
+    assert gym.make("inpaintenv/SyntheticInpaint-v0", n=2, frame_shape=(32, 48), unfilled="zero").unwrapped.unfilled == "zero"
 
 
 def _one_pixel(value, dtype=np.float32):
