@@ -50,7 +50,8 @@ _EXTRA_HINT = 'Dask is not installed: pip install "inpaintenv[dask]"'
 
 class ClusterError(RuntimeError):
     """A distributed run could not finish: no scheduler or worker, workers that keep
-    dying, or no shard finishing within :data:`SHARD_TIMEOUT`."""
+    dying, no shard finishing within :data:`SHARD_TIMEOUT`, or the scheduler or client
+    lost mid-run."""
 
 
 class WorkerDataError(OSError):
@@ -185,8 +186,9 @@ def map_shards(
     WorkerDataError
         If a worker cannot read the data (names the worker and the file).
     ClusterError
-        If no worker is connected, a shard's workers keep dying, or no shard finishes
-        within :data:`SHARD_TIMEOUT` seconds.
+        If no worker is connected, a shard's workers keep dying, no shard finishes
+        within :data:`SHARD_TIMEOUT` seconds, or the scheduler or this client is lost
+        mid-run (results already passed to ``on_result`` stand).
     TypeError
         If a shared value cannot be pickled (it could not reach the workers).
     Exception
@@ -212,6 +214,7 @@ def map_shards(
     position = {f.key: k for k, f in enumerate(futures)}
     results: list[Any] = [None] * len(futures)
     pending = set(futures)
+    address = client.scheduler.address
     try:
         while pending:
             try:
@@ -227,10 +230,38 @@ def map_shards(
                 future.release()
                 if on_result is not None:
                     on_result(result)
+    except (CancelledError, dd.client.ClosedClientError, dd.comm.CommClosedError):
+        # The scheduler died or this client was closed: every pending future is cancelled
+        # at once (FuturesCancelledError, "scheduler-connection-lost"). Results already
+        # handed to on_result (a benchmark's row files) stay valid.
+        raise ClusterError(_lost_message(client, address)) from None
     finally:
-        # An error, Ctrl-C or a finished run: nothing of this run stays on the cluster.
-        client.cancel(list(pending) + list(shared_futures.values()))
+        # An error, Ctrl-C or a finished run: nothing of this run stays on the cluster. A
+        # closed or disconnected client cannot cancel, and must not hide the cause.
+        _cancel_quietly(client, list(pending) + list(shared_futures.values()))
     return results
+
+
+def _lost_message(client: Any, address: str) -> str:
+    """One line for a run that lost its scheduler or client mid-run."""
+    what = (
+        "the Dask client was closed" if client.status in ("closing", "closed")
+        else f"the connection to the Dask scheduler at {address} was lost"
+    )
+    return (
+        f"{what} mid-run; the rows scored before are kept (a benchmark's run folder resumes: rerun the same "
+        "command once the scheduler is back)"
+    )
+
+
+def _cancel_quietly(client: Any, futures: list[Any]) -> None:
+    """Cancel ``futures`` if the client can still reach its scheduler."""
+    if not futures or client.status != "running":
+        return
+    try:
+        client.cancel(futures)
+    except Exception:  # noqa: BLE001 -- lost in the meantime: nothing left to cancel on
+        pass
 
 
 def _result(dd: Any, future: Any) -> Any:

@@ -277,6 +277,90 @@ def test_cli_reports_a_worker_read_error_in_one_line(client, tmp_path, monkeypat
     assert len(err.splitlines()) == 1 and "worker tcp://127.0.0.1:" in err and str(root) in err
 
 
+def _start_scheduler_and_worker(tmp_path):
+    """A scheduler and one worker as processes of their own (so the test can kill the scheduler)."""
+    import subprocess
+
+    tests_dir = os.path.dirname(os.path.abspath(__file__))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.path.dirname(tests_dir), tests_dir,
+                                                        os.environ.get("PYTHONPATH", "")])}
+    log = (tmp_path / "scheduler.log").open("w")
+    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                              "--port", "0", "--no-dashboard"], stdout=log, stderr=subprocess.STDOUT, env=env)
+    deadline, address = time.monotonic() + 60, None
+    while address is None and time.monotonic() < deadline:
+        found = re.search(r"Scheduler at:\s+(tcp://\S+)", (tmp_path / "scheduler.log").read_text())
+        address = found.group(1) if found else time.sleep(0.1)
+    assert address, "the scheduler did not start"
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                               "--no-dashboard", "--host", "127.0.0.1"], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, env=env)
+    return sched, worker, address
+
+
+def test_killed_scheduler_is_one_line_and_the_run_resumes(client, tmp_path, monkeypatch, capsys):
+    # Issue 24: kill -9 of the scheduler ended in a FuturesCancelledError traceback.
+    from inpaintenv.benchmark import suites
+
+    monkeypatch.setattr(suites, "build_method", lambda name, overrides: SlowNearest(0.3))
+    out = tmp_path / "run"
+    rows_file = out / "rows" / "nearest__rect-v1.jsonl"
+    args = ["benchmark", "-m", "nearest", "--n-frames", "16", "--frame-shape", *map(str, SHAPE), "--holdout", "0",
+            "--seed", "0", "--seed", "1", "--batch-size", "2", "--figure-frames", "0", "-q", "--out", str(out)]
+    sched, worker, address = _start_scheduler_and_worker(tmp_path)
+    killed: list[int] = []
+
+    def kill_the_scheduler():
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not (rows_file.exists() and rows_file.stat().st_size):
+            time.sleep(0.01)
+        os.kill(sched.pid, signal.SIGKILL)
+        killed.append(sched.pid)
+
+    killer = threading.Thread(target=kill_the_scheduler)
+    killer.start()
+    try:
+        rc = main([*args, "--scheduler", address])
+    finally:
+        killer.join()
+        for proc in (worker, sched):
+            proc.kill()
+            proc.wait()
+    err = capsys.readouterr().err.strip()
+    assert killed and rc == 1
+    assert len(err.splitlines()) == 1, err
+    assert f"the connection to the Dask scheduler at {address} was lost mid-run; the rows scored before are kept" in err
+    first = read_row_file(rows_file)
+    assert 0 < len(first) < 32
+    # The same command on a live cluster resumes: every row exactly once.
+    assert main([*args, "--scheduler", client.scheduler.address]) == 0
+    keys = [(r["seed"], r["index"]) for r in read_row_file(rows_file)]
+    assert sorted(keys) == sorted((s, i) for s in (0, 1) for i in range(16))
+
+
+def test_client_closed_mid_run_is_one_line(client, streets):
+    # Issue 24: close() mid-evaluate raised ClosedClientError from the cleanup, hiding the cause.
+    got = []
+    other = distributed.Client(client.scheduler.address)
+
+    def close_after_the_first_rows():
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and not got:
+            time.sleep(0.01)
+        other.close()
+
+    closer = threading.Thread(target=close_after_the_first_rows)
+    closer.start()
+    try:
+        with pytest.raises(ClusterError, match=r"^the Dask client was closed mid-run; the rows scored before are kept"):
+            evaluate(SlowNearest(0.3), streets, seeds=[0, 1], batch_size=2, progress=False, client=other,
+                     on_batch=got.append)
+    finally:
+        closer.join()
+        other.close()
+    assert got
+
+
 def test_no_finished_shard_within_the_timeout_is_an_error(client, streets, monkeypatch):
     monkeypatch.setattr(cluster, "SHARD_TIMEOUT", 0.5)
     with pytest.raises(ClusterError, match=r"no shard finished within 0\.5 s|no shard finished within 0 s"):
