@@ -272,7 +272,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
                 ys.append(data["y"][ok])
             start = time.perf_counter()
             est = _estimator(variant, args.seed, variant.get("epochs", args.epochs))
-            est.model_, _ = est._fit_pixels(np.concatenate(xs), np.concatenate(ys))
+            est.model_, _ = est._fit_pixels(np.concatenate(xs), np.concatenate(ys), int(est.random_state))
             fit_s = time.perf_counter() - start
             # Only the pixels scored with this fold's model: the held-out drive's and val's.
             scored_samples = (drives_of == held) | ((split_of == "val") & args.val)

@@ -21,6 +21,7 @@ from inpaintenv.masks import get_protocol
 
 from ._checkpoint import cpu_state
 from ._training import crop_shape
+from .base import check_random_state
 from .nets import UNet
 
 __all__ = ["MAX_CHANNELS", "NeuralParamsMixin"]
@@ -88,11 +89,7 @@ class NeuralParamsMixin:
             raise ValueError(f"validation_fraction must be None or a float in (0, 1), got {self.validation_fraction!r}")
         if self.amp not in _AMP_CHOICES or isinstance(self.amp, (int, float)) and not isinstance(self.amp, bool):
             raise ValueError(f"amp must be one of {_AMP_CHOICES}, got {self.amp!r}")
-        if self.random_state is not None and (
-            isinstance(self.random_state, bool) or not isinstance(self.random_state, (int, np.integer))
-            or self.random_state < 0
-        ):
-            raise ValueError(f"random_state must be a non-negative int or None, got {self.random_state!r}")
+        check_random_state(self.random_state)
         if not (
             isinstance(self.compile, (bool, np.bool_, dict))
             or (isinstance(self.compile, str) and self.compile in _COMPILE_MODES)
@@ -249,6 +246,9 @@ class NeuralParamsMixin:
             params["crop"] = [int(v) for v in params["crop"]]
         if params["checkpoint_dir"] is not None:
             params["checkpoint_dir"] = str(params["checkpoint_dir"])
+        if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
+            # A generator is not JSON: record the seed the fit drew from it (None before a fit).
+            params["random_state"] = getattr(self, "seed_", None)
         return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in params.items()}
 
     def _compiled(self, model: torch.nn.Module) -> torch.nn.Module:

@@ -30,6 +30,7 @@ from inpaintenv.metrics import aggregate, frame_metrics
 
 from . import _checkpoint as ckpt
 from ._checkpoint import CheckpointMixin, cpu_state
+from .base import resolve_seed
 from .losses import inpainting_loss
 from .nets import UNet
 
@@ -241,9 +242,7 @@ class TrainingMixin:
         self._check_params()
         check_depth(dataset[0], name="X[0]")
         self._check_frame_size(dataset.frame_shape)
-        seed = int(self.random_state) if self.random_state is not None else int(
-            np.random.SeedSequence().generate_state(1)[0]
-        )
+        seed = resolve_seed(self.random_state)
         device = self._device()
         with torch_threads(self.num_threads) as n_threads:
             self.n_threads_ = n_threads

@@ -26,7 +26,7 @@ from inpaintenv.data.base import DepthDataset, as_dataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
-__all__ = ["BaseInpainter", "check_inpaint_input", "iter_scoring_batches"]
+__all__ = ["BaseInpainter", "check_inpaint_input", "check_random_state", "iter_scoring_batches", "resolve_seed"]
 
 #: Protocol and seed that ``score(X)`` uses to corrupt ground truth when no ``y`` is given.
 SCORE_PROTOCOL = "rect-v1"
@@ -59,6 +59,37 @@ def check_inpaint_input(X: Any, *, require_hole: bool = True) -> np.ndarray:
             "not 'hole')"
         )
     return arr
+
+
+def check_random_state(value: Any, name: str = "random_state") -> None:
+    """Raise a clear ValueError unless ``value`` is a valid ``random_state``.
+
+    Accepted, as scikit-learn's estimators accept them: None, a non-negative integer, a
+    ``numpy.random.RandomState`` or a ``numpy.random.Generator``.
+    """
+    if value is None or isinstance(value, (np.random.RandomState, np.random.Generator)):
+        return
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ValueError(
+            f"{name} must be None, a non-negative int, a numpy RandomState or a numpy Generator, got {value!r}"
+        )
+
+
+def resolve_seed(value: Any, name: str = "random_state") -> int:
+    """The integer seed a fit uses for ``random_state`` (see :func:`check_random_state`).
+
+    An int is the seed itself (the same fit every time); None draws a fresh seed; a
+    ``RandomState`` or ``Generator`` gives the next number of its stream (and so advances
+    it: two fits with one instance differ, as in scikit-learn).
+    """
+    check_random_state(value, name)
+    if value is None:
+        return int(np.random.SeedSequence().generate_state(1)[0])
+    if isinstance(value, np.random.RandomState):
+        return int(value.randint(0, 2**31 - 1))
+    if isinstance(value, np.random.Generator):
+        return int(value.integers(0, 2**31 - 1))
+    return int(value)
 
 
 def iter_scoring_batches(
@@ -117,7 +148,7 @@ class BaseInpainter(BaseEstimator):
         return self._stateless or getattr(self, "is_fitted_", False)
 
     # -- fitting -----------------------------------------------------------------
-    def fit(self, X: Any, y: Any = None) -> "BaseInpainter":
+    def fit(self, X: Any, y: Any = None) -> BaseInpainter:
         """Fit on ground-truth depth maps.
 
         Parameters

@@ -36,7 +36,7 @@ from inpaintenv.masks import get_protocol
 
 from . import _checkpoint as ckpt
 from ._training import frame_label, torch_threads
-from .base import BaseInpainter
+from .base import BaseInpainter, resolve_seed
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
 from .priors import (
@@ -124,8 +124,10 @@ class BlendInpainter(BaseInpainter):
         Occlusion protocol of training.
     tta : bool, default True
         Average each prediction with that of the mirrored frame.
-    random_state : int, default 0
-        Seeds occlusions, pixel sampling, thinning, initialisation and batch order.
+    random_state : int, RandomState, Generator or None, default 0
+        Seeds occlusions, pixel sampling, thinning, initialisation and batch order; None
+        draws a fresh seed per fit, a RandomState or Generator gives its next number
+        (the seed used is ``seed_``).
     num_threads : int, optional
         torch threads while fitting (None: leave torch's setting).
     predict_threads : int or None, default 1
@@ -184,7 +186,7 @@ class BlendInpainter(BaseInpainter):
         lr: float = 2e-3,
         protocol: str = "rect-v1",
         tta: bool = True,
-        random_state: int = 0,
+        random_state: Any = 0,
         num_threads: int | None = None,
         predict_threads: int | None = 1,
         n_jobs: int | None = None,
@@ -220,7 +222,7 @@ class BlendInpainter(BaseInpainter):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
         for name, low in (("width", 1), ("layers", 1), ("masks_per_frame", 1), ("pixels_per_frame", 1),
-                          ("epochs", 1), ("batch_pixels", 1), ("random_state", 0)):
+                          ("epochs", 1), ("batch_pixels", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
@@ -260,22 +262,27 @@ class BlendInpainter(BaseInpainter):
     def _fit(self, dataset: DepthDataset) -> None:
         self._check_params()
         start = time.perf_counter()
-        x, y = self.training_pixels(dataset)
+        seed = resolve_seed(self.random_state)  # one draw per fit: features and network share it
+        x, y = self.training_pixels(dataset, seed=seed)
         if not len(y):
             raise ValueError("no training frame has ground truth inside its sampled holes; nothing to learn")
         with torch_threads(self.num_threads):
-            self.model_, self.history_ = self._fit_pixels(x, y)
+            self.model_, self.history_ = self._fit_pixels(x, y, seed)
+        self.seed_ = seed
         self.model_params_ = self._model_params()
         self.n_pixels_ = len(y)
         self.fit_seconds_ = time.perf_counter() - start
 
-    def training_pixels(self, dataset: DepthDataset) -> tuple[np.ndarray, np.ndarray]:
+    def training_pixels(self, dataset: DepthDataset, seed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Features ``(P, C)`` and ground truth ``(P,)`` of the sampled training pixels.
 
         Frame ``i`` gets ``masks_per_frame`` occlusions from its own random stream
-        (``random_state``, ``i``), independent of the evaluation masks
-        (``protocol.mask(shape, seed, i)``), and one input per ``keep`` fraction.
+        (``seed``, ``i``), independent of the evaluation masks
+        (``protocol.mask(shape, seed, i)``), and one input per ``keep`` fraction. ``seed``
+        defaults to the one ``random_state`` gives (:func:`~estimators.base.resolve_seed`).
         """
+        if seed is None:
+            seed = resolve_seed(self.random_state)
         protocol = get_protocol(self.protocol)
         names, endpoints = tuple(self.candidates), bool(self.endpoints)
         n_pixels = self._pixels_per_sample(len(dataset))
@@ -284,7 +291,7 @@ class BlendInpainter(BaseInpainter):
             gt = check_depth(dataset[i], name=f"training frame {frame_label(dataset, i)}", ndim=(2,))
             if not (gt > 0).any():
                 return []
-            rng = np.random.default_rng([int(self.random_state), i, 0xB1E9D])
+            rng = np.random.default_rng([int(seed), i, 0xB1E9D])
             out = []
             for _ in range(int(self.masks_per_frame)):
                 hole = protocol.sample(gt.shape, rng)
@@ -317,9 +324,8 @@ class BlendInpainter(BaseInpainter):
         self.pixels_per_sample_ = per
         return per
 
-    def _fit_pixels(self, x: np.ndarray, y: np.ndarray) -> tuple[PixelBlendNet, dict[str, list[float]]]:
+    def _fit_pixels(self, x: np.ndarray, y: np.ndarray, seed: int) -> tuple[PixelBlendNet, dict[str, list[float]]]:
         """Train a fresh network on pixel features ``x`` (``(P, C)``) and depths ``y`` (metres)."""
-        seed = int(self.random_state)
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
             net = self._build_model()
@@ -382,6 +388,8 @@ class BlendInpainter(BaseInpainter):
             raise ValueError("BlendInpainter is not fitted; call fit first")
         self._check_model_params()
         params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
+        if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
+            params["random_state"] = getattr(self, "seed_", None)  # not JSON: the seed the fit drew
         config = {"class": type(self).__name__, "params": params, "model_params": self.model_params_,
                   "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
                           "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]}}

@@ -47,6 +47,7 @@ from inpaintenv.masks import get_protocol
 
 from . import _checkpoint as ckpt
 from ._training import OcclusionFrames, epoch_order, make_loader, torch_threads
+from .base import resolve_seed
 from .neural import (
     AutoencoderInpainter,
     UNetInpainter,
@@ -95,10 +96,10 @@ def process_group(device_type: str) -> Iterator[tuple[int, int, int]]:
 
 
 def _shared_seed(est: _NeuralInpainter) -> int:
-    """``random_state``, or a fresh seed drawn by rank 0 and sent to every rank."""
-    if est.random_state is not None:
+    """``random_state``'s seed, or a seed drawn by rank 0 (None, a generator) and sent to every rank."""
+    if est.random_state is not None and not isinstance(est.random_state, (np.random.RandomState, np.random.Generator)):
         return int(est.random_state)
-    box = [int(np.random.SeedSequence().generate_state(1)[0])]
+    box = [resolve_seed(est.random_state)]
     dist.broadcast_object_list(box, src=0)
     return int(box[0])
 

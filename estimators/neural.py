@@ -119,8 +119,9 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         process setting (joblib workers already get ``cores // n_jobs``).
     num_workers : int, default 0
         DataLoader worker processes (each runs one torch thread).
-    random_state : int or None
-        Seeds weights, crops, masks and order. None draws a fresh seed per fit.
+    random_state : int, numpy RandomState or Generator, or None
+        Seeds weights, crops, masks and order. None draws a fresh seed per fit; a
+        RandomState or Generator gives its next number (the seed used is ``seed_``).
     checkpoint_dir : str, path or None
         Write training checkpoints under ``checkpoint_dir/<Class>-<hash>/`` (hash of the
         parameters and the training data) and resume from its ``last`` checkpoint when
@@ -182,7 +183,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         compile: bool | str | dict = False,
         num_threads: int | None = None,
         num_workers: int = 0,
-        random_state: int | None = None,
+        random_state: int | np.random.RandomState | np.random.Generator | None = None,
         checkpoint_dir: str | os.PathLike | None = None,
         checkpoint_every: int | None = None,
         keep_observed: bool = True,

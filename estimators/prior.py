@@ -146,7 +146,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         compile: bool | str | dict = False,
         num_threads: int | None = None,
         num_workers: int = 0,
-        random_state: int | None = None,
+        random_state: Any = None,
         checkpoint_dir: str | os.PathLike | None = None,
         checkpoint_every: int | None = None,
         keep_observed: bool = True,

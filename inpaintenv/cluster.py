@@ -25,7 +25,7 @@ import pickle
 import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import CancelledError
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any
 
 __all__ = [
@@ -258,10 +258,8 @@ def _cancel_quietly(client: Any, futures: list[Any]) -> None:
     """Cancel ``futures`` if the client can still reach its scheduler."""
     if not futures or client.status != "running":
         return
-    try:
+    with suppress(Exception):  # lost in the meantime: nothing left to cancel on
         client.cancel(futures)
-    except Exception:  # noqa: BLE001 -- lost in the meantime: nothing left to cancel on
-        pass
 
 
 def _result(dd: Any, future: Any) -> Any:

@@ -27,7 +27,13 @@ from typing import Any
 import numpy as np
 
 from ._version import __version__
-from .conventions import DEFAULT_MAX_DEPTH, as_depth_array, check_int, check_max_depth, check_seeds
+from .conventions import (
+    DEFAULT_MAX_DEPTH,
+    as_depth_array,
+    check_int,
+    check_max_depth,
+    check_seeds,
+)
 from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
 from .metrics import UnfilledPixelsError, check_unfilled, frame_metrics

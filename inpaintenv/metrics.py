@@ -25,7 +25,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .conventions import DEFAULT_MAX_DEPTH, as_depth_array, check_depth, check_mask, check_max_depth
+from .conventions import (
+    DEFAULT_MAX_DEPTH,
+    as_depth_array,
+    check_depth,
+    check_mask,
+    check_max_depth,
+)
 
 __all__ = [
     "DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "UNFILLED", "ScoredPixels", "UnfilledPixelsError", "aggregate",

@@ -8,7 +8,12 @@ import numpy as np
 import pytest
 
 from inpaintenv.data import ArrayDataset, DepthDataset
-from inpaintenv.evaluate import EvaluationResult, MethodOutputError, evaluate, method_name
+from inpaintenv.evaluate import (
+    EvaluationResult,
+    MethodOutputError,
+    evaluate,
+    method_name,
+)
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import frame_metrics
 
@@ -179,7 +184,9 @@ def test_unfilled_hole_pixels_are_refused_with_a_count(gt_ds):
 
 
 def test_unfilled_policies_score_as_the_metrics_say(gt_ds):
-    zeros = lambda x: np.nan_to_num(x, nan=0.0)  # noqa: E731
+    def zeros(x):
+        return np.nan_to_num(x, nan=0.0)
+
     for policy in ("zero", "interpolate"):
         res = evaluate(zeros, gt_ds, seeds=[0, 1], progress=False, unfilled=policy)
         assert res.meta["unfilled"] == policy

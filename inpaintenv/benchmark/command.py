@@ -33,7 +33,11 @@ def suites_epilog() -> str:
 
 
 def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_options: Callable) -> None:
-    from ..method_options import add_bad_frame_option, add_checkpoint_option, add_unfilled_option
+    from ..method_options import (
+        add_bad_frame_option,
+        add_checkpoint_option,
+        add_unfilled_option,
+    )
     from .suites import SUITES
 
     p = subparsers.add_parser(

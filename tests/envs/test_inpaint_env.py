@@ -135,7 +135,7 @@ def test_step_outside_episode_raises(dataset):
 def test_unfilled_action_is_refused_unless_the_env_says_how_to_score_it(dataset):
     # Issue 24: 0 m left in the hole was scored as 0 m; NaN was refused.
     env = DepthInpaintEnv(dataset)
-    _, info = env.reset(seed=0, options={"index": 1, "mask_seed": 3})
+    env.reset(seed=0, options={"index": 1, "mask_seed": 3})
     gt = dataset[1]
     hole = env._hole
     action = np.where(hole, 0.0, gt).astype(np.float32)

@@ -64,11 +64,14 @@ def test_beats_every_classical_method_on_its_held_out_drive(kitti_root):
 
     held_out = KittiDepth(kitti_root, split="train", drives=["2011_09_26_drive_9002_sync"])
 
-    def mean_hole_rmse(method) -> float:
-        rows = evaluate(method, held_out, "rect-v1", [0], progress=False).rows
+    from inpaintenv.registry import unfilled_policy
+
+    def mean_hole_rmse(method, unfilled: str = "error") -> float:
+        rows = evaluate(method, held_out, "rect-v1", [0], progress=False, unfilled=unfilled).rows
         return float(np.nanmean([r["hole_rmse"] for r in rows]))
 
     learned = mean_hole_rmse(BlendInpainter.pretrained())
-    classical = {name: mean_hole_rmse(make_method(name)) for name in CLASSICAL + STUDY_CLASSICAL}
+    # Each scored as the benchmark scores it (the study's hole-only fills: 0 m as 0 m).
+    classical = {name: mean_hole_rmse(make_method(name), unfilled_policy(name)) for name in CLASSICAL + STUDY_CLASSICAL}
     best = min(classical, key=classical.get)
     assert learned < classical[best], f"kitti-rect-v4 {learned:.2f} m vs {best} {classical[best]:.2f} m"
