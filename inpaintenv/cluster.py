@@ -225,7 +225,7 @@ def map_shards(
                     f"{len(client.nthreads())} workers); a worker may be stuck reading the data"
                 ) from None
             for future in done:
-                result = _result(dd, future)
+                result = _result(dd, future, client, address)
                 results[position[future.key]] = result
                 future.release()
                 if on_result is not None:
@@ -262,7 +262,7 @@ def _cancel_quietly(client: Any, futures: list[Any]) -> None:
         client.cancel(futures)
 
 
-def _result(dd: Any, future: Any) -> Any:
+def _result(dd: Any, future: Any, client: Any, address: str) -> Any:
     """A finished shard's result; cluster failures become one-line ClusterErrors."""
     try:
         return future.result()
@@ -273,7 +273,9 @@ def _result(dd: Any, future: Any) -> Any:
             f"a shard's workers died {failures} times running it (last: {last}); "
             "see the worker logs (memory? a crashing method?)"
         ) from None
-    except CancelledError:
+    except (CancelledError, dd.client.ClosedClientError, dd.comm.CommClosedError):
+        if client.status != "running":  # a closed client or a lost scheduler: say which
+            raise ClusterError(_lost_message(client, address)) from None
         raise ClusterError("a shard was cancelled: the scheduler lost it or this client was disconnected") from None
 
 
