@@ -242,9 +242,9 @@ def evaluate(
         progress bar follow the batches as they finish (in any order); the rows are the
         ones of a local run, all but ``ms``. See :mod:`inpaintenv.cluster`.
     unfilled : {"error", "interpolate", "zero"}
-        A reconstruction left at 0 m where ground truth exists (an unfilled pixel) stops
+        A reconstruction left at 0 m at a hole pixel with ground truth (unfilled) stops
         the evaluation with :class:`MethodOutputError` counting them ("error", the
-        default); or is filled first by the KITTI devkit's background interpolation
+        default; a 0 outside the hole is scored as given); or every 0 is filled first by the KITTI devkit's background interpolation
         ("interpolate", :func:`inpaintenv.metrics.interpolate_background`); or is scored
         as 0 m ("zero", how the study scored its hole-only baselines). Recorded in
         ``meta["unfilled"]``.
@@ -257,7 +257,7 @@ def evaluate(
     ------
     MethodOutputError
         If the method returns a wrong shape, a non-float, masked or sparse array, NaN/inf
-        or negative depth, or (``unfilled="error"``) 0 m where ground truth exists (the
+        or negative depth, or (``unfilled="error"``) 0 m at a hole pixel with ground truth (the
         message names the method).
     BadFrameError
         With ``on_bad_frame="error"``, on a frame that cannot be read (the message names

@@ -49,7 +49,7 @@ def add_unfilled_option(parser: argparse.ArgumentParser) -> None:
     """``--unfilled error|interpolate|zero`` (default: each method's registered policy)."""
     parser.add_argument(
         "--unfilled", choices=UNFILLED_CHOICES,
-        help="a reconstruction left at 0 m where ground truth exists: stop with a count (error), fill it "
+        help="a reconstruction left at 0 m at a hole pixel with ground truth: stop with a count (error), fill it "
              "by the KITTI devkit's background interpolation first (interpolate), or score it as 0 m (zero); "
              "default: error, but zero for the study's hole-only baselines (telea-hole, ns-hole, bilateral-hole)",
     )

@@ -48,14 +48,14 @@ MIN_PSNR_RMSE = 1e-6
 #: Default true-depth bins (metres) of :func:`depth_binned_errors`.
 DEPTH_BIN_EDGES = (0.0, 10.0, 20.0, 30.0, 50.0, np.inf)
 #: How a prediction left at 0 m (unfilled) where ground truth exists is scored:
-#: ``"error"`` refuses it (the default), ``"interpolate"`` fills such pixels first by the
+#: ``"error"`` refuses it in the hole (the default), ``"interpolate"`` fills such pixels first by the
 #: KITTI devkit's background interpolation (:func:`interpolate_background`), ``"zero"``
 #: scores them as 0 m (how the study scored its hole-only baselines).
 UNFILLED = ("error", "interpolate", "zero")
 
 
 class UnfilledPixelsError(ValueError):
-    """A prediction is 0 m (unfilled) at pixels with ground truth and ``unfilled="error"``."""
+    """A prediction is 0 m (unfilled) at hole pixels with ground truth and ``unfilled="error"``."""
 
 
 def check_unfilled(value: object, name: str = "unfilled") -> str:
@@ -136,9 +136,11 @@ def frame_metrics(
     max_depth : float
         Range for PSNR (80 m by default).
     unfilled : {"error", "interpolate", "zero"}
-        A prediction of 0 m where ground truth exists is unfilled: refused with
-        :class:`UnfilledPixelsError` (default), filled first by the KITTI devkit's
-        :func:`interpolate_background`, or scored as 0 m (see :data:`UNFILLED`).
+        A prediction of 0 m where ground truth exists is unfilled: in the hole it is
+        refused with :class:`UnfilledPixelsError` (default; outside the hole, where the
+        method was given the measurement, it is scored as given), or every such pixel is
+        filled first by the KITTI devkit's :func:`interpolate_background`, or scored as
+        0 m (see :data:`UNFILLED`).
 
     Returns
     -------
@@ -234,7 +236,7 @@ class ScoredPixels:
         Raises
         ------
         UnfilledPixelsError
-            With ``unfilled="error"``, if ``pred`` is 0 m at a pixel with ground truth.
+            With ``unfilled="error"``, if ``pred`` is 0 m at a hole pixel with ground truth.
         ValueError
             On a wrong shape, NaN/inf or negative depth at a scored pixel, or an invalid
             ``max_depth`` or ``unfilled``.
@@ -246,15 +248,16 @@ class ScoredPixels:
         check_unfilled(unfilled)
         p = _checked_scored(pred_arr.reshape(-1).take(self._index))
         if unfilled != "zero" and p.size and p.min() == 0:
-            zero = p == 0
-            if unfilled == "error":
+            if unfilled == "interpolate":
+                # The devkit fills every 0 of the prediction; only 0-m pixels change, so a
+                # prediction without any at a scored pixel is left as is.
+                p = _checked_scored(interpolate_background(pred_arr).reshape(-1).take(self._index))
+            elif n := int(np.count_nonzero((p == 0) & self._in_hole)):
+                # Outside the hole the method was given the measurement: 0 there is scored as given.
                 raise UnfilledPixelsError(
-                    f"prediction is 0 m (unfilled) at {int(zero.sum())} pixels with ground truth, "
-                    f"{int(np.count_nonzero(zero & self._in_hole))} of them in the hole; fill them, or set unfilled "
+                    f"prediction is 0 m (unfilled) at {n} hole pixels with ground truth; fill them, or set unfilled "
                     "to 'interpolate' (the KITTI devkit's background interpolation) or 'zero' (score them as 0 m)"
                 )
-            # Only 0-m pixels change, so a prediction without any at a scored pixel is left as is.
-            p = _checked_scored(interpolate_background(pred_arr).reshape(-1).take(self._index))
         # The arithmetic stays in float64 on the compact vector of scored pixels, so
         # results match a pixel-by-pixel reference.
         g, in_hole = self._gt, self._in_hole

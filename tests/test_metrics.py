@@ -255,15 +255,19 @@ def _unfilled_case():
 def test_unfilled_pixels_are_refused_with_a_count():
     # Issue 24: a 0 m hole pixel was scored as 0 m without a word (NaN was refused).
     pred, gt, hole = _unfilled_case()
-    with pytest.raises(UnfilledPixelsError, match=r"^prediction is 0 m \(unfilled\) at 3 pixels with ground truth, 2 of "
-                                                 r"them in the hole; fill them, or set unfilled to 'interpolate'"):
+    with pytest.raises(UnfilledPixelsError, match=r"^prediction is 0 m \(unfilled\) at 2 hole pixels with ground truth; "
+                                                 r"fill them, or set unfilled to 'interpolate'"):
         frame_metrics(pred, gt, hole)
-    with pytest.raises(UnfilledPixelsError, match="at 3 pixels"):
+    with pytest.raises(UnfilledPixelsError, match="at 2 hole pixels"):
         ScoredPixels(gt, hole).metrics(pred)
-    # 0 m where there is no ground truth is not scored, so not refused.
+    # 0 m where there is no ground truth is not scored, so not refused ...
     gt2 = gt.copy()
     gt2[pred == 0] = 0.0
     assert np.isfinite(frame_metrics(pred, gt2, hole)["hole_rmse"]).all()
+    # ... and outside the hole (the method was given the measurement) it is scored as given.
+    outside = gt.copy()
+    outside[1, 6, 0] = 0.0
+    assert frame_metrics(outside, gt, hole)["all_rmse"][1] == pytest.approx(10.0 / math.sqrt((gt[1] > 0).sum()))
     with pytest.raises(ValueError, match="unfilled must be one of 'error', 'interpolate', 'zero', got 'skip'"):
         frame_metrics(pred, gt, hole, unfilled="skip")
 

@@ -21,8 +21,8 @@ Decisions (see ``docs/env.md``):
   given in ``options`` raises ``ValueError``. So every step has a defined reward.
 * **Bad actions raise**, they are never scored with a penalty: a non-array or non-float
   dtype raises ``TypeError``; a wrong shape, NaN/inf, negative depth or depth above the
-  action space's bound raises ``ValueError``, and so does an action left at 0 m where
-  ground truth exists (unfilled) unless ``unfilled`` says how to score it, as in
+  action space's bound raises ``ValueError``, and so does an action left at 0 m at a
+  hole pixel with ground truth (unfilled) unless ``unfilled`` says how to score it, as in
   :func:`inpaintenv.evaluate.evaluate`. A penalty would hide bugs in a method behind a
   bad but plausible score.
 """
@@ -103,7 +103,7 @@ class DepthInpaintEnv(gym.Env):
         ``(0, DEPTH_LIMIT]``.
     render_mode : {None, "rgb_array"}
     unfilled : {"error", "interpolate", "zero"}
-        An action of 0 m where ground truth exists is refused (``ValueError`` counting
+        An action of 0 m at a hole pixel with ground truth is refused (``ValueError`` counting
         the pixels; the default), filled first by the KITTI devkit's background
         interpolation, or scored as 0 m, as in :func:`inpaintenv.evaluate.evaluate`.
 
@@ -255,7 +255,7 @@ class DepthInpaintEnv(gym.Env):
             If ``action`` is not a plain floating-point array (integer, masked, sparse).
         ValueError
             On a wrong shape, NaN/inf, negative depth, depth above ``DEPTH_LIMIT``, or
-            (``unfilled="error"``) 0 m where ground truth exists.
+            (``unfilled="error"``) 0 m at a hole pixel with ground truth.
         RuntimeError
             If called before ``reset`` or after the episode ended.
         """

@@ -130,6 +130,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from ..benchmark.suites import LazyMethod, build_method
     from ..conventions import check_int
     from ..method_options import check_method_names
+    from ..registry import unfilled_policy
     from .score import check_run_folder, prepare, submission_meta, without_ms
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
@@ -143,7 +144,9 @@ def cmd_score(args: argparse.Namespace) -> int:
     names = check_method_names(args.method or [])
     if args.name in names:
         raise ValueError(f"--name {args.name!r} is also given by -m; give the predictions another name")
-    methods: dict[str, Any] = {name: LazyMethod(lambda name=name: build_method(name, {})) for name in names}
+    methods: dict[str, Any] = {
+        name: LazyMethod(lambda name=name: build_method(name, {}), unfilled=unfilled_policy(name)) for name in names
+    }
     methods.update(_checkpoint_methods(args.checkpoint, [*names, args.name]))
     manifest, dataset, checked = prepare(
         args.manifest, args.predictions, name=args.name, kitti_root=args.kitti_root,
@@ -175,7 +178,7 @@ def cmd_score(args: argparse.Namespace) -> int:
             write_figures(
                 result, {n: (lambda m=m: m() if getattr(m, "lazy", False) else m) for n, m in run_methods.items()},
                 dataset, fig_dir, panel_methods=list(_figure_methods(table, run_methods)), n_panels=args.figure_frames,
-                protocol=protocol, seed=seeds[0], log=log, exclude=absent,
+                protocol=protocol, seed=seeds[0], log=log, exclude=absent, unfilled=result.meta.get("unfilled", {}),
             )
             log(f"figures in {fig_dir}")
         log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")

@@ -101,14 +101,20 @@ class SubmittedPredictions:
     scored_pairs : frozenset of (int, int)
         The (seed, frame) pairs this folder has a prediction for; the benchmark runner
         scores only these.
+    unfilled : {"error", "zero"}
+        How :func:`inpaintenv.evaluate.evaluate` and the runner score a 0 at a pixel with
+        ground truth: ``"zero"`` (as 0 m) when the folder was checked with
+        ``allow_unfilled``, else ``"error"``.
     """
 
     batched = True
 
-    def __init__(self, name: str, files: dict[str, tuple[str, str]], pairs: set[tuple[int, int]], identity: str):
+    def __init__(self, name: str, files: dict[str, tuple[str, str]], pairs: set[tuple[int, int]], identity: str,
+                 unfilled: str = "error"):
         self.name = name
         self.identity = identity
         self.scored_pairs = frozenset(pairs)
+        self.unfilled = unfilled
         self._files = dict(files)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -291,5 +297,6 @@ def check_predictions(
     h = hashlib.sha256()
     for rel, digest in sorted(digests):
         h.update(f"{rel}\0{digest}\n".encode())
-    method = SubmittedPredictions(name, files, pairs, identity=f"predictions:{h.hexdigest()}")
+    method = SubmittedPredictions(name, files, pairs, identity=f"predictions:{h.hexdigest()}",
+                                  unfilled="zero" if allow_unfilled else "error")
     return CheckedPredictions(method=method, missing=missing, unexpected=unexpected)

@@ -181,7 +181,7 @@ def score(
             indices = sorted(i for s, i in method.scored_pairs if s == seed)
             if indices:
                 parts.append(evaluate(method, dataset, m.protocol_name, seeds=[seed], indices=indices,
-                                      batch_size=batch_size, progress=progress, name=name))
+                                      batch_size=batch_size, progress=progress, name=name, unfilled=method.unfilled))
         result = EvaluationResult.concat(parts)
         result.meta.update({"seeds": m.seeds})
     else:
