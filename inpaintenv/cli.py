@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .cli_options import add_common_options, add_source_options, open_source_from_args
+from .cli_options import add_common_options, add_source_options, check_source_options, open_source_from_args
 from .cli_train import add_train
 from .cluster import ClusterError, add_scheduler_option, open_client, parse_scheduler
 from .conventions import DEFAULT_MAX_DEPTH, check_max_depth, check_seed, check_seeds
@@ -140,6 +140,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from .tables import summary_table, table_to_csv
 
     # Check the options and build every method first, so a typo fails before any long run.
+    check_source_options(args)
     seeds = check_seeds(args.seed or [0], "--seed")
     check_max_depth(args.max_depth, "--max-depth")
     names = check_method_names(args.method or [])
@@ -234,6 +235,7 @@ def cmd_show(args: argparse.Namespace) -> int:
         raise ValueError(f"--out must be a .png file, got {args.out!r}")
     check_max_depth(args.max_depth, "--max-depth")
     check_seed(args.seed, "--seed")
+    check_source_options(args)
     method = make_method(args.method) if args.method else None
     ds = open_source_from_args(args)
     if not 0 <= args.index < len(ds):

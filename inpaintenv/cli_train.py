@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .cli_options import add_common_options, add_source_options, open_source_from_args
+from .cli_options import add_common_options, add_source_options, check_source_options, open_source_from_args
 from .cluster import open_client, parse_scheduler
 
 
@@ -159,6 +159,7 @@ def cmd_train(args: argparse.Namespace) -> int:
             print(f"{name:18s} {describe_preset(name)}")
         return 0
     describe_preset(args.preset)  # unknown name: one-line error listing the presets
+    check_source_options(args)
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
         if not preset_runs_joblib(args.preset):

@@ -22,10 +22,31 @@ def find_kitti_root() -> Path | None:
     return None
 
 
+#: Found once, before any test runs: the fixture below removes the variable from each test.
+KITTI_ROOT = find_kitti_root()
+
+
+@pytest.fixture(autouse=True)
+def _no_kitti_root_variable():
+    """Every test starts without ``$INPAINTENV_KITTI_ROOT``.
+
+    The CLI reads the variable when ``--kitti-root`` is absent, so a test running
+    ``main([...])`` on synthetic data would score KITTI wherever the variable is set (CI
+    sets it). Tests that need real frames pass the ``kitti_root`` fixture's path
+    explicitly; tests of the variable itself set it with ``monkeypatch.setenv``. The
+    suite therefore runs the same with and without the variable (subprocesses too:
+    the variable is removed from ``os.environ``, which they inherit). Its own MonkeyPatch,
+    so that a test's ``monkeypatch.undo()`` does not bring the variable back.
+    """
+    with pytest.MonkeyPatch.context() as mp:
+        mp.delenv("INPAINTENV_KITTI_ROOT", raising=False)
+        yield
+
+
 @pytest.fixture(scope="session")
 def kitti_root() -> Path:
     """Root of the real KITTI depth-completion slice; skips the test when absent."""
-    root = find_kitti_root()
+    root = KITTI_ROOT
     if root is None:
         pytest.skip(
             "real KITTI slice not found: set INPAINTENV_KITTI_ROOT or place it at "

@@ -115,7 +115,7 @@ def _figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from ..cli_options import open_source_from_args
+    from ..cli_options import check_source_options, open_source_from_args
     from ..conventions import check_int, check_seeds
     from ..data.synthetic import SyntheticStreets
     from ..evaluate import skipped_markdown
@@ -132,6 +132,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # Every argument is resolved and checked before any frame is scored: a typo in the
     # last option must not cost the hour spent on the first methods.
+    check_source_options(args)
     overrides = {} if args.n_jobs is None else {"n_jobs": args.n_jobs}
     if args.method:
         methods: dict[str, Any] = {

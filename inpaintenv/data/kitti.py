@@ -276,13 +276,16 @@ def _is_whole(value: object) -> bool:
 
 def _resolve_root(root: str | os.PathLike | None) -> Path:
     if root is None:
-        env = os.environ.get(KITTI_ROOT_ENV)
+        env = os.environ.get(KITTI_ROOT_ENV, "").strip()
         if not env:
             raise FileNotFoundError(
                 f"no KITTI root given and ${KITTI_ROOT_ENV} is not set.\n{_LAYOUT_HELP}\n"
                 "(Without KITTI, use the built-in SyntheticStreets data.)"
             )
         root = env
+    if isinstance(root, str) and not root.strip():
+        # Path("") is the current folder: a KITTI tree would be searched where the command runs.
+        raise ValueError("the KITTI root is an empty string; give the folder holding train/ and val/")
     path = Path(root).expanduser()
     if not path.is_dir():
         raise FileNotFoundError(f"KITTI root {path} does not exist or is not a folder.\n{_LAYOUT_HELP}")
