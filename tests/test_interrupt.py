@@ -96,7 +96,7 @@ def test_train_says_whether_it_resumes_or_starts_over(tmp_path, capsys):
 
 
 SLOW = textwrap.dedent("""
-    import sys, time
+    import signal, sys, time
     import numpy as np
     from inpaintenv.cli import main
     from inpaintenv.registry import register_method
@@ -109,14 +109,24 @@ SLOW = textwrap.dedent("""
     sys.modules["slowmod"] = type(sys)("slowmod")
     sys.modules["slowmod"].Slow = Slow
     register_method("slow", "slowmod", "Slow")
+    # A shell that starts pytest in the background without job control makes its
+    # children ignore SIGINT, and Python then keeps SIG_IGN; Ctrl-C must reach main().
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     sys.exit(main(sys.argv[1:]))
 """)
 
 
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 @pytest.mark.slow
-def test_benchmark_sigint_in_a_subprocess(tmp_path):
+@pytest.mark.parametrize("inherited", ["default", "ignored"])
+def test_benchmark_sigint_in_a_subprocess(tmp_path, inherited):
+    # "ignored": the child starts with SIGINT ignored, as under `nohup`-less `pytest &` in a script.
     argv = ["benchmark", "-m", "slow", *COMMON, "--n-frames", "40", "--out", str(tmp_path)]
-    proc = subprocess.Popen([sys.executable, "-c", SLOW, *argv], stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, "-c", SLOW, *argv], stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_ignore_sigint if inherited == "ignored" else None)
     rows = tmp_path / "rows" / "slow__rect-v1.jsonl"
     deadline = time.monotonic() + 60
     while not (rows.exists() and rows.stat().st_size) and time.monotonic() < deadline:
