@@ -1,4 +1,4 @@
-"""The shell commands in README.md and docs/**/*.md name things that exist (issue 18).
+"""The shell commands in README.md and docs/**/*.md name things that exist (issue 18) and run in order.
 
 Every fenced ```bash / ```sh / ```console block is read line by line (backslash
 continuations joined, ``&&`` / ``;`` / ``|`` split, ``NAME=value`` lines of the block
@@ -10,6 +10,11 @@ substituted into later ones). For each command:
   declared by an ``add_argument`` call in it (read from its source, not run);
 * ``python -m module`` / ``torchrun ... -m module``: the module can be found;
 * no path leaves the repository (``../shared/...``): docs say ``<KITTI root>``.
+
+And the commands run in the order the docs give them: two ``benchmark`` (``train``)
+commands anywhere in the docs that share an ``--out`` are the same run, a
+``--checkpoint`` comes from an earlier ``train`` of its page, and README's commands run
+for real, in order, on the real slice (issue 24, item 2).
 
 Placeholders such as ``<KITTI root>`` or ``<held-out drive>`` stand for one argument.
 Unlabelled fences whose first line is a command must be labelled ``bash`` so this test sees them.
@@ -208,3 +213,97 @@ def test_docs_name_no_path_outside_the_repository(name):
     assert "../shared" not in text and "/work/" not in text, f"{name}: say <KITTI root> (or INPAINTENV_KITTI_ROOT)"
 
 
+
+
+#: Options of ``inpaintenv benchmark`` that fingerprint a run (data, frames, protocols, seeds):
+#: a second command into the same --out with other values stops with "holds results of a
+#: different run". Methods may differ (they add rows).
+RUN_OPTIONS = ("kitti_root", "synthetic", "split", "camera", "kind", "drives", "exclude_drives", "n_frames",
+               "frame_shape", "data_seed", "holdout", "protocol", "seed")
+#: Options of ``inpaintenv train`` that decide what is trained (another value starts over).
+TRAIN_OPTIONS = ("preset", "max_steps", "seed", "device", "kitti_root", "synthetic", "split", "camera", "kind",
+                 "drives", "exclude_drives", "n_frames", "frame_shape", "data_seed")
+
+
+def run_key(cmd: list[str]) -> tuple[str, str, tuple] | None:
+    """(subcommand, --out folder, the options that must agree there) of a benchmark or train command."""
+    if cmd[:1] != ["inpaintenv"] or len(cmd) < 2 or cmd[1] not in ("benchmark", "train"):
+        return None
+    args = parser().parse_args(cmd[1:])
+    if args.command == "train" and args.list:
+        return None
+    names = RUN_OPTIONS if args.command == "benchmark" else TRAIN_OPTIONS
+    values = []
+    for name in names:
+        value = getattr(args, name)
+        values.append((name, tuple(value) if isinstance(value, list) else value))
+    return args.command, str(Path(args.out)).rstrip("/"), tuple(values)
+
+
+def test_documented_runs_do_not_collide_in_one_folder():
+    # README's "how good" command had no --out: after README's first KITTI command it
+    # stopped with "benchmark-results holds results of a different run". Every documented
+    # benchmark (train) command that shares an --out with another must be the same run,
+    # across README and every page, so that they run in any order the docs give them.
+    first: dict[tuple[str, str], tuple[str, tuple]] = {}
+    clashes = []
+    for where, cmd in doc_commands():
+        key = run_key(cmd)
+        if key is None or "$" in key[1]:  # a loop variable: one folder per value
+            continue
+        command, out, values = key
+        seen = first.setdefault((command, out), (where, values))
+        if seen[1] != values:
+            differ = sorted(n for (n, a), (_, b) in zip(seen[1], values) if a != b)
+            clashes.append(f"{where}: {command} --out {out} is also used by {seen[0]} for another run ({differ})")
+    assert not clashes, "\n".join(clashes)
+
+
+def test_the_collision_check_catches_a_clash():
+    a = run_key(["inpaintenv", "benchmark", "--kitti-root", "PLACEHOLDER", "--split", "val"])
+    b = run_key(["inpaintenv", "benchmark", "--kitti-root", "PLACEHOLDER", "--split", "val", "--seed", "1"])
+    c = run_key(["inpaintenv", "benchmark", "--kitti-root", "PLACEHOLDER", "--split", "val", "-m", "harmonic"])
+    assert a[:2] == b[:2] == ("benchmark", "benchmark-results") and a[2] != b[2]
+    assert a == c  # other methods add rows to the same run
+
+
+def test_checkpoints_come_from_an_earlier_command_of_the_page():
+    # A page that scores `--checkpoint NAME=runs/x/model` must train into runs/x before it.
+    import fnmatch
+
+    missing = []
+    for name in DOCS:
+        trained: list[str] = []
+        for line, body in blocks(name, SHELL):
+            for cmd in commands(body):
+                if cmd[:2] == ["inpaintenv", "train"] and "--list" not in cmd:
+                    out = parser().parse_args(cmd[1:]).out
+                    trained.append(re.sub(r"\$\{?\w+\}?", "*", out.rstrip("/")))
+                elif cmd[:2] in (["inpaintenv", "benchmark"], ["inpaintenv", "evaluate"]):
+                    for spec in parser().parse_args(cmd[1:]).checkpoint or []:
+                        path = spec.split("=", 1)[-1].rstrip("/").removesuffix("/model")
+                        if "PLACEHOLDER" not in path and not any(fnmatch.fnmatch(path, t) for t in trained):
+                            missing.append(f"{name}:{line}: --checkpoint {spec} is trained by no earlier command")
+    assert not missing, "\n".join(missing)
+
+
+@pytest.mark.kitti
+@pytest.mark.slow
+def test_readme_commands_run_in_the_order_given(kitti_root, tmp_path, monkeypatch):
+    # Run, in one folder and in README order, every `inpaintenv` command of README.md, each
+    # with one fast method instead of the suite (methods do not change which run a folder
+    # holds, so a collision of two commands still fails here) and no figures.
+    from inpaintenv.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    ran = []
+    for line, body in blocks("README.md", SHELL):
+        for cmd in commands(body):
+            if cmd[0] != "inpaintenv":
+                continue
+            args = [str(kitti_root) if a == "PLACEHOLDER" else a for a in cmd[1:]]
+            if args[0] == "benchmark":
+                args += ["-m", "scanline", "--figure-frames", "0", "--quiet"]
+            assert main(args) == 0, f"README.md:{line}: {shlex.join(cmd)} failed (see its error above)"
+            ran.append(args[0])
+    assert ran.count("benchmark") >= 3
