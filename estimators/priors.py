@@ -2,7 +2,8 @@
 
 A learned model that starts from strong classical fills only has to learn where each
 one is right (a per-pixel blend) and a small correction, which a CPU-sized network
-can do in minutes; learning depth from scratch cannot (issue 8). The candidates reuse
+can do in minutes; learning depth from scratch cannot (the study's U-Net at a CPU
+budget stays far behind the classical fills, docs/reproduction.md). The candidates reuse
 the classical estimators' fill functions and are computed on the *whole* frame, so a
 row-wise fill stays exact when a network later sees a crop of rows.
 

@@ -256,7 +256,7 @@ register_method(
     "blend-pretrained-mixed", "estimators.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
     "the learned blend of kitti-rect-v3 trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
-# Their names until issue 16: they are not U-Nets, but old commands keep working.
+# Their former names: they are not U-Nets, but old commands keep working.
 register_alias("unet-pretrained", "blend-pretrained")
 register_alias("unet-pretrained-mixed", "blend-pretrained-mixed")
 

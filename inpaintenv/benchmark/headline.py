@@ -1,6 +1,6 @@
 """The headline comparison of a benchmark run: best learned method vs strongest classical one.
 
-Issue 8's claim is a ratio measured per drive and protocol in one run: the learned
+The project's claim is a ratio measured per drive and protocol in one run: the learned
 method with the lowest hole RMSE divided by the classical method with the lowest hole
 RMSE, on the same frames and masks. This module computes it from the per-frame rows,
 with a paired bootstrap interval (frames and masks resampled together for both
