@@ -168,6 +168,9 @@ class BlendInpainter(BaseInpainter):
     network runs on the pixels to fill (NaN) only, which is what keeps it fast.
     """
 
+    #: What ``history_["epoch_loss"]`` is, with its unit (the y axis of ``inpaintenv train``'s loss.png).
+    loss_label = "training loss: mean squared error (m²)"
+
     def __init__(
         self,
         *,

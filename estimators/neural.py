@@ -157,6 +157,9 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
     _skip: bool = True
     #: Name of the parameter that sets the number of downsamplings (read by messages).
     _depth_param: str = "depth"
+    #: What ``history_["step_loss"]`` is (the y axis of ``inpaintenv train``'s loss.png): the study's
+    #: loss on depth divided by ``max_depth``, so without a unit.
+    loss_label: str = "training loss: L1 + hole L1 + TV of depth / max_depth (no unit)"
 
     def __init__(
         self,

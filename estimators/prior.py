@@ -110,6 +110,8 @@ class PriorUNetInpainter(_NeuralInpainter):
 
     _skip = True
     _depth_param = "levels"
+    #: What ``history_["step_loss"]`` is, with its unit (the y axis of ``inpaintenv train``'s loss.png).
+    loss_label = "training loss: hole mean squared error (m²)"
     # Fixed by the recipe (read by the shared parameter checks and checkpoint code):
     # the loss is L2 on the hole in metres, no TV term, no valid-pixel term.
     hole_weight = 1.0

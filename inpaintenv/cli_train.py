@@ -109,12 +109,26 @@ def train_resume_note(out: Path, record: dict[str, Any]) -> str:
             f"so the earlier run is not continued (its checkpoints stay in {ckpts})")
 
 
-def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
-    """Loss per step (raw and smoothed) and validation hole RMSE per epoch, to PNG."""
+def plot_training(history: dict[str, Any], path: Path, title: str, loss_label: str = "training loss") -> Path:
+    """Loss per step (raw and smoothed) or per epoch, and validation hole RMSE per epoch, to PNG.
+
+    ``loss_label`` names the loss and its unit on the y axis (an estimator's ``loss_label``).
+    """
+    import matplotlib.pyplot as plt
+
+    fig = loss_figure(history, title, loss_label)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def loss_figure(history: dict[str, Any], title: str, loss_label: str = "training loss") -> Any:
+    """The figure of :func:`plot_training` (integer steps or epochs on the x axis)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     steps = np.asarray(history.get("step_loss") or [], dtype=float)
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -128,7 +142,8 @@ def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
         epochs = np.asarray(history.get("epoch_loss") or [], dtype=float)
         ax.plot(np.arange(1, epochs.size + 1), epochs, "o-", label="loss per epoch")
         ax.set_xlabel("epoch")
-    ax.set_ylabel("training loss")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # steps and epochs are counts, never 1.5
+    ax.set_ylabel(loss_label)
     ax.grid(alpha=0.3)
     val = [v for v in history.get("val_hole_rmse") or [] if v is not None]
     if val:
@@ -139,9 +154,7 @@ def plot_training(history: dict[str, Any], path: Path, title: str) -> Path:
     ax.legend(loc="upper right", fontsize=8)
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -203,7 +216,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     from .evaluate import json_safe
 
     (out / "training_log.json").write_text(json.dumps(json_safe(log), indent=1))
-    plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}")
+    plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}",
+                  getattr(est, "loss_label", "training loss"))
     print(f"model: {model_path}")
     print(f"log: {out / 'training_log.json'}, curves: {out / 'loss.png'}")
     print(f"score it: inpaintenv benchmark --checkpoint mine={model_path} ...")

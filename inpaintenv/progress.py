@@ -22,7 +22,12 @@ import sys
 import time
 from collections.abc import Callable, Mapping
 
-__all__ = ["ProgressReporter", "format_duration", "stderr_is_terminal"]
+__all__ = ["ProgressReporter", "count", "format_duration", "stderr_is_terminal"]
+
+
+def count(n: int, word: str, plural: str | None = None) -> str:
+    """``"1 frame"``, ``"3 frames"``: a number and its noun, singular when it is 1."""
+    return f"{n} {word if n == 1 else (plural or word + 's')}"
 
 
 def stderr_is_terminal() -> bool:
@@ -34,13 +39,21 @@ def stderr_is_terminal() -> bool:
 
 
 def format_duration(seconds: float) -> str:
-    """``"45 s"``, ``"3 min 05 s"``, ``"2 h 07 min"``."""
+    """``"under 1 s"``, ``"45 s"``, ``"3 min 05 s"``, ``"2 h 07 min"``."""
     s = max(0, round(seconds))
+    if s < 1:
+        return "under 1 s"
     if s < 60:
         return f"{s} s"
     if s < 3600:
         return f"{s // 60} min {s % 60:02d} s"
     return f"{s // 3600} h {(s % 3600) // 60:02d} min"
+
+
+def _about(seconds: float) -> str:
+    """``"about 3 min 05 s"``, or ``"under 1 s"`` (never "about 0 s")."""
+    text = format_duration(seconds)
+    return text if text.startswith("under") else f"about {text}"
 
 
 class ProgressReporter:
@@ -113,8 +126,9 @@ class ProgressReporter:
         self._mark = now
         if first and self.todo[task]:
             spf = self.spent[task] / self.done[task]
-            self.log(f"{task}: {spf:.2f} s/frame from its first batch, about "
-                     f"{format_duration(spf * self.todo[task])} for its {self.todo[task]} frames")
+            left = format_duration(spf * self.todo[task])
+            self.log(f"{task}: {spf:.2f} s/frame from its first batch, {'' if left.startswith('under') else 'about '}"
+                     f"{left} for its {count(self.todo[task], 'frame')}")
         if now - self._last_line >= self.interval:
             self._last_line = now
             self.log(self.line(now))
@@ -125,6 +139,6 @@ class ProgressReporter:
         elapsed = sum(self.spent.values())
         rate = f"{done / elapsed:.1f} frames/s" if elapsed > 0 else "rate unknown"
         left = self.estimate()
-        when = "time left unknown" if left is None else f"about {format_duration(left)} left"
+        when = "time left unknown" if left is None else _about(left) + " left"
         pct = 100 * done / self.total if self.total else 100.0
-        return f"progress: {done}/{self.total} frames ({pct:.0f} %), {rate}, {when}"
+        return f"progress: {done}/{count(self.total, 'frame')} ({pct:.0f} %), {rate}, {when}"

@@ -107,3 +107,12 @@ def test_empty_kitti_root_is_not_the_current_folder(tiny_kitti, monkeypatch, cap
 
     with pytest.raises(ValueError, match="KITTI root is an empty string"):
         KittiDepth("")
+
+
+def test_kind_help_fits_train_too():
+    # `train --kind` said "ground truth to score against".
+    from inpaintenv.cli import build_parser
+
+    sub = build_parser()._subparsers._group_actions[0].choices["train"]
+    kind = next(a for a in sub._actions if a.dest == "kind")
+    assert "trained on" in kind.help and "velodyne_raw" in kind.help

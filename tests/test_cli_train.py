@@ -123,3 +123,17 @@ def test_train_scheduler_computes_the_blend_features_on_dask_workers(tmp_path, c
     assert "Traceback" not in err and not (tmp_path / "u").exists()  # refused before any work
     assert main(["train", "--preset", "blend-kitti", *source, "--scheduler", "nowhere", "--out", str(tmp_path / "v")]) == 1
     assert "--scheduler takes tcp://HOST:PORT or local:N" in capsys.readouterr().err
+
+
+def test_loss_figure_has_whole_epochs_and_the_loss_unit():
+    # loss.png of the blend preset had epochs 1.0, 1.5, 2.0, ... and "training loss" without a unit.
+    pytest.importorskip("matplotlib")
+    from estimators.blend import BlendInpainter
+    from inpaintenv.cli_train import loss_figure
+
+    fig = loss_figure({"epoch_loss": [48.2, 42.9, 42.4]}, "blend", BlendInpainter.loss_label)
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    ticks = [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]]
+    assert ticks and all(float(t).is_integer() for t in ticks)
+    assert ax.get_xlabel() == "epoch" and ax.get_ylabel() == "training loss: mean squared error (m²)"

@@ -27,6 +27,7 @@ from ..data.base import DepthDataset
 from ..evaluate import EvaluationResult, run_method
 from ..masks import get_protocol
 from ..metrics import frame_metrics, interpolate_background
+from ..progress import count
 
 __all__ = [
     "DISTANCE_BINS", "DISTANCE_FRAMES", "FramePredictions", "frame_panel", "plot_error_vs_distance",
@@ -82,7 +83,7 @@ def spread_indices(dataset: DepthDataset, k: int, exclude: Collection[int] = ())
 def _describe(dataset: DepthDataset, indices: Sequence[int]) -> str:
     drives = len({str(dataset.groups[i]) for i in indices})
     total = len(set(np.asarray(dataset.groups).tolist()))
-    return f"{len(indices)} frames spread over {drives} of {total} drives"
+    return f"{count(len(indices), 'frame')} spread over {drives} of {count(total, 'drive')}"
 
 
 class FramePredictions:
@@ -362,7 +363,7 @@ def write_figures(
     ms = {e["method"]: e["ms_per_frame"] for e in result.group_table(("method",))}
     seconds = sum(ms.get(n, 0.0) for n in panel_methods) * len(indices) / 1000.0
     log(
-        f"figures: running {len(panel_methods)} methods again on {_describe(dataset, indices)} "
+        f"figures: running {count(len(panel_methods), 'method')} again on {_describe(dataset, indices)} "
         f"(about {seconds:.0f} s): the frame panels and error_vs_distance need pixels, which the rows do "
         "not keep; error_vs_hole_size comes from the rows"
     )

@@ -34,7 +34,7 @@ from ..evaluate import (
 )
 from ..masks import get_protocol
 from ..metrics import check_unfilled
-from ..progress import ProgressReporter, format_duration, stderr_is_terminal
+from ..progress import ProgressReporter, count, format_duration, stderr_is_terminal
 from .identity import method_identity
 from .lock import run_lock
 
@@ -254,11 +254,9 @@ def run_benchmark(
 
 def _plan_line(methods: Mapping[str, Any], total: int, protocols: list[str], seeds: list[int], n_done: int,
                n_todo: int) -> str:
-    def n(k: int, word: str) -> str:
-        return f"{k} {word}{'s' * (k != 1)}"
-
-    return (f"benchmark: {n(total, 'frame')} × {n(len(methods), 'method')} × {n(len(protocols), 'protocol')} × "
-            f"{n(len(seeds), 'seed')} = {n_done + n_todo} frame scores; {n_done} already done, {n_todo} to score")
+    return (f"benchmark: {count(total, 'frame')} × {count(len(methods), 'method')} × "
+            f"{count(len(protocols), 'protocol')} × {count(len(seeds), 'seed')} = "
+            f"{count(n_done + n_todo, 'frame score')}; {n_done} already done, {n_todo} to score")
 
 
 def _known_cost(rows_by_protocol: Mapping[str, list[dict[str, Any]]]) -> float | None:
@@ -336,7 +334,7 @@ def _run_locked(
     known = {name: c for name in methods if (c := _known_cost(existing[name])) is not None}
     if n_todo_all and all(name in known for name, k in per_method.items() if k):
         eta = sum(known[name] * k for name, k in per_method.items() if k)
-        say(f"estimate: about {format_duration(eta)} (from the ms/frame of the rows already scored)")
+        say(f"estimate: {'' if eta < 0.5 else 'about '}{format_duration(eta)} (from the ms/frame of the rows already scored)")
     # A terminal gets tqdm bars from evaluate(); a log gets periodic lines instead.
     reporter = ProgressReporter(per_method, say, seconds_per_frame=known, interval=PROGRESS_INTERVAL) if (
         progress and n_todo_all and not stderr_is_terminal()
@@ -349,7 +347,7 @@ def _run_locked(
         n_todo = {p: sum(len(v) for v in todo[p].values()) for p in protocols}
         for p in protocols:
             if n_todo[p]:
-                say(f"{name} / {p}: {n_todo[p]} frames to score ({len(done[name][p])} already done)")
+                say(f"{name} / {p}: {count(n_todo[p], 'frame')} to score ({len(done[name][p])} already done)")
         identity = cheap[name]
         recorded = identities.get(name)
         # A lazy method is built when frames need scoring, or when its rows carry an

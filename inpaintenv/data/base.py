@@ -8,6 +8,7 @@ from typing import Any, overload
 
 import numpy as np
 
+from ..progress import count
 from ..conventions import (
     check_depth,
     check_int,
@@ -169,7 +170,8 @@ class DepthDataset(Sequence, ABC):
 
     def __repr__(self) -> str:
         n_drives = len(np.unique(self.groups)) if len(self) else 0
-        return f"{type(self).__name__}({len(self)} frames, {n_drives} drives, frame_shape={self.frame_shape})"
+        return (f"{type(self).__name__}({count(len(self), 'frame')}, {count(n_drives, 'drive')}, "
+                f"frame_shape={self.frame_shape})")
 
 
 class Subset(DepthDataset):

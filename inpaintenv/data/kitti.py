@@ -11,6 +11,7 @@ Files are indexed once when the dataset is created; pixels are decoded on access
 
 from __future__ import annotations
 
+import difflib
 import os
 import re
 import struct
@@ -21,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..progress import count
 from .base import DepthDataset
 from .io import DepthFormatError, depth_from_uint16, read_depth_png_raw
 
@@ -41,6 +43,7 @@ _LAYOUT_HELP = (
 )
 
 _KINDS = ("groundtruth", "velodyne_raw")
+_SPLITS = ("train", "val", "val_selection")
 _CAMERAS = ("image_02", "image_03")
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 # File names of depth_selection/val_selection_cropped, e.g.
@@ -154,6 +157,11 @@ class KittiDepth(DepthDataset):
     ):
         if not isinstance(split, str):
             raise TypeError(f"split must be 'train', 'val' or 'val_selection', got {split!r}")
+        if split not in _SPLITS:
+            # A typo, not missing data: no download instructions.
+            close = difflib.get_close_matches(split, _SPLITS, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ValueError(f"unknown KITTI split {split!r}: splits are 'train', 'val' and 'val_selection'{hint}")
         if kind not in _KINDS:
             raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
         if camera not in (*_CAMERAS, "both"):
@@ -260,7 +268,7 @@ class KittiDepth(DepthDataset):
     def __repr__(self) -> str:
         return (
             f"KittiDepth(root={str(self.root)!r}, split={self.split!r}, camera={self.camera!r}, "
-            f"kind={self.kind!r}, {len(self)} frames, {len(np.unique(self.groups))} drives, "
+            f"kind={self.kind!r}, {count(len(self), 'frame')}, {count(len(np.unique(self.groups)), 'drive')}, "
             f"frame_shape={self.frame_shape})"
         )
 

@@ -230,3 +230,12 @@ def test_pickles_for_worker_processes(tree):
     again = pickle.loads(pickle.dumps(ds))
     np.testing.assert_array_equal(again[3], ds[3])
     assert again.frame_ids == ds.frame_ids
+
+
+def test_a_split_typo_is_one_line_without_download_help(tree):
+    # The 6-line download hint followed even `--split vall`.
+    with pytest.raises(ValueError) as err:
+        KittiDepth(tree, split="vall")
+    assert str(err.value) == ("unknown KITTI split 'vall': splits are 'train', 'val' and 'val_selection'; "
+                              "did you mean 'val'?")
+    assert KITTI_URL not in str(err.value)
