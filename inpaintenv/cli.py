@@ -27,7 +27,12 @@ from typing import Any
 
 import numpy as np
 
-from .cli_options import add_common_options, add_source_options, check_source_options, open_source_from_args
+from .cli_options import (
+    add_common_options,
+    add_source_options,
+    check_source_options,
+    open_source_from_args,
+)
 from .cli_train import add_train
 from .cluster import ClusterError, add_scheduler_option, open_client, parse_scheduler
 from .conventions import DEFAULT_MAX_DEPTH, check_max_depth, check_seed, check_seeds

@@ -11,7 +11,12 @@ from typing import Any
 
 import numpy as np
 
-from .cli_options import add_common_options, add_source_options, check_source_options, open_source_from_args
+from .cli_options import (
+    add_common_options,
+    add_source_options,
+    check_source_options,
+    open_source_from_args,
+)
 from .cluster import open_client, parse_scheduler
 
 

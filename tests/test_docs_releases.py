@@ -9,7 +9,12 @@ from pathlib import Path
 
 import pytest
 
-from inpaintenv.registry import PRETRAINED_RELEASES, available_aliases, get_spec, resolve_class
+from inpaintenv.registry import (
+    PRETRAINED_RELEASES,
+    available_aliases,
+    get_spec,
+    resolve_class,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ["README.md", "CHANGELOG.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))]

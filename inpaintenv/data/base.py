@@ -8,7 +8,6 @@ from typing import Any, overload
 
 import numpy as np
 
-from ..progress import count
 from ..conventions import (
     check_depth,
     check_int,
@@ -16,6 +15,7 @@ from ..conventions import (
     check_seeds,
     is_real_number,
 )
+from ..progress import count
 
 __all__ = [
     "DepthDataset", "ArrayDataset", "ConcatDataset", "Subset", "as_dataset", "select_drives",

@@ -9,7 +9,14 @@ import cv2
 import numpy as np
 import pytest
 
-from inpaintenv.data import KITTI_URL, DepthFormatError, KittiDepth, Subset, read_depth_png, write_depth_png
+from inpaintenv.data import (
+    KITTI_URL,
+    DepthFormatError,
+    KittiDepth,
+    Subset,
+    read_depth_png,
+    write_depth_png,
+)
 
 CROP = (8, 12)
 
