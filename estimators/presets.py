@@ -18,8 +18,8 @@ from .blend import BlendInpainter
 from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
-__all__ = ["PRESETS", "STAGED_PRESETS", "available_presets", "describe_preset", "make_preset", "preset_runs_joblib",
-           "train_preset"]
+__all__ = ["PRESETS", "STAGED_PRESETS", "available_presets", "check_preset", "describe_preset", "make_preset",
+           "preset_runs_joblib", "train_preset"]
 
 #: The CPU-budget configuration shared by the study's variants below.
 _STUDY_CPU: dict[str, Any] = dict(
@@ -188,6 +188,38 @@ def make_preset(name: str, **overrides: Any) -> Any:
             f"its parameters: {', '.join(sorted(accepted))}"
         )
     return cls(**{**params, **overrides})
+
+
+def check_preset(name: str, **overrides: Any) -> None:
+    """Check preset ``name`` with ``overrides`` without training or writing anything.
+
+    Builds the unfitted estimator of every stage and runs its parameter checks, so that
+    ``inpaintenv train`` refuses e.g. ``--max-steps`` for ``blend-kitti`` (which trains
+    for ``epochs``) or ``--seed -1`` before it creates its output folder.
+
+    Raises
+    ------
+    KeyError
+        Unknown preset.
+    ValueError, TypeError
+        An override the estimator does not have, or a value it refuses.
+    """
+    if name in STAGED_PRESETS:
+        stages, _ = STAGED_PRESETS[name]
+        ests = []
+        for cls, params, _, _ in stages:
+            accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
+            unknown = sorted(set(overrides) - accepted)
+            if unknown:
+                raise ValueError(f"preset {name!r} ({cls.__name__}) has no parameter {', '.join(unknown)}; "
+                                 f"its parameters: {', '.join(sorted(accepted))}")
+            ests.append(cls(**{**params, **overrides}))
+    else:
+        ests = [make_preset(name, **overrides)]
+    for est in ests:
+        check = getattr(est, "_check_params", None)
+        if callable(check):
+            check()
 
 
 def train_preset(

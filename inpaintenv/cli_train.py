@@ -167,6 +167,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     workers where given), write the model, ``training_log.json`` and ``loss.png``; returns 0."""
     from estimators.presets import (
         available_presets,
+        check_preset,
         describe_preset,
         preset_runs_joblib,
         train_preset,
@@ -190,6 +191,9 @@ def cmd_train(args: argparse.Namespace) -> int:
                        ("num_threads", args.threads), ("n_jobs", args.jobs), ("device", args.device)):
         if value is not None:
             overrides[key] = value
+    # Every parameter is checked before anything is written: a refused --max-steps must not
+    # leave a train_args.json behind that the next run compares itself with.
+    check_preset(args.preset, **overrides)
     ds = open_source_from_args(args)
     out = Path(args.out)
     if out.exists() and not out.is_dir():

@@ -137,3 +137,19 @@ def test_loss_figure_has_whole_epochs_and_the_loss_unit():
     ticks = [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]]
     assert ticks and all(float(t).is_integer() for t in ticks)
     assert ax.get_xlabel() == "epoch" and ax.get_ylabel() == "training loss: mean squared error (m²)"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--preset", "blend-kitti", "--max-steps", "10"], "preset 'blend-kitti' (BlendInpainter) has no parameter max_steps"),
+    (["--preset", "blend-kitti", "--threads", "0"], "num_threads must be None or an integer >= 1, got 0"),
+    (["--preset", "smoke", "--seed", "-1"], "random_state"),
+    (["--preset", "study-cpu", "--jobs", "2"], "preset 'study-cpu' (AutoencoderInpainter) has no parameter n_jobs"),
+])
+def test_preset_parameters_are_checked_before_any_file_is_written(tmp_path, capsys, argv, message):
+    # `train --preset blend-kitti --max-steps 10` failed only after "starting a new training
+    # run" and left train_args.json behind.
+    out = tmp_path / "run"
+    assert main(["train", *argv, "--n-frames", "2", "--frame-shape", "32", "96", "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert message in err and "starting a new training run" not in err and "Traceback" not in err
+    assert not out.exists()
