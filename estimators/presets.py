@@ -19,7 +19,7 @@ from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
 __all__ = ["PRESETS", "STAGED_PRESETS", "available_presets", "check_preset", "describe_preset", "make_preset",
-           "preset_runs_joblib", "train_preset"]
+           "preset_checkpoints", "preset_runs_joblib", "train_preset"]
 
 #: The CPU-budget configuration shared by the study's variants below.
 _STUDY_CPU: dict[str, Any] = dict(
@@ -159,6 +159,14 @@ def preset_runs_joblib(name: str) -> bool:
     """
     describe_preset(name)  # unknown name: the KeyError listing the presets
     return name in PRESETS and "n_jobs" in inspect.signature(PRESETS[name][0].__init__).parameters
+
+
+def preset_checkpoints(name: str) -> bool:
+    """Whether preset ``name`` writes resumable checkpoints (the step-based ones do; the blend presets,
+    one pass of minutes, do not)."""
+    describe_preset(name)  # unknown name: the KeyError listing the presets
+    classes = [c for c, *_ in STAGED_PRESETS[name][0]] if name in STAGED_PRESETS else [PRESETS[name][0]]
+    return all("checkpoint_dir" in inspect.signature(c.__init__).parameters for c in classes)
 
 
 #: Keywords the training runner passes to every preset; dropped for estimators without them.

@@ -72,26 +72,47 @@ _OVERRIDE_FLAGS = {"max_steps": "--max-steps", "random_state": "--seed", "num_th
                    "n_jobs": "--jobs", "device": "--device"}
 
 
-def train_resume_note(out: Path, record: dict[str, Any]) -> str:
+def _keyed(r: dict[str, Any]) -> dict[str, Any]:
+    """What a run trains: preset, overrides that change the weights, data."""
+    over = {k: v for k, v in (r.get("overrides") or {}).items() if k not in _RUN_INDEPENDENT_OVERRIDES}
+    return {"preset": r.get("preset"), "overrides": over, "source": r.get("source")}
+
+
+def _previous_record(out: Path) -> dict[str, Any] | None:
+    path = out / TRAIN_ARGS_FILE
+    try:
+        previous = json.loads(path.read_text()) if path.is_file() else None
+    except (ValueError, OSError):
+        return None
+    return previous if isinstance(previous, dict) else None
+
+
+def finished_model(out: Path, record: dict[str, Any]) -> Path | None:
+    """The model of a run in ``out`` that already finished with the same settings as ``record``, else None.
+
+    A run is finished when :data:`TRAIN_ARGS_FILE` says so (written after the model and
+    its log) and the model folder is still there.
+    """
+    previous = _previous_record(out)
+    if not previous or not previous.get("finished") or _keyed(previous) != _keyed(record):
+        return None
+    model = out / "model"
+    return model if (model / "config.json").is_file() else None
+
+
+def train_resume_note(out: Path, record: dict[str, Any], *, checkpoints: bool = True) -> str:
     """Whether ``inpaintenv train`` into ``out`` resumes or starts over, and why.
 
     ``record`` (preset, overrides, source) is compared with the one the previous run in
     ``out`` left in :data:`TRAIN_ARGS_FILE`. Training checkpoints are keyed by every
     parameter that shapes the run (``--max-steps`` included), so any difference starts a
-    new run; the same command continues from the last checkpoint.
+    new run; the same command continues from the last checkpoint. ``checkpoints=False``
+    (the blend presets: a few minutes, no checkpoints) says so instead of speaking of them.
     """
     ckpts = out / "checkpoints"
     has_ckpt = ckpts.is_dir() and any(ckpts.rglob("state.json"))
-    path = out / TRAIN_ARGS_FILE
-    try:
-        previous = json.loads(path.read_text()) if path.is_file() else None
-    except (ValueError, OSError):
-        previous = None
-
-    def keyed(r: dict[str, Any]) -> dict[str, Any]:
-        over = {k: v for k, v in (r.get("overrides") or {}).items() if k not in _RUN_INDEPENDENT_OVERRIDES}
-        return {"preset": r.get("preset"), "overrides": over, "source": r.get("source")}
-
+    previous = _previous_record(out)
+    keyed = _keyed
     if previous is None:
         if has_ckpt:
             return (f"{ckpts} holds checkpoints of an earlier run: training resumes from them if the preset, "
@@ -101,6 +122,9 @@ def train_resume_note(out: Path, record: dict[str, Any]) -> str:
     if before == now:
         if has_ckpt:
             return f"resuming the run in {out}: same preset, overrides and data, so training continues from its last checkpoint"
+        if not checkpoints:
+            return (f"training again in {out} from the start: the earlier run with the same settings did not finish, "
+                    f"and preset {record.get('preset')} keeps no checkpoints (it trains in one pass of minutes)")
         return f"restarting the run in {out} from step 0: same settings, but it stopped before its first checkpoint"
     changes = []
     for key in ("preset", "source"):
@@ -169,6 +193,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         available_presets,
         check_preset,
         describe_preset,
+        preset_checkpoints,
         preset_runs_joblib,
         train_preset,
     )
@@ -198,9 +223,16 @@ def cmd_train(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder")
-    out.mkdir(parents=True, exist_ok=True)
     record = {"preset": args.preset, "overrides": overrides, "source": repr(ds)}
-    print(train_resume_note(out, record), file=sys.stderr)
+    done = finished_model(out, record)
+    if done is not None:
+        print(f"the run in {out} already finished with the same preset, overrides and data: model {done}, "
+              f"log {out / 'training_log.json'}; nothing to do (another --out, or delete {out}, trains again)",
+              file=sys.stderr)
+        print(f"model: {done}")
+        return 0
+    out.mkdir(parents=True, exist_ok=True)
+    print(train_resume_note(out, record, checkpoints=preset_checkpoints(args.preset)), file=sys.stderr)
     (out / TRAIN_ARGS_FILE).write_text(json.dumps(record, indent=1))
     print(f"training preset {args.preset} on {ds!r} -> {out}", file=sys.stderr)
     with open_client(args.scheduler) as client, _joblib_on(client):
@@ -227,6 +259,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     (out / "training_log.json").write_text(json.dumps(json_safe(log), indent=1))
     plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}",
                   getattr(est, "loss_label", "training loss"))
+    # Last: a rerun of this command is a no-op only once the model and its log are written.
+    (out / TRAIN_ARGS_FILE).write_text(json.dumps({**record, "finished": True}, indent=1))
     print(f"model: {model_path}")
     print(f"log: {out / 'training_log.json'}, curves: {out / 'loss.png'}")
     print(f"score it: inpaintenv benchmark --checkpoint mine={model_path} ...")

@@ -89,10 +89,10 @@ def test_train_jobs_sets_the_blend_feature_workers_and_does_not_restart_the_run(
     weights_one_job = (one / "model" / "model.safetensors").read_bytes()
     capsys.readouterr()
     assert main(["train", "--preset", "blend-kitti", *source, "--jobs", "2", "--out", str(one)]) == 0
-    assert "starting over" not in capsys.readouterr().err  # --jobs does not key the run
+    assert "already finished" in capsys.readouterr().err  # --jobs does not key the run: nothing to redo
     assert main(["train", "--preset", "blend-kitti", *source, "--jobs", "2", "--out", str(two)]) == 0
-    logs = [json.loads((d / "training_log.json").read_text()) for d in (one, two)]
-    assert logs[0]["params"]["n_jobs"] == 2 and logs[0]["pixels_per_sample"] == 200
+    log = json.loads((two / "training_log.json").read_text())
+    assert log["params"]["n_jobs"] == 2 and log["pixels_per_sample"] == 200
     assert (two / "model" / "model.safetensors").read_bytes() == weights_one_job
     capsys.readouterr()
     assert main(["train", "--preset", "smoke", *source, "--jobs", "2", "--out", str(tmp_path / "u")]) == 1
@@ -153,3 +153,35 @@ def test_preset_parameters_are_checked_before_any_file_is_written(tmp_path, caps
     err = capsys.readouterr().err
     assert message in err and "starting a new training run" not in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_rerunning_a_finished_training_is_a_no_op(tmp_path, capsys, monkeypatch, small_blend_preset):
+    # Rerunning a finished blend-kitti training retrained everything ("stopped before its
+    # first checkpoint"): a finished run says so and exits 0.
+    from estimators import presets
+
+    out = tmp_path / "run"
+    argv = ["train", "--preset", "blend-kitti", "--n-frames", "4", "--frame-shape", "64", "192", "--out", str(out),
+            "--quiet"]
+    assert main(argv) == 0
+    log = (out / "training_log.json").read_text()
+    assert json.loads((out / "train_args.json").read_text())["finished"] is True
+    capsys.readouterr()
+
+    def no_training(*args, **kwargs):
+        raise AssertionError("a finished run was trained again")
+
+    monkeypatch.setattr(presets, "train_preset", no_training)
+    assert main([*argv, "--threads", "1"]) == 0  # a run-independent override: the same run
+    captured = capsys.readouterr()
+    assert f"the run in {out} already finished with the same preset, overrides and data" in captured.err
+    assert f"model: {out / 'model'}" in captured.out
+    assert (out / "training_log.json").read_text() == log
+    # Stopped before the end (no "finished"): trained again, and it says why without
+    # speaking of checkpoints the blend presets never write.
+    (out / "train_args.json").write_text(json.dumps({k: v for k, v in json.loads(
+        (out / "train_args.json").read_text()).items() if k != "finished"}))
+    monkeypatch.undo()
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "training again in" in err and "keeps no checkpoints" in err and "first checkpoint" not in err

@@ -86,6 +86,10 @@ def test_train_says_whether_it_resumes_or_starts_over(tmp_path, capsys):
     assert main([*argv, "--max-steps", "1"]) == 0
     assert f"starting a new training run in {tmp_path}" in capsys.readouterr().err
     assert main([*argv, "--max-steps", "1"]) == 0
+    assert "already finished" in capsys.readouterr().err  # nothing to resume
+    state = json.loads((tmp_path / "train_args.json").read_text())
+    (tmp_path / "train_args.json").write_text(json.dumps({k: v for k, v in state.items() if k != "finished"}))
+    assert main([*argv, "--max-steps", "1"]) == 0  # as if killed after its last checkpoint
     assert "resuming the run in" in capsys.readouterr().err
     assert main([*argv, "--max-steps", "2"]) == 0
     err = capsys.readouterr().err
