@@ -33,6 +33,7 @@ from joblib import Parallel, delayed
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.masks import get_protocol
+from inpaintenv.progress import FrameProgress
 
 from . import _checkpoint as ckpt
 from ._training import frame_label, torch_threads
@@ -302,9 +303,14 @@ class BlendInpainter(BaseInpainter):
                         for k in self.keep]
             return out
 
-        jobs = Parallel(n_jobs=self.n_jobs, prefer="threads", verbose=5 if self.verbose else 0)(
-            delayed(one_frame)(i) for i in range(len(dataset))
-        )
+        # One progress display (frames done of total, rate, time left), not joblib's own lines.
+        jobs = []
+        with FrameProgress(len(dataset), "training features", enabled=bool(self.verbose)) as progress:
+            for frame in Parallel(n_jobs=self.n_jobs, prefer="threads", return_as="generator")(
+                delayed(one_frame)(i) for i in range(len(dataset))
+            ):
+                jobs.append(frame)
+                progress.update(1)
         parts = [p for frame in jobs for p in frame]
         self.training_frames_ = sum(1 for frame in jobs if frame)
         if not parts:

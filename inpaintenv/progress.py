@@ -22,7 +22,7 @@ import sys
 import time
 from collections.abc import Callable, Mapping
 
-__all__ = ["ProgressReporter", "count", "format_duration", "stderr_is_terminal"]
+__all__ = ["FrameProgress", "ProgressReporter", "count", "format_duration", "stderr_is_terminal"]
 
 
 def count(n: int, word: str, plural: str | None = None) -> str:
@@ -142,3 +142,68 @@ class ProgressReporter:
         when = "time left unknown" if left is None else _about(left) + " left"
         pct = 100 * done / self.total if self.total else 100.0
         return f"progress: {done}/{count(self.total, 'frame')} ({pct:.0f} %), {rate}, {when}"
+
+
+class FrameProgress:
+    """One progress display for a loop over frames, on a terminal and in a log alike.
+
+    A terminal gets a tqdm bar (frames done of total, rate, time left); anything else
+    (a log file, CI) gets the lines of :class:`ProgressReporter` (the cost from the first
+    frame, then every ``interval`` seconds frames done / total, rate and time left) and
+    one closing line with the total time. Use as a context manager; call :meth:`update`
+    once per frame done.
+
+    Parameters
+    ----------
+    total : int
+        Frames to do.
+    desc : str
+        What the frames are for, e.g. ``"training features"``.
+    enabled : bool
+        False: show nothing.
+    log : callable, optional
+        Receives the lines outside a terminal (default: print to stderr).
+    interval : float
+        Seconds between periodic lines outside a terminal.
+    clock : callable
+        Monotonic clock (seconds); replaceable in tests.
+    """
+
+    def __init__(self, total: int, desc: str, *, enabled: bool = True, log: Callable[[str], None] | None = None,
+                 interval: float = 10.0, clock: Callable[[], float] = time.monotonic):
+        self.total, self.desc, self.clock = int(total), desc, clock
+        self.log = log or (lambda line: print(line, file=sys.stderr, flush=True))
+        self._bar = self._reporter = None
+        self._start = clock()
+        if not enabled or self.total <= 0:
+            return
+        if log is None and stderr_is_terminal():
+            from tqdm.auto import tqdm
+
+            self._bar = tqdm(total=self.total, desc=desc, unit="frame", leave=False)
+        else:
+            self._reporter = ProgressReporter({desc: self.total}, self.log, interval=interval, clock=clock)
+            self._reporter.begin(desc)
+
+    def update(self, n: int = 1) -> None:
+        """Count ``n`` more frames done."""
+        if self._bar is not None:
+            self._bar.update(n)
+        elif self._reporter is not None:
+            self._reporter.update(n)
+
+    def close(self) -> None:
+        """End the display (outside a terminal: one line with the frames and the time taken)."""
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        elif self._reporter is not None:
+            done = sum(self._reporter.done.values())
+            self.log(f"{self.desc}: {count(done, 'frame')} in {format_duration(self.clock() - self._start)}")
+            self._reporter = None
+
+    def __enter__(self) -> FrameProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -87,3 +87,23 @@ def test_wording_of_counts_and_short_durations():
     assert lines == ["a: 0.10 s/frame from its first batch, under 1 s for its 1 frame"]
     assert rep.line(0.1) == "progress: 1/1 frame (100 %), 10.0 frames/s, under 1 s left"
     assert "(1 frame, 1 drive," in repr(SyntheticStreets(n=1, frame_shape=(32, 96)).__getitem__([0]))
+
+
+def test_frame_progress_outside_a_terminal():
+    from inpaintenv.progress import FrameProgress
+
+    lines: list[str] = []
+    clock = iter([0.0, 0.0, 0.0, 2.0, 4.0, 12.0, 12.0]).__next__
+    with FrameProgress(10, "training features", log=lines.append, interval=10, clock=clock) as progress:
+        progress.update(1)  # 2 s
+        progress.update(1)  # 4 s
+        progress.update(1)  # 12 s: a periodic line is due
+    assert lines == [
+        "training features: 2.00 s/frame from its first batch, about 20 s for its 10 frames",
+        "progress: 3/10 frames (30 %), 0.2 frames/s, about 28 s left",
+        "training features: 3 frames in 12 s",
+    ]
+    silent: list[str] = []
+    with FrameProgress(3, "x", enabled=False, log=silent.append) as progress:
+        progress.update(3)
+    assert silent == []

@@ -157,3 +157,12 @@ def test_no_ground_truth_in_any_hole_is_a_clear_error():
 def test_unknown_release_lists_the_shipped_ones():
     with pytest.raises(KeyError, match="no pretrained BlendInpainter 'nope'"):
         BlendInpainter.pretrained("nope")
+
+
+def test_verbose_fit_shows_one_progress_display_of_the_features(capsys):
+    # The ~4-minute feature phase printed only joblib's own lines, without a total.
+    BlendInpainter(**{**TINY, "epochs": 1}, n_jobs=2, verbose=True).fit(_streets(4))
+    err = capsys.readouterr().err
+    assert "[Parallel(" not in err
+    assert "training features: " in err and "s/frame from its first batch" in err and "for its 4 frames" in err
+    assert "training features: 4 frames in " in err  # the closing line, with the time taken
