@@ -246,3 +246,18 @@ def test_a_split_typo_is_one_line_without_download_help(tree):
     assert str(err.value) == ("unknown KITTI split 'vall': splits are 'train', 'val' and 'val_selection'; "
                               "did you mean 'val'?")
     assert KITTI_URL not in str(err.value)
+
+
+def test_eight_bit_file_after_the_first_is_found_when_decoded_or_by_headers(tree, capsys):
+    # docs/data.md said "rejected at creation"; only the first file's header is read then.
+    ds = KittiDepth(tree, split="train", crop=CROP)
+    bad = ds.paths[2]
+    cv2.imwrite(str(bad), np.ones((16, 20), np.uint8))
+    ds = KittiDepth(tree, split="train", crop=CROP)  # created: the first file is 16-bit
+    ds[0]
+    with pytest.raises(DepthFormatError, match=f"{bad.name}.*8-bit"):
+        ds[2]
+    with pytest.raises(DepthFormatError, match=f"{bad.name} is a 8-bit PNG"):
+        KittiDepth(tree, split="train", crop=CROP).headers()  # what `inpaintenv info` reads
+    text = (Path(__file__).resolve().parents[2] / "docs" / "data.md").read_text()
+    assert "only the **first** file's header is" in text and "rejected at creation" not in text
