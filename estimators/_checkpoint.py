@@ -269,16 +269,48 @@ def shipped_releases(class_name: str, directory: Path = PRETRAINED_DIR) -> list[
                   and json.loads(p.read_text()).get("class") == class_name)
 
 
+#: The training drives of the releases shipped before their JSON recorded them (from their
+#: model cards' training commands: v1-v3 and mixed-v1 the first 56 frames of 9001, v4 9001
+#: and 9004). Every model saved since records ``training_drives`` itself.
+SHIPPED_TRAINING_DRIVES: dict[str, list[str]] = {
+    **{name: ["2011_09_26_drive_9001_sync"] for name in ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3",
+                                                          "kitti-mixed-v1")},
+    "kitti-rect-v4": ["2011_09_26_drive_9001_sync", "2011_09_26_drive_9004_sync"],
+}
+
+
+def provenance(est: Any) -> dict[str, Any]:
+    """What a saved model records about its training data and machine: ``training_drives``
+    (None when unknown) and ``environment`` (:func:`inpaintenv.environment.environment_info`
+    at fit time; omitted when the model was not fitted in this version)."""
+    out: dict[str, Any] = {"training_drives": getattr(est, "training_drives_", None)}
+    if getattr(est, "fit_environment_", None) is not None:
+        out["environment"] = est.fit_environment_
+    return out
+
+
+def restore_provenance(est: Any, config: dict[str, Any]) -> None:
+    """Set ``training_drives_`` and ``fit_environment_`` from a checkpoint's config (None when absent)."""
+    drives = config.get("training_drives")
+    est.training_drives_ = [str(d) for d in drives] if isinstance(drives, list) else None
+    est.fit_environment_ = config.get("environment")
+
+
 @contextmanager
 def release_folder(name: str, directory: Path = PRETRAINED_DIR) -> Iterator[Path]:
     """A temporary checkpoint folder holding release ``name``'s two files.
 
     The shipped pair is a checkpoint's files under flat names; copied (they are small)
     into one folder, they are read by the same checksum-verifying loader as any checkpoint.
+    A release JSON without ``training_drives`` gets them from :data:`SHIPPED_TRAINING_DRIVES`.
     """
     with tempfile.TemporaryDirectory() as tmp:
         for suffix, target in ((".safetensors", MODEL_FILE), (".json", CONFIG_FILE)):
             shutil.copyfile(directory / f"{name}{suffix}", Path(tmp) / target)
+        config = json.loads((Path(tmp) / CONFIG_FILE).read_text())
+        if config.get("training_drives") is None and name in SHIPPED_TRAINING_DRIVES:
+            config["training_drives"] = SHIPPED_TRAINING_DRIVES[name]
+            (Path(tmp) / CONFIG_FILE).write_text(json.dumps(config))
         yield Path(tmp)
 
 
@@ -338,6 +370,7 @@ class CheckpointMixin:
             "params": self._config_params(),
             "seed": getattr(self, "seed_", None),
             "fitted": {"n_steps_": getattr(self, "n_steps_", 0), "history_": getattr(self, "history_", None)},
+            **provenance(self),
         }
         return write_checkpoint(path, config, cpu_state(self.model_))
 
@@ -378,6 +411,7 @@ class CheckpointMixin:
         est.n_steps_ = int(fitted.get("n_steps_", fitted.get("step", 0)) or 0)
         est.seed_ = config.get("seed")
         est.model_params_ = est._model_params()
+        restore_provenance(est, config)
         est.is_fitted_ = True
         return est
 

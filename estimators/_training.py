@@ -25,6 +25,7 @@ from tqdm.auto import tqdm
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset, split_by_drive
+from inpaintenv.environment import environment_info
 from inpaintenv.masks import OcclusionProtocol, get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
@@ -43,6 +44,7 @@ __all__ = [
     "epoch_order",
     "frame_label",
     "make_loader",
+    "deterministic_torch",
     "sample_rng",
     "torch_threads",
 ]
@@ -197,6 +199,27 @@ def torch_threads(n: int | None) -> Iterator[int]:
             torch.set_num_threads(before)
 
 
+@contextlib.contextmanager
+def deterministic_torch(enabled: bool = True) -> Iterator[None]:
+    """``torch.use_deterministic_algorithms(True)`` for the block, restored after.
+
+    Training on the CPU sets it: torch then uses a deterministic kernel wherever it has
+    one and warns where it has none (``warn_only``), so two identical runs on one machine
+    give identical weights. It cannot make other machines agree: a different CPU
+    instruction set or library version sums floats in another order.
+    """
+    if not enabled:
+        yield
+        return
+    before = torch.are_deterministic_algorithms_enabled()
+    warn_before = torch.is_deterministic_algorithms_warn_only_enabled()
+    torch.use_deterministic_algorithms(True, warn_only=True)
+    try:
+        yield
+    finally:
+        torch.use_deterministic_algorithms(before, warn_only=warn_before)
+
+
 #: Parameters that change nothing about the trained weights: left out of the run-directory
 #: hash so that e.g. changing ``verbose`` still resumes the same run.
 _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed")
@@ -244,8 +267,9 @@ class TrainingMixin:
         self._check_frame_size(dataset.frame_shape)
         seed = resolve_seed(self.random_state)
         device = self._device()
-        with torch_threads(self.num_threads) as n_threads:
+        with torch_threads(self.num_threads) as n_threads, deterministic_torch(torch.device(device).type == "cpu"):
             self.n_threads_ = n_threads
+            self.fit_environment_ = environment_info(torch_details=True)
             self._train(dataset, seed, device)
         self.seed_ = seed
         self.model_params_ = self._model_params()

@@ -13,6 +13,7 @@ Every inpainter is a scikit-learn estimator:
 from __future__ import annotations
 
 import numbers
+import re
 from abc import abstractmethod
 from collections.abc import Iterator
 from typing import Any
@@ -26,7 +27,10 @@ from inpaintenv.data.base import DepthDataset, as_dataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
-__all__ = ["BaseInpainter", "check_inpaint_input", "check_random_state", "iter_scoring_batches", "resolve_seed"]
+__all__ = [
+    "BaseInpainter", "check_inpaint_input", "check_random_state", "iter_scoring_batches", "resolve_seed",
+    "training_drives",
+]
 
 #: Protocol and seed that ``score(X)`` uses to corrupt ground truth when no ``y`` is given.
 SCORE_PROTOCOL = "rect-v1"
@@ -122,6 +126,20 @@ def iter_scoring_batches(
         yield x, gt, hole
 
 
+#: Drive ids that :class:`~inpaintenv.data.ArrayDataset` makes up for frames without one.
+_UNNAMED_GROUP = re.compile(r"frame\d+")
+
+
+def training_drives(dataset: DepthDataset) -> list[str] | None:
+    """The sorted drive ids of ``dataset``'s frames, or None when its frames carry none.
+
+    Plain arrays get made-up ids (``frame0``, ``frame1``, ...) that would match any other
+    array's: they are not recorded.
+    """
+    drives = sorted({str(g) for g in np.asarray(dataset.groups).tolist()})
+    return None if all(_UNNAMED_GROUP.fullmatch(d) for d in drives) else drives
+
+
 class BaseInpainter(BaseEstimator):
     """Base class of all inpainters (do not instantiate).
 
@@ -166,11 +184,17 @@ class BaseInpainter(BaseEstimator):
         if len(dataset) == 0:
             raise ValueError("cannot fit on an empty dataset")
         self._fit(dataset)
+        if not self._stateless:
+            # Saved with the model: a benchmark marks the drives a model was trained on.
+            self.training_drives_ = training_drives(dataset)
         self.is_fitted_ = True
         return self
 
     def _fit(self, dataset: DepthDataset) -> None:
-        """Learn from ``dataset``; classical methods learn nothing."""
+        """Learn from ``dataset``; classical methods learn nothing.
+
+        Learned estimators also get ``training_drives_`` from :meth:`fit` (see
+        :func:`training_drives`)."""
         # Touch one frame so bad data fails at fit time, not later.
         check_depth(dataset[0], name="X[0]")
 

@@ -32,11 +32,12 @@ from joblib import Parallel, delayed
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
+from inpaintenv.environment import environment_info
 from inpaintenv.masks import get_protocol
 from inpaintenv.progress import FrameProgress
 
 from . import _checkpoint as ckpt
-from ._training import frame_label, torch_threads
+from ._training import deterministic_torch, frame_label, torch_threads
 from .base import BaseInpainter, resolve_seed
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
@@ -270,7 +271,8 @@ class BlendInpainter(BaseInpainter):
         x, y = self.training_pixels(dataset, seed=seed)
         if not len(y):
             raise ValueError("no training frame has ground truth inside its sampled holes; nothing to learn")
-        with torch_threads(self.num_threads):
+        with torch_threads(self.num_threads), deterministic_torch():
+            self.fit_environment_ = environment_info(torch_details=True)
             self.model_, self.history_ = self._fit_pixels(x, y, seed)
         self.seed_ = seed
         self.model_params_ = self._model_params()
@@ -401,7 +403,8 @@ class BlendInpainter(BaseInpainter):
             params["random_state"] = getattr(self, "seed_", None)  # not JSON: the seed the fit drew
         config = {"class": type(self).__name__, "params": params, "model_params": self.model_params_,
                   "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
-                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]}}
+                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]},
+                  **ckpt.provenance(self)}
         return ckpt.write_checkpoint(path, config, self.model_.state_dict())
 
     @classmethod
@@ -436,6 +439,7 @@ class BlendInpainter(BaseInpainter):
         est.training_frames_ = fit.get("training_frames", 0)
         est.fit_seconds_ = fit.get("fit_seconds", float("nan"))
         est.history_ = {"epoch_loss": list(fit.get("epoch_loss", []))}
+        ckpt.restore_provenance(est, config)
         est.is_fitted_ = True
         return est
 

@@ -279,6 +279,7 @@ def _train_stages(
     previous = None
     record = []
     total = 0.0
+    drives: set[str] | None = set()
     for k, (cls, params, fraction, warm) in enumerate(stages):
         frames = subset(data, fraction, seed=k) if fraction < 1.0 else data
         stage_dir = None if checkpoint_dir is None else os.path.join(os.fspath(checkpoint_dir), f"stage{k + 1}")
@@ -293,7 +294,13 @@ def _train_stages(
         seconds = time.perf_counter() - start
         total += seconds
         record.append({"stage": k + 1, "class": cls.__name__, "frames": len(frames), "seconds": seconds})
+        if drives is not None and est.training_drives_ is not None:
+            drives |= set(est.training_drives_)
+        else:
+            drives = None
         previous = est
     previous.stages_ = record
+    # The last model inherits what the earlier stages saw through its warm start.
+    previous.training_drives_ = None if drives is None else sorted(drives)
     previous.fit_seconds_ = total
     return previous

@@ -18,6 +18,7 @@ from .cli_options import (
     open_source_from_args,
 )
 from .cluster import open_client, parse_scheduler
+from .environment import environment_info
 
 
 def add_train(subparsers: Any) -> None:
@@ -252,6 +253,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         "n_steps": getattr(est, "n_steps_", None),
         "pixels_per_sample": getattr(est, "pixels_per_sample_", None),  # blend presets: below max_pixels?
         "stages": getattr(est, "stages_", None),
+        "training_drives": getattr(est, "training_drives_", None),
+        # Weights are identical only with the same libraries on the same kind of machine.
+        "environment": getattr(est, "fit_environment_", None) or environment_info(torch_details=True),
         "history": history,
     }
     from .evaluate import json_safe

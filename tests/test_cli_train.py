@@ -185,3 +185,19 @@ def test_rerunning_a_finished_training_is_a_no_op(tmp_path, capsys, monkeypatch,
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "training again in" in err and "keeps no checkpoints" in err and "first checkpoint" not in err
+
+
+def test_training_log_records_libraries_threads_and_machine(tmp_path, small_blend_preset):
+    import numpy as np
+    import torch
+
+    out = tmp_path / "run"
+    assert main(["train", "--preset", "blend-kitti", "--n-frames", "4", "--frame-shape", "64", "192",
+                 "--threads", "1", "--out", str(out), "--quiet"]) == 0
+    log = json.loads((out / "training_log.json").read_text())
+    env = log["environment"]
+    assert env["versions"]["torch"] == torch.__version__ and env["versions"]["numpy"] == np.__version__
+    assert env["torch_threads"] == 1 and env["cpu_count"] >= 1 and env["cpu_model"]
+    from inpaintenv.data import SyntheticStreets
+
+    assert log["training_drives"] == sorted(set(SyntheticStreets(n=4, frame_shape=(64, 192)).groups))

@@ -4,41 +4,15 @@ from __future__ import annotations
 
 import json
 import os
-import platform
-import sys
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from ..environment import environment_info
 from ..evaluate import EvaluationResult, json_safe, skipped_markdown
 from ..tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
 from .headline import headline_markdown, learned_vs_classical
 
 __all__ = ["REPORT_METRICS", "summary_table", "to_markdown", "environment_info", "write_report"]
-
-
-def environment_info() -> dict[str, Any]:
-    """Versions and machine facts recorded beside every result."""
-    versions = {}
-    for dist in ("inpaintenv", "numpy", "opencv-python-headless", "scikit-learn", "gymnasium", "torch", "joblib"):
-        try:
-            versions[dist] = metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            versions[dist] = None
-    info: dict[str, Any] = {
-        "python": sys.version.split()[0],
-        "platform": platform.platform(),
-        "processor": platform.machine(),
-        "cpu_count": os.cpu_count(),
-        "versions": versions,
-    }
-    torch = sys.modules.get("torch")  # only report a device if a method loaded torch
-    if torch is not None:
-        info["torch_threads"] = torch.get_num_threads()
-        info["cuda"] = bool(torch.cuda.is_available())
-        if torch.cuda.is_available():
-            info["cuda_device"] = torch.cuda.get_device_name(0)
-    return info
 
 
 def write_report(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import torch
@@ -166,3 +168,37 @@ def test_verbose_fit_shows_one_progress_display_of_the_features(capsys):
     assert "[Parallel(" not in err
     assert "training features: " in err and "s/frame from its first batch" in err and "for its 4 frames" in err
     assert "training features: 4 frames in " in err  # the closing line, with the time taken
+
+
+def test_identical_trainings_give_identical_weights_with_threads_and_jobs(tmp_path, monkeypatch):
+    # Same machine, same libraries, one process: bit for bit, also with 2 torch threads and
+    # 2 feature workers; torch's deterministic algorithms are on during fit only.
+    seen = []
+    original = BlendInpainter._fit_pixels
+
+    def spy(self, x, y):
+        seen.append(torch.are_deterministic_algorithms_enabled())
+        return original(self, x, y)
+
+    monkeypatch.setattr(BlendInpainter, "_fit_pixels", spy)
+    data = ArrayDataset(_streets(n=4), groups=["d1", "d1", "d2", "d2"])
+    params = {**TINY, "num_threads": 2, "n_jobs": 2}
+    a = BlendInpainter(**params).fit(data).save(tmp_path / "a")
+    b = BlendInpainter(**params).fit(data).save(tmp_path / "b")
+    assert (a / "model.safetensors").read_bytes() == (b / "model.safetensors").read_bytes()
+    assert seen == [True, True] and not torch.are_deterministic_algorithms_enabled()
+    config = json.loads((a / "config.json").read_text())
+    assert config["training_drives"] == ["d1", "d2"]
+    env = config["environment"]
+    assert env["torch_threads"] == 2 and env["torch_deterministic"] is True
+    assert env["versions"]["torch"] == torch.__version__ and env["versions"]["numpy"] == np.__version__
+    assert {"python", "platform", "cpu_model", "cpu_count", "torch_interop_threads"} <= set(env)
+    assert {"opencv", "scikit-learn"} <= set(env["versions"])
+    loaded = BlendInpainter.load(a)
+    assert loaded.training_drives_ == ["d1", "d2"] and loaded.fit_environment_ == env
+
+
+def test_shipped_releases_know_their_training_drives():
+    assert BlendInpainter.pretrained("kitti-rect-v4").training_drives_ == [
+        "2011_09_26_drive_9001_sync", "2011_09_26_drive_9004_sync"]
+    assert BlendInpainter(**TINY).fit(_streets(n=2)).training_drives_ is None  # plain arrays name no drive
