@@ -53,6 +53,7 @@ from .results import (  # noqa: F401
 __all__ = [
     "BAD_FRAME_ERRORS", "BadFrameError", "EvaluationResult", "MethodOutputError", "evaluate", "json_safe",
     "merge_skipped", "method_name", "parse_row", "resolve_source", "run_method", "skipped_markdown",
+    "training_drives_of",
 ]
 
 
@@ -369,9 +370,27 @@ def evaluate(
         "unfilled": unfilled,
         "inpaintenv_version": __version__,
     }
+    drives = training_drives_of(method)
+    if drives is not None:
+        meta["training_drives"] = {label: drives}
     if skipped:
         meta["skipped_frames"] = skipped
     return EvaluationResult(rows=rows, meta=meta)
+
+
+def training_drives_of(method: Any) -> list[str] | None:
+    """The drives ``method`` was trained on (its ``training_drives_``), or None when it does not say.
+
+    Learned estimators of this project record them when fitted and in their saved files;
+    tables and headlines mark the rows of a drive that was in a method's training data.
+    """
+    drives = getattr(method, "training_drives_", None)
+    if drives is None or isinstance(drives, (str, bytes)):
+        return None
+    try:
+        return sorted({str(d) for d in drives})
+    except TypeError:
+        return None
 
 
 def _score_on_cluster(

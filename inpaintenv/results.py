@@ -128,6 +128,9 @@ class EvaluationResult:
         skipped = merge_skipped(r.meta.get("skipped_frames") or [] for r in results)
         if skipped:
             meta["skipped_frames"] = skipped
+        trained = {k: v for r in results for k, v in (r.meta.get("training_drives") or {}).items()}
+        if trained:
+            meta["training_drives"] = trained
         return cls(rows=rows, meta=meta)
 
     # -- output ------------------------------------------------------------------------

@@ -7,7 +7,10 @@ frames); :func:`to_markdown` lays entries out with units in the header and expla
 writes one value with its interval, by the rule every table follows:
 
 * no interval from one frame: ``15.30 (n=1)``, and ``null`` bounds in JSON / CSV;
-* an interval from fewer than :data:`~inpaintenv.stats.FEW_FRAMES` frames is marked ``†``.
+* an interval from fewer than :data:`~inpaintenv.stats.FEW_FRAMES` frames is marked ``†``;
+* a method scored on drives it was trained on (``meta["training_drives"]``) is marked
+  :data:`TRAINED_MARK` (with "k of n drives" when the row pools several drives), and its
+  entry lists them under ``trained_on``.
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ if TYPE_CHECKING:  # typing only: evaluate imports this module
     from .evaluate import EvaluationResult
 
 __all__ = [
-    "FEW_MARK", "REPORT_METRICS", "interval_cell", "summary_table", "table_notes", "table_to_csv", "to_markdown",
+    "FEW_MARK", "REPORT_METRICS", "TRAINED_MARK", "interval_cell", "method_cell", "summary_table", "table_notes",
+    "table_to_csv", "to_markdown", "trained_note",
 ]
 
 #: (key, header with unit, format) of every table: the study's Table I/II columns first.
@@ -41,6 +45,8 @@ REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
 )
 #: Mark of an interval from fewer than FEW_FRAMES frames.
 FEW_MARK = "†"
+#: Mark of a method scored on a drive that was in its training data.
+TRAINED_MARK = "‡"
 
 
 def summary_table(
@@ -71,14 +77,22 @@ def summary_table(
         ``n_frames``, ``n_skipped_hole``, ``hole_fraction``, ``ms_per_frame``) and, per
         metric of :data:`REPORT_METRICS`, ``{metric}_low`` / ``{metric}_high`` (NaN when
         fewer than two frames entered the mean) and ``{metric}_n`` (frames in the mean).
-        Frames without ground truth in their hole are left out of every mean.
+        Frames without ground truth in their hole are left out of every mean. With a
+        ``method`` key: ``trained_on``, the drives of the group that were in the method's
+        training data (``result.meta["training_drives"]``; empty when none or unknown),
+        and ``n_drives``, the drives of the group.
     """
     groups: dict[tuple, list[dict[str, Any]]] = {}
     for row in result.rows:
         groups.setdefault(tuple(row[k] for k in keys), []).append(row)
+    trained = result.meta.get("training_drives") or {}
     table = result.group_table(keys)
     for entry in table:
         rows = groups[tuple(entry[k] for k in keys)]
+        if "method" in keys:
+            drives = {str(r["drive"]) for r in rows}
+            entry["n_drives"] = len(drives)
+            entry["trained_on"] = sorted(drives & set(trained.get(entry["method"]) or ()))
         for metric, _, _ in REPORT_METRICS:
             # The rule of metrics.aggregate: a frame without hole truth tested nothing.
             vals = np.array(
@@ -160,6 +174,23 @@ def table_notes(
     return notes
 
 
+def method_cell(name: str, trained_on: Sequence[str] | None, n_drives: int, per_drive: bool) -> str:
+    """A method's name, marked :data:`TRAINED_MARK` when some of the drives scored were in its training data."""
+    if not trained_on:
+        return name
+    if per_drive or len(trained_on) == n_drives == 1:
+        return f"{name} {TRAINED_MARK}"
+    return f"{name} {TRAINED_MARK} ({len(trained_on)} of {n_drives} drives)"
+
+
+def trained_note(cells: Sequence[str]) -> list[str]:
+    """The line explaining :data:`TRAINED_MARK`, if a cell carries it."""
+    if not any(TRAINED_MARK in c for c in cells):
+        return []
+    return [f"{TRAINED_MARK} trained on the drive scored (k of n: on k of the n drives pooled in the row): it was "
+            "in the method's training data, so the row does not measure the method on unseen drives."]
+
+
 def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "protocol")) -> str:
     """Markdown of :func:`summary_table` entries, the notes explaining it underneath.
 
@@ -172,6 +203,7 @@ def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "p
         "|" + "|".join(["---"] * len(keys) + ["---:"] * (len(heads) - len(keys))) + "|",
     ]
     values: list[str] = []
+    names: list[str] = []
     for entry in table:
         metric_cells = [
             interval_cell(entry.get(m), entry.get(f"{m}_low"), entry.get(f"{m}_high"), entry.get(f"{m}_n", 0), f)
@@ -179,10 +211,15 @@ def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "p
         ]
         values += metric_cells
         ms = entry.get("ms_per_frame")
-        cells = [str(entry[k]) for k in keys] + [str(entry["n_frames"]), str(entry["n_skipped_hole"])]
+        cells = [
+            method_cell(str(entry[k]), entry.get("trained_on"), entry.get("n_drives", 0), "drive" in keys)
+            if k == "method" else str(entry[k]) for k in keys
+        ]
+        names += cells
+        cells += [str(entry["n_frames"]), str(entry["n_skipped_hole"])]
         cells += metric_cells + ["–" if _missing(ms) else f"{ms:.1f}"]
         lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines + [""] + table_notes(values))
+    return "\n".join(lines + [""] + table_notes(values) + trained_note(names))
 
 
 def table_to_csv(
@@ -192,15 +229,18 @@ def table_to_csv(
 
     Columns: the ``keys``, ``n_frames``, ``n_skipped_hole``, per metric of
     :data:`REPORT_METRICS` ``{metric}``, ``{metric}_low``, ``{metric}_high``,
-    ``{metric}_n``, then ``hole_fraction`` and ``ms_per_frame``.
+    ``{metric}_n``, then ``hole_fraction``, ``ms_per_frame`` and ``trained_on`` (the
+    drives of the row in the method's training data, joined by ``;``; empty when none).
     """
     path = Path(path)
     fields = list(keys) + ["n_frames", "n_skipped_hole"]
     fields += [f"{m}{s}" for m, _, _ in REPORT_METRICS for s in ("", "_low", "_high", "_n")]
-    fields += ["hole_fraction", "ms_per_frame"]
+    fields += ["hole_fraction", "ms_per_frame", "trained_on"]
     with path.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         writer.writeheader()
         for entry in table:
-            writer.writerow({k: "" if _missing(entry.get(k)) else entry.get(k) for k in fields})
+            row = {k: "" if _missing(entry.get(k)) else entry.get(k) for k in fields}
+            row["trained_on"] = ";".join(entry.get("trained_on") or [])
+            writer.writerow(row)
     return path

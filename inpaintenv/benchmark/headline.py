@@ -17,7 +17,7 @@ import numpy as np
 
 from ..evaluate import EvaluationResult
 from ..stats import bootstrap_ratio_ci
-from ..tables import interval_cell, table_notes
+from ..tables import TRAINED_MARK, interval_cell, table_notes, trained_note
 from .suites import CLASSICAL, STUDY_CLASSICAL
 
 __all__ = ["CLASSICAL_METHODS", "learned_vs_classical", "headline_markdown"]
@@ -68,11 +68,14 @@ def learned_vs_classical(
         frame) and ``hole_ratio_n`` (frame-masks in the paired comparison),
         ``all_over_classical_hole`` (learned all-pixel RMSE ÷ classical hole RMSE),
         ``n_frames`` (frame-masks both methods scored) and ``n_skipped_hole`` (those of
-        them without ground truth in their hole, left out), as in every table.
+        them without ground truth in their hole, left out), as in every table, and
+        ``learned_trained_on``: the group's drives that were in the learned method's
+        training data (``result.meta["training_drives"]``; empty when none or unknown).
     """
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}")
     classical = frozenset(classical)
+    trained = result.meta.get("training_drives") or {}
     groups: dict[tuple, dict[str, list[dict[str, Any]]]] = {}
     for row in result.rows:
         groups.setdefault(tuple(row[k] for k in keys), {}).setdefault(row["method"], []).append(row)
@@ -105,6 +108,7 @@ def learned_vs_classical(
             "hole_ratio_n": len(shared),
             "all_over_classical_hole": all_mean / float(b.mean()),
             "n_frames": len(both), "n_skipped_hole": len(both) - len(shared),
+            "learned_trained_on": sorted({str(r["drive"]) for r in by_method[best_l]} & set(trained.get(best_l) or ())),
         })
     return out
 
@@ -125,14 +129,17 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
         "|" + "|".join(["---"] * len(keys) + ["---:"] * 2 + ["---"] * 2 + ["---:"] * 2) + "|",
     ]
     ratios = []
+    learned_cells = []
     for r in rows:
         ratios.append(interval_cell(
             r["hole_ratio"], r["hole_ratio_low"], r["hole_ratio_high"], r["hole_ratio_n"], ".2f", brackets=True
         ))
+        mark = f" {TRAINED_MARK}" if r.get("learned_trained_on") else ""
+        learned_cells.append(f"{r['learned']}{mark} {r['learned_hole_rmse']:.2f}")
         lines.append("| " + " | ".join([str(r[k]) for k in keys] + [
             str(r["n_frames"]),
             str(r["n_skipped_hole"]),
-            f"{r['learned']} {r['learned_hole_rmse']:.2f}",
+            learned_cells[-1],
             f"{r['classical']} {r['classical_hole_rmse']:.2f}",
             ratios[-1],
             f"{r['all_over_classical_hole']:.2f}",
@@ -141,4 +148,4 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
         ratios, frames="frame-masks both methods scored",
         values="ratio of the mean hole RMSEs [paired 95 % percentile-bootstrap interval] (2,000 resamples, seed 0)",
     )
-    return "\n".join(lines + [""] + notes)
+    return "\n".join(lines + [""] + notes + trained_note(learned_cells))

@@ -31,6 +31,7 @@ from ..evaluate import (
     merge_skipped,
     parse_row,
     resolve_source,
+    training_drives_of,
 )
 from ..masks import get_protocol
 from ..metrics import check_unfilled
@@ -103,10 +104,13 @@ def _read_run_file(path: Path) -> dict[str, Any]:
     return state
 
 
-def _write_run_file(path: Path, fingerprint: dict[str, Any], identities: dict[str, str]) -> None:
+def _write_run_file(
+    path: Path, fingerprint: dict[str, Any], identities: dict[str, str], trained: dict[str, list[str]]
+) -> None:
     # Write-then-rename: a kill mid-write must not leave a run.json that cannot be read.
+    # "training_drives" is kept so that a resume that builds no method still marks them.
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({**fingerprint, "methods": identities}, indent=1))
+    tmp.write_text(json.dumps({**fingerprint, "methods": identities, "training_drives": trained}, indent=1))
     os.replace(tmp, path)
 
 
@@ -282,10 +286,14 @@ def _run_locked(
     # name -> identity of the method that wrote its rows (see .identity); a name missing
     # here (e.g. a run.json from before identities were recorded) is unknown and accepted.
     identities: dict[str, str] = {}
+    # name -> drives the method was trained on (see evaluate.training_drives_of), for the tables.
+    trained: dict[str, list[str]] = {}
     if resume and run_file.exists():
         previous = _read_run_file(run_file)
         recorded = previous.pop("methods", None)
         identities = {k: v for k, v in (recorded or {}).items() if isinstance(v, str)}
+        trained = {k: [str(d) for d in v] for k, v in (previous.pop("training_drives", None) or {}).items()
+                   if isinstance(v, list)}
         if previous != fingerprint:
             raise RunMismatchError(
                 f"{out} holds results of a different run ({previous.get('source')}, "
@@ -318,7 +326,10 @@ def _run_locked(
     for name, identity in cheap.items():
         if identity is not None:
             _check_identity(name, out, identities.get(name), identity, any(done[name].values()))
-    _write_run_file(run_file, fingerprint, identities)
+    for name, m in methods.items():
+        if not getattr(m, "lazy", False) and (drives := training_drives_of(m)) is not None:
+            trained[name] = drives
+    _write_run_file(run_file, fingerprint, identities, trained)
 
     # A method with ``scored_pairs`` (a submission missing some files) scores only those (seed, frame) pairs.
     allowed = {name: getattr(m, "scored_pairs", None) for name, m in methods.items()}
@@ -365,10 +376,17 @@ def _run_locked(
             if identity is None:
                 identity = method_identity(method)
                 _check_identity(name, out, recorded, identity, any(done[name].values()))
+            drives = training_drives_of(method)
+            if drives != trained.get(name):
+                if drives is None:
+                    trained.pop(name)
+                else:
+                    trained[name] = drives
+                _write_run_file(run_file, fingerprint, identities, trained)
         if identity is not None and identity != recorded:
             # Recorded before any row is written, so a killed run's rows are attributed.
             identities[name] = identity
-            _write_run_file(run_file, fingerprint, identities)
+            _write_run_file(run_file, fingerprint, identities, trained)
         if reporter is not None:
             reporter.begin(name)
         for protocol in protocols:
@@ -416,6 +434,9 @@ def _run_locked(
         {"source": repr(dataset), "protocols": protocols, "seeds": seeds, "n_frames": total,
          "unfilled": {name: policies[name] for name in combined.methods}}
     )
+    combined.meta.pop("training_drives", None)
+    if any(name in trained for name in methods):
+        combined.meta["training_drives"] = {name: trained[name] for name in methods if name in trained}
     combined.meta.pop("skipped_frames", None)
     merged = merge_skipped(skipped)
     if merged:

@@ -1,4 +1,4 @@
-"""Best learned vs strongest classical: the per-drive ratio behind issue 8's goal."""
+"""Best learned vs strongest classical: the per-drive ratio behind the project's goal."""
 
 from __future__ import annotations
 
