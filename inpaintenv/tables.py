@@ -187,8 +187,8 @@ def trained_note(cells: Sequence[str]) -> list[str]:
     """The line explaining :data:`TRAINED_MARK`, if a cell carries it."""
     if not any(TRAINED_MARK in c for c in cells):
         return []
-    return [f"{TRAINED_MARK} trained on the drive scored (k of n: on k of the n drives pooled in the row): it was "
-            "in the method's training data, so the row does not measure the method on unseen drives."]
+    return [(f"{TRAINED_MARK} trained on the drive scored (k of n: on k of the n drives pooled in the row): it was "
+             "in the method's training data, so the row does not measure the method on unseen drives.")]
 
 
 def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "protocol")) -> str:

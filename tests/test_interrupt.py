@@ -120,8 +120,10 @@ SLOW = textwrap.dedent("""
 """)
 
 
-def _ignore_sigint() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+#: Starts the rest of its command line with SIGINT ignored, as a shell without job control
+#: starts a background job (an ignored signal stays ignored across exec).
+IGNORING_SIGINT = ("import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+                   "os.execv(sys.executable, [sys.executable, *sys.argv[1:]])")
 
 
 @pytest.mark.slow
@@ -129,8 +131,8 @@ def _ignore_sigint() -> None:
 def test_benchmark_sigint_in_a_subprocess(tmp_path, inherited):
     # "ignored": the child starts with SIGINT ignored, as under `nohup`-less `pytest &` in a script.
     argv = ["benchmark", "-m", "slow", *COMMON, "--n-frames", "40", "--out", str(tmp_path)]
-    proc = subprocess.Popen([sys.executable, "-c", SLOW, *argv], stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_ignore_sigint if inherited == "ignored" else None)
+    prefix = [sys.executable, "-c", IGNORING_SIGINT] if inherited == "ignored" else [sys.executable]
+    proc = subprocess.Popen([*prefix, "-c", SLOW, *argv], stderr=subprocess.PIPE, text=True)
     rows = tmp_path / "rows" / "slow__rect-v1.jsonl"
     deadline = time.monotonic() + 60
     while not (rows.exists() and rows.stat().st_size) and time.monotonic() < deadline:

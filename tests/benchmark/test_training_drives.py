@@ -14,7 +14,12 @@ import json
 import numpy as np
 import pytest
 
-from inpaintenv.benchmark import headline_markdown, learned_vs_classical, run_benchmark, write_report
+from inpaintenv.benchmark import (
+    headline_markdown,
+    learned_vs_classical,
+    run_benchmark,
+    write_report,
+)
 from inpaintenv.data import ArrayDataset
 from inpaintenv.evaluate import EvaluationResult, evaluate
 from inpaintenv.tables import TRAINED_MARK, summary_table, table_to_csv, to_markdown
@@ -23,7 +28,7 @@ from inpaintenv.tables import TRAINED_MARK, summary_table, table_to_csv, to_mark
 class Trained:
     """A 'learned' method: the median of the measured pixels, trained on drive d0."""
 
-    training_drives_ = ["d0"]
+    training_drives_ = ("d0",)
 
     def predict(self, X):
         out = np.array(X, dtype=np.float32)
