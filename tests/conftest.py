@@ -26,17 +26,18 @@ def find_kitti_root() -> Path | None:
 KITTI_ROOT = find_kitti_root()
 
 
-@pytest.fixture(autouse=True)
+@pytest.fixture(autouse=True, scope="session")
 def _no_kitti_root_variable():
-    """Every test starts without ``$INPAINTENV_KITTI_ROOT``.
+    """Every test (and every module- or session-scoped fixture) runs without ``$INPAINTENV_KITTI_ROOT``.
 
     The CLI reads the variable when ``--kitti-root`` is absent, so a test running
     ``main([...])`` on synthetic data would score KITTI wherever the variable is set (CI
     sets it). Tests that need real frames pass the ``kitti_root`` fixture's path
     explicitly; tests of the variable itself set it with ``monkeypatch.setenv``. The
     suite therefore runs the same with and without the variable (subprocesses too:
-    the variable is removed from ``os.environ``, which they inherit). Its own MonkeyPatch,
-    so that a test's ``monkeypatch.undo()`` does not bring the variable back.
+    the variable is removed from ``os.environ``, which they inherit). Session-scoped, so it
+    is gone before any fixture runs a command, and with its own MonkeyPatch, so that a
+    test's ``monkeypatch.undo()`` does not bring the variable back.
     """
     with pytest.MonkeyPatch.context() as mp:
         mp.delenv("INPAINTENV_KITTI_ROOT", raising=False)

@@ -33,10 +33,11 @@ def assert_same_rows(scored, reference) -> None:
             assert same, f"{c} of seed {ra['seed']} frame {ra['index']}: {ra[c]!r} through files, {rb[c]!r} in-process"
 
 
-def round_trip(tmp_path, source, run_fill, fill_method, seeds):
+def round_trip(tmp_path, source, run_fill, fill_method, seeds, kitti_root=None):
     manifest = export(tmp_path / "inputs", source, "rect-v1", seeds, progress=False)
     run_fill(tmp_path / "inputs", tmp_path / "predictions")
-    scored = score(manifest.path, tmp_path / "predictions", name="telea-script")
+    # The root explicitly: tests run without $INPAINTENV_KITTI_ROOT (tests/conftest.py).
+    scored = score(manifest.path, tmp_path / "predictions", name="telea-script", kitti_root=kitti_root)
     reference = evaluate(fill_method, source, "rect-v1", seeds, progress=False, name="telea-script")
     return manifest, scored, reference
 
@@ -78,7 +79,7 @@ def kitti_run(kitti_root, tmp_path_factory, run_fill, fill_method):
     """A round trip on the real slice: the official val frame and the first train frames."""
     tmp = tmp_path_factory.mktemp("kitti-round-trip")
     source = open_source(kitti_root, split="val,train", n_frames=3)
-    manifest, scored, reference = round_trip(tmp, source, run_fill, fill_method, [0, 1])
+    manifest, scored, reference = round_trip(tmp, source, run_fill, fill_method, [0, 1], kitti_root=kitti_root)
     return source, manifest, scored, reference, tmp / "predictions"
 
 
