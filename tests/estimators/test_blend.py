@@ -176,9 +176,9 @@ def test_identical_trainings_give_identical_weights_with_threads_and_jobs(tmp_pa
     seen = []
     original = BlendInpainter._fit_pixels
 
-    def spy(self, x, y):
+    def spy(self, *args):
         seen.append(torch.are_deterministic_algorithms_enabled())
-        return original(self, x, y)
+        return original(self, *args)
 
     monkeypatch.setattr(BlendInpainter, "_fit_pixels", spy)
     data = ArrayDataset(_streets(n=4), groups=["d1", "d1", "d2", "d2"])
