@@ -43,10 +43,12 @@ __all__ = [
     "AutoencoderInpainter",
     "PriorUNetInpainter",
     "BlendInpainter",
+    "ContextBlendInpainter",
 ]
 
 #: Exported lazily so that ``import estimators`` never imports torch.
-_NEURAL = {"UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior", "BlendInpainter": "blend"}
+_NEURAL = {"UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior", "BlendInpainter": "blend",
+           "ContextBlendInpainter": "context_blend"}
 
 
 def __getattr__(name: str):

@@ -220,6 +220,9 @@ class BlendInpainter(BaseInpainter):
         self.keep_observed = keep_observed
         self.verbose = verbose
 
+    #: Parameters stored as JSON lists that the constructor takes as tuples.
+    _TUPLE_PARAMS: tuple[str, ...] = ("candidates", "keep")
+
     # -- parameters ----------------------------------------------------------------------
     def _check_params(self) -> None:
         check_candidates(self.candidates)
@@ -396,7 +399,7 @@ class BlendInpainter(BaseInpainter):
             The folder; read it back with :meth:`load`.
         """
         if not getattr(self, "is_fitted_", False):
-            raise ValueError("BlendInpainter is not fitted; call fit first")
+            raise ValueError(f"{type(self).__name__} is not fitted; call fit first")
         self._check_model_params()
         params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
         if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
@@ -420,7 +423,7 @@ class BlendInpainter(BaseInpainter):
         if config.get("class") != cls.__name__:
             raise ckpt.CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
         params = dict(config["params"])
-        for name in ("candidates", "keep"):
+        for name in cls._TUPLE_PARAMS:
             params[name] = tuple(params[name])
         try:
             est = cls(**params)

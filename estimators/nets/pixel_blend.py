@@ -73,17 +73,20 @@ class PixelBlendNet(nn.Module):
         self, n_candidates: int = 4, n_gaps: int = 4, width: int = 128, layers: int = 3, n_endpoints: int = 0,
         relative: bool = False,
         residual: bool = True,
+        n_extra: int = 0,
     ):
         super().__init__()
         for name, value, low in (("n_candidates", n_candidates, 1), ("n_gaps", n_gaps, 0),
-                                 ("width", width, 1), ("layers", layers, 1), ("n_endpoints", n_endpoints, 0)):
+                                 ("width", width, 1), ("layers", layers, 1), ("n_endpoints", n_endpoints, 0),
+                                 ("n_extra", n_extra, 0)):
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
         self.n_candidates, self.n_gaps, self.width, self.layers = n_candidates, n_gaps, width, layers
         self.n_endpoints = n_endpoints
         self.relative = bool(relative)
         self.residual = bool(residual)
-        dims = [n_candidates + n_gaps + n_endpoints] + [width] * layers
+        self.n_extra = n_extra
+        dims = [n_candidates + n_gaps + n_endpoints + n_extra] + [width] * layers
         mods: list[nn.Module] = []
         for a, b in itertools.pairwise(dims):
             mods += [nn.Linear(a, b), nn.ReLU(inplace=True)]
@@ -115,8 +118,12 @@ class PixelBlendNet(nn.Module):
         """``(P, K + n_gaps + n_endpoints)`` raw pixel features (metres, pixels) -> ``(P,)`` metres."""
         return self.blend_channels(pixels.T)
 
-    def blend_channels(self, channels: torch.Tensor) -> torch.Tensor:
+    def blend_channels(self, channels: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
         """:meth:`blend` of channel-major features ``(K + n_gaps + n_endpoints, P)``.
+
+        ``extra`` (``(n_extra, P)``, required when ``n_extra > 0``) enters the MLP as
+        given, after the transformed pixel features: e.g. scene context from
+        :class:`~estimators.nets.context_blend.ContextBlendNet`.
 
         The per-candidate work (logarithms, the geometric mean, the softmax) runs on
         contiguous rows of P pixels: on a pixel-major ``(P, K)`` slice the same
@@ -138,6 +145,11 @@ class PixelBlendNet(nn.Module):
         else:
             z = torch.cat([cands / DEPTH_SCALE, gaps, channels[g:] / DEPTH_SCALE], dim=0)
             scale = DEPTH_SCALE
+        if self.n_extra:
+            if extra is None or extra.shape != (self.n_extra, channels.shape[1]):
+                got = None if extra is None else tuple(extra.shape)
+                raise ValueError(f"expected extra inputs ({self.n_extra}, {channels.shape[1]}), got {got}")
+            z = torch.cat([z, extra], dim=0)
         out = self.head(self.body(z.T)).T
         blend = (torch.softmax(out[:k], dim=0) * cands).sum(dim=0)
         # Without the residual the output stays within the candidates' range.
@@ -168,7 +180,8 @@ class PixelBlendNet(nn.Module):
 
     def extra_repr(self) -> str:
         return (f"n_candidates={self.n_candidates}, n_gaps={self.n_gaps}, n_endpoints={self.n_endpoints}, "
-                f"width={self.width}, layers={self.layers}, relative={self.relative}, residual={self.residual}")
+                f"width={self.width}, layers={self.layers}, relative={self.relative}, residual={self.residual}, "
+                f"n_extra={self.n_extra}")
 
 
 def fill_holes(

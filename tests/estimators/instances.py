@@ -10,6 +10,7 @@ from estimators import (  # lazy: imports torch here
     AutoencoderInpainter,
     BlendInpainter,
     ConstantInpainter,
+    ContextBlendInpainter,
     HarmonicInpainter,
     IPBasicInpainter,
     IterativeBilateralInpainter,
@@ -44,4 +45,6 @@ ESTIMATORS = [
     PriorUNetInpainter(width=4, levels=1, batch_size=2, max_steps=2, random_state=0, num_threads=1),
     BlendInpainter(width=4, layers=1, epochs=1, masks_per_frame=1, pixels_per_frame=50, batch_pixels=64,
                    num_threads=1),
+    ContextBlendInpainter(n_context=2, context_widths=(4, 4), width=4, layers=1, epochs=1, masks_per_frame=1,
+                          keep=(1.0,), pixels_per_frame=50, batch_frames=2, batch_pixels=32, num_threads=1),
 ]
