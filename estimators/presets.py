@@ -15,6 +15,7 @@ import time
 from typing import Any
 
 from .blend import BlendInpainter
+from .context_blend import ContextBlendInpainter
 from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
@@ -43,8 +44,24 @@ _BLEND_V4: dict[str, Any] = dict(
     num_threads=2, n_jobs=2,
 )
 
+#: kitti-context-v1's recipe (ContextBlendInpainter): chosen by leave-one-day-out and
+#: leave-drive-0001-out cross-validation (experiments/context_blend.py; docs/reference/selection.md).
+_CONTEXT_V1: dict[str, Any] = dict(
+    candidates=("scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"),
+    n_context=8, context_widths=(16, 32, 48, 64), width=64, layers=2, residual=True, keep=(1.0, 0.6),
+    masks_per_frame=3, pixels_per_frame=3000, balance=1.0, epochs=4, batch_frames=8, batch_pixels=1024, lr=2e-3,
+    protocol="rect-v1", tta=True, random_state=0, num_threads=2, n_jobs=2,
+)
+
 #: name -> (estimator class, constructor keywords, one-line description).
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
+    # kitti-context-v1, the default learned release: the blend plus a scene-context U-Net.
+    "context-kitti": (
+        ContextBlendInpainter, _CONTEXT_V1,
+        "learned blend of five classical fills with scene context from a small U-Net over the whole frame at 1/8 "
+        "scale (ContextBlendInpainter), drives weighted equally, thinned copies (keep 1, 0.6), rect-v1; the "
+        "shipped kitti-context-v1",
+    ),
     # kitti-rect-v4, the default learned release: minutes on 2 CPU cores.
     "blend-kitti": (
         BlendInpainter, _BLEND_V4,

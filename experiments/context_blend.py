@@ -156,116 +156,21 @@ def cmd_cache(args: argparse.Namespace) -> None:
 
 
 # --------------------------------------------------------------------------- models
-def _torch():
-    import torch
-    from torch import nn
-    return torch, nn
-
-
-def build_nets(n_cand: int, n_ctx_in: int, variant: dict):
-    """(context CNN or None, pixel MLP) for a variant."""
-    torch, nn = _torch()
-
-    def block(a: int, b: int) -> nn.Module:
-        return nn.Sequential(nn.Conv2d(a, b, 3, padding=1), nn.GroupNorm(4, b), nn.ReLU(inplace=True),
-                             nn.Conv2d(b, b, 3, padding=1), nn.GroupNorm(4, b), nn.ReLU(inplace=True))
-
-    class ContextUNet(nn.Module):
-        def __init__(self, cin: int, cout: int, widths: tuple[int, ...]):
-            super().__init__()
-            self.down = nn.ModuleList()
-            prev = cin
-            for w in widths:
-                self.down.append(block(prev, w))
-                prev = w
-            self.up = nn.ModuleList(block(widths[i + 1] + widths[i], widths[i]) for i in range(len(widths) - 1))
-            self.head = nn.Conv2d(widths[0], cout, 1)
-
-        def forward(self, x):
-            h, w = x.shape[-2:]
-            m = 2 ** (len(self.down) - 1)
-            x = torch.nn.functional.pad(x, (0, (-w) % m, 0, (-h) % m), mode="replicate")
-            skips = []
-            for i, d in enumerate(self.down):
-                x = d(x if i == 0 else torch.nn.functional.avg_pool2d(x, 2))
-                skips.append(x)
-            for i in reversed(range(len(self.up))):
-                x = torch.nn.functional.interpolate(x, size=skips[i].shape[-2:], mode="bilinear", align_corners=False)
-                x = self.up[i](torch.cat([x, skips[i]], 1))
-            return self.head(x)[..., :h, :w]
-
-    n_feat = int(variant.get("context", 0))
-    cnn = ContextUNet(n_ctx_in, n_feat, tuple(variant.get("widths", (16, 32, 48, 64)))) if n_feat else None
-    width, layers = int(variant.get("width", 64)), int(variant.get("layers", 2))
-    dims = [n_cand + 8 + n_feat + (1 if n_feat else 0)] + [width] * layers
-    mods = []
-    for a, b in zip(dims[:-1], dims[1:]):
-        mods += [nn.Linear(a, b), nn.ReLU(inplace=True)]
-    head = nn.Linear(width, n_cand + 1)
-    nn.init.zeros_(head.weight)
-    nn.init.zeros_(head.bias)
-    mlp = nn.Sequential(*mods, head)
-    return cnn, mlp
-
-
-def blend_pixels(mlp, feats, ctx_feats, frame_ref, n_cand: int):
-    """Scale-free blend of ``feats`` ``(P, n_cand + 8)`` (candidates, gaps, endpoints; metres, pixels)."""
-    torch, _ = _torch()
-    cands = feats[:, :n_cand]
-    log_c = torch.log(cands.clamp_min(1e-3))
-    log_ref = log_c.mean(1, keepdim=True)
-    gaps = torch.log1p(feats[:, n_cand:n_cand + 4]) / 7.0
-    ends = feats[:, n_cand + 4:n_cand + 8]
-    log_e = torch.where(ends > 0, torch.log(ends.clamp_min(1e-3)) - log_ref, torch.zeros_like(ends))
-    parts = [log_c - log_ref, gaps, log_e]
-    if ctx_feats is not None:
-        parts += [ctx_feats, log_ref - frame_ref]
-    out = mlp(torch.cat(parts, 1))
-    blend = (torch.softmax(out[:, :n_cand], 1) * cands).sum(1)
-    return blend + torch.exp(log_ref[:, 0]) * out[:, n_cand]
-
-
-MIRROR = {"gap-l": "gap-r", "gap-r": "gap-l", "end-l": "end-r", "end-r": "end-l"}
-
-
-def sample_context(cnn_out, rc, sample, width: int, cell: int, flip: bool):
-    """Bilinear context features at full-resolution pixels ``rc`` of samples ``sample``.
-
-    The context map has one cell per ``cell`` x ``cell`` pixels of the frame (the last
-    row and column of cells may overhang it); ``width`` is the frame's width in pixels.
-    """
-    torch, _ = _torch()
-    b, _, hh, ww = cnn_out.shape
-    r = rc[:, 0].float()
-    c = rc[:, 1].float()
-    if flip:
-        c = width - 1 - c
-    # grid_sample, align_corners=False: -1 and 1 are the outer edges of the map
-    gy = (r + 0.5) / (hh * cell) * 2 - 1
-    gx = (c + 0.5) / (ww * cell) * 2 - 1
-    out = []
-    for s in range(b):
-        sel = sample == s
-        grid = torch.stack([gx[sel], gy[sel]], 1)[None, None]
-        out.append(torch.nn.functional.grid_sample(cnn_out[s:s + 1], grid, mode="bilinear",
-                                                   padding_mode="border", align_corners=False)[0, :, 0].T)
-    return torch.cat(out)
-
-
 VARIANTS: dict[str, dict] = {
+    # kitti-rect-v4's per-pixel blend (five candidates, gaps, endpoints), on these samples
     "blend": {},
-    "context": {"context": 8},
-    "context-coord": {"context": 8, "coords": True},
-    "context-wide": {"context": 16, "widths": (24, 48, 64, 96)},
-    "context-p2": {"context": 8, "pool": 2, "widths": (16, 32, 48, 64)},
-    "context-p2-coord": {"context": 8, "pool": 2, "coords": True},
     "blend-bal": {"balance": 1.0},
-    "context-p2-bal": {"context": 8, "pool": 2, "balance": 1.0},
-    "context-p2-bal-small": {"context": 8, "pool": 2, "balance": 1.0, "widths": (8, 16, 24, 32)},
-    "context-p2-bal-half": {"context": 8, "pool": 2, "balance": 0.5},
+    # the blend plus scene context (ContextBlendInpainter), drives weighted or not
+    "context": {"context": 8},
+    "context-bal": {"context": 8, "balance": 1.0},
+    "context-bal-frame": {"context": 8, "balance": 1.0, "loss": "frame"},
+    "context-bal-short": {"context": 8, "balance": 1.0, "epochs": 2},
+    "context-bal-small": {"context": 8, "balance": 1.0, "widths": (8, 16, 24, 32)},
+    "context-bal-wd": {"context": 8, "balance": 1.0, "weight_decay": 1e-3},
 }
 BLEND_CANDS = ["scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"]
 CLASSICAL = ["scanline", "scanline-inverse", "harmonic", "harmonic-inverse"]
+GAPS_ENDS = ["gap-l", "gap-r", "gap-u", "gap-d", "end-l", "end-r", "end-u", "end-d"]
 
 
 class Cache:
@@ -277,44 +182,57 @@ class Cache:
         starts = np.searchsorted(self.sample, np.arange(len(self.meta) + 1))
         self.slices = [slice(starts[k], starts[k + 1]) for k in range(len(self.meta))]
 
+    def pixels(self, k: int, sel: np.ndarray | None = None):
+        """Channel-major ``(13, m)`` features (five candidates, gaps, endpoints), rows, cols, truth."""
+        import torch
 
-def _columns(cands: list[str]) -> list[int]:
-    return [CHANNELS.index(c) for c in cands] + [CHANNELS.index(c) for c in
-                                                  ("gap-l", "gap-r", "gap-u", "gap-d", "end-l", "end-r", "end-u", "end-d")]
+        sl = self.slices[k]
+        cols = [CHANNELS.index(c) for c in [*BLEND_CANDS, *GAPS_ENDS]]
+        x, y, rc = self.x[sl], self.y[sl], self.rc[sl]
+        if sel is not None:
+            x, y, rc = x[sel], y[sel], rc[sel]
+        return (torch.from_numpy(np.ascontiguousarray(x[:, cols].T)), torch.from_numpy(rc[:, 0].astype(np.int64)),
+                torch.from_numpy(rc[:, 1].astype(np.int64)), torch.from_numpy(y))
+
+    def grids(self, picks) -> "torch.Tensor":
+        """The product's context grids (:func:`estimators.nets.context_blend.context_grid`): 2x2 means of the cache's 4x4 blocks."""
+        import torch
+
+        chans = [CONTEXT_CHANNELS.index(c) for c in ["obs", "density", "hole", *BLEND_CANDS]]
+        t = torch.from_numpy(np.stack([np.asarray(self.ctx[k][chans], np.float32) for k in picks]))
+        return torch.nn.functional.avg_pool2d(t, 2, ceil_mode=True)
 
 
-def context_input(ctx: np.ndarray, variant: dict):
-    torch, _ = _torch()
-    t = torch.from_numpy(np.asarray(ctx, np.float32))
-    chans = [CONTEXT_CHANNELS.index(c) for c in ["obs", "density", "hole", *variant.get("ctx_cands", BLEND_CANDS)]]
-    t = t[:, chans]
-    if variant.get("coords"):
-        n, _, h, w = t.shape
-        rows = torch.linspace(-1, 1, h).view(1, 1, h, 1).expand(n, 1, h, w)
-        cols = torch.linspace(-1, 1, w).view(1, 1, 1, w).expand(n, 1, h, w)
-        t = torch.cat([t, rows, cols.abs()], 1)  # |col|: mirror-symmetric
-    pool = int(variant.get("pool", 1))
-    if pool > 1:
-        t = torch.nn.functional.avg_pool2d(t, pool, ceil_mode=True)
-    return t
+def make_net(variant: dict):
+    from estimators.nets.context_blend import ContextBlendNet
+    from estimators.nets.pixel_blend import PixelBlendNet
+
+    k, width, layers = len(BLEND_CANDS), int(variant.get("width", 64)), int(variant.get("layers", 2))
+    if variant.get("context"):
+        return ContextBlendNet(k, int(variant["context"]), tuple(variant.get("widths", (16, 32, 48, 64))), width, layers)
+    return PixelBlendNet(k, 4, width, layers, n_endpoints=4, relative=True)
+
+
+def _predict(net, cache: Cache, k: int, context, pixels, rows, cols, flip: bool):
+    if flip:
+        pixels, cols = pixels[net.mirror_order()], cache.meta[k]["shape"][1] - 1 - cols
+    if context is None:
+        return net.blend_channels(pixels)
+    return net.blend_pixels(pixels, net.sample(context, rows, cols), float(cache.meta[k]["ref"]))
 
 
 def train_fold(train: Cache, idx: list[int], variant: dict, seed: int, epochs: int, batch: int = 8,
                pixels: int = 1024, lr: float = 2e-3, threads: int = 2):
-    torch, _ = _torch()
+    import torch
+
     torch.set_num_threads(threads)
-    cands = variant.get("candidates", BLEND_CANDS)
-    cols = _columns(cands)
-    mirror_cols = [cols[[CHANNELS[c] for c in cols].index(MIRROR.get(CHANNELS[c], CHANNELS[c]))] for c in cols]
-    n_ctx = len(context_input(train.ctx[:1], variant)[0])
     torch.manual_seed(seed)
-    cnn, mlp = build_nets(len(cands), n_ctx, variant)
-    params = list(mlp.parameters()) + (list(cnn.parameters()) if cnn else [])
-    opt = torch.optim.Adam(params, lr=lr)
-    steps = epochs * max(1, len(idx) // batch)
+    net = make_net(variant)
+    has_context = bool(variant.get("context"))
+    opt = torch.optim.Adam(net.parameters(), lr=lr, weight_decay=float(variant.get("weight_decay", 0.0)))
+    steps = int(variant.get("epochs", epochs)) * max(1, len(idx) // batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=lr, total_steps=steps, pct_start=0.05)
     rng = np.random.default_rng(seed)
-    width = train.meta[0]["shape"][1]
     # balance: draw samples with weight 1 / (samples of their drive) ** balance, so that
     # long drives (consecutive, near-identical frames) do not dominate the scene prior
     drives = [train.meta[k]["drive"] for k in idx]
@@ -326,68 +244,49 @@ def train_fold(train: Cache, idx: list[int], variant: dict, seed: int, epochs: i
     for step in range(steps):
         picks = rng.choice(idx, batch, replace=False, p=weights)
         flip = bool(rng.random() < 0.5)
-        xs, ys, rcs, ss = [], [], [], []
+        context = None
+        if has_context:
+            grids = train.grids(picks)
+            context = net.context(grids.flip(-1) if flip else grids)
+        errs = []
         for n, k in enumerate(picks):
-            sl = train.slices[k]
-            m = sl.stop - sl.start
-            sel = sl.start + (rng.choice(m, pixels, replace=False) if m > pixels else np.arange(m))
-            xs.append(train.x[sel][:, mirror_cols if flip else cols])
-            ys.append(train.y[sel])
-            rcs.append(train.rc[sel])
-            ss.append(np.full(len(sel), n))
-        x = torch.from_numpy(np.concatenate(xs))
-        y = torch.from_numpy(np.concatenate(ys))
-        ctx_feats = frame_ref = None
-        if cnn is not None:
-            inp = context_input(np.stack([train.ctx[k] for k in picks]), variant)
-            if flip:
-                inp = inp.flip(-1)
-            out = cnn(inp)
-            rc = torch.from_numpy(np.concatenate(rcs).astype(np.int64))
-            s = torch.from_numpy(np.concatenate(ss))
-            # the context grid was flipped: sample it at the mirrored column
-            ctx_feats = sample_context(out, rc, s, width, FACTOR * int(variant.get("pool", 1)), flip)
-            frame_ref = torch.tensor([train.meta[k]["ref"] for k in picks], dtype=torch.float32)[s][:, None]
-        pred = blend_pixels(mlp, x, ctx_feats, frame_ref, len(cands))
-        loss = (pred - y).square().mean()
+            m = train.slices[k].stop - train.slices[k].start
+            sel = rng.choice(m, pixels, replace=False) if m > pixels else np.arange(m)
+            px, rows, cols, y = train.pixels(k, sel)
+            pred = _predict(net, train, k, None if context is None else context[n], px, rows, cols, flip)
+            errs.append((pred - y).square())
+        if variant.get("loss") == "frame":  # the metric: mean over frame-masks of the per-frame RMSE
+            loss = torch.stack([e.mean().clamp_min(1e-6).sqrt() for e in errs]).mean()
+        else:
+            loss = torch.cat(errs).mean()
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
         sched.step()
         losses.append(float(loss.detach()))
         if (step + 1) % 200 == 0:
-            print(f"    step {step + 1}/{steps} loss {np.mean(losses[-200:]):.2f} m² "
-                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    return cnn, mlp
+            print(f"    step {step + 1}/{steps} loss {np.mean(losses[-200:]):.2f} ({time.perf_counter() - t0:.0f} s)",
+                  flush=True)
+    net.eval()
+    return net
 
 
-def predict_samples(cnn, mlp, cache: Cache, idx: list[int], variant: dict) -> list[np.ndarray]:
-    torch, _ = _torch()
-    cands = variant.get("candidates", BLEND_CANDS)
-    cols = _columns(cands)
-    mirror_cols = [cols[[CHANNELS[c] for c in cols].index(MIRROR.get(CHANNELS[c], CHANNELS[c]))] for c in cols]
+def predict_samples(net, cache: Cache, idx: list[int], variant: dict) -> list[np.ndarray]:
+    import torch
+
     preds = []
     with torch.inference_mode():
         for k in idx:
-            sl = cache.slices[k]
-            width = cache.meta[k]["shape"][1]
+            px, rows, cols, _ = cache.pixels(k)
             vals = []
             for flip in (False, True):
-                x = torch.from_numpy(cache.x[sl][:, mirror_cols if flip else cols])
-                ctx_feats = frame_ref = None
-                if cnn is not None:
-                    inp = context_input(cache.ctx[k:k + 1], variant)
-                    if flip:
-                        inp = inp.flip(-1)
-                    out = cnn(inp)
-                    rc = torch.from_numpy(cache.rc[sl].astype(np.int64))
-                    ctx_feats = sample_context(out, rc, torch.zeros(len(rc), dtype=torch.long), width,
-                                                 FACTOR * int(variant.get("pool", 1)), flip)
-                    frame_ref = torch.full((len(rc), 1), cache.meta[k]["ref"])
-                vals.append(blend_pixels(mlp, x, ctx_feats, frame_ref, len(cands)))
-            v = 0.5 * (vals[0] + vals[1])
-            floor = 0.5 * torch.from_numpy(cache.x[sl][:, [CHANNELS.index(c) for c in cands]]).min(1).values
-            preds.append(torch.maximum(v, floor).numpy())
+                context = None
+                if variant.get("context"):
+                    g = cache.grids([k])
+                    context = net.context(g.flip(-1) if flip else g)[0]
+                vals.append(_predict(net, cache, k, context, px, rows, cols, flip))
+            floor = 0.5 * px[: len(BLEND_CANDS)].min(0).values
+            preds.append(torch.maximum(0.5 * (vals[0] + vals[1]), floor).numpy())
     return preds
 
 
@@ -435,7 +334,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
             if key not in models:
                 models[key] = train_fold(train, tidx, variant, args.seed, args.epochs, threads=args.threads)
             fit_s = time.perf_counter() - t0
-            preds = predict_samples(*models[key], ev, eidx, variant)
+            preds = predict_samples(models[key], ev, eidx, variant)
             mine = np.array([_rmse(p, ev.y[ev.slices[k]]) for p, k in zip(preds, eidx)])
             means = {c: classical_rmse[c][eidx].mean() for c in CLASSICAL}
             best = min(means, key=means.get)

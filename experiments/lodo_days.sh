@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Leave-one-day-out and leave-drive-0001-out check of a training preset with the
+# project's own commands (issue: a scene prior that carries to unseen days and to
+# official maps).
+#
+#   bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESET] [SEED ...]
+#
+# For every recording day D of the train split: train PRESET on the other days' drives
+# (both cameras where a drive has them) and score D's drives against every classical
+# method. Then train without drive 2011_09_26_drive_0001_sync (official KITTI maps) and
+# score both of its cameras, and score the val frames with that model as a check. OUT
+# defaults to lodo-days, PRESET to context-kitti, seeds to 0 1. Each benchmark prints the
+# study-style table and the headline "learned / strongest classical" with its paired
+# 95 % interval; rows land in OUT/bench-<fold>/results.json. Rerunning resumes.
+set -euo pipefail
+ROOT=${1:?usage: bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESET] [SEED ...]}
+OUT=${2:-lodo-days}
+PRESET=${3:-context-kitti}
+shift $(( $# >= 3 ? 3 : $# ))
+SEEDS=("${@:-0 1}")
+read -r -a SEEDS <<< "${SEEDS[*]}"
+SEED_FLAGS=()
+for s in "${SEEDS[@]}"; do SEED_FLAGS+=(--seed "$s"); done
+OFFICIAL=2011_09_26_drive_0001_sync
+
+drives_of_day() {  # the train drives recorded on day $1
+  python -c "
+from inpaintenv.data import KittiDepth
+print(' '.join(sorted({str(g) for g in KittiDepth('$ROOT', split='train').groups if str(g).startswith('$1')})))"
+}
+DAYS=$(python -c "
+from inpaintenv.data import KittiDepth
+print(' '.join(sorted({str(g)[:10] for g in KittiDepth('$ROOT', split='train').groups})))")
+
+fold() {  # fold name, drives to leave out and score (space-separated), camera to score
+  local NAME=$1 HELD=$2 CAMERA=$3
+  # shellcheck disable=SC2086
+  if [ ! -f "$OUT/train-$NAME/model/config.json" ]; then
+    inpaintenv train --preset "$PRESET" --kitti-root "$ROOT" --split train --camera both \
+      --exclude-drives $HELD --out "$OUT/train-$NAME" --quiet
+  fi
+  # shellcheck disable=SC2086
+  inpaintenv benchmark --kitti-root "$ROOT" --split train --camera "$CAMERA" --drives $HELD --holdout 0 \
+    --suite classical --checkpoint "$PRESET-without-$NAME=$OUT/train-$NAME/model" "${SEED_FLAGS[@]}" \
+    --figure-frames 0 --out "$OUT/bench-$NAME"
+}
+
+for D in $DAYS; do
+  fold "day-$D" "$(drives_of_day "$D")" image_02
+done
+fold "drive-0001" "$OFFICIAL" both
+# The val frames (official maps of another drive), scored by the model trained without 0001.
+inpaintenv benchmark --kitti-root "$ROOT" --split val --holdout 0 --suite classical \
+  --checkpoint "$PRESET-without-drive-0001=$OUT/train-drive-0001/model" "${SEED_FLAGS[@]}" --figure-frames 0 \
+  --out "$OUT/bench-val"
