@@ -36,7 +36,7 @@ _BLEND_V2: dict[str, Any] = dict(
 )
 
 #: kitti-rect-v4's recipe (BlendInpainter): chosen by leave-one-drive-out cross-validation
-#: on the train drives (benchmarks/blend_lodo.py; docs/reference/selection.md).
+#: on the train drives (experiments/blend_lodo.py; docs/reference/selection.md).
 _BLEND_V4: dict[str, Any] = dict(
     candidates=("scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"),
     endpoints=True, width=64, layers=2, relative=True, residual=True, keep=(1.0, 0.65, 0.4), masks_per_frame=3,

@@ -1,6 +1,6 @@
 """Fixtures of the benchmark-script tests.
 
-A script of benchmarks/ loaded as a module (the folder is not a package), and a tiny KITTI tree.
+A script of benchmarks/ loaded as a module (the folder is not a package).
 """
 
 from __future__ import annotations
@@ -9,7 +9,6 @@ import importlib.util
 from pathlib import Path
 from types import ModuleType
 
-import numpy as np
 import pytest
 
 BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
@@ -26,19 +25,3 @@ def load_benchmark():
         return module
 
     return load
-
-
-@pytest.fixture(scope="session")
-def tiny_kitti(tmp_path_factory):
-    """Three train drives and one val drive of one frame each, in the KITTI layout."""
-    from inpaintenv.data.io import write_depth_png
-
-    root = tmp_path_factory.mktemp("kitti")
-    rng = np.random.default_rng(0)
-    for split, drive in [("train", f"2011_09_26_drive_900{k}_sync") for k in (1, 2, 4)] + [
-            ("val", "2011_10_03_drive_9101_sync")]:
-        folder = root / split / drive / "proj_depth" / "groundtruth" / "image_02"
-        folder.mkdir(parents=True)
-        depth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
-        write_depth_png(folder / "0000000005.png", depth.astype(np.float32))
-    return root

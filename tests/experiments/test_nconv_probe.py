@@ -1,4 +1,4 @@
-"""benchmarks/nconv_probe.py: the normalized-convolution network probe of issue 15."""
+"""experiments/nconv_probe.py: the normalized-convolution network probe of issue 15."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ torch = pytest.importorskip("torch")
 
 
 @pytest.fixture(scope="module")
-def nconv(load_benchmark):
-    return load_benchmark("nconv_probe")
+def nconv(load_experiment):
+    return load_experiment("nconv_probe")
 
 
 def test_nconv_layer_is_a_confidence_weighted_mean(nconv):

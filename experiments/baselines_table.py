@@ -2,9 +2,9 @@
 
 Usage (the command behind docs/baselines.md)::
 
-    python benchmarks/baselines_table.py                 # train + val, rect-v1, seed 0
-    python benchmarks/baselines_table.py --drives 2011_09_26_drive_9001_sync --every 4
-    python benchmarks/baselines_table.py --methods harmonic scanline-inverse
+    python experiments/baselines_table.py                 # train + val, rect-v1, seed 0
+    python experiments/baselines_table.py --drives 2011_09_26_drive_9001_sync --every 4
+    python experiments/baselines_table.py --methods harmonic scanline-inverse
 
 Frames come from ``--root`` or ``$INPAINTENV_KITTI_ROOT``, cropped to 352×1216 by :class:`inpaintenv.data.kitti.KittiDepth`, and are
 scored by :func:`inpaintenv.evaluate.evaluate`. Each method runs with ``n_jobs=1`` so

@@ -1,13 +1,13 @@
 """Score saved or shipped models and classical methods on the selection frames, per protocol.
 
-The selection frames of ``benchmarks/pretrained_selection.py`` (drive 9001, frames
+The selection frames of ``experiments/pretrained_selection.py`` (drive 9001, frames
 56-67, seed 0) under each occlusion protocol: the sel tables of ``docs/model_card.md``.
 
 Examples
 --------
-    python benchmarks/selection_scores.py --kitti-root <KITTI root> kitti-mixed-v1 selection-runs/relative
-    python benchmarks/selection_scores.py --kitti-root <KITTI root> -m harmonic -m harmonic-inverse
-    python benchmarks/selection_scores.py --kitti-root <KITTI root> kitti-rect-v3+kitti-mixed-v1 --protocol rect-v1
+    python experiments/selection_scores.py --kitti-root <KITTI root> kitti-mixed-v1 selection-runs/relative
+    python experiments/selection_scores.py --kitti-root <KITTI root> -m harmonic -m harmonic-inverse
+    python experiments/selection_scores.py --kitti-root <KITTI root> kitti-rect-v3+kitti-mixed-v1 --protocol rect-v1
 
 A model is a shipped name (see ``estimators.prior.available_pretrained``) or a
 directory written by ``est.save``; ``a+b`` averages models' predictions.

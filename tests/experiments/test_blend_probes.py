@@ -1,4 +1,4 @@
-"""benchmarks/blend_probes.py and blend_context.py: the probes of what limits the learned blend."""
+"""experiments/blend_probes.py and blend_context.py: the probes of what limits the learned blend."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ pytest.importorskip("torch")
 
 
 @pytest.fixture(scope="module")
-def probes(load_benchmark):
-    return load_benchmark("blend_probes")
+def probes(load_experiment):
+    return load_experiment("blend_probes")
 
 
 def test_probe_regions_are_the_holes_shifted_copies_outside_it(probes):
@@ -82,10 +82,10 @@ def test_fit_scores_each_held_out_drive_and_val(probes, tmp_path):
     assert json.loads((tmp_path / "fit.json").read_text()) == json.loads(json.dumps(out))
 
 
-def test_context_net_starts_as_the_blend_and_inputs_are_scale_free(load_benchmark):
+def test_context_net_starts_as_the_blend_and_inputs_are_scale_free(load_experiment):
     import torch
 
-    ctx = load_benchmark("blend_context")
+    ctx = load_experiment("blend_context")
     rng = np.random.default_rng(1)
     gt = rng.uniform(5, 40, (32, 48)).astype(np.float32)
     gt[rng.random(gt.shape) < 0.5] = 0
@@ -106,7 +106,7 @@ def test_context_net_starts_as_the_blend_and_inputs_are_scale_free(load_benchmar
 
 
 @pytest.mark.slow
-def test_cache_then_oracle_on_a_kitti_tree(probes, load_benchmark, tiny_kitti, tmp_path):
+def test_cache_then_oracle_on_a_kitti_tree(probes, load_experiment, tiny_kitti, tmp_path):
     cache = tmp_path / "cache"
     probes.main(["cache", "--kitti-root", str(tiny_kitti), "--out", str(cache), "--seeds", "0",
                  "--train-masks", "1", "--pixels", "200", "--jobs", "1"])
@@ -123,7 +123,7 @@ def test_cache_then_oracle_on_a_kitti_tree(probes, load_benchmark, tiny_kitti, t
     with np.load(cache / "eval.npz") as full, np.load(sparse / "eval.npz") as thinned:
         assert np.array_equal(full["y"], thinned["y"]) and not np.array_equal(full["x"], thinned["x"])
     # blend_lodo's cache shares the frame loop: per-keep training files and a channel list
-    lodo = load_benchmark("blend_lodo")
+    lodo = load_experiment("blend_lodo")
     lodo.main(["cache", "--kitti-root", str(tiny_kitti), "--out", str(tmp_path / "lodo"), "--seeds", "0",
                "--train-masks", "1", "--pixels", "200", "--keep", "1.0", "0.65", "--jobs", "1"])
     assert sorted(p.name for p in (tmp_path / "lodo").glob("*.npz")) == ["eval.npz", "train-0.65.npz", "train-1.npz"]

@@ -1,4 +1,4 @@
-"""benchmarks/selection_scores.py on the real selection frames (cheap methods only)."""
+"""experiments/selection_scores.py on the real selection frames (cheap methods only)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-_DIR = Path(__file__).resolve().parents[2] / "benchmarks"
+_DIR = Path(__file__).resolve().parents[2] / "experiments"
 
 
 @pytest.fixture(scope="module")

@@ -27,11 +27,11 @@ every row of a run is comparable.
 
 Examples
 --------
-    python benchmarks/blend_probes.py cache --kitti-root <KITTI root> --out probe-cache
-    python benchmarks/blend_probes.py oracle --cache probe-cache
-    python benchmarks/blend_probes.py fit --cache probe-cache --variant base --variant svh --variant svhv
-    python benchmarks/blend_probes.py fit --cache probe-cache --variant base --far-weight 1 --far-weight 3
-    python benchmarks/blend_probes.py time --kitti-root <KITTI root>
+    python experiments/blend_probes.py cache --kitti-root <KITTI root> --out probe-cache
+    python experiments/blend_probes.py oracle --cache probe-cache
+    python experiments/blend_probes.py fit --cache probe-cache --variant base --variant svh --variant svhv
+    python experiments/blend_probes.py fit --cache probe-cache --variant base --far-weight 1 --far-weight 3
+    python experiments/blend_probes.py time --kitti-root <KITTI root>
 """
 
 from __future__ import annotations

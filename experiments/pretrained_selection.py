@@ -6,10 +6,10 @@ The selection protocol of ``docs/model_card.md``: train on frames 0-55 of drive
 
 Examples
 --------
-    python benchmarks/pretrained_selection.py v2 --kitti-root <KITTI root> \\
+    python experiments/pretrained_selection.py v2 --kitti-root <KITTI root> \\
         'candidates=("scanline","scanline-inverse","vertical","harmonic","vertical-inverse","harmonic-inverse")' \\
         max_steps=900 num_threads=1
-    python benchmarks/pretrained_selection.py v1 --kitti-root <KITTI root> --preset cpu-1h-v1
+    python experiments/pretrained_selection.py v1 --kitti-root <KITTI root> --preset cpu-1h-v1
 
 Overrides are ``name=value`` with a Python literal value, applied to the preset.
 """

@@ -4,13 +4,13 @@
 # and score D against every classical method; then score the shipped release and the
 # classical methods on the val frames (official KITTI maps, never trained on): the default suite.
 #
-#   bash benchmarks/lodo.sh <KITTI root> [OUT] [SEED ...]
+#   bash experiments/lodo.sh <KITTI root> [OUT] [SEED ...]
 #
 # OUT defaults to lodo-runs; seeds default to 0 1. Each benchmark prints the study-style
 # table and the headline "best learned / strongest classical per drive" with its paired
 # 95 % interval; the rows land in OUT/bench-<drive>/results.json. Rerunning resumes.
 set -euo pipefail
-ROOT=${1:?usage: bash benchmarks/lodo.sh <KITTI root> [OUT] [SEED ...]}
+ROOT=${1:?usage: bash experiments/lodo.sh <KITTI root> [OUT] [SEED ...]}
 OUT=${2:-lodo-runs}
 shift $(( $# >= 2 ? 2 : $# ))
 SEEDS=("${@:-0 1}")

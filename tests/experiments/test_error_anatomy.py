@@ -1,4 +1,4 @@
-"""benchmarks/error_anatomy.py on the real selection frames (a cheap method only)."""
+"""experiments/error_anatomy.py on the real selection frames (a cheap method only)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-_DIR = Path(__file__).resolve().parents[2] / "benchmarks"
+_DIR = Path(__file__).resolve().parents[2] / "experiments"
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 
 Usage (the command behind the tuning notes in docs/baselines.md)::
 
-    python benchmarks/tune_classical.py            # every 6th frame of drive 9001
+    python experiments/tune_classical.py            # every 6th frame of drive 9001
 
 Defaults of the classical estimators were chosen from this output; the other drives
 (2011_09_26_drive_9002_sync, val 2011_10_03_drive_9101_sync) were never used for

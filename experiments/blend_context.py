@@ -11,7 +11,7 @@ untrained CNN returns the blend); the loss is the squared error in metres per ce
 weighted by the cell's ground-truth pixels in the hole.
 
 ``cache``
-    For each train drive D, with the blend trained without D by ``benchmarks/lodo.sh``
+    For each train drive D, with the blend trained without D by ``experiments/lodo.sh``
     (``RUNS/train-D/model``): low-resolution inputs and targets of the other train
     drives' frames (occlusion seeds 1000, 1001 and 1002 thinned to 65 %) and, for D's
     and the val frames, the evaluation occlusions (seeds 0 and 1) with the blend's and
@@ -22,9 +22,9 @@ weighted by the cell's ground-truth pixels in the hole.
 
 Examples
 --------
-    bash benchmarks/lodo.sh <KITTI root> lodo-runs
-    python benchmarks/blend_context.py cache --kitti-root <KITTI root> --runs lodo-runs --out context-cache
-    python benchmarks/blend_context.py fit --cache context-cache --epochs 12
+    bash experiments/lodo.sh <KITTI root> lodo-runs
+    python experiments/blend_context.py cache --kitti-root <KITTI root> --runs lodo-runs --out context-cache
+    python experiments/blend_context.py fit --cache context-cache --epochs 12
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ def cmd_cache(args: argparse.Namespace) -> None:
         if path.exists():
             continue
         if not (model_dir / "config.json").exists():
-            raise SystemExit(f"no blend trained without {held} in {model_dir}: run benchmarks/lodo.sh first")
+            raise SystemExit(f"no blend trained without {held} in {model_dir}: run experiments/lodo.sh first")
         jobs, meta = [], []
         for (split, drive), batch in frames.items():
             for i, gt in enumerate(batch):
@@ -227,7 +227,7 @@ def main(argv: list[str] | None = None) -> dict | None:
     sub = p.add_subparsers(dest="cmd", required=True)
     c = sub.add_parser("cache", help="low-resolution inputs of every fold, with the fold's blend")
     c.add_argument("--kitti-root", required=True)
-    c.add_argument("--runs", required=True, help="the OUT folder of benchmarks/lodo.sh (train-<drive>/model)")
+    c.add_argument("--runs", required=True, help="the OUT folder of experiments/lodo.sh (train-<drive>/model)")
     c.add_argument("--out", required=True)
     c.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     c.add_argument("--jobs", type=int, default=2)

@@ -1,4 +1,4 @@
-"""benchmarks/pretrained_selection.py end to end with the seconds-long smoke preset."""
+"""experiments/pretrained_selection.py end to end with the seconds-long smoke preset."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-_DIR = Path(__file__).resolve().parents[2] / "benchmarks"
+_DIR = Path(__file__).resolve().parents[2] / "experiments"
 
 
 @pytest.fixture(scope="module")

@@ -25,8 +25,8 @@ train drive and checked with ``inpaintenv benchmark`` (docs/model_card.md).
 
 Examples
 --------
-    python benchmarks/blend_lodo.py cache --kitti-root <KITTI root> --out lodo-cache
-    python benchmarks/blend_lodo.py fit --cache lodo-cache --variant base --variant thin
+    python experiments/blend_lodo.py cache --kitti-root <KITTI root> --out lodo-cache
+    python experiments/blend_lodo.py fit --cache lodo-cache --variant base --variant thin
 """
 
 from __future__ import annotations

@@ -3,12 +3,12 @@
 Hole RMSE in metres is dominated by the few far pixels inside a hole; this prints,
 per true-depth bin, the share of hole pixels, the share of summed squared error, the
 RMSE and the bias (mean prediction − truth) of each method, pooled over the selection
-frames of ``benchmarks/pretrained_selection.py`` (drive 9001 frames 56-67, seed 0) —
+frames of ``experiments/pretrained_selection.py`` (drive 9001 frames 56-67, seed 0) —
 never on the drives reported as unseen.
 
 Examples
 --------
-    python benchmarks/error_anatomy.py --kitti-root <KITTI root> kitti-rect-v3 -m harmonic-inverse
+    python experiments/error_anatomy.py --kitti-root <KITTI root> kitti-rect-v3 -m harmonic-inverse
 """
 
 from __future__ import annotations

@@ -19,8 +19,8 @@ Results and what they mean: ``docs/reference/blend_limits.md``.
 
 Examples
 --------
-    python benchmarks/nconv_probe.py --kitti-root <KITTI root> --steps 400
-    python benchmarks/nconv_probe.py --kitti-root <KITTI root> --steps 0 --folds 2011_09_26_drive_9002_sync
+    python experiments/nconv_probe.py --kitti-root <KITTI root> --steps 400
+    python experiments/nconv_probe.py --kitti-root <KITTI root> --steps 0 --folds 2011_09_26_drive_9002_sync
 """
 
 from __future__ import annotations
