@@ -132,7 +132,7 @@ def test_loss_figure_has_whole_epochs_and_the_loss_unit():
     # loss.png of the blend preset had epochs 1.0, 1.5, 2.0, ... and "training loss" without a unit.
     pytest.importorskip("matplotlib")
     from estimators.blend import BlendInpainter
-    from inpaintenv.cli_train import loss_figure
+    from inpaintenv.cli.train import loss_figure
 
     fig = loss_figure({"epoch_loss": [48.2, 42.9, 42.4]}, "blend", BlendInpainter.loss_label)
     ax = fig.axes[0]

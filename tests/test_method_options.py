@@ -7,7 +7,7 @@ import json
 import pytest
 
 from inpaintenv.cli import main
-from inpaintenv.method_options import (
+from inpaintenv.cli.method_options import (
     check_checkpoint_folder,
     check_method_names,
     parse_checkpoints,

@@ -4,25 +4,36 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..cluster import add_scheduler_option, open_client, parse_scheduler
+from .method_options import (
+    add_bad_frame_option,
+    add_checkpoint_option,
+    add_unfilled_option,
+    check_method_names,
+    checkpoint_methods,
+    figure_methods,
+)
+from .options import (
+    SYNTHETIC_HOLDOUT,
+    add_common_options,
+    add_source_options,
+    check_source_options,
+    open_source_from_args,
+    test_split,
+)
 
 __all__ = ["add_benchmark", "cmd_benchmark"]
 
-#: Share of drives held out as the test split of the synthetic default source.
-SYNTHETIC_HOLDOUT = 0.25
-
 
 def suites_epilog() -> str:
-    """What each suite of :data:`~.suites.SUITES` contains, for ``--help`` (generated, never hand-kept)."""
+    """What each suite of :data:`~inpaintenv.benchmark.suites.SUITES` contains, for ``--help`` (generated,
+    never hand-kept)."""
     import textwrap
 
-    from .suites import SUITES
+    from ..benchmark.suites import SUITES
 
     lines = ["suites:"]
     for name, members in SUITES.items():
@@ -32,13 +43,9 @@ def suites_epilog() -> str:
     return "\n".join(lines)
 
 
-def add_benchmark(subparsers: Any, add_source_options: Callable, add_common_options: Callable) -> None:
-    from ..method_options import (
-        add_bad_frame_option,
-        add_checkpoint_option,
-        add_unfilled_option,
-    )
-    from .suites import SUITES
+def add_benchmark(subparsers: Any) -> None:
+    """Declare ``inpaintenv benchmark``."""
+    from ..benchmark.suites import SUITES
 
     p = subparsers.add_parser(
         "benchmark", help="run a suite of methods and write a report",
@@ -81,53 +88,18 @@ def interrupted_note(args: argparse.Namespace) -> str:
     return f"the rows scored so far are kept in {Path(args.out) / 'rows'}; rerun the same command to resume"
 
 
-def _checkpoint_methods(specs: list[str], taken: list[str]) -> dict[str, Any]:
-    from ..method_options import parse_checkpoints
-    from ..registry import make_method
-    from .identity import files_identity
-    from .suites import LazyMethod
-
-    # Hash the files now (cheap) so a resume can tell checkpoints apart unloaded.
-    return {
-        name: LazyMethod(lambda path=path: make_method("checkpoint", path=path), identity=files_identity(path))
-        for name, path in parse_checkpoints(specs, taken).items()
-    }
-
-
-def _test_split(dataset: Any, holdout: float) -> Any:
-    """The drive-level test split of ``dataset`` holding ``holdout`` of its drives."""
-    from ..data import split_by_drive
-
-    try:
-        return split_by_drive(dataset, test_size=holdout, seed=0)[1]
-    except ValueError as exc:
-        raise ValueError(f"--holdout {holdout:g}: {exc}; pass --holdout 0 to score all frames") from None
-
-
-def _figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int = 4) -> dict[str, Any]:
-    """The best ``k`` methods by hole RMSE (first protocol), for readable panels."""
-    first = table[0]["protocol"]
-    ranked = sorted(
-        (e for e in table if e["protocol"] == first and np.isfinite(e["hole_rmse"])),
-        key=lambda e: e["hole_rmse"],
-    )
-    return {e["method"]: methods[e["method"]] for e in ranked[:k]}
-
-
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from ..cli_options import check_source_options, open_source_from_args
+    from ..benchmark.figures import write_figures
+    from ..benchmark.headline import headline_markdown, learned_vs_classical
+    from ..benchmark.lock import run_lock
+    from ..benchmark.report import summary_table, to_markdown, write_report
+    from ..benchmark.runner import run_benchmark
+    from ..benchmark.suites import LazyMethod, build_method, suite_methods
     from ..conventions import check_int, check_seeds
     from ..data.synthetic import SyntheticStreets
     from ..evaluate import skipped_markdown
     from ..masks import get_protocol
-    from ..method_options import check_method_names
     from ..registry import unfilled_policy
-    from .figures import write_figures
-    from .headline import headline_markdown, learned_vs_classical
-    from .lock import run_lock
-    from .report import summary_table, to_markdown, write_report
-    from .runner import run_benchmark
-    from .suites import LazyMethod, build_method, suite_methods
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # Every argument is resolved and checked before any frame is scored: a typo in the
@@ -141,7 +113,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         }
     else:
         methods = suite_methods(args.suite, overrides=overrides, warn=log)
-    methods.update(_checkpoint_methods(args.checkpoint, list(methods)))
+    methods.update(checkpoint_methods(args.checkpoint, list(methods)))
     if not methods:
         raise ValueError("no method to run")
     protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
@@ -163,7 +135,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if not 0.0 <= holdout < 1.0:
         raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
     if holdout > 0:
-        dataset = _test_split(dataset, holdout)
+        dataset = test_split(dataset, holdout)
 
     built: dict[str, Any] = {}
 
@@ -206,7 +178,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             fig_dir = out / "figures"
             write_figures(
                 result, {n: (lambda n=n: materialise(n, methods[n])) for n in methods}, dataset, fig_dir,
-                panel_methods=list(_figure_methods(table, methods)), n_panels=args.figure_frames,
+                panel_methods=list(figure_methods(table, methods)), n_panels=args.figure_frames,
                 protocol=protocols[0], seed=seeds[0], log=log, exclude={r["index"] for r in skipped},
                 unfilled=result.meta.get("unfilled", {}),
             )

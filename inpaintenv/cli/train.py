@@ -11,14 +11,14 @@ from typing import Any
 
 import numpy as np
 
-from .cli_options import (
+from ..cluster import open_client, parse_scheduler
+from ..environment import environment_info
+from .options import (
     add_common_options,
     add_source_options,
     check_source_options,
     open_source_from_args,
 )
-from .cluster import open_client, parse_scheduler
-from .environment import environment_info
 
 
 def add_train(subparsers: Any) -> None:
@@ -258,7 +258,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         "environment": getattr(est, "fit_environment_", None) or environment_info(torch_details=True),
         "history": history,
     }
-    from .evaluate import json_safe
+    from ..evaluate import json_safe
 
     (out / "training_log.json").write_text(json.dumps(json_safe(log), indent=1))
     plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}",

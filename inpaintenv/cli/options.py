@@ -1,7 +1,6 @@
 """Options shared by several ``inpaintenv`` subcommands, and the data source they select.
 
-``inpaintenv.cli`` and the subcommands defined in their own packages
-(``inpaintenv.benchmark.command``) both import this module, so neither imports the other.
+Every subcommand module of :mod:`inpaintenv.cli` imports this one; it imports none of them.
 
 The data source is KITTI when a KITTI root is in effect — ``--kitti-root PATH``, else
 ``$INPAINTENV_KITTI_ROOT`` when set and non-empty — and the built-in ``SyntheticStreets``
@@ -18,13 +17,16 @@ import os
 import sys
 from typing import Any
 
-__all__ = ["add_common_options", "add_source_options", "check_source_options", "kitti_root_from_args",
-           "open_source_from_args"]
+__all__ = ["SYNTHETIC_HOLDOUT", "add_common_options", "add_source_options", "check_source_options",
+           "kitti_root_from_args", "open_source_from_args", "test_split"]
 
 #: Read when ``--kitti-root`` is not given (the same variable ``KittiDepth(root=None)`` reads).
 KITTI_ROOT_ENV = "INPAINTENV_KITTI_ROOT"
 #: KITTI defaults, applied only when a KITTI root is in effect.
 DEFAULT_SPLIT, DEFAULT_CAMERA = "train", "image_02"
+#: Share of drives held out as the test split of the synthetic default source
+#: (``benchmark`` scores it, ``export`` writes it).
+SYNTHETIC_HOLDOUT = 0.25
 
 
 def add_source_options(parser: argparse.ArgumentParser) -> None:
@@ -130,8 +132,8 @@ def open_source_from_args(args: argparse.Namespace) -> Any:
     (``--n-frames`` frames, 64 by default; ``--frame-shape`` sets their size). A root
     taken from ``$INPAINTENV_KITTI_ROOT`` is announced on stderr unless ``--quiet``.
     """
-    from .data import SyntheticStreets, open_source, select_drives
-    from .data.sources import DEFAULT_SYNTHETIC_FRAMES
+    from ..data import SyntheticStreets, open_source, select_drives
+    from ..data.sources import DEFAULT_SYNTHETIC_FRAMES
 
     root = check_source_options(args)
     _, origin = kitti_root_from_args(args)
@@ -151,3 +153,13 @@ def open_source_from_args(args: argparse.Namespace) -> Any:
         seed=seed, camera=args.camera or DEFAULT_CAMERA, drives=args.drives,
         exclude_drives=args.exclude_drives,
     )
+
+
+def test_split(dataset: Any, holdout: float) -> Any:
+    """The drive-level test split of ``dataset`` holding ``holdout`` of its drives."""
+    from ..data import split_by_drive
+
+    try:
+        return split_by_drive(dataset, test_size=holdout, seed=0)[1]
+    except ValueError as exc:
+        raise ValueError(f"--holdout {holdout:g}: {exc}; pass --holdout 0 to score all frames") from None

@@ -1,9 +1,9 @@
-"""Options naming the methods of a run, shared by ``inpaintenv evaluate`` and ``benchmark``.
+"""Options naming the methods of a run, shared by ``inpaintenv evaluate``, ``benchmark`` and ``score``.
 
 ``--checkpoint NAME=PATH`` (a saved neural model), ``--on-bad-frame``, ``--unfilled``, and the checks
 of ``--method`` names. Every name and path is resolved here, before any frame is scored,
-so a typo fails in a second instead of after an hour of other methods. ``cli.py`` and
-:mod:`inpaintenv.benchmark.command` both import this module; it imports neither.
+so a typo fails in a second instead of after an hour of other methods. The subcommand
+modules of :mod:`inpaintenv.cli` import this one; it imports none of them.
 """
 
 from __future__ import annotations
@@ -11,12 +11,16 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
-from .registry import canonical_name, resolve_class
+import numpy as np
+
+from ..registry import canonical_name, resolve_class
 
 __all__ = [
     "BAD_FRAME_CHOICES", "CHECKPOINT_FOLDER", "UNFILLED_CHOICES", "add_bad_frame_option", "add_checkpoint_option",
-    "add_unfilled_option", "check_checkpoint_folder", "check_method_names", "parse_checkpoints",
+    "add_unfilled_option", "check_checkpoint_folder", "check_method_names", "checkpoint_methods", "figure_methods",
+    "parse_checkpoints",
 ]
 
 #: What a checkpoint folder holds, for error messages.
@@ -130,3 +134,26 @@ def parse_checkpoints(specs: Sequence[str], taken: Sequence[str] = ()) -> dict[s
             raise ValueError(f"--checkpoint name {name!r} is used twice in this run; give each model its own NAME")
         out[name] = check_checkpoint_folder(path, f"--checkpoint {name}")
     return out
+
+
+def checkpoint_methods(specs: list[str], taken: list[str]) -> dict[str, Any]:
+    """``--checkpoint NAME=PATH`` values as lazily loaded methods of a benchmark run."""
+    from ..benchmark.identity import files_identity
+    from ..benchmark.suites import LazyMethod
+    from ..registry import make_method
+
+    # Hash the files now (cheap) so a resume can tell checkpoints apart unloaded.
+    return {
+        name: LazyMethod(lambda path=path: make_method("checkpoint", path=path), identity=files_identity(path))
+        for name, path in parse_checkpoints(specs, taken).items()
+    }
+
+
+def figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int = 4) -> dict[str, Any]:
+    """The best ``k`` methods by hole RMSE (first protocol), for readable panels."""
+    first = table[0]["protocol"]
+    ranked = sorted(
+        (e for e in table if e["protocol"] == first and np.isfinite(e["hole_rmse"])),
+        key=lambda e: e["hole_rmse"],
+    )
+    return {e["method"]: methods[e["method"]] for e in ranked[:k]}

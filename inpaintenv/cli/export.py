@@ -1,0 +1,73 @@
+"""``inpaintenv export``: the occluded inputs of a data source and protocol as files, for a
+method that runs anywhere (``inpaintenv score`` scores its predictions)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from .options import (
+    SYNTHETIC_HOLDOUT,
+    add_common_options,
+    add_source_options,
+    open_source_from_args,
+    test_split,
+)
+
+__all__ = ["add_export", "cmd_export"]
+
+
+def add_export(subparsers: Any) -> None:
+    """Declare ``inpaintenv export``."""
+
+    p = subparsers.add_parser(
+        "export", help="write the occluded inputs as PNG files for a method run elsewhere",
+        description=(
+            "Write, for every frame and seed, the occluded input as a KITTI 16-bit depth PNG (0 = hole or no "
+            "measurement) and the hole mask as an 8-bit PNG, in KITTI's folder layout, plus manifest.json. "
+            "Ground truth is never exported. Score the predictions with `inpaintenv score`."
+        ),
+    )
+    p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
+    p.add_argument("--seed", type=int, action="append", metavar="S", help="evaluation seed (repeatable; default 0)")
+    p.add_argument("--holdout", type=float, metavar="FRACTION",
+                   help=f"export only the drive-level test split `inpaintenv benchmark` scores (default "
+                        f"{SYNTHETIC_HOLDOUT} for the synthetic source, 0 = all frames)")
+    p.add_argument("--out", default="submission-inputs", metavar="DIR",
+                   help="folder of the export (default submission-inputs)")
+    p.add_argument("--overwrite", action="store_true", help="replace an earlier export in --out")
+    add_source_options(p)
+    add_common_options(p)
+    p.set_defaults(func=cmd_export)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """Run ``inpaintenv export``."""
+    from ..conventions import check_seeds
+    from ..data.synthetic import SyntheticStreets
+    from ..masks import get_protocol
+    from ..submission.export import export
+
+    seeds = check_seeds(args.seed or [0], "--seed")
+    get_protocol(args.protocol)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder for the export")
+    dataset = open_source_from_args(args)
+    # The benchmark's frames: the same test split by default, so rows of both are comparable.
+    holdout = args.holdout
+    if holdout is None:
+        holdout = SYNTHETIC_HOLDOUT if isinstance(dataset, SyntheticStreets) else 0.0
+    if not 0.0 <= holdout < 1.0:
+        raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
+    if holdout > 0:
+        dataset = test_split(dataset, holdout)
+    manifest = export(out, dataset, args.protocol, seeds, overwrite=args.overwrite, progress=not args.quiet)
+    n_frames = len(manifest.frames)
+    print(f"exported {len(manifest.items)} input{'s' * (len(manifest.items) != 1)} ({n_frames} "
+          f"frame{'s' * (n_frames != 1)} × {len(seeds)} seed{'s' * (len(seeds) != 1)}, protocol "
+          f"{manifest.protocol_name}) to {out}")
+    print(f"each prediction goes to <predictions>/<input's path>, e.g. {manifest.items[0].input}")
+    print(f"then: inpaintenv score --manifest {manifest.path} --predictions <predictions> --name <method>")
+    return 0

@@ -1,0 +1,53 @@
+"""``inpaintenv info``: frames, drives, sizes and valid-pixel density of a data source,
+and the protocols and methods there are."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from ..data.base import as_dataset
+from .options import add_common_options, add_source_options, open_source_from_args
+
+__all__ = ["add_info", "cmd_info", "describe_source"]
+
+
+def add_info(subparsers: Any) -> None:
+    p = subparsers.add_parser("info", help="summarise a data source", description="Summarise a data source: frames, drives, sizes, valid-pixel density.")
+    add_source_options(p)
+    add_common_options(p)
+    p.add_argument("--sample", type=int, default=8, help="frames decoded to measure density (default 8)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_info)
+
+
+def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
+    """``ds.summary()`` for ``inpaintenv info``, with ``--sample`` checked first."""
+    if n_sample < 1:
+        raise ValueError(f"--sample must be >= 1, got {n_sample}")
+    return dict(as_dataset(ds).summary(n_sample=n_sample))
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from ..masks import available_protocols
+    from ..registry import available_aliases, available_methods
+
+    ds = open_source_from_args(args)
+    info = describe_source(ds, args.sample)
+    info["frames_used"] = len(ds)
+    if args.json:
+        info["methods"] = available_methods()
+        info["aliases"] = available_aliases()
+        print(json.dumps(info, indent=1))
+        return 0
+    for key, value in info.items():
+        if key == "valid_density" and value is not None:
+            value = f"{100 * value:.1f} % of pixels (mean over {info.get('sampled_frames', '?')} frames)"
+        elif isinstance(value, dict):
+            value = ", ".join(f"{k}: {v}" for k, v in value.items())
+        print(f"{key:>16}: {value}")
+    print(f"{'protocols':>16}: {', '.join(available_protocols())}")
+    print(f"{'methods':>16}: {', '.join(available_methods())}")
+    print(f"{'aliases':>16}: {', '.join(f'{a} -> {t}' for a, t in available_aliases().items())}")
+    return 0
