@@ -31,7 +31,7 @@ from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.environment import environment_info
 from inpaintenv.masks import get_protocol
-from inpaintenv.progress import FrameProgress
+from inpaintenv.report.progress import FrameProgress
 
 from . import _checkpoint as ckpt
 from ._training import deterministic_torch, frame_label, torch_threads

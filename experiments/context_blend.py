@@ -308,7 +308,7 @@ def folds(meta: list[dict]) -> dict[str, tuple]:
 
 
 def cmd_fit(args: argparse.Namespace) -> None:
-    from inpaintenv.stats import bootstrap_ratio_ci
+    from inpaintenv.report.stats import bootstrap_ratio_ci
 
     folder = Path(args.cache)
     train, ev = Cache(folder, "train"), Cache(folder, "eval")

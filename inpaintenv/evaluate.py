@@ -39,7 +39,7 @@ from .masks import OcclusionProtocol, get_protocol
 from .metrics import UnfilledPixelsError, check_unfilled, frame_metrics
 
 # The result type and its row format live in results.py; these names stay importable here.
-from .results import (  # noqa: F401
+from .report.results import (  # noqa: F401
     ID_COLUMNS,
     METRIC_COLUMNS,
     ROW_COLUMNS,

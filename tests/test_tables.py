@@ -18,7 +18,7 @@ from inpaintenv.benchmark import (
 )
 from inpaintenv.data import ArrayDataset
 from inpaintenv.evaluate import EvaluationResult, evaluate
-from inpaintenv.tables import FEW_MARK, interval_cell
+from inpaintenv.report.tables import FEW_MARK, interval_cell
 
 
 def _run(n_frames: int, drives: list[str], offset: float = 0.0) -> EvaluationResult:

@@ -7,7 +7,7 @@ Run from the project root::
 
 Per-frame errors are drawn from a skewed distribution (gamma, shape 2: like per-frame
 hole RMSE, a few hard frames), the interval is computed exactly as the tables do
-(:func:`inpaintenv.stats.bootstrap_mean_ci`, 2,000 resamples) and its coverage of the
+(:func:`inpaintenv.report.stats.bootstrap_mean_ci`, 2,000 resamples) and its coverage of the
 distribution's mean is counted over ``--trials`` draws.
 """
 
@@ -17,7 +17,7 @@ import argparse
 
 import numpy as np
 
-from inpaintenv.stats import bootstrap_mean_ci
+from inpaintenv.report.stats import bootstrap_mean_ci
 
 
 def coverage(n: int, trials: int, rng: np.random.Generator) -> float:

@@ -4,7 +4,7 @@ This subpackage (with :mod:`inpaintenv.cli`) is the only part of ``inpaintenv`` 
 knows methods by name; it builds them through :mod:`inpaintenv.registry`.
 """
 
-from ..stats import bootstrap_mean_ci, bootstrap_ratio_ci
+from ..report.stats import bootstrap_mean_ci, bootstrap_ratio_ci
 from .headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
 from .identity import method_identity
 from .report import summary_table, to_markdown, write_report

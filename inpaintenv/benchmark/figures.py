@@ -1,6 +1,6 @@
 """Figures of a benchmark: study-style frame panels and error against hole size / range.
 
-Every figure uses the look of :mod:`inpaintenv.style` (the same depth and error colour
+Every figure uses the look of :mod:`inpaintenv.report.style` (the same depth and error colour
 maps, hole drawing and method colours as ``inpaintenv show``), one colour per method for
 the whole run. Figures of per-frame metrics (:func:`plot_error_vs_hole_size`) come from
 the rows, every scored frame; figures that need pixels (:func:`frame_panel`,
@@ -21,13 +21,13 @@ import numpy as np
 
 import inpaintenv
 
-from .. import style
 from ..conventions import corrupt
 from ..data.base import DepthDataset
 from ..evaluate import EvaluationResult, run_method
 from ..masks import get_protocol
 from ..metrics import frame_metrics, interpolate_background
-from ..progress import count
+from ..report import style
+from ..report.progress import count
 
 __all__ = [
     "DISTANCE_BINS", "DISTANCE_FRAMES", "FramePredictions", "frame_panel", "plot_error_vs_distance",
@@ -161,7 +161,7 @@ def frame_panel(
     Per method a row of input (holes hatched), ground truth, reconstruction (method name
     in its run colour, hole/all metrics) and absolute error in the holes; holes outlined on
     every tile; one colour bar for depth and one for the error (robust scale shared by the
-    rows, :func:`inpaintenv.style.error_scale`), both in metres.
+    rows, :func:`inpaintenv.report.style.error_scale`), both in metres.
     """
     plt = _pyplot()
     predictions = predictions or FramePredictions(methods, dataset, protocol, seed)

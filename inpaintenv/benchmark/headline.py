@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..evaluate import EvaluationResult
-from ..stats import bootstrap_ratio_ci
-from ..tables import TRAINED_MARK, interval_cell, table_notes, trained_note
+from ..report.stats import bootstrap_ratio_ci
+from ..report.tables import TRAINED_MARK, interval_cell, table_notes, trained_note
 from .suites import CLASSICAL, STUDY_CLASSICAL
 
 __all__ = ["CLASSICAL_METHODS", "learned_vs_classical", "headline_markdown"]
@@ -118,7 +118,7 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
     there is nothing to compare).
 
     ``frames`` and ``skipped`` count as in every table; the ratio follows the interval rule
-    of :func:`inpaintenv.tables.interval_cell`.
+    of :func:`inpaintenv.report.tables.interval_cell`.
     """
     if not rows:
         return ""

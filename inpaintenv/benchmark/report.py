@@ -9,7 +9,7 @@ from typing import Any
 
 from ..environment import environment_info
 from ..evaluate import EvaluationResult, json_safe, skipped_markdown
-from ..tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
+from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
 from .headline import headline_markdown, learned_vs_classical
 
 __all__ = ["REPORT_METRICS", "summary_table", "to_markdown", "environment_info", "write_report"]

@@ -9,7 +9,7 @@ model made under the same name, is an error.
 
 A run holds the folder's lock (:mod:`.lock`) from start to end, so two runs never write
 the same rows. Progress goes to tqdm bars on a terminal and, in a log, to a line every
-:data:`PROGRESS_INTERVAL` seconds (:class:`~inpaintenv.progress.ProgressReporter`).
+:data:`PROGRESS_INTERVAL` seconds (:class:`~inpaintenv.report.progress.ProgressReporter`).
 """
 
 from __future__ import annotations
@@ -35,7 +35,12 @@ from ..evaluate import (
 )
 from ..masks import get_protocol
 from ..metrics import check_unfilled
-from ..progress import ProgressReporter, count, format_duration, stderr_is_terminal
+from ..report.progress import (
+    ProgressReporter,
+    count,
+    format_duration,
+    stderr_is_terminal,
+)
 from .identity import method_identity
 from .lock import run_lock
 

@@ -68,7 +68,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from ..evaluate import EvaluationResult, evaluate, skipped_markdown
     from ..masks import get_protocol
     from ..registry import make_method, unfilled_policy
-    from ..tables import summary_table, table_to_csv
+    from ..report.tables import summary_table, table_to_csv
 
     # Check the options and build every method first, so a typo fails before any long run.
     check_source_options(args)

@@ -15,7 +15,7 @@ from ..conventions import (
     check_seeds,
     is_real_number,
 )
-from ..progress import count
+from ..report.progress import count
 
 __all__ = [
     "DepthDataset", "ArrayDataset", "ConcatDataset", "Subset", "as_dataset", "select_drives",

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..progress import count
+from ..report.progress import count
 from .base import DepthDataset
 from .io import DepthFormatError, depth_from_uint16, read_depth_png_raw
 

@@ -3,7 +3,7 @@
 Used by :meth:`DepthInpaintEnv.render` and by ``inpaintenv show``. Tiles are stacked
 vertically (KITTI frames are wide), each under a short label, optionally under a title
 line, with a colour bar in metres under the depth tiles and under the error tile. Colours
-and hole drawing come from :mod:`inpaintenv.style`, the same as the benchmark's figures:
+and hole drawing come from :mod:`inpaintenv.report.style`, the same as the benchmark's figures:
 depth in ``turbo`` reversed (near = red) on ``[0, max_depth]``, absolute error in the
 holes in ``magma`` on ``[0, error_max]``, pixels without ground truth grey, holes hatched
 in the input and outlined on every tile.
@@ -17,8 +17,8 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from .. import style
 from ..conventions import check_max_depth
+from ..report import style
 
 __all__ = ["colorize_depth", "colorize_error", "render_panel"]
 
@@ -31,12 +31,12 @@ _WHITE = (255, 255, 255)
 
 
 def colorize_depth(depth: np.ndarray, max_depth: float) -> np.ndarray:
-    """Map ``(H, W)`` metres to RGB uint8 (:func:`inpaintenv.style.depth_rgb`); no data is grey."""
+    """Map ``(H, W)`` metres to RGB uint8 (:func:`inpaintenv.report.style.depth_rgb`); no data is grey."""
     return style.to_uint8(style.depth_rgb(depth, max_depth))
 
 
 def colorize_error(error: np.ndarray, valid: np.ndarray, error_max: float) -> np.ndarray:
-    """Map ``(H, W)`` absolute error to RGB uint8 (:func:`inpaintenv.style.error_rgb`); pixels
+    """Map ``(H, W)`` absolute error to RGB uint8 (:func:`inpaintenv.report.style.error_rgb`); pixels
     outside ``valid`` are grey."""
     return style.to_uint8(style.error_rgb(error, valid, error_max))
 
@@ -94,7 +94,7 @@ def render_panel(
         Top of the depth colour scale in metres.
     error_max : float, optional
         Top of the error colour scale in metres; by default
-        :func:`inpaintenv.style.error_scale` of the errors in the holes (their 90th
+        :func:`inpaintenv.report.style.error_scale` of the errors in the holes (their 90th
         percentile, rounded up), so the tile uses the whole scale.
     title : str or sequence of str, optional
         Lines written above the tiles (e.g. the metrics).

@@ -22,7 +22,12 @@ from inpaintenv.benchmark import (
 )
 from inpaintenv.data import ArrayDataset
 from inpaintenv.evaluate import EvaluationResult, evaluate
-from inpaintenv.tables import TRAINED_MARK, summary_table, table_to_csv, to_markdown
+from inpaintenv.report.tables import (
+    TRAINED_MARK,
+    summary_table,
+    table_to_csv,
+    to_markdown,
+)
 
 
 class Trained:

@@ -12,7 +12,7 @@ from inpaintenv.envs.render import (
     colorize_error,
     render_panel,
 )
-from inpaintenv.style import NO_DATA, to_uint8
+from inpaintenv.report.style import NO_DATA, to_uint8
 
 GREY = to_uint8(np.array(NO_DATA))
 

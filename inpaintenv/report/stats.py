@@ -1,6 +1,6 @@
 """Bootstrap confidence intervals of per-frame means.
 
-Used by every table of the package (:mod:`inpaintenv.tables`): ``evaluate``'s and the
+Used by every table of the package (:mod:`inpaintenv.report.tables`): ``evaluate``'s and the
 benchmark's. An interval needs at least two frames: with one frame the bounds are NaN
 (written as ``null`` / an empty cell), never the mean itself, so a single frame cannot
 pass for a zero-width interval.

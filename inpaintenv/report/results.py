@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from ..conventions import DEFAULT_MAX_DEPTH
+from ..metrics import METRIC_NAMES, REGIONS, aggregate
 from . import tables
-from .conventions import DEFAULT_MAX_DEPTH
-from .metrics import METRIC_NAMES, REGIONS, aggregate
 
 __all__ = [
     "ID_COLUMNS", "METRIC_COLUMNS", "ROW_COLUMNS", "EvaluationResult", "json_safe", "merge_skipped", "parse_row",
@@ -137,7 +137,7 @@ class EvaluationResult:
     def to_json(self, path: str | Path) -> Path:
         """Write ``{"meta", "skipped_frames", "table", "by_drive", "rows"}`` as JSON (NaN written as null).
 
-        ``table`` and ``by_drive`` are :func:`inpaintenv.tables.summary_table` entries:
+        ``table`` and ``by_drive`` are :func:`inpaintenv.report.tables.summary_table` entries:
         means with interval bounds (null when undefined) and the frames in each mean.
         ``skipped_frames`` lists the unreadable frames left out (``on_bad_frame="skip"``)
         with the reason; it is empty when none were.
@@ -187,7 +187,7 @@ class EvaluationResult:
 
         Means over frames with their 95 % bootstrap interval, units in the header,
         ``frames`` and ``skipped`` columns and the notes explaining them underneath (see
-        :func:`inpaintenv.tables.to_markdown`).
+        :func:`inpaintenv.report.tables.to_markdown`).
 
         Parameters
         ----------

@@ -7,7 +7,7 @@ frames); :func:`to_markdown` lays entries out with units in the header and expla
 writes one value with its interval, by the rule every table follows:
 
 * no interval from one frame: ``15.30 (n=1)``, and ``null`` bounds in JSON / CSV;
-* an interval from fewer than :data:`~inpaintenv.stats.FEW_FRAMES` frames is marked ``†``;
+* an interval from fewer than :data:`~inpaintenv.report.stats.FEW_FRAMES` frames is marked ``†``;
 * a method scored on drives it was trained on (``meta["training_drives"]``) is marked
   :data:`TRAINED_MARK` (with "k of n drives" when the row pools several drives), and its
   entry lists them under ``trained_on``.
@@ -20,19 +20,30 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
-if TYPE_CHECKING:  # typing only: evaluate imports this module
-    from .evaluate import EvaluationResult
-
 __all__ = [
     "FEW_MARK", "REPORT_METRICS", "TRAINED_MARK", "interval_cell", "method_cell", "summary_table", "table_notes",
     "table_to_csv", "to_markdown", "trained_note",
 ]
+
+class Rows(Protocol):
+    """What a table is made from: per-frame rows, their meta and their grouped means.
+
+    :class:`~inpaintenv.report.results.EvaluationResult` is one; naming the shape here
+    instead of importing it keeps this module below the results (results import tables,
+    never the other way, not even for typing).
+    """
+
+    rows: list[dict[str, Any]]
+    meta: dict[str, Any]
+
+    def group_table(self, keys: Sequence[str] = ...) -> list[dict[str, Any]]: ...
+
 
 #: (key, header with unit, format) of every table: the study's Table I/II columns first.
 REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
@@ -50,7 +61,7 @@ TRAINED_MARK = "‡"
 
 
 def summary_table(
-    result: EvaluationResult,
+    result: Rows,
     keys: Sequence[str] = ("method", "protocol"),
     *,
     confidence: float = 0.95,
@@ -60,7 +71,7 @@ def summary_table(
 
     Parameters
     ----------
-    result : EvaluationResult
+    result : EvaluationResult (or any :class:`Rows`)
         Per-frame rows.
     keys : sequence of str
         Row columns that define a group (e.g. ``("method", "protocol", "drive")``).
