@@ -24,7 +24,7 @@ import time
 import numpy as np
 import torch
 
-import estimators.nets.pixel_blend as pixel_blend
+import estimators.learned.nets.pixel_blend as pixel_blend
 from estimators.prior import DEFAULT_PRETRAINED, PriorUNetInpainter
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.masks import get_protocol

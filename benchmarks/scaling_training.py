@@ -1,6 +1,6 @@
 """How training and inference cost of the study's U-Net grows with width, depth and resolution.
 
-For each configuration the script builds ``estimators.nets.UNet(1, width, depth,
+For each configuration the script builds ``estimators.learned.nets.UNet(1, width, depth,
 skip=True)`` and times, on synthetic in-memory input (so data loading is not part of it):
 
 * **one training step** exactly as ``UNetInpainter._train_step`` does it with the
@@ -52,9 +52,9 @@ import numpy as np
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
-from estimators._training import encode_input
-from estimators.losses import inpainting_loss
-from estimators.nets import UNet
+from estimators.learned._training import encode_input
+from estimators.learned.losses import inpainting_loss
+from estimators.learned.nets import UNet
 from inpaintenv.masks import get_protocol
 
 #: Defaults of the study's estimators (``estimators.neural``): normalisation, loss, Adam.
@@ -140,7 +140,7 @@ def unet_conv_flops(
     width: int, depth: int, height: int, width_px: int, batch: int = 1, in_channels: int = 1,
     skip: bool = True,
 ) -> int:
-    """Forward convolution FLOPs of :class:`estimators.nets.UNet` from its architecture.
+    """Forward convolution FLOPs of :class:`estimators.learned.nets.UNet` from its architecture.
 
     The levels of :func:`unet_level_flops` plus ``2 × width`` per pixel for the 1×1 head.
 

@@ -1,6 +1,8 @@
 """Depth inpainting methods as scikit-learn estimators.
 
-Classical methods import without torch; the neural ones load torch on first use.
+The shared API (:mod:`~estimators.base`, :mod:`~estimators.scoring`), the classical fills
+(:mod:`estimators.classical`, no torch) and the learned ones (:mod:`estimators.learned`,
+PyTorch). Classical methods import without torch; the learned ones load torch on first use.
 """
 
 from __future__ import annotations
@@ -46,9 +48,11 @@ __all__ = [
     "ContextBlendInpainter",
 ]
 
-#: Exported lazily so that ``import estimators`` never imports torch.
-_NEURAL = {"UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior", "BlendInpainter": "blend",
-           "ContextBlendInpainter": "context_blend"}
+#: Exported lazily so that ``import estimators`` never imports torch: class -> module of
+#: :mod:`estimators.learned`.
+_NEURAL = {"UNetInpainter": "learned.neural", "AutoencoderInpainter": "learned.neural",
+           "PriorUNetInpainter": "learned.prior", "BlendInpainter": "learned.blend",
+           "ContextBlendInpainter": "learned.context_blend"}
 
 
 def __getattr__(name: str):

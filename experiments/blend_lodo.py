@@ -204,7 +204,7 @@ def _estimator(variant: dict, seed: int, epochs: int):
 
 
 def predict_pixels(net, x: np.ndarray, tta: bool = True) -> np.ndarray:
-    """A :class:`~estimators.nets.pixel_blend.PixelBlendNet`'s hole prediction on cached pixel features.
+    """A :class:`~estimators.learned.nets.pixel_blend.PixelBlendNet`'s hole prediction on cached pixel features.
 
     Flip-averaged (``tta``) and floored at half the smallest candidate, as the estimator predicts.
     """

@@ -59,7 +59,7 @@ from blend_lodo import (
 )
 
 from estimators.blend import BLEND_CANDIDATES
-from estimators.nets.pixel_blend import GAP_SCALE, MIN_DEPTH, PixelBlendNet
+from estimators.learned.nets.pixel_blend import GAP_SCALE, MIN_DEPTH, PixelBlendNet
 from estimators.priors import candidate_fills, prior_features
 from inpaintenv.data import KittiDepth
 from inpaintenv.masks import get_protocol

@@ -248,12 +248,12 @@ for _name, _cls, _kw, _desc in [
 # fills, so their names say "blend". Factories, not classes: they load the weights.
 # See docs/model_card.md.
 register_method(
-    "blend-pretrained", "estimators.blend", "pretrained_blend", {},
+    "blend-pretrained", "estimators.learned.blend", "pretrained_blend", {},
     "learned per-pixel blend of classical fills (the default release, estimators.blend.DEFAULT_BLEND = "
     "kitti-rect-v4), trained on three KITTI drives (CC BY-NC-SA 3.0)",
 )
 register_method(
-    "blend-pretrained-mixed", "estimators.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
+    "blend-pretrained-mixed", "estimators.learned.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
     "the learned blend of kitti-rect-v3 trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
 # Their former names: they are not U-Nets, but old commands keep working.
@@ -264,11 +264,11 @@ register_alias("unet-pretrained-mixed", "blend-pretrained-mixed")
 # older results stay re-runnable after the default moves on (``blend-pretrained`` is
 # whichever release is current).
 _RELEASE_LOADERS: dict[str, tuple[str, str]] = {
-    "kitti-rect-v1": ("estimators.prior", "pretrained_kitti"),
-    "kitti-rect-v2": ("estimators.prior", "pretrained_kitti"),
-    "kitti-rect-v3": ("estimators.prior", "pretrained_kitti"),
-    "kitti-mixed-v1": ("estimators.prior", "pretrained_kitti"),
-    "kitti-rect-v4": ("estimators.blend", "pretrained_blend"),
+    "kitti-rect-v1": ("estimators.learned.prior", "pretrained_kitti"),
+    "kitti-rect-v2": ("estimators.learned.prior", "pretrained_kitti"),
+    "kitti-rect-v3": ("estimators.learned.prior", "pretrained_kitti"),
+    "kitti-mixed-v1": ("estimators.learned.prior", "pretrained_kitti"),
+    "kitti-rect-v4": ("estimators.learned.blend", "pretrained_blend"),
 }
 PRETRAINED_RELEASES: tuple[str, ...] = tuple(_RELEASE_LOADERS)
 for _release, (_module, _factory) in _RELEASE_LOADERS.items():
@@ -278,6 +278,6 @@ for _release, (_module, _factory) in _RELEASE_LOADERS.items():
     )
 
 register_method(
-    "checkpoint", "estimators.neural", "load_checkpoint", {},
+    "checkpoint", "estimators.learned.load", "load_checkpoint", {},
     "a saved neural model: make_method('checkpoint', path=...)",
 )

@@ -58,7 +58,7 @@ def test_staged_preset_warm_starts_the_second_stage(tmp_path):
 @pytest.fixture
 def small_blend_preset(monkeypatch):
     """blend-kitti with one occlusion, 200 pixels, one epoch, no thinned copies: seconds to train."""
-    from estimators import presets
+    from estimators.learned import presets
 
     cls, params, desc = presets.PRESETS["blend-kitti"]
     small = {**params, "masks_per_frame": 1, "pixels_per_frame": 200, "epochs": 1, "keep": (1.0,)}
@@ -161,7 +161,7 @@ def test_preset_parameters_are_checked_before_any_file_is_written(tmp_path, caps
 def test_rerunning_a_finished_training_is_a_no_op(tmp_path, capsys, monkeypatch, small_blend_preset):
     # Rerunning a finished blend-kitti training retrained everything ("stopped before its
     # first checkpoint"): a finished run says so and exits 0.
-    from estimators import presets
+    from estimators.learned import presets
 
     out = tmp_path / "run"
     argv = ["train", "--preset", "blend-kitti", "--n-frames", "4", "--frame-shape", "64", "192", "--out", str(out),

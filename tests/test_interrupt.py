@@ -65,12 +65,12 @@ def test_evaluate_ctrl_c_is_one_line_and_keeps_the_rows_of_out(tmp_path, capsys,
 
 def test_train_ctrl_c_is_one_line(tmp_path, capsys, monkeypatch):
     pytest.importorskip("torch")
-    import estimators.presets
+    import estimators.learned.presets
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(estimators.presets, "train_preset", interrupted)
+    monkeypatch.setattr(estimators.learned.presets, "train_preset", interrupted)
     assert main(["train", "--preset", "smoke", "--n-frames", "4", "--frame-shape", "32", "96",
                  "--out", str(tmp_path), "--quiet"]) == 130
     err = capsys.readouterr().err.strip().splitlines()

@@ -129,7 +129,7 @@ def import_graph() -> dict[str, set[str]]:
 def test_graph_sees_static_imports_and_import_module_literals():
     graph = import_graph()
     assert "inpaintenv.conventions" in graph["estimators.base"]  # from inpaintenv.conventions import ...
-    assert "estimators._checkpoint" in graph["estimators.neural"]  # from . import _checkpoint as ckpt
+    assert "estimators.learned._checkpoint" in graph["estimators.learned.neural"]  # from . import _checkpoint as ckpt
     tree = ast.parse('import importlib\nimportlib.import_module("estimators.prior")\n'
                      'from importlib import import_module\nimport_module(".nets", "estimators")')
     calls = [n for n in ast.walk(tree) if isinstance(n, ast.Call)]

@@ -190,7 +190,7 @@ def loss_figure(history: dict[str, Any], title: str, loss_label: str = "training
 def cmd_train(args: argparse.Namespace) -> int:
     """Run ``inpaintenv train``: check the arguments, fit the preset (on ``--scheduler``'s
     workers where given), write the model, ``training_log.json`` and ``loss.png``; returns 0."""
-    from estimators.presets import (
+    from estimators.learned.presets import (
         available_presets,
         check_preset,
         describe_preset,

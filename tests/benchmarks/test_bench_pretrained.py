@@ -17,7 +17,7 @@ def test_times_predict_per_chunk_size_and_restores_the_default(capsys):
         import bench_pretrained
     finally:
         sys.path.remove(str(_DIR))
-    import estimators.nets.pixel_blend as pixel_blend
+    import estimators.learned.nets.pixel_blend as pixel_blend
 
     default = pixel_blend.CHUNK
     out = bench_pretrained.main(["--repeat", "1", "--threads", "1", "--chunk", "4096", "--chunk", "65536"])

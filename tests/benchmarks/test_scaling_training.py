@@ -37,7 +37,7 @@ def test_unet_formula_matches_counter(st, width, depth, h, w, skip):
 
 
 def test_params_match_real_model(st):
-    from estimators.nets import UNet
+    from estimators.learned.nets import UNet
 
     assert st.n_params(8, 2) == sum(p.numel() for p in UNet(1, 8, 2).parameters())
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import torch
 
-from estimators._checkpoint import CheckpointError
 from estimators.blend import BlendInpainter
+from estimators.learned._checkpoint import CheckpointError
 from estimators.priors import prior_features
 from inpaintenv.data import ArrayDataset
 

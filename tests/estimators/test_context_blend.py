@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 import torch
 
-from estimators.context_blend import ContextBlendInpainter
-from estimators.nets.context_blend import (
+from estimators.learned.context_blend import ContextBlendInpainter
+from estimators.learned.nets.context_blend import (
     CELL,
     ContextBlendNet,
     context_grid,
     frame_reference,
 )
-from estimators.nets.pixel_blend import PixelBlendNet
+from estimators.learned.nets.pixel_blend import PixelBlendNet
 from estimators.priors import candidate_fills
 from inpaintenv.data import ArrayDataset
 

@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 import torch.multiprocessing as mp
 
-from estimators import distributed
 from estimators.distributed import rank_order, train_distributed
+from estimators.learned import distributed
 from estimators.neural import UNetInpainter, load_checkpoint
 from inpaintenv.data import ArrayDataset
 
@@ -138,7 +138,7 @@ def test_prior_unet_is_refused():
 
 
 def test_distributed_run_resumes_after_a_crash(one_process_group, tmp_path, monkeypatch):
-    from estimators import neural
+    from estimators.learned import neural
 
     params = {**PARAMS, "max_steps": 3, "checkpoint_every": 1}
     full = train_distributed(UNetInpainter(**params, checkpoint_dir=tmp_path / "a"), _frames(), log=False)

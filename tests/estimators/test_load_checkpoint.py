@@ -1,9 +1,9 @@
 """load_checkpoint finds every neural class by the name its checkpoint records (issue 18).
 
 estimators.neural used to import estimators.prior inside load_checkpoint (an import
-circle, prior subclasses neural); the class is now found through the ``estimators``
-package's lazy exports, so a fresh process loads a PriorUNetInpainter checkpoint
-without anyone importing estimators.prior first.
+circle, prior subclasses neural); load_checkpoint now lives in estimators.learned.load,
+above every learned family, so a fresh process loads a PriorUNetInpainter checkpoint
+through the public estimators.neural without importing estimators.prior first.
 """
 
 from __future__ import annotations

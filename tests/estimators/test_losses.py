@@ -7,7 +7,7 @@ import math
 import pytest
 import torch
 
-from estimators.losses import (
+from estimators.learned.losses import (
     hole_l1,
     inpainting_loss,
     masked_l1,

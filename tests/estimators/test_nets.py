@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from estimators.nets import UNet, UNetDecoder, UNetEncoder, pad_to_multiple
+from estimators.learned.nets import UNet, UNetDecoder, UNetEncoder, pad_to_multiple
 
 
 @pytest.fixture(autouse=True)

@@ -123,7 +123,7 @@ def test_max_steps_stops_mid_epoch(dataset):
 
 def test_crop_trains_on_crops(dataset, monkeypatch):
     seen = []
-    from estimators import neural
+    from estimators.learned import neural
 
     orig = neural._NeuralInpainter._train_step
 
@@ -180,7 +180,7 @@ def test_load_nonexistent(tmp_path):
 
 # -- checkpoints during training and resume ------------------------------------------------
 def _interrupt_after(monkeypatch, n_steps):
-    from estimators import neural
+    from estimators.learned import neural
 
     orig = neural._NeuralInpainter._train_step
     calls = {"n": 0}
@@ -214,7 +214,7 @@ def test_resume_equals_uninterrupted_run(dataset, corrupted, tmp_path, monkeypat
 
 def test_finished_run_is_not_retrained(dataset, corrupted, tmp_path, monkeypatch):
     first = tiny(checkpoint_dir=tmp_path).fit(dataset)
-    from estimators import neural
+    from estimators.learned import neural
 
     def fail(*a):
         raise AssertionError("should not train again")

@@ -7,8 +7,8 @@ import pytest
 import torch
 
 from estimators.classical import ScanlineInpainter
-from estimators.nets.pixel_blend import PixelBlendNet
-from estimators.nets.prior_unet import PriorUNet
+from estimators.learned.nets.pixel_blend import PixelBlendNet
+from estimators.learned.nets.prior_unet import PriorUNet
 from estimators.presets import available_presets, make_preset, train_preset
 from estimators.prior import PriorUNetInpainter, available_pretrained
 from estimators.priors import (

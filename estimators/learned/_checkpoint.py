@@ -258,7 +258,7 @@ def write_run_checkpoint(
 
 #: Folder of the shipped releases: ``NAME.safetensors`` + ``NAME.json`` (a checkpoint's
 #: two files under flat names).
-PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "pretrained"
 
 
 def shipped_releases(class_name: str, directory: Path = PRETRAINED_DIR) -> list[str]:
@@ -319,21 +319,13 @@ CLASSES: dict[str, type] = {}
 
 
 def checkpoint_class(name: Any) -> type | None:
-    """The estimator class a checkpoint names, or None if no such class is known.
+    """The estimator class a checkpoint names, or None if no such class is registered.
 
-    A class not registered yet is looked up among the ``estimators`` package's public
-    names, whose lazy export imports (and so registers) the module defining it: loading
-    a ``PriorUNetInpainter`` checkpoint works without this module or ``estimators.neural``
-    importing ``estimators.prior``.
+    Each learned family registers its classes in :data:`CLASSES` when its module is
+    imported; :func:`estimators.learned.load.load_checkpoint` imports every family first,
+    so this module never imports a family (or the package face) to find one.
     """
-    if not isinstance(name, str):
-        return None
-    if name not in CLASSES:
-        import estimators
-
-        if name in getattr(estimators, "__all__", ()):
-            getattr(estimators, name)
-    return CLASSES.get(name)
+    return CLASSES.get(name) if isinstance(name, str) else None
 
 
 def cpu_state(model: torch.nn.Module, clone: bool = False) -> dict[str, torch.Tensor]:

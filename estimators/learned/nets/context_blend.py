@@ -1,6 +1,6 @@
 """Scene context for the per-pixel blend: a small U-Net over the whole frame at 1/8 scale.
 
-The per-pixel blend (:class:`~estimators.nets.pixel_blend.PixelBlendNet`) sees what lies
+The per-pixel blend (:class:`~estimators.learned.nets.pixel_blend.PixelBlendNet`) sees what lies
 on the four axis lines through a pixel. What a large hole hides also depends on the
 scene around it: where the road and the far scene are, how deep the frame is on the
 other side of the hole. :class:`ContextUNet` reads a coarse, scale-free summary of the

@@ -29,9 +29,9 @@ from inpaintenv.environment import environment_info
 from inpaintenv.masks import OcclusionProtocol, get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
+from ..base import resolve_seed
 from . import _checkpoint as ckpt
 from ._checkpoint import CheckpointMixin, cpu_state
-from .base import resolve_seed
 from .losses import inpainting_loss
 from .nets import UNet
 
@@ -247,7 +247,7 @@ def backward_step(loss: torch.Tensor, optimizer: torch.optim.Optimizer, scaler: 
 
 class TrainingMixin:
     """The training loop of a neural inpainter: run directory, resume, warm start, the
-    optimiser steps and per-epoch validation (``fit`` of :class:`estimators.neural._NeuralInpainter`).
+    optimiser steps and per-epoch validation (``fit`` of :class:`estimators.learned.neural._NeuralInpainter`).
 
     Relies on the parameter mixin (``_check_params``, ``_device``, ``_build_model``, ...)
     and the checkpoint mixin of the same class.

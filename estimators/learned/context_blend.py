@@ -2,7 +2,7 @@
 
 :class:`~estimators.blend.BlendInpainter` decides per pixel from what lies on the four
 axis lines through it. Here a small U-Net also reads the whole frame at 1/8 scale
-(:func:`~estimators.nets.context_blend.context_grid`: measured log-depth, density, hole
+(:func:`~estimators.learned.nets.context_blend.context_grid`: measured log-depth, density, hole
 and candidate fills, relative to the frame's median depth) and hands every pixel scene
 features, trained together with the per-pixel MLP: where the road and the far scene
 lie, how deep the other side of the hole is.
@@ -13,7 +13,7 @@ frame's context grid, then trains on batches of samples. Drives contribute equal
 (``balance``): a long drive of near-identical consecutive frames would otherwise teach
 the scene prior its own street.
 
->>> from estimators.context_blend import ContextBlendInpainter     # doctest: +SKIP
+>>> from estimators.learned.context_blend import ContextBlendInpainter     # doctest: +SKIP
 >>> est = ContextBlendInpainter.pretrained()                         # shipped release
 >>> est.predict(depth_with_nan_holes)                                # metres
 """
@@ -33,13 +33,13 @@ from inpaintenv.environment import environment_info
 from inpaintenv.masks import get_protocol
 from inpaintenv.report.progress import FrameProgress
 
+from ..base import resolve_seed
+from ..priors import prior_features
 from . import _checkpoint as ckpt
 from ._training import deterministic_torch, frame_label, torch_threads
-from .base import resolve_seed
 from .blend import BLEND_CANDIDATES, BlendInpainter
 from .nets.context_blend import ContextBlendNet, context_grid, frame_reference
 from .nets.pixel_blend import CHUNK
-from .priors import prior_features
 
 __all__ = ["DEFAULT_CONTEXT_BLEND", "ContextBlendInpainter", "pretrained_context_blend"]
 

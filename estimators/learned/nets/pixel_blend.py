@@ -123,7 +123,7 @@ class PixelBlendNet(nn.Module):
 
         ``extra`` (``(n_extra, P)``, required when ``n_extra > 0``) enters the MLP as
         given, after the transformed pixel features: e.g. scene context from
-        :class:`~estimators.nets.context_blend.ContextBlendNet`.
+        :class:`~estimators.learned.nets.context_blend.ContextBlendNet`.
 
         The per-candidate work (logarithms, the geometric mean, the softmax) runs on
         contiguous rows of P pixels: on a pixel-major ``(P, K)`` slice the same

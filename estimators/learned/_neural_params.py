@@ -1,7 +1,7 @@
 """Parameters of the neural inpainters: validation, the device and precision they ask for,
 and the record of the parameters the trained weights depend on.
 
-One job of :class:`estimators.neural._NeuralInpainter`, split out as scikit-learn keeps
+One job of :class:`estimators.learned.neural._NeuralInpainter`, split out as scikit-learn keeps
 ``_validate_params`` and skorch its parameter handling beside the estimator: the class
 stores its ``__init__`` arguments as given, and this mixin checks and interprets them at
 ``fit`` / ``predict`` time.
@@ -19,9 +19,9 @@ import torch
 
 from inpaintenv.masks import get_protocol
 
+from ..base import check_random_state
 from ._checkpoint import cpu_state
 from ._training import crop_shape
-from .base import check_random_state
 from .nets import UNet
 
 __all__ = ["MAX_CHANNELS", "NeuralParamsMixin"]
@@ -42,7 +42,7 @@ MAX_CHANNELS = 2048
 
 class NeuralParamsMixin:
     """Checks and interprets the parameters of a neural inpainter (documented on
-    :class:`estimators.neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
+    :class:`estimators.learned.neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
 
     # -- parameters ----------------------------------------------------------------
     def _check_params(self) -> None:

@@ -1,0 +1,486 @@
+"""BlendInpainter: a learned per-pixel blend of classical fills, trained in minutes.
+
+For every pixel to fill, a small MLP (:class:`~estimators.learned.nets.pixel_blend.PixelBlendNet`)
+reads classical candidate fills (row- and column-wise interpolation of depth and inverse
+depth, harmonic interpolation of inverse depth), the gap lengths to the nearest
+measurement in the four directions and those measurements' depths, and outputs blend
+weights for the candidates plus a scale-free residual.
+
+The candidates are the expensive part, and they depend only on the frame and its hole,
+so ``fit`` computes them once per (frame, occlusion), samples hole pixels with ground
+truth, and trains the MLP on the pooled pixels for a few epochs. Training on a few
+hundred KITTI frames takes minutes on a CPU (the step-based loop of
+:class:`~estimators.prior.PriorUNetInpainter` recomputes the candidates at every step).
+Prediction runs the MLP on the pixels to fill only.
+
+>>> from estimators.blend import BlendInpainter                     # doctest: +SKIP
+>>> est = BlendInpainter.pretrained()                                # shipped release
+>>> est.predict(depth_with_nan_holes)                                # metres
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from joblib import Parallel, delayed
+
+from inpaintenv.conventions import check_depth
+from inpaintenv.data.base import DepthDataset
+from inpaintenv.environment import environment_info
+from inpaintenv.masks import get_protocol
+from inpaintenv.report.progress import FrameProgress
+
+from ..base import BaseInpainter, resolve_seed
+from ..priors import (
+    ENDPOINT_CHANNELS,
+    GAP_CHANNELS,
+    check_candidates,
+    prior_features,
+)
+from . import _checkpoint as ckpt
+from ._training import deterministic_torch, frame_label, torch_threads
+from .nets import pixel_blend
+from .nets.pixel_blend import PixelBlendNet
+
+__all__ = ["BLEND_CANDIDATES", "DEFAULT_BLEND", "BlendInpainter", "pretrained_blend"]
+
+#: Default candidates: cheap row/column scans (one scan per axis serves all four, see
+#: :mod:`estimators._scan`) and the harmonic fill of inverse depth.
+BLEND_CANDIDATES: tuple[str, ...] = (
+    "scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse",
+)
+
+#: Folder of the shipped models (``NAME.safetensors`` + ``NAME.json``).
+PRETRAINED_DIR = ckpt.PRETRAINED_DIR
+#: The shipped release that ``blend-pretrained`` (alias ``unet-pretrained``) loads.
+DEFAULT_BLEND = "kitti-rect-v4"
+
+
+def _pixel_samples(
+    gt: np.ndarray, hole: np.ndarray, keep: float, n_pixels: int, names: tuple[str, ...], endpoints: bool,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Features and ground truth of up to ``n_pixels`` hole pixels with ground truth."""
+    x = np.where(hole, np.nan, gt).astype(np.float32)
+    if keep < 1.0:
+        # Sparser input than the ground truth it comes from (official KITTI maps are
+        # sparser than rebuilt ones): drop measured pixels outside the hole.
+        x[(gt > 0) & ~hole & (rng.random(gt.shape) >= keep)] = 0.0
+    rows, cols = np.nonzero(hole & (gt > 0))
+    if len(rows) > n_pixels:
+        pick = np.sort(rng.choice(len(rows), n_pixels, replace=False))
+        rows, cols = rows[pick], cols[pick]
+    feats = prior_features(x, names, gaps=True, endpoints=endpoints)[3:]
+    return feats[:, rows, cols].T.copy(), gt[rows, cols].astype(np.float32)
+
+
+class BlendInpainter(BaseInpainter):
+    """Learned per-pixel blend of classical fills plus a scale-free residual.
+
+    Parameters
+    ----------
+    candidates : tuple of str, default :data:`BLEND_CANDIDATES`
+        Classical fills the blend chooses between (any of
+        :data:`estimators.priors.AVAILABLE_CANDIDATES`).
+    endpoints : bool, default True
+        Also give the depth of the nearest measurement left, right, above and below.
+    width : int, default 64
+        Hidden units per layer.
+    layers : int, default 2
+        Hidden layers.
+    relative : bool, default True
+        Scale-free blend: depths enter as log-ratios to the candidates' geometric mean
+        and the residual is a fraction of it, so a frame twice as deep gets a
+        prediction twice as deep (the model cannot key on one drive's depth range).
+    residual : bool, default True
+        Add a learned residual (a fraction of the candidates' geometric mean) to the
+        blend; False keeps every prediction within the candidates' range.
+    keep : tuple of float, default (1.0,)
+        Training inputs per occlusion, one per fraction of the measured pixels kept
+        outside the hole (e.g. ``(1.0, 0.65)`` adds a thinned copy, closer to the
+        sparser official KITTI maps).
+    masks_per_frame : int, default 3
+        Occlusions drawn per training frame (from ``protocol``).
+    pixels_per_frame : int, default 3000
+        Hole pixels with ground truth sampled per (frame, occlusion, keep).
+    max_pixels : int or None, default 20_000_000
+        Cap on the pooled training pixels: 14 float32 values each at the default
+        inputs, so 1.1 GB. Where frames × ``masks_per_frame`` × ``len(keep)`` ×
+        ``pixels_per_frame`` would exceed it, fewer pixels are sampled per (frame,
+        occlusion, keep), at least one, with a warning; None: no cap. Uncapped, the
+        ``blend-kitti`` preset (3 occlusions × 3 keep fractions × 3000 pixels) on the
+        85,898 frames of KITTI's training release would need 130 GB.
+    epochs : int, default 4
+        Passes over the pooled pixels.
+    batch_pixels : int, default 8192
+        Pixels per optimiser step.
+    lr : float, default 2e-3
+        Peak learning rate (one-cycle schedule, Adam).
+    protocol : str, default "rect-v1"
+        Occlusion protocol of training.
+    tta : bool, default True
+        Average each prediction with that of the mirrored frame.
+    random_state : int, RandomState, Generator or None, default 0
+        Seeds occlusions, pixel sampling, thinning, initialisation and batch order; None
+        draws a fresh seed per fit, a RandomState or Generator gives its next number
+        (the seed used is ``seed_``).
+    num_threads : int, optional
+        torch threads while fitting (None: leave torch's setting).
+    predict_threads : int or None, default 1
+        torch threads while predicting (None: leave torch's setting). One is the
+        default: the network's share of a frame is ~30 ms, threads gain little on it,
+        and on a busy machine (the benchmark beside other work) two threads made
+        ``predict`` 2.3x slower than one (471 vs 205 ms per KITTI frame, measured with
+        ``benchmarks/bench_blend.py`` while two benchmarks ran). Parallelise over
+        frames instead (``inpaintenv benchmark --scheduler local:N``).
+    n_jobs : int, optional
+        Frames whose features are computed in parallel during ``fit`` (joblib threads;
+        None = 1, -1 = all cores).
+    keep_observed : bool, default True
+        Return measured input pixels unchanged.
+    verbose : bool, default False
+        Print progress of ``fit``.
+
+    Attributes
+    ----------
+    model_ : PixelBlendNet
+    history_ : dict
+        ``epoch_loss``: mean training MSE (m²) per epoch.
+    n_pixels_ : int
+        Training pixels.
+    pixels_per_sample_ : int
+        Hole pixels sampled per (frame, occlusion, keep): ``pixels_per_frame``, or fewer
+        under ``max_pixels``.
+    fit_seconds_ : float
+        Wall-clock time of ``fit``.
+    training_frames_ : int
+        Frames with ground truth used.
+
+    Notes
+    -----
+    Every candidate is mirror-symmetric, so the flip average needs no second frame: a
+    mirrored pixel's features are its own with the left/right channels swapped. Pixels
+    with no measurement outside the holes (LiDAR gaps) take the candidates' mean; the
+    network runs on the pixels to fill (NaN) only, which is what keeps it fast.
+    """
+
+    #: What ``history_["epoch_loss"]`` is, with its unit (the y axis of ``inpaintenv train``'s loss.png).
+    loss_label = "training loss: mean squared error (m²)"
+
+    def __init__(
+        self,
+        *,
+        candidates: tuple[str, ...] = BLEND_CANDIDATES,
+        endpoints: bool = True,
+        width: int = 64,
+        layers: int = 2,
+        relative: bool = True,
+        residual: bool = True,
+        keep: tuple[float, ...] = (1.0,),
+        masks_per_frame: int = 3,
+        pixels_per_frame: int = 3000,
+        max_pixels: int | None = 20_000_000,
+        epochs: int = 4,
+        batch_pixels: int = 8192,
+        lr: float = 2e-3,
+        protocol: str = "rect-v1",
+        tta: bool = True,
+        random_state: Any = 0,
+        num_threads: int | None = None,
+        predict_threads: int | None = 1,
+        n_jobs: int | None = None,
+        keep_observed: bool = True,
+        verbose: bool = False,
+    ):
+        self.candidates = candidates
+        self.endpoints = endpoints
+        self.width = width
+        self.layers = layers
+        self.relative = relative
+        self.residual = residual
+        self.keep = keep
+        self.masks_per_frame = masks_per_frame
+        self.pixels_per_frame = pixels_per_frame
+        self.max_pixels = max_pixels
+        self.epochs = epochs
+        self.batch_pixels = batch_pixels
+        self.lr = lr
+        self.protocol = protocol
+        self.tta = tta
+        self.random_state = random_state
+        self.num_threads = num_threads
+        self.predict_threads = predict_threads
+        self.n_jobs = n_jobs
+        self.keep_observed = keep_observed
+        self.verbose = verbose
+
+    #: Parameters stored as JSON lists that the constructor takes as tuples.
+    _TUPLE_PARAMS: tuple[str, ...] = ("candidates", "keep")
+
+    # -- parameters ----------------------------------------------------------------------
+    def _check_params(self) -> None:
+        check_candidates(self.candidates)
+        for name in ("endpoints", "relative", "residual", "tta", "keep_observed", "verbose"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        for name, low in (("width", 1), ("layers", 1), ("masks_per_frame", 1), ("pixels_per_frame", 1),
+                          ("epochs", 1), ("batch_pixels", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+        keep = self.keep
+        if isinstance(keep, (str, bytes)) or not isinstance(keep, (tuple, list)) or not keep or any(
+            isinstance(k, bool) or not isinstance(k, (int, float, np.floating)) or not 0.0 < k <= 1.0 for k in keep
+        ):
+            raise ValueError(f"keep must be a non-empty tuple of fractions in (0, 1], got {keep!r}")
+        if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not np.isfinite(self.lr) or self.lr <= 0:
+            raise ValueError(f"lr must be a finite number > 0, got {self.lr!r}")
+        for name in ("num_threads", "predict_threads", "max_pixels"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+                raise ValueError(f"{name} must be None or an integer >= 1, got {value!r}")
+        self._check_n_jobs()
+        get_protocol(self.protocol)  # unknown protocol: its own clear error
+
+    def _model_params(self) -> dict[str, Any]:
+        """The parameters the weights depend on."""
+        return {"candidates": list(self.candidates), "endpoints": bool(self.endpoints), "width": int(self.width),
+                "layers": int(self.layers), "relative": bool(self.relative), "residual": bool(self.residual)}
+
+    def _check_model_params(self) -> None:
+        if self._model_params() != self.model_params_:
+            changed = sorted(k for k, v in self._model_params().items() if self.model_params_.get(k) != v)
+            raise ValueError(
+                f"{', '.join(changed)} changed since the weights were made ({self.model_params_}); "
+                "refit, or set them back"
+            )
+
+    def _build_model(self) -> PixelBlendNet:
+        return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.layers),
+                             n_endpoints=len(ENDPOINT_CHANNELS) if self.endpoints else 0,
+                             relative=bool(self.relative), residual=bool(self.residual))
+
+    # -- fitting ---------------------------------------------------------------------------
+    def _fit(self, dataset: DepthDataset) -> None:
+        self._check_params()
+        start = time.perf_counter()
+        seed = resolve_seed(self.random_state)  # one draw per fit: features and network share it
+        x, y = self.training_pixels(dataset, seed=seed)
+        if not len(y):
+            raise ValueError("no training frame has ground truth inside its sampled holes; nothing to learn")
+        with torch_threads(self.num_threads), deterministic_torch():
+            self.fit_environment_ = environment_info(torch_details=True)
+            self.model_, self.history_ = self._fit_pixels(x, y, seed)
+        self.seed_ = seed
+        self.model_params_ = self._model_params()
+        self.n_pixels_ = len(y)
+        self.fit_seconds_ = time.perf_counter() - start
+
+    def training_pixels(self, dataset: DepthDataset, seed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Features ``(P, C)`` and ground truth ``(P,)`` of the sampled training pixels.
+
+        Frame ``i`` gets ``masks_per_frame`` occlusions from its own random stream
+        (``seed``, ``i``), independent of the evaluation masks
+        (``protocol.mask(shape, seed, i)``), and one input per ``keep`` fraction. ``seed``
+        defaults to the one ``random_state`` gives (:func:`~estimators.base.resolve_seed`).
+        """
+        if seed is None:
+            seed = resolve_seed(self.random_state)
+        protocol = get_protocol(self.protocol)
+        names, endpoints = tuple(self.candidates), bool(self.endpoints)
+        n_pixels = self._pixels_per_sample(len(dataset))
+
+        def one_frame(i: int) -> list[tuple[np.ndarray, np.ndarray]]:
+            gt = check_depth(dataset[i], name=f"training frame {frame_label(dataset, i)}", ndim=(2,))
+            if not (gt > 0).any():
+                return []
+            rng = np.random.default_rng([int(seed), i, 0xB1E9D])
+            out = []
+            for _ in range(int(self.masks_per_frame)):
+                hole = protocol.sample(gt.shape, rng)
+                out += [_pixel_samples(gt, hole, float(k), n_pixels, names, endpoints, rng)
+                        for k in self.keep]
+            return out
+
+        # One progress display (frames done of total, rate, time left), not joblib's own lines.
+        jobs = []
+        with FrameProgress(len(dataset), "training features", enabled=bool(self.verbose)) as progress:
+            for frame in Parallel(n_jobs=self.n_jobs, prefer="threads", return_as="generator")(
+                delayed(one_frame)(i) for i in range(len(dataset))
+            ):
+                jobs.append(frame)
+                progress.update(1)
+        parts = [p for frame in jobs for p in frame]
+        self.training_frames_ = sum(1 for frame in jobs if frame)
+        if not parts:
+            return np.zeros((0, 0), np.float32), np.zeros(0, np.float32)
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    def _pixels_per_sample(self, n_frames: int) -> int:
+        """``pixels_per_frame``, lowered so that ``n_frames`` frames stay within ``max_pixels``."""
+        per = int(self.pixels_per_frame)
+        samples = n_frames * int(self.masks_per_frame) * len(self.keep)
+        if self.max_pixels is not None and samples * per > self.max_pixels:
+            per = max(1, int(self.max_pixels) // max(samples, 1))
+            warnings.warn(
+                f"{n_frames} frames x {self.masks_per_frame} occlusion(s) x {len(self.keep)} keep fraction(s) x "
+                f"{self.pixels_per_frame} pixels = {samples * int(self.pixels_per_frame)} training pixels exceed "
+                f"max_pixels={self.max_pixels}: sampling {per} pixels per (frame, occlusion, keep) instead "
+                "(raise max_pixels if memory allows)",
+                UserWarning, stacklevel=3,
+            )
+        self.pixels_per_sample_ = per
+        return per
+
+    def _fit_pixels(self, x: np.ndarray, y: np.ndarray, seed: int) -> tuple[PixelBlendNet, dict[str, list[float]]]:
+        """Train a fresh network on pixel features ``x`` (``(P, C)``) and depths ``y`` (metres)."""
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            net = self._build_model()
+        rng = np.random.default_rng([seed, 0x5EED])
+        batch = int(self.batch_pixels)
+        per_epoch = max(1, len(y) // batch)
+        optimizer = torch.optim.Adam(net.parameters(), lr=float(self.lr))
+        schedule = torch.optim.lr_scheduler.OneCycleLR(
+            optimizer, max_lr=float(self.lr), total_steps=per_epoch * int(self.epochs), pct_start=0.05
+        )
+        xt, yt = torch.from_numpy(np.ascontiguousarray(x, np.float32)), torch.from_numpy(y)
+        mirrored = net.mirror_order()
+        history: dict[str, list[float]] = {"epoch_loss": []}
+        net.train()
+        for epoch in range(int(self.epochs)):
+            order = torch.from_numpy(rng.permutation(len(y))[: per_epoch * batch])
+            losses = []
+            for idx in order.split(batch):
+                xb = xt[idx]
+                if rng.random() < 0.5:  # flip augmentation: the mirrored frame's pixels
+                    xb = xb[:, mirrored]
+                loss = (net.blend(xb) - yt[idx]).square().mean()
+                if not torch.isfinite(loss):
+                    raise FloatingPointError(f"training loss became {loss.item()} in epoch {epoch}; lower lr")
+                optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                optimizer.step()
+                schedule.step()
+                losses.append(float(loss.detach()))
+            history["epoch_loss"].append(float(np.mean(losses)))
+            if self.verbose:
+                print(f"epoch {epoch + 1}/{self.epochs}: loss {history['epoch_loss'][-1]:.3f} m²", flush=True)
+        net.eval()
+        return net, history
+
+    # -- prediction ------------------------------------------------------------------------
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        self._check_params()
+        self._check_model_params()
+        out = np.empty(X.shape, np.float32)
+        with torch_threads(self.predict_threads), torch.inference_mode():
+            for i, frame in enumerate(X):
+                out[i] = self._predict_frame(frame)
+        return out
+
+    def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
+        feats = prior_features(frame, tuple(self.candidates), gaps=True, endpoints=bool(self.endpoints))
+        return pixel_blend.fill_holes(self.model_, torch.from_numpy(feats[None]), flip_average=bool(self.tta))[0].numpy()
+
+    # -- persistence -----------------------------------------------------------------------
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the fitted model to the folder ``path`` (``model.safetensors`` + ``config.json``).
+
+        Returns
+        -------
+        pathlib.Path
+            The folder; read it back with :meth:`load`.
+        """
+        if not getattr(self, "is_fitted_", False):
+            raise ValueError(f"{type(self).__name__} is not fitted; call fit first")
+        self._check_model_params()
+        params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
+        if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
+            params["random_state"] = getattr(self, "seed_", None)  # not JSON: the seed the fit drew
+        config = {"class": type(self).__name__, "params": params, "model_params": self.model_params_,
+                  "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
+                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]},
+                  **ckpt.provenance(self)}
+        return ckpt.write_checkpoint(path, config, self.model_.state_dict())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> BlendInpainter:
+        """Load a model written by :meth:`save`.
+
+        Raises
+        ------
+        estimators.learned._checkpoint.CheckpointError
+            Missing, corrupt or foreign files, or a checkpoint of another class.
+        """
+        config, weights, _, _ = ckpt.read_checkpoint(path)
+        if config.get("class") != cls.__name__:
+            raise ckpt.CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
+        params = dict(config["params"])
+        for name in cls._TUPLE_PARAMS:
+            params[name] = tuple(params[name])
+        try:
+            est = cls(**params)
+        except TypeError as e:
+            raise ckpt.CheckpointError(f"{path} has parameters this version does not know: {e}") from None
+        est._check_params()
+        est.model_ = est._build_model()
+        try:
+            est.model_.load_state_dict(weights)
+        except RuntimeError as e:
+            raise ckpt.CheckpointError(f"{path}: weights do not fit the recorded parameters: {e}") from None
+        est.model_.eval()
+        est.model_params_ = dict(config["model_params"])
+        fit = config.get("fit", {})
+        est.n_pixels_ = fit.get("n_pixels", 0)
+        est.training_frames_ = fit.get("training_frames", 0)
+        est.fit_seconds_ = fit.get("fit_seconds", float("nan"))
+        est.history_ = {"epoch_loss": list(fit.get("epoch_loss", []))}
+        ckpt.restore_provenance(est, config)
+        est.is_fitted_ = True
+        return est
+
+    @classmethod
+    def pretrained(cls, name: str = DEFAULT_BLEND, **overrides: Any) -> BlendInpainter:
+        """Load a shipped release (``estimators/pretrained/NAME.{safetensors,json}``).
+
+        Parameters
+        ----------
+        name : str
+            Release name (default :data:`DEFAULT_BLEND`).
+        **overrides
+            Prediction-time parameters (``tta``, ``predict_threads``, ``keep_observed``).
+
+        Raises
+        ------
+        KeyError
+            No release of this class under ``name``.
+        ValueError
+            An override of a parameter the weights depend on.
+        """
+        shipped = ckpt.shipped_releases(cls.__name__)
+        if not isinstance(name, str) or name not in shipped:
+            raise KeyError(f"no pretrained {cls.__name__} {name!r}; shipped: {shipped}")
+        with ckpt.release_folder(name) as folder:
+            est = cls.load(folder)
+        if overrides:
+            est.set_params(**overrides)
+            est._check_model_params()
+        return est
+
+
+def pretrained_blend(name: str = DEFAULT_BLEND, **overrides: Any) -> BlendInpainter:
+    """Factory for the registry: a shipped :class:`BlendInpainter` release (see :meth:`BlendInpainter.pretrained`)."""
+    return BlendInpainter.pretrained(name, **overrides)
+
+
+# load_checkpoint (estimators.learned.load) finds classes by the name a checkpoint records.
+ckpt.CLASSES.setdefault("BlendInpainter", BlendInpainter)
+# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
+BlendInpainter.__module__ = "estimators.blend"

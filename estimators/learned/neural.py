@@ -1,0 +1,286 @@
+"""The study's learned inpainters as scikit-learn estimators: U-Net and autoencoder.
+
+>>> from estimators.neural import UNetInpainter                      # doctest: +SKIP
+>>> est = UNetInpainter(width=16, crop=(176, 416), epochs=5, random_state=0)
+>>> est.fit(train_dataset).predict(corrupted)                         # metres
+
+See ``docs/neural.md`` for the models, the loss, checkpoints and resuming, and
+cross-validated search.
+
+The estimator is split by job, as scikit-learn and skorch separate them: this module holds
+the parameters (``__init__``, documented below) and prediction; parameter validation and
+interpretation are in ``_neural_params.py``, the training loop in ``_training.py`` and
+``save`` / ``load`` in ``_checkpoint.py`` (mixins of :class:`_NeuralInpainter`).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+import torch
+
+from ..base import BaseInpainter
+
+# _cpu_state, progress_history, MAX_CHANNELS, _copy_encoder and _fitted_summary lived here
+# before the split; code written then imports them from this module.
+from . import _checkpoint as ckpt
+from ._checkpoint import CLASSES as _CLASSES
+from ._checkpoint import CheckpointMixin, progress_history  # noqa: F401
+from ._checkpoint import cpu_state as _cpu_state  # noqa: F401
+from ._neural_params import MAX_CHANNELS, NeuralParamsMixin  # noqa: F401
+from ._training import (  # noqa: F401
+    TrainingMixin,
+    _copy_encoder,
+    _fitted_summary,
+    encode_input,
+    torch_threads,
+)
+from .nets import UNet
+
+__all__ = ["AutoencoderInpainter", "CheckpointError", "UNetInpainter"]
+
+CheckpointError = ckpt.CheckpointError
+
+
+class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseInpainter):
+    """Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.
+
+    Parameters
+    ----------
+    width : int, default 32
+        Channels of the first level; doubled at every level. ``width * 2**depth`` may
+        not exceed :data:`MAX_CHANNELS` (2048).
+    depth : int, default 4
+        Number of 2× downsamplings (inputs are padded internally to a multiple of
+        ``2**depth`` and cropped back). Training frames (or crops) must be at least
+        ``2**depth`` pixels on each side.
+    input_mask : bool, default False
+        False: the study's input, the corrupted depth alone (0 inside holes, divided by
+        ``max_depth``). True: add a hole-mask and a validity-mask channel, since a 0
+        otherwise means both "hole" and "no LiDAR".
+    depth_scale : {"fixed", "frame"}, default "fixed"
+        How depth is scaled for the network. "fixed": divided by ``max_depth`` (the
+        study). "frame": divided by the mean observed depth of each frame and the output
+        multiplied back by it. The GroupNorm layers discard the absolute level of their
+        input, so with "fixed" the network must relearn how far a scene is from the few
+        pixels whose level survives; with "frame" it predicts depth relative to the
+        frame's own level, and a scene twice as far gets a fill twice as far.
+    hole_weight : float, default 2.0
+        λ of the loss (L1 over valid pixels inside holes).
+    tv_weight : float, default 0.01
+        β of the loss (anisotropic total variation of the prediction).
+    max_depth : float, default 80.0
+        Depth normalisation in metres (inputs and targets are divided by it); must be
+        in [0.1, 1e5].
+    lr, weight_decay : float
+        Adam's learning rate (1e-3) and weight decay (1e-6).
+    batch_size : int, default 4
+        Training batch; prediction uses the same size.
+    epochs : int, default 10
+        Passes over the training frames.
+    max_steps : int or None
+        Stop after this many optimiser steps in total (even mid-epoch).
+    crop : (int, int) or None
+        Train on random ``(h, w)`` crops (each side clipped to the frame) instead of
+        whole frames -- the practical choice on CPU. Occlusions are drawn on the crop.
+    protocol : str, default "rect-v1"
+        Occlusion protocol; masks are redrawn for every sample and epoch.
+    validation_fraction : float or None
+        Hold out this fraction of drives (:func:`inpaintenv.data.split_by_drive`); after
+        each epoch the hole RMSE on them is measured and the best epoch's weights are
+        kept (the study's selection). Needs at least two drives.
+    warm_start : str, path, fitted estimator, bool or None
+        A path written by :meth:`save` or a fitted autoencoder (or any fitted neural
+        inpainter with the same ``width``, ``depth`` and input channels): initialise
+        the encoder from it (the study's fine-tuning). Under ``GridSearchCV`` pass a
+        path: ``clone`` drops the fitted state of an estimator parameter. ``True``
+        (scikit-learn's meaning): start from this estimator's own previous fit, all
+        weights (fresh optimiser). ``None``/``False``: random initialisation.
+    device : {"auto", "cpu", "cuda", "cuda:N", "mps"}
+        "auto" picks CUDA when available. Other torch device types (e.g. "meta") are
+        rejected at fit/predict with a ValueError.
+    amp : {True, False, "cpu-bf16"}, default True
+        Mixed precision. True: autocast (bf16 where supported, else fp16 with gradient
+        scaling) on CUDA only; False: float32 everywhere; "cpu-bf16": also bf16
+        autocast on CPU.
+    channels_last : bool, default False
+        Use the channels-last memory format (can be faster on CPU/GPU; see benchmarks).
+    compile : bool, str or dict, default False
+        Run the network through ``torch.compile`` for training steps and prediction.
+        True: default settings; a string: that ``mode`` (e.g. ``"max-autotune"``); a
+        dict: keyword arguments of ``torch.compile`` (e.g. ``{"backend": "aot_eager"}``).
+        The first step of each input shape pays the compilation (tens of seconds on
+        CPU); see docs/performance.md for when it pays back. Weights and checkpoints
+        are those of the plain module, so a compiled fit loads without compiling.
+    num_threads : int or None
+        ``torch.set_num_threads`` during fit/predict (restored after). None keeps the
+        process setting (joblib workers already get ``cores // n_jobs``).
+    num_workers : int, default 0
+        DataLoader worker processes (each runs one torch thread).
+    random_state : int, numpy RandomState or Generator, or None
+        Seeds weights, crops, masks and order. None draws a fresh seed per fit; a
+        RandomState or Generator gives its next number (the seed used is ``seed_``).
+    checkpoint_dir : str, path or None
+        Write training checkpoints under ``checkpoint_dir/<Class>-<hash>/`` (hash of the
+        parameters and the training data) and resume from its ``last`` checkpoint when
+        fit is called again with the same parameters and data.
+    checkpoint_every : int or None
+        Also checkpoint every this many steps (always at the end of each epoch).
+    keep_observed : bool, default True
+        Return measured input pixels unchanged.
+    verbose : bool, default False
+        Progress bar with the running loss.
+
+    Attributes
+    ----------
+    model_ : UNet
+        The trained network (on CPU after fit/load; moved to ``device`` to predict).
+    history_ : dict
+        ``step_loss`` (per step), ``epoch_loss`` (mean per epoch), ``val_hole_rmse``
+        (per epoch, metres, empty without validation), ``best_epoch``.
+    n_steps_ : int
+        Optimiser steps taken.
+    seed_ : int
+        The seed actually used.
+    run_dir_ : pathlib.Path or None
+        This fit's checkpoint directory.
+    model_params_ : dict
+        The values at fit (or load) of the parameters the weights depend on (``width``,
+        ``depth``, ``input_mask``, ``depth_scale``, ``max_depth``). ``predict`` and
+        ``save`` raise ``ValueError`` if one was changed since; training-only
+        (``lr``, ``max_steps``, ...) and prediction-time parameters (``batch_size``,
+        ``device``, ``num_threads``, ``keep_observed``, ...) can be changed freely.
+    """
+
+    _skip: bool = True
+    #: Name of the parameter that sets the number of downsamplings (read by messages).
+    _depth_param: str = "depth"
+    #: What ``history_["step_loss"]`` is (the y axis of ``inpaintenv train``'s loss.png): the study's
+    #: loss on depth divided by ``max_depth``, so without a unit.
+    loss_label: str = "training loss: L1 + hole L1 + TV of depth / max_depth (no unit)"
+
+    def __init__(
+        self,
+        *,
+        width: int = 32,
+        depth: int = 4,
+        input_mask: bool = False,
+        depth_scale: str = "fixed",
+        hole_weight: float = 2.0,
+        tv_weight: float = 0.01,
+        max_depth: float = 80.0,
+        lr: float = 1e-3,
+        weight_decay: float = 1e-6,
+        batch_size: int = 4,
+        epochs: int = 10,
+        max_steps: int | None = None,
+        crop: tuple[int, int] | None = None,
+        protocol: str = "rect-v1",
+        validation_fraction: float | None = None,
+        warm_start: Any = None,
+        device: str = "auto",
+        amp: bool | str = True,
+        channels_last: bool = False,
+        compile: bool | str | dict = False,
+        num_threads: int | None = None,
+        num_workers: int = 0,
+        random_state: int | np.random.RandomState | np.random.Generator | None = None,
+        checkpoint_dir: str | os.PathLike | None = None,
+        checkpoint_every: int | None = None,
+        keep_observed: bool = True,
+        verbose: bool = False,
+    ):
+        self.width = width
+        self.depth = depth
+        self.input_mask = input_mask
+        self.depth_scale = depth_scale
+        self.hole_weight = hole_weight
+        self.tv_weight = tv_weight
+        self.max_depth = max_depth
+        self.lr = lr
+        self.weight_decay = weight_decay
+        self.batch_size = batch_size
+        self.epochs = epochs
+        self.max_steps = max_steps
+        self.crop = crop
+        self.protocol = protocol
+        self.validation_fraction = validation_fraction
+        self.warm_start = warm_start
+        self.device = device
+        self.amp = amp
+        self.channels_last = channels_last
+        self.compile = compile
+        self.num_threads = num_threads
+        self.num_workers = num_workers
+        self.random_state = random_state
+        self.checkpoint_dir = checkpoint_dir
+        self.checkpoint_every = checkpoint_every
+        self.keep_observed = keep_observed
+        self.verbose = verbose
+
+    # -- prediction ------------------------------------------------------------------
+    def _forward(self, model: UNet, X: np.ndarray, device: torch.device) -> np.ndarray:
+        """Run ``model`` on an ``(N, H, W)`` batch with NaN holes; metres out."""
+        model.eval()
+        autocast, _ = self._autocast(device)
+        out = np.empty(X.shape, dtype=np.float32)
+        # On CPU, frames go one by one: batched oneDNN convolutions round differently per
+        # batch composition, and a frame's prediction must not depend on its neighbours.
+        # GPUs get real batches (that is where batching pays).
+        step = self.batch_size if device.type == "cuda" else 1
+        with torch.inference_mode():
+            for start in range(0, len(X), step):
+                # A copy: the input may be read-only (memmap) and must never be modified.
+                chunk = torch.from_numpy(np.array(X[start:start + step], dtype=np.float32))
+                hole = torch.isnan(chunk)
+                depth = torch.nan_to_num(chunk, nan=0.0)
+                scale = self._input_scale(depth)
+                x = encode_input(depth, hole, scale, self.input_mask).to(device)
+                if self.channels_last:
+                    x = x.contiguous(memory_format=torch.channels_last)
+                with autocast:
+                    pred = model(x)[:, 0]
+                out[start:start + len(chunk)] = (pred.float().cpu() * scale).numpy()
+        return out
+
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        self._check_params()
+        self._check_model_params()
+        device = self._device()
+        with torch_threads(self.num_threads):
+            model = self.model_.to(device)
+            if self.channels_last:
+                model = model.to(memory_format=torch.channels_last)
+            try:
+                return self._forward(self._compiled(model), X, device)
+            finally:
+                self.model_ = model.to("cpu", memory_format=torch.contiguous_format)
+
+
+class UNetInpainter(_NeuralInpainter):
+    __doc__ = (_NeuralInpainter.__doc__ or "").replace(
+        "Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.",
+        "The study's U-Net inpainter: encoder-decoder with skip connections, trained with\n"
+        "    L1 (valid) + λ·L1 (hole) + β·TV on occlusions redrawn every epoch.",
+    )
+    _skip = True
+
+
+class AutoencoderInpainter(_NeuralInpainter):
+    __doc__ = (_NeuralInpainter.__doc__ or "").replace(
+        "Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.",
+        "The study's autoencoder ablation: the U-Net with every skip connection removed.\n"
+        "    A fitted autoencoder can warm-start a U-Net's encoder (``warm_start``).",
+    )
+    _skip = False
+
+
+# The classes a checkpoint may name; each learned family registers its own on import
+# (estimators.learned.load imports them all before it looks one up).
+_CLASSES.update({"UNetInpainter": UNetInpainter, "AutoencoderInpainter": AutoencoderInpainter})
+# Their public path: a benchmark run folder records a method as ``module.Class(params)``
+# and pickles name the module, so both stay what they were before the move to learned/.
+UNetInpainter.__module__ = AutoencoderInpainter.__module__ = "estimators.neural"
+

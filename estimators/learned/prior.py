@@ -1,0 +1,426 @@
+"""A learned inpainter built on classical priors: per-pixel blend of candidate fills + residual.
+
+>>> from estimators.prior import PriorUNetInpainter                  # doctest: +SKIP
+>>> est = PriorUNetInpainter.pretrained("kitti-rect-v3")             # shipped weights
+>>> est.predict(corrupted)                                           # metres
+
+The network (:class:`estimators.learned.nets.prior_unet.PriorUNet`) sees the corrupted depth,
+the hole and validity masks and the classical fills of :mod:`estimators.priors`
+(row-wise depth and inverse-depth interpolation, column-wise interpolation, harmonic),
+all computed on the whole frame, and predicts per pixel how to weight them plus a
+correction. Training, checkpoints, resuming, validation and saving are those of
+:class:`estimators.neural.UNetInpainter`; only the model, the input features, the loss
+(L2 on the hole in metres, since the benchmark's metric is RMSE) and flip augmentation /
+test-time flip averaging differ. See ``docs/model_card.md`` for the shipped model.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+import torch
+
+from ..priors import (
+    CANDIDATES,
+    ENDPOINT_CHANNELS,
+    GAP_CHANNELS,
+    check_candidates,
+    prior_features,
+)
+from . import _checkpoint as ckpt
+from . import neural
+from ._training import backward_step
+from .nets import pixel_blend
+from .nets.pixel_blend import PixelBlendNet
+from .nets.prior_unet import PriorUNet
+from .neural import _NeuralInpainter
+
+__all__ = [
+    "ARCHS", "DEFAULT_PRETRAINED", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti",
+]
+
+#: ``"pixel"``: per-pixel MLP on candidates and gap lengths (the shipped recipe);
+#: ``"unet"``: U-Net at 1/``factor`` resolution on candidates and masks.
+ARCHS = ("pixel", "unet")
+
+#: Folder of the shipped models: ``NAME.safetensors`` (weights) + ``NAME.json`` (the
+#: ``config.json`` of a checkpoint written by :meth:`PriorUNetInpainter.save`).
+PRETRAINED_DIR = ckpt.PRETRAINED_DIR
+
+#: The shipped model that :meth:`PriorUNetInpainter.pretrained` and the registry's
+#: ``blend-pretrained`` (alias ``unet-pretrained``) load by default (older releases stay loadable by name).
+DEFAULT_PRETRAINED = "kitti-rect-v3"
+
+
+def available_pretrained() -> list[str]:
+    """Names accepted by :meth:`PriorUNetInpainter.pretrained`."""
+    # The folder also holds releases of other classes (estimators.blend).
+    return ckpt.shipped_releases("PriorUNetInpainter")
+
+
+class PriorUNetInpainter(_NeuralInpainter):
+    """Learned blend of classical candidate fills + residual, CPU-sized.
+
+    Parameters
+    ----------
+    arch : {"pixel", "unet"}, default "pixel"
+        ``"pixel"``: :class:`~estimators.learned.nets.pixel_blend.PixelBlendNet`, an MLP per
+        pixel on the candidates and the gap lengths to the nearest measurement in the
+        four directions. ``"unet"``: :class:`~estimators.learned.nets.prior_unet.PriorUNet`.
+    width : int, default 128
+        Hidden units (pixel) or channels of the first level (unet).
+    levels : int, default 3
+        Hidden layers (pixel) or 2× downsamplings after the pixel-unshuffle (unet).
+    factor : int, default 8
+        unet only: pixel-unshuffle factor (the network runs at ``1/factor``). Training
+        frames (or crops) must be at least ``factor * 2**levels`` px per side, and
+        ``width * 2**levels`` at most 2048.
+    candidates : tuple of str, default :data:`estimators.priors.CANDIDATES` (any of ``AVAILABLE_CANDIDATES``)
+        Classical fills given to the network.
+    endpoints : bool, default False
+        pixel only: also give the depth of the nearest measurement left, right, above
+        and below (:func:`estimators.priors.endpoint_values`), so the blend can tell a
+        gap over one surface from one over a depth edge.
+    relative : bool, default False
+        pixel only: scale-free blend (see :class:`~estimators.learned.nets.pixel_blend.PixelBlendNet`):
+        the network sees depths as log-ratios to the candidates' geometric mean, so
+        its prediction scales exactly with the input depth.
+    pixel_batches : int, default 8
+        pixel only: the hole pixels of each batch of frames are shuffled and split into
+        this many optimiser steps (the candidate fills are the expensive part of a step,
+        so each batch of frames is used for several cheap updates).
+    flip : bool, default True
+        Random horizontal flips while training (p = 0.5).
+    tta : bool, default True
+        Average the prediction with that of the mirrored frame.
+    lr, weight_decay, batch_size, epochs, max_steps, crop, protocol,
+    validation_fraction, warm_start, device, amp, channels_last, compile, num_threads,
+    num_workers, random_state, checkpoint_dir, checkpoint_every, keep_observed, verbose
+        As in :class:`estimators.neural.UNetInpainter`. ``crop=None`` (whole frames) is
+        the recommended setting: candidates of a crop differ from those of the frame.
+
+    Attributes
+    ----------
+    model_ : PriorUNet
+    history_, n_steps_, seed_, run_dir_
+        As in :class:`estimators.neural.UNetInpainter`; ``step_loss`` is the hole MSE
+        in m².
+    model_params_ : dict
+        As in :class:`estimators.neural.UNetInpainter`: here ``arch``, ``width``,
+        ``levels``, ``candidates`` and ``endpoints``/``relative`` (pixel) or ``factor``
+        (unet); changing one after fit makes ``predict`` and ``save`` raise.
+    """
+
+    _skip = True
+    _depth_param = "levels"
+    #: What ``history_["step_loss"]`` is, with its unit (the y axis of ``inpaintenv train``'s loss.png).
+    loss_label = "training loss: hole mean squared error (m²)"
+    # Fixed by the recipe (read by the shared parameter checks and checkpoint code):
+    # the loss is L2 on the hole in metres, no TV term, no valid-pixel term.
+    hole_weight = 1.0
+    tv_weight = 0.0
+    max_depth = 80.0
+    input_mask = True
+    depth_scale = "fixed"  # the classical candidates already carry the frame's level
+
+    def __init__(
+        self,
+        *,
+        arch: str = "pixel",
+        width: int = 128,
+        levels: int = 3,
+        factor: int = 8,
+        candidates: tuple[str, ...] = CANDIDATES,
+        endpoints: bool = False,
+        relative: bool = False,
+        pixel_batches: int = 8,
+        flip: bool = True,
+        tta: bool = True,
+        lr: float = 2e-3,
+        weight_decay: float = 0.0,
+        batch_size: int = 4,
+        epochs: int = 1000,
+        max_steps: int | None = 600,
+        crop: tuple[int, int] | None = None,
+        protocol: str = "rect-v1",
+        validation_fraction: float | None = None,
+        warm_start: Any = None,
+        device: str = "auto",
+        amp: bool | str = True,
+        channels_last: bool = False,
+        compile: bool | str | dict = False,
+        num_threads: int | None = None,
+        num_workers: int = 0,
+        random_state: Any = None,
+        checkpoint_dir: str | os.PathLike | None = None,
+        checkpoint_every: int | None = None,
+        keep_observed: bool = True,
+        verbose: bool = False,
+    ):
+        self.arch = arch
+        self.width = width
+        self.levels = levels
+        self.factor = factor
+        self.candidates = candidates
+        self.endpoints = endpoints
+        self.relative = relative
+        self.pixel_batches = pixel_batches
+        self.flip = flip
+        self.tta = tta
+        self.lr = lr
+        self.weight_decay = weight_decay
+        self.batch_size = batch_size
+        self.epochs = epochs
+        self.max_steps = max_steps
+        self.crop = crop
+        self.protocol = protocol
+        self.validation_fraction = validation_fraction
+        self.warm_start = warm_start
+        self.device = device
+        self.amp = amp
+        self.channels_last = channels_last
+        self.compile = compile
+        self.num_threads = num_threads
+        self.num_workers = num_workers
+        self.random_state = random_state
+        self.checkpoint_dir = checkpoint_dir
+        self.checkpoint_every = checkpoint_every
+        self.keep_observed = keep_observed
+        self.verbose = verbose
+
+    # The shared checks read ``depth``; here it is the number of levels.
+    @property
+    def depth(self) -> int:
+        return self.levels
+
+    def _check_params(self) -> None:
+        super()._check_params()
+        if self.arch not in ARCHS:
+            raise ValueError(f"arch must be one of {ARCHS}, got {self.arch!r}")
+        f = self.factor
+        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
+            raise ValueError(f"factor must be an integer >= 1, got {f!r}")
+        pb = self.pixel_batches
+        if isinstance(pb, bool) or not isinstance(pb, (int, np.integer)) or pb < 1:
+            raise ValueError(f"pixel_batches must be an integer >= 1, got {pb!r}")
+        check_candidates(self.candidates)
+        for name in ("flip", "tta", "endpoints", "relative"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+
+    def _model_param_names(self) -> tuple[str, ...]:
+        # max_depth, input_mask and depth_scale are fixed by the class, not parameters.
+        names = ("arch", "width", "levels", "candidates")
+        return names + (("endpoints", "relative") if self.arch == "pixel" else ("factor",))
+
+    def _check_capacity(self) -> None:
+        # Only the U-Net doubles channels per level; the pixel MLP is width × levels.
+        if self.arch != "pixel":
+            super()._check_capacity()
+
+    def _downsampling(self) -> tuple[int, str]:
+        if self.arch == "pixel":
+            return 1, "arch='pixel'"
+        need = int(self.factor) * 2 ** int(self.levels)
+        return need, f"factor={self.factor}, levels={self.levels} (factor * 2**levels = {need} px)"
+
+    @property
+    def in_channels(self) -> int:
+        """Network input channels: depth, hole, valid, one per candidate (+ 4 gap lengths)."""
+        return 3 + len(self.candidates) + (len(GAP_CHANNELS) if self._gaps else 0) + (
+            len(ENDPOINT_CHANNELS) if self._endpoints else 0
+        )
+
+    @property
+    def _gaps(self) -> bool:
+        return self.arch == "pixel"
+
+    @property
+    def _endpoints(self) -> bool:
+        return self.arch == "pixel" and bool(self.endpoints)
+
+    def _build_model(self, seed: int) -> PriorUNet | PixelBlendNet:
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            if self.arch == "pixel":
+                return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.levels),
+                                     n_endpoints=len(ENDPOINT_CHANNELS) if self._endpoints else 0,
+                                     relative=bool(self.relative))
+            return PriorUNet(len(self.candidates), int(self.width), int(self.levels), int(self.factor))
+
+    def _config_params(self) -> dict[str, Any]:
+        params = super()._config_params()
+        params["candidates"] = list(params["candidates"])
+        return params
+
+    # -- features ----------------------------------------------------------------------
+    def _features(self, x: np.ndarray) -> torch.Tensor:
+        """``(N, H, W)`` corrupted frames (NaN holes) -> ``(N, 3 + K, H, W)`` tensor."""
+        names = tuple(self.candidates)
+        n_workers = min(len(x), torch.get_num_threads())
+        if n_workers <= 1:
+            return torch.from_numpy(np.stack([prior_features(frame, names, self._gaps, self._endpoints) for frame in x]))
+        # The fills are NumPy/OpenCV work that mostly releases the GIL: threads suffice.
+        with ThreadPoolExecutor(n_workers) as pool:
+            return torch.from_numpy(np.stack(list(pool.map(
+                lambda f: prior_features(f, names, self._gaps, self._endpoints), x))))
+
+    def _flip(self, x: torch.Tensor) -> torch.Tensor:
+        """Mirror features left-right (the left and right gap lengths and endpoint depths swap roles)."""
+        x = x.flip(-1)
+        order = list(range(x.shape[1]))
+        k = 3 + len(self.candidates)
+        if self._gaps:
+            order[k], order[k + 1] = k + 1, k
+            k += len(GAP_CHANNELS)
+        if self._endpoints:
+            order[k], order[k + 1] = k + 1, k
+        return x[:, order] if order != list(range(x.shape[1])) else x
+
+    # -- training ----------------------------------------------------------------------
+    def _train(self, dataset, seed: int, device: torch.device) -> None:
+        # Flip decisions come from their own stream, independent of masks and crops.
+        self._flip_rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0xF11B]))
+        try:
+            super()._train(dataset, seed, device)
+        finally:
+            del self._flip_rng
+
+    def _set_lr(self, optimizer) -> None:
+        """Cosine decay of the learning rate over ``max_steps`` (5 % linear warm-up).
+
+        The step is read from Adam's own state, so a resumed run continues the schedule.
+        """
+        total = self.max_steps * self._updates_per_step if self.max_steps else None
+        if not total:
+            return
+        state = optimizer.state.get(optimizer.param_groups[0]["params"][0], {})
+        step = float(state.get("step", 0))
+        warm = max(1.0, 0.05 * total)
+        scale = (step + 1) / warm if step < warm else 0.5 * (1 + np.cos(np.pi * min(1.0, (step - warm) / max(1.0, total - warm))))
+        for group in optimizer.param_groups:
+            group["lr"] = self.lr * max(scale, 0.01)
+
+    @property
+    def _updates_per_step(self) -> int:
+        return int(self.pixel_batches) if self.arch == "pixel" else 1
+
+    def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
+        corrupted = torch.where(hole, torch.nan, gt).numpy()
+        x = self._features(corrupted)
+        if self.flip and self._flip_rng.random() < 0.5:
+            x, gt, hole = self._flip(x), gt.flip(-1), hole.flip(-1)
+        x, gt, hole = x.to(device), gt.to(device), hole.to(device)
+        if self.channels_last:
+            x = x.contiguous(memory_format=torch.channels_last)
+        mask = hole & (gt > 0)
+        if not mask.any():  # no ground truth in any hole of this batch: nothing to learn
+            return 0.0
+        if self.arch == "unet":
+            return self._update(model, optimizer, scaler, autocast, lambda: model(x)[mask], gt[mask])
+        # Per-pixel model: gather the hole pixels once, then several updates on shuffles.
+        pixels, target = x[:, 3:].permute(0, 2, 3, 1)[mask], gt[mask]
+        order = torch.from_numpy(self._flip_rng.permutation(len(target))).to(device)
+        losses = [
+            self._update(model, optimizer, scaler, autocast, lambda idx=idx: model.blend(pixels[idx]), target[idx])
+            for idx in order.tensor_split(min(self._updates_per_step, len(order)))
+        ]
+        return float(np.mean(losses))
+
+    def _update(self, model, optimizer, scaler, autocast, predict, target: torch.Tensor) -> float:
+        """One optimiser step on the L2 loss (metres) between ``predict()`` and ``target``."""
+        self._set_lr(optimizer)
+        optimizer.zero_grad(set_to_none=True)
+        with autocast:
+            pred = predict()
+        # L2 in metres on the hole: the benchmark's metric is hole RMSE.
+        return backward_step((pred.float() - target).square().mean(), optimizer, scaler)
+
+    # -- prediction ----------------------------------------------------------------------
+    def _forward(self, model: PriorUNet | PixelBlendNet, X: np.ndarray, device: torch.device) -> np.ndarray:
+        model.eval()
+        autocast, _ = self._autocast(device)
+        out = np.empty(X.shape, dtype=np.float32)
+        k = len(self.candidates)
+        with torch.inference_mode():
+            for start in range(0, len(X), self.batch_size):
+                chunk = X[start:start + self.batch_size]
+                x = self._features(chunk)
+                if self.arch == "pixel":
+                    pred = pixel_blend.fill_holes(model, x, flip_average=bool(self.tta), device=device,
+                                                  autocast=autocast)
+                else:
+                    x = x.to(device)
+                    if self.channels_last:
+                        x = x.contiguous(memory_format=torch.channels_last)
+                    with autocast:
+                        pred = model(x).float()
+                        if self.tta:
+                            pred = 0.5 * (pred + model(self._flip(x)).float().flip(-1))
+                    # Floor at half the smallest candidate: the residual can otherwise push a
+                    # far pixel to ~0 m, which barely moves RMSE but explodes inverse-depth
+                    # errors (sel set: hole iRMSE 123 -> 40 /km, hole RMSE unchanged).
+                    pred = torch.maximum(pred, 0.5 * x[:, 3:3 + k].min(dim=1).values).cpu()
+                out[start:start + len(chunk)] = pred.numpy()
+        return out
+
+    # -- shipped weights -------------------------------------------------------------------
+    @classmethod
+    def pretrained(cls, name: str = DEFAULT_PRETRAINED, **overrides: Any) -> PriorUNetInpainter:
+        """Load shipped weights by name (see :func:`available_pretrained`).
+
+        Parameters
+        ----------
+        name : str
+            ``"kitti-rect-v3"`` (default, :data:`DEFAULT_PRETRAINED`), ``"kitti-rect-v2"``
+            or ``"kitti-rect-v1"`` (earlier releases, kept so earlier results can be
+            re-run); all trained on one real KITTI drive with rect-v1 occlusions;
+            CC BY-NC-SA 3.0, see ``docs/model_card.md``.
+        **overrides
+            Prediction-time parameters to change, e.g. ``num_threads=2``, ``tta=False``,
+            ``device="cpu"``, ``batch_size=1``.
+
+        Raises
+        ------
+        KeyError
+            Unknown name (the message lists the shipped ones).
+        ValueError
+            An override of a parameter the weights depend on (``arch``, ``width``,
+            ``levels``, ``candidates``, ``endpoints``, ``relative``, ``factor``).
+        """
+        if not isinstance(name, str) or name not in available_pretrained():
+            raise KeyError(f"no pretrained model {name!r}; shipped: {available_pretrained()}")
+        with ckpt.release_folder(name) as folder:
+            est = cls.load(folder)
+        if overrides:
+            est.set_params(**overrides)
+            est._check_model_params(
+                f"the shipped {name!r} weights fix it; override only prediction-time parameters "
+                "(e.g. num_threads, tta, device, batch_size) or train your own model"
+            )
+        return est
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> PriorUNetInpainter:
+        """Load a model written by :meth:`save` (see :meth:`UNetInpainter.load`)."""
+        est = super().load(path)
+        est.candidates = tuple(est.candidates)
+        return est
+
+
+def pretrained_kitti(name: str = DEFAULT_PRETRAINED, **overrides: Any) -> PriorUNetInpainter:
+    """Factory for the registry: a shipped model (by default :data:`DEFAULT_PRETRAINED`).
+
+    ``blend-pretrained`` calls it with no name; ``blend-pretrained-mixed`` with
+    ``name="kitti-mixed-v1"``. See :meth:`PriorUNetInpainter.pretrained`.
+    """
+    return PriorUNetInpainter.pretrained(name, **overrides)
+
+
+# The shared loader (estimators.learned.load) finds classes by name in this table.
+neural._CLASSES.setdefault("PriorUNetInpainter", PriorUNetInpainter)
+# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
+PriorUNetInpainter.__module__ = "estimators.prior"
