@@ -36,7 +36,7 @@ from .conventions import (
 )
 from .data.base import DepthDataset, as_dataset
 from .masks import OcclusionProtocol, get_protocol
-from .metrics import UnfilledPixelsError, check_unfilled, frame_metrics
+from .metrics import UnfilledPixelsError, _frame_metrics_checked, check_unfilled
 
 # The result type and its row format live in results.py; these names stay importable here.
 from .report.results import (  # noqa: F401
@@ -285,74 +285,25 @@ def evaluate(
     seed_list = check_seeds(seeds, "seeds")
     batch_size = check_int(batch_size, "batch_size", minimum=1)
     max_depth = check_max_depth(max_depth)
-    total = len(dataset)
-    if total == 0:
-        raise ValueError("the data source has no frames")
-    if n_frames is not None:
-        total = min(total, check_int(n_frames, "n_frames", minimum=1))
-    if indices is None:
-        frame_list = list(range(total))
-    else:
-        frame_list = check_seeds(indices, "indices", upper=total)
-    shape = tuple(dataset.frame_shape)
+    total, frame_list = _frames_to_score(dataset, n_frames, indices)
     if on_bad_frame not in ("error", "skip"):
         raise ValueError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
     check_unfilled(unfilled)
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
-    rows: list[dict[str, Any]] = []
-    skipped: list[dict[str, Any]] = []
     bar = tqdm(
         total=len(frame_list) * len(seed_list), desc=f"evaluate {label}", unit="frame",
         disable=None if progress else True, leave=False,
     )
+    shared = {"dataset": dataset, "protocol": proto, "seeds": seed_list, "max_depth": max_depth, "name": label,
+              "on_bad_frame": on_bad_frame, "unfilled": unfilled}
+    batches = [frame_list[s : s + batch_size] for s in range(0, len(frame_list), batch_size)]
     try:
         if client is not None:
-            rows, skipped = _score_on_cluster(
-                client, bar, on_batch, [frame_list[s : s + batch_size] for s in range(0, len(frame_list), batch_size)],
-                method=method, dataset=dataset, protocol=proto, seeds=seed_list, max_depth=max_depth, name=label,
-                on_bad_frame=on_bad_frame, unfilled=unfilled,
-            )
+            rows, skipped = _score_on_cluster(client, bar, on_batch, batches, method=method, **shared)
         else:
-            for start in range(0, len(frame_list), batch_size):
-                idx = frame_list[start : start + batch_size]
-                # Load ground truth once per batch and reuse it for every seed.
-                gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
-                skipped.extend(bad)
-                bar.update(len(bad) * len(seed_list))
-                if not idx:
-                    continue
-                for seed in seed_list:
-                    hole = proto.masks(shape, seed, idx)
-                    x = gt.copy()
-                    x[hole] = np.nan
-                    pred, ms = _run(call, batched, x, label)
-                    try:
-                        metrics = frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled=unfilled)
-                    except UnfilledPixelsError as exc:
-                        raise MethodOutputError(f"method {label!r}: {exc}") from None
-                    fractions = hole.mean(axis=(1, 2))
-                    batch_rows: list[dict[str, Any]] = []
-                    for k, i in enumerate(idx):
-                        row: dict[str, Any] = {
-                            "method": label,
-                            "protocol": proto.name,
-                            "seed": seed,
-                            "index": i,
-                            "frame_id": str(dataset.frame_ids[i]),
-                            "drive": str(dataset.groups[i]),
-                            "hole_fraction": float(fractions[k]),
-                        }
-                        for c in METRIC_COLUMNS:
-                            v = metrics[c][k]
-                            row[c] = int(v) if c.endswith("_count") else float(v)
-                        row["ms"] = ms
-                        batch_rows.append(row)
-                    rows.extend(batch_rows)
-                    if on_batch is not None:
-                        on_batch(batch_rows)
-                    bar.update(len(idx))
+            rows, skipped = _score_locally(call, batched, bar, on_batch, batches, **shared)
     finally:
         bar.close()
 
@@ -365,7 +316,7 @@ def evaluate(
         "seeds": seed_list,
         "n_frames": total,
         "source": repr(dataset),
-        "frame_shape": list(shape),
+        "frame_shape": list(dataset.frame_shape),
         "max_depth": float(max_depth),
         "unfilled": unfilled,
         "inpaintenv_version": __version__,
@@ -376,6 +327,76 @@ def evaluate(
     if skipped:
         meta["skipped_frames"] = skipped
     return EvaluationResult(rows=rows, meta=meta)
+
+
+def _frames_to_score(dataset: DepthDataset, n_frames: int | None, indices: Sequence[int] | None) -> tuple[int, list[int]]:
+    """``(total, frame positions)``: frames of the source in play, and the ones to score."""
+    total = len(dataset)
+    if total == 0:
+        raise ValueError("the data source has no frames")
+    if n_frames is not None:
+        total = min(total, check_int(n_frames, "n_frames", minimum=1))
+    if indices is None:
+        return total, list(range(total))
+    return total, check_seeds(indices, "indices", upper=total)
+
+
+def _score_locally(
+    call: Callable, batched: bool, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None,
+    batches: list[list[int]], *, dataset: DepthDataset, protocol: OcclusionProtocol, seeds: list[int],
+    max_depth: float, name: str, on_bad_frame: str, unfilled: str,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Rows and skipped frames of ``batches``, scored in this process (checked arguments)."""
+    rows: list[dict[str, Any]] = []
+    skipped: list[dict[str, Any]] = []
+    shape = tuple(dataset.frame_shape)
+    for idx in batches:
+        # Load ground truth once per batch and reuse it for every seed.
+        gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
+        skipped.extend(bad)
+        bar.update(len(bad) * len(seeds))
+        if not idx:
+            continue
+        for seed in seeds:
+            hole = protocol.masks(shape, seed, idx)
+            x = gt.copy()
+            x[hole] = np.nan
+            pred, ms = _run(call, batched, x, name)
+            try:
+                # Frames, masks, output and options were checked where they entered.
+                metrics = _frame_metrics_checked(pred, gt, hole, max_depth=max_depth, unfilled=unfilled)
+            except UnfilledPixelsError as exc:
+                raise MethodOutputError(f"method {name!r}: {exc}") from None
+            batch_rows = _rows(name, protocol.name, seed, idx, dataset, hole.mean(axis=(1, 2)), metrics, ms)
+            rows.extend(batch_rows)
+            if on_batch is not None:
+                on_batch(batch_rows)
+            bar.update(len(idx))
+    return rows, skipped
+
+
+def _rows(
+    name: str, protocol: str, seed: int, idx: list[int], dataset: DepthDataset, fractions: np.ndarray,
+    metrics: dict[str, np.ndarray], ms: float,
+) -> list[dict[str, Any]]:
+    """One row per frame of a scored batch (the columns of ``ROW_COLUMNS``)."""
+    batch_rows: list[dict[str, Any]] = []
+    for k, i in enumerate(idx):
+        row: dict[str, Any] = {
+            "method": name,
+            "protocol": protocol,
+            "seed": seed,
+            "index": i,
+            "frame_id": str(dataset.frame_ids[i]),
+            "drive": str(dataset.groups[i]),
+            "hole_fraction": float(fractions[k]),
+        }
+        for c in METRIC_COLUMNS:
+            v = metrics[c][k]
+            row[c] = int(v) if c.endswith("_count") else float(v)
+        row["ms"] = ms
+        batch_rows.append(row)
+    return batch_rows
 
 
 def training_drives_of(method: Any) -> list[str] | None:

@@ -246,7 +246,10 @@ class ScoredPixels:
         pred_arr = _check_pred(pred, self.shape)
         max_depth = check_max_depth(max_depth)
         check_unfilled(unfilled)
-        p = _checked_scored(pred_arr.reshape(-1).take(self._index))
+        return self._metrics(pred_arr, _checked_scored(pred_arr.reshape(-1).take(self._index)), max_depth, unfilled)
+
+    def _metrics(self, pred_arr: np.ndarray, p: np.ndarray, max_depth: float, unfilled: str) -> dict[str, np.ndarray]:
+        """:meth:`metrics` after its checks: ``p`` is ``pred_arr`` at the scored pixels, float64."""
         if unfilled != "zero" and p.size and p.min() == 0:
             if unfilled == "interpolate":
                 # The devkit fills every 0 of the prediction; only 0-m pixels change, so a
@@ -277,6 +280,24 @@ class ScoredPixels:
         if self._single:
             out = {k: v[0] for k, v in out.items()}
         return out
+
+
+def _frame_metrics_checked(
+    pred: np.ndarray, gt: np.ndarray, hole: np.ndarray, *, max_depth: float, unfilled: str
+) -> dict[str, np.ndarray]:
+    """:func:`frame_metrics` of inputs validated where they entered: the private fast path.
+
+    For :func:`inpaintenv.evaluate.evaluate`, whose frames, masks and outputs were checked
+    once at its boundary (as scikit-learn's ``skip_parameter_validation``): ``gt`` float32
+    from :meth:`~inpaintenv.data.base.DepthDataset.load_batch` (every frame checked by
+    :func:`~inpaintenv.conventions.check_depth`), ``hole`` a boolean mask of its shape
+    from :meth:`~inpaintenv.masks.OcclusionProtocol.masks`, ``pred`` a finite,
+    non-negative float32 array of its shape (``evaluate``'s output check), ``max_depth``
+    and ``unfilled`` checked. Nothing is checked again; unchecked input gives wrong
+    numbers silently. The numbers are :func:`frame_metrics`'s: the same code scores them.
+    """
+    scored = ScoredPixels(gt, hole, check_input=False)
+    return scored._metrics(pred, pred.reshape(-1).take(scored._index).astype(np.float64), max_depth, unfilled)
 
 
 def _check_inputs(pred: np.ndarray, gt: np.ndarray, hole: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
