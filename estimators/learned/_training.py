@@ -275,19 +275,13 @@ class TrainingMixin:
         self.model_params_ = self._model_params()
 
     def _train(self, dataset: DepthDataset, seed: int, device: torch.device) -> None:
+        """Fit ``self.model_`` step by step, resuming from and writing checkpoints in the run folder."""
         if self.validation_fraction is not None:
             train_ds, val_ds = split_by_drive(dataset, self.validation_fraction, seed=seed)
         else:
             train_ds, val_ds = dataset, None
         protocol = get_protocol(self.protocol)
-        model = self._build_model(seed)
-        if self.warm_start is True:
-            # scikit-learn's meaning: continue from this estimator's previous fit, if any.
-            if hasattr(self, "model_"):
-                _copy_encoder(self.model_, model)
-                model.load_state_dict(self.model_.state_dict())
-        elif self.warm_start is not None and self.warm_start is not False:
-            _copy_encoder(self._warm_start_model(), model)
+        model = self._initial_model(seed)
         optimizer, autocast, scaler = self._prepare_training(model, device)
         step_model = self._compiled(model)
 
@@ -307,9 +301,7 @@ class TrainingMixin:
             if resumed is not None:
                 progress, best_state = resumed
 
-        hist = progress["history"]
         data = OcclusionFrames(train_ds, protocol, self.crop, seed)
-        pin = device.type == "cuda"
 
         def save(*, new_best: bool = False) -> None:
             if run_dir is None:
@@ -324,41 +316,10 @@ class TrainingMixin:
         running = None
         try:
             while not progress["finished"]:
-                epoch = progress["epoch"]
-                data.epoch = epoch
-                order = epoch_order(len(train_ds), seed, epoch)[progress["batch"] * self.batch_size:]
-                stopped = False
-                model.train()
-                for gt, hole in make_loader(data, order, self.batch_size, self.num_workers, pin):
-                    loss = self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device)
-                    hist["step_loss"].append(loss)
-                    progress["step"] += 1
-                    progress["batch"] += 1
-                    running = loss if running is None else 0.9 * running + 0.1 * loss
-                    bar.update(1)
-                    bar.set_postfix(loss=f"{running:.4f}", epoch=epoch)
-                    if self.max_steps is not None and progress["step"] >= self.max_steps:
-                        stopped = True
-                        break
-                    if self.checkpoint_every and progress["step"] % self.checkpoint_every == 0:
-                        save()
-                # End of an epoch (or of a run stopped by max_steps mid-epoch).
-                start = sum(1 for _ in hist["epoch_loss"])
-                done_steps = hist["step_loss"][progress.get("epoch_start_step", 0):]
-                hist["epoch_loss"].append(float(np.mean(done_steps)) if done_steps else float("nan"))
-                new_best = False
-                if val_ds is not None:
-                    rmse = self._validation_rmse(model, val_ds, protocol, seed, device)
-                    hist["val_hole_rmse"].append(rmse)
-                    prev = [v for v in hist["val_hole_rmse"][:-1] if not math.isnan(v)]
-                    if not math.isnan(rmse) and (not prev or rmse < min(prev)):
-                        hist["best_epoch"] = start
-                        best_state = cpu_state(model, clone=True)
-                        new_best = True
-                    model.train()
-                progress["epoch"] = epoch + 1
-                progress["batch"] = 0
-                progress["epoch_start_step"] = progress["step"]
+                stopped, running = self._train_epoch(
+                    model, step_model, optimizer, scaler, autocast, data, progress, seed, device, bar, running, save,
+                )
+                best_state, new_best = self._end_epoch(model, progress, val_ds, protocol, seed, device, best_state)
                 progress["finished"] = stopped or progress["epoch"] >= self.epochs
                 save(new_best=new_best)
         finally:
@@ -367,8 +328,69 @@ class TrainingMixin:
         if best_state is not None:
             model.load_state_dict(best_state)
         self.model_ = model.to("cpu", memory_format=torch.contiguous_format).eval()
-        self.history_ = hist
+        self.history_ = progress["history"]
         self.n_steps_ = progress["step"]
+
+    def _initial_model(self, seed: int) -> torch.nn.Module:
+        """A new network, its encoder (or all of it, for ``warm_start=True``) copied from the warm start."""
+        model = self._build_model(seed)
+        if self.warm_start is True:
+            # scikit-learn's meaning: continue from this estimator's previous fit, if any.
+            if hasattr(self, "model_"):
+                _copy_encoder(self.model_, model)
+                model.load_state_dict(self.model_.state_dict())
+        elif self.warm_start is not None and self.warm_start is not False:
+            _copy_encoder(self._warm_start_model(), model)
+        return model
+
+    def _train_epoch(
+        self, model: torch.nn.Module, step_model: torch.nn.Module, optimizer: Any, scaler: Any, autocast: Any, data: OcclusionFrames,
+        progress: dict[str, Any], seed: int, device: torch.device, bar: Any, running: float | None, save: Any,
+    ) -> tuple[bool, float | None]:
+        """The optimiser steps of the current epoch from where ``progress`` stands; returns
+        whether ``max_steps`` stopped it and the running loss shown on the bar."""
+        epoch = progress["epoch"]
+        data.epoch = epoch
+        order = epoch_order(len(data.frames), seed, epoch)[progress["batch"] * self.batch_size:]
+        model.train()
+        for gt, hole in make_loader(data, order, self.batch_size, self.num_workers, device.type == "cuda"):
+            loss = self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device)
+            progress["history"]["step_loss"].append(loss)
+            progress["step"] += 1
+            progress["batch"] += 1
+            running = loss if running is None else 0.9 * running + 0.1 * loss
+            bar.update(1)
+            bar.set_postfix(loss=f"{running:.4f}", epoch=epoch)
+            if self.max_steps is not None and progress["step"] >= self.max_steps:
+                return True, running
+            if self.checkpoint_every and progress["step"] % self.checkpoint_every == 0:
+                save()
+        return False, running
+
+    def _end_epoch(
+        self, model: torch.nn.Module, progress: dict[str, Any], val_ds: DepthDataset | None,
+        protocol: OcclusionProtocol, seed: int, device: torch.device, best_state: dict[str, torch.Tensor] | None,
+    ) -> tuple[dict[str, torch.Tensor] | None, bool]:
+        """Close an epoch (or a run stopped by ``max_steps`` mid-epoch): its mean loss, the
+        validation RMSE and the best weights so far; returns them and whether they are new."""
+        hist = progress["history"]
+        start = sum(1 for _ in hist["epoch_loss"])
+        done_steps = hist["step_loss"][progress.get("epoch_start_step", 0):]
+        hist["epoch_loss"].append(float(np.mean(done_steps)) if done_steps else float("nan"))
+        new_best = False
+        if val_ds is not None:
+            rmse = self._validation_rmse(model, val_ds, protocol, seed, device)
+            hist["val_hole_rmse"].append(rmse)
+            prev = [v for v in hist["val_hole_rmse"][:-1] if not math.isnan(v)]
+            if not math.isnan(rmse) and (not prev or rmse < min(prev)):
+                hist["best_epoch"] = start
+                best_state = cpu_state(model, clone=True)
+                new_best = True
+            model.train()
+        progress["epoch"] += 1
+        progress["batch"] = 0
+        progress["epoch_start_step"] = progress["step"]
+        return best_state, new_best
 
     def _prepare_training(self, model: torch.nn.Module, device: torch.device) -> tuple[Any, Any, Any]:
         """Move ``model`` to ``device`` (channels-last if asked) and build the Adam optimizer,

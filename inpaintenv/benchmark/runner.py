@@ -279,93 +279,128 @@ def _run_locked(
     n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
     say: Callable[[str], None], on_bad_frame: str, client: Any, policies: dict[str, str], unfilled: str | None,
 ) -> EvaluationResult:
+    """The run inside the folder's lock: open the run folder, plan, score each method, combine."""
     total = len(dataset) if n_frames is None else min(len(dataset), int(n_frames))
-    rows_dir = out / "rows"
-    rows_dir.mkdir(parents=True, exist_ok=True)
-    fingerprint = _fingerprint(dataset, total, protocols, seeds)
-    if unfilled is not None:
-        # Only a run-wide choice: a method's own policy is part of what the method is, and
-        # a run.json without the key (older runs, default runs) stays resumable.
-        fingerprint["unfilled"] = unfilled
-    run_file = out / "run.json"
-    # name -> identity of the method that wrote its rows (see .identity); a name missing
-    # here (e.g. a run.json from before identities were recorded) is unknown and accepted.
-    identities: dict[str, str] = {}
-    # name -> drives the method was trained on (see evaluate.training_drives_of), for the tables.
-    trained: dict[str, list[str]] = {}
-    if resume and run_file.exists():
-        previous = _read_run_file(run_file)
-        recorded = previous.pop("methods", None)
-        identities = {k: v for k, v in (recorded or {}).items() if isinstance(v, str)}
-        trained = {k: [str(d) for d in v] for k, v in (previous.pop("training_drives", None) or {}).items()
-                   if isinstance(v, list)}
-        if previous != fingerprint:
-            raise RunMismatchError(
-                f"{out} holds results of a different run ({previous.get('source')}, "
-                f"protocols {previous.get('protocols')}, seeds {previous.get('seeds')}); "
-                "choose another --out or pass --no-resume to overwrite"
-            )
-    if not resume:
-        # Every row file goes, not only this run's methods': run.json is replaced, so
-        # rows left behind could later be resumed under a fingerprint they do not match.
-        for stale in rows_dir.glob("*.jsonl"):
-            stale.unlink()
-
-    # Rows already on disk, and identities known without building anything: a changed
-    # method is refused before any scoring starts.
-    paths = {
-        name: {p: rows_dir / f"{_slug(name)}__{_slug(p)}.jsonl" for p in protocols} for name in methods
-    }
-    existing = {
-        name: {p: [r for r in _read_rows(path) if r["method"] == name] for p, path in by_protocol.items()}
-        for name, by_protocol in paths.items()
-    }
-    done = {
-        name: {p: {(r["seed"], r["index"]) for r in rows} for p, rows in by_protocol.items()}
-        for name, by_protocol in existing.items()
-    }
-    cheap: dict[str, str | None] = {
-        name: getattr(m, "identity", None) if getattr(m, "lazy", False) else method_identity(m)
-        for name, m in methods.items()
-    }
-    for name, identity in cheap.items():
-        if identity is not None:
-            _check_identity(name, out, identities.get(name), identity, any(done[name].values()))
-    for name, m in methods.items():
-        if not getattr(m, "lazy", False) and (drives := training_drives_of(m)) is not None:
-            trained[name] = drives
-    _write_run_file(run_file, fingerprint, identities, trained)
-
-    # A method with ``scored_pairs`` (a submission missing some files) scores only those (seed, frame) pairs.
-    allowed = {name: getattr(m, "scored_pairs", None) for name, m in methods.items()}
-    todos = {
-        name: {p: {s: [i for i in range(total) if (s, i) not in done[name][p]
-                       and (allowed[name] is None or (s, i) in allowed[name])] for s in seeds} for p in protocols}
-        for name in methods
-    }
-    per_method = {name: sum(len(v) for t in todos[name].values() for v in t.values()) for name in methods}
-    n_todo_all = sum(per_method.values())
-    n_done_all = sum(len(d) for by_protocol in done.values() for d in by_protocol.values())
-    say(_plan_line(methods, total, protocols, seeds, n_done_all, n_todo_all))
-    known = {name: c for name in methods if (c := _known_cost(existing[name])) is not None}
-    if n_todo_all and all(name in known for name, k in per_method.items() if k):
-        eta = sum(known[name] * k for name, k in per_method.items() if k)
-        say(f"estimate: {'' if eta < 0.5 else 'about '}{format_duration(eta)} (from the ms/frame of the rows already scored)")
-    # A terminal gets tqdm bars from evaluate(); a log gets periodic lines instead.
-    reporter = ProgressReporter(per_method, say, seconds_per_frame=known, interval=PROGRESS_INTERVAL) if (
-        progress and n_todo_all and not stderr_is_terminal()
-    ) else None
-    skipped: list[list[dict[str, Any]]] = []
-
+    run = _Run(methods, dataset, protocols, seeds, total, out, say, policies,
+               {"batch_size": batch_size, "progress": progress, "on_bad_frame": on_bad_frame, "client": client})
+    run.open(resume, unfilled)
+    run.plan()
     results: list[EvaluationResult] = []
     for name, method in methods.items():
-        todo = todos[name]
-        n_todo = {p: sum(len(v) for v in todo[p].values()) for p in protocols}
-        for p in protocols:
+        method = run.build(name, method)
+        if method is not None:
+            results.extend(run.score(name, method))
+    if not results:
+        raise ValueError("no method could be run here (see the messages above)")
+    return run.combine(results)
+
+
+class _Run:
+    """One benchmark run in its folder: what ``run.json`` records, the rows on disk, what
+    is left to score, and the progress lines; one method per job (:func:`_run_locked`)."""
+
+    def __init__(
+        self, methods: Mapping[str, Any], dataset: DepthDataset, protocols: list[str], seeds: list[int],
+        total: int, out: Path, say: Callable[[str], None], policies: dict[str, str], evaluate_kw: dict[str, Any],
+    ) -> None:
+        self.methods, self.dataset, self.protocols, self.seeds = methods, dataset, protocols, seeds
+        self.total, self.out, self.say, self.policies, self.evaluate_kw = total, out, say, policies, evaluate_kw
+        self.rows_dir = out / "rows"
+        self.run_file = out / "run.json"
+        # name -> identity of the method that wrote its rows (see .identity); a name missing
+        # here (e.g. a run.json from before identities were recorded) is unknown and accepted.
+        self.identities: dict[str, str] = {}
+        # name -> drives the method was trained on (see evaluate.training_drives_of), for the tables.
+        self.trained: dict[str, list[str]] = {}
+        self.skipped: list[list[dict[str, Any]]] = []
+        self.reporter: ProgressReporter | None = None
+
+    def save(self) -> None:
+        _write_run_file(self.run_file, self.fingerprint, self.identities, self.trained)
+
+    def open(self, resume: bool, unfilled: str | None) -> None:
+        """Check the folder holds this run (on resume) or clear its rows; read what it recorded."""
+        self.rows_dir.mkdir(parents=True, exist_ok=True)
+        self.fingerprint = _fingerprint(self.dataset, self.total, self.protocols, self.seeds)
+        if unfilled is not None:
+            # Only a run-wide choice: a method's own policy is part of what the method is, and
+            # a run.json without the key (older runs, default runs) stays resumable.
+            self.fingerprint["unfilled"] = unfilled
+        if resume and self.run_file.exists():
+            previous = _read_run_file(self.run_file)
+            recorded = previous.pop("methods", None)
+            self.identities = {k: v for k, v in (recorded or {}).items() if isinstance(v, str)}
+            self.trained = {k: [str(d) for d in v] for k, v in (previous.pop("training_drives", None) or {}).items()
+                            if isinstance(v, list)}
+            if previous != self.fingerprint:
+                raise RunMismatchError(
+                    f"{self.out} holds results of a different run ({previous.get('source')}, "
+                    f"protocols {previous.get('protocols')}, seeds {previous.get('seeds')}); "
+                    "choose another --out or pass --no-resume to overwrite"
+                )
+        if not resume:
+            # Every row file goes, not only this run's methods': run.json is replaced, so
+            # rows left behind could later be resumed under a fingerprint they do not match.
+            for stale in self.rows_dir.glob("*.jsonl"):
+                stale.unlink()
+
+    def plan(self) -> None:
+        """Rows already on disk, identities known without building anything (a changed method
+        is refused before any scoring starts), what is left to score, the plan line."""
+        methods, protocols, seeds, total = self.methods, self.protocols, self.seeds, self.total
+        self.paths = {
+            name: {p: self.rows_dir / f"{_slug(name)}__{_slug(p)}.jsonl" for p in protocols} for name in methods
+        }
+        existing = {
+            name: {p: [r for r in _read_rows(path) if r["method"] == name] for p, path in by_protocol.items()}
+            for name, by_protocol in self.paths.items()
+        }
+        self.done = {
+            name: {p: {(r["seed"], r["index"]) for r in rows} for p, rows in by_protocol.items()}
+            for name, by_protocol in existing.items()
+        }
+        self.cheap: dict[str, str | None] = {
+            name: getattr(m, "identity", None) if getattr(m, "lazy", False) else method_identity(m)
+            for name, m in methods.items()
+        }
+        for name, identity in self.cheap.items():
+            if identity is not None:
+                _check_identity(name, self.out, self.identities.get(name), identity, any(self.done[name].values()))
+        for name, m in methods.items():
+            if not getattr(m, "lazy", False) and (drives := training_drives_of(m)) is not None:
+                self.trained[name] = drives
+        self.save()
+
+        # A method with ``scored_pairs`` (a submission missing some files) scores only those (seed, frame) pairs.
+        allowed = {name: getattr(m, "scored_pairs", None) for name, m in methods.items()}
+        self.todos = {
+            name: {p: {s: [i for i in range(total) if (s, i) not in self.done[name][p]
+                           and (allowed[name] is None or (s, i) in allowed[name])] for s in seeds} for p in protocols}
+            for name in methods
+        }
+        per_method = {name: sum(len(v) for t in self.todos[name].values() for v in t.values()) for name in methods}
+        n_todo_all = sum(per_method.values())
+        n_done_all = sum(len(d) for by_protocol in self.done.values() for d in by_protocol.values())
+        self.say(_plan_line(methods, total, protocols, seeds, n_done_all, n_todo_all))
+        known = {name: c for name in methods if (c := _known_cost(existing[name])) is not None}
+        if n_todo_all and all(name in known for name, k in per_method.items() if k):
+            eta = sum(known[name] * k for name, k in per_method.items() if k)
+            self.say(f"estimate: {'' if eta < 0.5 else 'about '}{format_duration(eta)} (from the ms/frame of the rows "
+                     "already scored)")
+        # A terminal gets tqdm bars from evaluate(); a log gets periodic lines instead.
+        if self.evaluate_kw["progress"] and n_todo_all and not stderr_is_terminal():
+            self.reporter = ProgressReporter(per_method, self.say, seconds_per_frame=known, interval=PROGRESS_INTERVAL)
+
+    def build(self, name: str, method: Any) -> Any:
+        """``method`` ready to score (a lazy one built when needed), its identity checked and
+        recorded; None when an optional method cannot be built here."""
+        todo, done = self.todos[name], self.done[name]
+        n_todo = {p: sum(len(v) for v in todo[p].values()) for p in self.protocols}
+        for p in self.protocols:
             if n_todo[p]:
-                say(f"{name} / {p}: {count(n_todo[p], 'frame')} to score ({len(done[name][p])} already done)")
-        identity = cheap[name]
-        recorded = identities.get(name)
+                self.say(f"{name} / {p}: {count(n_todo[p], 'frame')} to score ({len(done[p])} already done)")
+        identity = self.cheap[name]
+        recorded = self.identities.get(name)
         # A lazy method is built when frames need scoring, or when its rows carry an
         # identity that only the built method can confirm.
         if getattr(method, "lazy", False) and (any(n_todo.values()) or (identity is None and recorded is not None)):
@@ -374,78 +409,88 @@ def _run_locked(
             except UNAVAILABLE as exc:
                 if not getattr(method, "optional", False):
                     raise
-                say(f"skipping {name!r}: not available here ({exc})")
-                if reporter is not None:
-                    reporter.drop(name)
-                continue
+                self.say(f"skipping {name!r}: not available here ({exc})")
+                if self.reporter is not None:
+                    self.reporter.drop(name)
+                return None
             if identity is None:
                 identity = method_identity(method)
-                _check_identity(name, out, recorded, identity, any(done[name].values()))
+                _check_identity(name, self.out, recorded, identity, any(done.values()))
             drives = training_drives_of(method)
-            if drives != trained.get(name):
+            if drives != self.trained.get(name):
                 if drives is None:
-                    trained.pop(name)
+                    self.trained.pop(name)
                 else:
-                    trained[name] = drives
-                _write_run_file(run_file, fingerprint, identities, trained)
+                    self.trained[name] = drives
+                self.save()
         if identity is not None and identity != recorded:
             # Recorded before any row is written, so a killed run's rows are attributed.
-            identities[name] = identity
-            _write_run_file(run_file, fingerprint, identities, trained)
-        if reporter is not None:
-            reporter.begin(name)
-        for protocol in protocols:
-            path = paths[name][protocol]
-            if path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n"):
-                # A kill mid-write left a partial last line: end it so new rows start clean.
-                with path.open("a") as f:
-                    f.write("\n")
-            # Opened at the first scored batch: a run stopped by its first frame (a corrupt
-            # PNG) must not leave an empty row file behind.
-            handle: list[Any] = []
+            self.identities[name] = identity
+            self.save()
+        return method
 
-            def append(batch_rows: list[dict[str, Any]], path: Path = path, handle: list[Any] = handle) -> None:
-                if not handle:
-                    handle.append(path.open("a"))
-                for row in batch_rows:
-                    handle[0].write(json.dumps(row) + "\n")
-                handle[0].flush()
-                if reporter is not None:
-                    reporter.update(len(batch_rows))
-
-            try:
-                for seed, indices in todo[protocol].items():
-                    if not indices:
-                        continue
-                    part = evaluate(
-                        method, dataset, protocol, seeds=[seed], indices=indices,
-                        batch_size=batch_size, progress=progress, name=name, on_batch=append,
-                        on_bad_frame=on_bad_frame, client=client, unfilled=policies[name],
-                    )
-                    skipped.append(part.meta.get("skipped_frames") or [])
-            finally:
-                if handle:
-                    handle[0].close()
-            keep = {(s, i) for s in seeds for i in range(total)}
+    def score(self, name: str, method: Any) -> list[EvaluationResult]:
+        """Score what is left of ``name`` under every protocol, appending rows to its files;
+        return all its rows (old and new), one result per protocol."""
+        if self.reporter is not None:
+            self.reporter.begin(name)
+        results = []
+        for protocol in self.protocols:
+            path = self.paths[name][protocol]
+            self._score_protocol(name, method, protocol, path)
+            keep = {(s, i) for s in self.seeds for i in range(self.total)}
             rows = [r for r in _read_rows(path) if r["method"] == name and (r["seed"], r["index"]) in keep]
             # One row per (seed, frame) even if a crash left a duplicate line behind.
             unique = {(r["seed"], r["index"]): r for r in rows}
-            ordered = [unique[k] for k in sorted(unique)]
-            results.append(EvaluationResult(rows=ordered, meta={"methods": [name]}))
-    if not results:
-        raise ValueError("no method could be run here (see the messages above)")
-    combined = EvaluationResult.concat(results)
-    combined.meta.update(
-        {"source": repr(dataset), "protocols": protocols, "seeds": seeds, "n_frames": total,
-         "unfilled": {name: policies[name] for name in combined.methods}}
-    )
-    combined.meta.pop("training_drives", None)
-    if any(name in trained for name in methods):
-        combined.meta["training_drives"] = {name: trained[name] for name in methods if name in trained}
-    combined.meta.pop("skipped_frames", None)
-    merged = merge_skipped(skipped)
-    if merged:
-        combined.meta["skipped_frames"] = merged
-        say(f"skipped {len(merged)} unreadable frame{'s' * (len(merged) != 1)}: "
-            + "; ".join(f"{r['frame_id']} ({r['reason']})" for r in merged[:3]) + ("; ..." if len(merged) > 3 else ""))
-    return combined
+            results.append(EvaluationResult(rows=[unique[k] for k in sorted(unique)], meta={"methods": [name]}))
+        return results
+
+    def _score_protocol(self, name: str, method: Any, protocol: str, path: Path) -> None:
+        if path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n"):
+            # A kill mid-write left a partial last line: end it so new rows start clean.
+            with path.open("a") as f:
+                f.write("\n")
+        # Opened at the first scored batch: a run stopped by its first frame (a corrupt
+        # PNG) must not leave an empty row file behind.
+        handle: list[Any] = []
+        reporter = self.reporter
+
+        def append(batch_rows: list[dict[str, Any]]) -> None:
+            if not handle:
+                handle.append(path.open("a"))
+            for row in batch_rows:
+                handle[0].write(json.dumps(row) + "\n")
+            handle[0].flush()
+            if reporter is not None:
+                reporter.update(len(batch_rows))
+
+        try:
+            for seed, indices in self.todos[name][protocol].items():
+                if not indices:
+                    continue
+                part = evaluate(method, self.dataset, protocol, seeds=[seed], indices=indices, name=name,
+                                on_batch=append, unfilled=self.policies[name], **self.evaluate_kw)
+                self.skipped.append(part.meta.get("skipped_frames") or [])
+        finally:
+            if handle:
+                handle[0].close()
+
+    def combine(self, results: list[EvaluationResult]) -> EvaluationResult:
+        """Every method's rows in one result, with the run's meta and its skipped frames."""
+        methods, trained = self.methods, self.trained
+        combined = EvaluationResult.concat(results)
+        combined.meta.update(
+            {"source": repr(self.dataset), "protocols": self.protocols, "seeds": self.seeds, "n_frames": self.total,
+             "unfilled": {name: self.policies[name] for name in combined.methods}}
+        )
+        combined.meta.pop("training_drives", None)
+        if any(name in trained for name in methods):
+            combined.meta["training_drives"] = {name: trained[name] for name in methods if name in trained}
+        combined.meta.pop("skipped_frames", None)
+        merged = merge_skipped(self.skipped)
+        if merged:
+            combined.meta["skipped_frames"] = merged
+            self.say(f"skipped {len(merged)} unreadable frame{'s' * (len(merged) != 1)}: "
+                     + "; ".join(f"{r['frame_id']} ({r['reason']})" for r in merged[:3])
+                     + ("; ..." if len(merged) > 3 else ""))
+        return combined

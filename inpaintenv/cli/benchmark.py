@@ -89,33 +89,19 @@ def interrupted_note(args: argparse.Namespace) -> str:
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from ..benchmark.figures import write_figures
-    from ..benchmark.headline import headline_markdown, learned_vs_classical
+    """Run ``inpaintenv benchmark``: check every argument, score the suite into ``--out``
+    under its lock, print the tables and write the report and figures."""
     from ..benchmark.lock import run_lock
-    from ..benchmark.report import summary_table, to_markdown, write_report
     from ..benchmark.runner import run_benchmark
-    from ..benchmark.suites import LazyMethod, build_method, suite_methods
+    from ..benchmark.suites import LazyMethod
     from ..conventions import check_int, check_seeds
-    from ..data.synthetic import SyntheticStreets
-    from ..evaluate import skipped_markdown
     from ..masks import get_protocol
-    from ..registry import unfilled_policy
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # Every argument is resolved and checked before any frame is scored: a typo in the
     # last option must not cost the hour spent on the first methods.
     check_source_options(args)
-    overrides = {} if args.n_jobs is None else {"n_jobs": args.n_jobs}
-    if args.method:
-        methods: dict[str, Any] = {
-            name: LazyMethod(lambda name=name: build_method(name, overrides), unfilled=unfilled_policy(name))
-            for name in check_method_names(args.method)
-        }
-    else:
-        methods = suite_methods(args.suite, overrides=overrides, warn=log)
-    methods.update(checkpoint_methods(args.checkpoint, list(methods)))
-    if not methods:
-        raise ValueError("no method to run")
+    methods = _methods(args, log)
     protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
     if len(set(protocols)) != len(protocols):
         raise ValueError(f"--protocol values must be distinct, got {protocols}")
@@ -127,15 +113,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder for the run")
-
-    dataset = open_source_from_args(args)
-    holdout = args.holdout
-    if holdout is None:
-        holdout = SYNTHETIC_HOLDOUT if isinstance(dataset, SyntheticStreets) else 0.0
-    if not 0.0 <= holdout < 1.0:
-        raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
-    if holdout > 0:
-        dataset = test_split(dataset, holdout)
+    dataset, holdout = _dataset(args)
 
     built: dict[str, Any] = {}
 
@@ -164,24 +142,73 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                 resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
                 on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled,
             )
-        command = "inpaintenv " + " ".join(getattr(args, "argv", []))
-        paths = write_report(result, out, meta={"command": command, "holdout": holdout})
-        table = summary_table(result)
-        print(to_markdown(table))
-        skipped = result.meta.get("skipped_frames") or []
-        if skipped:
-            print("\n" + skipped_markdown(skipped))
-        headline = headline_markdown(learned_vs_classical(result))
-        if headline:
-            print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
-        if args.figure_frames > 0:
-            fig_dir = out / "figures"
-            write_figures(
-                result, {n: (lambda n=n: materialise(n, methods[n])) for n in methods}, dataset, fig_dir,
-                panel_methods=list(figure_methods(table, methods)), n_panels=args.figure_frames,
-                protocol=protocols[0], seed=seeds[0], log=log, exclude={r["index"] for r in skipped},
-                unfilled=result.meta.get("unfilled", {}),
-            )
-            log(f"figures in {fig_dir}")
-        log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
+        _report(args, result, out, holdout, {n: (lambda n=n: materialise(n, methods[n])) for n in methods},
+                methods, dataset, protocols[0], seeds[0], log)
     return 0
+
+
+def _methods(args: argparse.Namespace, log: Any) -> dict[str, Any]:
+    """The run's methods by name, unbuilt: ``-m`` names or the ``--suite``, then ``--checkpoint`` models."""
+    from ..benchmark.suites import LazyMethod, build_method, suite_methods
+    from ..registry import unfilled_policy
+
+    overrides = {} if args.n_jobs is None else {"n_jobs": args.n_jobs}
+    if args.method:
+        methods: dict[str, Any] = {
+            name: LazyMethod(lambda name=name: build_method(name, overrides), unfilled=unfilled_policy(name))
+            for name in check_method_names(args.method)
+        }
+    else:
+        methods = suite_methods(args.suite, overrides=overrides, warn=log)
+    methods.update(checkpoint_methods(args.checkpoint, list(methods)))
+    if not methods:
+        raise ValueError("no method to run")
+    return methods
+
+
+def _dataset(args: argparse.Namespace) -> tuple[Any, float]:
+    """The frames scored and the share of drives held out for them (``--holdout``)."""
+    from ..data.synthetic import SyntheticStreets
+
+    dataset = open_source_from_args(args)
+    holdout = args.holdout
+    if holdout is None:
+        holdout = SYNTHETIC_HOLDOUT if isinstance(dataset, SyntheticStreets) else 0.0
+    if not 0.0 <= holdout < 1.0:
+        raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
+    if holdout > 0:
+        dataset = test_split(dataset, holdout)
+    return dataset, holdout
+
+
+def _report(
+    args: argparse.Namespace, result: Any, out: Path, holdout: float, factories: dict[str, Any],
+    methods: dict[str, Any], dataset: Any, protocol: str, seed: int, log: Any,
+) -> None:
+    """Write the report, print the tables (skipped frames, the learned-vs-classical
+    headline) and draw the figures of a finished run."""
+    from ..benchmark.figures import write_figures
+    from ..benchmark.headline import headline_markdown, learned_vs_classical
+    from ..benchmark.report import summary_table, to_markdown, write_report
+    from ..evaluate import skipped_markdown
+
+    command = "inpaintenv " + " ".join(getattr(args, "argv", []))
+    paths = write_report(result, out, meta={"command": command, "holdout": holdout})
+    table = summary_table(result)
+    print(to_markdown(table))
+    skipped = result.meta.get("skipped_frames") or []
+    if skipped:
+        print("\n" + skipped_markdown(skipped))
+    headline = headline_markdown(learned_vs_classical(result))
+    if headline:
+        print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
+    if args.figure_frames > 0:
+        fig_dir = out / "figures"
+        write_figures(
+            result, factories, dataset, fig_dir,
+            panel_methods=list(figure_methods(table, methods)), n_panels=args.figure_frames,
+            protocol=protocol, seed=seed, log=log, exclude={r["index"] for r in skipped},
+            unfilled=result.meta.get("unfilled", {}),
+        )
+        log(f"figures in {fig_dir}")
+    log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
