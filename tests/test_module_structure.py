@@ -1,13 +1,22 @@
-"""The project's modules form no import circle and stay small (issue 18).
+"""The project's modules form no import circle and stay small (issues 18 and 26).
 
 The import graph is read from the source, not from ``sys.modules``: every ``import`` /
 ``from ... import`` anywhere in a module (function-level ones too, since a deferred import
-is still a dependency) and every ``importlib.import_module("literal")``. An edge goes to
-the deepest project module the statement names (``from pkg import sub`` -> ``pkg.sub`` when
-``sub`` is a module). A package's ``__init__`` is a node like any other; the implicit
-import of a parent package by its submodules is not an edge (Python resolves it first).
-Imports under ``if TYPE_CHECKING:`` are left out: they never run, and a type annotation
-naming a class of the module that imports this one is not a dependency at import time.
+is still a dependency; imports under ``if TYPE_CHECKING:`` too, since a module that needs
+another's names for its annotations still depends on it), every
+``importlib.import_module("literal")``, and, in a module that calls ``import_module`` with
+a computed name, every string constant naming a project module (absolute, or relative to
+the module's package: the registry's table of method modules, a package's lazy exports).
+An edge goes to the deepest project module the statement names (``from pkg import sub`` ->
+``pkg.sub`` when ``sub`` is a module). A package's ``__init__`` is a node like any other;
+the implicit import of a parent package by its submodules is not an edge (Python resolves
+it first).
+
+Size: no module over :data:`MAX_LINES` lines and no function whose code (its lines
+without the docstring: a numpydoc docstring documents, it does not make a function do
+more) is over :data:`MAX_FUNCTION_LINES` lines, unless a comment beside it says why:
+``# long module: <reason>`` in a module's first lines, ``# long function: <reason>`` on
+the line above the ``def`` (or its decorators).
 """
 
 from __future__ import annotations
@@ -20,6 +29,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("inpaintenv", "estimators")
 MAX_LINES = 500
+MAX_FUNCTION_LINES = 100
 
 
 def project_modules() -> dict[str, Path]:
@@ -58,6 +68,15 @@ def _import_module_target(call: ast.Call, package: str) -> str | None:
     return target
 
 
+def _calls_import_module(node: ast.AST) -> bool:
+    """Whether ``node`` is a call of ``importlib.import_module`` (or ``import_module``)."""
+    if not isinstance(node, ast.Call):
+        return False
+    func = node.func
+    return (isinstance(func, ast.Attribute) and func.attr == "import_module") or (
+        isinstance(func, ast.Name) and func.id == "import_module")
+
+
 def _type_checking_only(tree: ast.AST) -> set[int]:
     """ids of the nodes inside ``if TYPE_CHECKING:`` (or ``typing.TYPE_CHECKING``) blocks."""
     skip: set[int] = set()
@@ -76,10 +95,8 @@ def imports_of(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: set[str] = set()
     tree = ast.parse(path.read_text(), str(path))
-    typing_only = _type_checking_only(tree)
+    dynamic = any(_calls_import_module(n) for n in ast.walk(tree))
     for node in ast.walk(tree):
-        if id(node) in typing_only:
-            continue
         targets: list[str] = []
         if isinstance(node, ast.Import):
             targets = [a.name for a in node.names]
@@ -89,6 +106,9 @@ def imports_of(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
         elif isinstance(node, ast.Call):
             target = _import_module_target(node, package)
             targets = [target] if target else []
+        elif dynamic and isinstance(node, ast.Constant) and isinstance(node.value, str):
+            # A computed import_module(...) reads its names from tables of strings.
+            targets = [t for t in (node.value, f"{package}.{node.value}") if t in modules]
         for target in targets:
             # `import a.b.c` names a.b.c; keep the deepest part that is a project module.
             while target and target not in modules:
@@ -136,6 +156,20 @@ def test_graph_sees_static_imports_and_import_module_literals():
     assert [_import_module_target(c, "estimators") for c in calls] == ["estimators.prior", "estimators.nets"]
     typed = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .evaluate import X\nimport os")
     assert {type(n).__name__ for n in ast.walk(typed) if id(n) in _type_checking_only(typed)} >= {"ImportFrom"}
+    # Typing-only imports are edges, and so are the module names a computed import_module reads.
+    assert "estimators.learned.neural" in graph["estimators"]  # lazy exports: {"UNetInpainter": "learned.neural"}
+    assert "estimators.learned.blend" in graph["inpaintenv.registry"]  # MethodSpec("estimators.learned.blend", ...)
+
+
+def test_typing_only_imports_are_edges(tmp_path):
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .b import B\n")
+    (pkg / "b.py").write_text("from . import a\n")
+    modules = {"pkg": pkg / "__init__.py", "pkg.a": pkg / "a.py", "pkg.b": pkg / "b.py"}
+    graph = {name: imports_of(name, path, modules) for name, path in modules.items()}
+    assert find_cycle(graph) == ["pkg.a", "pkg.b", "pkg.a"]
 
 
 def test_find_cycle_reports_the_circle():
@@ -148,8 +182,60 @@ def test_no_import_circles():
     assert cycle is None, "import circle: " + " -> ".join(cycle or [])
 
 
+def _has_reason(lines: list[str], line: int, marker: str) -> bool:
+    """Whether the comment ``# <marker>: <reason>`` is on the line above ``line`` (1-based)."""
+    above = lines[line - 2].strip() if line >= 2 else ""
+    return above.startswith(f"# {marker}:") and len(above) > len(f"# {marker}:") + 3
+
+
+def long_modules(paths: list[Path]) -> dict[str, int]:
+    """Modules over MAX_LINES lines without ``# long module: <reason>`` in their first 30 lines."""
+    out = {}
+    for p in paths:
+        lines = p.read_text().splitlines()
+        if len(lines) > MAX_LINES and not any(line.startswith("# long module:") for line in lines[:30]):
+            out[str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p)] = len(lines)
+    return out
+
+
+def long_functions(path: Path) -> dict[str, int]:
+    """``module:function`` -> code lines of every function over MAX_FUNCTION_LINES without a reason."""
+    text = path.read_text()
+    lines = text.splitlines()
+    out = {}
+    for node in ast.walk(ast.parse(text, str(path))):
+        if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        size = node.end_lineno - node.lineno + 1
+        first = node.body[0]
+        if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
+            size -= first.end_lineno - first.lineno + 1  # the docstring documents; it is not code
+        start = min([node.lineno, *(d.lineno for d in node.decorator_list)])
+        if size > MAX_FUNCTION_LINES and not _has_reason(lines, start, "long function"):
+            out[f"{path.name}:{node.name} (line {node.lineno})"] = size
+    return out
+
+
 @pytest.mark.parametrize("package", PACKAGES)
 def test_no_module_over_500_lines(package):
-    long = {str(p.relative_to(ROOT)): n for p in (ROOT / package).rglob("*.py")
-            if (n := len(p.read_text().splitlines())) > MAX_LINES}
-    assert not long, f"modules over {MAX_LINES} lines (split them by job): {long}"
+    long = long_modules(sorted((ROOT / package).rglob("*.py")))
+    assert not long, f"modules over {MAX_LINES} lines (split them by job, or say why: '# long module: ...'): {long}"
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_no_function_over_100_lines(package):
+    long = {k: v for p in sorted((ROOT / package).rglob("*.py")) for k, v in long_functions(p).items()}
+    assert not long, (f"functions of over {MAX_FUNCTION_LINES} lines of code (split them by job, or say why on the "
+                      f"line above the def: '# long function: ...'): {long}")
+
+
+def test_size_checks_see_long_code_and_accept_written_reasons(tmp_path):
+    body = "".join(f"    x{i} = {i}\n" for i in range(MAX_FUNCTION_LINES + 1))
+    doc = '    """' + "doc\n" * 200 + '    """\n'
+    (tmp_path / "m.py").write_text(f"def long():\n{body}\n\ndef documented():\n{doc}    return 1\n\n"
+                                   f"# long function: one table of constants, read top to bottom\n"
+                                   f"@staticmethod\ndef explained():\n{body}")
+    assert list(long_functions(tmp_path / "m.py")) == ["m.py:long (line 1)"]
+    (tmp_path / "big.py").write_text("x = 1\n" * (MAX_LINES + 1))
+    (tmp_path / "ok.py").write_text("# long module: generated table\n" + "x = 1\n" * (MAX_LINES + 1))
+    assert list(long_modules([tmp_path / "big.py", tmp_path / "ok.py"])) == [str(tmp_path / "big.py")]
