@@ -195,7 +195,7 @@ class Cache:
                 torch.from_numpy(rc[:, 1].astype(np.int64)), torch.from_numpy(y))
 
     def grids(self, picks) -> "torch.Tensor":
-        """The product's context grids (:func:`estimators.nets.context_blend.context_grid`): 2x2 means of the cache's 4x4 blocks."""
+        """The product's context grids (:func:`estimators.learned.nets.context_blend.context_grid`): 2x2 means of the cache's 4x4 blocks."""
         import torch
 
         chans = [CONTEXT_CHANNELS.index(c) for c in ["obs", "density", "hole", *BLEND_CANDS]]
@@ -204,8 +204,8 @@ class Cache:
 
 
 def make_net(variant: dict):
-    from estimators.nets.context_blend import ContextBlendNet
-    from estimators.nets.pixel_blend import PixelBlendNet
+    from estimators.learned.nets.context_blend import ContextBlendNet
+    from estimators.learned.nets.pixel_blend import PixelBlendNet
 
     k, width, layers = len(BLEND_CANDS), int(variant.get("width", 64)), int(variant.get("layers", 2))
     if variant.get("context"):

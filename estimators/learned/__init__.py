@@ -27,6 +27,6 @@ Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_training`` ->
 
 The public import paths are ``estimators`` (every class, lazily) and the thin
 re-exports ``estimators.neural``, ``estimators.prior``, ``estimators.blend``,
-``estimators.presets`` and ``estimators.distributed`` that the docs and saved run
+``estimators.context_blend``, ``estimators.presets`` and ``estimators.distributed`` that the docs and saved run
 folders name; this face imports nothing, so importing one family does not load the others.
 """

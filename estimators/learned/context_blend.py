@@ -368,4 +368,7 @@ def pretrained_context_blend(name: str = DEFAULT_CONTEXT_BLEND, **overrides: Any
     return ContextBlendInpainter.pretrained(name, **overrides)
 
 
+# load_checkpoint (estimators.learned.load) finds classes by the name a checkpoint records.
 ckpt.CLASSES.setdefault("ContextBlendInpainter", ContextBlendInpainter)
+# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
+ContextBlendInpainter.__module__ = "estimators.context_blend"
