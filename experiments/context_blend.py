@@ -256,7 +256,7 @@ def train_fold(train: Cache, idx: list[int], variant: dict, seed: int, epochs: i
             pred = _predict(net, train, k, None if context is None else context[n], px, rows, cols, flip)
             errs.append((pred - y).square())
         if variant.get("loss") == "frame":  # the metric: mean over frame-masks of the per-frame RMSE
-            loss = torch.stack([e.mean().clamp_min(1e-6).sqrt() for e in errs]).mean()
+            loss = torch.stack([e.mean().clamp_min(1e-6).sqrt() for e in errs if len(e)]).mean()
         else:
             loss = torch.cat(errs).mean()
         opt.zero_grad(set_to_none=True)

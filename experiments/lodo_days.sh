@@ -12,6 +12,7 @@
 # defaults to lodo-days, PRESET to context-kitti, seeds to 0 1. Each benchmark prints the
 # study-style table and the headline "learned / strongest classical" with its paired
 # 95 % interval; rows land in OUT/bench-<fold>/results.json. Rerunning resumes.
+# TRAIN_FLAGS adds options to every `inpaintenv train` (e.g. "--threads 1 --jobs 1" beside other work).
 set -euo pipefail
 ROOT=${1:?usage: bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESET] [SEED ...]}
 OUT=${2:-lodo-days}
@@ -37,7 +38,7 @@ fold() {  # fold name, drives to leave out and score (space-separated), camera t
   # shellcheck disable=SC2086
   if [ ! -f "$OUT/train-$NAME/model/config.json" ]; then
     inpaintenv train --preset "$PRESET" --kitti-root "$ROOT" --split train --camera both \
-      --exclude-drives $HELD --out "$OUT/train-$NAME" --quiet
+      --exclude-drives $HELD --out "$OUT/train-$NAME" --quiet ${TRAIN_FLAGS:-}
   fi
   # shellcheck disable=SC2086
   inpaintenv benchmark --kitti-root "$ROOT" --split train --camera "$CAMERA" --drives $HELD --holdout 0 \

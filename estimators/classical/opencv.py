@@ -5,7 +5,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from inpaintenv.conventions import MIN_DEPTH
+
 from ._base import FILL_MODES, ClassicalInpainter, unknown_mask
+from .nearest import nearest_fill
 
 __all__ = ["NavierStokesInpainter", "TeleaInpainter"]
 
@@ -40,11 +43,22 @@ class _OpenCVInpainter(ClassicalInpainter):
             return src
         mask = unknown.astype(np.uint8)
         if min(src.shape) >= _MIN_SIDE:
-            return cv2.inpaint(src, mask, float(self.radius), self._flag)
-        # cv2.inpaint reads uninitialised memory on 1-pixel-high or -wide images (NaN or
-        # garbage values, depending on the heap); a 1-pixel replicated border avoids it.
-        padded = cv2.inpaint(np.pad(src, 1, mode="edge"), np.pad(mask, 1, mode="edge"), float(self.radius), self._flag)
-        return padded[1:-1, 1:-1]
+            out = cv2.inpaint(src, mask, float(self.radius), self._flag)
+        else:
+            # cv2.inpaint reads uninitialised memory on 1-pixel-high or -wide images (NaN or
+            # garbage values, depending on the heap); a 1-pixel replicated border avoids it.
+            padded = np.pad(src, 1, mode="edge")
+            out = cv2.inpaint(padded, np.pad(mask, 1, mode="edge"), float(self.radius), self._flag)[1:-1, 1:-1]
+        if self.fill == "invalid":
+            # Far from sparse measurements cv2.inpaint oscillates and can go to 0 or below
+            # (seen on KITTI: a hole pixel of drive 9009 at -0.4 m); every pixel to fill
+            # gets a depth, so those below the smallest valid depth take the nearest
+            # measurement's.
+            left = unknown & ~(out >= MIN_DEPTH)
+            if left.any():
+                known = ~unknown
+                out[left] = nearest_fill(np.where(known, x, 0.0).astype(np.float32), known)[left]
+        return out
 
 
 class TeleaInpainter(_OpenCVInpainter):
