@@ -248,16 +248,18 @@ for _name, _cls, _kw, _desc in [
 # fills, so their names say "blend". Factories, not classes: they load the weights.
 # See docs/model_card.md.
 register_method(
-    "blend-pretrained", "estimators.learned.blend", "pretrained_blend", {},
-    "learned per-pixel blend of classical fills (the default release, estimators.blend.DEFAULT_BLEND = "
-    "kitti-rect-v4), trained on three KITTI drives (CC BY-NC-SA 3.0)",
+    "pretrained", "estimators.learned.releases", "load_release", {},
+    "the default learned release, whatever its family (estimators.learned.releases.DEFAULT_RELEASE = kitti-context-v1: "
+    "the learned blend of classical fills with scene context), trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
 )
 register_method(
     "blend-pretrained-mixed", "estimators.learned.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
     "the learned blend of kitti-rect-v3 trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
 )
-# Their former names: they are not U-Nets, but old commands keep working.
-register_alias("unet-pretrained", "blend-pretrained")
+# Former names of the default: the default is a learned blend (not a U-Net); old
+# commands keep working and load whatever the default is now.
+register_alias("blend-pretrained", "pretrained")
+register_alias("unet-pretrained", "pretrained")
 register_alias("unet-pretrained-mixed", "blend-pretrained-mixed")
 
 # Every shipped release under its own name -> the module whose factory loads it, so that
@@ -269,6 +271,7 @@ _RELEASE_LOADERS: dict[str, tuple[str, str]] = {
     "kitti-rect-v3": ("estimators.learned.prior", "pretrained_kitti"),
     "kitti-mixed-v1": ("estimators.learned.prior", "pretrained_kitti"),
     "kitti-rect-v4": ("estimators.learned.blend", "pretrained_blend"),
+    "kitti-context-v1": ("estimators.learned.context_blend", "pretrained_context_blend"),
 }
 PRETRAINED_RELEASES: tuple[str, ...] = tuple(_RELEASE_LOADERS)
 for _release, (_module, _factory) in _RELEASE_LOADERS.items():

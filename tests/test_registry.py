@@ -73,18 +73,23 @@ def test_every_shipped_release_has_its_own_method_name():
     assert est.get_params()["relative"] is False  # v1 predates the scale-free blend
     for name in PRETRAINED_RELEASES:  # each loads as the class its JSON names
         assert type(make_method(name)).__name__ == json.loads((PRETRAINED_DIR / f"{name}.json").read_text())["class"]
-    assert make_method(DEFAULT_BLEND).get_params() == make_method("unet-pretrained").get_params()
+    from estimators.learned.releases import DEFAULT_RELEASE
+
+    assert DEFAULT_BLEND in PRETRAINED_RELEASES  # the former default stays loadable by name
+    for name in ("pretrained", "blend-pretrained", "unet-pretrained"):
+        assert make_method(DEFAULT_RELEASE).get_params() == make_method(name).get_params()
 
 
 def test_aliases_resolve_to_the_canonical_name():
     from inpaintenv.registry import available_aliases, canonical_name, register_alias
 
-    assert available_aliases()["unet-pretrained"] == "blend-pretrained"
+    assert available_aliases()["unet-pretrained"] == "pretrained"
+    assert available_aliases()["blend-pretrained"] == "pretrained"
     assert available_aliases()["unet-pretrained-mixed"] == "blend-pretrained-mixed"
-    assert "unet-pretrained" not in available_methods() and "blend-pretrained" in available_methods()
-    assert get_spec("unet-pretrained") is get_spec("blend-pretrained")
+    assert "unet-pretrained" not in available_methods() and "pretrained" in available_methods()
+    assert get_spec("unet-pretrained") is get_spec("blend-pretrained") is get_spec("pretrained")
     assert get_spec("unet-pretrained-mixed").kwargs == {"name": "kitti-mixed-v1"}
-    assert canonical_name("unet-pretrained") == "blend-pretrained" and canonical_name("telea") == "telea"
+    assert canonical_name("unet-pretrained") == "pretrained" and canonical_name("telea") == "telea"
     with pytest.raises(ValueError, match="already"):
         register_alias("telea", "ns")
     with pytest.raises(KeyError, match="no method"):
@@ -95,12 +100,13 @@ def test_suites_use_canonical_names():
     from inpaintenv.benchmark.suites import SUITES
 
     assert set(available_methods()) >= {n for names in SUITES.values() for n in names}
-    assert "blend-pretrained" in SUITES["default"] and "unet-pretrained" not in SUITES["default"]
+    assert "pretrained" in SUITES["default"] and "unet-pretrained" not in SUITES["default"]
 
 
 def test_old_name_still_builds_the_shipped_blend():
     pytest.importorskip("torch")
-    assert make_method("unet-pretrained").get_params() == make_method("blend-pretrained").get_params()
+    assert make_method("unet-pretrained").get_params() == make_method("pretrained").get_params()
+    assert make_method("blend-pretrained").get_params() == make_method("pretrained").get_params()
 
 
 def test_info_lists_aliases(capsys):
@@ -108,4 +114,4 @@ def test_info_lists_aliases(capsys):
 
     assert main(["info", "--n-frames", "2", "--frame-shape", "32", "96", "--sample", "1"]) == 0
     out = capsys.readouterr().out
-    assert "unet-pretrained -> blend-pretrained" in out
+    assert "unet-pretrained -> pretrained" in out

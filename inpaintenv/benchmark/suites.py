@@ -22,7 +22,7 @@ CLASSICAL = [
     "telea", "ns", "bilateral", "constant",
 ]
 #: The learned models shipped with the package (per-pixel blends of classical fills; need torch).
-PRETRAINED = ["blend-pretrained", "blend-pretrained-mixed"]
+PRETRAINED = ["pretrained", "blend-pretrained-mixed"]
 
 SUITES: dict[str, list[str]] = {
     "default": PRETRAINED + CLASSICAL + STUDY_CLASSICAL,

@@ -1,4 +1,4 @@
-"""The shipped default release (kitti-rect-v4, a BlendInpainter): loads, is fast, keeps
+"""The former default release (kitti-rect-v4, a BlendInpainter; loadable by name): loads, is fast, keeps
 measurements, matches its training recipe, and beats the classical methods on the real
 drive it never saw (2011_09_26_drive_9002_sync of the shared KITTI slice)."""
 
@@ -22,10 +22,9 @@ def release() -> BlendInpainter:
     return BlendInpainter.pretrained()
 
 
-def test_default_learned_method_is_this_release(release):
-    assert DEFAULT_BLEND == "kitti-rect-v4"
-    for name in ("blend-pretrained", "unet-pretrained", "kitti-rect-v4"):
-        assert make_method(name).get_params() == release.get_params()
+def test_release_loads_by_name(release):
+    assert DEFAULT_BLEND == "kitti-rect-v4"  # BlendInpainter.pretrained()'s default
+    assert make_method("kitti-rect-v4").get_params() == release.get_params()
 
 
 def test_recipe_of_the_preset_made_these_weights():

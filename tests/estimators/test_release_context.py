@@ -1,0 +1,101 @@
+"""The shipped default release (kitti-context-v1, a ContextBlendInpainter): loads under
+``pretrained`` and its former names, matches its training recipe, records its provenance,
+predicts full frames of every KITTI frame size, keeps measurements, and beats every
+classical method on the shared slice's official frames it never saw (the ``val`` drive)."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+import pytest
+
+from estimators.context_blend import DEFAULT_CONTEXT_BLEND, ContextBlendInpainter
+from estimators.presets import PRESETS
+from estimators.learned.releases import DEFAULT_RELEASE, load_release
+from estimators.learned._checkpoint import PRETRAINED_DIR
+from inpaintenv.data import SyntheticStreets
+from inpaintenv.masks import get_protocol
+from inpaintenv.registry import make_method
+
+
+@pytest.fixture(scope="module")
+def release() -> ContextBlendInpainter:
+    return load_release()
+
+
+def test_default_learned_method_is_this_release(release):
+    assert DEFAULT_RELEASE == DEFAULT_CONTEXT_BLEND == "kitti-context-v1"
+    assert isinstance(release, ContextBlendInpainter)
+    for name in ("pretrained", "blend-pretrained", "unet-pretrained", "kitti-context-v1"):
+        assert make_method(name).get_params() == release.get_params()
+    with pytest.raises(KeyError, match="no shipped release 'nope'; shipped: "):
+        load_release("nope")
+
+
+def test_recipe_of_the_preset_made_these_weights():
+    # `inpaintenv train --preset context-kitti` made the release: same parameters.
+    _, params, _ = PRESETS["context-kitti"]
+    shipped = json.loads((PRETRAINED_DIR / f"{DEFAULT_RELEASE}.json").read_text())["params"]
+    for key, value in params.items():
+        assert shipped[key] == (list(value) if isinstance(value, tuple) else value), key
+
+
+def test_release_records_its_training_drives_and_machine(release):
+    config = json.loads((PRETRAINED_DIR / f"{DEFAULT_RELEASE}.json").read_text())
+    drives = config["training_drives"]
+    assert release.training_drives_ == drives and len(drives) >= 3
+    assert not any(d.startswith("2011_10_03_drive_91") for d in drives)  # the val drive stays unseen
+    env = config["environment"]
+    assert {"python", "cpu_count"} <= set(env) and "torch" in json.dumps(env)
+
+
+@pytest.mark.parametrize("shape", [(352, 1216), (375, 1242), (370, 1226), (376, 1241), (376, 1408)])
+def test_full_frame_of_every_size_keeps_measurements_and_is_fast(release, shape):
+    gt = SyntheticStreets(n=1, seed=3, frame_shape=shape)[0]
+    hole = get_protocol("rect-v1").mask(gt.shape, 0, 0)
+    x = np.where(hole, np.nan, gt).astype(np.float32)
+    release.predict(x)  # warm-up
+    start = time.perf_counter()
+    out = release.predict(x)
+    seconds = time.perf_counter() - start
+    assert out.shape == x.shape and np.isfinite(out).all() and (out[hole] > 0).all()
+    measured = (gt > 0) & ~hole
+    np.testing.assert_array_equal(out[measured], gt[measured])
+    # The goal is 0.3 s on 2 idle cores (benchmarks/bench_blend.py); a loaded CI
+    # machine gets 10x that before this order-of-magnitude check fails.
+    assert seconds < 3.0, f"predict took {seconds:.2f} s on a {shape} frame"
+
+
+@pytest.mark.kitti
+@pytest.mark.slow
+def test_beats_every_classical_method_on_the_unseen_val_drive(kitti_root):
+    """The shared slice's ``val`` drive (official KITTI maps) was never trained or selected
+    on: mean hole RMSE over five mask seeds below that of every method of estimators.classical."""
+    from inpaintenv.benchmark.suites import CLASSICAL, STUDY_CLASSICAL
+    from inpaintenv.data import KittiDepth
+    from inpaintenv.evaluate import evaluate
+    from inpaintenv.registry import unfilled_policy
+
+    held_out = KittiDepth(kitti_root, split="val")
+    seeds = [0, 1, 2, 3, 4]
+
+    def mean_hole_rmse(method, unfilled: str = "error") -> float:
+        rows = evaluate(method, held_out, "rect-v1", seeds, progress=False, unfilled=unfilled).rows
+        return float(np.nanmean([r["hole_rmse"] for r in rows]))
+
+    learned = mean_hole_rmse(load_release())
+    classical = {name: mean_hole_rmse(make_method(name), unfilled_policy(name)) for name in CLASSICAL + STUDY_CLASSICAL}
+    best = min(classical, key=classical.get)
+    assert learned < classical[best], f"kitti-context-v1 {learned:.2f} m vs {best} {classical[best]:.2f} m"
+
+
+def test_loads_in_a_fresh_process_by_registry_name():
+    """A fresh interpreter (as the CLI is) finds the release's class without importing it first."""
+    import subprocess
+    import sys
+
+    code = "from inpaintenv.registry import make_method; print(type(make_method('pretrained')).__name__)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "ContextBlendInpainter"
