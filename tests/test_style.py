@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from inpaintenv import style
+from inpaintenv.report import style
 from inpaintenv.envs.render import (
     COLORBAR_HEIGHT,
     LABEL_HEIGHT,

@@ -7,7 +7,7 @@ import matplotlib.colors as mcolors
 import numpy as np
 import pytest
 
-from inpaintenv import style
+from inpaintenv.report import style
 from inpaintenv.benchmark import figures
 from inpaintenv.cli import main
 from inpaintenv.data import ArrayDataset
