@@ -1,4 +1,4 @@
-"""Prediction time of a BlendInpainter release beside harmonic, on 352x1216 frames.
+"""Prediction time of a learned blend release beside harmonic, on 352x1216 frames.
 
 The goal of the shipped learned model is ``predict`` <= 0.3 s per KITTI frame on two
 CPU cores and <= 4x the time of ``harmonic`` measured in the same run. This script
@@ -11,6 +11,7 @@ Examples
     python benchmarks/bench_blend.py                                   # synthetic frames
     python benchmarks/bench_blend.py --kitti-root <KITTI root> --frames 8
     python benchmarks/bench_blend.py --model runs/blend/model          # a trained folder
+    python benchmarks/bench_blend.py --name kitti-rect-v4              # any shipped release
 
 Times are medians over ``--frames`` frames (each predicted ``--repeat`` times, the
 fastest kept) after one warm-up call.
@@ -26,8 +27,9 @@ import time
 
 import numpy as np
 
-from estimators.blend import DEFAULT_BLEND, BlendInpainter
 from estimators.classical import HarmonicInpainter
+from estimators.learned.load import load_checkpoint
+from estimators.learned.releases import DEFAULT_RELEASE, load_release
 from estimators.priors import prior_features
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.masks import get_protocol
@@ -44,8 +46,8 @@ def _best_ms(fn, repeat: int) -> float:
 
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--name", default=DEFAULT_BLEND, help=f"shipped release (default {DEFAULT_BLEND})")
-    p.add_argument("--model", help="a model folder written by BlendInpainter.save (instead of --name)")
+    p.add_argument("--name", default=DEFAULT_RELEASE, help=f"shipped release (default {DEFAULT_RELEASE})")
+    p.add_argument("--model", help="a model folder written by a blend estimator's save (instead of --name)")
     p.add_argument("--kitti-root", help="real frames (every frame with ground truth, spread over the train split)")
     p.add_argument("--frames", type=int, default=4, help="frames timed (default 4)")
     p.add_argument("--repeat", type=int, default=3, help="calls per frame; the fastest counts (default 3)")
@@ -63,7 +65,7 @@ def main(argv: list[str] | None = None) -> dict:
         frames = list(SyntheticStreets(n=args.frames, seed=0).load_batch(range(args.frames)))
     protocol = get_protocol("rect-v1")
     inputs = [np.where(protocol.mask(f.shape, 0, i), np.nan, f).astype(np.float32) for i, f in enumerate(frames)]
-    est = BlendInpainter.load(args.model) if args.model else BlendInpainter.pretrained(args.name)
+    est = load_checkpoint(args.model) if args.model else load_release(args.name)
     if args.threads is not None:
         est.set_params(predict_threads=args.threads)
     harmonic = HarmonicInpainter()
