@@ -308,19 +308,25 @@ class BlendInpainter(BaseInpainter):
                         for k in self.keep]
             return out
 
-        # One progress display (frames done of total, rate, time left), not joblib's own lines.
-        jobs = []
-        with FrameProgress(len(dataset), "training features", enabled=bool(self.verbose)) as progress:
-            for frame in Parallel(n_jobs=self.n_jobs, prefer="threads", return_as="generator")(
-                delayed(one_frame)(i) for i in range(len(dataset))
-            ):
-                jobs.append(frame)
-                progress.update(1)
+        jobs = self._map_frames(one_frame, len(dataset), "training features")
         parts = [p for frame in jobs for p in frame]
         self.training_frames_ = sum(1 for frame in jobs if frame)
         if not parts:
             return np.zeros((0, 0), np.float32), np.zeros(0, np.float32)
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    def _map_frames(self, one_frame: Any, n_frames: int, what: str) -> list:
+        """``[one_frame(i) for i in range(n_frames)]``, ``n_jobs`` frames at a time (joblib
+        threads, or the active joblib backend), in order, with one progress display (frames
+        done of total, rate, time left) when ``verbose`` instead of joblib's own lines."""
+        out = []
+        with FrameProgress(n_frames, what, enabled=bool(self.verbose)) as progress:
+            for result in Parallel(n_jobs=self.n_jobs, prefer="threads", return_as="generator")(
+                delayed(one_frame)(i) for i in range(n_frames)
+            ):
+                out.append(result)
+                progress.update(1)
+        return out
 
     def _pixels_per_sample(self, n_frames: int) -> int:
         """``pixels_per_frame``, lowered so that ``n_frames`` frames stay within ``max_pixels``."""

@@ -25,13 +25,11 @@ from typing import Any
 
 import numpy as np
 import torch
-from joblib import Parallel, delayed
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.environment import environment_info
 from inpaintenv.masks import get_protocol
-from inpaintenv.report.progress import FrameProgress
 
 from ..base import resolve_seed
 from ..priors import prior_features
@@ -248,13 +246,7 @@ class ContextBlendInpainter(BlendInpainter):
                 out += [training_sample(gt, hole, float(k), int(self.pixels_per_frame), names, rng) for k in self.keep]
             return [s for s in out if len(s["y"])]
 
-        per_frame = []
-        with FrameProgress(len(dataset), "training samples", enabled=bool(self.verbose)) as progress:
-            for frame in Parallel(n_jobs=self.n_jobs, prefer="threads", return_as="generator")(
-                delayed(one_frame)(i) for i in range(len(dataset))
-            ):
-                per_frame.append(frame)
-                progress.update(1)
+        per_frame = self._map_frames(one_frame, len(dataset), "training samples")
         self.training_frames_ = sum(1 for f in per_frame if f)
         samples, sample_groups = [], []
         for i, frame in enumerate(per_frame):

@@ -7,25 +7,12 @@ import json
 import numpy as np
 import pytest
 import torch
+from streets import streets as _streets
 
 from estimators.blend import BlendInpainter
 from estimators.learned._checkpoint import CheckpointError
 from estimators.priors import prior_features
 from inpaintenv.data import ArrayDataset
-
-
-def _streets(n: int = 6, h: int = 40, w: int = 96, seed: int = 0) -> np.ndarray:
-    """Ground-plane-like frames: inverse depth linear in the row, LiDAR-like gaps."""
-    rng = np.random.default_rng(seed)
-    rows = np.arange(h, dtype=np.float32)[:, None]
-    frames = []
-    for k in range(n):
-        depth = 400.0 / (rows + 8.0 + 2 * k) + 0.02 * np.arange(w, dtype=np.float32)[None]
-        depth = np.broadcast_to(depth, (h, w)).copy()
-        depth[rng.random((h, w)) < 0.4] = 0.0
-        frames.append(depth)
-    return np.stack(frames).astype(np.float32)
-
 
 TINY = dict(width=8, layers=1, epochs=2, masks_per_frame=2, pixels_per_frame=200, batch_pixels=128, num_threads=1)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+from streets import streets as _streets
 
 from estimators.learned.context_blend import ContextBlendInpainter
 from estimators.learned.nets.context_blend import (
@@ -19,19 +20,6 @@ from inpaintenv.data import ArrayDataset
 
 TINY = dict(n_context=3, context_widths=(4, 8), width=8, layers=1, epochs=2, masks_per_frame=2, keep=(1.0, 0.6),
             pixels_per_frame=200, batch_frames=3, batch_pixels=64, num_threads=1)
-
-
-def _streets(n: int = 6, h: int = 40, w: int = 96, seed: int = 0) -> np.ndarray:
-    """Ground-plane-like frames: inverse depth linear in the row, LiDAR-like gaps."""
-    rng = np.random.default_rng(seed)
-    rows = np.arange(h, dtype=np.float32)[:, None]
-    frames = []
-    for k in range(n):
-        depth = 400.0 / (rows + 8.0 + 2 * k) + 0.02 * np.arange(w, dtype=np.float32)[None]
-        depth = np.broadcast_to(depth, (h, w)).copy()
-        depth[rng.random((h, w)) < 0.4] = 0.0
-        frames.append(depth)
-    return np.stack(frames).astype(np.float32)
 
 
 @pytest.fixture(scope="module")
