@@ -1,0 +1,31 @@
+"""experiments/pooled_headline.py: the headline of a run folder pooled over its drives."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from inpaintenv.report.results import EvaluationResult
+
+
+def _row(method: str, drive: str, index: int, rmse: float) -> dict:
+    metrics = {f"{where}_{m}": 1.0 for where in ("hole", "all") for m in ("mae", "irmse", "imae", "psnr")}
+    return {"method": method, "protocol": "rect-v1", "seed": 0, "index": index, "frame_id": f"{drive}/{index}",
+            "drive": drive, **metrics, "hole_rmse": rmse, "all_rmse": rmse / 2, "hole_count": 100,
+            "all_count": 400, "hole_fraction": 0.1, "ms": 1.0}
+
+
+def test_pooled_ratio_over_drives_and_one_learned_method(tmp_path, capsys, load_experiment):
+    script = load_experiment("pooled_headline")
+    rows = []
+    for i, drive in enumerate(["a", "a", "b", "b"]):
+        rows += [_row("harmonic", drive, i, 10.0 + i), _row("scanline", drive, i, 20.0),
+                 _row("mine", drive, i, 8.0), _row("other", drive, i, 30.0)]
+    EvaluationResult(rows=rows).to_json(tmp_path / "results.json")
+    assert script.main([str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    ratio = 8.0 / np.mean([10.0, 11.0, 12.0, 13.0])  # harmonic is the strongest over both drives
+    assert "(2 drives pooled)" in out and "mine 8.00" in out and f"{ratio:.2f}" in out
+    assert script.main([str(tmp_path), "--learned", "other"]) == 0
+    assert "other 30.00" in capsys.readouterr().out
+    assert script.main([str(tmp_path), "--learned", "nope"]) == 1
+    assert script.main([str(tmp_path / "missing")]) == 1
