@@ -21,7 +21,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from inpaintenv.benchmark.headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
+from inpaintenv.benchmark.headline import (
+    CLASSICAL_METHODS,
+    headline_markdown,
+    learned_vs_classical,
+)
 from inpaintenv.report.results import EvaluationResult
 
 
