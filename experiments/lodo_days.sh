@@ -3,20 +3,27 @@
 # project's own commands (issue: a scene prior that carries to unseen days and to
 # official maps).
 #
-#   bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESET] [SEED ...]
+#   bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESETS] [SEED ...]
 #
-# For every recording day D of the train split: train PRESET on the other days' drives
-# (both cameras where a drive has them) and score D's drives against every classical
-# method. Then train without drive 2011_09_26_drive_0001_sync (official KITTI maps) and
-# score both of its cameras, and score the val frames with that model as a check. OUT
-# defaults to lodo-days, PRESET to context-kitti, seeds to 0 1. Each benchmark prints the
-# study-style table and the headline "learned / strongest classical" with its paired
-# 95 % interval; rows land in OUT/bench-<fold>/results.json. Rerunning resumes.
-# TRAIN_FLAGS adds options to every `inpaintenv train` (e.g. "--threads 1 --jobs 1" beside other work).
+# For every recording day D of the train split: train each preset on the other days'
+# drives (both cameras where a drive has them) and score D's drives against every
+# classical method. Then train without drive 2011_09_26_drive_0001_sync (official KITTI
+# maps) and score both of its cameras, and score the val frames with those models as a
+# check. OUT defaults to lodo-days, PRESETS to context-kitti, seeds to 0 1.
+#
+# PRESETS is a comma-separated list; an entry NAME:N trains NAME with --max-steps N (the
+# step-based presets, e.g. the study's U-Net at a CPU budget):
+#   bash experiments/lodo_days.sh <KITTI root> lodo-days context-kitti,study-unet-tv:300,study-autoencoder:300
+# All of a fold's models are scored in one benchmark run, so they share the classical rows.
+# Each benchmark prints the study-style table and the headline "learned / strongest
+# classical" with its paired 95 % interval; rows land in OUT/bench-<fold>/results.json
+# (experiments/pooled_headline.py pools a fold's drives). Rerunning resumes.
+# TRAIN_FLAGS adds options to every `inpaintenv train` (e.g. "--threads 1 --jobs 1" beside
+# other work); BENCH_FLAGS to every `inpaintenv benchmark` (e.g. "-m kitti-rect-v4").
 set -euo pipefail
-ROOT=${1:?usage: bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESET] [SEED ...]}
+ROOT=${1:?usage: bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESETS] [SEED ...]}
 OUT=${2:-lodo-days}
-PRESET=${3:-context-kitti}
+IFS=, read -r -a PRESETS <<< "${3:-context-kitti}"
 shift $(( $# >= 3 ? 3 : $# ))
 SEEDS=("${@:-0 1}")
 read -r -a SEEDS <<< "${SEEDS[*]}"
@@ -34,23 +41,34 @@ from inpaintenv.data import KittiDepth
 print(' '.join(sorted({str(g)[:10] for g in KittiDepth('$ROOT', split='train').groups})))")
 
 fold() {  # fold name, drives to leave out and score (space-separated), camera to score
-  local NAME=$1 HELD=$2 CAMERA=$3
-  # shellcheck disable=SC2086
-  if [ ! -f "$OUT/train-$NAME/model/config.json" ]; then
-    inpaintenv train --preset "$PRESET" --kitti-root "$ROOT" --split train --camera both \
-      --exclude-drives $HELD --out "$OUT/train-$NAME" --quiet ${TRAIN_FLAGS:-}
-  fi
+  local NAME=$1 HELD=$2 CAMERA=$3 ENTRY PRESET STEPS CHECKPOINTS=()
+  for ENTRY in "${PRESETS[@]}"; do
+    PRESET=${ENTRY%%:*}
+    STEPS=()
+    if [ "$ENTRY" != "$PRESET" ]; then STEPS=(--max-steps "${ENTRY#*:}"); fi
+    if [ ! -f "$OUT/train-$NAME-$PRESET/model/config.json" ]; then
+      # shellcheck disable=SC2086
+      inpaintenv train --preset "$PRESET" --kitti-root "$ROOT" --split train --camera both \
+        --exclude-drives $HELD "${STEPS[@]}" --out "$OUT/train-$NAME-$PRESET" --quiet ${TRAIN_FLAGS:-}
+    fi
+    CHECKPOINTS+=(--checkpoint "$PRESET-without-$NAME=$OUT/train-$NAME-$PRESET/model")
+  done
   # shellcheck disable=SC2086
   inpaintenv benchmark --kitti-root "$ROOT" --split train --camera "$CAMERA" --drives $HELD --holdout 0 \
-    --suite classical --checkpoint "$PRESET-without-$NAME=$OUT/train-$NAME/model" "${SEED_FLAGS[@]}" \
-    --figure-frames 0 --out "$OUT/bench-$NAME"
+    --suite classical "${CHECKPOINTS[@]}" "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-$NAME" \
+    ${BENCH_FLAGS:-}
 }
 
 for D in $DAYS; do
   fold "day-$D" "$(drives_of_day "$D")" image_02
 done
 fold "drive-0001" "$OFFICIAL" both
-# The val frames (official maps of another drive), scored by the model trained without 0001.
-inpaintenv benchmark --kitti-root "$ROOT" --split val --holdout 0 --suite classical \
-  --checkpoint "$PRESET-without-drive-0001=$OUT/train-drive-0001/model" "${SEED_FLAGS[@]}" --figure-frames 0 \
-  --out "$OUT/bench-val"
+# The val frames (official maps of other drives), scored by the models trained without 0001.
+VAL_CHECKPOINTS=()
+for ENTRY in "${PRESETS[@]}"; do
+  PRESET=${ENTRY%%:*}
+  VAL_CHECKPOINTS+=(--checkpoint "$PRESET-without-drive-0001=$OUT/train-drive-0001-$PRESET/model")
+done
+# shellcheck disable=SC2086
+inpaintenv benchmark --kitti-root "$ROOT" --split val --holdout 0 --suite classical "${VAL_CHECKPOINTS[@]}" \
+  "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-val" ${BENCH_FLAGS:-}
