@@ -113,3 +113,22 @@ def test_study_baselines_are_scored_at_0_m_unless_the_run_says_otherwise(tmp_pat
     assert main(["benchmark", *common, "--out", str(tmp_path / "b"), "--unfilled", "error"]) == 1
     assert "method 'telea-hole': prediction is 0 m (unfilled) at" in capsys.readouterr().err
     assert main(["benchmark", *common, "--out", str(tmp_path / "c"), "--unfilled", "interpolate"]) == 0
+
+
+def test_suite_and_methods_together_score_both(tmp_path, capsys):
+    # -m alone replaces the default suite; with an explicit --suite it adds to it (a run
+    # that silently lost its classical suite would have no headline to compare against).
+    from inpaintenv.benchmark.suites import SUITES
+
+    common = ["--n-frames", "2", "--frame-shape", "64", "192", "--holdout", "0", "--figure-frames", "0",
+              "--quiet"]
+    assert main(["benchmark", "--suite", "study", "-m", "constant", *common, "--out", str(tmp_path / "a")]) == 0
+    methods = {r["method"] for r in json.loads((tmp_path / "a" / "results.json").read_text())["rows"]}
+    assert methods == {*SUITES["study"], "constant"}
+    assert main(["benchmark", "-m", "constant", *common, "--out", str(tmp_path / "b")]) == 0
+    methods = {r["method"] for r in json.loads((tmp_path / "b" / "results.json").read_text())["rows"]}
+    assert methods == {"constant"}
+    # A name already in the suite is scored once.
+    assert main(["benchmark", "--suite", "study", "-m", "telea-hole", *common, "--out", str(tmp_path / "c")]) == 0
+    methods = [r["method"] for r in json.loads((tmp_path / "c" / "results.json").read_text())["rows"]]
+    assert sorted(set(methods)) == sorted(SUITES["study"]) and len(methods) == 2 * len(SUITES["study"])
