@@ -40,8 +40,17 @@ DAYS=$(python -c "
 from inpaintenv.data import KittiDepth
 print(' '.join(sorted({str(g)[:10] for g in KittiDepth('$ROOT', split='train').groups})))")
 
+checkpoints() {  # sets CHECKPOINTS: a --checkpoint flag for each preset's model of fold $1
+  local ENTRY PRESET
+  CHECKPOINTS=()
+  for ENTRY in "${PRESETS[@]}"; do
+    PRESET=${ENTRY%%:*}
+    CHECKPOINTS+=(--checkpoint "$PRESET-without-$1=$OUT/train-$1-$PRESET/model")
+  done
+}
+
 fold() {  # fold name, drives to leave out and score (space-separated), camera to score
-  local NAME=$1 HELD=$2 CAMERA=$3 ENTRY PRESET STEPS CHECKPOINTS=()
+  local NAME=$1 HELD=$2 CAMERA=$3 ENTRY PRESET STEPS
   for ENTRY in "${PRESETS[@]}"; do
     PRESET=${ENTRY%%:*}
     STEPS=()
@@ -51,8 +60,8 @@ fold() {  # fold name, drives to leave out and score (space-separated), camera t
       inpaintenv train --preset "$PRESET" --kitti-root "$ROOT" --split train --camera both \
         --exclude-drives $HELD "${STEPS[@]}" --out "$OUT/train-$NAME-$PRESET" --quiet ${TRAIN_FLAGS:-}
     fi
-    CHECKPOINTS+=(--checkpoint "$PRESET-without-$NAME=$OUT/train-$NAME-$PRESET/model")
   done
+  checkpoints "$NAME"
   # shellcheck disable=SC2086
   inpaintenv benchmark --kitti-root "$ROOT" --split train --camera "$CAMERA" --drives $HELD --holdout 0 \
     --suite classical "${CHECKPOINTS[@]}" "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-$NAME" \
@@ -64,11 +73,7 @@ for D in $DAYS; do
 done
 fold "drive-0001" "$OFFICIAL" both
 # The val frames (official maps of other drives), scored by the models trained without 0001.
-VAL_CHECKPOINTS=()
-for ENTRY in "${PRESETS[@]}"; do
-  PRESET=${ENTRY%%:*}
-  VAL_CHECKPOINTS+=(--checkpoint "$PRESET-without-drive-0001=$OUT/train-drive-0001-$PRESET/model")
-done
+checkpoints drive-0001
 # shellcheck disable=SC2086
-inpaintenv benchmark --kitti-root "$ROOT" --split val --holdout 0 --suite classical "${VAL_CHECKPOINTS[@]}" \
+inpaintenv benchmark --kitti-root "$ROOT" --split val --holdout 0 --suite classical "${CHECKPOINTS[@]}" \
   "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-val" ${BENCH_FLAGS:-}

@@ -52,8 +52,11 @@ def test_every_preset_trained_per_fold_and_scored_in_one_run(kitti_root, tmp_pat
     for call in trains:
         steps = call[call.index("--preset") + 1] == "study-unet-tv"
         assert ("--max-steps" in call) == steps and (not steps or call[call.index("--max-steps") + 1] == "300")
+    trained = {f"{c[c.index('--out') + 1]}/model" for c in trains}
     for call in benches:
         assert call.count("--checkpoint") == 2 and "--suite" in call and call[-2:] == ["-m", "kitti-rect-v4"]
+        scored = [call[i + 1].split("=", 1)[1] for i, a in enumerate(call) if a == "--checkpoint"]
+        assert set(scored) <= trained  # every model scored is one the script trained
         assert call[call.index("--seed") + 1] == "0" and call.count("--seed") == 1
     # Rerunning trains nothing again and scores every fold again (the benchmark resumes).
     again = _run(kitti_root, tmp_path, "context-kitti,study-unet-tv:300", "0")
