@@ -9,7 +9,9 @@ from estimators._scan import fill_empty_rows
 from estimators.classical._base import in_inverse_depth
 from estimators.classical.scanline import scanline_fill
 from estimators.priors import (
+    _FILLS,
     AVAILABLE_CANDIDATES,
+    candidate_fills,
     endpoint_values,
     gap_distances,
     prior_features,
@@ -54,6 +56,21 @@ def test_fused_features_equal_the_single_feature_functions(rng):
     for x in _frames(rng):
         got = prior_features(x, names, gaps=True, endpoints=True)
         np.testing.assert_array_equal(got, _reference(x))
+
+
+def test_whole_frame_fills_in_the_worker_thread_keep_order_and_numbers(rng):
+    # harmonic and the row bands run beside the scans (another thread); the channels must
+    # come back in the order asked for, equal to each fill function called alone
+    names = ("harmonic-inverse", "scanline", "row-median", "vertical-inverse", "harmonic", "row-far")
+    for x in _frames(rng):
+        known = x > 0
+        v = np.where(known, x, 0.0).astype(np.float32)
+        alone = np.stack([_FILLS[n](v, known) for n in names]).astype(np.float32)
+        np.testing.assert_array_equal(candidate_fills(x, names), alone)
+        got = prior_features(x, names, gaps=True, endpoints=True)
+        np.testing.assert_array_equal(got[3:3 + len(names)], alone)
+        np.testing.assert_array_equal(got[3 + len(names):], np.concatenate([gap_distances(known),
+                                                                            endpoint_values(v, known)]))
 
 
 @pytest.mark.kitti
