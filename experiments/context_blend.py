@@ -25,6 +25,7 @@ Examples
 --------
     python experiments/context_blend.py cache --kitti-root <KITTI root> --out ctx-cache
     python experiments/context_blend.py fit --cache ctx-cache --variant blend --variant context
+    python experiments/context_blend.py fit --cache ctx-cache --variant context-bal --variant context-bal-s1 --ensemble
 """
 
 from __future__ import annotations
@@ -167,6 +168,9 @@ VARIANTS: dict[str, dict] = {
     "context-bal-short": {"context": 8, "balance": 1.0, "epochs": 2},
     "context-bal-small": {"context": 8, "balance": 1.0, "widths": (8, 16, 24, 32)},
     "context-bal-wd": {"context": 8, "balance": 1.0, "weight_decay": 1e-3},
+    # the shipped recipe with other initialisation and batch seeds (members of an ensemble)
+    "context-bal-s1": {"context": 8, "balance": 1.0, "seed": 1},
+    "context-bal-s2": {"context": 8, "balance": 1.0, "seed": 2},
 }
 BLEND_CANDS = ["scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"]
 CLASSICAL = ["scanline", "scanline-inverse", "harmonic", "harmonic-inverse"]
@@ -230,6 +234,7 @@ def train_fold(train: Cache, idx: list[int], variant: dict, seed: int, epochs: i
     net = make_net(variant)
     has_context = bool(variant.get("context"))
     opt = torch.optim.Adam(net.parameters(), lr=lr, weight_decay=float(variant.get("weight_decay", 0.0)))
+    batch = min(batch, len(idx))
     steps = int(variant.get("epochs", epochs)) * max(1, len(idx) // batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=lr, total_steps=steps, pct_start=0.05)
     rng = np.random.default_rng(seed)
@@ -322,8 +327,19 @@ def cmd_fit(args: argparse.Namespace) -> None:
                                    if ev.slices[k].stop > ev.slices[k].start else np.nan
                                    for k in range(len(ev.meta))]) for c in CLASSICAL}
     chosen = {n: f for n, f in folds(ev.meta).items() if not args.folds or any(s in n for s in args.folds)}
-    models = {}
-    results = {}
+    models: dict = {}
+    results: dict = {}
+    fold_preds: dict[str, list] = {}
+
+    def report(vname: str, fname: str, preds: list[np.ndarray], eidx: list[int], note: str) -> float:
+        mine = np.array([_rmse(p, ev.y[ev.slices[k]]) for p, k in zip(preds, eidx)])
+        means = {c: classical_rmse[c][eidx].mean() for c in CLASSICAL}
+        best = min(means, key=means.get)
+        ratio, lo, hi = bootstrap_ratio_ci(mine, classical_rmse[best][eidx])
+        print(f"{vname:>16} | {fname:<24} | n={len(eidx):4d} | {mine.mean():6.3f} m vs {best} {means[best]:6.3f} m "
+              f"| ratio {ratio:.3f} [{lo:.3f}, {hi:.3f}] | {note}", flush=True)
+        return ratio
+
     for vname in args.variant:
         variant = VARIANTS[vname]
         for fname, (is_train, is_eval) in chosen.items():
@@ -332,17 +348,19 @@ def cmd_fit(args: argparse.Namespace) -> None:
             key = (vname, fname.replace(" (check)", "").startswith("val") and "drive 0001 (official)" or fname)
             t0 = time.perf_counter()
             if key not in models:
-                models[key] = train_fold(train, tidx, variant, args.seed, args.epochs, threads=args.threads)
+                models[key] = train_fold(train, tidx, variant, int(variant.get("seed", args.seed)), args.epochs,
+                                         threads=args.threads)
             fit_s = time.perf_counter() - t0
             preds = predict_samples(models[key], ev, eidx, variant)
-            mine = np.array([_rmse(p, ev.y[ev.slices[k]]) for p, k in zip(preds, eidx)])
-            means = {c: classical_rmse[c][eidx].mean() for c in CLASSICAL}
-            best = min(means, key=means.get)
-            ratio, lo, hi = bootstrap_ratio_ci(mine, classical_rmse[best][eidx])
-            results[(vname, fname)] = ratio
-            print(f"{vname:>16} | {fname:<24} | n={len(eidx):4d} train={len(tidx):4d} | {mine.mean():6.3f} m vs "
-                  f"{best} {means[best]:6.3f} m | ratio {ratio:.3f} [{lo:.3f}, {hi:.3f}] | fit {fit_s:.0f} s",
-                  flush=True)
+            fold_preds.setdefault(fname, []).append(preds)
+            results[(vname, fname)] = report(vname, fname, preds, eidx, f"train={len(tidx):4d} | fit {fit_s:.0f} s")
+    if args.ensemble and len(args.variant) > 1:
+        # the mean of the listed variants' predictions, per pixel (what an ensemble release would predict)
+        name = "+".join(args.variant)
+        for fname, member_preds in fold_preds.items():
+            eidx = [k for k in keep_eval if chosen[fname][1](ev.meta[k])]
+            mean = [np.mean(np.stack(per_sample), axis=0) for per_sample in zip(*member_preds)]
+            results[(name, fname)] = report("ensemble", fname, mean, eidx, name)
     print(json.dumps({f"{v}|{f}": round(r, 4) for (v, f), r in results.items()}))
 
 
@@ -367,6 +385,8 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--epochs", type=int, default=4)
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--threads", type=int, default=2)
+    f.add_argument("--ensemble", action="store_true",
+                   help="also score the mean of the listed variants' predictions per fold")
     args = p.parse_args(argv)
     {"cache": cmd_cache, "fit": cmd_fit}[args.cmd](args)
     return 0
