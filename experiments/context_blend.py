@@ -25,7 +25,10 @@ Examples
 --------
     python experiments/context_blend.py cache --kitti-root <KITTI root> --out ctx-cache
     python experiments/context_blend.py fit --cache ctx-cache --variant blend --variant context
-    python experiments/context_blend.py fit --cache ctx-cache --variant context-bal --variant context-bal-s1 --ensemble
+    python experiments/context_blend.py fit --cache ctx-cache --variant context-bal --preds ctx-preds   # one per
+    python experiments/context_blend.py fit --cache ctx-cache --variant context-bal-s1 --preds ctx-preds  # process
+    python experiments/context_blend.py fit --cache ctx-cache --variant context-bal --variant context-bal-s1 \
+        --preds ctx-preds --ensemble                             # reads both back, scores their mean
 """
 
 from __future__ import annotations
@@ -346,14 +349,23 @@ def cmd_fit(args: argparse.Namespace) -> None:
             tidx = [k for k, m in enumerate(train.meta) if is_train(m)]
             eidx = [k for k in keep_eval if is_eval(ev.meta[k])]
             key = (vname, fname.replace(" (check)", "").startswith("val") and "drive 0001 (official)" or fname)
+            saved = Path(args.preds) / vname / f"{fname.replace(' ', '_')}.npz" if args.preds else None
             t0 = time.perf_counter()
-            if key not in models:
-                models[key] = train_fold(train, tidx, variant, int(variant.get("seed", args.seed)), args.epochs,
-                                         threads=args.threads)
-            fit_s = time.perf_counter() - t0
-            preds = predict_samples(models[key], ev, eidx, variant)
+            if saved is not None and saved.exists():  # an earlier run's predictions: nothing to train
+                with np.load(saved) as z:
+                    preds = [z[f"s{k}"] for k in eidx]
+                note = f"predictions from {saved}"
+            else:
+                if key not in models:
+                    models[key] = train_fold(train, tidx, variant, int(variant.get("seed", args.seed)), args.epochs,
+                                             threads=args.threads)
+                preds = predict_samples(models[key], ev, eidx, variant)
+                note = f"train={len(tidx):4d} | fit {time.perf_counter() - t0:.0f} s"
+                if saved is not None:
+                    saved.parent.mkdir(parents=True, exist_ok=True)
+                    np.savez(saved, **{f"s{k}": p for k, p in zip(eidx, preds)})
             fold_preds.setdefault(fname, []).append(preds)
-            results[(vname, fname)] = report(vname, fname, preds, eidx, f"train={len(tidx):4d} | fit {fit_s:.0f} s")
+            results[(vname, fname)] = report(vname, fname, preds, eidx, note)
     if args.ensemble and len(args.variant) > 1:
         # the mean of the listed variants' predictions, per pixel (what an ensemble release would predict)
         name = "+".join(args.variant)
@@ -385,6 +397,8 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--epochs", type=int, default=4)
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--threads", type=int, default=2)
+    f.add_argument("--preds", help="folder keeping each variant's predictions per fold; a variant already "
+                   "there is read back, not trained (runs of single variants can go in parallel)")
     f.add_argument("--ensemble", action="store_true",
                    help="also score the mean of the listed variants' predictions per fold")
     args = p.parse_args(argv)

@@ -55,3 +55,15 @@ def test_fit_prints_each_variant_and_their_ensemble_per_fold(load_experiment, tw
     assert any(by[("tiny-a", f)] != by[("tiny-b", f)] for f in folds)
     for f in folds:
         assert by[("ensemble", f)] <= max(by[("tiny-a", f)], by[("tiny-b", f)]) + 1e-6
+
+    # --preds: members trained in separate runs, then read back (not trained) for the ensemble
+    preds = tmp_path / "preds"
+    for member in ("tiny-a", "tiny-b"):
+        ctx.main(["fit", "--cache", str(cache), "--variant", member, "--preds", str(preds), "--epochs", "1",
+                  "--threads", "1"])
+    capsys.readouterr()
+    ctx.main(["fit", "--cache", str(cache), "--variant", "tiny-a", "--variant", "tiny-b", "--ensemble",
+              "--preds", str(preds)])
+    out = capsys.readouterr().out
+    assert "fit " not in out and out.count("predictions from") == 2 * len(folds)
+    assert json.loads(out.strip().splitlines()[-1]) == pytest.approx(ratios)
