@@ -20,6 +20,10 @@
 # (experiments/pooled_headline.py pools a fold's drives). Rerunning resumes.
 # TRAIN_FLAGS adds options to every `inpaintenv train` (e.g. "--threads 1 --jobs 1" beside
 # other work); BENCH_FLAGS to every `inpaintenv benchmark` (e.g. "-m kitti-rect-v4").
+# SUITE names the benchmark suite (default classical); SUITE= (empty) scores only the
+# fold models and BENCH_FLAGS' methods, e.g. a speed check of trained folds against harmonic:
+#   SUITE= BENCH_FLAGS="-m harmonic" bash experiments/lodo_days.sh <KITTI root> lodo-speed
+# (with OUT/train-* linked to an earlier run's folders, nothing is trained again).
 set -euo pipefail
 ROOT=${1:?usage: bash experiments/lodo_days.sh <KITTI root> [OUT] [PRESETS] [SEED ...]}
 OUT=${2:-lodo-days}
@@ -30,6 +34,8 @@ read -r -a SEEDS <<< "${SEEDS[*]}"
 SEED_FLAGS=()
 for s in "${SEEDS[@]}"; do SEED_FLAGS+=(--seed "$s"); done
 OFFICIAL=2011_09_26_drive_0001_sync
+SUITE_FLAGS=()
+if [ -n "${SUITE-classical}" ]; then SUITE_FLAGS=(--suite "${SUITE-classical}"); fi
 
 drives_of_day() {  # the train drives recorded on day $1
   python -c "
@@ -64,7 +70,7 @@ fold() {  # fold name, drives to leave out and score (space-separated), camera t
   checkpoints "$NAME"
   # shellcheck disable=SC2086
   inpaintenv benchmark --kitti-root "$ROOT" --split train --camera "$CAMERA" --drives $HELD --holdout 0 \
-    --suite classical "${CHECKPOINTS[@]}" "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-$NAME" \
+    "${SUITE_FLAGS[@]}" "${CHECKPOINTS[@]}" "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-$NAME" \
     ${BENCH_FLAGS:-}
 }
 
@@ -75,5 +81,5 @@ fold "drive-0001" "$OFFICIAL" both
 # The val frames (official maps of other drives), scored by the models trained without 0001.
 checkpoints drive-0001
 # shellcheck disable=SC2086
-inpaintenv benchmark --kitti-root "$ROOT" --split val --holdout 0 --suite classical "${CHECKPOINTS[@]}" \
+inpaintenv benchmark --kitti-root "$ROOT" --split val --holdout 0 "${SUITE_FLAGS[@]}" "${CHECKPOINTS[@]}" \
   "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-val" ${BENCH_FLAGS:-}

@@ -25,7 +25,7 @@ if args[0] == "train":
 """
 
 
-def _run(kitti_root: Path, tmp_path: Path, *args: str) -> list[list[str]]:
+def _run(kitti_root: Path, tmp_path: Path, *args: str, **env_vars: str) -> list[list[str]]:
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir(exist_ok=True)
     fake = bin_dir / "inpaintenv"
@@ -34,7 +34,7 @@ def _run(kitti_root: Path, tmp_path: Path, *args: str) -> list[list[str]]:
     calls = tmp_path / "calls.txt"
     calls.write_text("")
     env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}", "LODO_CALLS": str(calls),
-           "BENCH_FLAGS": "-m kitti-rect-v4"}
+           "BENCH_FLAGS": "-m kitti-rect-v4", **env_vars}
     subprocess.run(["bash", str(SCRIPT), str(kitti_root), str(tmp_path / "out"), *args], env=env, check=True,
                    capture_output=True, text=True)
     return [line.split("\t") for line in calls.read_text().splitlines()]
@@ -61,3 +61,11 @@ def test_every_preset_trained_per_fold_and_scored_in_one_run(kitti_root, tmp_pat
     # Rerunning trains nothing again and scores every fold again (the benchmark resumes).
     again = _run(kitti_root, tmp_path, "context-kitti,study-unet-tv:300", "0")
     assert [c[0] for c in again] == ["benchmark"] * len(benches)
+
+
+def test_an_empty_suite_scores_only_the_fold_models_and_bench_flags(kitti_root, tmp_path):
+    calls = _run(kitti_root, tmp_path, "context-kitti", "0", SUITE="", BENCH_FLAGS="-m harmonic")
+    benches = [c for c in calls if c[0] == "benchmark"]
+    assert benches and all("--suite" not in c and c[-2:] == ["-m", "harmonic"] for c in benches)
+    named = _run(kitti_root, tmp_path, "context-kitti", "0", SUITE="fast")
+    assert all(c[c.index("--suite") + 1] == "fast" for c in named if c[0] == "benchmark")
