@@ -279,10 +279,11 @@ def train_fold(train: Cache, idx: list[int], variant: dict, seed: int, epochs: i
     return net
 
 
-def predict_samples(net, cache: Cache, idx: list[int], variant: dict) -> list[np.ndarray]:
+def predict_samples(net, cache: Cache, idx: list[int], variant: dict) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Predictions of the samples ``idx``: averaged with the mirrored frame's (tta), and without."""
     import torch
 
-    preds = []
+    preds, plain = [], []
     with torch.inference_mode():
         for k in idx:
             px, rows, cols, _ = cache.pixels(k)
@@ -295,7 +296,8 @@ def predict_samples(net, cache: Cache, idx: list[int], variant: dict) -> list[np
                 vals.append(_predict(net, cache, k, context, px, rows, cols, flip))
             floor = 0.5 * px[: len(BLEND_CANDS)].min(0).values
             preds.append(torch.maximum(0.5 * (vals[0] + vals[1]), floor).numpy())
-    return preds
+            plain.append(torch.maximum(vals[0], floor).numpy())
+    return preds, plain
 
 
 def _rmse(pred: np.ndarray, y: np.ndarray) -> float:
@@ -351,19 +353,21 @@ def cmd_fit(args: argparse.Namespace) -> None:
             key = (vname, fname.replace(" (check)", "").startswith("val") and "drive 0001 (official)" or fname)
             saved = Path(args.preds) / vname / f"{fname.replace(' ', '_')}.npz" if args.preds else None
             t0 = time.perf_counter()
+            kind = "p" if args.no_tta else "s"  # s: averaged with the mirrored frame, p: plain
             if saved is not None and saved.exists():  # an earlier run's predictions: nothing to train
                 with np.load(saved) as z:
-                    preds = [z[f"s{k}"] for k in eidx]
+                    preds = [z[f"{kind}{k}"] for k in eidx]
                 note = f"predictions from {saved}"
             else:
                 if key not in models:
                     models[key] = train_fold(train, tidx, variant, int(variant.get("seed", args.seed)), args.epochs,
                                              threads=args.threads)
-                preds = predict_samples(models[key], ev, eidx, variant)
+                both = predict_samples(models[key], ev, eidx, variant)
+                preds = both[1] if args.no_tta else both[0]
                 note = f"train={len(tidx):4d} | fit {time.perf_counter() - t0:.0f} s"
                 if saved is not None:
                     saved.parent.mkdir(parents=True, exist_ok=True)
-                    np.savez(saved, **{f"s{k}": p for k, p in zip(eidx, preds)})
+                    np.savez(saved, **{f"{c}{k}": p for c, ps in zip("sp", both) for k, p in zip(eidx, ps)})
             fold_preds.setdefault(fname, []).append(preds)
             results[(vname, fname)] = report(vname, fname, preds, eidx, note)
     if args.ensemble and len(args.variant) > 1:
@@ -399,6 +403,8 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--threads", type=int, default=2)
     f.add_argument("--preds", help="folder keeping each variant's predictions per fold; a variant already "
                    "there is read back, not trained (runs of single variants can go in parallel)")
+    f.add_argument("--no-tta", action="store_true",
+                   help="score predictions without the mirrored frame's (the flip test-time augmentation)")
     f.add_argument("--ensemble", action="store_true",
                    help="also score the mean of the listed variants' predictions per fold")
     args = p.parse_args(argv)

@@ -67,3 +67,9 @@ def test_fit_prints_each_variant_and_their_ensemble_per_fold(load_experiment, tw
     out = capsys.readouterr().out
     assert "fit " not in out and out.count("predictions from") == 2 * len(folds)
     assert json.loads(out.strip().splitlines()[-1]) == pytest.approx(ratios)
+    # the same members without the mirrored-frame average: other numbers, still read back
+    ctx.main(["fit", "--cache", str(cache), "--variant", "tiny-a", "--variant", "tiny-b", "--ensemble",
+              "--preds", str(preds), "--no-tta"])
+    out = capsys.readouterr().out
+    assert out.count("predictions from") == 2 * len(folds)
+    assert json.loads(out.strip().splitlines()[-1]) != pytest.approx(ratios)
