@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from torch import nn
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
@@ -36,7 +37,7 @@ from ..priors import prior_features
 from . import _checkpoint as ckpt
 from ._training import deterministic_torch, frame_label, torch_threads
 from .blend import BLEND_CANDIDATES, BlendInpainter
-from .nets.context_blend import ContextBlendNet, context_grid, frame_reference
+from .nets.context_blend import ContextBlendEnsemble, ContextBlendNet, context_grid, frame_reference
 from .nets.pixel_blend import CHUNK
 
 __all__ = ["DEFAULT_CONTEXT_BLEND", "ContextBlendInpainter", "pretrained_context_blend"]
@@ -80,6 +81,11 @@ class ContextBlendInpainter(BlendInpainter):
         Hidden units and layers of the per-pixel MLP.
     residual : bool, default True
         Add a learned scale-free residual to the blend.
+    n_members : int, default 1
+        Networks trained on the same samples from different seeds (member 0 from the
+        estimator's seed, so it is the network ``n_members=1`` trains); ``predict``
+        averages them. Each member costs one more training run and one more network
+        pass per prediction; the candidate features are computed once.
     keep : tuple of float, default (1.0, 0.6)
         Training inputs per occlusion: fractions of the measured pixels kept outside
         the hole (0.6 is about as sparse as KITTI's official maps).
@@ -133,6 +139,7 @@ class ContextBlendInpainter(BlendInpainter):
         width: int = 64,
         layers: int = 2,
         residual: bool = True,
+        n_members: int = 1,
         keep: tuple[float, ...] = (1.0, 0.6),
         masks_per_frame: int = 3,
         pixels_per_frame: int = 3000,
@@ -156,6 +163,7 @@ class ContextBlendInpainter(BlendInpainter):
         self.width = width
         self.layers = layers
         self.residual = residual
+        self.n_members = n_members
         self.keep = keep
         self.masks_per_frame = masks_per_frame
         self.pixels_per_frame = pixels_per_frame
@@ -182,7 +190,7 @@ class ContextBlendInpainter(BlendInpainter):
 
     def _check_params(self) -> None:
         super()._check_params()
-        for name, low in (("n_context", 1), ("batch_frames", 1)):
+        for name, low in (("n_context", 1), ("batch_frames", 1), ("n_members", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
@@ -196,13 +204,25 @@ class ContextBlendInpainter(BlendInpainter):
             raise ValueError(f"balance must be a number in [0, 1], got {b!r}")
 
     def _model_params(self) -> dict[str, Any]:
-        return {"candidates": list(self.candidates), "n_context": int(self.n_context),
-                "context_widths": [int(w) for w in self.context_widths], "width": int(self.width),
-                "layers": int(self.layers), "residual": bool(self.residual)}
+        params = {"candidates": list(self.candidates), "n_context": int(self.n_context),
+                  "context_widths": [int(w) for w in self.context_widths], "width": int(self.width),
+                  "layers": int(self.layers), "residual": bool(self.residual)}
+        if int(self.n_members) > 1:  # absent for one network, as in releases made before ensembles
+            params["n_members"] = int(self.n_members)
+        return params
 
-    def _build_model(self) -> ContextBlendNet:
+    def _build_net(self) -> ContextBlendNet:
         return ContextBlendNet(len(self.candidates), int(self.n_context), [int(w) for w in self.context_widths],
                                int(self.width), int(self.layers), residual=bool(self.residual))
+
+    def _build_model(self) -> ContextBlendNet | ContextBlendEnsemble:
+        if int(self.n_members) == 1:
+            return self._build_net()
+        return ContextBlendEnsemble([self._build_net() for _ in range(int(self.n_members))])
+
+    def _networks(self) -> list[ContextBlendNet]:
+        """The fitted network, or the ensemble's members."""
+        return list(self.model_.members) if isinstance(self.model_, ContextBlendEnsemble) else [self.model_]
 
     # -- fitting ---------------------------------------------------------------------------
     def _fit(self, dataset: DepthDataset) -> None:
@@ -254,11 +274,26 @@ class ContextBlendInpainter(BlendInpainter):
             sample_groups += [str(groups[i])] * len(frame)
         return samples, sample_groups
 
-    def _train(self, samples: list[dict], groups: list[str], seed: int) -> tuple[ContextBlendNet, dict]:
-        """Train a fresh network on the samples, drives weighted by ``balance``."""
+    def _train(self, samples: list[dict], groups: list[str], seed: int) -> tuple[nn.Module, dict]:
+        """Train ``n_members`` fresh networks on the samples: member 0 from ``seed``, the others
+        from seeds derived from it."""
+        n = int(self.n_members)
+        seeds = [seed] + [int(s) for s in np.random.SeedSequence([seed, 0xE75]).generate_state(n - 1)]
+        trained = []
+        for m, member_seed in enumerate(seeds):
+            if self.verbose and n > 1:
+                print(f"member {m + 1}/{n} (seed {member_seed})", flush=True)
+            trained.append(self._train_network(samples, groups, member_seed))
+        if n == 1:
+            return trained[0]
+        history = {"epoch_loss": trained[0][1]["epoch_loss"], "member_epoch_loss": [h["epoch_loss"] for _, h in trained]}
+        return ContextBlendEnsemble([net for net, _ in trained]).eval(), history
+
+    def _train_network(self, samples: list[dict], groups: list[str], seed: int) -> tuple[ContextBlendNet, dict]:
+        """Train one fresh network on the samples, drives weighted by ``balance``."""
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
-            net = self._build_model()
+            net = self._build_net()
         rng = np.random.default_rng([seed, 0x5EED])
         counts: dict[str, int] = {}
         for g in groups:
@@ -334,15 +369,17 @@ class ContextBlendInpainter(BlendInpainter):
         passes = [(grid, cols, None)]
         if self.tta:
             passes.append((grid.flip(-1), frame.shape[1] - 1 - cols, self.model_.mirror_order()))
+        nets = self._networks()
         total = torch.zeros(len(rows_np))
-        for g, c, order in passes:
-            context = self.model_.context(g)[0]
-            ch = channels if order is None else channels[order]
-            values = [self.model_.blend_pixels(ch[:, a:a + CHUNK].contiguous(),
-                                               self.model_.sample(context, rows[a:a + CHUNK], c[a:a + CHUNK]), ref)
-                      for a in range(0, len(rows_np), CHUNK)]
-            total += torch.cat(values)
-        pred = total / len(passes)
+        for net in nets:
+            for g, c, order in passes:
+                context = net.context(g)[0]
+                ch = channels if order is None else channels[order]
+                values = [net.blend_pixels(ch[:, a:a + CHUNK].contiguous(),
+                                           net.sample(context, rows[a:a + CHUNK], c[a:a + CHUNK]), ref)
+                          for a in range(0, len(rows_np), CHUNK)]
+                total += torch.cat(values)
+        pred = total / (len(passes) * len(nets))
         # floor at half the smallest candidate, as the blend does (see pixel_blend.fill_holes)
         floor = 0.5 * torch.from_numpy(cands[:, rows_np, cols_np]).min(dim=0).values
         out[rows_np, cols_np] = torch.maximum(pred, floor).numpy()

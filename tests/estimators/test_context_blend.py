@@ -82,6 +82,32 @@ def test_same_seed_same_weights_and_save_load_round_trip(fitted, tmp_path):
     assert loaded.context_widths == TINY["context_widths"] and loaded.training_drives_ == ["a", "b", "c"]
 
 
+def test_an_ensemble_averages_members_trained_from_other_seeds(fitted, tmp_path):
+    import copy
+
+    data = ArrayDataset(_streets(), groups=list("aaaabc"))
+    pair = ContextBlendInpainter(**TINY, n_members=2).fit(data)
+    first, second = pair._networks()
+    # member 0 is the network one member trains; member 1 starts from another seed
+    for a, b in zip(first.state_dict().values(), fitted.model_.state_dict().values()):
+        assert torch.equal(a, b)
+    assert any(not torch.equal(a, b) for a, b in zip(second.state_dict().values(), first.state_dict().values()))
+    assert len(pair.history_["member_epoch_loss"]) == 2
+    x = _corrupt(_streets(1, seed=6)[0])
+    alone = []
+    for net in (first, second):
+        one = copy.copy(fitted)
+        one.model_ = net
+        alone.append(one.predict(x))
+    hole = np.isnan(x)
+    np.testing.assert_allclose(pair.predict(x)[hole], ((alone[0] + alone[1]) / 2)[hole], rtol=1e-5)
+    loaded = ContextBlendInpainter.load(pair.save(tmp_path / "pair"))
+    assert loaded.n_members == 2 and loaded.model_params_["n_members"] == 2
+    np.testing.assert_array_equal(loaded.predict(x), pair.predict(x))
+    # one network records no n_members: releases made before ensembles load unchanged
+    assert "n_members" not in fitted.model_params_
+
+
 def test_balance_gives_drives_equal_shares():
     est = ContextBlendInpainter(**{**TINY, "balance": 1.0})
     samples, groups = est.training_samples(ArrayDataset(_streets(), groups=list("aaaabc")), seed=0)
@@ -105,6 +131,7 @@ def test_mirrored_context_sampling_matches_flipped_grid():
     ({"context_widths": (4, 0)}, "context_widths must be a non-empty tuple"),
     ({"balance": 2.0}, r"balance must be a number in \[0, 1\]"),
     ({"batch_frames": 0}, "batch_frames must be an integer >= 1"),
+    ({"n_members": 0}, "n_members must be an integer >= 1"),
 ])
 def test_bad_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):

@@ -31,7 +31,7 @@ from torch import nn
 
 from .pixel_blend import MIN_DEPTH, PixelBlendNet
 
-__all__ = ["CELL", "ContextBlendNet", "ContextUNet", "context_grid", "frame_reference"]
+__all__ = ["CELL", "ContextBlendEnsemble", "ContextBlendNet", "ContextUNet", "context_grid", "frame_reference"]
 
 #: Pixels per side of a context cell: block means over 4x4 pixels, then over 2x2 blocks.
 CELL = 8
@@ -213,3 +213,30 @@ class ContextBlendNet(nn.Module):
         k = self.n_candidates
         rel = torch.log(channels[:k].clamp_min(MIN_DEPTH)).mean(dim=0, keepdim=True) - ref
         return self.pixel.blend_channels(channels, torch.cat([context, rel], dim=0))
+
+
+class ContextBlendEnsemble(nn.Module):
+    """Several :class:`ContextBlendNet` of one architecture, trained from different seeds.
+
+    The estimator averages their predictions (:class:`~estimators.learned.context_blend.ContextBlendInpainter`
+    with ``n_members > 1``). Averaging cannot make a frame's error worse than the
+    members' mean error: the squared error is convex in the prediction.
+
+    Parameters
+    ----------
+    members : sequence of ContextBlendNet
+    """
+
+    def __init__(self, members: Sequence[ContextBlendNet]):
+        super().__init__()
+        if len(members) < 2:
+            raise ValueError(f"an ensemble needs at least 2 members, got {len(members)}")
+        self.members = nn.ModuleList(members)
+
+    @property
+    def n_candidates(self) -> int:
+        return self.members[0].n_candidates
+
+    def mirror_order(self) -> list[int]:
+        """Pixel-feature order of the mirrored frame (the same for every member)."""
+        return self.members[0].mirror_order()
