@@ -201,8 +201,10 @@ def cmd_train(args: argparse.Namespace) -> int:
     )
 
     if args.list:
-        for name in available_presets():
-            print(f"{name:18s} {describe_preset(name)}")
+        names = available_presets()
+        column = max(len(n) for n in names)  # the descriptions start in one column
+        for name in names:
+            print(f"{name:{column}s}  {describe_preset(name)}")
         return 0
     describe_preset(args.preset)  # unknown name: one-line error listing the presets
     check_source_options(args)
