@@ -61,17 +61,18 @@ _CONTEXT_V2: dict[str, Any] = {**_CONTEXT_V1, "n_members": 2, "tta": False}
 
 #: name -> (estimator class, constructor keywords, one-line description).
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
-    # kitti-context-v1, the default learned release: the blend plus a scene-context U-Net.
+    # kitti-context-v2, the default learned release: two context blends averaged.
+    "context-kitti-ensemble": (
+        ContextBlendInpainter, _CONTEXT_V2,
+        "context-kitti's recipe trained twice from different seeds, the two networks averaged, no mirrored "
+        "second pass (same prediction cost); the shipped kitti-context-v2",
+    ),
+    # kitti-context-v1: the blend plus a scene-context U-Net.
     "context-kitti": (
         ContextBlendInpainter, _CONTEXT_V1,
         "learned blend of five classical fills with scene context from a small U-Net over the whole frame at 1/8 "
         "scale (ContextBlendInpainter), drives weighted equally, thinned copies (keep 1, 0.6), rect-v1; the "
         "shipped kitti-context-v1",
-    ),
-    "context-kitti-ensemble": (
-        ContextBlendInpainter, _CONTEXT_V2,
-        "context-kitti's recipe trained twice from different seeds, the two networks averaged, no mirrored "
-        "second pass (same prediction cost)",
     ),
     # kitti-rect-v4, the default learned release: minutes on 2 CPU cores.
     "blend-kitti": (

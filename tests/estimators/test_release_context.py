@@ -1,7 +1,8 @@
-"""The shipped default release (kitti-context-v1, a ContextBlendInpainter): loads under
-``pretrained`` and its former names, matches its training recipe, records its provenance,
-predicts full frames of every KITTI frame size, keeps measurements, and beats every
-classical method on the shared slice's official frames it never saw (the ``val`` drive)."""
+"""The shipped context releases (ContextBlendInpainter): the default kitti-context-v2 (two
+networks averaged) loads under ``pretrained`` and its former names, kitti-context-v1 by name;
+each matches its training recipe and records its provenance; the default predicts full
+frames of every KITTI frame size, keeps measurements, and beats every classical method on
+the shared slice's official frames it never saw (the ``val`` drive)."""
 
 from __future__ import annotations
 
@@ -26,26 +27,33 @@ def release() -> ContextBlendInpainter:
 
 
 def test_default_learned_method_is_this_release(release):
-    assert DEFAULT_RELEASE == DEFAULT_CONTEXT_BLEND == "kitti-context-v1"
+    assert DEFAULT_RELEASE == DEFAULT_CONTEXT_BLEND == "kitti-context-v2"
     assert isinstance(release, ContextBlendInpainter)
-    for name in ("pretrained", "blend-pretrained", "unet-pretrained", "kitti-context-v1"):
+    assert release.n_members == len(release._networks()) == 2 and release.tta is False
+    for name in ("pretrained", "blend-pretrained", "unet-pretrained", "kitti-context-v2"):
         assert make_method(name).get_params() == release.get_params()
+    former = make_method("kitti-context-v1")  # the former default, one network, loads by name
+    assert former.n_members == len(former._networks()) == 1 and former.tta is True
     with pytest.raises(KeyError, match="no shipped release 'nope'; shipped: "):
         load_release("nope")
 
 
-def test_recipe_of_the_preset_made_these_weights():
-    # `inpaintenv train --preset context-kitti` made the release: same parameters.
-    _, params, _ = PRESETS["context-kitti"]
-    shipped = json.loads((PRETRAINED_DIR / f"{DEFAULT_RELEASE}.json").read_text())["params"]
+@pytest.mark.parametrize("name, preset", [("kitti-context-v2", "context-kitti-ensemble"),
+                                          ("kitti-context-v1", "context-kitti")])
+def test_recipe_of_the_preset_made_these_weights(name, preset):
+    # `inpaintenv train --preset <preset>` made the release: same parameters.
+    _, params, _ = PRESETS[preset]
+    shipped = json.loads((PRETRAINED_DIR / f"{name}.json").read_text())["params"]
     for key, value in params.items():
-        assert shipped[key] == (list(value) if isinstance(value, tuple) else value), key
+        assert shipped.get(key, 1 if key == "n_members" else None) == (
+            list(value) if isinstance(value, tuple) else value), key
 
 
-def test_release_records_its_training_drives_and_machine(release):
-    config = json.loads((PRETRAINED_DIR / f"{DEFAULT_RELEASE}.json").read_text())
+@pytest.mark.parametrize("name", ["kitti-context-v2", "kitti-context-v1"])
+def test_release_records_its_training_drives_and_machine(name):
+    config = json.loads((PRETRAINED_DIR / f"{name}.json").read_text())
     drives = config["training_drives"]
-    assert release.training_drives_ == drives and len(drives) >= 3
+    assert load_release(name).training_drives_ == drives and len(drives) >= 3
     assert not any(d.startswith("2011_10_03_drive_91") for d in drives)  # the val drive stays unseen
     env = config["environment"]
     assert {"python", "cpu_count"} <= set(env) and "torch" in json.dumps(env)
@@ -88,7 +96,7 @@ def test_beats_every_classical_method_on_the_unseen_val_drive(kitti_root):
     learned = mean_hole_rmse(load_release())
     classical = {name: mean_hole_rmse(make_method(name), unfilled_policy(name)) for name in CLASSICAL + STUDY_CLASSICAL}
     best = min(classical, key=classical.get)
-    assert learned < classical[best], f"kitti-context-v1 {learned:.2f} m vs {best} {classical[best]:.2f} m"
+    assert learned < classical[best], f"{DEFAULT_RELEASE} {learned:.2f} m vs {best} {classical[best]:.2f} m"
 
 
 def test_loads_in_a_fresh_process_by_registry_name():
