@@ -277,8 +277,9 @@ class _Scans:
         Whole-frame fills (harmonic, row bands) run in a worker thread while this one
         makes the row/column fills, gaps and endpoints: NumPy and OpenCV release the GIL,
         so on two cores a KITTI frame takes about the longer of the two instead of their
-        sum (``prior_features`` of the five blend candidates: 119 -> 59 ms, measured with
-        ``benchmarks/bench_blend.py``). The numbers are the same as computed one by one.
+        sum (the features of the five blend candidates: 165 -> 96 ms per 352x1216 frame in
+        ``benchmarks/bench_blend.py``, docs/performance.md). The numbers are the same as
+        computed one by one.
         """
         whole = [n for n in names if n not in _SCANNED]
         if not whole or len(whole) == len(names) and not (gaps or endpoints):
