@@ -281,15 +281,18 @@ class _Scans:
         ``benchmarks/bench_blend.py``, docs/performance.md). The numbers are the same as
         computed one by one.
         """
+        def extra() -> list[np.ndarray]:
+            return (self.gaps() if gaps else []) + (self.ends() if endpoints else [])
+
         whole = [n for n in names if n not in _SCANNED]
         if not whole or len(whole) == len(names) and not (gaps or endpoints):
-            return [self.fill(n) for n in names] + (self.gaps() if gaps else []) + (self.ends() if endpoints else [])
+            return [self.fill(n) for n in names] + extra()  # nothing to overlap
         with ThreadPoolExecutor(max_workers=1) as worker:
             pending = [worker.submit(_FILLS[n], self.values, self.known) for n in whole]
             lines = {n: self.fill(n) for n in names if n in _SCANNED}
-            extra = (self.gaps() if gaps else []) + (self.ends() if endpoints else [])
+            lines_extra = extra()
             done = dict(zip(whole, (f.result() for f in pending)))
-        return [done[n] if n in done else lines[n] for n in names] + extra
+        return [done[n] if n in done else lines[n] for n in names] + lines_extra
 
 
 def candidate_fills(x: np.ndarray, names: Sequence[str] = CANDIDATES) -> np.ndarray:

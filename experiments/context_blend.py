@@ -351,7 +351,10 @@ def cmd_fit(args: argparse.Namespace) -> None:
             tidx = [k for k, m in enumerate(train.meta) if is_train(m)]
             eidx = [k for k in keep_eval if is_eval(ev.meta[k])]
             key = (vname, fname.replace(" (check)", "").startswith("val") and "drive 0001 (official)" or fname)
-            saved = Path(args.preds) / vname / f"{fname.replace(' ', '_')}.npz" if args.preds else None
+            seed, epochs = int(variant.get("seed", args.seed)), int(variant.get("epochs", args.epochs))
+            # keyed by what trains the model, so a run with another --seed/--epochs never reads these back
+            saved = (Path(args.preds) / vname / f"seed{seed}-epochs{epochs}" / f"{fname.replace(' ', '_')}.npz"
+                     if args.preds else None)
             t0 = time.perf_counter()
             kind = "p" if args.no_tta else "s"  # s: averaged with the mirrored frame, p: plain
             if saved is not None and saved.exists():  # an earlier run's predictions: nothing to train
@@ -360,8 +363,7 @@ def cmd_fit(args: argparse.Namespace) -> None:
                 note = f"predictions from {saved}"
             else:
                 if key not in models:
-                    models[key] = train_fold(train, tidx, variant, int(variant.get("seed", args.seed)), args.epochs,
-                                             threads=args.threads)
+                    models[key] = train_fold(train, tidx, variant, seed, args.epochs, threads=args.threads)
                 both = predict_samples(models[key], ev, eidx, variant)
                 preds = both[1] if args.no_tta else both[0]
                 note = f"train={len(tidx):4d} | fit {time.perf_counter() - t0:.0f} s"

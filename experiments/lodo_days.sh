@@ -34,8 +34,9 @@ read -r -a SEEDS <<< "${SEEDS[*]}"
 SEED_FLAGS=()
 for s in "${SEEDS[@]}"; do SEED_FLAGS+=(--seed "$s"); done
 OFFICIAL=2011_09_26_drive_0001_sync
+SUITE=${SUITE-classical}
 SUITE_FLAGS=()
-if [ -n "${SUITE-classical}" ]; then SUITE_FLAGS=(--suite "${SUITE-classical}"); fi
+if [ -n "$SUITE" ]; then SUITE_FLAGS=(--suite "$SUITE"); fi
 
 drives_of_day() {  # the train drives recorded on day $1
   python -c "

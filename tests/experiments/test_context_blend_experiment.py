@@ -73,3 +73,8 @@ def test_fit_prints_each_variant_and_their_ensemble_per_fold(load_experiment, tw
     out = capsys.readouterr().out
     assert out.count("predictions from") == 2 * len(folds)
     assert json.loads(out.strip().splitlines()[-1]) != pytest.approx(ratios)
+    # another --seed trains another model: the kept predictions are not read back for it
+    ctx.main(["fit", "--cache", str(cache), "--variant", "tiny-a", "--preds", str(preds), "--seed", "5",
+              "--threads", "1", "--folds", "day 2011_09_30"])
+    out = capsys.readouterr().out
+    assert "predictions from" not in out and "fit " in out
