@@ -146,6 +146,36 @@ def test_batched_callable_and_predict_object(gt_ds):
     assert b.table[0]["method"] == "Est"
 
 
+def test_warm_up_call_is_untimed_and_can_be_turned_off(gt_ds):
+    import time
+
+    calls = []
+
+    def slow_first_call(x):
+        calls.append(x.shape)
+        if len(calls) == 1:
+            time.sleep(0.4)  # one-time start-up, e.g. torch's first call
+        return np.nan_to_num(x, nan=5.0)
+
+    warmed = evaluate(slow_first_call, gt_ds, seeds=[0, 1], progress=False, warmup=True)
+    assert calls == [(32, 48)] * (1 + 2 * len(gt_ds))  # one warm-up call for the whole run
+    calls.clear()
+    cold = evaluate(slow_first_call, gt_ds, seeds=[0, 1], progress=False)  # off by default
+    assert len(calls) == 2 * len(gt_ds)
+    # ms is per frame of a batch of 4: the start-up adds 100 ms to the first batch's frames
+    assert cold.rows[0]["ms"] >= 100.0 > max(r["ms"] for r in warmed.rows) + 50.0
+    strip = lambda rows: [{k: v for k, v in r.items() if k != "ms"} for r in rows]
+    assert strip(warmed.rows) == strip(cold.rows)
+
+
+def test_warm_up_leaves_errors_to_the_timed_call(gt_ds):
+    def broken(x):
+        return np.zeros((3, 3), np.float32)
+
+    with pytest.raises(MethodOutputError, match="broken"):
+        evaluate(broken, gt_ds, progress=False, warmup=True)
+
+
 def test_method_cannot_corrupt_later_frames_by_writing_input(gt_ds):
     def vandal(x):
         x[:] = 1.0

@@ -314,6 +314,8 @@ class _Run:
         self.trained: dict[str, list[str]] = {}
         self.skipped: list[list[dict[str, Any]]] = []
         self.reporter: ProgressReporter | None = None
+        # methods that had their untimed warm-up call (evaluate's ``warmup``) in this process
+        self._warmed: set[str] = set()
 
     def save(self) -> None:
         _write_run_file(self.run_file, self.fingerprint, self.identities, self.trained)
@@ -468,8 +470,11 @@ class _Run:
             for seed, indices in self.todos[name][protocol].items():
                 if not indices:
                     continue
+                # one untimed warm-up call per method and process, not per seed or protocol
+                warmup = name not in self._warmed
+                self._warmed.add(name)
                 part = evaluate(method, self.dataset, protocol, seeds=[seed], indices=indices, name=name,
-                                on_batch=append, unfilled=self.policies[name], **self.evaluate_kw)
+                                on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)
                 self.skipped.append(part.meta.get("skipped_frames") or [])
         finally:
             if handle:

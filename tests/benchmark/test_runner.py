@@ -72,6 +72,20 @@ def test_killed_run_resumes_to_the_same_result(dataset, tmp_path):
     assert strip(resumed.rows) == strip(full.rows)
 
 
+def test_each_method_is_warmed_up_once_untimed(dataset, tmp_path):
+    calls = []
+
+    def counting(x):
+        calls.append(x.copy())
+        return median_fill(x)
+
+    res = run_benchmark({"median": counting}, dataset, protocols=["rect-v1", "freeform-v1"], seeds=[0, 3],
+                        out_dir=tmp_path, progress=False, batch_size=2)
+    # one warm-up call for the whole run (not per seed or protocol), then every scored frame once
+    assert len(calls) == 1 + len(res.rows) == 1 + 2 * 2 * len(dataset)
+    np.testing.assert_array_equal(calls[0], calls[1])  # the warm-up sees the first scored input
+
+
 def test_resume_into_a_different_run_is_refused(dataset, tmp_path):
     run(dataset, tmp_path)
     with pytest.raises(RunMismatchError, match="different run"):
