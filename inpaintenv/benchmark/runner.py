@@ -314,8 +314,7 @@ class _Run:
         self.trained: dict[str, list[str]] = {}
         self.skipped: list[list[dict[str, Any]]] = []
         self.reporter: ProgressReporter | None = None
-        # methods that had their untimed warm-up call (evaluate's ``warmup``) in this process
-        self._warmed: set[str] = set()
+        self._warmed: set[str] = set()  # methods warmed up (evaluate's ``warmup``) in this process
 
     def save(self) -> None:
         _write_run_file(self.run_file, self.fingerprint, self.identities, self.trained)
@@ -470,8 +469,7 @@ class _Run:
             for seed, indices in self.todos[name][protocol].items():
                 if not indices:
                     continue
-                # one untimed warm-up call per method and process, not per seed or protocol
-                warmup = name not in self._warmed
+                warmup = name not in self._warmed  # once per method, not per seed or protocol
                 self._warmed.add(name)
                 part = evaluate(method, self.dataset, protocol, seeds=[seed], indices=indices, name=name,
                                 on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)

@@ -1,0 +1,142 @@
+"""Calling a method the way :func:`inpaintenv.evaluate.evaluate` does: its name, its calling
+convention, the checks on its output and the wall clock per frame."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .conventions import as_depth_array
+
+__all__ = ["MethodOutputError", "method_name", "run_method"]
+
+
+class MethodOutputError(ValueError):
+    """A method returned an unusable reconstruction (wrong shape, NaN/inf, negative)."""
+
+
+def method_name(method: Any) -> str:
+    """A readable name for ``method``: its ``name`` attribute, function name or class name."""
+    name = getattr(method, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    if hasattr(method, "predict"):
+        return type(method).__name__
+    fn_name = getattr(method, "__name__", None)
+    if isinstance(fn_name, str) and fn_name != "<lambda>":
+        return fn_name
+    return type(method).__name__ if fn_name is None else "lambda"
+
+
+def _as_predictor(method: Any) -> tuple[Callable[[np.ndarray], Any], bool]:
+    """Return ``(call, batched)``: ``batched`` means ``call`` takes ``(N, H, W)``.
+
+    Objects with ``predict`` are batched (the estimator API). Plain callables get one
+    ``(H, W)`` frame per call unless they set ``batched = True``.
+    """
+    predict = getattr(method, "predict", None)
+    if callable(predict):
+        return predict, True
+    if callable(method):
+        return method, bool(getattr(method, "batched", False))
+    raise TypeError(
+        f"method must be a callable depth -> depth or an object with predict(), got "
+        f"{type(method).__name__}"
+    )
+
+
+
+def _check_output(out: Any, expected: tuple[int, ...], name: str) -> np.ndarray:
+    """Validate a method's reconstruction; errors name the method."""
+    try:
+        # The input rule of the whole package: a float array, never an integer (an
+        # 8-bit image), masked or sparse one.
+        arr = as_depth_array(out, "output")
+    except TypeError as exc:
+        raise MethodOutputError(f"method {name!r}: {exc}") from None
+    except Exception as exc:  # e.g. a ragged list
+        raise MethodOutputError(f"method {name!r} returned something that is not an array: {exc}") from exc
+    if arr.shape != expected:
+        raise MethodOutputError(f"method {name!r} returned shape {arr.shape}, expected {expected}")
+    with np.errstate(over="ignore"):  # float64 beyond float32's range: reported as inf
+        arr = arr.astype(np.float32, copy=False)
+    finite = np.isfinite(arr)
+    if not finite.all():
+        raise MethodOutputError(
+            f"method {name!r} left {int((~finite).sum())} pixels NaN or inf; every pixel must be filled"
+        )
+    if (arr < 0).any():
+        raise MethodOutputError(
+            f"method {name!r} returned negative depth (min {float(arr.min()):.3g} m)"
+        )
+    return arr
+
+
+
+def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.ndarray, float]:
+    """Run ``method`` on a corrupted batch the way :func:`evaluate` does.
+
+    Parameters
+    ----------
+    method : callable or object with ``predict``
+    x : numpy.ndarray
+        ``(N, H, W)`` float32 input, NaN = fill.
+    name : str, optional
+        Name used in error messages.
+
+    Returns
+    -------
+    pred : numpy.ndarray
+        Validated ``(N, H, W)`` float32 reconstruction.
+    ms : float
+        Wall clock of the method per frame, milliseconds.
+
+    Raises
+    ------
+    ValueError
+        If ``x`` is not ``(N, H, W)`` or holds no frames.
+    MethodOutputError
+        If the method's output is unusable.
+    """
+    x = np.asarray(x, dtype=np.float32)
+    if x.ndim != 3:
+        raise ValueError(f"run_method needs an (N, H, W) batch, got shape {x.shape}")
+    if len(x) == 0:
+        # Otherwise the per-frame time divides by zero.
+        raise ValueError(f"run_method got no frames (shape {x.shape})")
+    call, batched = _as_predictor(method)
+    return _run(call, batched, x, name or method_name(method))
+
+
+def _warm_up(call: Callable, batched: bool, frame: np.ndarray) -> None:
+    """One untimed call on a copy of ``frame`` (a one-frame batch for batched methods); output discarded.
+
+    Errors are left to the timed call that follows, which reports them with the method's name.
+    """
+    try:
+        call(frame[None].copy() if batched else frame.copy())
+    except Exception:  # noqa: BLE001 - the timed call raises it again, checked and named
+        pass
+
+
+def _run(call: Callable, batched: bool, x: np.ndarray, label: str) -> tuple[np.ndarray, float]:
+    """Run the method on a batch; return the validated prediction and ms per frame."""
+    if batched:
+        t0 = time.perf_counter()
+        out = call(x)
+        elapsed = time.perf_counter() - t0
+        pred = _check_output(out, x.shape, label)
+    else:
+        pred = np.empty_like(x)
+        elapsed = 0.0
+        for k in range(len(x)):
+            t0 = time.perf_counter()
+            # Each frame gets its own copy so a method that writes into its input
+            # cannot change what later frames or the metrics see.
+            out = call(x[k].copy())
+            elapsed += time.perf_counter() - t0
+            pred[k] = _check_output(out, x.shape[1:], label)
+    return pred, 1000.0 * elapsed / len(x)
