@@ -40,7 +40,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+import torch
 from joblib import Parallel, delayed
+from torch import nn
 
 from estimators.priors import AVAILABLE_CANDIDATES, prior_features
 from inpaintenv.data import KittiDepth
@@ -174,6 +176,16 @@ VARIANTS: dict[str, dict] = {
     # the shipped recipe with other initialisation and batch seeds (members of an ensemble)
     "context-bal-s1": {"context": 8, "balance": 1.0, "seed": 1},
     "context-bal-s2": {"context": 8, "balance": 1.0, "seed": 2},
+    # more passes over the samples (the shipped recipe trains 4)
+    "context-bal-e8": {"context": 8, "balance": 1.0, "epochs": 8},
+    # the context U-Net also reads each cell's height in the frame (CoordConv): where the
+    # horizon and the road lie, which the scale-free channels only imply
+    "context-bal-coord": {"context": 8, "balance": 1.0, "coords": True},
+    # a wider context U-Net and more context features per pixel
+    "context-bal-wide": {"context": 16, "balance": 1.0, "widths": (24, 48, 64, 96)},
+    # the context U-Net also predicts a coarse depth, which the blend takes as one more
+    # candidate: a fill that need not come from the hole's border
+    "context-bal-cand": {"context": 8, "balance": 1.0, "context_candidate": True},
 }
 BLEND_CANDS = ["scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"]
 CLASSICAL = ["scanline", "scanline-inverse", "harmonic", "harmonic-inverse"]
@@ -210,13 +222,61 @@ class Cache:
         return torch.nn.functional.avg_pool2d(t, 2, ceil_mode=True)
 
 
+class RowCoordinates(nn.Module):
+    """A context U-Net that also reads each cell's height above the frame's bottom
+    (0 at the bottom row of cells, 1 at the top), appended to the grid (CoordConv)."""
+
+    def __init__(self, unet: nn.Module):
+        super().__init__()
+        self.inner = unet
+
+    def forward(self, grid: torch.Tensor) -> torch.Tensor:
+        n, _, h, w = grid.shape
+        rows = (h - 1 - torch.arange(h, dtype=grid.dtype)) / max(h - 1, 1)
+        return self.inner(torch.cat([grid, rows.view(1, 1, h, 1).expand(n, 1, h, w)], 1))
+
+
+class ContextCandidateNet(nn.Module):
+    """:class:`ContextBlendNet` whose context U-Net also outputs a depth per cell (log, relative
+    to the frame's reference), sampled per pixel and blended as a sixth candidate."""
+
+    def __init__(self, k: int, n_context: int, widths: tuple, width: int, layers: int):
+        super().__init__()
+        from estimators.learned.nets.context_blend import GRID_BASE_CHANNELS, ContextBlendNet, ContextUNet
+        from estimators.learned.nets.pixel_blend import PixelBlendNet
+
+        self.k = k
+        self._mirror = ContextBlendNet(k, n_context, widths, width, layers).mirror_order()
+        self.context = ContextUNet(len(GRID_BASE_CHANNELS) + k, n_context + 1, widths)
+        self.pixel = PixelBlendNet(k + 1, 4, width, layers, n_endpoints=4, relative=True, n_extra=n_context + 1)
+        self.sample = ContextBlendNet.sample
+
+    def mirror_order(self) -> list[int]:
+        return self._mirror
+
+    def blend_pixels(self, channels: torch.Tensor, context: torch.Tensor, ref) -> torch.Tensor:
+        from estimators.learned.nets.pixel_blend import MIN_DEPTH
+
+        k = self.k
+        prior = torch.exp((context[-1] + ref).clamp(-5.0, 6.0))  # 0.007 m .. 400 m
+        rel = torch.log(channels[:k].clamp_min(MIN_DEPTH)).mean(dim=0, keepdim=True) - ref
+        ch = torch.cat([channels[:k], prior[None], channels[k:]], dim=0)
+        return self.pixel.blend_channels(ch, torch.cat([context[:-1], rel], dim=0))
+
+
 def make_net(variant: dict):
-    from estimators.learned.nets.context_blend import ContextBlendNet
+    from estimators.learned.nets.context_blend import GRID_BASE_CHANNELS, ContextBlendNet, ContextUNet
     from estimators.learned.nets.pixel_blend import PixelBlendNet
 
     k, width, layers = len(BLEND_CANDS), int(variant.get("width", 64)), int(variant.get("layers", 2))
     if variant.get("context"):
-        return ContextBlendNet(k, int(variant["context"]), tuple(variant.get("widths", (16, 32, 48, 64))), width, layers)
+        widths = tuple(variant.get("widths", (16, 32, 48, 64)))
+        if variant.get("context_candidate"):
+            return ContextCandidateNet(k, int(variant["context"]), widths, width, layers)
+        net = ContextBlendNet(k, int(variant["context"]), widths, width, layers)
+        if variant.get("coords"):
+            net.context = RowCoordinates(ContextUNet(len(GRID_BASE_CHANNELS) + k + 1, int(variant["context"]), widths))
+        return net
     return PixelBlendNet(k, 4, width, layers, n_endpoints=4, relative=True)
 
 
