@@ -20,6 +20,12 @@ together on cached samples.
     samples, predict the held-out evaluation samples and print the mean per-frame hole
     RMSE, that of the strongest classical fill on the same frame-masks, and the ratio
     with a paired 95 % bootstrap interval.
+``select``
+    Chooses between variants without looking at the frames ``fit`` reports: for each fold,
+    a ``GroupKFold`` over the drives of that fold's *training* samples (``--inner``
+    splits); each variant is trained on the other drives of every split and scored on the
+    split's held-out drives; the variant with the lowest pooled ratio to the strongest
+    classical fill is the fold's choice, and ``fit`` then reports that choice on the fold.
 
 Examples
 --------
@@ -29,6 +35,8 @@ Examples
     python experiments/context_blend.py fit --cache ctx-cache --variant context-bal-s1 --preds ctx-preds  # process
     python experiments/context_blend.py fit --cache ctx-cache --variant context-bal --variant context-bal-s1 \
         --preds ctx-preds --ensemble                             # reads both back, scores their mean
+    python experiments/context_blend.py select --cache ctx-cache --variant blend --variant context-bal \
+        --folds "drive 0001"                                     # nested selection, then `fit` reports
 """
 
 from __future__ import annotations
@@ -382,15 +390,8 @@ def cmd_fit(args: argparse.Namespace) -> None:
 
     folder = Path(args.cache)
     train, ev = Cache(folder, "train"), Cache(folder, "eval")
-    if args.eval_seeds:
-        keep_eval = [k for k, m in enumerate(ev.meta) if m["seed"] in args.eval_seeds]
-    else:
-        keep_eval = list(range(len(ev.meta)))
-    # frame-masks with no ground truth in the hole leave every mean, as in the benchmark
-    keep_eval = [k for k in keep_eval if ev.slices[k].stop > ev.slices[k].start]
-    classical_rmse = {c: np.array([_rmse(ev.x[ev.slices[k]][:, CHANNELS.index(c)], ev.y[ev.slices[k]])
-                                   if ev.slices[k].stop > ev.slices[k].start else np.nan
-                                   for k in range(len(ev.meta))]) for c in CLASSICAL}
+    keep_eval = _scored_eval(ev, args.eval_seeds)
+    classical_rmse = _classical_rmse(ev)
     chosen = {n: f for n, f in folds(ev.meta).items() if not args.folds or any(s in n for s in args.folds)}
     models: dict = {}
     results: dict = {}
@@ -442,6 +443,65 @@ def cmd_fit(args: argparse.Namespace) -> None:
     print(json.dumps({f"{v}|{f}": round(r, 4) for (v, f), r in results.items()}))
 
 
+def _scored_eval(ev: Cache, seeds: list[int] | None) -> list[int]:
+    """Evaluation samples to score: of ``seeds`` (all if None), with ground truth in the hole."""
+    keep = [k for k, m in enumerate(ev.meta) if not seeds or m["seed"] in seeds]
+    # frame-masks with no ground truth in the hole leave every mean, as in the benchmark
+    return [k for k in keep if ev.slices[k].stop > ev.slices[k].start]
+
+
+def _classical_rmse(ev: Cache) -> dict[str, np.ndarray]:
+    """Hole RMSE of every classical candidate on every evaluation sample (NaN without ground truth)."""
+    return {c: np.array([_rmse(ev.x[ev.slices[k]][:, CHANNELS.index(c)], ev.y[ev.slices[k]])
+                         if ev.slices[k].stop > ev.slices[k].start else np.nan for k in range(len(ev.meta))])
+            for c in CLASSICAL}
+
+
+def cmd_select(args: argparse.Namespace) -> None:
+    from sklearn.model_selection import GroupKFold
+
+    from inpaintenv.report.stats import bootstrap_ratio_ci
+
+    folder = Path(args.cache)
+    train, ev = Cache(folder, "train"), Cache(folder, "eval")
+    keep_eval = _scored_eval(ev, args.eval_seeds)
+    classical_rmse = _classical_rmse(ev)
+    chosen = {n: f for n, f in folds(ev.meta).items()
+              if "check" not in n and (not args.folds or any(s in n for s in args.folds))}
+    summary: dict[str, dict] = {}
+    for fname, (is_train, _) in chosen.items():
+        tidx = np.array([k for k, m in enumerate(train.meta) if is_train(m)])
+        drives = np.array([train.meta[k]["drive"] for k in tidx])
+        if len(set(drives)) < 2:
+            print(f"select | {fname}: fewer than 2 training drives, nothing to choose on", flush=True)
+            continue
+        splits = list(GroupKFold(n_splits=min(args.inner, len(set(drives)))).split(tidx, groups=drives))
+        scores = {}
+        for vname in args.variant:
+            variant = VARIANTS[vname]
+            seed, epochs = int(variant.get("seed", args.seed)), int(variant.get("epochs", args.epochs))
+            mine, eidx_all = [], []
+            for tr, te in splits:
+                held = set(drives[te])
+                # the held-out drives' evaluation masks, never a frame of the fold's own report
+                eidx = [k for k in keep_eval if ev.meta[k]["split"] == "train" and ev.meta[k]["drive"] in held]
+                net = train_fold(train, list(tidx[tr]), variant, seed, epochs, threads=args.threads)
+                preds = predict_samples(net, ev, eidx, variant)[1 if args.no_tta else 0]
+                mine += [_rmse(p, ev.y[ev.slices[k]]) for p, k in zip(preds, eidx)]
+                eidx_all += eidx
+            means = {c: classical_rmse[c][eidx_all].mean() for c in CLASSICAL}
+            best = min(means, key=means.get)
+            ratio, lo, hi = bootstrap_ratio_ci(np.array(mine), classical_rmse[best][eidx_all])
+            scores[vname] = ratio
+            print(f"select {vname:>16} | {fname:<24} | {len(splits)} inner folds over "
+                  f"{len(set(drives))} drives | n={len(eidx_all):4d} | ratio {ratio:.3f} [{lo:.3f}, {hi:.3f}]",
+                  flush=True)
+        pick = min(scores, key=scores.get)
+        print(f"select | {fname}: choose {pick}", flush=True)
+        summary[fname] = {"choice": pick, "inner_ratio": {v: round(r, 4) for v, r in scores.items()}}
+    print(json.dumps(summary))
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -469,8 +529,18 @@ def main(argv: list[str] | None = None) -> int:
                    help="score predictions without the mirrored frame's (the flip test-time augmentation)")
     f.add_argument("--ensemble", action="store_true",
                    help="also score the mean of the listed variants' predictions per fold")
+    s = sub.add_parser("select", help="choose between variants by GroupKFold over each fold's training drives")
+    s.add_argument("--cache", required=True)
+    s.add_argument("--variant", action="append", choices=sorted(VARIANTS), required=True)
+    s.add_argument("--folds", nargs="*", default=None, help="substrings of fold names to run")
+    s.add_argument("--inner", type=int, default=3, help="GroupKFold splits over the fold's training drives")
+    s.add_argument("--eval-seeds", type=int, nargs="*", default=None)
+    s.add_argument("--epochs", type=int, default=4)
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--threads", type=int, default=2)
+    s.add_argument("--no-tta", action="store_true", help="score without the mirrored frame's prediction")
     args = p.parse_args(argv)
-    {"cache": cmd_cache, "fit": cmd_fit}[args.cmd](args)
+    {"cache": cmd_cache, "fit": cmd_fit, "select": cmd_select}[args.cmd](args)
     return 0
 
 

@@ -78,3 +78,47 @@ def test_fit_prints_each_variant_and_their_ensemble_per_fold(load_experiment, tw
               "--threads", "1", "--folds", "day 2011_09_30"])
     out = capsys.readouterr().out
     assert "predictions from" not in out and "fit " in out
+
+
+def test_select_chooses_on_held_out_training_drives_only(load_experiment, two_day_kitti, tmp_path, capsys,
+                                                         monkeypatch):
+    ctx = load_experiment("context_blend")
+    cache = tmp_path / "cache"
+    ctx.main(["cache", "--kitti-root", str(two_day_kitti), "--out", str(cache), "--train-masks", "1",
+              "--pixels", "64", "--jobs", "1"])
+    tiny = {"context": 2, "balance": 1.0, "widths": (4, 8), "width": 8, "layers": 1, "epochs": 2}
+    # the variants measured for issue 23, at toy size: row coordinates, a context candidate
+    ctx.VARIANTS["tiny-coord"] = {**tiny, "coords": True}
+    ctx.VARIANTS["tiny-cand"] = {**tiny, "context_candidate": True}
+    calls = []  # (drives trained on, drives scored) of every inner split
+    train_fold, predict = ctx.train_fold, ctx.predict_samples
+
+    def recording_train(cache_, idx, *a, **kw):
+        calls.append(({cache_.meta[k]["drive"] for k in idx}, set()))
+        return train_fold(cache_, idx, *a, **kw)
+
+    def recording(net, cache_, idx, variant):
+        calls[-1][1].update(cache_.meta[k]["drive"] for k in idx)
+        return predict(net, cache_, idx, variant)
+
+    monkeypatch.setattr(ctx, "train_fold", recording_train)
+    monkeypatch.setattr(ctx, "predict_samples", recording)
+    capsys.readouterr()
+    ctx.main(["select", "--cache", str(cache), "--variant", "tiny-coord", "--variant", "tiny-cand", "--inner", "2",
+              "--threads", "1"])
+    out = capsys.readouterr().out
+    summary = json.loads(out.strip().splitlines()[-1])
+    # day 2011_09_26 leaves one training drive (9018): nothing to choose on
+    assert "day 2011_09_26: fewer than 2 training drives" in out
+    assert set(summary) == {"day 2011_09_30", "drive 0001 (official)"}
+    for fold, result in summary.items():
+        assert result["choice"] in ("tiny-coord", "tiny-cand")
+        assert set(result["inner_ratio"]) == {"tiny-coord", "tiny-cand"}
+        assert all(r > 0 for r in result["inner_ratio"].values())
+    # every split scores drives it did not train on, all among the fold's own training drives:
+    # never the left-out day (2011_09_30) or drive 0001's official maps that `fit` reports
+    d0001, d9001, d9018 = (d for _, d in DRIVES[:3])
+    assert len(calls) == 2 * 2 * 2  # folds x variants x inner splits
+    for trained, held in calls:
+        assert held and not trained & held
+        assert trained | held in ({d0001, d9001}, {d9001, d9018})
