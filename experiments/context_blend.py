@@ -184,13 +184,9 @@ VARIANTS: dict[str, dict] = {
     # the shipped recipe with other initialisation and batch seeds (members of an ensemble)
     "context-bal-s1": {"context": 8, "balance": 1.0, "seed": 1},
     "context-bal-s2": {"context": 8, "balance": 1.0, "seed": 2},
-    # more passes over the samples (the shipped recipe trains 4)
-    "context-bal-e8": {"context": 8, "balance": 1.0, "epochs": 8},
     # the context U-Net also reads each cell's height in the frame (CoordConv): where the
     # horizon and the road lie, which the scale-free channels only imply
     "context-bal-coord": {"context": 8, "balance": 1.0, "coords": True},
-    # a wider context U-Net and more context features per pixel
-    "context-bal-wide": {"context": 16, "balance": 1.0, "widths": (24, 48, 64, 96)},
     # the context U-Net also predicts a coarse depth, which the blend takes as one more
     # candidate: a fill that need not come from the hole's border
     "context-bal-cand": {"context": 8, "balance": 1.0, "context_candidate": True},
