@@ -250,13 +250,15 @@ class ContextCandidateNet(nn.Module):
         from estimators.learned.nets.pixel_blend import PixelBlendNet
 
         self.k = k
-        self._mirror = ContextBlendNet(k, n_context, widths, width, layers).mirror_order()
         self.context = ContextUNet(len(GRID_BASE_CHANNELS) + k, n_context + 1, widths)
         self.pixel = PixelBlendNet(k + 1, 4, width, layers, n_endpoints=4, relative=True, n_extra=n_context + 1)
         self.sample = ContextBlendNet.sample
 
     def mirror_order(self) -> list[int]:
-        return self._mirror
+        """Mirror order of the cached channels (the k classical candidates, gaps, endpoints):
+        the pixel net's, without the context candidate it inserts at position k."""
+        k = self.k
+        return [i if i < k else i - 1 for i in self.pixel.mirror_order() if i != k]
 
     def blend_pixels(self, channels: torch.Tensor, context: torch.Tensor, ref) -> torch.Tensor:
         from estimators.learned.nets.pixel_blend import MIN_DEPTH
@@ -458,6 +460,8 @@ def cmd_select(args: argparse.Namespace) -> None:
 
     from inpaintenv.report.stats import bootstrap_ratio_ci
 
+    if args.inner < 2:
+        raise SystemExit(f"--inner must be at least 2 (a GroupKFold needs two splits), got {args.inner}")
     folder = Path(args.cache)
     train, ev = Cache(folder, "train"), Cache(folder, "eval")
     keep_eval = _scored_eval(ev, args.eval_seeds)
@@ -468,10 +472,11 @@ def cmd_select(args: argparse.Namespace) -> None:
     for fname, (is_train, _) in chosen.items():
         tidx = np.array([k for k, m in enumerate(train.meta) if is_train(m)])
         drives = np.array([train.meta[k]["drive"] for k in tidx])
-        if len(set(drives)) < 2:
+        n_drives = len(set(drives))
+        if n_drives < 2:
             print(f"select | {fname}: fewer than 2 training drives, nothing to choose on", flush=True)
             continue
-        splits = list(GroupKFold(n_splits=min(args.inner, len(set(drives)))).split(tidx, groups=drives))
+        splits = list(GroupKFold(n_splits=min(args.inner, n_drives)).split(tidx, groups=drives))
         scores = {}
         for vname in args.variant:
             variant = VARIANTS[vname]
@@ -490,7 +495,7 @@ def cmd_select(args: argparse.Namespace) -> None:
             ratio, lo, hi = bootstrap_ratio_ci(np.array(mine), classical_rmse[best][eidx_all])
             scores[vname] = ratio
             print(f"select {vname:>16} | {fname:<24} | {len(splits)} inner folds over "
-                  f"{len(set(drives))} drives | n={len(eidx_all):4d} | ratio {ratio:.3f} [{lo:.3f}, {hi:.3f}]",
+                  f"{n_drives} drives | n={len(eidx_all):4d} | ratio {ratio:.3f} [{lo:.3f}, {hi:.3f}]",
                   flush=True)
         pick = min(scores, key=scores.get)
         print(f"select | {fname}: choose {pick}", flush=True)
@@ -511,30 +516,25 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--pixels", type=int, default=3000)
     c.add_argument("--jobs", type=int, default=2)
     c.add_argument("--limit", type=int, default=None, help="at most N frames per drive and camera (quick tests)")
-    f = sub.add_parser("fit", help="train and score each variant per fold")
-    f.add_argument("--cache", required=True)
-    f.add_argument("--variant", action="append", choices=sorted(VARIANTS), required=True)
-    f.add_argument("--folds", nargs="*", default=None, help="substrings of fold names to run")
-    f.add_argument("--eval-seeds", type=int, nargs="*", default=None)
-    f.add_argument("--epochs", type=int, default=4)
-    f.add_argument("--seed", type=int, default=0)
-    f.add_argument("--threads", type=int, default=2)
+    # what fit and select share: the cache, the variants and folds, and how each is trained and scored
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--cache", required=True)
+    common.add_argument("--variant", action="append", choices=sorted(VARIANTS), required=True)
+    common.add_argument("--folds", nargs="*", default=None, help="substrings of fold names to run")
+    common.add_argument("--eval-seeds", type=int, nargs="*", default=None)
+    common.add_argument("--epochs", type=int, default=4)
+    common.add_argument("--seed", type=int, default=0)
+    common.add_argument("--threads", type=int, default=2)
+    common.add_argument("--no-tta", action="store_true",
+                        help="score predictions without the mirrored frame's (the flip test-time augmentation)")
+    f = sub.add_parser("fit", parents=[common], help="train and score each variant per fold")
     f.add_argument("--preds", help="folder keeping each variant's predictions per fold; a variant already "
                    "there is read back, not trained (runs of single variants can go in parallel)")
-    f.add_argument("--no-tta", action="store_true",
-                   help="score predictions without the mirrored frame's (the flip test-time augmentation)")
     f.add_argument("--ensemble", action="store_true",
                    help="also score the mean of the listed variants' predictions per fold")
-    s = sub.add_parser("select", help="choose between variants by GroupKFold over each fold's training drives")
-    s.add_argument("--cache", required=True)
-    s.add_argument("--variant", action="append", choices=sorted(VARIANTS), required=True)
-    s.add_argument("--folds", nargs="*", default=None, help="substrings of fold names to run")
+    s = sub.add_parser("select", parents=[common],
+                       help="choose between variants by GroupKFold over each fold's training drives")
     s.add_argument("--inner", type=int, default=3, help="GroupKFold splits over the fold's training drives")
-    s.add_argument("--eval-seeds", type=int, nargs="*", default=None)
-    s.add_argument("--epochs", type=int, default=4)
-    s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--threads", type=int, default=2)
-    s.add_argument("--no-tta", action="store_true", help="score without the mirrored frame's prediction")
     args = p.parse_args(argv)
     {"cache": cmd_cache, "fit": cmd_fit, "select": cmd_select}[args.cmd](args)
     return 0

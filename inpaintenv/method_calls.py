@@ -48,7 +48,6 @@ def _as_predictor(method: Any) -> tuple[Callable[[np.ndarray], Any], bool]:
     )
 
 
-
 def _check_output(out: Any, expected: tuple[int, ...], name: str) -> np.ndarray:
     """Validate a method's reconstruction; errors name the method."""
     try:
@@ -73,7 +72,6 @@ def _check_output(out: Any, expected: tuple[int, ...], name: str) -> np.ndarray:
             f"method {name!r} returned negative depth (min {float(arr.min()):.3g} m)"
         )
     return arr
-
 
 
 def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.ndarray, float]:

@@ -103,6 +103,9 @@ def test_select_chooses_on_held_out_training_drives_only(load_experiment, two_da
 
     monkeypatch.setattr(ctx, "train_fold", recording_train)
     monkeypatch.setattr(ctx, "predict_samples", recording)
+    with pytest.raises(SystemExit, match="--inner must be at least 2"):
+        ctx.main(["select", "--cache", str(cache), "--variant", "tiny-coord", "--inner", "1"])
+    assert not calls
     capsys.readouterr()
     ctx.main(["select", "--cache", str(cache), "--variant", "tiny-coord", "--variant", "tiny-cand", "--inner", "2",
               "--threads", "1"])
