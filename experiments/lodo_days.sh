@@ -20,6 +20,8 @@
 # (experiments/pooled_headline.py pools a fold's drives). Rerunning resumes.
 # TRAIN_FLAGS adds options to every `inpaintenv train` (e.g. "--threads 1 --jobs 1" beside
 # other work); BENCH_FLAGS to every `inpaintenv benchmark` (e.g. "-m kitti-rect-v4").
+# TRAIN_JOBS=N trains the folds' models N at a time (separate processes) before any benchmark
+# runs, e.g. TRAIN_JOBS=2 TRAIN_FLAGS="--threads 1 --jobs 1" on 2 cores; default 1, in turn.
 # SUITE names the benchmark suite (default classical); SUITE= (empty) scores only the
 # fold models and BENCH_FLAGS' methods, e.g. a speed check of trained folds against harmonic:
 #   SUITE= BENCH_FLAGS="-m harmonic" bash experiments/lodo_days.sh <KITTI root> lodo-speed
@@ -56,8 +58,8 @@ checkpoints() {  # sets CHECKPOINTS: a --checkpoint flag for each preset's model
   done
 }
 
-fold() {  # fold name, drives to leave out and score (space-separated), camera to score
-  local NAME=$1 HELD=$2 CAMERA=$3 ENTRY PRESET STEPS
+train_fold() {  # fold name, drives to leave out (space-separated): train each preset once
+  local NAME=$1 HELD=$2 ENTRY PRESET STEPS
   for ENTRY in "${PRESETS[@]}"; do
     PRESET=${ENTRY%%:*}
     STEPS=()
@@ -68,12 +70,28 @@ fold() {  # fold name, drives to leave out and score (space-separated), camera t
         --exclude-drives $HELD "${STEPS[@]}" --out "$OUT/train-$NAME-$PRESET" --quiet ${TRAIN_FLAGS:-}
     fi
   done
+}
+
+fold() {  # fold name, drives to leave out and score (space-separated), camera to score
+  local NAME=$1 HELD=$2 CAMERA=$3
+  train_fold "$NAME" "$HELD"
   checkpoints "$NAME"
   # shellcheck disable=SC2086
   inpaintenv benchmark --kitti-root "$ROOT" --split train --camera "$CAMERA" --drives $HELD --holdout 0 \
     "${SUITE_FLAGS[@]}" "${CHECKPOINTS[@]}" "${SEED_FLAGS[@]}" --figure-frames 0 --out "$OUT/bench-$NAME" \
     ${BENCH_FLAGS:-}
 }
+
+TRAIN_JOBS=${TRAIN_JOBS:-1}
+if [ "$TRAIN_JOBS" -gt 1 ]; then  # every fold's training first, TRAIN_JOBS at a time
+  for D in $DAYS; do
+    while [ "$(jobs -pr | wc -l)" -ge "$TRAIN_JOBS" ]; do wait -n; done
+    train_fold "day-$D" "$(drives_of_day "$D")" &
+  done
+  while [ "$(jobs -pr | wc -l)" -ge "$TRAIN_JOBS" ]; do wait -n; done
+  train_fold "drive-0001" "$OFFICIAL" &
+  while [ "$(jobs -pr | wc -l)" -gt 0 ]; do wait -n || exit 1; done
+fi
 
 for D in $DAYS; do
   fold "day-$D" "$(drives_of_day "$D")" image_02

@@ -86,6 +86,12 @@ class ContextBlendInpainter(BlendInpainter):
         estimator's seed, so it is the network ``n_members=1`` trains); ``predict``
         averages them. Each member costs one more training run and one more network
         pass per prediction; the candidate features are computed once.
+    member_samples : {"shared", "own"}, default "shared"
+        Training samples of the members: ``"shared"`` draws one set (occlusions, thinning,
+        pixels) that every member trains on; ``"own"`` gives member ``m`` its own draw from
+        its own seed, so the members differ in the occlusions they learn from as well as
+        in initialisation (member 0's draw is the one ``n_members=1`` makes). ``"own"``
+        computes the samples once per member.
     keep : tuple of float, default (1.0, 0.6)
         Training inputs per occlusion: fractions of the measured pixels kept outside
         the hole (0.6 is about as sparse as KITTI's official maps).
@@ -123,7 +129,8 @@ class ContextBlendInpainter(BlendInpainter):
     history_ : dict
         ``epoch_loss``: mean training MSE (m²) per epoch.
     n_samples_, n_pixels_ : int
-        Training samples (frame, occlusion, keep) and pixels.
+        Training samples (frame, occlusion, keep) and pixels, over every member's own
+        draw with ``member_samples="own"``.
     training_frames_ : int
         Frames with ground truth used.
     fit_seconds_ : float
@@ -140,6 +147,7 @@ class ContextBlendInpainter(BlendInpainter):
         layers: int = 2,
         residual: bool = True,
         n_members: int = 1,
+        member_samples: str = "shared",
         keep: tuple[float, ...] = (1.0, 0.6),
         masks_per_frame: int = 3,
         pixels_per_frame: int = 3000,
@@ -164,6 +172,7 @@ class ContextBlendInpainter(BlendInpainter):
         self.layers = layers
         self.residual = residual
         self.n_members = n_members
+        self.member_samples = member_samples
         self.keep = keep
         self.masks_per_frame = masks_per_frame
         self.pixels_per_frame = pixels_per_frame
@@ -202,6 +211,8 @@ class ContextBlendInpainter(BlendInpainter):
         b = self.balance
         if isinstance(b, bool) or not isinstance(b, (int, float, np.floating)) or not 0.0 <= b <= 1.0:
             raise ValueError(f"balance must be a number in [0, 1], got {b!r}")
+        if self.member_samples not in ("shared", "own"):
+            raise ValueError(f"member_samples must be 'shared' or 'own', got {self.member_samples!r}")
 
     def _model_params(self) -> dict[str, Any]:
         params = {"candidates": list(self.candidates), "n_context": int(self.n_context),
@@ -234,11 +245,9 @@ class ContextBlendInpainter(BlendInpainter):
             raise ValueError("no training frame has ground truth inside its sampled holes; nothing to learn")
         with torch_threads(self.num_threads), deterministic_torch():
             self.fit_environment_ = environment_info(torch_details=True)
-            self.model_, self.history_ = self._train(samples, groups, seed)
+            self.model_, self.history_ = self._train(dataset, samples, groups, seed)
         self.seed_ = seed
         self.model_params_ = self._model_params()
-        self.n_samples_ = len(samples)
-        self.n_pixels_ = int(sum(len(s["y"]) for s in samples))
         self.fit_seconds_ = time.perf_counter() - start
 
     def training_samples(self, dataset: DepthDataset, seed: int | None = None) -> tuple[list[dict], list[str]]:
@@ -274,15 +283,26 @@ class ContextBlendInpainter(BlendInpainter):
             sample_groups += [str(groups[i])] * len(frame)
         return samples, sample_groups
 
-    def _train(self, samples: list[dict], groups: list[str], seed: int) -> tuple[nn.Module, dict]:
-        """Train ``n_members`` fresh networks on the samples: member 0 from ``seed``, the others
-        from seeds derived from it."""
+    def _train(self, dataset: DepthDataset, samples: list[dict], groups: list[str],
+               seed: int) -> tuple[nn.Module, dict]:
+        """Train ``n_members`` fresh networks: member 0 from ``seed`` on ``samples``, the others
+        from seeds derived from it, on the same samples or (``member_samples="own"``) on
+        samples drawn from their own seed."""
         n = int(self.n_members)
         seeds = [seed] + [int(s) for s in np.random.SeedSequence([seed, 0xE75]).generate_state(n - 1)]
         trained = []
+        self.n_samples_, self.n_pixels_ = 0, 0
         for m, member_seed in enumerate(seeds):
             if self.verbose and n > 1:
                 print(f"member {m + 1}/{n} (seed {member_seed})", flush=True)
+            if m > 0 and self.member_samples == "own":
+                frames = self.training_frames_
+                samples = groups = None  # free the previous member's samples first
+                samples, groups = self.training_samples(dataset, seed=member_seed)
+                self.training_frames_ = max(frames, self.training_frames_)
+            if m == 0 or self.member_samples == "own":
+                self.n_samples_ += len(samples)
+                self.n_pixels_ += int(sum(len(s["y"]) for s in samples))
             trained.append(self._train_network(samples, groups, member_seed))
         if n == 1:
             return trained[0]

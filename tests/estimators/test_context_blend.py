@@ -108,6 +108,26 @@ def test_an_ensemble_averages_members_trained_from_other_seeds(fitted, tmp_path)
     assert "n_members" not in fitted.model_params_
 
 
+def test_members_with_their_own_samples_train_on_other_draws(fitted, tmp_path):
+    data = ArrayDataset(_streets(), groups=list("aaaabc"))
+    own = ContextBlendInpainter(**TINY, n_members=2, member_samples="own").fit(data)
+    shared = ContextBlendInpainter(**TINY, n_members=2).fit(data)
+    # member 0 is still the one-network model: its draw and its initialisation
+    for a, b in zip(own._networks()[0].state_dict().values(), fitted.model_.state_dict().values()):
+        assert torch.equal(a, b)
+    # member 1 starts from the same seed in both modes, so only its samples differ
+    own_1, shared_1 = own._networks()[1].state_dict(), shared._networks()[1].state_dict()
+    assert any(not torch.equal(own_1[k], shared_1[k]) for k in own_1)
+    seed_1 = int(np.random.SeedSequence([0, 0xE75]).generate_state(1)[0])
+    drawn = [len(s) for s in (own.training_samples(data, seed=0)[0], own.training_samples(data, seed=seed_1)[0])]
+    assert own.n_samples_ == sum(drawn) and shared.n_samples_ == fitted.n_samples_ == drawn[0]
+    assert own.training_frames_ == fitted.training_frames_
+    loaded = ContextBlendInpainter.load(own.save(tmp_path / "own"))
+    assert loaded.member_samples == "own"
+    x = _corrupt(_streets(1, seed=6)[0])
+    np.testing.assert_array_equal(loaded.predict(x), own.predict(x))
+
+
 def test_balance_gives_drives_equal_shares():
     est = ContextBlendInpainter(**{**TINY, "balance": 1.0})
     samples, groups = est.training_samples(ArrayDataset(_streets(), groups=list("aaaabc")), seed=0)
@@ -132,6 +152,7 @@ def test_mirrored_context_sampling_matches_flipped_grid():
     ({"balance": 2.0}, r"balance must be a number in \[0, 1\]"),
     ({"batch_frames": 0}, "batch_frames must be an integer >= 1"),
     ({"n_members": 0}, "n_members must be an integer >= 1"),
+    ({"member_samples": "each"}, "member_samples must be 'shared' or 'own'"),
 ])
 def test_bad_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):

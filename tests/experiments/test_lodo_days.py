@@ -69,3 +69,11 @@ def test_an_empty_suite_scores_only_the_fold_models_and_bench_flags(kitti_root, 
     assert benches and all("--suite" not in c and c[-2:] == ["-m", "harmonic"] for c in benches)
     named = _run(kitti_root, tmp_path, "context-kitti", "0", SUITE="fast")
     assert all(c[c.index("--suite") + 1] == "fast" for c in named if c[0] == "benchmark")
+
+
+def test_train_jobs_trains_every_fold_before_any_benchmark(kitti_root, tmp_path):
+    calls = _run(kitti_root, tmp_path, "context-kitti", "0", TRAIN_JOBS="2")
+    kinds = [c[0] for c in calls]
+    trains = kinds.count("train")
+    assert trains == len({c[c.index("--out") + 1] for c in calls if c[0] == "train"}) > 1
+    assert kinds == ["train"] * trains + ["benchmark"] * (len(kinds) - trains)
