@@ -249,8 +249,8 @@ for _name, _cls, _kw, _desc in [
 # See docs/model_card.md.
 register_method(
     "pretrained", "estimators.learned.releases", "load_release", {},
-    "the default learned release, whatever its family (estimators.learned.releases.DEFAULT_RELEASE = kitti-context-v2: "
-    "two learned blends of classical fills with scene context, averaged), trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
+    "the default learned release, whatever its family (estimators.learned.releases.DEFAULT_RELEASE = kitti-context-v3: "
+    "two learned blends of classical fills with scene context, each trained on its own samples, averaged), trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
 )
 register_method(
     "blend-pretrained-mixed", "estimators.learned.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
@@ -273,6 +273,7 @@ _RELEASE_LOADERS: dict[str, tuple[str, str]] = {
     "kitti-rect-v4": ("estimators.learned.blend", "pretrained_blend"),
     "kitti-context-v1": ("estimators.learned.context_blend", "pretrained_context_blend"),
     "kitti-context-v2": ("estimators.learned.context_blend", "pretrained_context_blend"),
+    "kitti-context-v3": ("estimators.learned.context_blend", "pretrained_context_blend"),
 }
 PRETRAINED_RELEASES: tuple[str, ...] = tuple(_RELEASE_LOADERS)
 for _release, (_module, _factory) in _RELEASE_LOADERS.items():

@@ -43,7 +43,7 @@ from .nets.pixel_blend import CHUNK
 __all__ = ["DEFAULT_CONTEXT_BLEND", "ContextBlendInpainter", "pretrained_context_blend"]
 
 #: The shipped release of this class that ``pretrained`` loads.
-DEFAULT_CONTEXT_BLEND = "kitti-context-v2"
+DEFAULT_CONTEXT_BLEND = "kitti-context-v3"
 
 
 def training_sample(

@@ -62,20 +62,22 @@ _CONTEXT_V2: dict[str, Any] = {**_CONTEXT_V1, "n_members": 2, "tta": False}
 #: kitti-context-v2's recipe with each network trained on its own draw of occlusions,
 #: thinning and pixels (member_samples="own"): the run-to-run spread of one recipe on a
 #: fold follows the sample draw more than the initialisation, and v2's members share one.
+#: The shipped kitti-context-v3 (docs/model_cards/kitti-context-v3.md).
 _CONTEXT_DRAWS: dict[str, Any] = {**_CONTEXT_V2, "member_samples": "own"}
 
 #: name -> (estimator class, constructor keywords, one-line description).
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
-    # kitti-context-v2, the default learned release: two context blends averaged.
+    # kitti-context-v3, the default learned release: two context blends, each on its own samples.
+    "context-kitti-draws": (
+        ContextBlendInpainter, _CONTEXT_DRAWS,
+        "context-kitti-ensemble's two networks, each trained on its own draw of occlusions, thinning and pixels "
+        "(member_samples='own'); the same prediction cost, twice the training samples; the shipped kitti-context-v3",
+    ),
+    # kitti-context-v2: two context blends averaged, on one draw of samples.
     "context-kitti-ensemble": (
         ContextBlendInpainter, _CONTEXT_V2,
         "context-kitti's recipe trained twice from different seeds, the two networks averaged, no mirrored "
         "second pass (same prediction cost); the shipped kitti-context-v2",
-    ),
-    "context-kitti-draws": (
-        ContextBlendInpainter, _CONTEXT_DRAWS,
-        "context-kitti-ensemble's two networks, each trained on its own draw of occlusions, thinning and pixels "
-        "(member_samples='own'); the same prediction cost, twice the training samples",
     ),
     # kitti-context-v1: the blend plus a scene-context U-Net.
     "context-kitti": (

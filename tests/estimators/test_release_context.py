@@ -1,5 +1,6 @@
-"""The shipped context releases (ContextBlendInpainter): the default kitti-context-v2 (two
-networks averaged) loads under ``pretrained`` and its former names, kitti-context-v1 by name;
+"""The shipped context releases (ContextBlendInpainter): the default kitti-context-v3 (two
+networks, each trained on its own samples, averaged) loads under ``pretrained`` and its former
+names, kitti-context-v2 and kitti-context-v1 by name;
 each matches its training recipe and records its provenance; the default predicts full
 frames of every KITTI frame size, keeps measurements, and beats every classical method on
 the shared slice's official frames it never saw (the ``val`` drive)."""
@@ -27,18 +28,22 @@ def release() -> ContextBlendInpainter:
 
 
 def test_default_learned_method_is_this_release(release):
-    assert DEFAULT_RELEASE == DEFAULT_CONTEXT_BLEND == "kitti-context-v2"
+    assert DEFAULT_RELEASE == DEFAULT_CONTEXT_BLEND == "kitti-context-v3"
     assert isinstance(release, ContextBlendInpainter)
     assert release.n_members == len(release._networks()) == 2 and release.tta is False
-    for name in ("pretrained", "blend-pretrained", "unet-pretrained", "kitti-context-v2"):
+    assert release.member_samples == "own"
+    for name in ("pretrained", "blend-pretrained", "unet-pretrained", "kitti-context-v3"):
         assert make_method(name).get_params() == release.get_params()
-    former = make_method("kitti-context-v1")  # the former default, one network, loads by name
-    assert former.n_members == len(former._networks()) == 1 and former.tta is True
+    former = make_method("kitti-context-v2")  # the former default: two networks on one draw
+    assert former.n_members == len(former._networks()) == 2 and former.member_samples == "shared"
+    first = make_method("kitti-context-v1")  # one network, loads by name
+    assert first.n_members == len(first._networks()) == 1 and first.tta is True
     with pytest.raises(KeyError, match="no shipped release 'nope'; shipped: "):
         load_release("nope")
 
 
-@pytest.mark.parametrize("name, preset", [("kitti-context-v2", "context-kitti-ensemble"),
+@pytest.mark.parametrize("name, preset", [("kitti-context-v3", "context-kitti-draws"),
+                                          ("kitti-context-v2", "context-kitti-ensemble"),
                                           ("kitti-context-v1", "context-kitti")])
 def test_recipe_of_the_preset_made_these_weights(name, preset):
     # `inpaintenv train --preset <preset>` made the release: same parameters.
@@ -49,7 +54,7 @@ def test_recipe_of_the_preset_made_these_weights(name, preset):
             list(value) if isinstance(value, tuple) else value), key
 
 
-@pytest.mark.parametrize("name", ["kitti-context-v2", "kitti-context-v1"])
+@pytest.mark.parametrize("name", ["kitti-context-v3", "kitti-context-v2", "kitti-context-v1"])
 def test_release_records_its_training_drives_and_machine(name):
     config = json.loads((PRETRAINED_DIR / f"{name}.json").read_text())
     drives = config["training_drives"]
