@@ -82,21 +82,25 @@ fold() {  # fold name, drives to leave out and score (space-separated), camera t
     ${BENCH_FLAGS:-}
 }
 
+# The folds, listed once: name, drives left out and scored, camera scored.
+FOLD_NAMES=() FOLD_HELD=() FOLD_CAMERAS=()
+for D in $DAYS; do
+  FOLD_NAMES+=("day-$D") FOLD_HELD+=("$(drives_of_day "$D")") FOLD_CAMERAS+=(image_02)
+done
+FOLD_NAMES+=(drive-0001) FOLD_HELD+=("$OFFICIAL") FOLD_CAMERAS+=(both)
+
 TRAIN_JOBS=${TRAIN_JOBS:-1}
 if [ "$TRAIN_JOBS" -gt 1 ]; then  # every fold's training first, TRAIN_JOBS at a time
-  for D in $DAYS; do
+  for i in "${!FOLD_NAMES[@]}"; do
     while [ "$(jobs -pr | wc -l)" -ge "$TRAIN_JOBS" ]; do wait -n; done
-    train_fold "day-$D" "$(drives_of_day "$D")" &
+    train_fold "${FOLD_NAMES[i]}" "${FOLD_HELD[i]}" &
   done
-  while [ "$(jobs -pr | wc -l)" -ge "$TRAIN_JOBS" ]; do wait -n; done
-  train_fold "drive-0001" "$OFFICIAL" &
   while [ "$(jobs -pr | wc -l)" -gt 0 ]; do wait -n || exit 1; done
 fi
 
-for D in $DAYS; do
-  fold "day-$D" "$(drives_of_day "$D")" image_02
+for i in "${!FOLD_NAMES[@]}"; do
+  fold "${FOLD_NAMES[i]}" "${FOLD_HELD[i]}" "${FOLD_CAMERAS[i]}"
 done
-fold "drive-0001" "$OFFICIAL" both
 # The val frames (official maps of other drives), scored by the models trained without 0001.
 checkpoints drive-0001
 # shellcheck disable=SC2086

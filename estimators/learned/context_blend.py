@@ -297,7 +297,7 @@ class ContextBlendInpainter(BlendInpainter):
                 print(f"member {m + 1}/{n} (seed {member_seed})", flush=True)
             if m > 0 and self.member_samples == "own":
                 frames = self.training_frames_
-                samples = groups = None  # free the previous member's samples first
+                samples = groups = None  # drop the previous own draw before the next (the caller keeps member 0's)
                 samples, groups = self.training_samples(dataset, seed=member_seed)
                 self.training_frames_ = max(frames, self.training_frames_)
             if m == 0 or self.member_samples == "own":
