@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from inpaintenv.report.results import EvaluationResult
 
@@ -29,3 +30,24 @@ def test_pooled_ratio_over_drives_and_one_learned_method(tmp_path, capsys, load_
     assert "other 30.00" in capsys.readouterr().out
     assert script.main([str(tmp_path), "--learned", "nope"]) == 1
     assert script.main([str(tmp_path / "missing")]) == 1
+
+
+def test_gate_ceiling_takes_the_best_method_of_each_frame_mask(tmp_path, capsys, load_experiment):
+    script = load_experiment("pooled_headline")
+    rows = []
+    for i, (mine, harmonic, scanline) in enumerate([(8.0, 10.0, 12.0), (9.0, 6.0, 7.0), (5.0, 5.0, 4.0)]):
+        rows += [_row("mine", "a", i, mine), _row("harmonic", "a", i, harmonic), _row("scanline", "a", i, scanline)]
+    rows.append({**_row("other", "a", 0, 1.0), "hole_count": 0})  # no truth in its hole: never counted
+    result = EvaluationResult(rows=rows)
+    gate = script.gate_ceiling(result, "mine", "harmonic")
+    assert gate["n"] == 3
+    assert np.isclose(gate["ceiling"], (8.0 + 6.0 + 4.0) / (10.0 + 6.0 + 5.0))
+    assert np.isclose(gate["learned_worse"], 2 / 3)  # frames 1 and 2: a classical fill beats mine
+    result.to_json(tmp_path / "results.json")
+    assert script.main([str(tmp_path), "--learned", "mine", "--gate-ceiling"]) == 0
+    out = capsys.readouterr().out
+    assert "reaches 0.857x harmonic" in out and "on 67 % of 3 frame-masks" in out
+    with pytest.raises(ValueError, match="no classical method"):
+        script.gate_ceiling(EvaluationResult(rows=rows[:1]), "mine", "harmonic")
+    with pytest.raises(ValueError, match="no frame-mask"):
+        script.gate_ceiling(EvaluationResult(rows=rows[-1:] + rows[1:2]), "other", "harmonic")
