@@ -6,6 +6,7 @@ A script of experiments/ loaded as a module (the folder is not a package), and a
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -22,7 +23,11 @@ def load_experiment():
     def load(name: str) -> ModuleType:
         spec = importlib.util.spec_from_file_location(name, EXPERIMENTS / f"{name}.py")
         module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        sys.path.insert(0, str(EXPERIMENTS))  # a script imports its siblings, as when run from there
+        try:
+            spec.loader.exec_module(module)
+        finally:
+            sys.path.remove(str(EXPERIMENTS))
         return module
 
     return load

@@ -1,0 +1,92 @@
+"""Two learned models and the mean of their predictions, against the classical fills, on the same frames.
+
+Each model and the per-pixel mean of the two are scored with the classical methods in one
+evaluation (the benchmark's masks: frame ``i`` of the selected frames under seed ``s``), and
+each learned entry is printed over the strongest classical method with its paired 95 %
+interval, pooled over the frames (:func:`inpaintenv.benchmark.headline.learned_vs_classical`).
+It measures whether two models of different families err in different places: a mean that
+beats both is the case for an ensemble of the two. Score models on frames neither was trained
+on, e.g. a leave-one-day-out fold model of ``experiments/lodo_days.sh`` and a release trained
+on other days.
+
+Examples
+--------
+    python experiments/mean_of_models.py --kitti-root <KITTI root> --day 2011_10_03 \\
+        lodo/train-day-2011_10_03-context-kitti-draws/model kitti-rect-v4 -m harmonic -m scanline
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from focal_probe import load_method
+from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
+from inpaintenv.data.kitti import KittiDepth
+from inpaintenv.evaluate import evaluate
+from inpaintenv.registry import make_method
+from inpaintenv.report.results import EvaluationResult
+
+
+class MeanOfModels:
+    """Per-pixel mean of the predictions of ``models`` (each with ``predict``)."""
+
+    def __init__(self, models: list[Any]) -> None:
+        if len(models) < 2:
+            raise ValueError(f"a mean needs at least two models, got {len(models)}")
+        self.models = models
+
+    def predict(self, depth: np.ndarray) -> np.ndarray:
+        return np.mean([np.asarray(m.predict(depth), dtype=np.float32) for m in self.models], axis=0)
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("models", nargs=2, help="two saved model folders or registry names of learned methods")
+    p.add_argument("-m", "--method", action="append", default=[], help="classical registry method (repeatable)")
+    p.add_argument("--kitti-root", required=True)
+    p.add_argument("--split", default="train")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--drive", action="append", help="a drive to score (repeatable)")
+    where.add_argument("--day", help="score every drive of this recording day, e.g. 2011_10_03")
+    p.add_argument("--camera", default="image_02")
+    p.add_argument("--seed", type=int, action="append", help="mask seed (repeatable; default 0 and 1)")
+    p.add_argument("--protocol", default="rect-v1")
+    args = p.parse_args(argv)
+    unknown = [m for m in args.method if m not in CLASSICAL_METHODS]
+    if not args.method or unknown:
+        p.error("-m takes one or more classical methods (the ratio's denominator)"
+                + (f"; not classical: {', '.join(unknown)}" if unknown else ""))
+    drives = args.drive
+    if args.day:
+        drives = sorted({str(g) for g in KittiDepth(args.kitti_root, split=args.split).groups
+                         if str(g).startswith(args.day)})
+        if not drives:
+            p.error(f"no {args.split} drive of day {args.day}")
+    frames = KittiDepth(args.kitti_root, split=args.split, drives=drives, camera=args.camera)
+    (name_a, a), (name_b, b) = (load_method(m) for m in args.models)
+    if name_a == name_b:
+        name_b += "-2"
+    learned = [(name_a, a), (name_b, b), ("mean", MeanOfModels([a, b]))]
+    seeds = args.seed or [0, 1]
+    rows: list[dict] = []
+    for name, method in learned + [(m, make_method(m)) for m in args.method]:
+        rows += evaluate(method, frames, args.protocol, seeds, name=name, progress=False).rows
+    entries = []
+    print("| learned | hole RMSE | strongest classical | ratio [paired 95 %] | frame-masks |")
+    print("|---|---:|---|---:|---:|")
+    for name, _ in learned:
+        keep = set(args.method) | {name}
+        entry = learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
+                                     keys=("protocol",))[0]
+        entries.append(entry)
+        print(f"| {name} | {entry['learned_hole_rmse']:.2f} m | {entry['classical']} {entry['classical_hole_rmse']:.2f} m "
+              f"| {entry['hole_ratio']:.3f} [{entry['hole_ratio_low']:.2f}, {entry['hole_ratio_high']:.2f}] "
+              f"| {entry['hole_ratio_n']} |")
+    return entries
+
+
+if __name__ == "__main__":
+    main()
