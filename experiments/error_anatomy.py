@@ -3,12 +3,15 @@
 Hole RMSE in metres is dominated by the few far pixels inside a hole; this prints,
 per true-depth bin, the share of hole pixels, the share of summed squared error, the
 RMSE and the bias (mean prediction − truth) of each method, pooled over the selection
-frames of ``experiments/pretrained_selection.py`` (drive 9001 frames 56-67, seed 0) —
-never on the drives reported as unseen.
+frames of ``experiments/pretrained_selection.py`` (drive 9001 frames 56-67, seed 0), or
+over every frame of the ``--drive`` drives under the ``--seed`` seeds (e.g. where a
+leave-one-day-out fold model loses; score models on drives they were not trained on).
 
 Examples
 --------
     python experiments/error_anatomy.py --kitti-root <KITTI root> kitti-rect-v3 -m harmonic-inverse
+    python experiments/error_anatomy.py --kitti-root <KITTI root> --drive 2011_10_03_drive_9042_sync \
+        --seed 0 --seed 1 lodo/train-day-2011_10_03-context-kitti-draws/model -m scanline
 """
 
 from __future__ import annotations
@@ -47,10 +50,21 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p.add_argument("-m", "--method", action="append", default=[], help="registry method (repeatable)")
     p.add_argument("--kitti-root", required=True)
     p.add_argument("--protocol", default="rect-v1")
+    p.add_argument("--drive", action="append",
+                   help="every frame of this train drive instead of the selection frames (repeatable)")
+    p.add_argument("--camera", default="image_02", help="camera of --drive's frames (image_02, image_03, both)")
+    p.add_argument("--seed", type=int, action="append", help="mask seed (repeatable; default 0)")
     args = p.parse_intermixed_args(argv)
-    frames = KittiDepth(args.kitti_root, split="train", drives=[DRIVE])
-    sel = frames.load_batch(range(N_TRAIN, len(frames)))
-    holes = get_protocol(args.protocol).masks(sel.shape[1:], 0, range(len(sel)))
+    if args.drive:  # frame i of the drives gets the mask of position i, as in a benchmark of those drives
+        frames = KittiDepth(args.kitti_root, split="train", drives=args.drive, camera=args.camera)
+        sel = frames.load_batch(range(len(frames)))
+    else:
+        frames = KittiDepth(args.kitti_root, split="train", drives=[DRIVE])
+        sel = frames.load_batch(range(N_TRAIN, len(frames)))
+    protocol = get_protocol(args.protocol)
+    seeds = args.seed or [0]
+    holes = np.concatenate([protocol.masks(sel.shape[1:], s, range(len(sel))) for s in seeds])
+    sel = np.concatenate([sel] * len(seeds))
     corrupted = np.where(holes, np.nan, sel).astype(np.float32)
     rows = []
     for label, kind in [(m, "model") for m in args.models] + [(m, "method") for m in args.method]:

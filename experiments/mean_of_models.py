@@ -21,8 +21,8 @@ import argparse
 from typing import Any
 
 import numpy as np
-
 from focal_probe import load_method
+
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate

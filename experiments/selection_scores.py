@@ -9,8 +9,8 @@ Examples
     python experiments/selection_scores.py --kitti-root <KITTI root> -m harmonic -m harmonic-inverse
     python experiments/selection_scores.py --kitti-root <KITTI root> kitti-rect-v3+kitti-mixed-v1 --protocol rect-v1
 
-A model is a shipped name (see ``estimators.prior.available_pretrained``) or a
-directory written by ``est.save``; ``a+b`` averages models' predictions.
+A model is a shipped release of any family (see ``estimators.learned.releases.shipped``) or
+a directory written by ``est.save`` or ``inpaintenv train``; ``a+b`` averages models' predictions.
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from estimators.prior import PriorUNetInpainter, available_pretrained
+from estimators.learned.load import load_checkpoint
+from estimators.learned.releases import load_release, shipped
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.registry import make_method
 from pretrained_selection import DRIVE, N_TRAIN, sel_scores
@@ -37,10 +38,9 @@ def batch_predictor(label: str, kind: str) -> Callable[[np.ndarray], np.ndarray]
     if kind == "model" and "+" in label:
         members = [batch_predictor(part, kind) for part in label.split("+")]
         return lambda x: np.mean([predict(x) for predict in members], axis=0)
-    if kind == "model":
-        est = (PriorUNetInpainter.pretrained(label) if label in available_pretrained()
-               else PriorUNetInpainter.load(label)).set_params(num_threads=1)
-        return est.predict
+    if kind == "model":  # any shipped release by name, or any saved model folder
+        est = load_release(label) if label in shipped() else load_checkpoint(label)
+        return est.set_params(num_threads=1).predict
     if kind != "method":
         raise ValueError(f"kind must be 'model' or 'method', got {kind!r}")
     est = make_method(label)

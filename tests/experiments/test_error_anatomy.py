@@ -35,3 +35,12 @@ def test_breaks_down_the_hole_error_by_true_depth(anatomy_module, kitti_root, ca
     assert sum(b["sse_share"] for b in far) > sum(b["pixel_share"] for b in far)
     assert 0 < row["gross_pixel_share"] < row["gross_sse_share"] <= 1
     assert "| true depth (m) |" in capsys.readouterr().out
+
+
+def test_any_drives_under_several_seeds(anatomy_module, tiny_kitti):
+    argv = ["--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync", "-m", "scanline"]
+    (one,) = anatomy_module.main(argv)
+    (two,) = anatomy_module.main([*argv, "--seed", "0", "--seed", "1"])
+    assert math.isclose(sum(b["pixel_share"] for b in two["bins"]), 1.0)
+    # seed 0's frame-mask is the whole of the one-seed run, so the two-seed run holds more pixels
+    assert sum(b["pixels"] for b in two["bins"]) > sum(b["pixels"] for b in one["bins"])

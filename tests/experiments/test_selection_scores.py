@@ -43,10 +43,11 @@ def test_plus_averages_models(sel_module, monkeypatch):
         return type("Est", (), {"set_params": lambda self, **kw: self,
                                 "predict": lambda self, x, v=float(len(calls)): x * 0 + v})()
 
-    monkeypatch.setattr(sel_module, "available_pretrained", lambda: ["a", "b"])
-    monkeypatch.setattr(sel_module.PriorUNetInpainter, "pretrained", staticmethod(fake_load))
+    monkeypatch.setattr(sel_module, "shipped", lambda: {"a": "BlendInpainter"})
+    monkeypatch.setattr(sel_module, "load_release", fake_load)
+    monkeypatch.setattr(sel_module, "load_checkpoint", lambda path: fake_load(f"folder {path}"))
     predict = sel_module.batch_predictor("a+b", "model")
-    assert calls == ["a", "b"]
+    assert calls == ["a", "folder b"]  # a release by name, anything else a saved model folder
     np.testing.assert_array_equal(predict(np.zeros((1, 2, 2))), np.full((1, 2, 2), 1.5))
     with pytest.raises(ValueError, match="kind"):
         sel_module.batch_predictor("x", "other")
