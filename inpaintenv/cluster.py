@@ -235,6 +235,13 @@ def map_shards(
         # at once (FuturesCancelledError, "scheduler-connection-lost"). Results already
         # handed to on_result (a benchmark's row files) stay valid.
         raise ClusterError(_lost_message(client, address)) from None
+    except RuntimeError:
+        # Closing the client while a result is awaited can also fail inside asyncio ("... is
+        # bound to a different event loop"): the same lost run. With the client still running
+        # the error is the method's own and goes up unchanged.
+        if client.status == "running":
+            raise
+        raise ClusterError(_lost_message(client, address)) from None
     finally:
         # An error, Ctrl-C or a finished run: nothing of this run stays on the cluster. A
         # closed or disconnected client cannot cancel, and must not hide the cause.

@@ -338,6 +338,27 @@ def test_killed_scheduler_is_one_line_and_the_run_resumes(client, tmp_path, monk
     assert sorted(keys) == sorted((s, i) for s in (0, 1) for i in range(16))
 
 
+def test_asyncio_error_of_a_client_closed_mid_run_is_one_line(client, monkeypatch):
+    # Closing the client while a result is awaited can fail inside asyncio ("bound to a
+    # different event loop", seen in CI) instead of with ClosedClientError: the same lost run.
+    other = distributed.Client(client.scheduler.address)
+
+    def close_then_fail(dd, future, owner, address):
+        owner.close()
+        raise RuntimeError("<asyncio.locks.Event object> is bound to a different event loop")
+
+    monkeypatch.setattr(cluster, "_result", close_then_fail)
+    with pytest.raises(ClusterError, match=r"^the Dask client was closed mid-run; the rows scored before are kept"):
+        cluster.map_shards(other, abs, [-1, -2], shared={})
+
+    def method_error(dd, future, owner, address):
+        raise RuntimeError("the method's own error")
+
+    monkeypatch.setattr(cluster, "_result", method_error)
+    with pytest.raises(RuntimeError, match="the method's own error"):  # client running: unchanged
+        cluster.map_shards(client, abs, [-1], shared={})
+
+
 def test_client_closed_mid_run_is_one_line(client, streets):
     # Issue 24: close() mid-evaluate raised ClosedClientError from the cleanup, hiding the cause.
     got = []
