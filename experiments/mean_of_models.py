@@ -13,16 +13,26 @@ Examples
 --------
     python experiments/mean_of_models.py --kitti-root <KITTI root> --day 2011_10_03 \\
         lodo/train-day-2011_10_03-context-kitti-draws/model kitti-rect-v4 -m harmonic -m scanline
+    python experiments/mean_of_models.py --kitti-root <KITTI root> --day 2011_10_03 --shared-features \
+        --set-second tta=false lodo/train-day-2011_10_03-context-kitti-draws/model \
+        lodo-blend/train-day-2011_10_03-blend-kitti/model -m harmonic -m scanline
+
+``--shared-features`` computes the candidate features once for both models (blend estimators
+that read the same candidates), as an ensemble release of the two would; the ms/frame column
+comes from the same run (one untimed warm-up call per method).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from typing import Any
 
 import numpy as np
+import torch
 from focal_probe import load_method
 
+from estimators.learned._training import torch_threads
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
@@ -42,6 +52,27 @@ class MeanOfModels:
         return np.mean([np.asarray(m.predict(depth), dtype=np.float32) for m in self.models], axis=0)
 
 
+class SharedFeatureMean(MeanOfModels):
+    """:class:`MeanOfModels` of blend estimators that read the same candidate features,
+    computed once per frame for all of them (what an ensemble release of the two would cost)."""
+
+    def __init__(self, models: list[Any]) -> None:
+        super().__init__(models)
+        reads = {(tuple(m.candidates), bool(m.endpoints)) for m in models}
+        if len(reads) != 1 or not all(hasattr(m, "_predict_features") for m in models):
+            raise ValueError(f"the models do not read the same candidate features: {sorted(reads)}")
+
+    def predict(self, depth: np.ndarray) -> np.ndarray:
+        frames = np.asarray(depth, dtype=np.float32)
+        batch = frames if frames.ndim == 3 else frames[None]
+        out = np.empty(batch.shape, np.float32)
+        with torch_threads(self.models[0].predict_threads), torch.inference_mode():
+            for i, frame in enumerate(batch):
+                feats = self.models[0]._features(frame)
+                out[i] = np.mean([m._predict_features(frame, feats) for m in self.models], axis=0)
+        return out if frames.ndim == 3 else out[0]
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("models", nargs=2, help="two saved model folders or registry names of learned methods")
@@ -54,6 +85,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p.add_argument("--camera", default="image_02")
     p.add_argument("--seed", type=int, action="append", help="mask seed (repeatable; default 0 and 1)")
     p.add_argument("--protocol", default="rect-v1")
+    p.add_argument("--set-second", action="append", default=[], metavar="KEY=VALUE",
+                   help="a prediction parameter of the second model, VALUE in JSON (e.g. tta=false; repeatable)")
+    p.add_argument("--shared-features", action="store_true",
+                   help="the mean computes the candidate features once for both models (blend estimators)")
     args = p.parse_args(argv)
     unknown = [m for m in args.method if m not in CLASSICAL_METHODS]
     if not args.method or unknown:
@@ -67,16 +102,25 @@ def main(argv: list[str] | None = None) -> list[dict]:
             p.error(f"no {args.split} drive of day {args.day}")
     frames = KittiDepth(args.kitti_root, split=args.split, drives=drives, camera=args.camera)
     (name_a, a), (name_b, b) = (load_method(m) for m in args.models)
+    for item in args.set_second:
+        key, sep, value = item.partition("=")
+        try:
+            b.set_params(**{key: json.loads(value)})
+        except (ValueError, TypeError) as exc:  # no "=", bad JSON, or not a parameter of the model
+            p.error(f"--set-second {item!r}: {exc}" if sep else f"--set-second takes KEY=VALUE, got {item!r}")
+        name_b += f" ({key}={value})"
     if name_a == name_b:
         name_b += "-2"
-    learned = [(name_a, a), (name_b, b), ("mean", MeanOfModels([a, b]))]
+    mean = SharedFeatureMean([a, b]) if args.shared_features else MeanOfModels([a, b])
+    learned = [(name_a, a), (name_b, b), ("mean", mean)]
     seeds = args.seed or [0, 1]
     rows: list[dict] = []
     for name, method in learned + [(m, make_method(m)) for m in args.method]:
-        rows += evaluate(method, frames, args.protocol, seeds, name=name, progress=False).rows
+        rows += evaluate(method, frames, args.protocol, seeds, name=name, progress=False, warmup=True).rows
     entries = []
-    print("| learned | hole RMSE | strongest classical | ratio [paired 95 %] | frame-masks |")
-    print("|---|---:|---|---:|---:|")
+    ms = {m: float(np.median([r["ms"] for r in rows if r["method"] == m])) for m in {r["method"] for r in rows}}
+    print("| learned | hole RMSE | strongest classical | ratio [paired 95 %] | frame-masks | ms/frame (median) |")
+    print("|---|---:|---|---:|---:|---:|")
     for name, _ in learned:
         keep = set(args.method) | {name}
         entry = learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
@@ -84,7 +128,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
         entries.append(entry)
         print(f"| {name} | {entry['learned_hole_rmse']:.2f} m | {entry['classical']} {entry['classical_hole_rmse']:.2f} m "
               f"| {entry['hole_ratio']:.3f} [{entry['hole_ratio_low']:.2f}, {entry['hole_ratio_high']:.2f}] "
-              f"| {entry['hole_ratio_n']} |")
+              f"| {entry['hole_ratio_n']} | {ms[name]:.0f} |")
+    print("\nms/frame (median) of the classical methods: "
+          + ", ".join(f"{m} {ms[m]:.0f}" for m in args.method))
     return entries
 
 

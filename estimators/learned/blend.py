@@ -392,7 +392,14 @@ class BlendInpainter(BaseInpainter):
         return out
 
     def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
-        feats = prior_features(frame, tuple(self.candidates), gaps=True, endpoints=bool(self.endpoints))
+        return self._predict_features(frame, self._features(frame))
+
+    def _features(self, frame: np.ndarray) -> np.ndarray:
+        """The candidate features of one frame (what :meth:`_predict_features` reads)."""
+        return prior_features(frame, tuple(self.candidates), gaps=True, endpoints=bool(self.endpoints))
+
+    def _predict_features(self, frame: np.ndarray, feats: np.ndarray) -> np.ndarray:
+        """One frame filled from its features (models with the same features can share them)."""
         return pixel_blend.fill_holes(self.model_, torch.from_numpy(feats[None]), flip_average=bool(self.tta))[0].numpy()
 
     # -- persistence -----------------------------------------------------------------------

@@ -370,10 +370,8 @@ class ContextBlendInpainter(BlendInpainter):
         return (torch.cat(preds) - torch.cat(truths)).square().mean()
 
     # -- prediction ------------------------------------------------------------------------
-    def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
-        names = tuple(self.candidates)
-        k = len(names)
-        feats = prior_features(frame, names, gaps=True, endpoints=True)
+    def _predict_features(self, frame: np.ndarray, feats: np.ndarray) -> np.ndarray:
+        k = len(self.candidates)
         out = feats[0].copy()
         known = feats[2] > 0.5
         cands = feats[3:3 + k]

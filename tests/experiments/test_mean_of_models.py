@@ -37,3 +37,33 @@ def test_scores_both_models_and_their_mean_on_one_day(tiny_kitti, capsys, load_e
                 ["pretrained", "kitti-rect-v4", "-m", "harmonic", "--day", "1999_01_01"]):
         with pytest.raises(SystemExit):
             script.main(["--kitti-root", str(tiny_kitti), *bad])
+
+
+def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
+    from estimators.learned.releases import load_release
+    from inpaintenv.conventions import corrupt
+    from inpaintenv.data import SyntheticStreets
+    from inpaintenv.masks import get_protocol
+
+    script = load_experiment("mean_of_models")
+    gt = SyntheticStreets(n=1, frame_shape=(96, 320))[0]
+    x = corrupt(gt, get_protocol("rect-v1").mask(gt.shape, seed=0, index=0))
+    models = [load_release("kitti-context-v3"), load_release("kitti-rect-v4")]
+    separate = script.MeanOfModels(models).predict(x[None])
+    shared = script.SharedFeatureMean(models).predict(x)
+    assert shared.shape == x.shape
+    np.testing.assert_allclose(shared, separate[0], rtol=0, atol=1e-5)
+    models[1].set_params(candidates=("scanline", "harmonic"))
+    with pytest.raises(ValueError, match="same candidate features"):
+        script.SharedFeatureMean(models)
+
+
+def test_second_model_parameters_are_checked(tiny_kitti, load_experiment):
+    script = load_experiment("mean_of_models")
+    base = ["--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync", "pretrained", "kitti-rect-v4",
+            "-m", "scanline", "--seed", "0", "--shared-features"]
+    entries = script.main([*base, "--set-second", "tta=false"])
+    assert entries[1]["learned"] == "kitti-rect-v4 (tta=false)" and entries[2]["learned"] == "mean"
+    for bad in ("tta", "tta=notjson", "no_such_param=1"):
+        with pytest.raises(SystemExit):
+            script.main([*base, "--set-second", bad])
