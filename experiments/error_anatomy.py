@@ -10,7 +10,7 @@ leave-one-day-out fold model loses; score models on drives they were not trained
 Examples
 --------
     python experiments/error_anatomy.py --kitti-root <KITTI root> kitti-rect-v3 -m harmonic-inverse
-    python experiments/error_anatomy.py --kitti-root <KITTI root> --drive 2011_10_03_drive_9042_sync \
+    python experiments/error_anatomy.py --kitti-root <KITTI root> --drive 2011_10_03_drive_9042_sync \\
         --seed 0 --seed 1 lodo/train-day-2011_10_03-context-kitti-draws/model -m scanline
 """
 

@@ -13,8 +13,8 @@ Examples
 --------
     python experiments/mean_of_models.py --kitti-root <KITTI root> --day 2011_10_03 \\
         lodo/train-day-2011_10_03-context-kitti-draws/model kitti-rect-v4 -m harmonic -m scanline
-    python experiments/mean_of_models.py --kitti-root <KITTI root> --day 2011_10_03 --shared-features \
-        --set-second tta=false lodo/train-day-2011_10_03-context-kitti-draws/model \
+    python experiments/mean_of_models.py --kitti-root <KITTI root> --day 2011_10_03 --shared-features \\
+        --set-second tta=false lodo/train-day-2011_10_03-context-kitti-draws/model \\
         lodo-blend/train-day-2011_10_03-blend-kitti/model -m harmonic -m scanline
 
 ``--shared-features`` computes the candidate features once for both models (blend estimators
@@ -58,8 +58,11 @@ class SharedFeatureMean(MeanOfModels):
 
     def __init__(self, models: list[Any]) -> None:
         super().__init__(models)
+        others = [type(m).__name__ for m in models if not hasattr(m, "_predict_features")]
+        if others:
+            raise ValueError(f"shared features need blend estimators; not one: {', '.join(others)}")
         reads = {(tuple(m.candidates), bool(m.endpoints)) for m in models}
-        if len(reads) != 1 or not all(hasattr(m, "_predict_features") for m in models):
+        if len(reads) != 1:
             raise ValueError(f"the models do not read the same candidate features: {sorted(reads)}")
 
     def predict(self, depth: np.ndarray) -> np.ndarray:

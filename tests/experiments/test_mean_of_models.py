@@ -56,6 +56,8 @@ def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
     models[1].set_params(candidates=("scanline", "harmonic"))
     with pytest.raises(ValueError, match="same candidate features"):
         script.SharedFeatureMean(models)
+    with pytest.raises(ValueError, match="need blend estimators; not one: _Constant"):
+        script.SharedFeatureMean([models[0], _Constant(1.0)])
 
 
 def test_second_model_parameters_are_checked(tiny_kitti, load_experiment):
