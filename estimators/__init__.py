@@ -46,13 +46,14 @@ __all__ = [
     "PriorUNetInpainter",
     "BlendInpainter",
     "ContextBlendInpainter",
+    "MeanEnsembleInpainter",
 ]
 
 #: Exported lazily so that ``import estimators`` never imports torch: class -> module of
 #: :mod:`estimators.learned`.
 _NEURAL = {"UNetInpainter": "learned.neural", "AutoencoderInpainter": "learned.neural",
            "PriorUNetInpainter": "learned.prior", "BlendInpainter": "learned.blend",
-           "ContextBlendInpainter": "learned.context_blend"}
+           "ContextBlendInpainter": "learned.context_blend", "MeanEnsembleInpainter": "learned.ensemble"}
 
 
 def __getattr__(name: str):

@@ -18,7 +18,8 @@ Examples
         lodo-blend/train-day-2011_10_03-blend-kitti/model -m harmonic -m scanline
 
 ``--shared-features`` computes the candidate features once for both models (blend estimators
-that read the same candidates), as an ensemble release of the two would; the ms/frame column
+that read the same candidates), as the ensemble release of the two does
+(``estimators.ensemble.MeanEnsembleInpainter``); the ms/frame column
 comes from the same run (one untimed warm-up call per method).
 """
 
@@ -29,10 +30,9 @@ import json
 from typing import Any
 
 import numpy as np
-import torch
 from focal_probe import load_method
 
-from estimators.learned._training import torch_threads
+from estimators.ensemble import MeanEnsembleInpainter
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
@@ -52,28 +52,18 @@ class MeanOfModels:
         return np.mean([np.asarray(m.predict(depth), dtype=np.float32) for m in self.models], axis=0)
 
 
-class SharedFeatureMean(MeanOfModels):
-    """:class:`MeanOfModels` of blend estimators that read the same candidate features,
-    computed once per frame for all of them (what an ensemble release of the two would cost)."""
-
-    def __init__(self, models: list[Any]) -> None:
-        super().__init__(models)
-        others = [type(m).__name__ for m in models if not hasattr(m, "_predict_features")]
-        if others:
-            raise ValueError(f"shared features need blend estimators; not one: {', '.join(others)}")
-        reads = {(tuple(m.candidates), bool(m.endpoints)) for m in models}
-        if len(reads) != 1:
-            raise ValueError(f"the models do not read the same candidate features: {sorted(reads)}")
-
-    def predict(self, depth: np.ndarray) -> np.ndarray:
-        frames = np.asarray(depth, dtype=np.float32)
-        batch = frames if frames.ndim == 3 else frames[None]
-        out = np.empty(batch.shape, np.float32)
-        with torch_threads(self.models[0].predict_threads), torch.inference_mode():
-            for i, frame in enumerate(batch):
-                feats = self.models[0]._features(frame)
-                out[i] = np.mean([m._predict_features(frame, feats) for m in self.models], axis=0)
-        return out if frames.ndim == 3 else out[0]
+def shared_feature_mean(models: list[Any]) -> MeanEnsembleInpainter:
+    """The mean of blend estimators that read the same candidate features, computed once per
+    frame for all of them: the product's :class:`~estimators.ensemble.MeanEnsembleInpainter`
+    of the fitted models (what an ensemble release of them costs)."""
+    others = [type(m).__name__ for m in models if not hasattr(m, "_predict_features")]
+    if others:
+        raise ValueError(f"shared features need blend estimators; not one: {', '.join(others)}")
+    reads = {(tuple(m.candidates), bool(m.endpoints)) for m in models}
+    if len(reads) != 1:
+        raise ValueError(f"the models do not read the same candidate features: {sorted(reads)}")
+    return MeanEnsembleInpainter.from_fitted([(f"model{k}", m) for k, m in enumerate(models)],
+                                             predict_threads=models[0].predict_threads)
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -114,7 +104,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         name_b += f" ({key}={value})"
     if name_a == name_b:
         name_b += "-2"
-    mean = SharedFeatureMean([a, b]) if args.shared_features else MeanOfModels([a, b])
+    mean = shared_feature_mean([a, b]) if args.shared_features else MeanOfModels([a, b])
     learned = [(name_a, a), (name_b, b), ("mean", mean)]
     seeds = args.seed or [0, 1]
     rows: list[dict] = []

@@ -76,6 +76,40 @@ def small_context_preset(monkeypatch):
     monkeypatch.setitem(presets.PRESETS, "context-kitti-draws", (cls, small, desc))
 
 
+@pytest.fixture
+def small_ensemble_preset(monkeypatch):
+    """ensemble-kitti with small members (as the two fixtures above): seconds to train."""
+    from estimators.learned import presets
+
+    cls, params, desc = presets.PRESETS["ensemble-kitti"]
+    from sklearn.base import clone
+
+    members = {name: clone(est) for name, est in params["estimators"]}  # the preset's own stay untouched
+    small = {"masks_per_frame": 1, "pixels_per_frame": 200, "epochs": 1, "keep": (1.0,)}
+    context = members["context"].set_params(**small, context_widths=(4, 8), n_context=2, batch_frames=2,
+                                            batch_pixels=64)
+    blend = members["blend"].set_params(**small)
+    monkeypatch.setitem(presets.PRESETS, "ensemble-kitti", (cls, {"estimators": [("context", context),
+                                                                                 ("blend", blend)]}, desc))
+
+
+def test_train_ensemble_preset_logs_both_members_and_is_scored(tmp_path, capsys, small_ensemble_preset):
+    """ensemble-kitti trains both members into one model folder, logs each member's losses,
+    and the benchmark loads it by --checkpoint."""
+    out = tmp_path / "run"
+    source = ["--n-frames", "6", "--frame-shape", "64", "192"]
+    assert main(["train", "--preset", "ensemble-kitti", *source, "--threads", "1", "--out", str(out), "--quiet"]) == 0
+    log = json.loads((out / "training_log.json").read_text())
+    assert log["estimator"] == "MeanEnsembleInpainter"
+    assert {k: len(v) for k, v in log["history"]["epoch_loss_by_member"].items()} == {"context": 1, "blend": 1}
+    assert (out / "loss.png").stat().st_size > 0
+    config = json.loads((out / "model" / "config.json").read_text())
+    assert [m["config"]["params"]["num_threads"] for m in config["members"]] == [1, 1]  # --threads reached both
+    assert main(["benchmark", "--checkpoint", f"mine={out / 'model'}", "--method", "constant", *source,
+                 "--holdout", "0", "--out", str(tmp_path / "bench"), "--figure-frames", "0", "--quiet"]) == 0
+    assert re.search(r"\| mine ‡( \(\d+ of \d+ drives\))? \| rect-v1 \|", capsys.readouterr().out)
+
+
 def test_default_preset_trains_the_default_release_recipe_and_is_scored(tmp_path, capsys, small_context_preset):
     """With no --preset, train runs context-kitti-draws (the recipe of the default release) and
     the benchmark scores the model by --checkpoint."""

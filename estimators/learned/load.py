@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from . import _checkpoint as ckpt
-from . import blend, context_blend, prior  # noqa: F401  (each registers its classes)
+from . import blend, context_blend, ensemble, prior  # noqa: F401  (each registers its classes)
 from .neural import _NeuralInpainter
 
 __all__ = ["load_checkpoint"]

@@ -9,6 +9,7 @@ The CLI's ``inpaintenv train --preset NAME`` calls :func:`train_preset`.
 
 from __future__ import annotations
 
+import copy
 import inspect
 import os
 import time
@@ -16,6 +17,7 @@ from typing import Any
 
 from .blend import BlendInpainter
 from .context_blend import ContextBlendInpainter
+from .ensemble import MeanEnsembleInpainter
 from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
@@ -65,9 +67,23 @@ _CONTEXT_V2: dict[str, Any] = {**_CONTEXT_V1, "n_members": 2, "tta": False}
 #: The shipped kitti-context-v3 (docs/model_cards/kitti-context-v3.md).
 _CONTEXT_DRAWS: dict[str, Any] = {**_CONTEXT_V2, "member_samples": "own"}
 
+#: The mean of kitti-context-v3's recipe and kitti-rect-v4's without its mirrored pass
+#: (the features are shared, the mirrored pass was the blend's own cost; it moved no fold's
+#: ratio by more than 0.002): experiments/nested_mean.py, docs/reference/selection.md.
+_ENSEMBLE_V1: dict[str, Any] = dict(estimators=[
+    ("context", ContextBlendInpainter(**_CONTEXT_DRAWS)),
+    ("blend", BlendInpainter(**{**_BLEND_V4, "tta": False})),
+])
+
 #: name -> (estimator class, constructor keywords, one-line description).
 PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
-    # kitti-context-v3, the default learned release: two context blends, each on its own samples.
+    # the mean of kitti-context-v3's recipe and kitti-rect-v4's.
+    "ensemble-kitti": (
+        MeanEnsembleInpainter, _ENSEMBLE_V1,
+        "per-pixel mean of context-kitti-draws (two context blends) and blend-kitti without its mirrored pass, "
+        "trained one after the other on the same frames, candidate features shared at prediction",
+    ),
+    # kitti-context-v3: two context blends, each on its own samples.
     "context-kitti-draws": (
         ContextBlendInpainter, _CONTEXT_DRAWS,
         "context-kitti-ensemble's two networks, each trained on its own draw of occlusions, thinning and pixels "
@@ -228,6 +244,7 @@ def make_preset(name: str, **overrides: Any) -> Any:
     if name not in PRESETS:
         raise KeyError(f"unknown single-stage preset {name!r}; known: {', '.join(PRESETS)}")
     cls, params, _ = PRESETS[name]
+    params = copy.deepcopy(params)  # an ensemble's members are objects: each call gets its own
     accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
     overrides = {k: v for k, v in overrides.items() if k in accepted or k not in _RUNNER_KEYWORDS}
     unknown = sorted(set(overrides) - accepted)

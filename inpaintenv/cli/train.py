@@ -170,8 +170,11 @@ def loss_figure(history: dict[str, Any], title: str, loss_label: str = "training
         ax.plot(np.arange(k, steps.size + 1), smooth, lw=1.5, label=f"mean of {k} steps")
         ax.set_xlabel("step")
     else:  # estimators trained by epochs over pooled samples (BlendInpainter) log epoch losses only
-        epochs = np.asarray(history.get("epoch_loss") or [], dtype=float)
-        ax.plot(np.arange(1, epochs.size + 1), epochs, "o-", label="loss per epoch")
+        # an ensemble (MeanEnsembleInpainter) logs each member's epoch losses
+        members = history.get("epoch_loss_by_member") or {"": history.get("epoch_loss") or []}
+        for name, losses in members.items():
+            epochs = np.asarray(losses, dtype=float)
+            ax.plot(np.arange(1, epochs.size + 1), epochs, "o-", label=f"{name} loss per epoch".strip())
         ax.set_xlabel("epoch")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # steps and epochs are counts, never 1.5
     ax.set_ylabel(loss_label)
@@ -186,6 +189,13 @@ def loss_figure(history: dict[str, Any], title: str, loss_label: str = "training
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
     return fig
+
+
+def _plain(value: Any) -> bool:
+    """Whether ``value`` is written to JSON as is (else its repr is logged, e.g. an ensemble's members)."""
+    if isinstance(value, (list, tuple)):
+        return all(_plain(v) for v in value)
+    return isinstance(value, (int, float, str, bool, type(None)))
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -249,8 +259,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         "preset": args.preset,
         "overrides": overrides,
         "estimator": type(est).__name__,
-        "params": {k: repr(v) if not isinstance(v, (int, float, str, bool, type(None), list, tuple)) else v
-                   for k, v in est.get_params().items()},
+        "params": {k: v if _plain(v) else repr(v) for k, v in est.get_params(deep=False).items()},
         "source": repr(ds),
         "fit_seconds": getattr(est, "fit_seconds_", None),
         "n_steps": getattr(est, "n_steps_", None),

@@ -14,6 +14,7 @@ from estimators import (  # lazy: imports torch here
     HarmonicInpainter,
     IPBasicInpainter,
     IterativeBilateralInpainter,
+    MeanEnsembleInpainter,
     NavierStokesInpainter,
     NearestInpainter,
     PriorUNetInpainter,
@@ -48,3 +49,5 @@ ESTIMATORS = [
     ContextBlendInpainter(n_context=2, context_widths=(4, 4), width=4, layers=1, epochs=1, masks_per_frame=1,
                           keep=(1.0,), pixels_per_frame=50, batch_frames=2, batch_pixels=32, num_threads=1),
 ]
+
+ESTIMATORS.append(MeanEnsembleInpainter([("context", ESTIMATORS[-1]), ("blend", ESTIMATORS[-2])]))

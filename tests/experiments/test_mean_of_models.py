@@ -50,14 +50,14 @@ def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
     x = corrupt(gt, get_protocol("rect-v1").mask(gt.shape, seed=0, index=0))
     models = [load_release("kitti-context-v3"), load_release("kitti-rect-v4")]
     separate = script.MeanOfModels(models).predict(x[None])
-    shared = script.SharedFeatureMean(models).predict(x)
+    shared = script.shared_feature_mean(models).predict(x)
     assert shared.shape == x.shape
     np.testing.assert_allclose(shared, separate[0], rtol=0, atol=1e-5)
     models[1].set_params(candidates=("scanline", "harmonic"))
     with pytest.raises(ValueError, match="same candidate features"):
-        script.SharedFeatureMean(models)
+        script.shared_feature_mean(models)
     with pytest.raises(ValueError, match="need blend estimators; not one: _Constant"):
-        script.SharedFeatureMean([models[0], _Constant(1.0)])
+        script.shared_feature_mean([models[0], _Constant(1.0)])
 
 
 def test_second_model_parameters_are_checked(tiny_kitti, load_experiment):

@@ -1,0 +1,13 @@
+"""``MeanEnsembleInpainter``, the per-pixel mean of several learned inpainters.
+
+A thin re-export of :mod:`estimators.learned.ensemble`, the import path the docs show
+(and that benchmark run folders and pickles record); the code lives in ``estimators/learned/``.
+"""
+
+from .learned.ensemble import (
+    DEFAULT_ENSEMBLE,
+    MeanEnsembleInpainter,
+    pretrained_ensemble,
+)
+
+__all__ = ["DEFAULT_ENSEMBLE", "MeanEnsembleInpainter", "pretrained_ensemble"]

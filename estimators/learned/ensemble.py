@@ -1,0 +1,379 @@
+"""MeanEnsembleInpainter: the per-pixel mean of several learned inpainters.
+
+Two models of different families err in different places: on the leave-one-day-out folds
+the mean of the context blend (kitti-context-v3's recipe) and the per-pixel blend
+(kitti-rect-v4's) beat both (docs/reference/selection.md). This estimator holds such
+members, fits each on the same frames, and predicts their per-pixel mean. Members that
+read the same candidate fills (the blend family: same ``candidates`` and ``endpoints``)
+share them: the features, most of a blend's cost, are computed once per frame.
+
+Like scikit-learn's :class:`~sklearn.ensemble.VotingRegressor`, the members are given as
+``(name, estimator)`` pairs, and their parameters are reachable as ``name__param`` by
+``get_params`` / ``set_params`` (so ``GridSearchCV`` can search them).
+
+>>> from estimators.learned.ensemble import MeanEnsembleInpainter            # doctest: +SKIP
+>>> from estimators.blend import BlendInpainter
+>>> from estimators.context_blend import ContextBlendInpainter
+>>> est = MeanEnsembleInpainter([("context", ContextBlendInpainter()),
+...                              ("blend", BlendInpainter(tta=False))]).fit(frames)
+>>> est.predict(depth_with_nan_holes)                                        # metres
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from sklearn.base import clone
+
+from inpaintenv.data.base import DepthDataset
+from inpaintenv.environment import environment_info
+
+from ..base import BaseInpainter
+from . import _checkpoint as ckpt
+from . import blend, context_blend, neural, prior  # noqa: F401  (each registers the classes a member may be)
+from ._training import torch_threads
+
+__all__ = ["DEFAULT_ENSEMBLE", "MeanEnsembleInpainter", "pretrained_ensemble"]
+
+#: The shipped release of this class that ``pretrained`` loads.
+DEFAULT_ENSEMBLE = "kitti-ensemble-v1"
+
+#: Parameters that, when set on the ensemble (not None), are passed to every member that has them.
+_SHARED_PARAMS = ("random_state", "num_threads", "n_jobs", "verbose")
+#: Member names: they prefix the members' parameters (``name__param``) and weights (``name.key``).
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9]*(_[A-Za-z0-9]+)*")
+#: Checkpoint keys of a member's own config that its ensemble's config.json does not repeat.
+_FILE_KEYS = ("format", "format_version", "weights_sha256")
+
+
+class MeanEnsembleInpainter(BaseInpainter):
+    """Per-pixel mean of the predictions of several learned inpainters.
+
+    Parameters
+    ----------
+    estimators : list of (str, estimator)
+        The members, each a name (letters, digits and single underscores, starting with a
+        letter; unique) and an unfitted inpainter. ``fit`` fits a clone of each.
+    random_state, num_threads, n_jobs : optional
+        When not None, given to every member that has the parameter (its own value
+        otherwise): one seed, torch thread count or feature-job count for the whole fit.
+    verbose : bool or None, default None
+        When not None, given to every member (progress of ``fit``).
+    predict_threads : int or None, default 1
+        torch threads while predicting (None: leave torch's setting).
+    keep_observed : bool, default True
+        Return measured input pixels unchanged.
+
+    Attributes
+    ----------
+    estimators_ : list of estimators
+        The fitted members, in the order of ``estimators``.
+    named_estimators_ : dict
+        The fitted members by name.
+    shares_features_ : bool
+        Whether ``predict`` computes the candidate features once for all members (every
+        member is of the blend family and reads the same candidates and endpoints).
+    fit_seconds_ : float
+        Wall-clock time of ``fit``; ``member_fit_seconds_`` per member.
+    history_ : dict
+        ``epoch_loss_by_member``: each member's training loss per epoch, by name.
+
+    Notes
+    -----
+    The mean is unweighted: a member that is itself an ensemble (``n_members=2``) counts
+    once. Every member must predict the frames it is given; ``predict`` checks each one's
+    parameters as its own ``predict`` would.
+    """
+
+    def __init__(
+        self,
+        estimators: list[tuple[str, Any]],
+        *,
+        random_state: Any = None,
+        num_threads: int | None = None,
+        n_jobs: int | None = None,
+        verbose: bool | None = None,
+        predict_threads: int | None = 1,
+        keep_observed: bool = True,
+    ):
+        self.estimators = estimators
+        self.random_state = random_state
+        self.num_threads = num_threads
+        self.n_jobs = n_jobs
+        self.verbose = verbose
+        self.predict_threads = predict_threads
+        self.keep_observed = keep_observed
+
+    # -- parameters (scikit-learn's nested name__param, as in VotingRegressor) ----------------
+    def _check_members(self) -> list[tuple[str, Any]]:
+        members = self.estimators
+        if isinstance(members, (str, bytes)) or not isinstance(members, (list, tuple)) or len(members) < 2:
+            raise ValueError(f"estimators must be a list of at least two (name, estimator) pairs, got {members!r}")
+        names = []
+        for item in members:
+            if not (isinstance(item, (list, tuple)) and len(item) == 2 and isinstance(item[0], str)):
+                raise ValueError(f"each member must be a (name, estimator) pair, got {item!r}")
+            name, est = item
+            if not _NAME.fullmatch(name):
+                raise ValueError(f"member name {name!r}: use letters, digits and single underscores, "
+                                 "starting with a letter (it prefixes the member's parameters as name__param)")
+            if not (hasattr(est, "fit") and hasattr(est, "predict")):
+                raise ValueError(f"member {name!r} is a {type(est).__name__}, not an inpainter with fit and predict")
+            names.append(name)
+        if len(set(names)) != len(names):
+            raise ValueError(f"member names must be unique, got {names}")
+        if set(names) & set(self._own_params()):
+            clash = sorted(set(names) & set(self._own_params()))
+            raise ValueError(f"member names must differ from the ensemble's parameters: {clash}")
+        return [(n, e) for n, e in members]
+
+    def _member_map(self) -> dict[str, Any]:
+        """The ``(name, estimator)`` pairs of ``estimators`` by name, without validation."""
+        members = self.estimators if isinstance(self.estimators, (list, tuple)) else []
+        return {item[0]: item[1] for item in members
+                if isinstance(item, (list, tuple)) and len(item) == 2 and isinstance(item[0], str)}
+
+    def _check_params(self) -> None:
+        """Check the members and, with the ensemble's shared parameters applied, each member's own."""
+        for _, est in self._check_members():
+            check = getattr(est, "_check_params", None)
+            if callable(check):
+                check_member = self._with_shared(clone(est))
+                check_member._check_params()
+
+    def _with_shared(self, member: Any) -> Any:
+        """``member`` with the ensemble's shared parameters that are set and that it has."""
+        accepted = member.get_params(deep=False)
+        member.set_params(**{k: getattr(self, k) for k in _SHARED_PARAMS
+                             if getattr(self, k) is not None and k in accepted})
+        return member
+
+    @classmethod
+    def _own_params(cls) -> list[str]:
+        return super()._get_param_names()
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The ensemble's parameters; with ``deep``, every member as ``name`` and its parameters as ``name__param``."""
+        out = super().get_params(deep=False)
+        if not deep:
+            return out
+        for name, est in self._member_map().items():
+            out[name] = est
+            if hasattr(est, "get_params"):
+                out.update({f"{name}__{k}": v for k, v in est.get_params(deep=True).items()})
+        return out
+
+    def set_params(self, **params: Any) -> MeanEnsembleInpainter:
+        """Set the ensemble's parameters, a member (``name=estimator``) or a member's parameter (``name__param``)."""
+        # No validation here (scikit-learn's contract): fit checks the members.
+        if "estimators" in params:
+            self.estimators = params.pop("estimators")
+        members = self._member_map()
+        own = set(self._own_params())
+        nested: dict[str, dict[str, Any]] = {}
+        replaced = False
+        for key, value in params.items():
+            name, sep, sub = key.partition("__")
+            if key in own:
+                setattr(self, key, value)
+            elif name in members and not sep:
+                members[name] = value
+                replaced = True
+            elif name in members:
+                nested.setdefault(name, {})[sub] = value
+            else:
+                raise ValueError(f"invalid parameter {key!r} for {type(self).__name__}: its own are "
+                                 f"{sorted(own)}, its members {sorted(members)} (name__param)")
+        if replaced:  # otherwise `estimators` stays the very object given (scikit-learn's contract)
+            self.estimators = list(members.items())
+        for name, sub in nested.items():
+            members[name].set_params(**sub)
+        # fitted members follow prediction-time changes too (e.g. blend__tta=False after load)
+        for name, sub in nested.items():
+            fitted = getattr(self, "named_estimators_", {}).get(name)
+            if fitted is not None and fitted is not members[name]:
+                fitted.set_params(**sub)
+        return self
+
+    # -- fitting ---------------------------------------------------------------------------
+    def _fit(self, dataset: DepthDataset) -> None:
+        self._check_params()
+        members = self._check_members()
+        start = time.perf_counter()
+        fitted, seconds = [], []
+        for name, est in members:
+            member = self._with_shared(clone(est))
+            if self.verbose:
+                print(f"member {name} ({type(member).__name__})", flush=True)
+            t0 = time.perf_counter()
+            member.fit(dataset)
+            seconds.append(time.perf_counter() - t0)
+            fitted.append(member)
+        self._set_fitted(members, fitted)
+        self.member_fit_seconds_ = seconds
+        self.fit_seconds_ = time.perf_counter() - start
+        self.fit_environment_ = environment_info(torch_details=True)
+
+    def _set_fitted(self, members: list[tuple[str, Any]], fitted: list[Any]) -> None:
+        self.estimators_ = fitted
+        self.named_estimators_ = {name: est for (name, _), est in zip(members, fitted)}
+        self.shares_features_ = _share_features(fitted)
+        self.history_ = {"epoch_loss_by_member": {name: list((getattr(est, "history_", None) or {}).get("epoch_loss", []))
+                                               for name, est in self.named_estimators_.items()}}
+
+    # -- prediction ------------------------------------------------------------------------
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        members = self.estimators_
+        if not self.shares_features_:
+            return np.mean([np.asarray(m.predict(X), np.float32) for m in members], axis=0)
+        for m in members:
+            m._check_params()
+            m._check_model_params()
+        out = np.empty(X.shape, np.float32)
+        with torch_threads(self.predict_threads), torch.inference_mode():
+            for i, frame in enumerate(X):
+                feats = members[0]._features(frame)
+                out[i] = np.mean([m._predict_features(frame, feats) for m in members], axis=0)
+        return out
+
+    # -- persistence -----------------------------------------------------------------------
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the fitted ensemble to the folder ``path``: one ``config.json`` holding every
+        member's config, one ``model.safetensors`` holding every member's weights (``name.key``).
+
+        Returns
+        -------
+        pathlib.Path
+            The folder; read it back with :meth:`load` or
+            :func:`estimators.learned.load.load_checkpoint`.
+        """
+        if not getattr(self, "is_fitted_", False):
+            raise ValueError(f"{type(self).__name__} is not fitted; call fit first")
+        members = self._check_members()
+        configs, weights = [], {}
+        with tempfile.TemporaryDirectory() as tmp:
+            for (name, _), est in zip(members, self.estimators_):
+                if not hasattr(est, "save"):
+                    raise ValueError(f"member {name!r} ({type(est).__name__}) cannot be saved")
+                config, member_weights, _, _ = ckpt.read_checkpoint(est.save(Path(tmp) / name))
+                configs.append({"name": name, "config": {k: v for k, v in config.items() if k not in _FILE_KEYS}})
+                weights.update({f"{name}.{k}": v for k, v in member_weights.items()})
+        params = {k: v for k, v in self.get_params(deep=False).items() if k != "estimators"}
+        if not isinstance(params["random_state"], (int, type(None))):
+            params["random_state"] = None  # a RandomState or Generator is not JSON; members record their seeds
+        config = {"class": type(self).__name__, "params": params, "members": configs,
+                  "fit": {"fit_seconds": float(getattr(self, "fit_seconds_", float("nan"))),
+                          "member_fit_seconds": list(getattr(self, "member_fit_seconds_", []))},
+                  **ckpt.provenance(self)}
+        return ckpt.write_checkpoint(path, config, weights)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> MeanEnsembleInpainter:
+        """Load an ensemble written by :meth:`save`.
+
+        Raises
+        ------
+        estimators.learned._checkpoint.CheckpointError
+            Missing, corrupt or foreign files, a checkpoint of another class, or a member
+            this version cannot load.
+        """
+        config, weights, _, _ = ckpt.read_checkpoint(path)
+        if config.get("class") != cls.__name__:
+            raise ckpt.CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
+        members_config = config.get("members")
+        if not isinstance(members_config, list) or len(members_config) < 2:
+            raise ckpt.CheckpointError(f"{path}: config.json lists no members")
+        fitted, names = [], []
+        with tempfile.TemporaryDirectory() as tmp:
+            for entry in members_config:
+                name = str(entry.get("name"))
+                own = {k[len(name) + 1:]: v for k, v in weights.items() if k.startswith(f"{name}.")}
+                klass = ckpt.checkpoint_class(entry["config"].get("class"))
+                if klass is None or not hasattr(klass, "load"):
+                    raise ckpt.CheckpointError(f"{path}: member {name!r} is a {entry['config'].get('class')!r}, "
+                                               "which this version cannot load")
+                fitted.append(klass.load(ckpt.write_checkpoint(Path(tmp) / name, entry["config"], own)))
+                names.append(name)
+        stray = [k for k in weights if not any(k.startswith(f"{name}.") for name in names)]
+        if stray:
+            raise ckpt.CheckpointError(f"{path}: weights of no member: {stray[:3]}")
+        try:
+            est = cls([(n, clone(m)) for n, m in zip(names, fitted)], **dict(config.get("params") or {}))
+        except TypeError as e:
+            raise ckpt.CheckpointError(f"{path} has parameters this version does not know: {e}") from None
+        est._set_fitted(est._check_members(), fitted)
+        fit = config.get("fit") or {}
+        est.fit_seconds_ = fit.get("fit_seconds", float("nan"))
+        est.member_fit_seconds_ = list(fit.get("member_fit_seconds", []))
+        ckpt.restore_provenance(est, config)
+        est.is_fitted_ = True
+        return est
+
+    @classmethod
+    def from_fitted(cls, members: list[tuple[str, Any]], **params: Any) -> MeanEnsembleInpainter:
+        """An ensemble of members fitted elsewhere (e.g. two saved fold models), ready to predict or save.
+
+        ``training_drives_`` is the union of the members' (None if one does not record them).
+        """
+        est = cls([(n, clone(m)) for n, m in members], **params)
+        checked = est._check_members()
+        not_fitted = [n for n, m in members if not getattr(m, "is_fitted_", False)]
+        if not_fitted:
+            raise ValueError(f"members not fitted: {not_fitted}")
+        est._set_fitted(checked, [m for _, m in members])
+        drives = [getattr(m, "training_drives_", None) for _, m in members]
+        est.training_drives_ = None if any(d is None for d in drives) else sorted(set().union(*drives))
+        est.fit_environment_ = None
+        est.is_fitted_ = True
+        return est
+
+    @classmethod
+    def pretrained(cls, name: str = DEFAULT_ENSEMBLE, **overrides: Any) -> MeanEnsembleInpainter:
+        """Load a shipped release (``estimators/pretrained/NAME.{safetensors,json}``).
+
+        Parameters
+        ----------
+        name : str
+            Release name (default :data:`DEFAULT_ENSEMBLE`).
+        **overrides
+            Prediction-time parameters, of the ensemble (``predict_threads``) or of a member
+            (``blend__tta``).
+
+        Raises
+        ------
+        KeyError
+            No release of this class under ``name``.
+        """
+        shipped = ckpt.shipped_releases(cls.__name__)
+        if not isinstance(name, str) or name not in shipped:
+            raise KeyError(f"no pretrained {cls.__name__} {name!r}; shipped: {shipped}")
+        with ckpt.release_folder(name) as folder:
+            est = cls.load(folder)
+        if overrides:
+            est.set_params(**overrides)
+        return est
+
+
+def _share_features(members: list[Any]) -> bool:
+    """Whether every member is a blend estimator reading the same candidate features."""
+    if not all(hasattr(m, "_features") and hasattr(m, "_predict_features") for m in members):
+        return False
+    return len({(tuple(m.candidates), bool(m.endpoints)) for m in members}) == 1
+
+
+def pretrained_ensemble(name: str = DEFAULT_ENSEMBLE, **overrides: Any) -> MeanEnsembleInpainter:
+    """Factory for the registry: a shipped :class:`MeanEnsembleInpainter` release."""
+    return MeanEnsembleInpainter.pretrained(name, **overrides)
+
+
+# load_checkpoint (estimators.learned.load) finds classes by the name a checkpoint records.
+ckpt.CLASSES.setdefault("MeanEnsembleInpainter", MeanEnsembleInpainter)
+# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
+MeanEnsembleInpainter.__module__ = "estimators.ensemble"

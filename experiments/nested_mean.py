@@ -1,0 +1,199 @@
+"""Nested choice between two training recipes and the per-pixel mean of their models, by inner folds over days.
+
+The folds of ``experiments/lodo_days.sh`` are reported: each recording day left out, and
+drive 2011_09_26_drive_0001_sync (official maps) left out. Choosing a recipe on those frames
+would make the report a selection score. Here each fold chooses on its own training data only:
+an inner split leaves out one of the fold's training days (for the drive-0001 fold, one day
+without drive 0001), trains both recipes on the rest with ``inpaintenv train`` and scores
+three candidates on the split's held-out drives:
+
+* ``first``: the first recipe's model (default ``context-kitti-draws``, kitti-context-v3's);
+* ``second``: the second recipe's model (default ``blend-kitti``, kitti-rect-v4's);
+* ``mean``: the per-pixel mean of the two, the second without its mirrored pass
+  (``--second-tta``), features computed once for both (``mean_of_models.shared_feature_mean``).
+
+Each candidate's ratio to the strongest classical method (``-m``) is pooled over the fold's
+inner splits (every held-out frame-mask counts once, paired 95 % interval); the lowest ratio
+is the fold's choice. The fold's report is then the chosen candidate's score on the outer
+held-out frames, which ``lodo_days.sh`` and ``mean_of_models.py`` measure.
+
+Models land in ``OUT/train-without-<left-out>-<preset>/model``; one training set shared by
+several inner splits is trained once, and a rerun resumes. ``--link DIR`` reuses
+``lodo_days.sh`` fold models of ``DIR`` where a split's training set is one of its folds'.
+
+Examples
+--------
+    python experiments/nested_mean.py --kitti-root <KITTI root> --out nested --train --jobs 2 \\
+        --link lodo-draws-s1 --link lodo-blend -m harmonic -m scanline
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from mean_of_models import shared_feature_mean
+
+from estimators.learned.load import load_checkpoint
+from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
+from inpaintenv.data.kitti import KittiDepth
+from inpaintenv.evaluate import evaluate
+from inpaintenv.registry import make_method
+from inpaintenv.report.results import EvaluationResult
+
+OFFICIAL = "2011_09_26_drive_0001_sync"
+CANDIDATES = ("first", "second", "mean")
+
+
+def day_of(drive: str) -> str:
+    """Recording day of a KITTI drive name (``2011_09_26_drive_0001_sync`` -> ``2011_09_26``)."""
+    return drive[:10]
+
+
+def outer_folds(drives: list[str]) -> list[dict[str, Any]]:
+    """The reported folds of ``lodo_days.sh``: each day left out, then drive 0001 (if present).
+
+    Each fold has ``name``, ``held`` (drives left out of training and reported) and
+    ``inner``: the inner splits, each ``{"day", "exclude", "score"}`` (drives left out of the
+    split's training, drives it is scored on; image_02).
+    """
+    days = sorted({day_of(d) for d in drives})
+    folds = []
+    for day in days:
+        held = [d for d in drives if day_of(d) == day]
+        inner = [{"day": t, "exclude": held + [d for d in drives if day_of(d) == t],
+                  "score": [d for d in drives if day_of(d) == t]} for t in days if t != day]
+        folds.append({"name": f"day-{day}", "held": held, "inner": inner})
+    if OFFICIAL in drives:
+        inner = []
+        for t in days:
+            score = [d for d in drives if day_of(d) == t and d != OFFICIAL]
+            if score:
+                inner.append({"day": t, "exclude": [OFFICIAL] + score, "score": score})
+        folds.append({"name": "drive-0001", "held": [OFFICIAL], "inner": inner})
+    return folds
+
+
+def training_tag(exclude: list[str], drives: list[str]) -> str:
+    """Folder tag of a training set: the whole days it leaves out, and drive 0001 if alone."""
+    parts = []
+    for day in sorted({day_of(d) for d in drives}):
+        of_day = {d for d in drives if day_of(d) == day}
+        if of_day <= set(exclude):
+            parts.append(day)
+        elif of_day & set(exclude):
+            parts += sorted(d.split("_drive_")[1][:4] for d in of_day & set(exclude))
+    return "+".join(parts)
+
+
+def lodo_folder(tag: str) -> str | None:
+    """``lodo_days.sh``'s fold name whose training set a tag names, if any."""
+    if "+" in tag:
+        return None
+    return "drive-0001" if tag == "0001" else f"day-{tag}"
+
+
+def train_command(root: str, preset: str, exclude: list[str], out: Path, flags: list[str]) -> list[str]:
+    return ["inpaintenv", "train", "--preset", preset, "--kitti-root", root, "--split", "train", "--camera", "both",
+            "--exclude-drives", *exclude, "--out", str(out), "--quiet", *flags]
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--kitti-root", required=True)
+    p.add_argument("--out", required=True, help="folder of the inner models and results")
+    p.add_argument("--presets", default="context-kitti-draws,blend-kitti", help="first,second training recipe")
+    p.add_argument("--train", action="store_true", help="train the inner models that are missing")
+    p.add_argument("--jobs", type=int, default=1, help="trainings at a time (separate processes)")
+    p.add_argument("--train-flags", default="--threads 1 --jobs 1", help="options of every inpaintenv train")
+    p.add_argument("--link", action="append", default=[], metavar="DIR",
+                   help="a lodo_days.sh output folder whose fold models are reused (repeatable)")
+    p.add_argument("--fold", action="append", help="only these outer folds (e.g. day-2011_10_03; repeatable)")
+    p.add_argument("-m", "--method", action="append", default=[], help="classical registry method (repeatable)")
+    p.add_argument("--seed", type=int, action="append", help="mask seed (repeatable; default 0 and 1)")
+    p.add_argument("--protocol", default="rect-v1")
+    p.add_argument("--second-tta", choices=("false", "true"), default="false",
+                   help="the second model's mirrored pass inside the mean (default false)")
+    args = p.parse_args(argv)
+    unknown = [m for m in args.method if m not in CLASSICAL_METHODS]
+    if not args.method or unknown:
+        p.error("-m takes one or more classical methods" + (f"; not classical: {', '.join(unknown)}" if unknown else ""))
+    presets = args.presets.split(",")
+    if len(presets) != 2:
+        p.error(f"--presets takes two recipes, got {args.presets!r}")
+    out = Path(args.out)
+    drives = sorted({str(g) for g in KittiDepth(args.kitti_root, split="train").groups})
+    folds = [f for f in outer_folds(drives) if not args.fold or f["name"] in args.fold]
+    if not folds:
+        p.error(f"no such fold: {args.fold}")
+
+    def model_dir(exclude: list[str], preset: str) -> Path:
+        tag = training_tag(exclude, drives)
+        own = out / f"train-without-{tag}-{preset}" / "model"
+        lodo = lodo_folder(tag)
+        for linked in args.link:
+            candidate = Path(linked) / f"train-{lodo}-{preset}" / "model"
+            if lodo and not (own / "config.json").is_file() and (candidate / "config.json").is_file():
+                return candidate
+        return own
+
+    needed = {(str(model_dir(s["exclude"], pr)), pr): s["exclude"] for f in folds for s in f["inner"] for pr in presets}
+    missing = [(Path(d), pr, ex) for (d, pr), ex in needed.items() if not (Path(d) / "config.json").is_file()]
+    if missing and not args.train:
+        print("missing inner models (rerun with --train):\n  " + "\n  ".join(str(d) for d, _, _ in missing),
+              file=sys.stderr)
+        return 1
+    if missing:
+        commands = [train_command(args.kitti_root, pr, ex, d.parent, args.train_flags.split()) for d, pr, ex in missing]
+        with ThreadPoolExecutor(max(1, args.jobs)) as pool:
+            codes = list(pool.map(lambda c: subprocess.run(c, check=False).returncode, commands))
+        failed = [" ".join(c) for c, rc in zip(commands, codes) if rc]
+        if failed:
+            print("training failed:\n  " + "\n  ".join(failed), file=sys.stderr)
+            return 1
+
+    seeds = args.seed or [0, 1]
+    summary = []
+    for fold in folds:
+        rows: list[dict] = []
+        for n, split in enumerate(fold["inner"]):
+            first = load_checkpoint(model_dir(split["exclude"], presets[0]))
+            second = load_checkpoint(model_dir(split["exclude"], presets[1]))
+            in_mean = load_checkpoint(model_dir(split["exclude"], presets[1]))
+            in_mean.set_params(tta=args.second_tta == "true")
+            frames = KittiDepth(args.kitti_root, split="train", drives=split["score"], camera="image_02")
+            methods = [("first", first), ("second", second), ("mean", shared_feature_mean([first, in_mean]))]
+            for name, method in methods + [(m, make_method(m)) for m in args.method]:
+                for r in evaluate(method, frames, args.protocol, seeds, name=name, progress=False).rows:
+                    # frame-masks of different splits must not pair with each other
+                    rows.append({**r, "index": n * 1_000_000 + int(r["index"]), "split": split["day"]})
+        entries = {}
+        for cand in CANDIDATES:
+            keep = set(args.method) | {cand}
+            entries[cand] = learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
+                                                 keys=("protocol",))[0]
+        choice = min(CANDIDATES, key=lambda c: entries[c]["hole_ratio"])
+        print(f"\n## fold {fold['name']}: inner splits leave out {', '.join(s['day'] for s in fold['inner'])}\n")
+        print("| candidate | hole RMSE | strongest classical | ratio [paired 95 %] | frame-masks |")
+        print("|---|---:|---|---:|---:|")
+        for cand in CANDIDATES:
+            e = entries[cand]
+            print(f"| {cand}{' (chosen)' if cand == choice else ''} | {e['learned_hole_rmse']:.2f} m "
+                  f"| {e['classical']} {e['classical_hole_rmse']:.2f} m | {e['hole_ratio']:.3f} "
+                  f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
+        summary.append({"fold": fold["name"], "choice": choice, "inner": [s["day"] for s in fold["inner"]],
+                        "ratios": {c: entries[c]["hole_ratio"] for c in CANDIDATES}})
+        EvaluationResult(rows=rows).to_json(out / f"inner-{fold['name']}.json")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "choices.json").write_text(json.dumps(summary, indent=1))
+    print("\nchoices: " + ", ".join(f"{s['fold']} {s['choice']}" for s in summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

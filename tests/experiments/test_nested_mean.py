@@ -1,0 +1,88 @@
+"""experiments/nested_mean.py: each reported fold chooses between two recipes and their mean on its own training days."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+DRIVES = ["2011_09_26_drive_0001_sync", "2011_09_26_drive_9001_sync", "2011_09_30_drive_9018_sync",
+          "2011_10_03_drive_9027_sync", "2011_10_03_drive_9034_sync"]
+
+
+def test_outer_folds_never_train_or_choose_on_what_they_report(load_experiment):
+    script = load_experiment("nested_mean")
+    folds = {f["name"]: f for f in script.outer_folds(DRIVES)}
+    assert list(folds) == ["day-2011_09_26", "day-2011_09_30", "day-2011_10_03", "drive-0001"]
+    for fold in folds.values():
+        for split in fold["inner"]:
+            assert set(fold["held"]) <= set(split["exclude"])  # the reported drives are in no inner training set
+            assert not set(fold["held"]) & set(split["score"])  # nor scored to choose
+            assert set(split["score"]) <= set(split["exclude"])
+            assert set(DRIVES) - set(split["exclude"])  # something is left to train on
+    assert [s["day"] for s in folds["day-2011_09_30"]["inner"]] == ["2011_09_26", "2011_10_03"]
+    official = folds["drive-0001"]["inner"]
+    assert [s["score"] for s in official] == [["2011_09_26_drive_9001_sync"], ["2011_09_30_drive_9018_sync"],
+                                              ["2011_10_03_drive_9027_sync", "2011_10_03_drive_9034_sync"]]
+    assert "drive-0001" not in {f["name"] for f in script.outer_folds(DRIVES[1:])}
+
+
+def test_training_sets_are_named_by_what_they_leave_out(load_experiment):
+    script = load_experiment("nested_mean")
+    days = {f["name"]: f for f in script.outer_folds(DRIVES)}
+    tags = {script.training_tag(s["exclude"], DRIVES) for f in days.values() for s in f["inner"]}
+    # the day folds' inner splits share three single-day training sets; drive 0001's adds its own
+    assert tags == {"2011_09_26+2011_09_30", "2011_09_26+2011_10_03", "2011_09_30+2011_10_03", "2011_09_26",
+                    "0001+2011_09_30", "0001+2011_10_03"}
+    assert script.lodo_folder("2011_09_26") == "day-2011_09_26" and script.lodo_folder("0001") == "drive-0001"
+    assert script.lodo_folder("0001+2011_09_30") is None
+
+
+@pytest.fixture(scope="module")
+def three_days(tmp_path_factory):
+    """A drive of one frame on each of three days, in the KITTI layout."""
+    from inpaintenv.data.io import write_depth_png
+
+    root = tmp_path_factory.mktemp("kitti3")
+    rng = np.random.default_rng(0)
+    rows = np.arange(375, dtype=np.float32)[:, None]
+    for drive in ("2011_09_26_drive_9001_sync", "2011_09_30_drive_9018_sync", "2011_10_03_drive_9027_sync"):
+        folder = root / "train" / drive / "proj_depth" / "groundtruth" / "image_02"
+        folder.mkdir(parents=True)
+        for k in range(1):
+            depth = np.broadcast_to(1500.0 / (rows + 30.0 + k), (375, 1242)).copy()
+            depth[rng.random(depth.shape) < 0.4] = 0.0
+            write_depth_png(folder / f"000000000{k}.png", depth.astype(np.float32))
+    return root
+
+
+def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp_path, capsys, load_experiment):
+    from estimators.learned.blend import BlendInpainter
+    from estimators.learned.context_blend import ContextBlendInpainter
+    from inpaintenv.data import ArrayDataset
+
+    script = load_experiment("nested_mean")
+    out = tmp_path / "nested"
+    args = ["--kitti-root", str(three_days), "--out", str(out), "-m", "harmonic", "--seed", "0",
+            "--fold", "day-2011_09_30"]
+    assert script.main(args) == 1  # models missing, no --train: says which
+    assert "missing inner models" in capsys.readouterr().err
+    from inpaintenv.data import KittiDepth
+
+    frames = ArrayDataset(np.stack([KittiDepth(three_days, split="train")[i] for i in range(3)]), groups=list("abc"))
+    small = dict(epochs=1, masks_per_frame=1, keep=(1.0,), pixels_per_frame=100, num_threads=1)
+    context = ContextBlendInpainter(**small, n_context=2, context_widths=(4, 4), width=4, layers=1,
+                                    batch_frames=2, batch_pixels=32).fit(frames)
+    blend = BlendInpainter(**small, width=4, layers=1, batch_pixels=64).fit(frames)
+    for tag in ("2011_09_26+2011_09_30", "2011_09_30+2011_10_03"):
+        context.save(out / f"train-without-{tag}-context-kitti-draws" / "model")
+        blend.save(out / f"train-without-{tag}-blend-kitti" / "model")
+    assert script.main(args) == 0
+    printed = capsys.readouterr().out
+    assert "## fold day-2011_09_30: inner splits leave out 2011_09_26, 2011_10_03" in printed
+    assert printed.count("(chosen)") == 1
+    choices = json.loads((out / "choices.json").read_text())
+    assert choices[0]["fold"] == "day-2011_09_30" and choices[0]["choice"] in ("first", "second", "mean")
+    assert choices[0]["choice"] == min(choices[0]["ratios"], key=choices[0]["ratios"].get)
+    assert (out / "inner-day-2011_09_30.json").is_file()
