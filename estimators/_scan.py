@@ -118,5 +118,9 @@ def fill_empty_rows(filled: np.ndarray, row_ok: np.ndarray) -> np.ndarray:
     a = np.where(has_a, above, below)
     span = np.maximum(a - b, 1).astype(np.float32)
     t = ((rows - b).astype(np.float32) / span)[:, None]
-    out = filled[b] + t * (filled[a] - filled[b])
-    return np.where(row_ok[:, None], filled, out)
+    # Only the empty rows are computed: KITTI frames have a few (the sky), not a whole frame's worth.
+    bad = np.flatnonzero(~row_ok)
+    out = filled.copy()
+    low, high = filled[b[bad]], filled[a[bad]]
+    out[bad] = low + t[bad] * (high - low)
+    return out

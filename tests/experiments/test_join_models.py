@@ -1,0 +1,34 @@
+"""experiments/join_models.py: saved models joined into one ensemble checkpoint."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+
+def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_experiment):
+    from estimators.ensemble import MeanEnsembleInpainter
+    from estimators.learned.blend import BlendInpainter
+    from estimators.learned.load import load_checkpoint
+    from inpaintenv.data import SyntheticStreets
+
+    script = load_experiment("join_models")
+    frames = SyntheticStreets(n=3, frame_shape=(48, 128))
+    small = {"width": 4, "layers": 1, "epochs": 1, "masks_per_frame": 1, "pixels_per_frame": 100,
+             "batch_pixels": 64, "num_threads": 1}
+    a = BlendInpainter(**small).fit(frames).save(tmp_path / "a")
+    b = BlendInpainter(**small, random_state=1).fit(frames).save(tmp_path / "b")
+    out = tmp_path / "joined"
+    assert script.main([f"first={a}", f"second={b}", "--out", str(out), "--set", "second__tta=false"]) == 0
+    joined = load_checkpoint(out)
+    assert isinstance(joined, MeanEnsembleInpainter) and joined.named_estimators_["second"].tta is False
+    x = frames[0].copy()
+    x[10:30, 40:90] = np.nan
+    members = [load_checkpoint(a).predict(x), load_checkpoint(b).set_params(tta=False).predict(x)]
+    np.testing.assert_allclose(joined.predict(x)[np.isnan(x)], np.mean(members, axis=0)[np.isnan(x)], rtol=1e-6)
+    for bad in ([f"first={a}", "--out", str(tmp_path / "x")],  # one member
+                [f"first={a}", f"second={tmp_path / 'nothing'}", "--out", str(tmp_path / "y")],
+                [f"first={a}", f"second={b}", "--set", "nope__tta=false", "--out", str(tmp_path / "z")],
+                [f"{a}", f"second={b}", "--out", str(tmp_path / "w")]):
+        with pytest.raises(SystemExit):
+            script.main(bad)
