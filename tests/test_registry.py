@@ -7,6 +7,8 @@ import json
 import numpy as np
 import pytest
 
+from param_values import param_values
+
 from inpaintenv.registry import available_methods, get_spec, make_method, register_method
 
 EXPECTED = [
@@ -77,18 +79,7 @@ def test_every_shipped_release_has_its_own_method_name():
 
     assert DEFAULT_BLEND in PRETRAINED_RELEASES  # the former default stays loadable by name
     for name in ("pretrained", "blend-pretrained", "unet-pretrained"):
-        assert _params(make_method(DEFAULT_RELEASE)) == _params(make_method(name))
-
-
-def _params(value):
-    """An estimator's parameters, members of an ensemble included, as comparable values."""
-    if hasattr(value, "get_params"):
-        return type(value), _params(value.get_params(deep=False))
-    if isinstance(value, dict):
-        return {k: _params(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_params(v) for v in value]
-    return value
+        assert param_values(make_method(DEFAULT_RELEASE)) == param_values(make_method(name))
 
 
 def test_aliases_resolve_to_the_canonical_name():

@@ -43,6 +43,7 @@ __all__ = [
     "FORMAT_VERSION",
     "CheckpointError",
     "flatten_optimizer_state",
+    "load_shipped",
     "read_checkpoint",
     "read_run_state",
     "release_folder",
@@ -267,6 +268,21 @@ def shipped_releases(class_name: str, directory: Path = PRETRAINED_DIR) -> list[
         return []
     return sorted(p.stem for p in directory.glob("*.json") if p.with_suffix(".safetensors").is_file()
                   and json.loads(p.read_text()).get("class") == class_name)
+
+
+def load_shipped(cls: type, name: Any, directory: Path = PRETRAINED_DIR) -> Any:
+    """Release ``name`` of class ``cls`` (its ``load`` reads the release's two files).
+
+    Raises
+    ------
+    KeyError
+        No complete release of that class under ``name`` (the message lists them).
+    """
+    shipped = shipped_releases(cls.__name__, directory)
+    if not isinstance(name, str) or name not in shipped:
+        raise KeyError(f"no pretrained {cls.__name__} {name!r}; shipped: {shipped}")
+    with release_folder(name, directory) as folder:
+        return cls.load(folder)
 
 
 #: The training drives of the releases shipped before their JSON recorded them (from their

@@ -351,11 +351,7 @@ class MeanEnsembleInpainter(BaseInpainter):
         KeyError
             No release of this class under ``name``.
         """
-        shipped = ckpt.shipped_releases(cls.__name__)
-        if not isinstance(name, str) or name not in shipped:
-            raise KeyError(f"no pretrained {cls.__name__} {name!r}; shipped: {shipped}")
-        with ckpt.release_folder(name) as folder:
-            est = cls.load(folder)
+        est = ckpt.load_shipped(cls, name)
         if overrides:
             est.set_params(**overrides)
         return est

@@ -13,6 +13,7 @@ import pytest
 
 # tests/ has no __init__.py, so pytest puts this directory on sys.path.
 from instances import ESTIMATORS
+from param_values import param_values
 from sklearn.base import clone
 
 from estimators.checks import CHECKS, CheckSkipped, make_check_data, run_check
@@ -54,22 +55,11 @@ def test_inpainter_check(estimator, check, check_data):
         pytest.skip(str(why))
 
 
-def _comparable(value):
-    """Parameters with estimators (an ensemble's members, cloned with it) compared by class and parameters."""
-    if hasattr(value, "get_params"):
-        return type(value), _comparable(value.get_params(deep=False))
-    if isinstance(value, dict):
-        return {k: _comparable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return type(value)(_comparable(v) for v in value)
-    return value
-
-
 @estimator_param
 def test_clone_keeps_params(estimator):
     c = clone(estimator)
     assert c is not estimator
-    assert _comparable(c.get_params()) == _comparable(estimator.get_params())
+    assert param_values(c.get_params()) == param_values(estimator.get_params())
 
 
 @estimator_param
