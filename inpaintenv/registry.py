@@ -249,8 +249,9 @@ for _name, _cls, _kw, _desc in [
 # See docs/model_card.md.
 register_method(
     "pretrained", "estimators.learned.releases", "load_release", {},
-    "the default learned release, whatever its family (estimators.learned.releases.DEFAULT_RELEASE = kitti-context-v3: "
-    "two learned blends of classical fills with scene context, each trained on its own samples, averaged), trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
+    "the default learned release, whatever its family (estimators.learned.releases.DEFAULT_RELEASE = kitti-ensemble-v1: "
+    "the per-pixel mean of kitti-context-v3's recipe and kitti-rect-v4's, one set of candidate fills for both), "
+    "trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
 )
 register_method(
     "blend-pretrained-mixed", "estimators.learned.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
@@ -274,6 +275,7 @@ _RELEASE_LOADERS: dict[str, tuple[str, str]] = {
     "kitti-context-v1": ("estimators.learned.context_blend", "pretrained_context_blend"),
     "kitti-context-v2": ("estimators.learned.context_blend", "pretrained_context_blend"),
     "kitti-context-v3": ("estimators.learned.context_blend", "pretrained_context_blend"),
+    "kitti-ensemble-v1": ("estimators.learned.ensemble", "pretrained_ensemble"),
 }
 PRETRAINED_RELEASES: tuple[str, ...] = tuple(_RELEASE_LOADERS)
 for _release, (_module, _factory) in _RELEASE_LOADERS.items():

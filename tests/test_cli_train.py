@@ -66,19 +66,8 @@ def small_blend_preset(monkeypatch):
 
 
 @pytest.fixture
-def small_context_preset(monkeypatch):
-    """context-kitti-draws with one occlusion, 200 pixels, a narrow U-Net, one epoch: seconds to train."""
-    from estimators.learned import presets
-
-    cls, params, desc = presets.PRESETS["context-kitti-draws"]
-    small = {**params, "masks_per_frame": 1, "pixels_per_frame": 200, "epochs": 1, "keep": (1.0,),
-             "context_widths": (4, 8), "n_context": 2, "batch_frames": 2, "batch_pixels": 64}
-    monkeypatch.setitem(presets.PRESETS, "context-kitti-draws", (cls, small, desc))
-
-
-@pytest.fixture
 def small_ensemble_preset(monkeypatch):
-    """ensemble-kitti with small members (as the two fixtures above): seconds to train."""
+    """ensemble-kitti with small members (one occlusion, 200 pixels, one epoch, a narrow U-Net): seconds to train."""
     from estimators.learned import presets
 
     cls, params, desc = presets.PRESETS["ensemble-kitti"]
@@ -110,15 +99,18 @@ def test_train_ensemble_preset_logs_both_members_and_is_scored(tmp_path, capsys,
     assert re.search(r"\| mine ‡( \(\d+ of \d+ drives\))? \| rect-v1 \|", capsys.readouterr().out)
 
 
-def test_default_preset_trains_the_default_release_recipe_and_is_scored(tmp_path, capsys, small_context_preset):
-    """With no --preset, train runs context-kitti-draws (the recipe of the default release) and
+def test_default_preset_trains_the_default_release_recipe_and_is_scored(tmp_path, capsys, small_ensemble_preset):
+    """With no --preset, train runs ensemble-kitti (the recipe of the default release) and
     the benchmark scores the model by --checkpoint."""
+    from estimators.learned.releases import DEFAULT_RELEASE
+
     out = tmp_path / "run"
     source = ["--n-frames", "6", "--frame-shape", "64", "192"]
     assert main(["train", *source, "--out", str(out), "--quiet"]) == 0
     log = json.loads((out / "training_log.json").read_text())
-    assert log["preset"] == "context-kitti-draws" and log["estimator"] == "ContextBlendInpainter"
-    assert len(log["history"]["epoch_loss"]) == 1 and log["environment"]["cpu_count"] >= 1
+    assert log["preset"] == "ensemble-kitti" and log["estimator"] == "MeanEnsembleInpainter"
+    assert DEFAULT_RELEASE == "kitti-ensemble-v1"
+    assert log["environment"]["cpu_count"] >= 1
     assert main(["benchmark", "--checkpoint", f"mine={out / 'model'}", "--method", "constant", *source,
                  "--holdout", "0", "--out", str(tmp_path / "bench"), "--figure-frames", "0", "--quiet"]) == 0
     assert re.search(r"\| mine ‡( \(\d+ of \d+ drives\))? \| rect-v1 \|", capsys.readouterr().out)

@@ -106,7 +106,18 @@ def release_rows(name: str, folder: Path = PRETRAINED) -> dict[str, str]:
         "optimiser steps trained": str(config.get("fitted", {}).get("n_steps_", "–")),
         "seed": str(config.get("seed", "–")),
     }
-    if "fit" in config:  # a BlendInpainter: trained on pooled pixel samples, seeded by random_state
+    if "members" in config:  # a MeanEnsembleInpainter: each member's rows, its parameters as name__param
+        rows.pop("optimiser steps trained")
+        rows.pop("seed")
+        for member in config["members"]:
+            name, own = member["name"], member["config"]
+            fit = own.get("fit", {})
+            rows[f"member `{name}`"] = f"`{own['class']}`, seed {own['params'].get('random_state', '–')}, " + (
+                f"{fit['training_frames']:,} frames / {fit['n_pixels']:,} pixels" if "n_pixels" in fit else "")
+        for member in config["members"]:
+            rows.update({f"`{member['name']}__{k}`": f"`{_cell(v)}`"
+                         for k, v in sorted(member["config"]["params"].items())})
+    elif "fit" in config:  # a BlendInpainter: trained on pooled pixel samples, seeded by random_state
         rows.pop("optimiser steps trained")
         rows["seed"] = str(config["params"].get("random_state", "–"))
         rows["training frames / pixels"] = f"{config['fit']['training_frames']:,} / {config['fit']['n_pixels']:,}"

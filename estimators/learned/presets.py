@@ -81,7 +81,8 @@ PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     "ensemble-kitti": (
         MeanEnsembleInpainter, _ENSEMBLE_V1,
         "per-pixel mean of context-kitti-draws (two context blends) and blend-kitti without its mirrored pass, "
-        "trained one after the other on the same frames, candidate features shared at prediction",
+        "trained one after the other on the same frames, candidate features shared at prediction; the shipped "
+        "kitti-ensemble-v1 (the default)",
     ),
     # kitti-context-v3: two context blends, each on its own samples.
     "context-kitti-draws": (

@@ -17,7 +17,7 @@ __all__ = ["DEFAULT_RELEASE", "load_release", "shipped"]
 
 #: The release ``-m pretrained`` (aliases ``blend-pretrained``, ``unet-pretrained``) loads:
 #: the default learned method of the benchmark (docs/model_card.md).
-DEFAULT_RELEASE = "kitti-context-v3"
+DEFAULT_RELEASE = "kitti-ensemble-v1"
 
 
 def shipped() -> dict[str, str]:

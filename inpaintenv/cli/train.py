@@ -31,9 +31,9 @@ def add_train(subparsers: Any) -> None:
             "Rerun the same command to resume an interrupted run."
         ),
     )
-    p.add_argument("--preset", default="context-kitti-draws",
-                   help="training recipe (default context-kitti-draws, the recipe of the default release "
-                        "kitti-context-v3; --list shows all)")
+    p.add_argument("--preset", default="ensemble-kitti",
+                   help="training recipe (default ensemble-kitti, the recipe of the default release "
+                        "kitti-ensemble-v1; --list shows all)")
     p.add_argument("--list", action="store_true", help="list the presets and exit")
     p.add_argument("--out", default="runs/model", metavar="DIR", help="output folder (default runs/model)")
     p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")

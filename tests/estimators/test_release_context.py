@@ -1,6 +1,6 @@
-"""The shipped context releases (ContextBlendInpainter): the default kitti-context-v3 (two
-networks, each trained on its own samples, averaged) loads under ``pretrained`` and its former
-names, kitti-context-v2 and kitti-context-v1 by name;
+"""The shipped context releases (ContextBlendInpainter): kitti-context-v3 (two networks, each
+trained on its own samples, averaged; the default until kitti-ensemble-v1, whose context member
+it is), kitti-context-v2 and kitti-context-v1 load by name;
 each matches its training recipe and records its provenance; the default predicts full
 frames of every KITTI frame size, keeps measurements, and beats every classical method on
 the shared slice's official frames it never saw (the ``val`` drive)."""
@@ -24,16 +24,16 @@ from inpaintenv.registry import make_method
 
 @pytest.fixture(scope="module")
 def release() -> ContextBlendInpainter:
-    return load_release()
+    return load_release("kitti-context-v3")
 
 
-def test_default_learned_method_is_this_release(release):
-    assert DEFAULT_RELEASE == DEFAULT_CONTEXT_BLEND == "kitti-context-v3"
+def test_the_releases_load_by_name(release):
+    assert DEFAULT_CONTEXT_BLEND == "kitti-context-v3" and DEFAULT_RELEASE != DEFAULT_CONTEXT_BLEND
     assert isinstance(release, ContextBlendInpainter)
     assert release.n_members == len(release._networks()) == 2 and release.tta is False
     assert release.member_samples == "own"
-    for name in ("pretrained", "blend-pretrained", "unet-pretrained", "kitti-context-v3"):
-        assert make_method(name).get_params() == release.get_params()
+    assert make_method("kitti-context-v3").get_params() == release.get_params()
+    assert ContextBlendInpainter.pretrained().get_params() == release.get_params()
     former = make_method("kitti-context-v2")  # the former default: two networks on one draw
     assert former.n_members == len(former._networks()) == 2 and former.member_samples == "shared"
     first = make_method("kitti-context-v1")  # one network, loads by name
@@ -83,7 +83,7 @@ def test_full_frame_of_every_size_keeps_measurements_and_is_fast(release, shape)
 
 @pytest.mark.kitti
 @pytest.mark.slow
-def test_beats_every_classical_method_on_the_unseen_val_drive(kitti_root):
+def test_beats_every_classical_method_on_the_unseen_val_drive(kitti_root, release):
     """The shared slice's ``val`` drive (official KITTI maps) was never trained or selected
     on: mean hole RMSE over five mask seeds below that of every method of estimators.classical."""
     from inpaintenv.benchmark.suites import CLASSICAL, STUDY_CLASSICAL
@@ -98,10 +98,10 @@ def test_beats_every_classical_method_on_the_unseen_val_drive(kitti_root):
         rows = evaluate(method, held_out, "rect-v1", seeds, progress=False, unfilled=unfilled).rows
         return float(np.nanmean([r["hole_rmse"] for r in rows]))
 
-    learned = mean_hole_rmse(load_release())
+    learned = mean_hole_rmse(release)
     classical = {name: mean_hole_rmse(make_method(name), unfilled_policy(name)) for name in CLASSICAL + STUDY_CLASSICAL}
     best = min(classical, key=classical.get)
-    assert learned < classical[best], f"{DEFAULT_RELEASE} {learned:.2f} m vs {best} {classical[best]:.2f} m"
+    assert learned < classical[best], f"kitti-context-v3 {learned:.2f} m vs {best} {classical[best]:.2f} m"
 
 
 def test_loads_in_a_fresh_process_by_registry_name():
@@ -109,6 +109,6 @@ def test_loads_in_a_fresh_process_by_registry_name():
     import subprocess
     import sys
 
-    code = "from inpaintenv.registry import make_method; print(type(make_method('pretrained')).__name__)"
+    code = "from inpaintenv.registry import make_method; print(type(make_method('kitti-context-v3')).__name__)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "ContextBlendInpainter"

@@ -62,7 +62,7 @@ def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
 
 def test_second_model_parameters_are_checked(tiny_kitti, load_experiment):
     script = load_experiment("mean_of_models")
-    base = ["--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync", "pretrained", "kitti-rect-v4",
+    base = ["--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync", "kitti-context-v3", "kitti-rect-v4",
             "-m", "scanline", "--seed", "0", "--shared-features"]
     entries = script.main([*base, "--set-second", "tta=false"])
     assert entries[1]["learned"] == "kitti-rect-v4 (tta=false)" and entries[2]["learned"] == "mean"
