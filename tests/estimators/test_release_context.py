@@ -8,17 +8,19 @@ the shared slice's official frames it never saw (the ``val`` drive)."""
 from __future__ import annotations
 
 import json
-import time
 
-import numpy as np
 import pytest
+from release_checks import (
+    FRAME_SHAPES,
+    check_beats_every_classical_method,
+    check_full_frame,
+    class_in_fresh_process,
+)
 
 from estimators.context_blend import DEFAULT_CONTEXT_BLEND, ContextBlendInpainter
-from estimators.presets import PRESETS
-from estimators.learned.releases import DEFAULT_RELEASE, load_release
 from estimators.learned._checkpoint import PRETRAINED_DIR
-from inpaintenv.data import SyntheticStreets
-from inpaintenv.masks import get_protocol
+from estimators.learned.releases import DEFAULT_RELEASE, load_release
+from estimators.presets import PRESETS
 from inpaintenv.registry import make_method
 
 
@@ -64,21 +66,9 @@ def test_release_records_its_training_drives_and_machine(name):
     assert {"python", "cpu_count"} <= set(env) and "torch" in json.dumps(env)
 
 
-@pytest.mark.parametrize("shape", [(352, 1216), (375, 1242), (370, 1226), (376, 1241), (376, 1408)])
+@pytest.mark.parametrize("shape", FRAME_SHAPES)
 def test_full_frame_of_every_size_keeps_measurements_and_is_fast(release, shape):
-    gt = SyntheticStreets(n=1, seed=3, frame_shape=shape)[0]
-    hole = get_protocol("rect-v1").mask(gt.shape, 0, 0)
-    x = np.where(hole, np.nan, gt).astype(np.float32)
-    release.predict(x)  # warm-up
-    start = time.perf_counter()
-    out = release.predict(x)
-    seconds = time.perf_counter() - start
-    assert out.shape == x.shape and np.isfinite(out).all() and (out[hole] > 0).all()
-    measured = (gt > 0) & ~hole
-    np.testing.assert_array_equal(out[measured], gt[measured])
-    # The goal is 0.3 s on 2 idle cores (benchmarks/bench_blend.py); a loaded CI
-    # machine gets 10x that before this order-of-magnitude check fails.
-    assert seconds < 3.0, f"predict took {seconds:.2f} s on a {shape} frame"
+    check_full_frame(release, shape)
 
 
 @pytest.mark.kitti
@@ -86,29 +76,11 @@ def test_full_frame_of_every_size_keeps_measurements_and_is_fast(release, shape)
 def test_beats_every_classical_method_on_the_unseen_val_drive(kitti_root, release):
     """The shared slice's ``val`` drive (official KITTI maps) was never trained or selected
     on: mean hole RMSE over five mask seeds below that of every method of estimators.classical."""
-    from inpaintenv.benchmark.suites import CLASSICAL, STUDY_CLASSICAL
     from inpaintenv.data import KittiDepth
-    from inpaintenv.evaluate import evaluate
-    from inpaintenv.registry import unfilled_policy
 
-    held_out = KittiDepth(kitti_root, split="val")
-    seeds = [0, 1, 2, 3, 4]
-
-    def mean_hole_rmse(method, unfilled: str = "error") -> float:
-        rows = evaluate(method, held_out, "rect-v1", seeds, progress=False, unfilled=unfilled).rows
-        return float(np.nanmean([r["hole_rmse"] for r in rows]))
-
-    learned = mean_hole_rmse(release)
-    classical = {name: mean_hole_rmse(make_method(name), unfilled_policy(name)) for name in CLASSICAL + STUDY_CLASSICAL}
-    best = min(classical, key=classical.get)
-    assert learned < classical[best], f"kitti-context-v3 {learned:.2f} m vs {best} {classical[best]:.2f} m"
+    check_beats_every_classical_method(release, "kitti-context-v3", KittiDepth(kitti_root, split="val"), [0, 1, 2, 3, 4])
 
 
 def test_loads_in_a_fresh_process_by_registry_name():
     """A fresh interpreter (as the CLI is) finds the release's class without importing it first."""
-    import subprocess
-    import sys
-
-    code = "from inpaintenv.registry import make_method; print(type(make_method('kitti-context-v3')).__name__)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "ContextBlendInpainter"
+    assert class_in_fresh_process("kitti-context-v3") == "ContextBlendInpainter"
