@@ -25,6 +25,7 @@ import os
 import re
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -70,6 +71,10 @@ class MeanEnsembleInpainter(BaseInpainter):
         torch threads while predicting (None: leave torch's setting).
     keep_observed : bool, default True
         Return measured input pixels unchanged.
+    weights : sequence of float or None, default None
+        One non-negative weight per member, in the order of ``estimators`` (not all zero):
+        the prediction is the weighted mean, as in scikit-learn's ``VotingRegressor``.
+        None: every member weighs the same.
 
     Attributes
     ----------
@@ -87,8 +92,8 @@ class MeanEnsembleInpainter(BaseInpainter):
 
     Notes
     -----
-    The mean is unweighted: a member that is itself an ensemble (``n_members=2``) counts
-    once. Every member must predict the frames it is given; ``predict`` checks each one's
+    Without ``weights`` the mean is unweighted: a member that is itself an ensemble
+    (``n_members=2``) counts once. Every member must predict the frames it is given; ``predict`` checks each one's
     parameters as its own ``predict`` would.
     """
 
@@ -102,6 +107,7 @@ class MeanEnsembleInpainter(BaseInpainter):
         verbose: bool | None = None,
         predict_threads: int | None = 1,
         keep_observed: bool = True,
+        weights: Sequence[float] | None = None,
     ):
         self.estimators = estimators
         self.random_state = random_state
@@ -110,6 +116,7 @@ class MeanEnsembleInpainter(BaseInpainter):
         self.verbose = verbose
         self.predict_threads = predict_threads
         self.keep_observed = keep_observed
+        self.weights = weights
 
     # -- parameters (scikit-learn's nested name__param, as in VotingRegressor) ----------------
     def _check_members(self) -> list[tuple[str, Any]]:
@@ -141,12 +148,27 @@ class MeanEnsembleInpainter(BaseInpainter):
                 if isinstance(item, (list, tuple)) and len(item) == 2 and isinstance(item[0], str)}
 
     def _check_params(self) -> None:
-        """Check the members and, with the ensemble's shared parameters applied, each member's own."""
+        """Check the members, the weights and, with the ensemble's shared parameters applied, each member's own."""
+        self._member_weights(len(self._check_members()))
         for _, est in self._check_members():
             check = getattr(est, "_check_params", None)
             if callable(check):
                 check_member = self._with_shared(clone(est))
                 check_member._check_params()
+
+    def _member_weights(self, n_members: int) -> np.ndarray | None:
+        """``weights`` as a checked float array of one weight per member (None: equal weights)."""
+        if self.weights is None:
+            return None
+        try:
+            w = np.asarray(self.weights, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"weights must be numbers, one per member, got {self.weights!r}") from None
+        if w.shape != (n_members,):
+            raise ValueError(f"weights must hold one number per member ({n_members}), got {self.weights!r}")
+        if not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
+            raise ValueError(f"weights must be finite, non-negative and not all zero, got {self.weights!r}")
+        return w
 
     def _with_shared(self, member: Any) -> Any:
         """``member`` with the ensemble's shared parameters that are set and that it has."""
@@ -231,8 +253,10 @@ class MeanEnsembleInpainter(BaseInpainter):
     # -- prediction ------------------------------------------------------------------------
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         members = self.estimators_
+        weights = self._member_weights(len(members))
         if not self.shares_features_:
-            return np.mean([np.asarray(m.predict(X), np.float32) for m in members], axis=0)
+            return np.average([np.asarray(m.predict(X), np.float32) for m in members], axis=0,
+                              weights=weights).astype(np.float32)
         for m in members:
             m._check_params()
             m._check_model_params()
@@ -240,7 +264,7 @@ class MeanEnsembleInpainter(BaseInpainter):
         with torch_threads(self.predict_threads), torch.inference_mode():
             for i, frame in enumerate(X):
                 feats = members[0]._features(frame)
-                out[i] = np.mean([m._predict_features(frame, feats) for m in members], axis=0)
+                out[i] = np.average([m._predict_features(frame, feats) for m in members], axis=0, weights=weights)
         return out
 
     # -- persistence -----------------------------------------------------------------------
@@ -268,6 +292,8 @@ class MeanEnsembleInpainter(BaseInpainter):
         params = {k: v for k, v in self.get_params(deep=False).items() if k != "estimators"}
         if not isinstance(params["random_state"], (int, type(None))):
             params["random_state"] = None  # a RandomState or Generator is not JSON; members record their seeds
+        if params["weights"] is not None:
+            params["weights"] = [float(w) for w in self._member_weights(len(members))]
         config = {"class": type(self).__name__, "params": params, "members": configs,
                   "fit": {"fit_seconds": float(getattr(self, "fit_seconds_", float("nan"))),
                           "member_fit_seconds": list(getattr(self, "member_fit_seconds_", []))},

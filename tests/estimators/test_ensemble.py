@@ -182,3 +182,34 @@ def test_grid_search_over_a_members_parameter_grouped_by_drive(data):
     search.fit(data, groups=data.groups)
     assert np.isfinite(search.cv_results_["mean_test_score"]).all() and set(search.best_params_) == {"blend__residual"}
     assert search.best_estimator_.named_estimators_["blend"].residual == search.best_params_["blend__residual"]
+
+
+def test_weighted_mean_as_in_voting_regressor(fitted, tmp_path):
+    x = _corrupt(_streets(1, seed=5)[0])
+    hole = np.isnan(x)
+    members = [m.predict(x) for m in fitted.estimators_]
+    weighted = MeanEnsembleInpainter.from_fitted(list(fitted.named_estimators_.items()), weights=(3, 1))
+    pred = weighted.predict(x)
+    np.testing.assert_allclose(pred[hole], (0.75 * members[0] + 0.25 * members[1])[hole], rtol=1e-5)
+    # equal weights are the plain mean; one member alone is that member
+    np.testing.assert_allclose(weighted.set_params(weights=[1, 1]).predict(x), fitted.predict(x), rtol=1e-6)
+    np.testing.assert_allclose(weighted.set_params(weights=[0, 2]).predict(x)[hole], members[1][hole], rtol=1e-6)
+    loaded = load_checkpoint(weighted.set_params(weights=(3, 1)).save(tmp_path / "weighted"))
+    assert loaded.weights == [3.0, 1.0]
+    np.testing.assert_array_equal(loaded.predict(x), pred)
+
+
+@pytest.mark.parametrize("weights, message", [
+    ([1], "one number per member"),
+    ([1, 2, 3], "one number per member"),
+    ([1, -1], "non-negative"),
+    ([0, 0], "not all zero"),
+    ([1, float("nan")], "finite"),
+    (["a", 1], "numbers"),
+])
+def test_bad_weights_are_named(weights, message, fitted, data):
+    x = _corrupt(_streets(1, seed=5)[0])
+    with pytest.raises(ValueError, match=message):
+        MeanEnsembleInpainter.from_fitted(list(fitted.named_estimators_.items()), weights=weights).predict(x)
+    with pytest.raises(ValueError, match=message):
+        MeanEnsembleInpainter(_members(), weights=weights).fit(data)
