@@ -12,6 +12,12 @@ three candidates on the split's held-out drives:
 * ``mean``: the per-pixel mean of the two, the second without its mirrored pass
   (``--second-tta``), features computed once for both (``mean_of_models.shared_feature_mean``).
 
+``--weight W`` (repeatable) adds the candidate ``mean-wW``: the weighted mean, the first model
+weighing ``W`` and the second ``1 - W`` (``MeanEnsembleInpainter(weights=...)``). A rerun with
+the same seeds reuses the rows of ``OUT/inner-<fold>.json`` and scores only what is new.
+``--outer`` also scores every mean candidate on the fold's reported frames (its ``lodo_days.sh``
+fold models, from ``--link``), so the chosen candidate's reported ratio is printed too.
+
 Each candidate's ratio to the strongest classical method (``-m``) is pooled over the fold's
 inner splits (every held-out frame-mask counts once, paired 95 % interval); the lowest ratio
 is the fold's choice. The fold's report is then the chosen candidate's score on the outer
@@ -25,6 +31,8 @@ Examples
 --------
     python experiments/nested_mean.py --kitti-root <KITTI root> --out nested --train --jobs 2 \\
         --link lodo-draws-s1 --link lodo-blend -m harmonic -m scanline
+    python experiments/nested_mean.py --kitti-root <KITTI root> --out nested --link lodo-draws-s1 \\
+        --link lodo-blend -m harmonic -m scanline --weight 0.3 --weight 0.7 --outer
 """
 
 from __future__ import annotations
@@ -44,7 +52,7 @@ from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classica
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
 from inpaintenv.registry import make_method
-from inpaintenv.report.results import EvaluationResult
+from inpaintenv.report.results import EvaluationResult, parse_row
 
 OFFICIAL = "2011_09_26_drive_0001_sync"
 CANDIDATES = ("first", "second", "mean")
@@ -119,7 +127,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--protocol", default="rect-v1")
     p.add_argument("--second-tta", choices=("false", "true"), default="false",
                    help="the second model's mirrored pass inside the mean (default false)")
+    p.add_argument("--weight", type=float, action="append", default=[], metavar="W",
+                   help="add the weighted mean, the first model weighing W in (0, 1) (repeatable)")
+    p.add_argument("--outer", action="store_true",
+                   help="also score the mean candidates on each fold's reported frames (its --link fold models)")
     args = p.parse_args(argv)
+    if any(not 0 < w < 1 for w in args.weight):
+        p.error(f"--weight takes numbers between 0 and 1, got {args.weight}")
+    candidates = CANDIDATES + tuple(f"mean-w{w:g}" for w in args.weight)
     unknown = [m for m in args.method if m not in CLASSICAL_METHODS]
     if not args.method or unknown:
         p.error("-m takes one or more classical methods" + (f"; not classical: {', '.join(unknown)}" if unknown else ""))
@@ -158,37 +173,77 @@ def main(argv: list[str] | None = None) -> int:
             return 1
 
     seeds = args.seed or [0, 1]
+
+    def scored(exclude: list[str], frames: KittiDepth, wanted: set[str]) -> list[dict]:
+        """Rows of the candidates in ``wanted`` (and classical methods) built from the models of ``exclude``."""
+        first = load_checkpoint(model_dir(exclude, presets[0]))
+        second = load_checkpoint(model_dir(exclude, presets[1]))
+        in_mean = load_checkpoint(model_dir(exclude, presets[1]))
+        in_mean.set_params(tta=args.second_tta == "true")
+        methods: dict[str, Any] = {"first": first, "second": second, "mean": shared_feature_mean([first, in_mean])}
+        for w in args.weight:
+            methods[f"mean-w{w:g}"] = shared_feature_mean([first, in_mean]).set_params(weights=[w, 1 - w])
+        methods.update({m: make_method(m) for m in args.method})
+        rows = []
+        for name in [m for m in methods if m in wanted]:
+            rows += evaluate(methods[name], frames, args.protocol, seeds, name=name, progress=False).rows
+        return rows
+
+    def outer_ratios(fold: dict[str, Any], cands: tuple[str, ...], choice: str) -> dict[str, float]:
+        camera = "both" if fold["name"] == "drive-0001" else "image_02"
+        frames = KittiDepth(args.kitti_root, split="train", drives=fold["held"], camera=camera)
+        means = [c for c in cands if c.startswith("mean")]
+        result = EvaluationResult(rows=scored(fold["held"], frames, set(means) | set(args.method)))
+        print(f"\nreported frames of fold {fold['name']} (its lodo_days.sh models):\n")
+        print("| candidate | ratio [paired 95 %] | frame-masks |\n|---|---:|---:|")
+        ratios = {}
+        for cand in means:
+            keep = set(args.method) | {cand}
+            e = learned_vs_classical(EvaluationResult(rows=[r for r in result.rows if r["method"] in keep]),
+                                     keys=("protocol",))[0]
+            ratios[cand] = e["hole_ratio"]
+            print(f"| {cand}{' (chosen)' if cand == choice else ''} | {e['hole_ratio']:.3f} "
+                  f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
+        return ratios
+
     summary = []
     for fold in folds:
+        saved = out / f"inner-{fold['name']}.json"
         rows: list[dict] = []
+        if saved.is_file():  # a rerun scores only the candidates (or seeds) not yet there
+            # parse_row would read the split's day as a number (float accepts 2011_09_30)
+            rows = [{**parse_row(r), "split": r["split"]} for r in json.loads(saved.read_text())["rows"]
+                    if int(r["seed"]) in seeds]
         for n, split in enumerate(fold["inner"]):
-            first = load_checkpoint(model_dir(split["exclude"], presets[0]))
-            second = load_checkpoint(model_dir(split["exclude"], presets[1]))
-            in_mean = load_checkpoint(model_dir(split["exclude"], presets[1]))
-            in_mean.set_params(tta=args.second_tta == "true")
+            done = {r["method"] for r in rows if r["split"] == split["day"]}
+            wanted = (set(candidates) | set(args.method)) - done
+            if not wanted:
+                continue
             frames = KittiDepth(args.kitti_root, split="train", drives=split["score"], camera="image_02")
-            methods = [("first", first), ("second", second), ("mean", shared_feature_mean([first, in_mean]))]
-            for name, method in methods + [(m, make_method(m)) for m in args.method]:
-                for r in evaluate(method, frames, args.protocol, seeds, name=name, progress=False).rows:
-                    # frame-masks of different splits must not pair with each other
-                    rows.append({**r, "index": n * 1_000_000 + int(r["index"]), "split": split["day"]})
+            for r in scored(split["exclude"], frames, wanted):
+                # frame-masks of different splits must not pair with each other
+                rows.append({**r, "index": n * 1_000_000 + int(r["index"]), "split": split["day"]})
         entries = {}
-        for cand in CANDIDATES:
+        for cand in candidates:
             keep = set(args.method) | {cand}
             entries[cand] = learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
                                                  keys=("protocol",))[0]
-        choice = min(CANDIDATES, key=lambda c: entries[c]["hole_ratio"])
+        choice = min(candidates, key=lambda c: entries[c]["hole_ratio"])
         print(f"\n## fold {fold['name']}: inner splits leave out {', '.join(s['day'] for s in fold['inner'])}\n")
         print("| candidate | hole RMSE | strongest classical | ratio [paired 95 %] | frame-masks |")
         print("|---|---:|---|---:|---:|")
-        for cand in CANDIDATES:
+        for cand in candidates:
             e = entries[cand]
             print(f"| {cand}{' (chosen)' if cand == choice else ''} | {e['learned_hole_rmse']:.2f} m "
                   f"| {e['classical']} {e['classical_hole_rmse']:.2f} m | {e['hole_ratio']:.3f} "
                   f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
         summary.append({"fold": fold["name"], "choice": choice, "inner": [s["day"] for s in fold["inner"]],
-                        "ratios": {c: entries[c]["hole_ratio"] for c in CANDIDATES}})
-        EvaluationResult(rows=rows).to_json(out / f"inner-{fold['name']}.json")
+                        "ratios": {c: entries[c]["hole_ratio"] for c in candidates}})
+        out.mkdir(parents=True, exist_ok=True)
+        EvaluationResult(rows=rows).to_json(saved)
+        if args.outer:
+            summary[-1]["outer"] = outer_ratios(fold, candidates, choice)
+
     out.mkdir(parents=True, exist_ok=True)
     (out / "choices.json").write_text(json.dumps(summary, indent=1))
     print("\nchoices: " + ", ".join(f"{s['fold']} {s['choice']}" for s in summary))

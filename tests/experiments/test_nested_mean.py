@@ -86,3 +86,20 @@ def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp
     assert choices[0]["fold"] == "day-2011_09_30" and choices[0]["choice"] in ("first", "second", "mean")
     assert choices[0]["choice"] == min(choices[0]["ratios"], key=choices[0]["ratios"].get)
     assert (out / "inner-day-2011_09_30.json").is_file()
+    # a rerun adds a weighted mean, scoring only it (the saved rows are reused), and scores
+    # the mean candidates on the fold's reported frames with its linked fold models
+    before = [r for r in json.loads((out / "inner-day-2011_09_30.json").read_text())["rows"]]
+    lodo = tmp_path / "lodo"
+    context.save(lodo / "train-day-2011_09_30-context-kitti-draws" / "model")
+    blend.save(lodo / "train-day-2011_09_30-blend-kitti" / "model")
+    assert script.main([*args, "--weight", "0.7", "--outer", "--link", str(lodo)]) == 0
+    printed = capsys.readouterr().out
+    assert "| mean-w0.7" in printed and "reported frames of fold day-2011_09_30" in printed
+    after = json.loads((out / "inner-day-2011_09_30.json").read_text())["rows"]
+    assert len(after) == len(before) + len([r for r in before if r["method"] == "mean"])
+    assert [r for r in after if r["method"] != "mean-w0.7"] == before
+    choices = json.loads((out / "choices.json").read_text())
+    assert set(choices[0]["ratios"]) == {"first", "second", "mean", "mean-w0.7"}
+    assert set(choices[0]["outer"]) == {"mean", "mean-w0.7"}
+    with pytest.raises(SystemExit):
+        script.main([*args, "--weight", "1.5"])
