@@ -177,10 +177,11 @@ def main(argv: list[str] | None = None) -> int:
     def scored(exclude: list[str], frames: KittiDepth, wanted: set[str]) -> list[dict]:
         """Rows of the candidates in ``wanted`` (and classical methods) built from the models of ``exclude``."""
         first = load_checkpoint(model_dir(exclude, presets[0]))
-        second = load_checkpoint(model_dir(exclude, presets[1]))
         in_mean = load_checkpoint(model_dir(exclude, presets[1]))
         in_mean.set_params(tta=args.second_tta == "true")
-        methods: dict[str, Any] = {"first": first, "second": second, "mean": shared_feature_mean([first, in_mean])}
+        methods: dict[str, Any] = {"first": first, "mean": shared_feature_mean([first, in_mean])}
+        if "second" in wanted:  # the second model on its own, with its mirrored pass as saved
+            methods["second"] = load_checkpoint(model_dir(exclude, presets[1]))
         for w in args.weight:
             methods[f"mean-w{w:g}"] = shared_feature_mean([first, in_mean]).set_params(weights=[w, 1 - w])
         methods.update({m: make_method(m) for m in args.method})
@@ -189,18 +190,22 @@ def main(argv: list[str] | None = None) -> int:
             rows += evaluate(methods[name], frames, args.protocol, seeds, name=name, progress=False).rows
         return rows
 
+    def pooled(rows: list[dict], cand: str) -> dict[str, Any]:
+        """``cand``'s hole-RMSE ratio to the strongest of the classical methods over ``rows``."""
+        keep = set(args.method) | {cand}
+        return learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
+                                    keys=("protocol",))[0]
+
     def outer_ratios(fold: dict[str, Any], cands: tuple[str, ...], choice: str) -> dict[str, float]:
         camera = "both" if fold["name"] == "drive-0001" else "image_02"
         frames = KittiDepth(args.kitti_root, split="train", drives=fold["held"], camera=camera)
         means = [c for c in cands if c.startswith("mean")]
-        result = EvaluationResult(rows=scored(fold["held"], frames, set(means) | set(args.method)))
+        rows = scored(fold["held"], frames, set(means) | set(args.method))
         print(f"\nreported frames of fold {fold['name']} (its lodo_days.sh models):\n")
         print("| candidate | ratio [paired 95 %] | frame-masks |\n|---|---:|---:|")
         ratios = {}
         for cand in means:
-            keep = set(args.method) | {cand}
-            e = learned_vs_classical(EvaluationResult(rows=[r for r in result.rows if r["method"] in keep]),
-                                     keys=("protocol",))[0]
+            e = pooled(rows, cand)
             ratios[cand] = e["hole_ratio"]
             print(f"| {cand}{' (chosen)' if cand == choice else ''} | {e['hole_ratio']:.3f} "
                   f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
@@ -223,11 +228,7 @@ def main(argv: list[str] | None = None) -> int:
             for r in scored(split["exclude"], frames, wanted):
                 # frame-masks of different splits must not pair with each other
                 rows.append({**r, "index": n * 1_000_000 + int(r["index"]), "split": split["day"]})
-        entries = {}
-        for cand in candidates:
-            keep = set(args.method) | {cand}
-            entries[cand] = learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
-                                                 keys=("protocol",))[0]
+        entries = {cand: pooled(rows, cand) for cand in candidates}
         choice = min(candidates, key=lambda c: entries[c]["hole_ratio"])
         print(f"\n## fold {fold['name']}: inner splits leave out {', '.join(s['day'] for s in fold['inner'])}\n")
         print("| candidate | hole RMSE | strongest classical | ratio [paired 95 %] | frame-masks |")

@@ -149,8 +149,9 @@ class MeanEnsembleInpainter(BaseInpainter):
 
     def _check_params(self) -> None:
         """Check the members, the weights and, with the ensemble's shared parameters applied, each member's own."""
-        self._member_weights(len(self._check_members()))
-        for _, est in self._check_members():
+        members = self._check_members()
+        self._member_weights(len(members))
+        for _, est in members:
             check = getattr(est, "_check_params", None)
             if callable(check):
                 check_member = self._with_shared(clone(est))

@@ -88,7 +88,7 @@ def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp
     assert (out / "inner-day-2011_09_30.json").is_file()
     # a rerun adds a weighted mean, scoring only it (the saved rows are reused), and scores
     # the mean candidates on the fold's reported frames with its linked fold models
-    before = [r for r in json.loads((out / "inner-day-2011_09_30.json").read_text())["rows"]]
+    before = json.loads((out / "inner-day-2011_09_30.json").read_text())["rows"]
     lodo = tmp_path / "lodo"
     context.save(lodo / "train-day-2011_09_30-context-kitti-draws" / "model")
     blend.save(lodo / "train-day-2011_09_30-blend-kitti" / "model")
