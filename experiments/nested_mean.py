@@ -15,8 +15,14 @@ three candidates on the split's held-out drives:
 ``--weight W`` (repeatable) adds the candidate ``mean-wW``: the weighted mean, the first model
 weighing ``W`` and the second ``1 - W`` (``MeanEnsembleInpainter(weights=...)``). A rerun with
 the same seeds reuses the rows of ``OUT/inner-<fold>.json`` and scores only what is new.
+``--share METHOD:S`` (repeatable) adds ``mean+METHOD-sS``: ``(1 - S)`` times the mean plus ``S``
+times a classical fill, per pixel (``METHOD`` from ``-m``): whether a classical fill that wins
+some unseen scenes (scanline in open country) corrects the learned mean there without costing
+more elsewhere. Each frame's mean and classical predictions are computed once per run and
+shared by all candidates that read them.
 ``--outer`` also scores every mean candidate on the fold's reported frames (its ``lodo_days.sh``
-fold models, from ``--link``), so the chosen candidate's reported ratio is printed too.
+fold models, from ``--link``), so the chosen candidate's reported ratio is printed too; the rows
+land in ``OUT/outer-<fold>.json`` (``--by-drive`` prints their ratios per drive).
 
 Each candidate's ratio to the strongest classical method (``-m``) is pooled over the fold's
 inner splits (every held-out frame-mask counts once, paired 95 % interval); the lowest ratio
@@ -38,6 +44,7 @@ Examples
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import subprocess
 import sys
@@ -45,6 +52,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from mean_of_models import shared_feature_mean
 
 from estimators.learned.load import load_checkpoint
@@ -56,6 +64,45 @@ from inpaintenv.report.results import EvaluationResult, parse_row
 
 OFFICIAL = "2011_09_26_drive_0001_sync"
 CANDIDATES = ("first", "second", "mean")
+
+
+class Memo:
+    """``method``'s predictions, each computed once per distinct input batch (mixed candidates
+    re-read them)."""
+
+    def __init__(self, method: Any) -> None:
+        self.method = method
+        self.cache: dict[bytes, np.ndarray] = {}
+
+    def predict(self, depth: np.ndarray) -> np.ndarray:
+        depth = np.ascontiguousarray(depth)
+        key = hashlib.blake2b(depth.tobytes(), digest_size=16).digest() + repr(depth.shape).encode()
+        if key not in self.cache:
+            self.cache[key] = np.asarray(self.method.predict(depth), dtype=np.float32)
+        return self.cache[key]
+
+
+class Mix:
+    """``(1 - share)`` times ``first``'s prediction plus ``share`` times ``second``'s."""
+
+    def __init__(self, first: Memo, second: Memo, share: float) -> None:
+        self.first, self.second, self.share = first, second, share
+
+    def predict(self, depth: np.ndarray) -> np.ndarray:
+        return (1 - self.share) * self.first.predict(depth) + self.share * self.second.predict(depth)
+
+
+def parse_share(text: str, methods: list[str]) -> tuple[str, float]:
+    """``"scanline:0.2"`` -> ``("scanline", 0.2)``; the method must be one of ``methods``."""
+    name, sep, share = text.partition(":")
+    try:
+        value = float(share)
+    except ValueError:
+        value = float("nan")
+    if not sep or name not in methods or not 0 < value < 1:
+        raise ValueError(f"--share takes METHOD:S with METHOD one of -m ({', '.join(methods)}) "
+                         f"and S in (0, 1), got {text!r}")
+    return name, value
 
 
 def day_of(drive: str) -> str:
@@ -129,15 +176,23 @@ def main(argv: list[str] | None = None) -> int:
                    help="the second model's mirrored pass inside the mean (default false)")
     p.add_argument("--weight", type=float, action="append", default=[], metavar="W",
                    help="add the weighted mean, the first model weighing W in (0, 1) (repeatable)")
+    p.add_argument("--share", action="append", default=[], metavar="METHOD:S",
+                   help="add (1 - S) x mean + S x the classical METHOD (one of -m; repeatable)")
     p.add_argument("--outer", action="store_true",
                    help="also score the mean candidates on each fold's reported frames (its --link fold models)")
+    p.add_argument("--by-drive", action="store_true", help="with --outer: each mean candidate's ratio per drive")
     args = p.parse_args(argv)
     if any(not 0 < w < 1 for w in args.weight):
         p.error(f"--weight takes numbers between 0 and 1, got {args.weight}")
-    candidates = CANDIDATES + tuple(f"mean-w{w:g}" for w in args.weight)
     unknown = [m for m in args.method if m not in CLASSICAL_METHODS]
     if not args.method or unknown:
         p.error("-m takes one or more classical methods" + (f"; not classical: {', '.join(unknown)}" if unknown else ""))
+    try:
+        shares = [parse_share(text, args.method) for text in args.share]
+    except ValueError as err:
+        p.error(str(err))
+    candidates = (CANDIDATES + tuple(f"mean-w{w:g}" for w in args.weight)
+                  + tuple(f"mean+{m}-s{s:g}" for m, s in shares))
     presets = args.presets.split(",")
     if len(presets) != 2:
         p.error(f"--presets takes two recipes, got {args.presets!r}")
@@ -179,12 +234,16 @@ def main(argv: list[str] | None = None) -> int:
         first = load_checkpoint(model_dir(exclude, presets[0]))
         in_mean = load_checkpoint(model_dir(exclude, presets[1]))
         in_mean.set_params(tta=args.second_tta == "true")
-        methods: dict[str, Any] = {"first": first, "mean": shared_feature_mean([first, in_mean])}
+        mean = Memo(shared_feature_mean([first, in_mean]))
+        methods: dict[str, Any] = {"first": first, "mean": mean}
         if "second" in wanted:  # the second model on its own, with its mirrored pass as saved
             methods["second"] = load_checkpoint(model_dir(exclude, presets[1]))
         for w in args.weight:
             methods[f"mean-w{w:g}"] = shared_feature_mean([first, in_mean]).set_params(weights=[w, 1 - w])
-        methods.update({m: make_method(m) for m in args.method})
+        classical = {m: Memo(make_method(m)) for m in args.method}
+        methods.update(classical)
+        for m, share in shares:
+            methods[f"mean+{m}-s{share:g}"] = Mix(mean, classical[m], share)
         rows = []
         for name in [m for m in methods if m in wanted]:
             rows += evaluate(methods[name], frames, args.protocol, seeds, name=name, progress=False).rows
@@ -201,6 +260,8 @@ def main(argv: list[str] | None = None) -> int:
         frames = KittiDepth(args.kitti_root, split="train", drives=fold["held"], camera=camera)
         means = [c for c in cands if c.startswith("mean")]
         rows = scored(fold["held"], frames, set(means) | set(args.method))
+        out.mkdir(parents=True, exist_ok=True)
+        EvaluationResult(rows=rows).to_json(out / f"outer-{fold['name']}.json")  # per-drive reading
         print(f"\nreported frames of fold {fold['name']} (its lodo_days.sh models):\n")
         print("| candidate | ratio [paired 95 %] | frame-masks |\n|---|---:|---:|")
         ratios = {}
@@ -209,6 +270,11 @@ def main(argv: list[str] | None = None) -> int:
             ratios[cand] = e["hole_ratio"]
             print(f"| {cand}{' (chosen)' if cand == choice else ''} | {e['hole_ratio']:.3f} "
                   f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
+        if args.by_drive:
+            print("\n| drive | " + " | ".join(means) + " |\n|---|" + "---:|" * len(means))
+            for drive in sorted({r["drive"] for r in rows}):
+                of_drive = [r for r in rows if r["drive"] == drive]
+                print(f"| {drive} | " + " | ".join(f"{pooled(of_drive, c)['hole_ratio']:.3f}" for c in means) + " |")
         return ratios
 
     summary = []

@@ -103,3 +103,37 @@ def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp
     assert set(choices[0]["outer"]) == {"mean", "mean-w0.7"}
     with pytest.raises(SystemExit):
         script.main([*args, "--weight", "1.5"])
+    # a classical share: one more candidate, scored from the same predictions
+    assert script.main([*args, "--share", "harmonic:0.25", "--outer", "--by-drive", "--link", str(lodo)]) == 0
+    assert "| 2011_09_30_drive_9018_sync | " in capsys.readouterr().out
+    outer = json.loads((out / "outer-day-2011_09_30.json").read_text())["rows"]
+    assert {r["method"] for r in outer} == {"mean", "mean+harmonic-s0.25", "harmonic"}
+    shared = json.loads((out / "inner-day-2011_09_30.json").read_text())["rows"]
+    assert [r for r in shared if r["method"] != "mean+harmonic-s0.25"] == after
+    assert "mean+harmonic-s0.25" in json.loads((out / "choices.json").read_text())[0]["ratios"]
+    for bad in ("scanline:0.2", "harmonic:1", "harmonic"):  # not among -m; share out of (0, 1); no share
+        with pytest.raises(SystemExit):
+            script.main([*args, "--share", bad])
+
+
+def test_mix_is_the_shared_weighted_sum_of_memoised_predictions(load_experiment):
+    script = load_experiment("nested_mean")
+    calls = []
+
+    class Constant:
+        def __init__(self, value):
+            self.value = value
+
+        def predict(self, depth):
+            calls.append(self.value)
+            return np.full(depth.shape, self.value)
+
+    first, second = script.Memo(Constant(10.0)), script.Memo(Constant(20.0))
+    depth = np.ones((2, 3, 4), dtype=np.float32)
+    mix = script.Mix(first, second, 0.25)
+    np.testing.assert_allclose(mix.predict(depth), 12.5)
+    np.testing.assert_allclose(script.Mix(first, second, 0.5).predict(depth), 15.0)
+    assert calls == [10.0, 20.0]  # each member predicted once for the same batch
+    first.predict(depth + 1)
+    assert calls == [10.0, 20.0, 10.0]  # a new batch is predicted again
+    assert script.parse_share("harmonic:0.2", ["harmonic"]) == ("harmonic", 0.2)
