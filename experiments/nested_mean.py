@@ -263,6 +263,8 @@ def main(argv: list[str] | None = None) -> int:
         out.mkdir(parents=True, exist_ok=True)
         EvaluationResult(rows=rows).to_json(out / f"outer-{fold['name']}.json")  # per-drive reading
         print(f"\nreported frames of fold {fold['name']} (its lodo_days.sh models):\n")
+        if choice not in means:  # a single model: its reported ratio is lodo_days.sh's benchmark
+            print(f"(chosen: {choice}, a single model; its reported ratio is lodo_days.sh's)\n")
         print("| candidate | ratio [paired 95 %] | frame-masks |\n|---|---:|---:|")
         ratios = {}
         for cand in means:

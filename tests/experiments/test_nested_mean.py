@@ -101,6 +101,11 @@ def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp
     choices = json.loads((out / "choices.json").read_text())
     assert set(choices[0]["ratios"]) == {"first", "second", "mean", "mean-w0.7"}
     assert set(choices[0]["outer"]) == {"mean", "mean-w0.7"}
+    chosen = choices[0]["choice"]  # marked in the inner table, and in the reported one if a mean
+    if chosen.startswith("mean"):
+        assert printed.count("(chosen)") == 2
+    else:
+        assert printed.count("(chosen)") == 1 and f"(chosen: {chosen}, a single model" in printed
     with pytest.raises(SystemExit):
         script.main([*args, "--weight", "1.5"])
     # a classical share: one more candidate, scored from the same predictions
