@@ -19,7 +19,9 @@ the same seeds reuses the rows of ``OUT/inner-<fold>.json`` and scores only what
 times a classical fill, per pixel (``METHOD`` from ``-m``): whether a classical fill that wins
 some unseen scenes (scanline in open country) corrects the learned mean there without costing
 more elsewhere. Each frame's mean and classical predictions are computed once per run and
-shared by all candidates that read them.
+shared by all candidates that read them. ``--gate METHOD:S:T`` (repeatable) adds
+``mean+METHOD-sS-if-farther-T``: that mix only on the frames where the classical fill lies
+farther than the mean (median log ratio over the hole above ``T``), the mean elsewhere.
 ``--outer`` also scores every mean candidate on the fold's reported frames (its ``lodo_days.sh``
 fold models, from ``--link``), so the chosen candidate's reported ratio is printed too; the rows
 land in ``OUT/outer-<fold>.json`` (``--by-drive`` prints their ratios per drive).
@@ -90,6 +92,46 @@ class Mix:
 
     def predict(self, depth: np.ndarray) -> np.ndarray:
         return (1 - self.share) * self.first.predict(depth) + self.share * self.second.predict(depth)
+
+
+class GatedMix:
+    """``Mix`` on the frames where the classical fill is farther than the mean, else the mean.
+
+    Per frame, ``r`` is the median over the hole of ``log(second / first)``; frames with
+    ``r > threshold`` get ``(1 - share) * first + share * second``. Input only: the gate reads
+    the two predictions, never the ground truth. It asks whether the open-country failure
+    (the learned fill too near where a row carries far depth across the hole) can be told
+    from the frame itself.
+    """
+
+    def __init__(self, first: Memo, second: Memo, share: float, threshold: float) -> None:
+        self.first, self.second, self.share, self.threshold = first, second, share, threshold
+
+    def predict(self, depth: np.ndarray) -> np.ndarray:
+        first, second = self.first.predict(depth), self.second.predict(depth)
+        out = first.copy()
+        for k in range(depth.shape[0]):
+            hole = np.isnan(depth[k])
+            if not hole.any():
+                continue
+            r = np.median(np.log(np.maximum(second[k][hole], 0.1) / np.maximum(first[k][hole], 0.1)))
+            if r > self.threshold:
+                out[k] = (1 - self.share) * first[k] + self.share * second[k]
+        return out
+
+
+def parse_gate(text: str, methods: list[str]) -> tuple[str, float, float]:
+    """``"scanline:0.5:0.2"`` -> ``("scanline", 0.5, 0.2)``: method of ``methods``, share in
+    (0, 1], threshold (log ratio) >= 0."""
+    parts = text.split(":")
+    try:
+        share, threshold = float(parts[1]), float(parts[2])
+    except (IndexError, ValueError):
+        share = threshold = float("nan")
+    if len(parts) != 3 or parts[0] not in methods or not 0 < share <= 1 or not threshold >= 0:
+        raise ValueError(f"--gate takes METHOD:S:T with METHOD one of -m ({', '.join(methods)}), "
+                         f"S in (0, 1] and T >= 0, got {text!r}")
+    return parts[0], share, threshold
 
 
 def parse_share(text: str, methods: list[str]) -> tuple[str, float]:
@@ -178,6 +220,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="add the weighted mean, the first model weighing W in (0, 1) (repeatable)")
     p.add_argument("--share", action="append", default=[], metavar="METHOD:S",
                    help="add (1 - S) x mean + S x the classical METHOD (one of -m; repeatable)")
+    p.add_argument("--gate", action="append", default=[], metavar="METHOD:S:T",
+                   help="add the share S of METHOD on the frames where it is farther than the mean "
+                        "(median log ratio over the hole > T; repeatable)")
     p.add_argument("--outer", action="store_true",
                    help="also score the mean candidates on each fold's reported frames (its --link fold models)")
     p.add_argument("--by-drive", action="store_true", help="with --outer: each mean candidate's ratio per drive")
@@ -189,10 +234,12 @@ def main(argv: list[str] | None = None) -> int:
         p.error("-m takes one or more classical methods" + (f"; not classical: {', '.join(unknown)}" if unknown else ""))
     try:
         shares = [parse_share(text, args.method) for text in args.share]
+        gates = [parse_gate(text, args.method) for text in args.gate]
     except ValueError as err:
         p.error(str(err))
     candidates = (CANDIDATES + tuple(f"mean-w{w:g}" for w in args.weight)
-                  + tuple(f"mean+{m}-s{s:g}" for m, s in shares))
+                  + tuple(f"mean+{m}-s{s:g}" for m, s in shares)
+                  + tuple(f"mean+{m}-s{s:g}-if-farther-{t:g}" for m, s, t in gates))
     presets = args.presets.split(",")
     if len(presets) != 2:
         p.error(f"--presets takes two recipes, got {args.presets!r}")
@@ -244,6 +291,8 @@ def main(argv: list[str] | None = None) -> int:
         methods.update(classical)
         for m, share in shares:
             methods[f"mean+{m}-s{share:g}"] = Mix(mean, classical[m], share)
+        for m, share, threshold in gates:
+            methods[f"mean+{m}-s{share:g}-if-farther-{threshold:g}"] = GatedMix(mean, classical[m], share, threshold)
         rows = []
         for name in [m for m in methods if m in wanted]:
             rows += evaluate(methods[name], frames, args.protocol, seeds, name=name, progress=False).rows
