@@ -85,66 +85,48 @@ class Memo:
 
 
 class Mix:
-    """``(1 - share)`` times ``first``'s prediction plus ``share`` times ``second``'s."""
+    """``(1 - share)`` times ``first``'s prediction plus ``share`` times ``second``'s, per pixel.
 
-    def __init__(self, first: Memo, second: Memo, share: float) -> None:
-        self.first, self.second, self.share = first, second, share
-
-    def predict(self, depth: np.ndarray) -> np.ndarray:
-        return (1 - self.share) * self.first.predict(depth) + self.share * self.second.predict(depth)
-
-
-class GatedMix:
-    """``Mix`` on the frames where the classical fill is farther than the mean, else the mean.
-
-    Per frame, ``r`` is the median over the hole of ``log(second / first)``; frames with
-    ``r > threshold`` get ``(1 - share) * first + share * second``. Input only: the gate reads
-    the two predictions, never the ground truth. It asks whether the open-country failure
-    (the learned fill too near where a row carries far depth across the hole) can be told
-    from the frame itself.
+    With ``farther_than`` set, only on the frames where ``second`` lies farther than ``first``:
+    the median over the hole of ``log(second / first)`` exceeds it; ``first`` elsewhere. That
+    gate reads the two predictions, never the ground truth. It asks whether the open-country
+    failure (the learned fill too near where a row carries far depth across the hole) can be
+    told from the frame itself.
     """
 
-    def __init__(self, first: Memo, second: Memo, share: float, threshold: float) -> None:
-        self.first, self.second, self.share, self.threshold = first, second, share, threshold
+    def __init__(self, first: Memo, second: Memo, share: float, farther_than: float | None = None) -> None:
+        self.first, self.second, self.share, self.farther_than = first, second, share, farther_than
 
     def predict(self, depth: np.ndarray) -> np.ndarray:
         first, second = self.first.predict(depth), self.second.predict(depth)
+        mixed = (1 - self.share) * first + self.share * second
+        if self.farther_than is None:
+            return mixed
         out = first.copy()
         for k in range(depth.shape[0]):
             hole = np.isnan(depth[k])
-            if not hole.any():
-                continue
-            r = np.median(np.log(np.maximum(second[k][hole], 0.1) / np.maximum(first[k][hole], 0.1)))
-            if r > self.threshold:
-                out[k] = (1 - self.share) * first[k] + self.share * second[k]
+            if hole.any() and np.median(np.log(np.maximum(second[k][hole], 0.1)
+                                               / np.maximum(first[k][hole], 0.1))) > self.farther_than:
+                out[k] = mixed[k]
         return out
 
 
-def parse_gate(text: str, methods: list[str]) -> tuple[str, float, float]:
-    """``"scanline:0.5:0.2"`` -> ``("scanline", 0.5, 0.2)``: method of ``methods``, share in
-    (0, 1], threshold (log ratio) >= 0."""
+def parse_mix(text: str, methods: list[str], *, gated: bool = False) -> tuple[Any, ...]:
+    """``--share``'s ``"scanline:0.2"`` -> ``("scanline", 0.2)``, share in (0, 1); with ``gated``,
+    ``--gate``'s ``"scanline:0.5:0.2"`` -> ``("scanline", 0.5, 0.2)``, share in (0, 1] and
+    threshold (log ratio) >= 0. The method must be one of ``methods``."""
     parts = text.split(":")
     try:
-        share, threshold = float(parts[1]), float(parts[2])
-    except (IndexError, ValueError):
-        share = threshold = float("nan")
-    if len(parts) != 3 or parts[0] not in methods or not 0 < share <= 1 or not threshold >= 0:
-        raise ValueError(f"--gate takes METHOD:S:T with METHOD one of -m ({', '.join(methods)}), "
-                         f"S in (0, 1] and T >= 0, got {text!r}")
-    return parts[0], share, threshold
-
-
-def parse_share(text: str, methods: list[str]) -> tuple[str, float]:
-    """``"scanline:0.2"`` -> ``("scanline", 0.2)``; the method must be one of ``methods``."""
-    name, sep, share = text.partition(":")
-    try:
-        value = float(share)
+        numbers = [float(x) for x in parts[1:]]
     except ValueError:
-        value = float("nan")
-    if not sep or name not in methods or not 0 < value < 1:
-        raise ValueError(f"--share takes METHOD:S with METHOD one of -m ({', '.join(methods)}) "
-                         f"and S in (0, 1), got {text!r}")
-    return name, value
+        numbers = []
+    share_ok = bool(numbers) and (0 < numbers[0] <= 1 if gated else 0 < numbers[0] < 1)
+    if (len(numbers) != (2 if gated else 1) or parts[0] not in methods or not share_ok
+            or (gated and not numbers[1] >= 0)):
+        form = "--gate takes METHOD:S:T" if gated else "--share takes METHOD:S"
+        bounds = "S in (0, 1] and T >= 0" if gated else "S in (0, 1)"
+        raise ValueError(f"{form} with METHOD one of -m ({', '.join(methods)}) and {bounds}, got {text!r}")
+    return (parts[0], *numbers)
 
 
 def day_of(drive: str) -> str:
@@ -227,14 +209,16 @@ def main(argv: list[str] | None = None) -> int:
                    help="also score the mean candidates on each fold's reported frames (its --link fold models)")
     p.add_argument("--by-drive", action="store_true", help="with --outer: each mean candidate's ratio per drive")
     args = p.parse_args(argv)
+    if args.by_drive and not args.outer:
+        p.error("--by-drive reads the reported rows: give --outer too")
     if any(not 0 < w < 1 for w in args.weight):
         p.error(f"--weight takes numbers between 0 and 1, got {args.weight}")
     unknown = [m for m in args.method if m not in CLASSICAL_METHODS]
     if not args.method or unknown:
         p.error("-m takes one or more classical methods" + (f"; not classical: {', '.join(unknown)}" if unknown else ""))
     try:
-        shares = [parse_share(text, args.method) for text in args.share]
-        gates = [parse_gate(text, args.method) for text in args.gate]
+        shares = [parse_mix(text, args.method) for text in args.share]
+        gates = [parse_mix(text, args.method, gated=True) for text in args.gate]
     except ValueError as err:
         p.error(str(err))
     candidates = (CANDIDATES + tuple(f"mean-w{w:g}" for w in args.weight)
@@ -292,17 +276,19 @@ def main(argv: list[str] | None = None) -> int:
         for m, share in shares:
             methods[f"mean+{m}-s{share:g}"] = Mix(mean, classical[m], share)
         for m, share, threshold in gates:
-            methods[f"mean+{m}-s{share:g}-if-farther-{threshold:g}"] = GatedMix(mean, classical[m], share, threshold)
+            methods[f"mean+{m}-s{share:g}-if-farther-{threshold:g}"] = Mix(mean, classical[m], share, threshold)
         rows = []
         for name in [m for m in methods if m in wanted]:
             rows += evaluate(methods[name], frames, args.protocol, seeds, name=name, progress=False).rows
         return rows
 
-    def pooled(rows: list[dict], cand: str) -> dict[str, Any]:
-        """``cand``'s hole-RMSE ratio to the strongest of the classical methods over ``rows``."""
+    def pooled(rows: list[dict], cand: str, by_drive: bool = False) -> Any:
+        """``cand``'s hole-RMSE ratio to the strongest of the classical methods over ``rows``
+        (with ``by_drive``: one entry per drive)."""
         keep = set(args.method) | {cand}
-        return learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
-                                    keys=("protocol",))[0]
+        entries = learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
+                                       keys=("protocol", "drive") if by_drive else ("protocol",))
+        return entries if by_drive else entries[0]
 
     def outer_ratios(fold: dict[str, Any], cands: tuple[str, ...], choice: str) -> dict[str, float]:
         camera = "both" if fold["name"] == "drive-0001" else "image_02"
@@ -323,9 +309,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
         if args.by_drive:
             print("\n| drive | " + " | ".join(means) + " |\n|---|" + "---:|" * len(means))
+            per_drive = {c: {e["drive"]: e["hole_ratio"] for e in pooled(rows, c, by_drive=True)} for c in means}
             for drive in sorted({r["drive"] for r in rows}):
-                of_drive = [r for r in rows if r["drive"] == drive]
-                print(f"| {drive} | " + " | ".join(f"{pooled(of_drive, c)['hole_ratio']:.3f}" for c in means) + " |")
+                print(f"| {drive} | " + " | ".join(f"{per_drive[c][drive]:.3f}" for c in means) + " |")
         return ratios
 
     summary = []

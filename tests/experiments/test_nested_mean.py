@@ -118,6 +118,9 @@ def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp
     assert "mean+harmonic-s0.25" in json.loads((out / "choices.json").read_text())[0]["ratios"]
     assert script.main([*args, "--gate", "harmonic:1:0"]) == 0
     assert "mean+harmonic-s1-if-farther-0" in json.loads((out / "choices.json").read_text())[0]["ratios"]
+    with pytest.raises(SystemExit):  # per-drive ratios come from the reported rows only
+        script.main([*args, "--by-drive"])
+    assert "--by-drive reads the reported rows" in capsys.readouterr().err
     for bad in ("scanline:0.2", "harmonic:1", "harmonic"):  # not among -m; share out of (0, 1); no share
         with pytest.raises(SystemExit):
             script.main([*args, "--share", bad])
@@ -143,7 +146,7 @@ def test_mix_is_the_shared_weighted_sum_of_memoised_predictions(load_experiment)
     assert calls == [10.0, 20.0]  # each member predicted once for the same batch
     first.predict(depth + 1)
     assert calls == [10.0, 20.0, 10.0]  # a new batch is predicted again
-    assert script.parse_share("harmonic:0.2", ["harmonic"]) == ("harmonic", 0.2)
+    assert script.parse_mix("harmonic:0.2", ["harmonic"]) == ("harmonic", 0.2)
 
 
 def test_gate_mixes_only_the_frames_where_the_classical_fill_is_farther(load_experiment):
@@ -160,11 +163,11 @@ def test_gate_mixes_only_the_frames_where_the_classical_fill_is_farther(load_exp
     depth[:, 0, 0] = 5.0  # one measured pixel per frame, the rest is the hole
     mean = np.full((2, 2, 3), 10.0, dtype=np.float32)
     far = np.stack([np.full((2, 3), 20.0), np.full((2, 3), 10.5)]).astype(np.float32)  # log 2 and log 1.05
-    gate = script.GatedMix(script.Memo(Fixed(mean)), script.Memo(Fixed(far)), 0.5, 0.2)
+    gate = script.Mix(script.Memo(Fixed(mean)), script.Memo(Fixed(far)), 0.5, farther_than=0.2)
     out = gate.predict(depth)
     np.testing.assert_allclose(out[0], 15.0)  # farther by log 2 > 0.2: mixed
     np.testing.assert_allclose(out[1], 10.0)  # farther by log 1.05 < 0.2: the mean
-    assert script.parse_gate("scanline:1:0.15", ["scanline"]) == ("scanline", 1.0, 0.15)
+    assert script.parse_mix("scanline:1:0.15", ["scanline"], gated=True) == ("scanline", 1.0, 0.15)
     for bad in ("scanline:0.5", "scanline:0:0.1", "scanline:0.5:-1", "harmonic:0.5:0.1"):
         with pytest.raises(ValueError, match="--gate takes METHOD:S:T"):
-            script.parse_gate(bad, ["scanline"])
+            script.parse_mix(bad, ["scanline"], gated=True)
