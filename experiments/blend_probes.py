@@ -78,8 +78,9 @@ MIN_PROBE_PIXELS = 20
 KEEP = (1.0, 0.65, 0.4)
 
 
-def probe_regions(hole: np.ndarray, direction: str = "h") -> tuple[np.ndarray, np.ndarray, int]:
-    """Copies of each hole component shifted by its own size, outside the hole.
+def probe_regions(hole: np.ndarray, direction: str = "h", margin: float = 0.0,
+                  min_margin: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+    """Copies of each hole component shifted by its own size (plus a margin), outside the hole.
 
     Parameters
     ----------
@@ -87,6 +88,9 @@ def probe_regions(hole: np.ndarray, direction: str = "h") -> tuple[np.ndarray, n
         ``(H, W)`` bool.
     direction : {"h", "v"}
         Shift by the component's width left and right, or by its height up and down.
+    margin, min_margin : float, int
+        Shift further by ``margin`` x that size, at least ``min_margin`` pixels (default 0:
+        the copies touch the hole), so that measured pixels stay between hole and copy.
 
     Returns
     -------
@@ -105,7 +109,9 @@ def probe_regions(hole: np.ndarray, direction: str = "h") -> tuple[np.ndarray, n
     for i in range(1, n):
         x0, y0, bw, bh, _ = stats[i]
         comp = labels[y0:y0 + bh, x0:x0 + bw] == i
-        for dy, dx in ([(0, bw), (0, -bw)] if direction == "h" else [(bh, 0), (-bh, 0)]):
+        sx = bw + max(int(min_margin), round(margin * bw))
+        sy = bh + max(int(min_margin), round(margin * bh))
+        for dy, dx in ([(0, sx), (0, -sx)] if direction == "h" else [(sy, 0), (-sy, 0)]):
             top, left = y0 + dy, x0 + dx
             r0, r1, c0, c1 = max(top, 0), min(top + bh, h), max(left, 0), min(left + bw, w)
             if r0 < r1 and c0 < c1:
