@@ -116,6 +116,41 @@ def test_default_preset_trains_the_default_release_recipe_and_is_scored(tmp_path
     assert re.search(r"\| mine ‡( \(\d+ of \d+ drives\))? \| rect-v1 \|", capsys.readouterr().out)
 
 
+def test_set_overrides_a_member_parameter_and_keys_the_run(tmp_path, capsys, small_ensemble_preset):
+    """--set member__param=VALUE reaches the ensemble member (JSON values), is recorded with the
+    run and keys it: another value starts over and says which --set changed."""
+    out = tmp_path / "run"
+    source = ["--n-frames", "4", "--frame-shape", "64", "192", "--threads", "1", "--quiet"]
+    assert main(["train", "--preset", "ensemble-kitti", *source, "--set", "context__masks_per_frame=2",
+                 "--set", "blend__keep=[1.0, 0.5]", "--out", str(out)]) == 0
+    config = json.loads((out / "model" / "config.json").read_text())
+    members = {m["name"]: m["config"]["params"] for m in config["members"]}
+    assert members["context"]["masks_per_frame"] == 2 and members["blend"]["masks_per_frame"] == 1
+    assert members["blend"]["keep"] == [1.0, 0.5]
+    log = json.loads((out / "training_log.json").read_text())
+    assert log["overrides"]["context__masks_per_frame"] == 2
+    capsys.readouterr()
+    assert main(["train", "--preset", "ensemble-kitti", *source, "--set", "context__masks_per_frame=3",
+                 "--set", "blend__keep=[1.0, 0.5]", "--out", str(out)]) == 0
+    assert "--set context__masks_per_frame changed (2 -> 3)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--preset", "blend-kitti", "--set", "masks_per_frame"], "--set takes KEY=VALUE"),
+    (["--preset", "blend-kitti", "--set", "width=8", "--set", "width=16"], "--set width is given twice"),
+    (["--preset", "blend-kitti", "--seed", "1", "--set", "random_state=2"], "also as --seed"),
+    (["--preset", "blend-kitti", "--set", "epochs=0"], "epochs must be an integer >= 1, got 0"),
+    (["--preset", "ensemble-kitti", "--set", "context__nope=1"], "has no nested parameter context__nope"),
+    (["--preset", "blend-kitti", "--set", "context__epochs=1"], "has no nested parameter context__epochs"),
+])
+def test_set_is_checked_before_any_file_is_written(tmp_path, capsys, argv, message):
+    out = tmp_path / "run"
+    assert main(["train", *argv, "--n-frames", "2", "--frame-shape", "32", "96", "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not out.exists()
+
+
 def test_train_blend_preset_end_to_end_and_scored_by_checkpoint(tmp_path, capsys, small_blend_preset):
     """The shipped recipe's preset (blend-kitti) trains, saves, and the benchmark loads it
     by --checkpoint; --max-steps, which it has no use for, is a one-line error."""

@@ -234,13 +234,18 @@ _RUNNER_KEYWORDS = ("checkpoint_dir", "verbose")
 def make_preset(name: str, **overrides: Any) -> Any:
     """The unfitted estimator of preset ``name`` (keywords in ``overrides`` replace its own).
 
+    A key ``member__param`` sets a parameter of the member ``member`` of an ensemble preset
+    (``set_params``, as ``GridSearchCV`` does), e.g. ``context__masks_per_frame=6`` for
+    ``ensemble-kitti``.
+
     Raises
     ------
     KeyError
         Unknown preset (the message lists the known ones).
     ValueError
         An override the preset's estimator does not have (e.g. ``max_steps`` for a
-        :class:`~estimators.blend.BlendInpainter`, which trains for ``epochs``).
+        :class:`~estimators.blend.BlendInpainter`, which trains for ``epochs``), or a
+        ``member__param`` that names no member's parameter.
     """
     if name not in PRESETS:
         raise KeyError(f"unknown single-stage preset {name!r}; known: {', '.join(PRESETS)}")
@@ -248,13 +253,26 @@ def make_preset(name: str, **overrides: Any) -> Any:
     params = copy.deepcopy(params)  # an ensemble's members are objects: each call gets its own
     accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
     overrides = {k: v for k, v in overrides.items() if k in accepted or k not in _RUNNER_KEYWORDS}
-    unknown = sorted(set(overrides) - accepted)
+    # member__param (an ensemble member's parameter) goes through set_params, as in GridSearchCV
+    nested = {k: v for k, v in overrides.items() if "__" in k}
+    unknown = sorted(set(overrides) - accepted - set(nested))
     if unknown:
         raise ValueError(
             f"preset {name!r} ({cls.__name__}) has no parameter {', '.join(unknown)}; "
             f"its parameters: {', '.join(sorted(accepted))}"
         )
-    return cls(**{**params, **overrides})
+    est = cls(**{**params, **{k: v for k, v in overrides.items() if k not in nested}})
+    if nested:
+        valid = set(est.get_params(deep=True))
+        bad = sorted(set(nested) - valid)
+        if bad:
+            members = sorted({k for k in valid if "__" in k})
+            raise ValueError(
+                f"preset {name!r} ({cls.__name__}) has no nested parameter {', '.join(bad)}"
+                + (f"; its nested parameters: {', '.join(members)}" if members else " (it has no members)")
+            )
+        est.set_params(**nested)
+    return est
 
 
 def check_preset(name: str, **overrides: Any) -> None:

@@ -43,6 +43,10 @@ def add_train(subparsers: Any) -> None:
                    help="frames whose training features are computed in parallel (override of n_jobs; "
                         "blend presets; -1 = all cores)")
     p.add_argument("--device", choices=["auto", "cpu", "cuda"], help="override the preset's device")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="set_params",
+                   help="override any parameter of the preset's estimator, VALUE read as JSON (6, 0.5, true, "
+                        "[1.0, 0.6]; anything else is a string); an ensemble member's as member__param, e.g. "
+                        "--set context__masks_per_frame=6 (repeatable)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute the blend presets' training features on a Dask cluster: tcp://HOST:PORT of a "
                         'running scheduler, or local:N worker processes here (needs pip install "inpaintenv[dask]")')
@@ -72,6 +76,27 @@ TRAIN_ARGS_FILE = "train_args.json"
 _RUN_INDEPENDENT_OVERRIDES = ("num_threads", "n_jobs")
 _OVERRIDE_FLAGS = {"max_steps": "--max-steps", "random_state": "--seed", "num_threads": "--threads",
                    "n_jobs": "--jobs", "device": "--device"}
+
+
+def parse_set_option(item: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` of ``--set``: VALUE read as JSON where it parses (numbers, true/false, null,
+    lists), else kept as a string (e.g. ``protocol=rect-v1``).
+
+    Raises
+    ------
+    ValueError
+        No ``=``, or an empty or malformed key.
+    """
+    key, sep, raw = item.partition("=")
+    key = key.strip()
+    if not sep or not key or not key.replace("__", "").replace("_", "a").isalnum():
+        raise ValueError(f"--set takes KEY=VALUE with KEY a parameter name (member__param for an ensemble's "
+                         f"member), got {item!r}")
+    try:
+        value = json.loads(raw)
+    except ValueError:
+        value = raw
+    return key, value
 
 
 def _keyed(r: dict[str, Any]) -> dict[str, Any]:
@@ -135,7 +160,7 @@ def train_resume_note(out: Path, record: dict[str, Any], *, checkpoints: bool = 
     for key in sorted(set(before["overrides"]) | set(now["overrides"])):
         old, new = before["overrides"].get(key, "preset's"), now["overrides"].get(key, "preset's")
         if old != new:
-            changes.append(f"{_OVERRIDE_FLAGS.get(key, key)} changed ({old} -> {new})")
+            changes.append(f"{_OVERRIDE_FLAGS.get(key, f'--set {key}')} changed ({old} -> {new})")
     return (f"starting over in {out}: {'; '.join(changes)}. Checkpoints are keyed by every training parameter, "
             f"so the earlier run is not continued (its checkpoints stay in {ckpts})")
 
@@ -230,6 +255,13 @@ def cmd_train(args: argparse.Namespace) -> int:
                        ("num_threads", args.threads), ("n_jobs", args.jobs), ("device", args.device)):
         if value is not None:
             overrides[key] = value
+    from_flags = set(overrides)
+    for item in getattr(args, "set_params", None) or []:
+        key, value = parse_set_option(item)
+        if key in overrides:
+            other = _OVERRIDE_FLAGS.get(key, key) if key in from_flags else f"another --set {key}"
+            raise ValueError(f"--set {key} is given twice (also as {other}); give it once")
+        overrides[key] = value
     # Every parameter is checked before anything is written: a refused --max-steps must not
     # leave a train_args.json behind that the next run compares itself with.
     check_preset(args.preset, **overrides)
