@@ -180,46 +180,53 @@ def frame_groups(index: np.ndarray) -> np.ndarray:
     return np.repeat(np.arange(len(index)), index[:, 2])
 
 
+def per_frame(values: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Component rows ``values`` (``(rows, ...)``) summed per frame-mask (``(frames, ...)``)."""
+    out = np.zeros((len(index), *values.shape[1:]))
+    np.add.at(out, frame_groups(index), values)
+    return out
+
+
+def method_rmse(stats: np.ndarray, k: int) -> np.ndarray:
+    """``(n, k)``: each method's RMSE from statistics ``(n, k*k+k+2)``; NaN where they count no pixel."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.stack([np.sqrt(np.maximum(sse(stats, np.tile(np.eye(k)[j], (len(stats), 1)), k), 0) / stats[:, -1])
+                         for j in range(k)], 1)
+
+
 def rule_weights(data: dict[str, Any], rule: str, learned: int, strength: float = 0.0) -> np.ndarray:
     """Per component row, the weights of the methods under ``rule`` (frame rules repeat per component)."""
     k = int(data["k"])
-    probe, hole = data["probe"], data["hole"]
-    groups = frame_groups(data["index"])
-    n_frames = len(data["index"])
-    frame_probe = np.zeros((n_frames, probe.shape[1]))
-    np.add.at(frame_probe, groups, probe)
+    probe = data["probe"]
     one = np.eye(k)[learned]
-    out = np.tile(one, (len(hole), 1))
     if rule == "gate-comp":
+        out = np.tile(one, (len(probe), 1))
         ok = probe[:, -1] >= MIN_PROBE_PIXELS
-        errs = np.stack([sse(probe, np.tile(np.eye(k)[j], (len(probe), 1)), k) for j in range(k)], 1)
-        out[ok] = np.eye(k)[errs[ok].argmin(1)]
+        out[ok] = np.eye(k)[method_rmse(probe[ok], k).argmin(1)]
         return out
+    frame_probe = per_frame(probe, data["index"])
     ok = frame_probe[:, -1] >= MIN_PROBE_PIXELS
-    per_frame = np.tile(one, (n_frames, 1))
-    g, c, _, cnt = _unpack(frame_probe, k)
+    mse = method_rmse(frame_probe, k) ** 2
+    weights = np.tile(one, (len(frame_probe), 1))
+    g, c, _, _ = _unpack(frame_probe, k)
     for f in np.nonzero(ok)[0]:
-        mse = np.array([sse(frame_probe[f], np.eye(k)[j], k) for j in range(k)]) / cnt[f]
         if rule == "gate":
-            per_frame[f] = np.eye(k)[mse.argmin()]
+            weights[f] = np.eye(k)[mse[f].argmin()]
         elif rule == "inverse-mse":
-            inv = 1.0 / np.maximum(mse, 1e-9)
-            per_frame[f] = inv / inv.sum()
+            inv = 1.0 / np.maximum(mse[f], 1e-9)
+            weights[f] = inv / inv.sum()
         elif rule in ("lsq", "shrink"):
-            per_frame[f] = simplex_lsq(g[f], c[f], one, strength if rule == "shrink" else 0.0)
+            weights[f] = simplex_lsq(g[f], c[f], one, strength if rule == "shrink" else 0.0)
         else:
             raise ValueError(f"unknown rule {rule!r}")
-    return per_frame[groups]
+    return weights[frame_groups(data["index"])]
 
 
 def frame_rmse(data: dict[str, Any], weights: np.ndarray) -> np.ndarray:
     """Per frame-mask hole RMSE of the per-component mixes ``weights``; NaN where the hole holds no truth."""
     k = int(data["k"])
-    groups = frame_groups(data["index"])
-    err = np.zeros(len(data["index"]))
-    cnt = np.zeros(len(data["index"]))
-    np.add.at(err, groups, sse(data["hole"], weights, k))
-    np.add.at(cnt, groups, data["hole"][:, -1])
+    err = per_frame(sse(data["hole"], weights, k), data["index"])
+    cnt = per_frame(data["hole"][:, -1], data["index"])
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.sqrt(np.maximum(err, 0) / cnt)
 
@@ -230,25 +237,16 @@ def probe_agreement(data: dict[str, Any], learned: int = 0) -> dict[str, float]:
     ``log(learned RMSE / best other method's RMSE)`` on the probes with the same in the hole,
     and the share of frame-masks the learned method wins (beats every other method) in each."""
     k = int(data["k"])
-    groups = frame_groups(data["index"])
-    n = len(data["index"])
-    per_frame = {}
-    for region in ("hole", "probe"):
-        total = np.zeros((n, data[region].shape[1]))
-        np.add.at(total, groups, data[region])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            per_frame[region] = np.stack([np.sqrt(sse(total, np.tile(np.eye(k)[j], (n, 1)), k) / total[:, -1])
-                                          for j in range(k)], 1)
-    totals = np.zeros(n)
-    np.add.at(totals, groups, data["probe"][:, -1])
-    ok = np.isfinite(per_frame["hole"]).all(1) & (totals >= MIN_PROBE_PIXELS)
+    totals = {region: per_frame(data[region], data["index"]) for region in ("hole", "probe")}
+    rmse = {region: method_rmse(t, k) for region, t in totals.items()}
+    ok = np.isfinite(rmse["hole"]).all(1) & (totals["probe"][:, -1] >= MIN_PROBE_PIXELS)
     if ok.sum() < 2 or k < 2:  # nothing to correlate, or no other method
         return {"n": int(ok.sum()), "correlation": float("nan"), "learned_wins_hole": float("nan"),
                 "learned_wins_probes": float("nan")}
     others = [j for j in range(k) if j != learned]
     floor = 1e-6  # an exact fill (RMSE 0) on a synthetic frame
     log_ratio = {r: np.log(np.maximum(e[ok, learned], floor) / np.maximum(e[ok][:, others].min(1), floor))
-                 for r, e in per_frame.items()}
+                 for r, e in rmse.items()}
     return {"n": int(ok.sum()), "correlation": float(np.corrcoef(log_ratio["hole"], log_ratio["probe"])[0, 1]),
             "learned_wins_hole": float((log_ratio["hole"] < 0).mean()),
             "learned_wins_probes": float((log_ratio["probe"] < 0).mean())}
@@ -273,7 +271,8 @@ def score(data: dict[str, Any], learned: str | None = None, shrinks: tuple[float
     names = list(data["methods"])
     k = len(names)
     learned = learned or names[0]
-    single = {name: frame_rmse(data, np.tile(np.eye(k)[j], (len(data["hole"]), 1))) for j, name in enumerate(names)}
+    each = method_rmse(per_frame(data["hole"], data["index"]), k)
+    single = {name: each[:, j] for j, name in enumerate(names)}
     ok = np.all([np.isfinite(v) for v in single.values()], axis=0)
     classical = [n for n in names if n != learned]
     strongest = min(classical, key=lambda n: single[n][ok].mean())
@@ -284,7 +283,7 @@ def score(data: dict[str, Any], learned: str | None = None, shrinks: tuple[float
     mixed = {"index": data["index"], "k": len(idx), "probe": subset(data["probe"], k, idx),
              "hole": subset(data["hole_single" if single_pass else "hole"], k, idx)}
     if single_pass:
-        rows[f"{learned} (single pass)"] = frame_rmse(mixed, np.tile(np.eye(len(idx))[0], (len(mixed["hole"]), 1)))[ok]
+        rows[f"{learned} (single pass)"] = method_rmse(per_frame(mixed["hole"], mixed["index"]), len(idx))[ok, 0]
     for rule in ("gate", "gate-comp", "inverse-mse", "lsq"):
         rows[rule] = frame_rmse(mixed, rule_weights(mixed, rule, 0))[ok]
     for t in shrinks:

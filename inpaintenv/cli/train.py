@@ -89,7 +89,7 @@ def parse_set_option(item: str) -> tuple[str, Any]:
     """
     key, sep, raw = item.partition("=")
     key = key.strip()
-    if not sep or not key or not key.replace("__", "").replace("_", "a").isalnum():
+    if not sep or not key.isidentifier():
         raise ValueError(f"--set takes KEY=VALUE with KEY a parameter name (member__param for an ensemble's "
                          f"member), got {item!r}")
     try:
