@@ -135,22 +135,6 @@ def test_set_overrides_a_member_parameter_and_keys_the_run(tmp_path, capsys, sma
     assert "--set context__masks_per_frame changed (2 -> 3)" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--preset", "blend-kitti", "--set", "masks_per_frame"], "--set takes KEY=VALUE"),
-    (["--preset", "blend-kitti", "--set", "width=8", "--set", "width=16"], "--set width is given twice"),
-    (["--preset", "blend-kitti", "--seed", "1", "--set", "random_state=2"], "also as --seed"),
-    (["--preset", "blend-kitti", "--set", "epochs=0"], "epochs must be an integer >= 1, got 0"),
-    (["--preset", "ensemble-kitti", "--set", "context__nope=1"], "has no nested parameter context__nope"),
-    (["--preset", "blend-kitti", "--set", "context__epochs=1"], "has no nested parameter context__epochs"),
-])
-def test_set_is_checked_before_any_file_is_written(tmp_path, capsys, argv, message):
-    out = tmp_path / "run"
-    assert main(["train", *argv, "--n-frames", "2", "--frame-shape", "32", "96", "--out", str(out)]) == 1
-    err = capsys.readouterr().err
-    assert message in err and "Traceback" not in err
-    assert not out.exists()
-
-
 def test_train_blend_preset_end_to_end_and_scored_by_checkpoint(tmp_path, capsys, small_blend_preset):
     """The shipped recipe's preset (blend-kitti) trains, saves, and the benchmark loads it
     by --checkpoint; --max-steps, which it has no use for, is a one-line error."""
@@ -233,6 +217,12 @@ def test_loss_figure_has_whole_epochs_and_the_loss_unit():
     (["--preset", "blend-kitti", "--threads", "0"], "num_threads must be None or an integer >= 1, got 0"),
     (["--preset", "smoke", "--seed", "-1"], "random_state"),
     (["--preset", "study-cpu", "--jobs", "2"], "preset 'study-cpu' (AutoencoderInpainter) has no parameter n_jobs"),
+    (["--preset", "blend-kitti", "--set", "masks_per_frame"], "--set takes KEY=VALUE"),
+    (["--preset", "blend-kitti", "--set", "width=8", "--set", "width=16"], "--set width is given twice"),
+    (["--preset", "blend-kitti", "--seed", "1", "--set", "random_state=2"], "also as --seed"),
+    (["--preset", "blend-kitti", "--set", "epochs=0"], "epochs must be an integer >= 1, got 0"),
+    (["--preset", "ensemble-kitti", "--set", "context__nope=1"], "has no nested parameter context__nope"),
+    (["--preset", "blend-kitti", "--set", "context__epochs=1"], "has no nested parameter context__epochs"),
 ])
 def test_preset_parameters_are_checked_before_any_file_is_written(tmp_path, capsys, argv, message):
     # `train --preset blend-kitti --max-steps 10` failed only after "starting a new training
