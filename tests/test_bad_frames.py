@@ -98,3 +98,41 @@ def test_evaluate_api_on_bad_frame(kitti_tree):
     with pytest.raises(ValueError, match="on_bad_frame"):
         evaluate(lambda x: x, ds, progress=False, on_bad_frame="ignore")
     assert EvaluationResult.concat([res, res]).meta["skipped_frames"] == res.meta["skipped_frames"]
+
+
+def _bomb(path, side=60000):
+    """A small PNG declaring a ``side`` x ``side`` 16-bit frame (its payload: a zlib stream of zeros)."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    ihdr = struct.pack(">IIBBBBB", side, side, 16, 0, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(bytes(1 << 16)))
+                     + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("kind", ["bomb", "tiff"])
+def test_png_bomb_and_tiff_named_png_are_bad_frames_that_skip_leaves_out(kitti_tree, tmp_path, capsys, kind):
+    # The bomb gave a raw cv2.error that --on-bad-frame skip did not catch; the TIFF was scored.
+    root, folder = kitti_tree
+    bad = folder / "0000000002.png"
+    if kind == "bomb":
+        _bomb(bad)
+        why = "declares 60000x60000 pixels"
+    else:
+        ok, buf = cv2.imencode(".tiff", np.full((375, 1242), 2560, np.uint16))
+        bad.write_bytes(buf.tobytes())
+        why = "is a TIFF file, not a PNG"
+    argv = ["evaluate", "--kitti-root", str(root), "-m", "constant", "--quiet"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(bad) in err and why in err and "--on-bad-frame skip" in err
+    assert main([*argv, "--on-bad-frame", "skip", "--out", str(tmp_path / "ev")]) == 0
+    doc = json.loads((tmp_path / "ev" / "results.json").read_text())
+    assert [r["index"] for r in doc["rows"]] == [0, 1, 3] and why in doc["skipped_frames"][0]["reason"]
+    # info reads the same header check: the same file is refused with the same words.
+    capsys.readouterr()
+    assert main(["info", "--kitti-root", str(root)]) == 1
+    assert why in capsys.readouterr().err

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..conventions import DEFAULT_MAX_DEPTH, check_max_depth, check_seed
+from ..data.io import write_png
 from .method_options import add_unfilled_option
 from .options import (
     add_common_options,
@@ -54,9 +55,11 @@ def cmd_show(args: argparse.Namespace) -> int:
     from ..registry import make_method, unfilled_policy
 
     out = Path(args.out)
-    # OpenCV picks the format from the suffix and fails with its own traceback otherwise.
-    if out.suffix.lower() != ".png" or out.is_dir():
+    # The panel is a PNG whatever the name: the suffix keeps names honest.
+    if out.suffix.lower() != ".png":
         raise ValueError(f"--out must be a .png file, got {args.out!r}")
+    if out.is_dir():
+        raise ValueError(f"--out must be a .png file, got {args.out!r}, a folder")
     check_max_depth(args.max_depth, "--max-depth")
     check_seed(args.seed, "--seed")
     check_source_options(args)
@@ -82,9 +85,9 @@ def cmd_show(args: argparse.Namespace) -> int:
             f"PSNR {_fmt(m['all_psnr'], ' dB', 2)} | {ms:.0f} ms"
         )
     panel = render_panel(gt, hole, pred, max_depth=args.max_depth, title=lines)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if not cv2.imwrite(str(out), cv2.cvtColor(panel, cv2.COLOR_RGB2BGR)):
-        raise OSError(f"could not write {out} (use a .png name)")
+    # Encoded in memory and written by Python: the error names the file and the cause
+    # (read-only disk, full disk, permission), and any file name works.
+    write_png(out, cv2.cvtColor(panel, cv2.COLOR_RGB2BGR), "panel")
     for line in lines:
         print(line)
     print(f"wrote {out} ({panel.shape[1]}x{panel.shape[0]})", file=sys.stderr)

@@ -14,9 +14,8 @@ from __future__ import annotations
 import difflib
 import os
 import re
-import struct
 from collections import Counter
-from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +23,14 @@ import numpy as np
 
 from ..report.progress import count
 from .base import DepthDataset
-from .io import DepthFormatError, depth_from_uint16, read_depth_png_raw
+from .io import (
+    DepthFormatError,
+    PngHeader,
+    check_depth_header,
+    depth_from_uint16,
+    png_header,
+    read_depth_png_raw,
+)
 
 __all__ = ["KittiDepth", "KITTI_URL", "KITTI_ROOT_ENV", "png_header", "bottom_center_crop"]
 
@@ -45,48 +51,11 @@ _LAYOUT_HELP = (
 _KINDS = ("groundtruth", "velodyne_raw")
 _SPLITS = ("train", "val", "val_selection")
 _CAMERAS = ("image_02", "image_03")
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 # File names of depth_selection/val_selection_cropped, e.g.
 # 2011_09_26_drive_0002_sync_groundtruth_depth_0000000005_image_02.png
 _VAL_SELECTION_RE = re.compile(
-    r"^(?P<drive>.+_sync)_(?:groundtruth_depth|velodyne_raw)_(?P<frame>\d+)_(?P<camera>image_0[23])\.png$"
+    r"^(?P<drive>.+_sync)_(?:groundtruth_depth|velodyne_raw)_(?P<frame>\d+)_(?P<camera>image_0[23])\.(?i:png)$"
 )
-
-
-@dataclass(frozen=True)
-class PngHeader:
-    """The fields of a PNG's IHDR chunk that matter for depth maps."""
-
-    width: int
-    height: int
-    bit_depth: int
-    color_type: int  # 0 = greyscale, 2 = RGB, 3 = palette, 4 = grey+alpha, 6 = RGBA
-
-
-def png_header(path: str | os.PathLike) -> PngHeader:
-    """Read a PNG's size and pixel format from its first 33 bytes (no decoding).
-
-    Raises
-    ------
-    DepthFormatError
-        If the file is not a PNG or is too short to hold the header.
-    """
-    with open(path, "rb") as f:
-        head = f.read(33)
-    if len(head) < 33 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
-        raise DepthFormatError(f"{path} is not a PNG file (or is truncated before its header)")
-    width, height, bit_depth, color_type = struct.unpack(">IIBB", head[16:26])
-    return PngHeader(width, height, bit_depth, color_type)
-
-
-def _check_header(path: Path, header: PngHeader) -> None:
-    if header.color_type != 0:
-        kind = {2: "RGB", 3: "palette", 4: "grey+alpha", 6: "RGBA"}.get(header.color_type, "non-greyscale")
-        raise DepthFormatError(f"{path} is a {kind} PNG; a KITTI depth map is single-channel 16-bit")
-    if header.bit_depth != 16:
-        raise DepthFormatError(
-            f"{path} is a {header.bit_depth}-bit PNG; KITTI depth must be 16-bit (metres = value / 256)"
-        )
 
 
 def bottom_center_crop(
@@ -185,20 +154,19 @@ class KittiDepth(DepthDataset):
         self.split, self.camera, self.kind, self.crop = split, camera, kind, crop
         cameras = _CAMERAS if camera == "both" else (camera,)
 
-        if split == "val_selection":
-            entries, searched = _index_val_selection(self.root, kind, cameras)
-        else:
-            entries, searched = _index_split(self.root, split, kind, cameras)
-        if drives is not None:
-            wanted = [str(d) for d in drives]
-            found = {e[1] for e in entries}
-            missing = sorted(set(wanted) - found)
+        wanted = None if drives is None else {str(d) for d in drives}
+        index = _index_val_selection if split == "val_selection" else partial(_index_split, split=split)
+        # Only the wanted drives are listed, so an unreadable drive left out does not stop the run.
+        entries, searched = index(self.root, kind=kind, cameras=cameras, drives=wanted)
+        if wanted is not None:
+            missing = sorted(wanted - {e[1] for e in entries})
             if missing:
+                available = sorted({e[1] for e in index(self.root, kind=kind, cameras=cameras)[0]})
                 raise ValueError(
                     f"drives not found in {split!r} ({kind}, {camera}): {missing}; "
-                    f"available: {sorted(found)}"
+                    f"available: {available}"
                 )
-            entries = [e for e in entries if e[1] in set(wanted)]
+        _refuse_twins(entries)
         if not entries:
             raise FileNotFoundError(f"no depth PNGs found: searched {searched}\n{_LAYOUT_HELP}")
         entries.sort(key=lambda e: (e[1], e[2], e[3]))  # drive, camera, frame
@@ -221,7 +189,7 @@ class KittiDepth(DepthDataset):
         else:
             # Reject 8-bit/RGB trees early from the first file's header; the rest is
             # checked when decoded.
-            _check_header(self.paths[0], png_header(self.paths[0]))
+            check_depth_header(self.paths[0], png_header(self.paths[0]))
             self.frame_shape = crop
 
     # -- loading -----------------------------------------------------------------
@@ -246,7 +214,7 @@ class KittiDepth(DepthDataset):
             headers = []
             for p in self.paths:
                 h = png_header(p)
-                _check_header(p, h)
+                check_depth_header(p, h)
                 headers.append(h)
             self._headers = headers
         return self._headers
@@ -300,40 +268,91 @@ def _resolve_root(root: str | os.PathLike | None) -> Path:
     return path
 
 
+def _refuse_twins(entries: list[tuple[Path, str, str, str]]) -> None:
+    """Refuse two files of one frame (``x.png`` and ``x.PNG``): which one is scored would be arbitrary."""
+    seen: dict[tuple[str, str, str], Path] = {}
+    for path, *key in entries:
+        other = seen.setdefault(tuple(key), path)  # type: ignore[arg-type]
+        if other != path:
+            raise ValueError(f"two files hold frame {'/'.join(key)}: {other} and {path}; keep one")
+
+
+def _is_png_name(name: str) -> bool:
+    """A frame file name: ``.png`` in any case (``.PNG`` too; the content is checked by its signature)."""
+    return name.lower().endswith(".png")
+
+
+def _entries(folder: Path, *, missing_ok: bool = True) -> list[os.DirEntry]:
+    """The entries of ``folder``, sorted by name; an unreadable folder is one clear error, never skipped.
+
+    A folder that does not exist (or is a file) gives ``[]`` when ``missing_ok``.
+
+    Raises
+    ------
+    PermissionError
+        The folder (or one above it) cannot be listed: its frames would silently be missing.
+    OSError
+        Any other listing error (e.g. a loop of symbolic links), naming the folder.
+    """
+    try:
+        with os.scandir(folder) as it:
+            return sorted(it, key=lambda e: e.name)
+    except (FileNotFoundError, NotADirectoryError):
+        if missing_ok:
+            return []
+        raise FileNotFoundError(f"folder {folder} not found") from None
+    except PermissionError:
+        raise PermissionError(
+            f"permission denied listing {folder}: its depth PNGs cannot be indexed (fix its permissions, "
+            "or leave its drive out with drives=[...] / --drives)"
+        ) from None
+    except OSError as exc:
+        raise OSError(f"cannot list {folder}: {exc.strerror or exc}") from None
+
+
+def _pngs(folder: Path) -> list[Path]:
+    """The ``.png`` files (any case) of ``folder``; anything not a folder counts, so a broken link is read and named."""
+    return [Path(e.path) for e in _entries(folder) if _is_png_name(e.name) and not e.is_dir()]
+
+
 def _index_split(
-    root: Path, split: str, kind: str, cameras: tuple[str, ...]
+    root: Path, split: str, kind: str, cameras: tuple[str, ...], drives: set[str] | None = None
 ) -> tuple[list[tuple[Path, str, str, str]], str]:
     base = root / split
     if not base.is_dir():
-        present = sorted(p.name for p in root.iterdir() if p.is_dir())
+        present = sorted(e.name for e in _entries(root) if e.is_dir())
         raise FileNotFoundError(
             f"split folder {base} not found (folders in {root}: {present}); splits are "
             f"'train', 'val' or 'val_selection'.\n{_LAYOUT_HELP}"
         )
     entries = []
-    for cam in cameras:
-        for png in base.glob(f"*_sync/proj_depth/{kind}/{cam}/*.png"):
-            drive = png.parents[3].name
-            entries.append((png, drive, cam, png.stem))
+    for drive_dir in _entries(base):
+        drive = drive_dir.name
+        # A drive that is not wanted is not listed: an unreadable one then does not stop the run.
+        if not drive.endswith("_sync") or (drives is not None and drive not in drives) or not drive_dir.is_dir():
+            continue
+        for cam in cameras:
+            for png in _pngs(Path(drive_dir.path) / "proj_depth" / kind / cam):
+                entries.append((png, drive, cam, png.stem))
     cams = "{" + ",".join(cameras) + "}" if len(cameras) > 1 else cameras[0]
     return entries, str(base / "*_sync" / "proj_depth" / kind / cams / "*.png")
 
 
 def _index_val_selection(
-    root: Path, kind: str, cameras: tuple[str, ...]
+    root: Path, kind: str, cameras: tuple[str, ...], drives: set[str] | None = None
 ) -> tuple[list[tuple[Path, str, str, str]], str]:
     folder = "groundtruth_depth" if kind == "groundtruth" else "velodyne_raw"
     base = root / "depth_selection" / "val_selection_cropped" / folder
     if not base.is_dir():
         raise FileNotFoundError(f"split folder {base} not found for split='val_selection'.\n{_LAYOUT_HELP}")
     entries = []
-    for png in base.glob("*.png"):
+    for png in _pngs(base):
         m = _VAL_SELECTION_RE.match(png.name)
         if m is None:
             raise ValueError(
                 f"unexpected file name {png.name} in {base}; expected "
                 f"<drive>_sync_{folder}_<frame>_<camera>.png"
             )
-        if m["camera"] in cameras:
+        if m["camera"] in cameras and (drives is None or m["drive"] in drives):
             entries.append((png, m["drive"], m["camera"], m["frame"]))
     return entries, str(base / f"*_sync_{folder}_*_image_0?.png")

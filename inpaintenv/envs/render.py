@@ -43,6 +43,8 @@ def colorize_error(error: np.ndarray, valid: np.ndarray, error_max: float) -> np
 
 def _strip(text: str, width: int, height: int = LABEL_HEIGHT) -> np.ndarray:
     strip = np.zeros((height, width, 3), dtype=np.uint8)
+    # A file name that is not UTF-8 reaches here as surrogate escapes, which crash OpenCV: shown as \udcXX.
+    text = text.encode("utf-8", "backslashreplace").decode("utf-8")
     cv2.putText(strip, text, (4, height - 5), _FONT, 0.45, _WHITE, 1, cv2.LINE_AA)
     return strip
 

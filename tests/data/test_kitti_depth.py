@@ -261,3 +261,45 @@ def test_eight_bit_file_after_the_first_is_found_when_decoded_or_by_headers(tree
         KittiDepth(tree, split="train", crop=CROP).headers()  # what `inpaintenv info` reads
     text = (Path(__file__).resolve().parents[2] / "docs" / "data.md").read_text()
     assert "only the **first** file's header is" in text and "rejected at creation" not in text
+
+
+def test_upper_case_png_frames_are_indexed(tmp_path):
+    # `.PNG` frames were ignored without a word; the file is checked by its signature anyway.
+    written = make_split(tmp_path, "train", {"2011_09_26_drive_0001": (20, 16)}, kinds=("groundtruth",))
+    first = sorted(written)[0]
+    upper = first.with_suffix(".PNG")
+    first.rename(upper)
+    ds = KittiDepth(tmp_path, crop=CROP)
+    assert len(ds) == 3 and upper in ds.paths
+    np.testing.assert_array_equal(read_depth_png(upper), written[first].astype(np.float32))
+    write_depth_png(first, written[first])  # the same frame twice: which one to score is not ours to pick
+    with pytest.raises(ValueError, match=r"two files hold frame 2011_09_26_drive_0001_sync/image_02/0000000005"):
+        KittiDepth(tmp_path, crop=CROP)
+
+
+def _deny_listing(monkeypatch, folder: Path) -> None:
+    """Listing ``folder`` fails as for a folder without permission (tests run as root, who may list anything)."""
+    import os
+
+    real = os.scandir
+
+    def scandir(path="."):
+        if Path(path) == folder:
+            raise PermissionError(13, "Permission denied", str(path))
+        return real(path)
+
+    monkeypatch.setattr(os, "scandir", scandir)
+
+
+def test_unreadable_drive_folder_is_an_error_not_missing_frames(tree, monkeypatch):
+    # An unreadable drive disappeared from the dataset without a word (18 -> 6 frames).
+    folder = tree / "train" / "2011_09_28_drive_0002_sync" / "proj_depth" / "groundtruth" / "image_02"
+    assert len(KittiDepth(tree, crop=CROP)) == 6
+    _deny_listing(monkeypatch, folder)
+    with pytest.raises(PermissionError, match=f"permission denied listing {folder}: its depth PNGs cannot be indexed"):
+        KittiDepth(tree, crop=CROP)
+    # A drive that is not asked for is not listed, so it does not stop the others.
+    assert len(KittiDepth(tree, crop=CROP, drives=["2011_09_26_drive_0001_sync"])) == 3
+    _deny_listing(monkeypatch, tree / "train")
+    with pytest.raises(PermissionError, match="permission denied listing"):
+        KittiDepth(tree, crop=CROP)
