@@ -27,7 +27,9 @@ from ..evaluate import EvaluationResult, run_method
 from ..masks import get_protocol
 from ..metrics import frame_metrics, interpolate_background
 from ..report import style
+from ..report.files import write_atomic, write_text_atomic
 from ..report.progress import count
+from . import ownership
 
 __all__ = [
     "DISTANCE_BINS", "DISTANCE_FRAMES", "FramePredictions", "frame_panel", "plot_error_vs_distance",
@@ -50,11 +52,19 @@ def _pyplot():
 
 
 def _save(fig: Any, path: str | Path, dpi: int) -> Path:
-    """Write ``fig`` to ``path`` (creating its folder) and free it."""
+    """Write ``fig`` to ``path`` whole or not at all (creating its folder) and free it.
+
+    In a run folder (:func:`.ownership.run_root`) the file is recorded as the run's
+    first, and a file there that no run wrote is refused, never replaced.
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    _pyplot().close(fig)
+    try:
+        root = ownership.run_root(path.parent)
+        if (root / ownership.LEDGER).exists():
+            ownership.claim(root, path.resolve().relative_to(root.resolve()))
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))
+    finally:
+        _pyplot().close(fig)
     return path
 
 
@@ -356,9 +366,12 @@ def write_figures(
                 return names
         except (json.JSONDecodeError, AttributeError):
             pass  # unreadable stamp: redraw
+    root = ownership.run_root(out)
+    ownership.adopt(root)  # a folder holding files no run wrote is refused before anything is drawn
     out.mkdir(parents=True, exist_ok=True)
-    for stale in set(out.glob("frame_*.png")) - set(names):  # panels of other frames, drawn before
-        stale.unlink()
+    ownership.claim(root, *(p.resolve().relative_to(root.resolve()) for p in [*names, stamp_path]))
+    for stale in sorted(set(out.glob("frame_*.png")) - set(names)):  # panels of other frames, drawn before
+        ownership.remove(root, stale.resolve().relative_to(root.resolve()))  # only those a run recorded
     plot_error_vs_hole_size(result, out / "error_vs_hole_size.png", colours=colours)
     ms = {e["method"]: e["ms_per_frame"] for e in result.group_table(("method",))}
     seconds = sum(ms.get(n, 0.0) for n in panel_methods) * len(indices) / 1000.0
@@ -374,5 +387,5 @@ def write_figures(
                     colours=colours, predictions=predictions)
     plot_error_vs_distance(built, dataset, indices, out / "error_vs_distance.png", protocol=protocol, seed=seed,
                            colours=colours, predictions=predictions)
-    stamp_path.write_text(json.dumps({"stamp": stamp, **settings}, indent=1))
+    write_text_atomic(stamp_path, json.dumps({"stamp": stamp, **settings}, indent=1))
     return names

@@ -9,8 +9,10 @@ from typing import Any
 
 from ..environment import environment_info
 from ..evaluate import EvaluationResult, json_safe, skipped_markdown
+from ..report.files import write_text_atomic
 from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
 from .headline import headline_markdown, learned_vs_classical
+from .ownership import claim
 
 __all__ = ["REPORT_METRICS", "summary_table", "to_markdown", "environment_info", "write_report"]
 
@@ -27,6 +29,17 @@ def write_report(
     exists) and ``results.md`` (overall and per-drive tables, and the best learned vs
     strongest classical comparison of :mod:`.headline` when the run has both kinds).
 
+    Each file is written whole or not at all (a full disk leaves the previous one), and
+    only over a file a run recorded writing (:mod:`.ownership`): ``out_dir`` must be
+    empty, new or a run folder.
+
+    Raises
+    ------
+    ForeignFolderError
+        If ``out_dir`` holds files that no run wrote (see :mod:`.ownership`).
+    OSError
+        If a file cannot be written (the message names it).
+
     Returns
     -------
     dict of str to Path
@@ -34,7 +47,6 @@ def write_report(
         ``by_drive_csv``, ``markdown``).
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     drive_keys = ("method", "protocol", "drive")
     table = summary_table(result)
     per_drive = summary_table(result, drive_keys)
@@ -53,7 +65,9 @@ def write_report(
         "json": out / "results.json", "csv": out / "results.csv", "table_csv": out / "table.csv",
         "by_drive_csv": out / "by_drive.csv", "markdown": out / "results.md",
     }
-    paths["json"].write_text(json.dumps(json_safe(doc), indent=1))
+    # Recorded before they are written; a file of the same name that no run wrote is refused.
+    claim(out, *(p.name for p in paths.values()))
+    write_text_atomic(paths["json"], json.dumps(json_safe(doc), indent=1))
     result.to_csv(paths["csv"])
     table_to_csv(table, paths["table_csv"])
     table_to_csv(per_drive, paths["by_drive_csv"], drive_keys)
@@ -85,5 +99,5 @@ def write_report(
             headline_markdown(headline),
             "",
         ]
-    paths["markdown"].write_text("\n".join(md))
+    write_text_atomic(paths["markdown"], "\n".join(md))
     return paths

@@ -17,7 +17,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import re
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -41,8 +40,11 @@ from ..report.progress import (
     format_duration,
     stderr_is_terminal,
 )
+from ..report.files import write_text_atomic
+from .datakey import data_key
 from .identity import method_identity
 from .lock import run_lock
+from .ownership import adopt, check_folder, claim, remove
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
@@ -69,13 +71,17 @@ def _slug(name: str) -> str:
 
 def _fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], seeds: Sequence[int]) -> dict[str, Any]:
     ids = "\n".join(str(f) for f in dataset.frame_ids[:n_frames])
-    return {
+    fingerprint = {
         "source": repr(dataset),
         "n_frames": n_frames,
         "frames_sha1": hashlib.sha1(ids.encode()).hexdigest(),
         "protocols": list(protocols),
         "seeds": list(seeds),
     }
+    data = data_key(dataset, n_frames)
+    if data:  # a generated source has nothing beyond its description
+        fingerprint["data"] = data
+    return fingerprint
 
 
 def _read_rows(path: Path) -> list[dict[str, Any]]:
@@ -112,11 +118,37 @@ def _read_run_file(path: Path) -> dict[str, Any]:
 def _write_run_file(
     path: Path, fingerprint: dict[str, Any], identities: dict[str, str], trained: dict[str, list[str]]
 ) -> None:
-    # Write-then-rename: a kill mid-write must not leave a run.json that cannot be read.
+    # Whole or not at all: a kill mid-write must not leave a run.json that cannot be read.
     # "training_drives" is kept so that a resume that builds no method still marks them.
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps({**fingerprint, "methods": identities, "training_drives": trained}, indent=1))
-    os.replace(tmp, path)
+    claim(path.parent, path.name)
+    write_text_atomic(path, json.dumps({**fingerprint, "methods": identities, "training_drives": trained}, indent=1))
+
+
+#: What each fingerprint key is, for the message of a folder holding another run.
+_SETTINGS = {
+    "source": "the data source", "n_frames": "the number of frames", "frames_sha1": "the frames (their ids)",
+    "protocols": "the protocols (--protocol)", "seeds": "the seeds (--seed)", "unfilled": "--unfilled",
+}
+
+
+def _differences(previous: dict[str, Any], now: dict[str, Any]) -> list[str]:
+    """One phrase per setting in which the folder's run and this one differ."""
+    out = []
+    for key in [*_SETTINGS, *sorted((set(previous) | set(now)) - set(_SETTINGS) - {"data"})]:
+        before, after = previous.get(key), now.get(key)
+        if before == after:
+            continue
+        if key == "unfilled":
+            before = before or "not given (each method's own policy)"
+            after = after or "not given (each method's own policy)"
+        out.append(f"{_SETTINGS.get(key, key)}: {before} there, {after} now")
+    old_data, new_data = previous.get("data"), now.get("data")
+    if old_data is not None and old_data != new_data and previous.get("frames_sha1") == now.get("frames_sha1"):
+        changed = sorted(d for d in set(old_data) | set(new_data or {}) if old_data.get(d) != (new_data or {}).get(d))
+        shown = ", ".join(changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3 else "")
+        out.append(f"the ground truth changed since its rows were scored (the files of drive{'s' * (len(changed) != 1)} "
+                   f"{shown} differ in size, modification time or content)")
+    return out
 
 
 def _check_run(
@@ -254,6 +286,7 @@ def run_benchmark(
     dataset = resolve_source(source)
     if len(dataset) == 0:
         raise ValueError("the data source has no frames")
+    check_folder(out_dir)  # before the lock file is made in someone else's folder
     with run_lock(out_dir, log):
         return _run_locked(
             methods, dataset, protocols, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
@@ -321,6 +354,7 @@ class _Run:
 
     def open(self, resume: bool, unfilled: str | None) -> None:
         """Check the folder holds this run (on resume) or clear its rows; read what it recorded."""
+        adopt(self.out)
         self.rows_dir.mkdir(parents=True, exist_ok=True)
         self.fingerprint = _fingerprint(self.dataset, self.total, self.protocols, self.seeds)
         if unfilled is not None:
@@ -333,17 +367,22 @@ class _Run:
             self.identities = {k: v for k, v in (recorded or {}).items() if isinstance(v, str)}
             self.trained = {k: [str(d) for d in v] for k, v in (previous.pop("training_drives", None) or {}).items()
                             if isinstance(v, list)}
-            if previous != self.fingerprint:
+            if "data" not in previous and "data" in self.fingerprint:
+                # A folder from before the data's content was recorded: its content is unknown, so
+                # it is accepted as it is (as a method without a recorded identity) and recorded now.
+                previous["data"] = self.fingerprint["data"]
+            differences = _differences(previous, self.fingerprint)
+            if differences:
                 raise RunMismatchError(
-                    f"{self.out} holds results of a different run ({previous.get('source')}, "
-                    f"protocols {previous.get('protocols')}, seeds {previous.get('seeds')}); "
-                    "choose another --out or pass --no-resume to overwrite"
+                    f"{self.out} holds results of a different run ({'; '.join(differences)}); "
+                    "choose another --out or pass --no-resume to score again there"
                 )
         if not resume:
             # Every row file goes, not only this run's methods': run.json is replaced, so
             # rows left behind could later be resumed under a fingerprint they do not match.
-            for stale in self.rows_dir.glob("*.jsonl"):
-                stale.unlink()
+            # Only files a run recorded writing (the folder was checked to hold no others there).
+            for stale in sorted(self.rows_dir.glob("*.jsonl")):
+                remove(self.out, stale.relative_to(self.out))
 
     def plan(self) -> None:
         """Rows already on disk, identities known without building anything (a changed method
@@ -458,6 +497,7 @@ class _Run:
 
         def append(batch_rows: list[dict[str, Any]]) -> None:
             if not handle:
+                claim(self.out, path.relative_to(self.out))
                 handle.append(path.open("a"))
             for row in batch_rows:
                 handle[0].write(json.dumps(row) + "\n")

@@ -93,6 +93,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     """Run ``inpaintenv benchmark``: check every argument, score the suite into ``--out``
     under its lock, print the tables and write the report and figures."""
     from ..benchmark.lock import run_lock
+    from ..benchmark.ownership import check_folder
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod
     from ..conventions import check_int, check_seeds
@@ -114,6 +115,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder for the run")
+    check_folder(out)  # someone else's folder is refused before anything is built or written
     dataset, holdout = _dataset(args)
 
     built: dict[str, Any] = {}

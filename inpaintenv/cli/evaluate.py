@@ -4,6 +4,7 @@ one Markdown table (rows kept in ``--out`` as they are scored)."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -64,11 +65,17 @@ def _evaluate_interrupted(args: argparse.Namespace) -> str:
             "(`inpaintenv benchmark` resumes)")
 
 
+#: The files ``evaluate --out`` writes (``partial-rows.jsonl`` only while it scores).
+OUT_FILES = ("results.json", "results.csv", "table.md", "table.csv", "partial-rows.jsonl")
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from ..evaluate import EvaluationResult, evaluate, skipped_markdown
+    """Run ``inpaintenv evaluate``: check every option and build every method, then score them
+    (holding the lock of ``--out``, a folder that is new, empty or written by inpaintenv)."""
+    from ..benchmark.lock import run_lock
+    from ..benchmark.ownership import check_folder
     from ..masks import get_protocol
     from ..registry import make_method, unfilled_policy
-    from ..report.tables import summary_table, table_to_csv
 
     # Check the options and build every method first, so a typo fails before any long run.
     check_source_options(args)
@@ -82,17 +89,33 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
     out = Path(args.out) if args.out else None
-    if out is not None and out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder")
+    if out is not None:
+        if out.exists() and not out.is_dir():
+            raise ValueError(f"--out {out} is a file; give a folder")
+        check_folder(out)  # someone else's folder is refused before any method is built
     methods = [(name, make_method(name, **_method_overrides(args)), unfilled_policy(name)) for name in names]
     methods += [(name, make_method("checkpoint", path=path), "error") for name, path in checkpoints.items()]
     ds = open_source_from_args(args)
+    with run_lock(out) if out is not None else contextlib.nullcontext():
+        return _score(args, methods, ds, seeds, out)
+
+
+def _score(args: argparse.Namespace, methods: list[tuple[str, Any, str]], ds: Any, seeds: list[int],
+           out: Path | None) -> int:
+    """Score ``methods``, print the table and, with ``--out`` (whose lock is held), write the files."""
+    from ..benchmark.ownership import adopt, claim, remove
+    from ..evaluate import EvaluationResult, evaluate, skipped_markdown
+    from ..report.files import write_text_atomic
+    from ..report.tables import summary_table, table_to_csv
+
     on_batch = None
     if out is not None:
         # Rows land here as they are scored, so a Ctrl-C keeps them (see _evaluate_interrupted).
-        out.mkdir(parents=True, exist_ok=True)
+        # Every file is recorded as the run's before it is written; only those are replaced.
+        adopt(out)
+        claim(out, *OUT_FILES)
         partial = out / "partial-rows.jsonl"
-        partial.unlink(missing_ok=True)  # created by the first scored batch, never left empty
+        partial.unlink(missing_ok=True)  # recorded above; created by the first scored batch, never left empty
 
         def on_batch(rows: list[dict[str, Any]]) -> None:
             with partial.open("a") as f:
@@ -118,9 +141,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if out is not None:
         result.to_json(out / "results.json")
         result.to_csv(out / "results.csv")
-        (out / "table.md").write_text(table + "\n")
+        write_text_atomic(out / "table.md", table + "\n")
         table_to_csv(summary_table(result), out / "table.csv")
-        (out / "partial-rows.jsonl").unlink(missing_ok=True)
+        remove(out, "partial-rows.jsonl")
         print(f"\nwrote {out / 'results.json'}, {out / 'results.csv'}, {out / 'table.md'}, {out / 'table.csv'}",
               file=sys.stderr)
     return 0

@@ -37,7 +37,8 @@ def add_score(subparsers: Any) -> None:
             "Resumable: rerun the same command to continue."
         ),
     )
-    p.add_argument("--manifest", required=True, metavar="PATH", help="manifest.json of the export (or its folder)")
+    p.add_argument("--manifest", required=True, metavar="KEY",
+                   help="the score key `inpaintenv export` wrote (<export>.key.json beside the export folder)")
     p.add_argument("--predictions", required=True, metavar="DIR",
                    help="folder holding each prediction at its input's relative path (16-bit PNG, metres × 256)")
     p.add_argument("--name", required=True, help="method name of the predictions in the report")
@@ -72,6 +73,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from ..benchmark.figures import write_figures
     from ..benchmark.headline import headline_markdown, learned_vs_classical
     from ..benchmark.lock import run_lock
+    from ..benchmark.ownership import check_folder
     from ..benchmark.report import summary_table, to_markdown, write_report
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, build_method
@@ -106,6 +108,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     if checked.missing or checked.unexpected:
         log(f"{args.name}: {checked.left_out()} (--on-missing skip); results.json lists them")
     out = check_run_folder(out, manifest, args.predictions)
+    check_folder(out)  # someone else's folder is refused before the lock file is made in it
     run_methods = {args.name: checked.method, **methods}
     protocol, seeds = manifest.protocol_name, manifest.seeds
     with run_lock(out, log):

@@ -20,6 +20,7 @@ import numpy as np
 from ..conventions import DEFAULT_MAX_DEPTH
 from ..metrics import METRIC_NAMES, REGIONS, aggregate
 from . import tables
+from .files import write_atomic, write_text_atomic
 
 __all__ = [
     "ID_COLUMNS", "METRIC_COLUMNS", "ROW_COLUMNS", "EvaluationResult", "json_safe", "merge_skipped", "parse_row",
@@ -150,8 +151,7 @@ class EvaluationResult:
             "by_drive": tables.summary_table(self, ("method", "protocol", "drive")),
             "rows": self.rows,
         }
-        path.write_text(json.dumps(json_safe(doc), indent=1))
-        return path
+        return write_text_atomic(path, json.dumps(json_safe(doc), indent=1))
 
     @classmethod
     def from_json(cls, path: str | Path) -> EvaluationResult:
@@ -164,14 +164,16 @@ class EvaluationResult:
         return cls(rows=rows, meta=meta)
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write the per-frame rows as CSV (NaN written as an empty cell)."""
-        path = Path(path)
-        with path.open("w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(ROW_COLUMNS), extrasaction="ignore")
-            writer.writeheader()
-            for row in self.rows:
-                writer.writerow({k: _csv_cell(row.get(k)) for k in ROW_COLUMNS})
-        return path
+        """Write the per-frame rows as CSV (NaN written as an empty cell), whole or not at all."""
+
+        def write(tmp: Path) -> None:
+            with tmp.open("w", newline="") as f:
+                writer = csv.DictWriter(f, fieldnames=list(ROW_COLUMNS), extrasaction="ignore")
+                writer.writeheader()
+                for row in self.rows:
+                    writer.writerow({k: _csv_cell(row.get(k)) for k in ROW_COLUMNS})
+
+        return write_atomic(path, write)
 
     @classmethod
     def from_csv(cls, path: str | Path) -> EvaluationResult:

@@ -24,6 +24,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from .files import write_atomic
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
 __all__ = [
@@ -243,15 +244,18 @@ def table_to_csv(
     ``{metric}_n``, then ``hole_fraction``, ``ms_per_frame`` and ``trained_on`` (the
     drives of the row in the method's training data, joined by ``;``; empty when none).
     """
-    path = Path(path)
     fields = list(keys) + ["n_frames", "n_skipped_hole"]
     fields += [f"{m}{s}" for m, _, _ in REPORT_METRICS for s in ("", "_low", "_high", "_n")]
     fields += ["hole_fraction", "ms_per_frame", "trained_on"]
-    with path.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
-        writer.writeheader()
-        for entry in table:
-            row = {k: "" if _missing(entry.get(k)) else entry.get(k) for k in fields}
-            row["trained_on"] = ";".join(entry.get("trained_on") or [])
-            writer.writerow(row)
-    return path
+
+    def write(tmp: Path) -> None:
+        with tmp.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+            writer.writeheader()
+            for entry in table:
+                row = {k: "" if _missing(entry.get(k)) else entry.get(k) for k in fields}
+                row["trained_on"] = ";".join(entry.get("trained_on") or [])
+                writer.writerow(row)
+
+    # Whole or not at all: a full disk leaves the previous table.
+    return write_atomic(path, write)

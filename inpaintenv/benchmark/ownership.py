@@ -1,0 +1,216 @@
+"""Which files of a run folder inpaintenv wrote, so that a run overwrites and deletes only those.
+
+``inpaintenv benchmark``, ``score`` and ``evaluate --out`` write into a folder the user
+names. Each file they write is first recorded in the folder's :data:`LEDGER`
+(``inpaintenv-files.json``, relative paths); a run replaces or deletes a file only if it
+is recorded there. So:
+
+* a folder that is neither empty nor a run folder of inpaintenv (it has no ledger, and no
+  ``run.json`` or ``results.json`` of a run from before ledgers existed) is refused with
+  one line naming the folder and one of its files (:class:`ForeignFolderError`);
+* in a run folder, a file at a path a run writes (``results.md``, ``rows/*.jsonl``,
+  ``figures/frame_*.png``, ...) that the ledger does not list -- e.g. one the user put
+  there -- is refused the same way, before anything is scored;
+* other files of a run folder (notes, a README) are never touched.
+
+Empty folders count as empty (a run may leave an empty ``rows/``), and so do the lock
+file (:data:`~.lock.LOCK_FILE`) and temporary files of interrupted atomic writes.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import os
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+from ..report.files import TEMP_SUFFIX, write_text_atomic
+from .lock import LOCK_FILE
+
+__all__ = [
+    "LEDGER", "RUN_FILES", "ForeignFolderError", "adopt", "check_folder", "claim", "owns", "remove", "run_root",
+]
+
+#: The record of the files inpaintenv wrote in a run folder (relative POSIX paths).
+LEDGER = "inpaintenv-files.json"
+
+#: Paths (glob patterns, relative to the run folder) that benchmark, score and
+#: ``evaluate --out`` write: one of them not in the ledger is a foreign file.
+RUN_FILES: tuple[str, ...] = (
+    "run.json", "results.json", "results.csv", "results.md", "table.csv", "table.md", "by_drive.csv",
+    "partial-rows.jsonl", "rows/*.jsonl", "figures/*.png", "figures/figures.json",
+)
+
+#: Files whose presence (without a ledger) marks a run folder written before ledgers existed.
+_LEGACY_MARKERS = ("run.json", "results.json")
+
+
+class ForeignFolderError(ValueError):
+    """The run folder holds a file that inpaintenv did not write where a run would write it."""
+
+
+def _foreign(out: Path, rel: str, why: str) -> ForeignFolderError:
+    return ForeignFolderError(
+        f"--out {out} {why} ({out / rel}); inpaintenv replaces and deletes only files it wrote there: "
+        "move that file away, or give an empty or new folder as --out"
+    )
+
+
+def _exempt(rel: str) -> bool:
+    name = rel.rsplit("/", 1)[-1]
+    return rel in (LEDGER, LOCK_FILE) or (name.startswith(".") and TEMP_SUFFIX in name)
+
+
+def _files(out: Path) -> Iterator[str]:
+    """Relative paths of the files under ``out``, lazily (a huge folder stops at the first)."""
+    for folder, dirs, files in os.walk(out):
+        dirs.sort()
+        for name in sorted(files):
+            yield Path(folder, name).relative_to(out).as_posix()
+
+
+def _run_paths(out: Path) -> Iterator[str]:
+    """Files under ``out`` at one of the :data:`RUN_FILES` paths."""
+    for pattern in RUN_FILES:
+        for path in sorted(out.glob(pattern)):
+            if path.is_file() or path.is_symlink():
+                yield path.relative_to(out).as_posix()
+
+
+def _read(out: Path) -> set[str] | None:
+    path = out / LEDGER
+    if not path.exists():
+        return None
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        files = doc["files"]
+        if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+            raise TypeError
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+        raise ForeignFolderError(
+            f"cannot read {path}, the list of the files inpaintenv wrote in {out}; delete that folder's run files "
+            "and the list, or give another --out"
+        ) from None
+    return set(files)
+
+
+def _write(out: Path, files: Iterable[str]) -> None:
+    write_text_atomic(out / LEDGER, json.dumps({"written_by": "inpaintenv", "files": sorted(set(files))}, indent=1))
+
+
+def _legacy(out: Path) -> bool:
+    """A run folder of inpaintenv from before ledgers: its run.json, or a results.json of ours."""
+    if (out / "run.json").is_file():
+        return True
+    try:
+        doc = json.loads((out / "results.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return False
+    return isinstance(doc, dict) and {"meta", "rows"} <= set(doc)
+
+
+def check_folder(out: str | os.PathLike) -> None:
+    """Refuse ``out`` unless it is missing, empty, or a run folder of inpaintenv without foreign run files.
+
+    Reads only; see the module docstring for the rules.
+
+    Raises
+    ------
+    ForeignFolderError
+        Naming the folder and one file a run would overwrite or that marks the folder as
+        someone else's.
+    NotADirectoryError
+        If ``out`` is a file.
+    """
+    out = Path(out)
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise NotADirectoryError(f"--out {out} is a file; the run folder must be a folder")
+    owned = _read(out)
+    if owned is None:
+        if _legacy(out):
+            return  # every file at a run path was written by that run
+        first = next((rel for rel in _files(out) if not _exempt(rel)), None)
+        if first is not None:
+            raise _foreign(out, first, "is neither empty nor a run folder of inpaintenv")
+        return
+    stray = next((rel for rel in _run_paths(out) if rel not in owned), None)
+    if stray is not None:
+        raise _foreign(out, stray, "holds a file that no inpaintenv run wrote where a run writes its results")
+
+
+def adopt(out: str | os.PathLike) -> None:
+    """Check ``out`` (:func:`check_folder`), create it, and make sure it has a ledger.
+
+    A run folder written before ledgers existed is adopted: the files at run paths in it
+    are recorded as its own.
+    """
+    out = Path(out)
+    check_folder(out)
+    out.mkdir(parents=True, exist_ok=True)
+    if _read(out) is None:
+        _write(out, list(_run_paths(out)) if _legacy(out) else [])
+
+
+def claim(out: str | os.PathLike, *paths: str | os.PathLike) -> None:
+    """Record ``paths`` (relative to ``out``, or absolute paths under it) as written by inpaintenv,
+    before they are written.
+
+    Raises
+    ------
+    ForeignFolderError
+        If one of them exists and is not recorded (someone else's file).
+    """
+    out = Path(out)
+    adopt(out)
+    owned = _read(out) or set()
+    new = []
+    for path in paths:
+        rel = _relative(out, path)
+        if rel in owned:
+            continue
+        if (out / rel).exists() or (out / rel).is_symlink():
+            raise _foreign(out, rel, "holds a file that no inpaintenv run wrote")
+        new.append(rel)
+    if new:
+        _write(out, owned | set(new))
+
+
+def owns(out: str | os.PathLike, path: str | os.PathLike) -> bool:
+    """Whether ``path`` (relative to ``out``, or an absolute path under it) is recorded as written by inpaintenv."""
+    owned = _read(Path(out))
+    return owned is not None and _relative(Path(out), path) in owned
+
+
+def remove(out: str | os.PathLike, path: str | os.PathLike) -> bool:
+    """Delete ``path`` if inpaintenv recorded writing it (and forget it); return whether it did.
+
+    A file the ledger does not list is left where it is.
+    """
+    out = Path(out)
+    rel = _relative(out, path)
+    owned = _read(out)
+    if owned is None or rel not in owned:
+        return False
+    (out / rel).unlink(missing_ok=True)
+    _write(out, owned - {rel})
+    return True
+
+
+def _relative(out: Path, path: str | os.PathLike) -> str:
+    p = Path(path)
+    if p.is_absolute():
+        return p.resolve().relative_to(out.resolve()).as_posix()
+    return p.as_posix()
+
+
+def run_root(folder: str | os.PathLike) -> Path:
+    """The run folder whose ledger covers files in ``folder``: ``folder`` itself, or its parent
+    when the parent is a run folder (``figures/`` of a benchmark run)."""
+    folder = Path(folder)
+    parent = folder.parent
+    if not (folder / LEDGER).exists() and (parent / LEDGER).exists():
+        return parent
+    return folder
