@@ -26,6 +26,20 @@ def find_kitti_root() -> Path | None:
 KITTI_ROOT = find_kitti_root()
 
 
+def find_kitti_raw_root() -> Path | None:
+    """The real LiDAR scans with their calibration (``../shared/kitti-raw``, see its README).
+
+    ``$INPAINTENV_KITTI_RAW_ROOT``, else ``kitti-raw`` beside the KITTI root found above.
+    """
+    env = os.environ.get("INPAINTENV_KITTI_RAW_ROOT")
+    candidates = [Path(env)] if env else []
+    candidates += [KITTI_ROOT.parent / "kitti-raw"] if KITTI_ROOT is not None else []
+    return next((c for c in candidates if (c / "2011_09_26").is_dir()), None)
+
+
+KITTI_RAW_ROOT = find_kitti_raw_root()
+
+
 @pytest.fixture(autouse=True, scope="session")
 def _no_kitti_root_variable():
     """Every test (and every module- or session-scoped fixture) runs without ``$INPAINTENV_KITTI_ROOT``.
@@ -54,6 +68,16 @@ def kitti_root() -> Path:
             "../shared/kitti beside the project root"
         )
     return root
+
+
+@pytest.fixture(scope="session")
+def kitti_raw_root() -> Path:
+    """Root of the real LiDAR scans (raw, odometry, KITTI-360 layouts); skips the test when absent."""
+    if KITTI_RAW_ROOT is None:
+        pytest.skip(
+            "real LiDAR scans not found: set INPAINTENV_KITTI_RAW_ROOT or place kitti-raw beside the KITTI slice"
+        )
+    return KITTI_RAW_ROOT
 
 
 def layout_frames(root: Path, split: str, camera: str = "image_02") -> dict[str, int]:

@@ -1,0 +1,215 @@
+"""LiDAR scans as files, projected into a depth map as KITTI's ``velodyne_raw`` maps are, and back.
+
+A scan is an ``(N, 4)`` float32 array (x, y, z in metres in the LiDAR frame, reflectance),
+stored by KITTI as a flat ``.bin`` of float32. :func:`project_scan` is the plain projection
+KITTI's single-scan input maps are made by: each point goes through
+:attr:`Calibration.matrix <inpaintenv.data.calibration.Calibration.matrix>`, depth is the
+third coordinate, points at 0.1 m or nearer are dropped, ``(u, v)`` are rounded to the
+nearest pixel, the nearest point wins a pixel, and depth is rounded to 1/256 m (the 16-bit
+PNG step), so that ``write_depth_png`` of the result is the map KITTI would store.
+:func:`depth_to_points` is its inverse: each chosen pixel's centre at its depth, back in the
+LiDAR frame.
+
+>>> points = read_scan("velodyne_points/data/0000000005.bin")      # doctest: +SKIP
+>>> depth = project_scan(points, read_calibration("2011_09_26"))    # doctest: +SKIP
+>>> xyz = depth_to_points(depth, calibration)                       # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .calibration import Calibration
+from .io import KITTI_DEPTH_SCALE
+
+__all__ = [
+    "MIN_SCAN_DEPTH", "ScanFormatError", "depth_to_points", "project_points", "project_scan", "read_scan",
+    "write_points_bin", "write_points_ply",
+]
+
+#: Points at this depth or nearer (metres) are dropped by the projection, as KITTI's tool drops them.
+MIN_SCAN_DEPTH: float = 0.1
+_POINT_BYTES = 16  # x, y, z, reflectance as float32
+
+
+class ScanFormatError(ValueError):
+    """A file that is not a KITTI LiDAR scan (``N x 4`` float32); the message names it."""
+
+
+def read_scan(path: str | os.PathLike) -> np.ndarray:
+    """Read a KITTI ``.bin`` LiDAR scan.
+
+    Parameters
+    ----------
+    path : path-like
+        A flat file of float32 x, y, z, reflectance, 16 bytes a point.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, 4)`` float32.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no file.
+    ScanFormatError
+        If the file is empty or its size is not a whole number of points.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"scan not found: {path}")
+    n_bytes = path.stat().st_size
+    if n_bytes == 0 or n_bytes % _POINT_BYTES:
+        raise ScanFormatError(
+            f"{path} is not a KITTI LiDAR scan: {n_bytes} bytes is not a whole, non-zero number of points "
+            "(N x 4 float32: x, y, z, reflectance)"
+        )
+    return np.fromfile(path, dtype="<f4").reshape(-1, 4)
+
+
+def _as_points(points: np.ndarray) -> np.ndarray:
+    pts = np.asarray(points)
+    if pts.ndim != 2 or pts.shape[1] not in (3, 4) or not np.issubdtype(pts.dtype, np.floating):
+        raise ValueError(f"points must be a float (N, 3) or (N, 4) array, got {pts.dtype} of shape {pts.shape}")
+    return pts
+
+
+def project_points(points: np.ndarray, calibration: Calibration) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Continuous image coordinates and depth of every point (no rounding, nothing dropped).
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        ``(N, 3)`` or ``(N, 4)`` float, metres in the LiDAR frame.
+    calibration : Calibration
+
+    Returns
+    -------
+    u, v, z : numpy.ndarray
+        ``(N,)`` float64 column, row and depth (metres); ``u, v`` are meaningless where
+        ``z <= 0`` (behind the camera).
+    """
+    xyz = _as_points(points)[:, :3].astype(np.float64)
+    m = calibration.matrix
+    uvw = xyz @ m[:, :3].T + m[:, 3]
+    z = uvw[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return uvw[:, 0] / z, uvw[:, 1] / z, z
+
+
+def project_scan(
+    points: np.ndarray, calibration: Calibration, *, quantize: bool = True, return_index: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    """Project a scan into a depth map as KITTI's ``velodyne_raw`` maps are made.
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        ``(N, 3)`` or ``(N, 4)`` float, metres in the LiDAR frame.
+    calibration : Calibration
+        With an image size (see :meth:`Calibration.image_size`).
+    quantize : bool
+        Round depth to 1/256 m, the step of KITTI's 16-bit PNG (the default: the map equals
+        what ``read_depth_png`` gives of the PNG KITTI would store). False keeps float32 depth.
+    return_index : bool
+        Also return, per pixel, the index of the point that won it (-1 where none).
+
+    Returns
+    -------
+    depth : numpy.ndarray
+        ``(height, width)`` float32 metres, 0 where no point lands.
+    index : numpy.ndarray
+        ``(height, width)`` int64, only with ``return_index``.
+    """
+    width, height = calibration.image_size()
+    u, v, z = project_points(points, calibration)
+    with np.errstate(invalid="ignore"):
+        ur, vr = np.rint(u), np.rint(v)  # the nearest pixel
+        keep = (z > MIN_SCAN_DEPTH) & (ur >= 0) & (ur < width) & (vr >= 0) & (vr < height)
+    idx = np.flatnonzero(keep)
+    pixel = vr[idx].astype(np.int64) * width + ur[idx].astype(np.int64)
+    # Sort by pixel, then depth: the first point of each pixel is the nearest (ties: the earlier point).
+    order = np.lexsort((z[idx], pixel))
+    pixel, idx = pixel[order], idx[order]
+    first = np.ones(len(pixel), dtype=bool)
+    first[1:] = pixel[1:] != pixel[:-1]
+    pixel, idx = pixel[first], idx[first]
+    depth = np.zeros(height * width, dtype=np.float64)
+    depth[pixel] = z[idx]
+    if quantize:
+        depth = np.minimum(np.rint(depth * KITTI_DEPTH_SCALE), 65535) / KITTI_DEPTH_SCALE
+    depth = depth.astype(np.float32).reshape(height, width)
+    if not return_index:
+        return depth
+    index = np.full(height * width, -1, dtype=np.int64)
+    index[pixel] = idx
+    return depth, index.reshape(height, width)
+
+
+def depth_to_points(depth: np.ndarray, calibration: Calibration, mask: np.ndarray | None = None) -> np.ndarray:
+    """Back-project pixels of a depth map into the LiDAR frame (the inverse of :func:`project_scan`).
+
+    Parameters
+    ----------
+    depth : numpy.ndarray
+        ``(H, W)`` metres, 0 = no measurement.
+    calibration : Calibration
+        The one the map was projected with.
+    mask : numpy.ndarray of bool, optional
+        ``(H, W)``: only these pixels (default: every pixel with positive, finite depth);
+        pixels without positive depth are skipped either way.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(M, 3)`` float64 x, y, z in metres, one row per pixel in row-major order: the
+        pixel's centre ``(column, row)`` at its depth, which projects back onto that pixel.
+    """
+    d = np.asarray(depth)
+    if d.ndim != 2:
+        raise ValueError(f"depth must be (H, W), got shape {d.shape}")
+    with np.errstate(invalid="ignore"):
+        chosen = np.isfinite(d) & (d > 0)
+    if mask is not None:
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != d.shape:
+            raise ValueError(f"mask has shape {m.shape}, depth {d.shape}")
+        chosen &= m
+    rows, cols = np.nonzero(chosen)
+    z = d[rows, cols].astype(np.float64)
+    a, b = calibration.matrix[:, :3], calibration.matrix[:, 3]
+    rhs = np.stack([cols * z, rows * z, z]) - b[:, None]
+    return np.linalg.solve(a, rhs).T
+
+
+def _with_reflectance(points: np.ndarray) -> np.ndarray:
+    pts = _as_points(points)
+    if pts.shape[1] == 3:
+        pts = np.hstack([pts, np.zeros((len(pts), 1), dtype=pts.dtype)])
+    return np.ascontiguousarray(pts, dtype="<f4")
+
+
+def write_points_bin(path: str | os.PathLike, points: np.ndarray) -> None:
+    """Write points as a KITTI ``.bin`` scan (float32 x, y, z, reflectance; reflectance 0 for ``(N, 3)``)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _with_reflectance(points).tofile(path)
+
+
+def write_points_ply(path: str | os.PathLike, points: np.ndarray) -> None:
+    """Write points as a binary PLY (float32 x, y, z, intensity), readable by Open3D, CloudCompare, MeshLab."""
+    pts = _with_reflectance(points)
+    header = (
+        "ply\nformat binary_little_endian 1.0\ncomment written by inpaintenv\n"
+        f"element vertex {len(pts)}\nproperty float x\nproperty float y\nproperty float z\n"
+        "property float intensity\nend_header\n"
+    )
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("wb") as f:
+        f.write(header.encode("ascii"))
+        f.write(pts.tobytes())
