@@ -41,7 +41,7 @@ import numpy as np
 
 __all__ = [
     "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MIN_DEPTH", "MIN_FRAME_SIDE", "as_depth_array", "check_depth", "check_int", "check_mask", "check_max_depth",
-    "check_seed", "check_seeds", "corrupt", "in_depth_range", "is_real_number",
+    "check_seed", "check_seeds", "corrupt", "in_depth_range", "is_real_number", "reconstruction_problem",
 ]
 
 #: Fixed range used to normalise depth and to compute PSNR (the study's 80 m).
@@ -233,6 +233,41 @@ def in_depth_range(arr: np.ndarray) -> bool:
     covers NaN, inf, negative depth and depth above :data:`DEPTH_LIMIT`.
     """
     return bool(arr.min() >= 0 and arr.max() <= DEPTH_LIMIT)
+
+
+def reconstruction_problem(values: np.ndarray) -> str | None:
+    """What keeps the float array ``values`` from being a reconstruction, or None.
+
+    The one rule for what a method may return, wherever it is scored (an environment
+    action, :func:`inpaintenv.evaluate.evaluate`'s method output, the prediction of
+    :func:`inpaintenv.metrics.frame_metrics`): every value, stored as float32, is a
+    depth in ``[0, DEPTH_LIMIT]`` -- finite, non-negative and at most what a KITTI
+    16-bit PNG can hold (255.996 m), the bound of the environment's action space. A
+    float64 value beyond float32's range counts as above the bound, not as inf.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        A floating-point array (see :func:`as_depth_array`), any shape.
+
+    Returns
+    -------
+    str or None
+        None when every value is allowed (decided by two reductions, see
+        :func:`in_depth_range`); else a phrase starting with "has" for the caller to
+        prefix with what the array is ("action has ...").
+    """
+    with np.errstate(over="ignore"):
+        stored = values.astype(np.float32, copy=False)
+    if stored.size == 0 or in_depth_range(stored):
+        return None
+    n_bad = int(np.count_nonzero(~np.isfinite(values)))
+    if n_bad:
+        return f"has {n_bad} pixel{'s' * (n_bad != 1)} NaN or inf; every pixel must be filled with a depth in metres"
+    if (values < 0).any():
+        return f"has negative depth (min {float(values.min()):.3g} m)"
+    return (f"has depth up to {float(values.max()):.6g} m, above the bound {DEPTH_LIMIT:.3f} m, the most a KITTI "
+            "16-bit PNG can hold (DEPTH_LIMIT)")
 
 
 def _is_int(value: object) -> bool:

@@ -9,13 +9,13 @@ from typing import Any
 
 import numpy as np
 
-from .conventions import as_depth_array
+from .conventions import as_depth_array, in_depth_range, reconstruction_problem
 
 __all__ = ["MethodOutputError", "method_name", "run_method"]
 
 
 class MethodOutputError(ValueError):
-    """A method returned an unusable reconstruction (wrong shape, NaN/inf, negative)."""
+    """A method returned an unusable reconstruction (wrong shape, NaN/inf, negative, above 255.996 m)."""
 
 
 def method_name(method: Any) -> str:
@@ -60,18 +60,12 @@ def _check_output(out: Any, expected: tuple[int, ...], name: str) -> np.ndarray:
         raise MethodOutputError(f"method {name!r} returned something that is not an array: {exc}") from exc
     if arr.shape != expected:
         raise MethodOutputError(f"method {name!r} returned shape {arr.shape}, expected {expected}")
-    with np.errstate(over="ignore"):  # float64 beyond float32's range: reported as inf
-        arr = arr.astype(np.float32, copy=False)
-    finite = np.isfinite(arr)
-    if not finite.all():
-        raise MethodOutputError(
-            f"method {name!r} left {int((~finite).sum())} pixels NaN or inf; every pixel must be filled"
-        )
-    if (arr < 0).any():
-        raise MethodOutputError(
-            f"method {name!r} returned negative depth (min {float(arr.min()):.3g} m)"
-        )
-    return arr
+    with np.errstate(over="ignore"):  # float64 beyond float32's range: reported as above the bound
+        arr32 = arr.astype(np.float32, copy=False)
+    # The rule of every scored reconstruction (the env's action check): finite, in [0, DEPTH_LIMIT].
+    if not in_depth_range(arr32):
+        raise MethodOutputError(f"method {name!r}: output {reconstruction_problem(arr)}")
+    return arr32
 
 
 def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.ndarray, float]:

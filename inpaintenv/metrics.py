@@ -31,6 +31,7 @@ from .conventions import (
     check_depth,
     check_mask,
     check_max_depth,
+    reconstruction_problem,
 )
 
 __all__ = [
@@ -127,8 +128,9 @@ def frame_metrics(
     Parameters
     ----------
     pred : numpy.ndarray
-        Reconstruction in metres, ``(H, W)`` or ``(N, H, W)``; must be finite and
-        non-negative wherever ground truth exists.
+        Reconstruction in metres, ``(H, W)`` or ``(N, H, W)``; wherever ground truth
+        exists it must be finite, non-negative and at most
+        :data:`~inpaintenv.conventions.DEPTH_LIMIT` (255.996 m), as the environment requires.
     gt : numpy.ndarray
         Ground truth of the same shape, 0 = no measurement.
     hole : numpy.ndarray
@@ -221,8 +223,8 @@ class ScoredPixels:
         Parameters
         ----------
         pred : numpy.ndarray
-            Reconstruction in metres, of the ground truth's shape; must be finite and
-            non-negative wherever ground truth exists.
+            Reconstruction in metres, of the ground truth's shape; wherever ground truth
+            exists it must be finite, non-negative and at most 255.996 m (as in :func:`frame_metrics`).
         max_depth : float
             Range for PSNR (80 m by default).
         unfilled : {"error", "interpolate", "zero"}
@@ -238,8 +240,9 @@ class ScoredPixels:
         UnfilledPixelsError
             With ``unfilled="error"``, if ``pred`` is 0 m at a hole pixel with ground truth.
         ValueError
-            On a wrong shape, NaN/inf or negative depth at a scored pixel, or an invalid
-            ``max_depth`` or ``unfilled``.
+            On a wrong shape, NaN/inf, negative depth or depth above
+            :data:`~inpaintenv.conventions.DEPTH_LIMIT` (255.996 m, the environment's bound)
+            at a scored pixel, or an invalid ``max_depth`` or ``unfilled``.
         TypeError
             If ``pred`` is not a floating-point array.
         """
@@ -315,14 +318,14 @@ def _check_pred(pred: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def _checked_scored(scored_pred: np.ndarray) -> np.ndarray:
-    """The prediction at scored pixels as float64, which must be finite and non-negative."""
-    # min and max settle the common case (NaN fails the first comparison, inf the second).
-    if scored_pred.size == 0 or (scored_pred.min() >= 0 and scored_pred.max() < np.inf):
-        return scored_pred.astype(np.float64)
-    if not np.isfinite(scored_pred).all():
-        raise ValueError("prediction has NaN or inf at pixels with ground truth; fill every pixel")
-    if (scored_pred < 0).any():
-        raise ValueError("prediction has negative depth at pixels with ground truth")
+    """The prediction at scored pixels as float64, which must be depth in ``[0, DEPTH_LIMIT]``.
+
+    The rule of every scored reconstruction (:func:`~inpaintenv.conventions.reconstruction_problem`,
+    the environment's action check), applied where ground truth exists.
+    """
+    problem = reconstruction_problem(scored_pred)
+    if problem is not None:
+        raise ValueError(f"prediction at pixels with ground truth {problem}")
     return scored_pred.astype(np.float64)
 
 

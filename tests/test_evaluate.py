@@ -469,3 +469,20 @@ def test_progress_bar_on_terminal_only_when_asked(monkeypatch, progress):
     evaluate(lambda x: np.nan_to_num(x, nan=1.0), np.ones((3, 16, 20), np.float32), progress=progress,
              name="bar")
     assert ("evaluate bar" in fake.text) is progress
+
+
+def test_output_above_the_env_bound_is_refused_with_the_env_s_words():
+    # evaluate scored reconstructions above 255.996 m that the environment refuses.
+    from inpaintenv.envs import DepthInpaintEnv
+
+    gt = np.full((2, 32, 48), 10.0, dtype=np.float32)
+    too_deep = lambda x: np.nan_to_num(x, nan=300.0)  # noqa: E731
+    with pytest.raises(MethodOutputError, match=r"method 'deep': output has depth up to 300 m, above the bound 255.996 m"):
+        evaluate(too_deep, gt, progress=False, name="deep")
+    env = DepthInpaintEnv(gt)
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(ValueError) as from_env:
+        env.step(too_deep(np.where(obs["hole"] == 1, np.nan, obs["depth"])))
+    with pytest.raises(MethodOutputError) as from_evaluate:
+        evaluate(too_deep, gt, progress=False, name="deep")
+    assert str(from_env.value).removeprefix("action ") == str(from_evaluate.value).removeprefix("method 'deep': output ")

@@ -425,3 +425,21 @@ def test_depth_bins_reject_bad_input(change, match):
     args.update(change)
     with pytest.raises(ValueError, match=match):
         depth_binned_errors(args["pred"], args["gt"], args["hole"], edges=args["edges"])
+
+
+@pytest.mark.parametrize("value", [256.0, 300.0, 1e6, 1e300])
+def test_prediction_above_the_env_bound_is_refused_where_ground_truth_exists(value):
+    # frame_metrics scored depth above 255.996 m that the environment refuses as an action.
+    gt = np.full((8, 8), 10.0, np.float32)
+    pred = np.full((8, 8), 10.0, np.float64)
+    pred[3, 4] = value
+    with pytest.raises(ValueError, match=r"prediction at pixels with ground truth has depth up to .* above the "
+                                         r"bound 255.996 m, the most a KITTI 16-bit PNG can hold"):
+        frame_metrics(pred, gt, np.ones((8, 8), bool))
+    # As for NaN, only scored pixels count: above the bound where there is no ground truth is not scored.
+    gt[3, 4] = 0.0
+    assert float(frame_metrics(pred, gt, np.ones((8, 8), bool))["hole_rmse"]) == 0.0
+    # The bound itself is a depth the environment accepts.
+    pred[3, 4] = np.float32(65535 / 256)
+    gt[3, 4] = 10.0
+    assert np.isfinite(frame_metrics(pred, gt, np.ones((8, 8), bool))["hole_rmse"])
