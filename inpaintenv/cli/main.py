@@ -28,6 +28,7 @@ from ..cluster import ClusterError
 from .benchmark import add_benchmark
 from .evaluate import add_evaluate
 from .export import add_export
+from .fill import add_fill
 from .info import add_info
 from .score import add_score
 from .show import add_show
@@ -45,7 +46,7 @@ USER_ERRORS: tuple[type[BaseException], ...] = (
 
 #: ``add_<name>(subparsers)`` functions, one per subcommand.
 SUBCOMMANDS: list[Callable[[Any], None]] = [
-    add_info, add_evaluate, add_show, add_benchmark, add_train, add_export, add_score,
+    add_info, add_evaluate, add_show, add_benchmark, add_train, add_export, add_score, add_fill,
 ]
 
 

@@ -1,0 +1,126 @@
+"""``inpaintenv fill``: fill your own depth maps and LiDAR scans, files or folders in, filled files out.
+
+Parsing only: :func:`inpaintenv.filling.fill` does the work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from .method_options import check_checkpoint_folder, check_method_names
+from .options import add_common_options
+
+__all__ = ["RECIPES", "add_fill", "cmd_fill"]
+
+#: The three recipes of docs/fill.md, shown by ``inpaintenv fill --help``.
+RECIPES = """\
+recipes (docs/fill.md):
+  a folder of KITTI 16-bit PNGs with a folder of masks (same relative paths, nonzero = fill):
+    inpaintenv fill depth/ --holes masks/ --out filled/
+  .npy float metres with NaN where to fill (written as .npy, and as PNG with --format both):
+    inpaintenv fill frames/ --format npy --out filled/
+  a LiDAR scan with its calibration, densified, with the filled points back in the LiDAR frame:
+    inpaintenv fill 2011_09_26_drive_0001_sync/velodyne_points/data/ --calib 2011_09_26/ \\
+        --missing --points bin --out filled/
+
+  Pixels to fill: NaN in arrays, --holes, --box (repeatable) and --missing, together. Measured
+  pixels come out bit-identical. Outputs that exist are skipped (rerun to resume); a bad file is
+  one line and the others are still written; the exit status is 1 if any failed.
+"""
+
+
+def _box(text: str) -> tuple[int, int, int, int]:
+    parts = text.split(",")
+    try:
+        values = tuple(int(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 4:
+        raise argparse.ArgumentTypeError(f"a box is x0,y0,x1,y1 in pixels (four integers), got {text!r}")
+    return values  # type: ignore[return-value]
+
+
+def _size(text: str) -> tuple[int, int]:
+    from ..data.calibration import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_fill(subparsers: Any) -> None:
+    """Declare ``inpaintenv fill``."""
+    p = subparsers.add_parser(
+        "fill", help="fill your own depth maps (PNG, NPY) and LiDAR scans: files or folders in, filled files out",
+        description=(
+            "Fill the holes of depth files and LiDAR scans with any method. INPUT: files or folders (read "
+            "recursively; each output keeps its path relative to its INPUT): KITTI 16-bit depth PNGs (metres x 256, "
+            "0 = no measurement), .npy/.npz float metres (NaN = fill, 0 = no measurement) and .bin LiDAR scans "
+            "(with --calib). Inputs are never changed, and nothing is written into an input folder."
+        ),
+        epilog=RECIPES, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help="depth files, scans, or folders of them")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder of the filled files")
+    g = p.add_argument_group("which pixels to fill (NaN in arrays, and any of these, together)")
+    g.add_argument("--holes", metavar="PATH",
+                   help="a mask for every input, or a folder of masks matched by relative path (PNG or NPY, "
+                        "nonzero = fill)")
+    g.add_argument("--box", type=_box, action="append", default=[], metavar="x0,y0,x1,y1",
+                   help="a rectangle to fill: columns x0..x1-1, rows y0..y1-1 (repeatable)")
+    g.add_argument("--missing", action="store_true", help="fill every pixel without a measurement (densify)")
+    s = p.add_argument_group("LiDAR scans (.bin, N x 4 float32)")
+    s.add_argument("--calib", metavar="PATH",
+                   help="a KITTI raw day folder (calib_cam_to_cam.txt + calib_velo_to_cam.txt), an odometry calib.txt "
+                        "(with --size), or a KITTI-360 calibration folder (perspective.txt + calib_cam_to_velo.txt)")
+    s.add_argument("--size", type=_size, metavar="WxH", help="image size, e.g. 1226x370 (needed for odometry)")
+    s.add_argument("--camera", type=int, metavar="N",
+                   help="camera to project into: 2 (default) or 3 for raw/odometry, 0 (default) or 1 for KITTI-360")
+    s.add_argument("--points", choices=["bin", "ply", "both"],
+                   help="also write the scan's points plus the filled pixels back-projected (reflectance 0)")
+    o = p.add_argument_group("output and method")
+    o.add_argument("--format", choices=["png", "npy", "both"], default="png",
+                   help="depth files written: png (KITTI 16-bit, the default), npy (float metres) or both")
+    which = o.add_mutually_exclusive_group()
+    which.add_argument("--method", "-m", default="pretrained", metavar="NAME",
+                       help="method name (default pretrained); see `inpaintenv info` for the list")
+    which.add_argument("--checkpoint", metavar="PATH", help="a saved model's folder instead of --method")
+    o.add_argument("--jobs", type=int, metavar="N", help="parallel frames for the classical methods")
+    o.add_argument("--batch-size", type=int, default=4, metavar="N", help="same-sized frames per call (default 4)")
+    o.add_argument("--overwrite", action="store_true", help="redo inputs whose outputs exist (skipped otherwise)")
+    o.add_argument("--on-error", choices=["continue", "stop"], default="continue",
+                   help="a bad input is one line and the run goes on (continue, the default), or stops there")
+    add_common_options(p)
+    p.set_defaults(func=cmd_fill, on_interrupt=_fill_interrupted)
+
+
+def _fill_interrupted(args: argparse.Namespace) -> str:
+    return (f"the files written so far are kept in {args.out} (each complete); rerun the same command to go on "
+            "(existing outputs are skipped)")
+
+
+def cmd_fill(args: argparse.Namespace) -> int:
+    """Run ``inpaintenv fill``."""
+    from ..filling import fill
+
+    method: Any = None if args.checkpoint else check_method_names([args.method])[0]
+    checkpoint = check_checkpoint_folder(args.checkpoint) if args.checkpoint else None
+    if args.jobs is not None and args.jobs == 0:
+        raise ValueError("--jobs must be a non-zero integer (-1 = every core), got 0")
+    if args.calib is None and (args.size or args.camera is not None):
+        raise ValueError("--size and --camera describe the camera of --calib; give --calib PATH with them")
+
+    def log(line: str) -> None:
+        print(f"inpaintenv fill: {line}", file=sys.stderr, flush=True)
+
+    report = fill(
+        args.inputs, args.out, method=method, checkpoint=checkpoint, holes=args.holes, boxes=args.box,
+        missing=args.missing, calibration=args.calib, size=args.size, camera=args.camera, format=args.format,
+        points=args.points, overwrite=args.overwrite, on_error=args.on_error, n_jobs=args.jobs,
+        batch_size=args.batch_size, progress=not args.quiet, log=log,
+    )
+    print(report.summary(), file=sys.stderr)
+    return 0 if report.ok else 1
