@@ -280,3 +280,62 @@ def test_training_log_records_libraries_threads_and_machine(tmp_path, small_blen
     from inpaintenv.data import SyntheticStreets
 
     assert log["training_drives"] == sorted(set(SyntheticStreets(n=4, frame_shape=(64, 192)).groups))
+
+
+SMOKE = ["train", "--preset", "smoke", "--n-frames", "8", "--frame-shape", "64", "192"]
+
+
+def test_a_second_training_into_the_same_out_is_refused_while_the_first_runs(tmp_path, capsys):
+    # Issue 43, item 3: two processes, one folder. The holder stands for a training in progress.
+    import subprocess
+    import sys
+    import textwrap
+
+    out = tmp_path / "run"
+    holder = textwrap.dedent("""
+        import sys
+        from inpaintenv.benchmark.lock import run_lock
+        with run_lock(sys.argv[1]):
+            print("locked", flush=True)
+            sys.stdin.read()
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", holder, str(out)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            text=True)
+    try:
+        assert proc.stdout.readline().strip() == "locked"
+        assert main([*SMOKE, "--out", str(out), "--quiet"]) == 1
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and f"{out} is in use by another run (pid {proc.pid} on " in err
+        assert sorted(p.name for p in out.iterdir()) == ["run.lock"]  # nothing of the run was touched
+    finally:
+        proc.stdin.close()
+        proc.wait(timeout=30)
+    assert main([*SMOKE, "--out", str(out), "--quiet"]) == 0  # free once the first has finished
+
+
+def test_progress_in_a_log_is_plain_lines(tmp_path, capsys):
+    # Issue 43, item 20: stderr captured here is not a terminal, like a log file.
+    assert main([*SMOKE, "--out", str(tmp_path / "run")]) == 0
+    err = capsys.readouterr().err
+    assert "\r" not in err
+    assert "PriorUNetInpainter" in err  # the bar's last state, as a line of its own
+
+
+def test_ctrl_c_before_the_first_checkpoint_says_nothing_was_written(tmp_path, capsys, monkeypatch):
+    from estimators.learned import presets
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(presets, "train_preset", interrupted)
+    assert main([*SMOKE, "--out", str(tmp_path / "run"), "--quiet"]) == 130
+    err = capsys.readouterr().err
+    assert "no checkpoint was written" in err and "written so far are kept" not in err
+
+
+def test_stopping_before_max_steps_says_why(tmp_path, capsys):
+    assert main([*SMOKE, "--max-steps", "40", "--set", "epochs=1", "--out", str(tmp_path / "run"), "--quiet"]) == 0
+    log = json.loads((tmp_path / "run" / "training_log.json").read_text())
+    assert log["n_steps"] < 40
+    err = capsys.readouterr().err
+    assert f"training stopped after {log['n_steps']} of max_steps=40 steps: its 1 epoch ended first" in err

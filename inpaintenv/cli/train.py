@@ -6,6 +6,7 @@ import argparse
 import contextlib
 import json
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -65,8 +66,48 @@ def _joblib_on(client: Any) -> Any:
 
 
 def _train_interrupted(args: argparse.Namespace) -> str:
-    return (f"the checkpoints written so far are kept in {Path(args.out) / 'checkpoints'} (one at the end of "
-            "every epoch); rerun the same command to resume from the last one")
+    """What a Ctrl-C leaves behind: the checkpoints this run wrote, or that it wrote none."""
+    ckpts = Path(args.out) / "checkpoints"
+    started = getattr(args, "train_started", None)
+    states = list(ckpts.rglob("state.json")) if ckpts.is_dir() else []
+    if started is None:  # stopped while the arguments were checked
+        return "nothing was written"
+    if not any(p.stat().st_mtime >= started for p in states):
+        earlier = f"; the earlier checkpoints in {ckpts} are untouched" if states else ""
+        return (f"no checkpoint was written (this run stopped before its first one, at the end of the first "
+                f"epoch){earlier}; rerun the same command to start again")
+    return (f"the checkpoints written so far are kept in {ckpts} (one at the end of every epoch); rerun the "
+            "same command to resume from the last one")
+
+
+def _stop_reason(est: Any) -> str | None:
+    """Why training stopped before its ``max_steps``, if it did (its epochs ran out), else None."""
+    get_params = getattr(est, "get_params", None)
+    params = get_params(deep=False) if callable(get_params) else {}
+    steps, max_steps, epochs = getattr(est, "n_steps_", None), params.get("max_steps"), params.get("epochs")
+    if not isinstance(steps, int) or not isinstance(max_steps, int) or not isinstance(epochs, int) or epochs < 1:
+        return None
+    if steps >= max_steps:
+        return None
+    return (f"training stopped after {steps} of max_steps={max_steps} steps: its {epochs} epoch"
+            f"{'s' * (epochs != 1)} ended first ({steps // epochs} steps each, one pass over the training frames "
+            f"in batches of {params.get('batch_size', '?')}); --set epochs=N or more frames reach max_steps")
+
+
+@contextlib.contextmanager
+def _plain_progress(quiet: bool) -> Any:
+    """Progress bars as plain lines while stderr is a log file (as the benchmark writes there)."""
+    from ..report.progress import PlainLines, stderr_is_terminal
+
+    if quiet or stderr_is_terminal():
+        yield
+        return
+    lines = PlainLines(sys.stderr)
+    try:
+        with contextlib.redirect_stderr(lines):
+            yield
+    finally:
+        lines.close()
 
 
 #: The record of a training command in its --out, compared by the next run there.
@@ -230,9 +271,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         available_presets,
         check_preset,
         describe_preset,
-        preset_checkpoints,
         preset_runs_joblib,
-        train_preset,
     )
 
     if args.list:
@@ -270,6 +309,22 @@ def cmd_train(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder")
     record = {"preset": args.preset, "overrides": overrides, "source": repr(ds)}
+    from ..benchmark.lock import run_lock
+
+    # One run per folder: two trainings into one --out would write the same checkpoints.
+    with run_lock(out, lambda msg: print(msg, file=sys.stderr)):
+        args.train_started = time.time()
+        return _train_locked(args, ds, out, record, overrides)
+
+
+def _train_locked(args: argparse.Namespace, ds: Any, out: Path, record: dict[str, Any],
+                  overrides: dict[str, Any]) -> int:
+    """The training itself, holding the lock of ``out``: resume note, fit, model, log and curves."""
+    from estimators.learned.presets import preset_checkpoints, train_preset
+
+    from ..evaluate import json_safe
+    from ..report.files import write_atomic, write_text_atomic
+
     done = finished_model(out, record)
     if done is not None:
         print(f"the run in {out} already finished with the same preset, overrides and data: model {done}, "
@@ -279,11 +334,14 @@ def cmd_train(args: argparse.Namespace) -> int:
         return 0
     out.mkdir(parents=True, exist_ok=True)
     print(train_resume_note(out, record, checkpoints=preset_checkpoints(args.preset)), file=sys.stderr)
-    (out / TRAIN_ARGS_FILE).write_text(json.dumps(record, indent=1))
+    write_text_atomic(out / TRAIN_ARGS_FILE, json.dumps(record, indent=1))
     print(f"training preset {args.preset} on {ds!r} -> {out}", file=sys.stderr)
-    with open_client(args.scheduler) as client, _joblib_on(client):
+    with open_client(args.scheduler) as client, _joblib_on(client), _plain_progress(args.quiet):
         est = train_preset(args.preset, ds, checkpoint_dir=out / "checkpoints", verbose=not args.quiet,
                            **overrides)
+    reason = _stop_reason(est)
+    if reason is not None:
+        print(reason, file=sys.stderr)
     model_path = est.save(out / "model")
     history = getattr(est, "history_", None) or {}
     log = {
@@ -302,13 +360,11 @@ def cmd_train(args: argparse.Namespace) -> int:
         "environment": getattr(est, "fit_environment_", None) or environment_info(torch_details=True),
         "history": history,
     }
-    from ..evaluate import json_safe
-
-    (out / "training_log.json").write_text(json.dumps(json_safe(log), indent=1))
-    plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}",
-                  getattr(est, "loss_label", "training loss"))
+    write_text_atomic(out / "training_log.json", json.dumps(json_safe(log), indent=1))
+    write_atomic(out / "loss.png", lambda tmp: plot_training(history, tmp, f"{args.preset} on {ds!r}",
+                                                             getattr(est, "loss_label", "training loss")))
     # Last: a rerun of this command is a no-op only once the model and its log are written.
-    (out / TRAIN_ARGS_FILE).write_text(json.dumps({**record, "finished": True}, indent=1))
+    write_text_atomic(out / TRAIN_ARGS_FILE, json.dumps({**record, "finished": True}, indent=1))
     print(f"model: {model_path}")
     print(f"log: {out / 'training_log.json'}, curves: {out / 'loss.png'}")
     print(f"score it: inpaintenv benchmark --checkpoint mine={model_path} ...")

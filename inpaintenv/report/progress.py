@@ -18,11 +18,13 @@ its own measured rate (tasks not started yet at a known rate, or the average so 
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 from collections.abc import Callable, Mapping
+from typing import Any
 
-__all__ = ["FrameProgress", "ProgressReporter", "count", "format_duration", "stderr_is_terminal"]
+__all__ = ["FrameProgress", "PlainLines", "ProgressReporter", "count", "format_duration", "stderr_is_terminal"]
 
 
 def count(n: int, word: str, plural: str | None = None) -> str:
@@ -207,3 +209,85 @@ class FrameProgress:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class PlainLines:
+    """A text stream for a log file that turns progress-bar redraws into plain lines.
+
+    A tqdm bar redraws itself after a carriage return (``\\r``); in a log file that is one
+    endless line. Written through this stream, ordinary lines pass unchanged, and the
+    latest state of a bar becomes a line of its own at most every ``interval`` seconds,
+    and once more when the stream is closed (so the log ends with the last state).
+
+    Parameters
+    ----------
+    stream : text stream
+        Where the lines go (e.g. the real ``sys.stderr``).
+    interval : float
+        Seconds between two lines of a bar.
+    clock : callable
+        Monotonic clock (seconds); replaceable in tests.
+
+    Examples
+    --------
+    >>> import io
+    >>> sink = io.StringIO()
+    >>> lines = PlainLines(sink, interval=10.0, clock=iter([0.0, 1.0, 2.0]).__next__)
+    >>> _ = lines.write("start\\n\\rstep 1/3\\rstep 2/3\\rstep 3/3")
+    >>> lines.close()
+    >>> sink.getvalue().splitlines()
+    ['start', 'step 1/3', 'step 3/3']
+    """
+
+    def __init__(self, stream: Any, interval: float = 10.0, clock: Callable[[], float] = time.monotonic):
+        self.stream, self.interval, self.clock = stream, float(interval), clock
+        self._current = ""  # text after the last \r or \n, not yet ended
+        self._last_shown: float | None = None
+        self._pending = ""  # the bar's latest state, not yet written as a line
+
+    def write(self, text: str) -> int:
+        """Write ``text``: complete lines at once, bar states as lines every ``interval`` s."""
+        for part in re.split(r"(\r|\n)", text):
+            if part == "\n":
+                self._end_line()
+            elif part == "\r":
+                self._bar_state(self._current)
+                self._current = ""
+            else:
+                self._current += part
+        return len(text)
+
+    def _end_line(self) -> None:
+        if self._current.strip():
+            self._flush_pending()
+            self.stream.write(self._current.rstrip() + "\n")
+        self._current = ""
+
+    def _bar_state(self, state: str) -> None:
+        if not state.strip():
+            return
+        self._pending = state.strip()
+        now = self.clock()
+        if self._last_shown is None or now - self._last_shown >= self.interval:
+            self._flush_pending()
+            self._last_shown = now
+
+    def _flush_pending(self) -> None:
+        if self._pending:
+            self.stream.write(self._pending + "\n")
+            self._pending = ""
+
+    def flush(self) -> None:
+        """Flush the underlying stream (a bar's pending state waits for its next line)."""
+        self.stream.flush()
+
+    def close(self) -> None:
+        """Write the bar's last state, if not written yet, and flush."""
+        self._bar_state(self._current)
+        self._current = ""
+        self._flush_pending()
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        """Never a terminal: progress displays write log lines to it."""
+        return False
