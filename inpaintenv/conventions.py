@@ -40,7 +40,8 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MIN_DEPTH", "MIN_FRAME_SIDE", "as_depth_array", "check_depth", "check_int", "check_mask", "check_max_depth",
+    "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MAX_FRAME_PIXELS", "MIN_DEPTH", "MIN_FRAME_SIDE", "as_depth_array", "check_depth",
+    "check_frame_shape", "check_int", "check_mask", "check_max_depth",
     "check_seed", "check_seeds", "corrupt", "in_depth_range", "is_real_number", "reconstruction_problem",
 ]
 
@@ -52,6 +53,10 @@ DEPTH_LIMIT: float = 65535.0 / 256.0
 #: more likely a channel axis (colour 3 or 4, grey 1) than a frame that narrow; 8 px is
 #: below any depth sensor's image and above any channel count.
 MIN_FRAME_SIDE: int = 8
+#: Largest frame, in pixels (width x height), that a depth file may declare or a source
+#: generate: 50 million, a 100 MB uint16 frame, a hundred times a KITTI frame (1242 x 375).
+#: A small PNG can declare 60000 x 60000; a typo in a frame size can ask for gigabytes.
+MAX_FRAME_PIXELS: int = 50_000_000
 #: Smallest positive depth accepted in inputs and ground truth (1 mm). KITTI's PNG step is
 #: 1/256 m and LiDAR sees nothing nearer than decimetres, so a smaller positive value is
 #: a unit mistake or numerical debris (1e-30, subnormals), not a measurement.
@@ -331,6 +336,37 @@ def check_int(value: object, name: str, *, minimum: int = 0, upper: int | None =
         want = f">= {minimum}" if upper is None else f"in {minimum}..{upper - 1}"
         raise ValueError(f"{name} must be {want}, got {v}")
     return v
+
+
+def check_frame_shape(value: object, name: str = "frame_shape", *, minimum: int = MIN_FRAME_SIDE) -> tuple[int, int]:
+    """Validate a frame size ``(H, W)`` and return it as two Python ints.
+
+    Parameters
+    ----------
+    value : object
+        Two integers (a tuple, list or 1-D array); floats, bools and strings are refused.
+    name : str
+        Parameter name used in error messages (``"--frame-shape"``).
+    minimum : int
+        Smallest height and width.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not two integers.
+    ValueError
+        If a side is below ``minimum`` or the frame has more than :data:`MAX_FRAME_PIXELS` pixels.
+    """
+    if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list, np.ndarray)) or len(value) != 2 \
+            or not all(_is_int(v) for v in value):
+        raise TypeError(f"{name} must be two integers (H, W), got {_show(value)}")
+    h, w = (operator.index(v) for v in value)  # type: ignore[arg-type]
+    if h < minimum or w < minimum:
+        raise ValueError(f"{name} must be at least {minimum} x {minimum} (H x W), got {h} x {w}")
+    if h * w > MAX_FRAME_PIXELS:
+        raise ValueError(f"{name} {h} x {w} is {h * w:,} pixels, more than the {MAX_FRAME_PIXELS:,} a frame may have "
+                         "(MAX_FRAME_PIXELS)")
+    return h, w
 
 
 def check_seed(value: object, name: str = "seed") -> int:

@@ -136,3 +136,14 @@ def test_png_bomb_and_tiff_named_png_are_bad_frames_that_skip_leaves_out(kitti_t
     capsys.readouterr()
     assert main(["info", "--kitti-root", str(root)]) == 1
     assert why in capsys.readouterr().err
+
+
+def test_benchmark_with_every_frame_skipped_reports_them_instead_of_list_index_out_of_range(kitti_tree, tmp_path, capsys):
+    root, folder = kitti_tree
+    for path in folder.glob("*.png"):
+        truncate(path)
+    out = tmp_path / "out"
+    assert main(bench(root, out, "--on-bad-frame", "skip")) == 0, capsys.readouterr().err
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["rows"] == [] and [r["index"] for r in doc["skipped_frames"]] == [0, 1, 2, 3]
+    assert "list index out of range" not in capsys.readouterr().err

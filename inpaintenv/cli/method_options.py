@@ -150,7 +150,12 @@ def checkpoint_methods(specs: list[str], taken: list[str]) -> dict[str, Any]:
 
 
 def figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int = 4) -> dict[str, Any]:
-    """The best ``k`` methods by hole RMSE (first protocol), for readable panels."""
+    """The best ``k`` methods by hole RMSE (first protocol), for readable panels; none for an empty table.
+
+    A table is empty when no frame could be scored (every frame unreadable and skipped).
+    """
+    if not table:
+        return {}
     first = table[0]["protocol"]
     ranked = sorted(
         (e for e in table if e["protocol"] == first and np.isfinite(e["hole_rmse"])),

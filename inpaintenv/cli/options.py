@@ -17,13 +17,20 @@ import os
 import sys
 from typing import Any
 
-__all__ = ["SYNTHETIC_HOLDOUT", "add_common_options", "add_source_options", "check_source_options",
-           "kitti_root_from_args", "open_source_from_args", "test_split"]
+from ..conventions import check_frame_shape
+
+__all__ = ["MAX_THREADS", "SYNTHETIC_HOLDOUT", "add_common_options", "add_source_options", "check_source_options",
+           "kitti_root_from_args", "open_source_from_args", "test_split", "thread_count"]
 
 #: Read when ``--kitti-root`` is not given (the same variable ``KittiDepth(root=None)`` reads).
 KITTI_ROOT_ENV = "INPAINTENV_KITTI_ROOT"
 #: KITTI defaults, applied only when a KITTI root is in effect.
 DEFAULT_SPLIT, DEFAULT_CAMERA = "train", "image_02"
+#: ``--threads`` is at most this many per CPU core of the machine, and may always be
+#: up to :data:`MIN_MAX_THREADS`: more threads than that only oversubscribe the cores,
+#: and a huge count fails deep in torch ("failed to map segment").
+THREADS_PER_CORE, MIN_MAX_THREADS = 4, 64
+MAX_THREADS = max(MIN_MAX_THREADS, THREADS_PER_CORE * (os.cpu_count() or 1))
 #: Share of drives held out as the test split of the synthetic default source
 #: (``benchmark`` scores it, ``export`` writes it).
 SYNTHETIC_HOLDOUT = 0.25
@@ -55,7 +62,8 @@ def add_source_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--n-frames", type=int, metavar="N", help="use only the first N frames")
     g.add_argument(
         "--frame-shape", type=int, nargs=2, metavar=("H", "W"),
-        help="synthetic frame size (default 352 1216, KITTI's crop; synthetic only)",
+        help="synthetic frame size (default 352 1216, KITTI's crop; at least 8 8, at most 50 million pixels; "
+             "synthetic only)",
     )
     g.add_argument("--data-seed", type=int, help="seed of the synthetic streets (default 0; synthetic only)")
 
@@ -121,7 +129,33 @@ def check_source_options(args: argparse.Namespace) -> str | None:
                              "truth)")
     if args.n_frames is not None and args.n_frames < 1:
         raise ValueError(f"--n-frames must be >= 1, got {args.n_frames}")
+    if root is None:
+        from ..data.synthetic import MAX_SYNTHETIC_FRAMES
+
+        if args.n_frames is not None and args.n_frames > MAX_SYNTHETIC_FRAMES:
+            raise ValueError(f"--n-frames {args.n_frames} is more than the {MAX_SYNTHETIC_FRAMES:,} frames the "
+                             "synthetic source may have (MAX_SYNTHETIC_FRAMES)")
+        if args.frame_shape is not None:
+            check_frame_shape(args.frame_shape, "--frame-shape")
     return root
+
+
+def thread_count(text: str) -> int:
+    """``--threads N`` as argparse reads it: an integer in ``1..MAX_THREADS``, else one line naming the limit.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        For anything else (``100000`` threads made torch fail with "failed to map segment").
+    """
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number of threads, got {text!r}") from None
+    if not 1 <= n <= MAX_THREADS:
+        raise argparse.ArgumentTypeError(f"must be 1..{MAX_THREADS} (MAX_THREADS: {THREADS_PER_CORE} per CPU core "
+                                         f"of this machine, at least {MIN_MAX_THREADS}), got {n}")
+    return n
 
 
 def open_source_from_args(args: argparse.Namespace) -> Any:

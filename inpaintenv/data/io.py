@@ -20,7 +20,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..conventions import check_depth
+from ..conventions import MAX_FRAME_PIXELS, check_depth
 
 __all__ = [
     "KITTI_DEPTH_SCALE",
@@ -43,10 +43,6 @@ __all__ = [
 
 #: KITTI stores depth as uint16 PNG with metres = value / 256.
 KITTI_DEPTH_SCALE: float = 256.0
-#: Largest frame a depth file may declare, in pixels (width x height): 50 million, a
-#: 100 MB uint16 frame, a hundred times a KITTI frame (1242 x 375). A larger declared
-#: size is refused before decoding (a small file can declare 60000 x 60000).
-MAX_FRAME_PIXELS: int = 50_000_000
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: Bytes of a PNG that hold the signature and the IHDR chunk (length, type, 13 data bytes).
@@ -187,7 +183,7 @@ def check_depth_header(path: str | os.PathLike, header: PngHeader) -> None:
     if header.width * header.height > MAX_FRAME_PIXELS:
         raise DepthFormatError(
             f"{path} declares {header.width}x{header.height} pixels (W x H), more than the "
-            f"{MAX_FRAME_PIXELS:,} a depth frame may have (inpaintenv.data.io.MAX_FRAME_PIXELS); not decoded"
+            f"{MAX_FRAME_PIXELS:,} a depth frame may have (inpaintenv.conventions.MAX_FRAME_PIXELS); not decoded"
         )
 
 

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import os
-
 from collections.abc import Sequence
 
+from ..conventions import check_int
 from .base import ConcatDataset, DepthDataset, Subset, select_drives
 from .kitti import KittiDepth
 from .synthetic import SyntheticStreets
@@ -57,8 +57,10 @@ def open_source(
     -------
     DepthDataset
     """
-    if n_frames is not None and (int(n_frames) != n_frames or n_frames < 1):
-        raise ValueError(f"n_frames must be a positive integer or None, got {n_frames!r}")
+    if n_frames is not None:
+        n_frames = check_int(n_frames, "n_frames", minimum=1)  # int("abc") failed obscurely
+    if not isinstance(split, str):
+        raise TypeError(f"split must be a string such as 'train' or 'train,val', got {split!r}")
     if kitti_root is None:
         n = DEFAULT_SYNTHETIC_FRAMES if n_frames is None else int(n_frames)
         return select_drives(SyntheticStreets(n=n, seed=seed, kind=kind), drives, exclude_drives)

@@ -29,10 +29,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..conventions import check_seed
+from ..conventions import check_frame_shape, check_int, check_seed
 from .base import DepthDataset
 
-__all__ = ["SyntheticStreets", "KITTI_FX", "KITTI_FY", "KITTI_CX", "KITTI_CY", "KITTI_RAW_SHAPE"]
+__all__ = ["MAX_SYNTHETIC_FRAMES", "SyntheticStreets", "KITTI_FX", "KITTI_FY", "KITTI_CX", "KITTI_CY", "KITTI_RAW_SHAPE"]
 
 # KITTI P_rect_02 of 2011_09_26 (the raw 1242x375 image).
 KITTI_FX = KITTI_FY = 721.5377
@@ -213,6 +213,11 @@ def _render_ellipsoid(
     hit = (disc > 0) & (t > _T_NEAR)
     sub = zbuf[rows, cols]
     np.minimum(sub, t, out=sub, where=hit)
+
+
+#: Most frames a SyntheticStreets may have: their ids and drive names are lists held in
+#: memory (about 100 bytes a frame); 1,000,000 is twelve times the full KITTI release.
+MAX_SYNTHETIC_FRAMES: int = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -401,13 +406,15 @@ class SyntheticStreets(DepthDataset):
     Parameters
     ----------
     n : int
-        Number of frames.
+        Number of frames, 1 to :data:`MAX_SYNTHETIC_FRAMES` (an integer: floats, bools and
+        strings are refused, not truncated).
     seed : int
         A non-negative integer (a float or bool is refused, not truncated).
         Frame ``i`` depends only on ``(seed, i)`` (and the constructor options), so any
         order, subset or process gives the same frames.
     frame_shape : (int, int)
-        ``(H, W)``; the principal point is placed as for a bottom-centre crop of the
+        ``(H, W)``, each at least 8, at most
+        :data:`~inpaintenv.conventions.MAX_FRAME_PIXELS` pixels in all; the principal point is placed as for a bottom-centre crop of the
         raw 1242x375 KITTI image, like :class:`KittiDepth` does.
     kind : {"groundtruth", "velodyne_raw", "dense"}
         Semi-dense accumulated ground truth (11 scans), one 64-beam scan, or the dense
@@ -431,18 +438,14 @@ class SyntheticStreets(DepthDataset):
         kind: str = "groundtruth",
         frames_per_drive: int = 8,
     ):
-        if int(n) != n or n < 1:
-            raise ValueError(f"n must be a positive integer, got {n!r}")
-        if int(frames_per_drive) != frames_per_drive or frames_per_drive < 1:
-            raise ValueError(f"frames_per_drive must be a positive integer, got {frames_per_drive!r}")
+        # Integers only, never coerced: int("abc") failed obscurely, int(0.9) would quietly
+        # give seed 0's frames under another name; bounded so that a typo cannot ask for gigabytes.
+        self.n = check_int(n, "n", minimum=1, upper=MAX_SYNTHETIC_FRAMES + 1)
+        self.frames_per_drive = check_int(frames_per_drive, "frames_per_drive", minimum=1)
         if kind not in _KINDS:
             raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
-        if len(frame_shape) != 2 or any(int(s) != s or s < 8 for s in frame_shape):
-            raise ValueError(f"frame_shape must be (H, W) integers >= 8, got {frame_shape!r}")
-        # int(0.9) would quietly give seed 0's frames under another name.
-        self.n, self.seed, self.kind = int(n), check_seed(seed, "seed"), kind
-        self.frames_per_drive = int(frames_per_drive)
-        self.frame_shape = (int(frame_shape[0]), int(frame_shape[1]))
+        self.frame_shape = check_frame_shape(frame_shape, "frame_shape")
+        self.seed, self.kind = check_seed(seed, "seed"), kind
         self.camera = Camera(self.frame_shape)
         drive = np.arange(self.n) // self.frames_per_drive
         self.groups = np.asarray([f"synthetic_s{self.seed}_drive_{d:04d}" for d in drive])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from inpaintenv.data import KittiDepth, Subset, SyntheticStreets, open_source
@@ -25,10 +27,47 @@ def test_kitti_when_a_root_is_given(kitti_root, kitti_layout):
     assert len(open_source(kitti_root, split="val", n_frames=10)) == min(n_val, 10)
 
 
-@pytest.mark.parametrize("kwargs, match", [({"n_frames": 0}, "n_frames"), ({"n_frames": 2.5}, "n_frames")])
-def test_bad_n_frames(kwargs, match):
-    with pytest.raises(ValueError, match=match):
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"n_frames": 0}, ValueError, "n_frames must be >= 1"), ({"n_frames": 2.5}, TypeError, "n_frames must be an integer"),
+    # int("abc") said "invalid literal for int() with base 10: 'abc'".
+    ({"n_frames": "abc"}, TypeError, r"^n_frames must be an integer, got 'abc' \(str\)$"),
+])
+def test_bad_n_frames(kwargs, error, match):
+    with pytest.raises(error, match=match):
         open_source(**kwargs)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--frame-shape", "60000", "60000"],
+     "--frame-shape 60000 x 60000 is 3,600,000,000 pixels, more than the 50,000,000 a frame may have (MAX_FRAME_PIXELS)"),
+    (["--frame-shape", "4", "600"], "--frame-shape must be at least 8 x 8 (H x W), got 4 x 600"),
+    (["--n-frames", "1000000000"],
+     "--n-frames 1000000000 is more than the 1,000,000 frames the synthetic source may have (MAX_SYNTHETIC_FRAMES)"),
+])
+def test_cli_refuses_unbounded_synthetic_sizes_in_one_line_before_any_work(argv, message, capsys):
+    # --frame-shape 60000 60000 allocated without bound (or ended in MemoryError).
+    from inpaintenv.cli import main
+
+    assert main(["info", "--synthetic", *argv]) == 1
+    assert capsys.readouterr().err.strip() == f"inpaintenv info: error: {message}"
+
+
+def test_threads_option_type_names_its_limit():
+    # --threads 100000 ended in torch's "failed to map segment".
+    import argparse
+
+    from inpaintenv.cli.options import MAX_THREADS, thread_count
+
+    assert thread_count("3") == 3 and thread_count(str(MAX_THREADS)) == MAX_THREADS
+    for bad, words in (("100000", f"must be 1..{MAX_THREADS} (MAX_THREADS"), ("0", "must be 1.."),
+                       ("abc", "must be a whole number of threads, got 'abc'")):
+        with pytest.raises(argparse.ArgumentTypeError, match=re.escape(words)):
+            thread_count(bad)
+
+
+def test_split_must_be_a_string(tmp_path):
+    with pytest.raises(TypeError, match="split must be a string"):
+        open_source(tmp_path, split=["train"])
 
 
 def test_dense_needs_synthetic(tmp_path):

@@ -100,6 +100,22 @@ def test_bad_arguments(kwargs, match):
         SyntheticStreets(**kwargs)
 
 
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"n": "abc"}, TypeError, r"^n must be an integer, got 'abc' \(str\)$"),
+    ({"n": 2.5}, TypeError, "n must be an integer"),
+    ({"n": 10**9}, ValueError, r"^n must be in 1\.\.1000000, got 1000000000$"),
+    ({"frames_per_drive": "x"}, TypeError, "frames_per_drive must be an integer, got 'x'"),
+    ({"frame_shape": ("abc", 5)}, TypeError, r"frame_shape must be two integers \(H, W\), got \('abc', 5\)"),
+    ({"frame_shape": "352x1216"}, TypeError, "frame_shape must be two integers"),
+    ({"frame_shape": (60000, 60000)}, ValueError,
+     r"frame_shape 60000 x 60000 is 3,600,000,000 pixels, more than the 50,000,000 a frame may have \(MAX_FRAME_PIXELS\)"),
+])
+def test_counts_and_sizes_are_checked_with_one_line_naming_the_parameter(kwargs, error, match):
+    # int("abc") said "invalid literal for int() with base 10: 'abc'"; 60000 x 60000 allocated without bound.
+    with pytest.raises(error, match=match):
+        SyntheticStreets(**kwargs)
+
+
 @pytest.mark.parametrize("seed, error", [(0.9, TypeError), (True, TypeError), ("1", TypeError), (-1, ValueError)])
 def test_seed_is_not_truncated(seed, error):
     # SyntheticStreets(seed=0.9) used to serve seed 0's frames.
