@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import os
+import sys
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -138,7 +140,7 @@ def canonical_name(name: str) -> str:
 def get_spec(name: str) -> MethodSpec:
     """The :class:`MethodSpec` of ``name``.
 
-    ``"package.module:ClassName"`` names any importable class, without registration.
+    ``"module:attr"`` names any importable class, function or object, without registration.
 
     Raises
     ------
@@ -151,12 +153,12 @@ def get_spec(name: str) -> MethodSpec:
     if ":" in name:
         module, _, cls = name.partition(":")
         if module and cls:
-            return MethodSpec(module, cls, {}, "custom class")
+            return MethodSpec(module, cls, {}, "custom method")
     close = difflib.get_close_matches(name, [*_METHODS, *_ALIASES], n=3)
     hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
     raise KeyError(
         f"unknown method {name!r}.{hint} Known methods: {', '.join(available_methods())} "
-        "(or 'package.module:ClassName')"
+        "(or 'module:ClassName' / 'module:function')"
     )
 
 
@@ -180,13 +182,31 @@ def resolve_class(name: str) -> Any:
     """
     spec = get_spec(name)
     try:
-        module = importlib.import_module(spec.module)
+        module = importlib.import_module(spec.module) if not _is_custom(name) else _import_custom(spec.module)
     except ImportError as exc:
         raise ImportError(f"method {name!r} needs module {spec.module!r}, which cannot be imported: {exc}") from exc
     try:
         return getattr(module, spec.cls)
     except AttributeError:
         raise ImportError(f"method {name!r}: module {spec.module!r} has no class {spec.cls!r}") from None
+
+
+def _is_custom(name: str) -> bool:
+    """True for a ``"module:attr"`` name (not registered): a user's class, function or object."""
+    return canonical_name(name) not in _METHODS and ":" in name
+
+
+def _import_custom(module: str) -> Any:
+    """Import a user's module as ``python -m`` would find it: the current folder first on the path.
+
+    The ``inpaintenv`` console script starts with its own folder on ``sys.path``, not the
+    current one, so ``-m mymodule:fn`` beside the user's ``mymodule.py`` was not found.
+    """
+    cwd = os.getcwd()
+    if cwd not in sys.path and "" not in sys.path:
+        sys.path.insert(0, cwd)
+        importlib.invalidate_caches()  # a module written since the last import must be seen
+    return importlib.import_module(module)
 
 
 def make_method(name: str, **overrides: Any) -> Any:
@@ -196,14 +216,17 @@ def make_method(name: str, **overrides: Any) -> Any:
     ----------
     name : str
         A registered name or alias (see :func:`available_methods`,
-        :func:`available_aliases`) or ``"package.module:Class"``.
+        :func:`available_aliases`) or ``"module:attr"``: a class (built with the
+        overrides), or a function ``depth -> depth`` or an estimator object (returned as
+        is: the method itself). The module is found as ``python -m`` finds it, the current
+        folder first.
     **overrides
         Constructor keywords replacing or adding to the registered ones.
 
     Returns
     -------
     object
-        A new, unfitted estimator.
+        A new, unfitted estimator (or the user's function or object).
 
     Raises
     ------
@@ -212,11 +235,18 @@ def make_method(name: str, **overrides: Any) -> Any:
     ImportError
         The method's module cannot be imported (e.g. it is not installed).
     TypeError
-        An override the class does not accept.
+        An override the class does not accept, or any override for a function or object.
     """
     spec = get_spec(name)
     cls = resolve_class(name)
     kwargs = {**spec.kwargs, **overrides}
+    if _is_custom(name) and not isinstance(cls, type):
+        # A user's function depth -> depth, or an estimator object: the method itself, as
+        # evaluate() takes it. Calling it here would pass it no depth at all.
+        if kwargs:
+            raise TypeError(f"method {name!r} is a {type(cls).__name__}, not a class, so it takes no parameters; "
+                            f"got {kwargs}")
+        return cls
     try:
         return cls(**kwargs)
     except TypeError as exc:

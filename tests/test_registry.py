@@ -117,3 +117,52 @@ def test_info_lists_aliases(capsys):
     assert main(["info", "--n-frames", "2", "--frame-shape", "32", "96", "--sample", "1"]) == 0
     out = capsys.readouterr().out
     assert "unet-pretrained -> pretrained" in out
+
+
+_USER_MODULE = '''
+import numpy as np
+
+def my_function(x):
+    return np.nan_to_num(x, nan=7.0)
+
+class MyFill:
+    def __init__(self, value=7.0):
+        self.value = value
+
+    def predict(self, x):
+        return np.nan_to_num(x, nan=self.value)
+
+my_estimator = MyFill(3.0)
+'''
+
+
+@pytest.fixture
+def user_module(tmp_path, monkeypatch):
+    """``mymodule.py`` in a fresh current folder that is not on the import path (as for the console script)."""
+    import sys
+
+    name = f"mymodule_{tmp_path.name.replace('-', '_')}"  # one module per test: no stale sys.modules entry
+    (tmp_path / f"{name}.py").write_text(_USER_MODULE)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", str(tmp_path))])
+    yield name
+    sys.modules.pop(name, None)
+
+
+def test_module_attr_finds_the_current_folder_and_takes_a_plain_function(user_module, capsys):
+    # The README says any callable is scored; -m mymodule:my_function failed twice: the current
+    # folder was not on the import path, and the function was called with no depth
+    # ("missing 1 required positional argument: 'x'").
+    from inpaintenv.cli import main
+
+    fn = make_method(f"{user_module}:my_function")
+    assert fn.__name__ == "my_function"
+    assert make_method(f"{user_module}:MyFill", value=2.0).value == 2.0  # a class is built with the overrides
+    assert make_method(f"{user_module}:my_estimator").value == 3.0  # an object is the method itself
+    with pytest.raises(TypeError, match="is a function, not a class, so it takes no parameters"):
+        make_method(f"{user_module}:my_function", n_jobs=2)
+    argv = ["evaluate", "-m", f"{user_module}:my_function", "-m", f"{user_module}:MyFill", "--synthetic",
+            "--n-frames", "2", "--frame-shape", "32", "48", "--quiet"]
+    assert main(argv) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert f"| {user_module}:my_function | rect-v1 | 2 |" in out and f"| {user_module}:MyFill | rect-v1 | 2 |" in out
