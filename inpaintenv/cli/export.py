@@ -24,19 +24,27 @@ def add_export(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "export", help="write the occluded inputs as PNG files for a method run elsewhere",
         description=(
-            "Write, for every frame and seed, the occluded input as a KITTI 16-bit depth PNG (0 = hole or no "
-            "measurement) and the hole mask as an 8-bit PNG, in KITTI's folder layout, plus manifest.json. "
-            "Ground truth is never exported. Score the predictions with `inpaintenv score`."
+            "Write, for every frame, the occluded input as a KITTI 16-bit depth PNG (0 = hole or no "
+            "measurement) and the hole mask as an 8-bit PNG, in KITTI's folder layout, plus manifest.json: the kit "
+            "for the submitter, which holds no ground truth. The score key (<out>.key.json beside --out by default) "
+            "names the ground truth; keep it, and score the predictions with `inpaintenv score --manifest <key>`."
         ),
     )
     p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
-    p.add_argument("--seed", type=int, action="append", metavar="S", help="evaluation seed (repeatable; default 0)")
+    p.add_argument("--seed", type=int, action="append", metavar="S",
+                   help="evaluation seed (default 0; repeatable only with --trusted: each input would show the other "
+                        "seeds' holes as measured depth)")
+    p.add_argument("--trusted", action="store_true",
+                   help="an export for your own method only, never for a submitter: allows several --seed")
     p.add_argument("--holdout", type=float, metavar="FRACTION",
                    help=f"export only the drive-level test split `inpaintenv benchmark` scores (default "
                         f"{SYNTHETIC_HOLDOUT} for the synthetic source, 0 = all frames)")
     p.add_argument("--out", default="submission-inputs", metavar="DIR",
                    help="folder of the export (default submission-inputs)")
-    p.add_argument("--overwrite", action="store_true", help="replace an earlier export in --out")
+    p.add_argument("--key", metavar="PATH",
+                   help="where the score key goes (default <out>.key.json beside --out; never inside --out)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an earlier export in --out (only files it wrote, unchanged) and its score key")
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_export)
@@ -47,9 +55,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     from ..conventions import check_seeds
     from ..data.synthetic import SyntheticStreets
     from ..masks import get_protocol
-    from ..submission.export import export
+    from ..submission.export import check_one_mask_per_frame, export
 
     seeds = check_seeds(args.seed or [0], "--seed")
+    check_one_mask_per_frame(seeds, args.trusted, "--trusted")
     get_protocol(args.protocol)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -63,11 +72,15 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
     if holdout > 0:
         dataset = test_split(dataset, holdout)
-    manifest = export(out, dataset, args.protocol, seeds, overwrite=args.overwrite, progress=not args.quiet)
+    manifest = export(out, dataset, args.protocol, seeds, overwrite=args.overwrite, progress=not args.quiet,
+                      trusted=args.trusted, key=args.key)
     n_frames = len(manifest.frames)
     print(f"exported {len(manifest.items)} input{'s' * (len(manifest.items) != 1)} ({n_frames} "
           f"frame{'s' * (n_frames != 1)} × {len(seeds)} seed{'s' * (len(seeds) != 1)}, protocol "
           f"{manifest.protocol_name}) to {out}")
+    if args.trusted and len(seeds) > 1:
+        print("--trusted: each input shows the other seeds' holes; do not give this export to a submitter")
     print(f"each prediction goes to <predictions>/<input's path>, e.g. {manifest.items[0].input}")
+    print(f"keep the score key {manifest.path} to yourself (it names the ground truth); give {out} to the submitter")
     print(f"then: inpaintenv score --manifest {manifest.path} --predictions <predictions> --name <method>")
     return 0

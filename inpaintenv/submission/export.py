@@ -1,17 +1,26 @@
 """Export the occluded inputs of a benchmark as files any program can read.
 
-For every frame and seed: the input a method gets in :func:`inpaintenv.evaluate.evaluate`
-(the ground truth with the protocol's hole) as a KITTI 16-bit depth PNG, with 0 = hole or
-no measurement, and the hole mask as an 8-bit PNG; then ``manifest.json``
-(:mod:`.manifest`). Ground truth is never exported. The export is built in a temporary
-folder beside ``out`` and moved into place only when complete, so an error or Ctrl-C
-leaves nothing half-written.
+For every frame: the input a method gets in :func:`inpaintenv.evaluate.evaluate` (the
+ground truth with the protocol's hole) as a KITTI 16-bit depth PNG, with 0 = hole or no
+measurement, and the hole mask as an 8-bit PNG; the kit's ``manifest.json``; and, outside
+the export folder, the score key (:mod:`.manifest`). Ground truth is never exported.
+
+A submission export draws **one mask per frame** (one seed): with several seeds, each
+input would show the other seeds' holes as measured depth, so the maximum over a frame's
+inputs would be its ground truth. Several seeds need ``trusted=True``, for an export
+that only one's own method sees.
+
+The export is built in a temporary folder beside ``out`` and moved into place only when
+complete, so an error or Ctrl-C leaves nothing half-written; a later export removes the
+temporary folders that killed exports of the same user left behind.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,12 +42,13 @@ from .layout import (
     file_sha256,
     frame_parts,
     hole_bits_sha256,
+    is_inside,
     relative_paths,
 )
-from .manifest import MANIFEST_NAME, Frame, Item, Manifest, read_manifest
+from .manifest import KEY, KIT, MANIFEST_NAME, Frame, Item, Manifest, ManifestError, default_key_path, read_manifest
 from .truth import describe_truth
 
-__all__ = ["export", "protocol_record"]
+__all__ = ["check_one_mask_per_frame", "export", "protocol_record"]
 
 
 def protocol_record(protocol: OcclusionProtocol) -> dict[str, Any]:
@@ -48,8 +58,43 @@ def protocol_record(protocol: OcclusionProtocol) -> dict[str, Any]:
     return {"name": name, "version": version, "description": protocol.describe()}
 
 
+def check_one_mask_per_frame(seeds: list[int], trusted: bool, option: str = "trusted=True") -> None:
+    """Refuse several seeds in an export for a submitter: each input would show the others' holes.
+
+    Raises
+    ------
+    ValueError
+        If ``seeds`` has more than one seed and ``trusted`` is False.
+    """
+    if len(seeds) > 1 and not trusted:
+        raise ValueError(
+            f"a submission export draws one mask per frame: with seeds {', '.join(map(str, seeds))} each input would "
+            "show the other seeds' holes as measured depth (the hidden ground truth); export one seed, or pass "
+            f"{option} for an export that only your own method sees"
+        )
+
+
+def _our_files(out: Path) -> dict[str, str]:
+    """Relative path -> recorded sha256 of every file an earlier export in ``out`` wrote (its kit manifest)."""
+    try:
+        old = read_manifest(out)
+    except ManifestError as exc:
+        raise ValueError(f"--out {out} holds a manifest.json that cannot tell which files are the export's ({exc}); "
+                         "move it or give another folder") from None
+    if old.role != KIT:
+        raise ValueError(f"--out {out}/manifest.json is not an export's kit manifest; give another folder")
+    recorded = {i.input: i.input_sha256 for i in old.items}
+    recorded.update({i.hole: i.hole_sha256 for i in old.items})
+    return recorded
+
+
 def _prepare_out(out: Path, overwrite: bool) -> bool:
-    """Check that ``out`` may receive an export; True if an earlier export is to be replaced."""
+    """Check that ``out`` may receive an export; True if an earlier export is to be replaced.
+
+    An earlier export is replaced only if every file in it is one the export wrote: listed
+    in its manifest, below the folder (no links) and unchanged since (its recorded sha256),
+    so a file of the user's, even one an edited manifest lists, is never deleted.
+    """
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder for the export")
     if not out.exists() or not any(out.iterdir()):
@@ -58,15 +103,80 @@ def _prepare_out(out: Path, overwrite: bool) -> bool:
         raise ValueError(f"--out {out} is not empty and holds no export; give a new or empty folder")
     if not overwrite:
         raise ValueError(f"--out {out} holds an earlier export; pass --overwrite (overwrite=True) to replace it")
-    # Replace only what an export wrote: a file of the user's in there is never deleted.
-    old = read_manifest(out)
-    listed = {MANIFEST_NAME} | {i.input for i in old.items} | {i.hole for i in old.items}
-    foreign = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()
-                     and p.relative_to(out).as_posix() not in listed)
+    recorded = _our_files(out)
+    foreign = []
+    for folder, dirs, files in os.walk(out):
+        for name in [*dirs, *files]:
+            path = Path(folder) / name
+            rel = path.relative_to(out).as_posix()
+            mode = os.lstat(path).st_mode
+            if stat.S_ISDIR(mode) or rel == MANIFEST_NAME:
+                continue
+            if not stat.S_ISREG(mode) or rel not in recorded or file_sha256(path) != recorded[rel]:
+                foreign.append(rel)
     if foreign:
-        raise ValueError(f"--out {out} holds files its manifest does not list ({', '.join(foreign[:3])}"
-                         f"{', …' if len(foreign) > 3 else ''}); move them or give another folder")
+        raise ValueError(f"--out {out} holds files the earlier export did not write, or changed since "
+                         f"({', '.join(sorted(foreign)[:3])}{', …' if len(foreign) > 3 else ''}); move them or give "
+                         "another folder")
     return True
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # another user's process
+    return True
+
+
+def clean_stale(out: Path) -> list[Path]:
+    """Remove the temporary folders and files that killed exports into ``out`` left beside it.
+
+    Only ``.<out>.partial-<pid>`` (and ``.<out>.replaced-<pid>`` when ``out`` itself is in
+    place, and the key's ``.<key>.partial-<pid>``) whose process is gone and which belong
+    to this user are removed. Returns what was removed.
+    """
+    removed = []
+    pattern = re.compile(rf"^\.{re.escape(out.name)}(?:\.key\.json)?\.(partial|replaced)-(\d+)$")
+    if not out.parent.is_dir():
+        return removed
+    for entry in out.parent.iterdir():
+        match = pattern.match(entry.name)
+        if match is None:
+            continue
+        pid = int(match.group(2))
+        info = os.lstat(entry)
+        if pid == os.getpid() or _pid_alive(pid) or info.st_uid != os.getuid() or stat.S_ISLNK(info.st_mode):
+            continue
+        if match.group(1) == "replaced" and not out.is_dir():
+            continue  # killed between the two renames: the only copy of the earlier export
+        if stat.S_ISDIR(info.st_mode):
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+        removed.append(entry)
+    return removed
+
+
+def _prepare_key(key: Path, out: Path, overwrite: bool) -> None:
+    """Check that the score key may be written at ``key``: outside the export, and replacing only a key."""
+    if is_inside(key, out):
+        raise ValueError(f"the score key {key} would lie in the export {out}, which goes to the submitter; "
+                         "give a key path outside it")
+    if key.is_symlink() or (key.exists() and not key.is_file()):
+        raise ValueError(f"the score key's path {key} is not a plain file; give another --key")
+    if key.exists():
+        try:
+            is_key = read_manifest(key).role == KEY
+        except (ManifestError, ValueError):
+            is_key = False
+        if not is_key:
+            raise ValueError(f"{key} exists and is not a score key; give another --key")
+        if not overwrite:
+            raise ValueError(f"{key} holds the score key of an earlier export; pass --overwrite (overwrite=True) "
+                             "to replace it")
 
 
 def export(
@@ -78,41 +188,57 @@ def export(
     n_frames: int | None = None,
     overwrite: bool = False,
     progress: bool = True,
+    trusted: bool = False,
+    key: str | os.PathLike | None = None,
 ) -> Manifest:
-    """Write the occluded inputs, hole masks and ``manifest.json`` of every (frame, seed).
+    """Write the occluded inputs, hole masks and manifest of every (frame, seed), and the score key.
 
     Parameters
     ----------
     out : path-like
-        Folder of the export: new, empty, or (with ``overwrite``) an earlier export.
+        Folder of the export, the kit that goes to the submitter: new, empty, or (with
+        ``overwrite``) an earlier export. A link to a folder is followed (the link stays).
     source : DepthDataset, array-like or None
         Ground truth, as for :func:`~inpaintenv.evaluate.evaluate` (None: the built-in
         SyntheticStreets default). KITTI frames are recorded by file, SyntheticStreets
         by its parameters; any other dataset by the sha256 of each frame (``score`` then
-        needs it passed in).
+        needs it passed in). Only the score key records them.
     protocol : str or OcclusionProtocol
     seeds : int or sequence of int
-        Evaluation seeds, distinct non-negative integers.
+        Evaluation seeds, distinct non-negative integers; one unless ``trusted``.
     n_frames : int, optional
         Export only the first ``n_frames`` frames.
     overwrite : bool
-        Replace an earlier export in ``out`` (only files its manifest lists are removed).
+        Replace an earlier export in ``out`` (only if every file there is one it wrote,
+        unchanged) and its score key.
     progress : bool
         A tqdm bar on stderr when it is a terminal.
+    trusted : bool
+        Allow several seeds: each input then shows the other seeds' holes as measured
+        depth, so such an export is for one's own method, never for a submitter.
+    key : path-like, optional
+        Where the score key goes (default ``<out>.key.json`` beside ``out``); never
+        inside ``out``.
 
     Returns
     -------
     Manifest
+        The score key (``path`` is the key; ``root`` the export folder); what the
+        submitter gets is ``manifest.kit_manifest()``.
 
     Raises
     ------
     ValueError
-        On a bad ``out``, seeds, protocol or source; ground truth below 1/512 m (it would
-        read as 0 = no measurement in KITTI's encoding).
+        On a bad ``out`` or key path, seeds (several without ``trusted``), protocol or
+        source; ground truth below 1/512 m (it would read as 0 = no measurement in
+        KITTI's encoding).
     """
     dataset = resolve_source(source)
     proto = get_protocol(protocol)
     seed_list = check_seeds(seeds, "seeds")
+    if not isinstance(trusted, bool):
+        raise TypeError(f"trusted must be True or False, got {trusted!r}")
+    check_one_mask_per_frame(seed_list, trusted)
     total = len(dataset)
     if total == 0:
         raise ValueError("the data source has no frames")
@@ -120,13 +246,20 @@ def export(
         total = min(total, check_int(n_frames, "n_frames", minimum=1))
     if total < len(dataset):
         dataset = Subset(dataset, range(total))
-    out = Path(out)
+    given = Path(out)
+    key_path = Path(os.path.abspath(key)) if key is not None else default_key_path(given)
+    # Work on the folder itself: renaming a link to it would replace the link, not the export.
+    out = Path(os.path.realpath(given))
     replace = _prepare_out(out, overwrite)
+    _prepare_key(key_path, out, overwrite)
+    clean_stale(out)
+    clean_stale(key_path)
     shape = tuple(int(s) for s in dataset.frame_shape)
     truth, per_frame = describe_truth(dataset)
     parts = frame_parts(dataset.frame_ids, [str(g) for g in dataset.groups])
 
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
+    key_tmp = key_path.parent / f".{key_path.name}.partial-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
@@ -157,12 +290,15 @@ def export(
                 ))
                 bar.update(1)
         manifest = Manifest(
-            path=out / MANIFEST_NAME, protocol=protocol_record(proto), seeds=seed_list, frame_shape=shape,  # type: ignore[arg-type]
+            path=key_path, protocol=protocol_record(proto), seeds=seed_list, frame_shape=shape,  # type: ignore[arg-type]
             ground_truth=truth, frames=frames, items=[it for s in seed_list for it in by_seed[s]],
             inpaintenv_version=__version__,
             extra={"encoding": {"input": DEPTH_ENCODING, "hole": HOLE_ENCODING}},
+            role=KEY, kit=Path(os.path.relpath(os.path.abspath(given), key_path.parent)).as_posix(), trusted=trusted,
         )
-        manifest.write(tmp / MANIFEST_NAME)
+        manifest.kit_manifest().write(tmp / MANIFEST_NAME)
+        key_path.parent.mkdir(parents=True, exist_ok=True)
+        manifest.write(key_tmp)
         if replace:
             trash = out.parent / f".{out.name}.replaced-{os.getpid()}"
             os.replace(out, trash)
@@ -172,8 +308,10 @@ def export(
             if out.exists():
                 out.rmdir()  # empty, checked above
             os.replace(tmp, out)
+        os.replace(key_tmp, key_path)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
+        key_tmp.unlink(missing_ok=True)
         raise
     finally:
         bar.close()

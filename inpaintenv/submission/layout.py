@@ -16,14 +16,18 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from ..data.io import MAX_FRAME_PIXELS  # a manifest may declare no larger frame than a depth PNG may
+
 __all__ = [
-    "DEPTH_ENCODING", "HOLE_ENCODING", "HOLE_FOLDER", "HOLE_VALUE", "INPUT_FOLDER", "array_sha256", "file_sha256",
-    "frame_parts", "hole_bits_sha256", "input_key", "is_inside", "relative_paths",
+    "DEPTH_ENCODING", "HOLE_ENCODING", "HOLE_FOLDER", "HOLE_VALUE", "INPUT_FOLDER", "MAX_FRAME_PIXELS",
+    "UnsafeFileError", "array_sha256", "file_sha256", "frame_parts", "hole_bits_sha256", "input_key", "is_inside",
+    "is_safe_relative", "max_png_bytes", "read_inside", "relative_paths",
 ]
 
 #: Folder of the occluded inputs (where KITTI keeps a method's sparse input).
@@ -103,3 +107,67 @@ def is_inside(path: Path, folder: Path) -> bool:
     except ValueError:
         return False
     return True
+
+
+class UnsafeFileError(ValueError):
+    """A file ``score`` will not read: a link, not a regular file, outside its folder, or too large."""
+
+
+def max_png_bytes(shape: Sequence[int]) -> int:
+    """Most bytes a 16-bit single-channel PNG of ``shape`` (H, W) can need, with a wide margin.
+
+    A PNG stored without compression holds 2 bytes per pixel and 1 filter byte per row,
+    plus a few bytes per 64 KiB block and per chunk; 3 bytes per pixel, 4 per row and
+    1 MiB for ancillary chunks cover any encoder's output. A larger file is refused
+    unread (a sparse file can claim gigabytes on a small disk).
+    """
+    h, w = int(shape[0]), int(shape[1])
+    return 3 * h * w + 4 * h + (1 << 20)
+
+
+def is_safe_relative(rel: str) -> bool:
+    """Whether ``rel`` is a relative POSIX path that stays below its folder (no ``..``, not absolute)."""
+    if not isinstance(rel, str) or not rel or rel.startswith("/") or "\\" in rel or "\0" in rel:
+        return False
+    parts = rel.split("/")
+    return all(p not in ("", ".", "..") for p in parts) and not re.match(r"^[A-Za-z]:", rel)
+
+
+def read_inside(folder: Path, rel: str, limit: int) -> bytes:
+    """The bytes of the regular file ``folder/rel``, refusing anything that could lead elsewhere.
+
+    ``rel`` must be a relative path below ``folder``; the file must not be a symbolic
+    link, its resolved path must lie in ``folder`` (so no folder on the way is a link out
+    of it), it must be a regular file (not a FIFO or device) and at most ``limit`` bytes.
+
+    Raises
+    ------
+    UnsafeFileError
+        Naming ``rel`` and the reason.
+    FileNotFoundError
+        If there is no file at ``rel``.
+    """
+    if not is_safe_relative(rel):
+        raise UnsafeFileError(f"{rel} is not a relative path inside {folder}")
+    path = folder / rel
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{rel} is missing under {folder}") from None
+    if stat.S_ISLNK(info.st_mode):
+        raise UnsafeFileError(f"{rel} is a symbolic link (only regular files inside {folder} are read)")
+    if not is_inside(path, folder):
+        raise UnsafeFileError(f"{rel} lies outside {folder} through a linked folder (only files inside it are read)")
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    fd = os.open(path, flags)
+    with os.fdopen(fd, "rb") as f:
+        info = os.fstat(f.fileno())
+        if not stat.S_ISREG(info.st_mode):
+            raise UnsafeFileError(f"{rel} is not a regular file")
+        if info.st_size > limit:
+            raise UnsafeFileError(f"{rel} is {info.st_size:,} bytes, more than the {limit:,} a 16-bit PNG of the "
+                                  "frame can need; not read")
+        data = f.read(limit + 1)
+    if len(data) > limit:
+        raise UnsafeFileError(f"{rel} grew past {limit:,} bytes while being read; not read")
+    return data

@@ -1,8 +1,11 @@
 """A folder of prediction PNGs: checked as a whole, then served to ``evaluate`` as a method.
 
-:func:`check_predictions` reads the manifest's ground truth and masks and every
-prediction once, before anything is written, and reports every missing, unexpected or
-unusable file in one line. :class:`SubmittedPredictions` is then an ordinary method for
+:func:`check_predictions` reads the score key's ground truth and masks and every
+prediction once, before anything is written, and reports every missing, unexpected,
+refused or unusable file in one line. Only regular files inside the predictions folder
+are read (no links, nothing larger than a PNG of the frame can be), and a prediction
+must keep its input's measured pixels, which binds each file to the input it was made
+for. :class:`SubmittedPredictions` is then an ordinary method for
 :func:`inpaintenv.evaluate.evaluate` and the benchmark runner: it finds the prediction of
 each input it is given by the input's content (:func:`~.layout.input_key`), so the rows,
 masks and metrics are exactly those of any other method, on one machine or a cluster.
@@ -12,7 +15,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,8 +29,8 @@ import numpy as np
 from ..data.base import DepthDataset
 from ..data.io import depth_from_uint16
 from ..masks import OcclusionProtocol, get_protocol
-from .layout import hole_bits_sha256, input_key, is_inside
-from .manifest import Item, Manifest, ManifestError
+from .layout import UnsafeFileError, hole_bits_sha256, input_key, is_inside, max_png_bytes, read_inside
+from .manifest import Item, Manifest, ManifestError, require_key
 from .truth import verify_frame
 
 __all__ = ["ON_MISSING", "CheckedPredictions", "SubmissionError", "SubmittedPredictions", "check_predictions",
@@ -110,12 +115,13 @@ class SubmittedPredictions:
     batched = True
 
     def __init__(self, name: str, files: dict[str, tuple[str, str]], pairs: set[tuple[int, int]], identity: str,
-                 unfilled: str = "error"):
+                 unfilled: str = "error", folder: str | None = None):
         self.name = name
         self.identity = identity
         self.scored_pairs = frozenset(pairs)
         self.unfilled = unfilled
         self._files = dict(files)
+        self._folder = folder
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=np.float32)
@@ -126,7 +132,13 @@ class SubmittedPredictions:
                 raise SubmissionError(f"{self.name}: no prediction for this input (not one of the manifest's inputs, "
                                       "or one whose prediction was missing)")
             path, digest = entry
-            data = Path(path).read_bytes()
+            if self._folder is None:
+                data = Path(path).read_bytes()
+            else:  # the same rules as when the folder was checked: no links, nothing outside, bounded
+                try:
+                    data = read_inside(Path(self._folder), path, max_png_bytes(x.shape[1:]))
+                except (UnsafeFileError, OSError) as exc:
+                    raise SubmissionError(f"prediction {path} can no longer be read ({exc}); run score again") from None
             if hashlib.sha256(data).hexdigest() != digest:
                 raise SubmissionError(f"prediction {path} changed while it was being scored; run score again")
             raw = decode_prediction(data, path, x.shape[1:])
@@ -164,15 +176,62 @@ def _missing_hint(manifest: Manifest, unexpected: list[str]) -> str:
     return ""
 
 
-def _pngs_under(folder: Path, export: Path) -> set[str]:
-    """Relative paths of the PNG files under ``folder``, leaving out an export folder inside it."""
+def _scan(folder: Path, export: Path) -> tuple[set[str], dict[str, str]]:
+    """The regular ``.png`` files under ``folder`` (relative paths), and what is refused there (path -> why).
+
+    Links are never followed (a link to a file or a folder, inside or out, is refused:
+    ``score`` reads only files that lie in the predictions folder), and an export folder
+    inside ``folder`` is left out.
+    """
     inside = export.resolve().relative_to(folder.resolve()).as_posix() + "/" if is_inside(export, folder) else None
-    found = {p.relative_to(folder).as_posix() for p in folder.rglob("*.png") if p.is_file()}
-    return {p for p in found if inside is None or not p.startswith(inside)}
+    found: set[str] = set()
+    refused: dict[str, str] = {}
+    for top, dirs, files in os.walk(folder, followlinks=False):
+        base = Path(top)
+        for name in list(dirs):
+            if (base / name).is_symlink():
+                dirs.remove(name)
+                rel = (base / name).relative_to(folder).as_posix()
+                refused[rel] = f"{rel}/ is a symbolic link"
+        for name in files:
+            path = base / name
+            rel = path.relative_to(folder).as_posix()
+            if inside is not None and rel.startswith(inside):
+                continue
+            mode = os.lstat(path).st_mode
+            if stat.S_ISLNK(mode):
+                if name.lower().endswith(".png"):
+                    refused[rel] = f"{rel} is a symbolic link"
+            elif name.endswith(".png"):
+                if stat.S_ISREG(mode):
+                    found.add(rel)
+                else:
+                    refused[rel] = f"{rel} is not a regular file"
+    return found, refused
+
+
+def _binding(raw: np.ndarray, expected: np.ndarray) -> int:
+    """How many measured pixels of the input (``expected`` > 0) the prediction ``raw`` does not keep."""
+    measured = expected > 0
+    return int(np.count_nonzero(raw[measured] != expected[measured]))
+
+
+def input_raw(gt: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """The uint16 values of the exported input of ``gt`` with ``hole`` (as ``write_depth_png`` rounds them)."""
+    return np.rint(np.where(hole, 0.0, np.asarray(gt, dtype=np.float64)) * 256).astype(np.uint16)
+
+
+def _whose(raw: np.ndarray, gt: np.ndarray, item: Item, others: list[Item], proto: OcclusionProtocol,
+           shape: tuple[int, int]) -> str:
+    """Which other input of the same frame a prediction that does not keep its own input's pixels keeps, if any."""
+    for other in others:
+        if other is not item and _binding(raw, input_raw(gt, proto.mask(shape, other.seed, other.index))) == 0:
+            return f"; it is the prediction of {other.input} (seed {other.seed})"
+    return ""
 
 
 def _problems(manifest: Manifest, folder: Path, n_expected: int, missing: list[str], unexpected: list[str],
-              bad: list[str], unfilled: list[str]) -> str:
+              refused: list[str], bad: list[str], unfilled: list[str]) -> str:
     """Every problem of a predictions folder in one line ("" if none), so one look says everything to fix."""
     parts = []
     if missing:
@@ -184,6 +243,9 @@ def _problems(manifest: Manifest, folder: Path, n_expected: int, missing: list[s
                      f"{_missing_hint(manifest, unexpected)}")
     if parts:
         parts[-1] += " (write each prediction at its input's relative path, or pass --on-missing skip)"
+    if refused:
+        parts.append(f"{_count(len(refused), 'file')} refused (score reads only regular files inside {folder}): "
+                     f"{_listing(refused)}")
     if bad:
         parts.append(f"{_count(len(bad), 'prediction')} unusable: {_listing(bad)}")
     if unfilled:
@@ -228,7 +290,9 @@ def check_predictions(
     FileNotFoundError
         A ground-truth file is missing, or ``predictions`` is not a folder.
     SubmissionError
-        One line listing missing, unexpected and unusable predictions.
+        One line listing missing, unexpected, refused (links, not regular files, larger
+        than :func:`~.layout.max_png_bytes`) and unusable predictions (not a 16-bit PNG
+        of the frame, measured pixels of the input not kept, holes left at 0).
     """
     if on_missing not in ON_MISSING:
         raise ValueError(f"on_missing must be 'error' or 'skip', got {on_missing!r}")
@@ -242,9 +306,13 @@ def check_predictions(
     shape = tuple(manifest.frame_shape)
     if tuple(dataset.frame_shape) != shape:
         raise ManifestError(f"the ground truth has frames of {dataset.frame_shape}, {manifest.path} of {shape}")
+    require_key(manifest)
     expected = {item.input for item in manifest.items}
-    present = _pngs_under(folder, manifest.root)
-    missing, unexpected = sorted(expected - present), sorted(present - expected)
+    present, refused_at = _scan(folder, manifest.root)
+    refused = [refused_at[r] for r in sorted(refused_at)]
+    behind = tuple(r + "/" for r in refused_at)  # paths under a refused (linked) folder: refused, not missing
+    missing = sorted(p for p in expected - present - set(refused_at) if not p.startswith(behind))
+    unexpected = sorted(present - expected)
     if len(missing) == len(expected):
         raise SubmissionError(f"none of the {len(expected)} predictions of {manifest.path} is under {folder} (the "
                               f"first goes to {missing[0]}){_missing_hint(manifest, unexpected)}")
@@ -271,11 +339,20 @@ def check_predictions(
                 progress(1)
             if item.input not in present:
                 continue
-            path = folder / item.input
-            data = path.read_bytes()
+            try:
+                data = read_inside(folder, item.input, max_png_bytes(shape))
+            except UnsafeFileError as exc:
+                refused.append(str(exc))
+                continue
             raw = decode_prediction(data, item.input, shape)  # type: ignore[arg-type]
             if isinstance(raw, str):
                 bad.append(raw)
+                continue
+            changed = _binding(raw, input_raw(gt, hole))
+            if changed:
+                # Binds each file to its input: a prediction saved under another input's name is caught here.
+                bad.append(f"{item.input} does not keep {changed} of its input's measured pixels (a prediction keeps "
+                           f"them as they are){_whose(raw, gt, item, by_frame[frame.index], proto, shape)}")
                 continue
             zeros = int(np.count_nonzero(raw[hole] == 0))
             if zeros and not allow_unfilled:
@@ -287,16 +364,16 @@ def check_predictions(
             if key in files and files[key][1] != digest:
                 # Two (frame, seed) pairs with one input: evaluate() cannot tell them apart.
                 bad.append(f"{item.input} differs from {files[key][0]} made for the same input")
-            files[key] = (str(path), digest)
+            files[key] = (item.input, digest)
             digests.append((item.input, digest))
             pairs.add((item.seed, item.index))
     problems = _problems(manifest, folder, len(expected), missing if on_missing == "error" else [],
-                         unexpected if on_missing == "error" else [], bad, unfilled)
+                         unexpected if on_missing == "error" else [], refused, bad, unfilled)
     if problems:
         raise SubmissionError(problems)
     h = hashlib.sha256()
     for rel, digest in sorted(digests):
         h.update(f"{rel}\0{digest}\n".encode())
     method = SubmittedPredictions(name, files, pairs, identity=f"predictions:{h.hexdigest()}",
-                                  unfilled="zero" if allow_unfilled else "error")
+                                  unfilled="zero" if allow_unfilled else "error", folder=str(folder))
     return CheckedPredictions(method=method, missing=missing, unexpected=unexpected)

@@ -18,7 +18,7 @@ from ..data.base import DepthDataset
 from ..data.kitti import KITTI_ROOT_ENV
 from ..evaluate import EvaluationResult, evaluate
 from .layout import is_inside
-from .manifest import Manifest, read_manifest
+from .manifest import Manifest, read_manifest, require_key
 from .predictions import CheckedPredictions, check_predictions
 from .truth import open_truth
 
@@ -50,7 +50,7 @@ def prepare(
     """
     if not isinstance(name, str) or not name.strip():
         raise ValueError(f"name must be a non-empty string, got {name!r}")
-    m = manifest if isinstance(manifest, Manifest) else read_manifest(manifest)
+    m = require_key(manifest if isinstance(manifest, Manifest) else read_manifest(manifest))
     if kitti_root is None and source is None and m.ground_truth.get("type") == "kitti":
         kitti_root = os.environ.get(KITTI_ROOT_ENV) or None
     dataset = open_truth(m, kitti_root, source)

@@ -8,6 +8,10 @@
   position; the sha256 is of the generated float32 frame.
 * Any other dataset (Python only) is recorded by the sha256 of each float32 frame;
   ``score`` then needs the same dataset passed in.
+
+All of it goes into the score key only, never into the kit. A KITTI file must resolve
+inside the root it is read from: a key naming one elsewhere is refused before the file
+is touched, so not even its hash is printed.
 """
 
 from __future__ import annotations
@@ -22,12 +26,14 @@ from ..data.base import ConcatDataset, DepthDataset, Subset
 from ..data.io import depth_from_uint16, read_depth_png_raw
 from ..data.kitti import KittiDepth, bottom_center_crop
 from ..data.synthetic import SyntheticStreets
-from .layout import array_sha256, file_sha256
+from .layout import array_sha256, file_sha256, is_inside
 from .manifest import Frame, Manifest, ManifestError
 
 __all__ = ["ManifestFrames", "describe_truth", "open_truth", "verify_frame"]
 
 ARRAY_HASH = "sha256 of the float32 frame in metres, C order"
+#: Most frames a synthetic score key may ask the generator for (its ids are built for every frame).
+MAX_SYNTHETIC_FRAMES = 1_000_000
 
 
 def _leaves(ds: DepthDataset) -> list[tuple[DepthDataset, int]]:
@@ -112,6 +118,11 @@ class ManifestFrames(DepthDataset):
 
     def _load(self, index: int) -> np.ndarray:
         path = self.path(index)
+        # Checked before the file is touched: a key naming a file outside the root (through
+        # "..", an absolute path or a link) must not learn anything about it, not even its hash.
+        if not is_inside(path, self.root):
+            raise ManifestError(f"ground truth {self._frames[index].ground_truth!r} of frame {index} in "
+                                f"{self._manifest} leads outside the KITTI root {self.root}; not read")
         if not path.is_file():
             raise FileNotFoundError(f"ground truth {path} listed in {self._manifest} is missing")
         digest = file_sha256(path)
@@ -161,12 +172,42 @@ def open_truth(manifest: Manifest, kitti_root: str | os.PathLike | None = None,
                              "(kitti_root= in Python) or set $INPAINTENV_KITTI_ROOT")
         return ManifestFrames(manifest, kitti_root)
     if kind == "synthetic":
-        gt = manifest.ground_truth
-        streets = SyntheticStreets(n=int(gt["n"]), seed=int(gt["seed"]), kind=str(gt["kind"]),
-                                   frame_shape=tuple(gt["frame_shape"]), frames_per_drive=int(gt["frames_per_drive"]))
-        return Subset(streets, [int(f.position) for f in manifest.frames])  # type: ignore[arg-type]
-    raise ValueError(f"{manifest.path} was exported from a Python dataset ({manifest.ground_truth.get('description')}); "
-                     "score it in Python with score(..., source=<that dataset>)")
+        return Subset(_synthetic_streets(manifest), [int(f.position) for f in manifest.frames])  # type: ignore[arg-type]
+    raise ManifestError(f"{manifest.path} was exported from a Python dataset "
+                        f"({manifest.ground_truth.get('description')}); score it in Python with "
+                        "score(..., source=<that dataset>)")
+
+
+def _synthetic_streets(manifest: Manifest) -> SyntheticStreets:
+    """The generator a synthetic score key describes, every parameter checked and bounded first."""
+    gt = manifest.ground_truth
+
+    def fail(key: str, problem: str) -> ManifestError:
+        return ManifestError(f"{manifest.path}: ground_truth.{key} {problem}, got {str(gt.get(key))[:80]!r}")
+
+    def integer(key: str, minimum: int, upper: int) -> int:
+        value = gt.get(key)
+        if isinstance(value, bool) or not isinstance(value, int) or not minimum <= value <= upper:
+            raise fail(key, f"must be an integer in {minimum}..{upper:,}")
+        return value
+
+    # Bounded before the generator builds an id for every frame; its frame shape is the
+    # manifest's, which read_manifest bounded.
+    n = integer("n", 1, MAX_SYNTHETIC_FRAMES)
+    seed = integer("seed", 0, 2**63 - 1)
+    per_drive = integer("frames_per_drive", 1, MAX_SYNTHETIC_FRAMES)
+    shape = gt.get("frame_shape")
+    if not isinstance(shape, list) or [type(v) for v in shape] != [int, int] or \
+            list(shape) != list(manifest.frame_shape):
+        raise fail("frame_shape", f"must be the manifest's frame_shape {list(manifest.frame_shape)}")
+    if not isinstance(gt.get("kind"), str):
+        raise fail("kind", "must be a string")
+    if any(f.position is None or f.position >= n for f in manifest.frames):
+        raise ManifestError(f"{manifest.path}: a frame's position lies outside the generator's {n} frames")
+    try:
+        return SyntheticStreets(n=n, seed=seed, kind=gt["kind"], frame_shape=tuple(shape), frames_per_drive=per_drive)
+    except ValueError as exc:
+        raise ManifestError(f"{manifest.path}: ground_truth is not a generator of this inpaintenv ({exc})") from None
 
 
 def verify_frame(manifest: Manifest, frame: Frame, gt: np.ndarray) -> None:

@@ -18,7 +18,8 @@ def tree(folder):
 
 
 def test_manifest_lists_every_file_with_its_sha256(tmp_path, streets):
-    m = export(tmp_path / "x", streets, "freeform-v1", [2, 0], progress=False)
+    m = export(tmp_path / "x", streets, "freeform-v1", [2, 0], progress=False, trusted=True)
+    assert m.path == tmp_path / "x.key.json"  # the score key, beside the kit
     doc = json.loads(m.path.read_text())
     assert doc["protocol"]["name"] == "freeform-v1" and doc["protocol"]["version"] == "v1"
     assert doc["seeds"] == [2, 0] and doc["frame_shape"] == [64, 192]
@@ -33,7 +34,7 @@ def test_manifest_lists_every_file_with_its_sha256(tmp_path, streets):
         assert hashlib.sha256(files[item.hole]).hexdigest() == item.hole_sha256
         assert item.input.startswith(f"freeform-v1/seed_{item.seed}/synthetic/")
         assert "/proj_depth/velodyne_raw/image_02/" in item.input and "/proj_depth/hole/image_02/" in item.hole
-    assert read_manifest(tmp_path / "x").items == m.items  # the folder or the file
+    assert read_manifest(tmp_path / "x").items == m.items  # the kit lists the same files
 
 
 def test_kitti_manifest_records_the_ground_truth_files(tmp_path, kitti_root):
@@ -45,15 +46,18 @@ def test_kitti_manifest_records_the_ground_truth_files(tmp_path, kitti_root):
         assert frame.ground_truth_sha256 == hashlib.sha256(path.read_bytes()).hexdigest()
     assert m.items[0].input.startswith("rect-v1/seed_0/val/2011_")
     assert str(kitti_root) not in m.path.read_text()  # the root may move between export and score
+    assert str(tmp_path) not in m.path.read_text()  # the key names its kit relatively
 
 
 def test_re_export_is_byte_identical(tmp_path, streets):
-    export(tmp_path / "a", streets, "rect-v1", [0, 1], progress=False)
-    export(tmp_path / "b", streets, "rect-v1", [0, 1], progress=False)
+    export(tmp_path / "a", streets, "rect-v1", [0, 1], progress=False, trusted=True)
+    export(tmp_path / "b", streets, "rect-v1", [0, 1], progress=False, trusted=True)
     first = tree(tmp_path / "a")
     assert tree(tmp_path / "b") == first
-    export(tmp_path / "a", streets, "rect-v1", [0, 1], overwrite=True, progress=False)
-    assert tree(tmp_path / "a") == first
+    key = (tmp_path / "a.key.json").read_bytes()
+    assert (tmp_path / "b.key.json").read_bytes() == key.replace(b'"kit": "a"', b'"kit": "b"')
+    export(tmp_path / "a", streets, "rect-v1", [0, 1], overwrite=True, progress=False, trusted=True)
+    assert tree(tmp_path / "a") == first and (tmp_path / "a.key.json").read_bytes() == key
 
 
 def test_out_folder_rules(tmp_path, streets):

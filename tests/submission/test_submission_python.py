@@ -14,7 +14,7 @@ from inpaintenv.submission import ManifestError, export, read_manifest, score
 @pytest.fixture
 def notebook(tmp_path, streets):
     """An export of four frames and median-filled predictions written as a notebook would."""
-    manifest = export(tmp_path / "inputs", streets, "rect-v1", [0, 1], n_frames=4, progress=False)
+    manifest = export(tmp_path / "inputs", streets, "rect-v1", [0, 1], n_frames=4, progress=False, trusted=True)
     for item in manifest.items:
         depth, hole = manifest.read_input(item), manifest.read_hole(item)
         write_depth_png(tmp_path / "predictions" / item.input, np.where(hole, np.median(depth[depth > 0]), depth))
@@ -53,7 +53,8 @@ def test_masks_drawn_differently_are_refused(notebook):
     ("{not json", "not valid JSON"),
     ('{"format": "other"}', "not an inpaintenv export manifest"),
     ('{"format": "inpaintenv-submission", "format_version": 99}', "format version 99"),
-    ('{"format": "inpaintenv-submission", "format_version": 1, "protocol": {"name": "rect-v1"}}', "lacks the field"),
+    ('{"format": "inpaintenv-submission", "format_version": 2, "role": "score-key", "protocol": {"name": "rect-v1"}}',
+     "lacks the field 'seeds'"),
 ])
 def test_unreadable_manifests_say_why(tmp_path, text, message):
     (tmp_path / "manifest.json").write_text(text)

@@ -24,13 +24,13 @@ DATA = ["--n-frames", "16", "--frame-shape", "64", "192"]
 def exported(tmp_path_factory, fill_script):
     """An export of the synthetic default's test split and the example method's predictions."""
     tmp = tmp_path_factory.mktemp("score")
-    assert main(["export", *DATA, "--seed", "0", "--seed", "1", "--out", str(tmp / "inputs"), "-q"]) == 0
+    assert main(["export", *DATA, "--seed", "0", "--seed", "1", "--trusted", "--out", str(tmp / "inputs"), "-q"]) == 0
     fill_script["main"](tmp / "inputs", tmp / "predictions")
     return tmp
 
 
 def score_argv(tmp, predictions, out, *extra, manifest="inputs"):
-    return ["score", "--manifest", str(tmp / manifest / "manifest.json"), "--predictions", str(predictions),
+    return ["score", "--manifest", str(tmp / f"{manifest}.key.json"), "--predictions", str(predictions),
             "--name", "telea-script", "--out", str(out), "--figure-frames", "0", "-q", *extra]
 
 
@@ -57,7 +57,7 @@ def test_score_writes_the_benchmark_run_folder_with_classical_rows(exported, tmp
     assert doc["meta"]["submission"]["missing"] == [] and doc["meta"]["submission"]["identity"].startswith("predictions:")
     assert set(rows["telea-script"]) == set(rows["harmonic"]) and len(rows["harmonic"]) == 16
     # The submission's rows are evaluate()'s of the same method, bit for bit (through JSON).
-    manifest = read_manifest(exported / "inputs")
+    manifest = read_manifest(exported / "inputs.key.json")
     reference = evaluate(fill_method, open_truth(manifest), "rect-v1", manifest.seeds, progress=False)
     for ref in reference.rows:
         row = rows["telea-script"][(ref["seed"], ref["index"])]
@@ -83,7 +83,11 @@ def test_changed_predictions_do_not_resume_into_old_rows(exported, tmp_path, cap
     shutil.copytree(exported / "predictions", preds)
     assert main(score_argv(exported, preds, out)) == 0
     first = min(preds.rglob("*.png"))
-    cv2.imwrite(str(first), cv2.imread(str(first), cv2.IMREAD_UNCHANGED) + np.uint16(256))
+    hole = cv2.imread(str(exported / "inputs" / first.relative_to(preds).as_posix().replace("/velodyne_raw/", "/hole/")),
+                      cv2.IMREAD_UNCHANGED) > 0
+    changed = cv2.imread(str(first), cv2.IMREAD_UNCHANGED)
+    changed[hole] += np.uint16(256)  # a different fill; the measured pixels stay
+    cv2.imwrite(str(first), changed)
     capsys.readouterr()
     assert main(score_argv(exported, preds, out)) == 1
     err = capsys.readouterr().err.strip()
@@ -156,7 +160,8 @@ def test_a_bad_submission_is_one_line_and_writes_nothing(exported, tmp_path, cap
 
 def test_predictions_for_another_protocol_or_data_are_refused(exported, tmp_path, capsys):
     for name, option in (("freeform", ["--protocol", "freeform-v1"]), ("seed1", ["--data-seed", "1"])):
-        assert main(["export", *DATA, *option, "--seed", "0", "--seed", "1", "--out", str(exported / name), "-q"]) == 0
+        assert main(["export", *DATA, *option, "--seed", "0", "--seed", "1", "--trusted", "--out", str(exported / name),
+                     "-q"]) == 0
     capsys.readouterr()
     out = tmp_path / "run"
     assert main(score_argv(exported, exported / "predictions", out, manifest="freeform")) == 1
@@ -186,7 +191,8 @@ def test_the_run_folder_stays_out_of_the_export_and_the_predictions(exported, ca
 
 def test_a_protocol_changed_since_the_export_is_refused(exported, tmp_path, capsys):
     shutil.copytree(exported / "inputs", tmp_path / "inputs")
-    path = tmp_path / "inputs" / "manifest.json"
+    path = tmp_path / "inputs.key.json"
+    shutil.copy(exported / "inputs.key.json", path)
     doc = json.loads(path.read_text())
     doc["protocol"]["description"]["params"]["max_rects"] = 4
     path.write_text(json.dumps(doc))
@@ -200,7 +206,7 @@ def test_kitti_ground_truth_changed_or_missing_is_named(kitti_root, tmp_path, ca
     """A KITTI root whose files differ from the export's: each file is named, nothing written."""
     assert main(["export", "--kitti-root", str(kitti_root), "--split", "val", "--out", str(tmp_path / "inputs"),
                  "-q"]) == 0
-    manifest = json.loads((tmp_path / "inputs" / "manifest.json").read_text())
+    manifest = json.loads((tmp_path / "inputs.key.json").read_text())
     fill_script["main"](tmp_path / "inputs", tmp_path / "predictions")
     root = tmp_path / "kitti"  # a copy of only the listed ground truth
     for frame in manifest["frames"]:
