@@ -6,10 +6,17 @@ RMSE, on the same frames and masks. This module computes it from the per-frame r
 with a paired bootstrap interval (frames and masks resampled together for both
 methods), and the second condition: the learned method's all-pixel RMSE divided by the
 classical method's hole RMSE.
+
+What a method is comes from the run (``result.meta["kinds"]``, see
+:func:`~inpaintenv.benchmark.suites.method_kind`): the classical methods on one side;
+learned models and submitted methods (a user's own callable, a folder of predictions)
+on the other, each labelled by its kind. When the strongest classical method scores
+0 m, the ratio is undefined and the table says so instead of dividing by zero.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -20,10 +27,21 @@ from ..report.stats import bootstrap_ratio_ci
 from ..report.tables import TRAINED_MARK, interval_cell, table_notes, trained_note
 from .suites import CLASSICAL, STUDY_CLASSICAL
 
-__all__ = ["CLASSICAL_METHODS", "learned_vs_classical", "headline_markdown"]
+__all__ = ["CLASSICAL_METHODS", "headline_markdown", "headline_title", "learned_vs_classical"]
 
-#: Methods counted as classical; every other method in a run counts as learned.
+#: Methods counted as classical when the run does not say what its methods are
+#: (``meta["kinds"]``); every other method then counts as learned.
 CLASSICAL_METHODS: frozenset[str] = frozenset(CLASSICAL + STUDY_CLASSICAL)
+
+
+def _kinds(result: EvaluationResult, classical: frozenset[str]) -> dict[str, str]:
+    """Method -> its kind: the run's record, else classical by name and learned otherwise."""
+    recorded = result.meta.get("kinds") or {}
+    return {m: recorded.get(m) or ("classical" if m in classical else "learned") for m in result.methods}
+
+
+def _undefined(classical: str) -> str:
+    return f"{classical} scores 0 m in the holes: a ratio to 0 is undefined"
 
 
 def _per_frame(rows: Iterable[dict[str, Any]], metric: str) -> dict[tuple, float]:
@@ -52,7 +70,8 @@ def learned_vs_classical(
         Per-frame rows of a run (``method``, ``seed``, ``index``, ``hole_rmse``,
         ``all_rmse``, ``hole_count`` and the ``keys`` columns).
     classical : iterable of str
-        Names counted as classical (default :data:`CLASSICAL_METHODS`); the rest are learned.
+        Names counted as classical when ``result.meta["kinds"]`` does not say what a
+        method is (default :data:`CLASSICAL_METHODS`); the rest are learned.
     keys : sequence of str
         Row columns that define a comparison group.
     confidence, n_resamples, seed
@@ -62,8 +81,9 @@ def learned_vs_classical(
     Returns
     -------
     list of dict
-        One entry per group that has at least one method of each kind: the ``keys``,
-        ``learned`` / ``classical`` (method names), their mean ``*_hole_rmse``,
+        One entry per group that has a classical method and another one: the ``keys``,
+        ``learned`` (the best method that is not classical) with ``learned_kind``
+        (``"learned"`` or ``"submitted"``) and ``classical`` (method names), their mean ``*_hole_rmse``,
         ``hole_ratio`` with ``hole_ratio_low`` / ``hole_ratio_high`` (NaN from a single
         frame) and ``hole_ratio_n`` (frame-masks in the paired comparison),
         ``all_over_classical_hole`` (learned all-pixel RMSE ÷ classical hole RMSE),
@@ -71,10 +91,12 @@ def learned_vs_classical(
         them without ground truth in their hole, left out), as in every table, and
         ``learned_trained_on``: the group's drives that were in the learned method's
         training data (``result.meta["training_drives"]``; empty when none or unknown).
+        When the classical method's mean hole RMSE is 0, the ratios are NaN and
+        ``undefined`` says why (it is absent otherwise).
     """
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}")
-    classical = frozenset(classical)
+    kinds = _kinds(result, frozenset(classical))
     trained = result.meta.get("training_drives") or {}
     groups: dict[tuple, dict[str, list[dict[str, Any]]]] = {}
     for row in result.rows:
@@ -83,8 +105,8 @@ def learned_vs_classical(
     for group, by_method in groups.items():
         hole = {m: _per_frame(rows, "hole_rmse") for m, rows in by_method.items()}
         mean = {m: float(np.mean(list(v.values()))) for m, v in hole.items() if v}
-        learned = [m for m in mean if m not in classical]
-        strong = [m for m in mean if m in classical]
+        learned = [m for m in mean if kinds.get(m) != "classical"]
+        strong = [m for m in mean if kinds.get(m) == "classical"]
         if not learned or not strong:
             continue
         best_l = min(learned, key=mean.__getitem__)
@@ -97,20 +119,34 @@ def learned_vs_classical(
             continue
         a = np.array([hole[best_l][k] for k in shared])
         b = np.array([hole[best_c][k] for k in shared])
-        ratio, low, high = bootstrap_ratio_ci(a, b, confidence=confidence, n_resamples=n_resamples, seed=seed)
         learned_all = _per_frame(by_method[best_l], "all_rmse")
         all_mean = float(np.mean([learned_all[k] for k in shared if k in learned_all]))
-        out.append({
+        entry: dict[str, Any] = {
             **dict(zip(keys, group)),
-            "learned": best_l, "learned_hole_rmse": float(a.mean()),
+            "learned": best_l, "learned_kind": kinds.get(best_l, "learned"), "learned_hole_rmse": float(a.mean()),
             "classical": best_c, "classical_hole_rmse": float(b.mean()),
-            "hole_ratio": float(ratio), "hole_ratio_low": float(low), "hole_ratio_high": float(high),
+        }
+        if float(b.mean()) > 0.0:
+            ratio, low, high = bootstrap_ratio_ci(a, b, confidence=confidence, n_resamples=n_resamples, seed=seed)
+            entry.update({"hole_ratio": float(ratio), "hole_ratio_low": float(low), "hole_ratio_high": float(high),
+                          "all_over_classical_hole": all_mean / float(b.mean())})
+        else:  # a perfect classical fill (e.g. frames whose holes hold one depth): nothing to divide by
+            entry.update({"hole_ratio": math.nan, "hole_ratio_low": math.nan, "hole_ratio_high": math.nan,
+                          "all_over_classical_hole": math.nan, "undefined": _undefined(best_c)})
+        entry.update({
             "hole_ratio_n": len(shared),
-            "all_over_classical_hole": all_mean / float(b.mean()),
             "n_frames": len(both), "n_skipped_hole": len(both) - len(shared),
             "learned_trained_on": sorted({str(r["drive"]) for r in by_method[best_l]} & set(trained.get(best_l) or ())),
         })
+        out.append(entry)
     return out
+
+
+def headline_title(rows: list[dict[str, Any]]) -> str:
+    """``"Best learned vs strongest classical"``, naming the kinds the table compares
+    (``"Best submitted ..."``, ``"Best learned or submitted ..."``)."""
+    kinds = [k for k in ("learned", "submitted") if any(r.get("learned_kind", "learned") == k for r in rows)]
+    return f"Best {' or '.join(kinds) or 'learned'} vs strongest classical"
 
 
 def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protocol", "drive")) -> str:
@@ -122,30 +158,40 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
     """
     if not rows:
         return ""
-    heads = list(keys) + ["frames", "skipped", "best learned (hole RMSE m)", "strongest classical (hole RMSE m)",
-                          "ratio [95 % CI]", "learned all ÷ classical hole"]
+    best = headline_title(rows).split(" vs ")[0].lower()
+    heads = list(keys) + ["frames", "skipped", f"{best} (hole RMSE m)", "strongest classical (hole RMSE m)",
+                          "ratio [95 % CI]", f"{best.removeprefix('best ')} all ÷ classical hole"]
     lines = [
         "| " + " | ".join(heads) + " |",
         "|" + "|".join(["---"] * len(keys) + ["---:"] * 2 + ["---"] * 2 + ["---:"] * 2) + "|",
     ]
     ratios = []
     learned_cells = []
+    undefined = []
+    mixed = len({r.get("learned_kind", "learned") for r in rows}) > 1
     for r in rows:
-        ratios.append(interval_cell(
-            r["hole_ratio"], r["hole_ratio_low"], r["hole_ratio_high"], r["hole_ratio_n"], ".2f", brackets=True
-        ))
+        if r.get("undefined"):
+            undefined.append(r["undefined"])
+            ratios.append("undefined ¶")
+        else:
+            ratios.append(interval_cell(
+                r["hole_ratio"], r["hole_ratio_low"], r["hole_ratio_high"], r["hole_ratio_n"], ".2f", brackets=True
+            ))
         mark = f" {TRAINED_MARK}" if r.get("learned_trained_on") else ""
-        learned_cells.append(f"{r['learned']}{mark} {r['learned_hole_rmse']:.2f}")
+        kind = f" ({r.get('learned_kind', 'learned')})" if mixed else ""
+        learned_cells.append(f"{r['learned']}{kind}{mark} {r['learned_hole_rmse']:.2f}")
         lines.append("| " + " | ".join([str(r[k]) for k in keys] + [
             str(r["n_frames"]),
             str(r["n_skipped_hole"]),
             learned_cells[-1],
             f"{r['classical']} {r['classical_hole_rmse']:.2f}",
             ratios[-1],
-            f"{r['all_over_classical_hole']:.2f}",
+            "undefined ¶" if r.get("undefined") else f"{r['all_over_classical_hole']:.2f}",
         ]) + " |")
     notes = table_notes(
-        ratios, frames="frame-masks both methods scored",
+        [c for c in ratios if not c.startswith("undefined")], frames="frame-masks both methods scored",
         values="ratio of the mean hole RMSEs [paired 95 % percentile-bootstrap interval] (2,000 resamples, seed 0)",
     )
+    if undefined:
+        notes.append(f"¶ {'; '.join(dict.fromkeys(undefined))}.")
     return "\n".join(lines + [""] + notes + trained_note(learned_cells))

@@ -11,7 +11,7 @@ from ..environment import environment_info
 from ..evaluate import EvaluationResult, json_safe, skipped_markdown
 from ..report.files import write_text_atomic
 from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
-from .headline import headline_markdown, learned_vs_classical
+from .headline import headline_markdown, headline_title, learned_vs_classical
 from .ownership import claim
 
 __all__ = ["REPORT_METRICS", "summary_table", "to_markdown", "environment_info", "write_report"]
@@ -90,10 +90,10 @@ def write_report(
     ]
     if headline:
         md += [
-            "## Best learned vs strongest classical (per protocol and drive)",
+            f"## {headline_title(headline)} (per protocol and drive)",
             "",
             "Ratio of mean hole RMSE on the frame-masks both methods scored, with a paired "
-            "95 % bootstrap interval; the last column is the learned method's all-pixel RMSE "
+            "95 % bootstrap interval; the last column is the first method's all-pixel RMSE "
             "÷ the classical method's hole RMSE.",
             "",
             headline_markdown(headline),

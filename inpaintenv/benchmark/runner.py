@@ -45,6 +45,7 @@ from .datakey import data_key
 from .identity import method_identity
 from .lock import run_lock
 from .ownership import adopt, check_folder, claim, remove
+from .suites import method_kind
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
@@ -260,7 +261,9 @@ def run_benchmark(
     Returns
     -------
     EvaluationResult
-        Rows of every (method, protocol, seed, frame), methods in the given order.
+        Rows of every (method, protocol, seed, frame), methods in the given order;
+        ``meta["kinds"]`` says what each method is (classical, learned or submitted, see
+        :func:`~inpaintenv.benchmark.suites.method_kind`), as the headline labels it.
 
     Raises
     ------
@@ -524,7 +527,8 @@ class _Run:
         combined = EvaluationResult.concat(results)
         combined.meta.update(
             {"source": repr(self.dataset), "protocols": self.protocols, "seeds": self.seeds, "n_frames": self.total,
-             "unfilled": {name: self.policies[name] for name in combined.methods}}
+             "unfilled": {name: self.policies[name] for name in combined.methods},
+             "kinds": {name: method_kind(name, methods[name]) for name in combined.methods}}
         )
         combined.meta.pop("training_drives", None)
         if any(name in trained for name in methods):

@@ -10,9 +10,16 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..registry import available_methods, make_method, unfilled_policy
+from ..registry import available_methods, get_spec, make_method, unfilled_policy
 
-__all__ = ["SUITES", "suite_methods", "LazyMethod"]
+__all__ = ["KINDS", "SUITES", "suite_methods", "LazyMethod", "method_kind", "registry_kind"]
+
+#: What a method is, as the headline labels it: a classical fill, a learned model of this
+#: package (a shipped release or a checkpoint), or anything else the user submits (their
+#: own callable or estimator, a folder of predictions).
+KINDS = ("classical", "learned", "submitted")
+
+_PACKAGES = {"estimators.classical": "classical", "estimators.learned": "learned", "estimators.neural": "learned"}
 
 #: The study's three baselines as it ran them (holes only, unmeasured pixels as 0 m).
 STUDY_CLASSICAL = ["telea-hole", "ns-hole", "bilateral-hole"]
@@ -45,18 +52,22 @@ class LazyMethod:
 
     ``unfilled`` is how the runner scores the method's 0 m pixels where ground truth
     exists unless the run sets one policy for all (:func:`~inpaintenv.registry.unfilled_policy`).
+
+    ``kind`` (one of :data:`KINDS`, or None: decided by :func:`method_kind`) is what the
+    headline calls the method.
     """
 
     lazy = True
 
     def __init__(
         self, factory: Callable[[], Any], optional: bool = False, identity: str | None = None,
-        unfilled: str = "error",
+        unfilled: str = "error", kind: str | None = None,
     ):
         self.factory = factory
         self.optional = optional
         self.identity = identity
         self.unfilled = unfilled
+        self.kind = kind
 
     def __call__(self) -> Any:
         return self.factory()
@@ -85,9 +96,40 @@ def suite_methods(
             warn(f"skipping {name!r}: not registered here (its package or weights are missing)")
             continue
         out[name] = LazyMethod(
-            lambda name=name: build_method(name, overrides or {}), optional=True, unfilled=unfilled_policy(name)
+            lambda name=name: build_method(name, overrides or {}), optional=True, unfilled=unfilled_policy(name),
+            kind=registry_kind(name),
         )
     return out
+
+
+def _package_kind(module: str) -> str | None:
+    return next((kind for package, kind in _PACKAGES.items() if module == package or module.startswith(package + ".")),
+                None)
+
+
+def registry_kind(name: str) -> str:
+    """The kind of registered method ``name``: where its class lives (``estimators.classical``:
+    classical, ``estimators.learned``: learned); a method registered from elsewhere is submitted."""
+    return _package_kind(get_spec(name).module) or "submitted"
+
+
+def method_kind(name: str, method: Any) -> str:
+    """What ``method``, shown as ``name``, is: one of :data:`KINDS`.
+
+    In order: its own ``kind`` attribute (a :class:`LazyMethod`, or any method that says
+    so); a built object's class from this package's ``estimators.classical`` or
+    ``estimators.learned``; a lazy method of a saved checkpoint (its identity) is learned,
+    one named like a registered method has that method's kind; anything else -- a user's
+    callable or estimator, a folder of predictions -- is submitted.
+    """
+    kind = getattr(method, "kind", None)
+    if kind in KINDS:
+        return kind
+    if not getattr(method, "lazy", False):
+        return _package_kind(getattr(type(method), "__module__", "") or "") or "submitted"
+    if str(getattr(method, "identity", None) or "").startswith("checkpoint:"):
+        return "learned"
+    return registry_kind(name) if name in available_methods() else "submitted"
 
 
 def build_method(name: str, overrides: dict[str, Any]) -> Any:

@@ -95,7 +95,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..benchmark.lock import run_lock
     from ..benchmark.ownership import check_folder
     from ..benchmark.runner import run_benchmark
-    from ..benchmark.suites import LazyMethod
+    from ..benchmark.suites import LazyMethod, method_kind
     from ..conventions import check_int, check_seeds
     from ..masks import get_protocol
 
@@ -135,7 +135,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             name: LazyMethod(
                 lambda name=name, m=m: materialise(name, m),
                 optional=getattr(m, "optional", False), identity=getattr(m, "identity", None),
-                unfilled=getattr(m, "unfilled", "error"),
+                unfilled=getattr(m, "unfilled", "error"), kind=method_kind(name, m),
             )
             for name, m in methods.items()
         }
@@ -153,7 +153,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 def _methods(args: argparse.Namespace, log: Any) -> dict[str, Any]:
     """The run's methods by name, unbuilt: the ``--suite`` (``default`` when neither it nor ``-m``
     is given), then the ``-m`` names, then the ``--checkpoint`` models."""
-    from ..benchmark.suites import LazyMethod, build_method, suite_methods
+    from ..benchmark.suites import LazyMethod, build_method, registry_kind, suite_methods
     from ..registry import unfilled_policy
 
     overrides = {} if args.n_jobs is None else {"n_jobs": args.n_jobs}
@@ -163,7 +163,8 @@ def _methods(args: argparse.Namespace, log: Any) -> dict[str, Any]:
     methods: dict[str, Any] = suite_methods(suite, overrides=overrides, warn=log) if suite else {}
     for name in check_method_names(args.method or []):
         methods.setdefault(
-            name, LazyMethod(lambda name=name: build_method(name, overrides), unfilled=unfilled_policy(name)))
+            name, LazyMethod(lambda name=name: build_method(name, overrides), unfilled=unfilled_policy(name),
+                             kind=registry_kind(name)))
     methods.update(checkpoint_methods(args.checkpoint, list(methods)))
     if not methods:
         raise ValueError("no method to run")
@@ -192,7 +193,7 @@ def _report(
     """Write the report, print the tables (skipped frames, the learned-vs-classical
     headline) and draw the figures of a finished run."""
     from ..benchmark.figures import write_figures
-    from ..benchmark.headline import headline_markdown, learned_vs_classical
+    from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..benchmark.report import summary_table, to_markdown, write_report
     from ..evaluate import skipped_markdown
 
@@ -203,9 +204,9 @@ def _report(
     skipped = result.meta.get("skipped_frames") or []
     if skipped:
         print("\n" + skipped_markdown(skipped))
-    headline = headline_markdown(learned_vs_classical(result))
-    if headline:
-        print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
+    compared = learned_vs_classical(result)
+    if compared:
+        print(f"\n{headline_title(compared)} (hole RMSE ratio, paired 95 % CI):\n" + headline_markdown(compared))
     if args.figure_frames > 0:
         fig_dir = out / "figures"
         write_figures(

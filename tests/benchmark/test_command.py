@@ -71,7 +71,7 @@ def test_rerun_with_another_checkpoint_under_the_same_name_is_refused(tmp_path, 
     other = load_checkpoint(ck_a)
     with torch.no_grad():
         for p in other.model_.parameters():
-            p.add_(0.5)  # another model of the same class and parameters
+            p.mul_(1.01)  # another model of the same class and parameters
     ck_b = other.save(tmp_path / "ckB")
     out = tmp_path / "out"
     # --unfilled zero: the one-epoch model's clipped output is 0 m in places (refused by default).

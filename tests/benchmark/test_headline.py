@@ -65,13 +65,50 @@ def test_custom_classical_set_and_markdown():
 
 def test_report_and_json_carry_the_headline(small_gt, tmp_path):
     data = ArrayDataset(np.concatenate([small_gt, small_gt + 1.0]), groups=["d0"] * len(small_gt) * 2)
-    methods = {
-        "scanline": lambda x: np.where(np.isnan(x), 10.0, x),
-        "mine": lambda x: np.where(np.isnan(x), np.nanmedian(np.where(x > 0, x, np.nan)), x),
-    }
+
+    def ten(x):
+        return np.where(np.isnan(x), 10.0, x)
+
+    ten.kind = "classical"  # a user's own classical fill says what it is
+    methods = {"ten": ten, "mine": lambda x: np.where(np.isnan(x), np.nanmedian(np.where(x > 0, x, np.nan)), x)}
     res = run_benchmark(methods, data, protocols=["rect-v1"], seeds=[0], out_dir=tmp_path, progress=False)
+    assert res.meta["kinds"] == {"ten": "classical", "mine": "submitted"}
     paths = write_report(res, tmp_path / "report")
     doc = json.loads(paths["json"].read_text())
     (head,) = doc["headline"]
-    assert head["learned"] == "mine" and head["classical"] == "scanline"
-    assert "## Best learned vs strongest classical" in paths["markdown"].read_text()
+    assert head["learned"] == "mine" and head["classical"] == "ten" and head["learned_kind"] == "submitted"
+    md = paths["markdown"].read_text()
+    assert "## Best submitted vs strongest classical" in md and "best submitted (hole RMSE m)" in md
+
+
+def test_a_users_own_methods_are_labelled_submitted_not_learned(tmp_path, capsys):
+    # Issue 43, item 18: the kind comes from what a method is, not from its name.
+    from estimators.classical import NearestInpainter
+
+    from inpaintenv.benchmark.suites import LazyMethod, method_kind
+
+    def my_median(x):
+        return np.where(np.isnan(x), np.nanmedian(x), x)
+
+    assert method_kind("my_median", my_median) == "submitted"
+    assert method_kind("n", NearestInpainter()) == "classical"
+    assert method_kind("harmonic", LazyMethod(lambda: None)) == "classical"  # a registered name
+    assert method_kind("pretrained", LazyMethod(lambda: None)) == "learned"
+    assert method_kind("mine", LazyMethod(lambda: None, identity="checkpoint:abc")) == "learned"
+    rows = _rows("harmonic", "d0", [4.0, 4.0]) + _rows("my_median", "d0", [2.0, 2.0])
+    result = EvaluationResult(rows=rows, meta={"kinds": {"harmonic": "classical", "my_median": "submitted"}})
+    (row,) = learned_vs_classical(result)
+    assert row["learned_kind"] == "submitted"
+    md = headline_markdown([row])
+    assert "best submitted (hole RMSE m)" in md and "best learned" not in md
+
+
+def test_a_classical_method_at_0_m_makes_the_ratio_undefined_not_a_crash():
+    # Issue 43, item 9: the strongest classical method is perfect on these frames.
+    rows = _rows("harmonic", "d0", [0.0, 0.0]) + _rows("mine", "d0", [2.0, 3.0])
+    (row,) = learned_vs_classical(EvaluationResult(rows=rows, meta={}))
+    assert math.isnan(row["hole_ratio"]) and math.isnan(row["all_over_classical_hole"])
+    assert row["undefined"] == "harmonic scores 0 m in the holes: a ratio to 0 is undefined"
+    md = headline_markdown([row])
+    assert "| undefined ¶ | undefined ¶ |" in md
+    assert "¶ harmonic scores 0 m in the holes: a ratio to 0 is undefined." in md

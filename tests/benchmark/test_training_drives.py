@@ -44,6 +44,7 @@ class Trained:
 
 class Classical(Trained):
     training_drives_ = None
+    kind = "classical"  # what the headline compares against (a user's class says so)
 
 
 def _data() -> ArrayDataset:
