@@ -32,10 +32,12 @@ __all__ = [
     "decode_depth_png",
     "depth_from_uint16",
     "encode_png",
+    "load_array",
     "png_header",
     "read_depth_png",
     "read_depth_png_raw",
     "read_file_bytes",
+    "read_png",
     "write_bytes",
     "write_depth_png",
     "write_png",
@@ -178,6 +180,11 @@ def check_depth_header(path: str | os.PathLike, header: PngHeader) -> None:
         raise DepthFormatError(
             f"{path} is a {header.bit_depth}-bit PNG; KITTI depth must be 16-bit (metres = value / 256)"
         )
+    _check_declared_size(path, header)
+
+
+def _check_declared_size(path: str | os.PathLike, header: PngHeader) -> None:
+    """Refuse a PNG declaring an empty image or more than :data:`MAX_FRAME_PIXELS` pixels, before decoding."""
     if header.width == 0 or header.height == 0:
         raise DepthFormatError(f"{path} declares an empty image ({header.width}x{header.height})")
     if header.width * header.height > MAX_FRAME_PIXELS:
@@ -274,6 +281,123 @@ def decode_depth_png(data: bytes, name: str | os.PathLike, header: PngHeader | N
         raise DepthFormatError(f"cannot decode {name}: its header says {header.width}x{header.height}, "
                                f"its pixels are {raw.shape[1]}x{raw.shape[0]}")
     return raw
+
+
+def read_png(path: str | os.PathLike, what: str = "PNG") -> np.ndarray:
+    """Any PNG (a hole mask, a colour image) decoded as OpenCV does, after the checks of a depth PNG's header.
+
+    The signature and the declared size (at most :data:`MAX_FRAME_PIXELS`) are checked
+    before decoding, the file is read by Python (any name works), and read errors name
+    the path and the cause, as for :func:`read_depth_png`; the pixel format is the
+    caller's to check.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(H, W)`` or ``(H, W, C)``, uint8 or uint16 (channels in OpenCV's BGR(A) order).
+
+    Raises
+    ------
+    DepthFormatError
+        Not a PNG (by its signature), a declared size beyond the limit, or truncated/corrupt.
+    FileNotFoundError, IsADirectoryError, PermissionError, OSError
+        As :func:`read_file_bytes`.
+    """
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            head = f.read(_HEADER_BYTES)
+            header = _parse_header(head, path)
+            _check_declared_size(path, header)
+            data = head + _read_at_most(f, path, what, 8 * header.width * header.height + 4 * header.height + (1 << 20))
+    except FileTooLargeError:
+        raise
+    except OSError as exc:
+        raise _clear_os_error(exc, path, what) from None
+    try:
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error as exc:
+        raise DepthFormatError(f"cannot decode {path}: {str(exc).strip().splitlines()[-1]}") from None
+    if img is None:
+        raise DepthFormatError(f"cannot decode {path}: truncated or corrupt PNG")
+    return img
+
+
+def load_array(path: str | os.PathLike, what: str = "array", key: str | None = None) -> np.ndarray:
+    """The array of an ``.npy`` file, or array ``key`` of an ``.npz``, its header checked before loading.
+
+    The header's shape is checked against :data:`MAX_FRAME_PIXELS` elements before any data
+    is read (a 128-byte file can declare a terabyte), object arrays are refused (they
+    would need pickles), and a file shorter than its header declares is truncated.
+
+    Parameters
+    ----------
+    path : path-like
+        An ``.npy`` or ``.npz`` file.
+    what : str
+        What the array is, for messages.
+    key : str, optional
+        The member of an ``.npz``; its only member when None.
+
+    Raises
+    ------
+    DepthFormatError
+        Not a NumPy file, a declared size beyond the limit, an object dtype, truncated data,
+        or an ``.npz`` without ``key`` (or with several arrays and no ``key``).
+    FileNotFoundError, IsADirectoryError, PermissionError, OSError
+        As :func:`read_file_bytes`.
+    """
+    import zipfile
+
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            if f.read(4) != b"PK\x03\x04":
+                f.seek(0)
+                return _read_npy(f, str(path))
+            f.seek(0)
+            try:
+                with zipfile.ZipFile(f) as z:
+                    names = [n.removesuffix(".npy") for n in z.namelist()]
+                    if key is None and len(names) != 1:
+                        raise DepthFormatError(f"{path} holds the arrays {names}; say which {what} to read")
+                    member = names[0] if key is None else key
+                    if member not in names:
+                        raise DepthFormatError(f"{path} has no array {member!r} (it holds {names})")
+                    with z.open(member + ".npy") as m:
+                        return _read_npy(m, f"array {member!r} of {path}")
+            except (zipfile.BadZipFile, EOFError) as exc:
+                raise DepthFormatError(f"cannot read {path}: a damaged .npz ({exc})") from None
+    except OSError as exc:
+        raise _clear_os_error(exc, path, what) from None
+
+
+def _read_npy(f: Any, name: str) -> np.ndarray:
+    """The array of the ``.npy`` stream ``f`` (at its start), its header checked first."""
+    fmt = np.lib.format
+    try:
+        version = fmt.read_magic(f)
+        readers = {(1, 0): fmt.read_array_header_1_0, (2, 0): fmt.read_array_header_2_0}
+        if version not in readers:
+            raise DepthFormatError(f"cannot read {name}: .npy format version {version[0]}.{version[1]} is not "
+                                   "supported (save it with numpy.save)")
+        shape, fortran, dtype = readers[version](f)
+    except (ValueError, EOFError) as exc:
+        if isinstance(exc, DepthFormatError):
+            raise
+        raise DepthFormatError(f"cannot read {name}: not a NumPy .npy file, or truncated before its data ({exc})") \
+            from None
+    count = int(np.prod(shape, dtype=object))
+    if count > MAX_FRAME_PIXELS:
+        raise DepthFormatError(f"{name} declares an array of shape {shape} ({count:,} values), more than the "
+                               f"{MAX_FRAME_PIXELS:,} a frame may have (inpaintenv.conventions.MAX_FRAME_PIXELS); not read")
+    if dtype.hasobject:
+        raise DepthFormatError(f"{name} holds Python objects (dtype {dtype}); a depth file holds numbers")
+    data = f.read(count * dtype.itemsize)
+    if len(data) != count * dtype.itemsize:
+        raise DepthFormatError(f"cannot read {name}: truncated ({len(data)} of {count * dtype.itemsize} data bytes)")
+    arr = np.frombuffer(data, dtype=dtype)
+    return arr.reshape(shape, order="F" if fortran else "C").copy()
 
 
 def depth_from_uint16(raw: np.ndarray) -> np.ndarray:

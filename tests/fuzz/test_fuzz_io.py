@@ -12,6 +12,7 @@ import struct
 import subprocess
 import sys
 import textwrap
+import zipfile
 import zlib
 
 import cv2
@@ -255,3 +256,69 @@ def test_show_on_a_full_disk_says_so_instead_of_asking_for_a_png_name(tmp_path, 
     assert main(["show", "--synthetic", "--n-frames", "1", "--frame-shape", "32", "48", "--out", str(out)]) == 1
     err = capsys.readouterr().err
     assert f"cannot write panel {out}: No space left on device" in err and ".png name" not in err
+
+
+# -- .npy / .npz headers and other PNGs (masks) --------------------------------------------------
+def _npy_bomb(shape: tuple[int, ...]) -> bytes:
+    """An .npy header declaring ``shape`` float32 values, followed by no data."""
+    header = repr({"descr": "<f4", "fortran_order": False, "shape": shape}).encode()
+    header += b" " * (118 - len(header)) + b"\n"
+    return b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header
+
+
+def test_npy_header_is_checked_before_loading(tmp_path):
+    from inpaintenv.data.io import load_array
+
+    bomb = tmp_path / "bomb.npy"
+    bomb.write_bytes(_npy_bomb((100000, 100000)))  # 128 bytes declaring 40 GB
+    with pytest.raises(DepthFormatError, match=r"bomb.npy declares an array of shape \(100000, 100000\).*MAX_FRAME_PIXELS"):
+        load_array(bomb)
+    short = tmp_path / "short.npy"
+    np.save(short, np.ones((4, 6), np.float32))
+    short.write_bytes(short.read_bytes()[:-8])
+    with pytest.raises(DepthFormatError, match=r"cannot read .*short.npy: truncated \(88 of 96 data bytes\)"):
+        load_array(short)
+    objects = tmp_path / "objects.npy"
+    np.save(objects, np.array([1, "a"], dtype=object), allow_pickle=True)
+    with pytest.raises(DepthFormatError, match="holds Python objects"):
+        load_array(objects)
+    with zipfile.ZipFile(tmp_path / "bomb.npz", "w") as z:
+        z.writestr("depth.npy", _npy_bomb((60000, 60000)))
+    with pytest.raises(DepthFormatError, match=r"array 'depth' of .*bomb.npz declares an array of shape \(60000, 60000\)"):
+        load_array(tmp_path / "bomb.npz")
+    good = np.arange(12.0).reshape(3, 4)
+    np.savez(tmp_path / "two.npz", depth=good, mask=good > 5)
+    np.testing.assert_array_equal(load_array(tmp_path / "two.npz", key="depth"), good)
+    with pytest.raises(DepthFormatError, match=r"holds the arrays \['depth', 'mask'\]"):
+        load_array(tmp_path / "two.npz")
+    np.save(tmp_path / "f.npy", np.asfortranarray(good))
+    np.testing.assert_array_equal(load_array(tmp_path / "f.npy"), good)
+
+
+@fast(30)
+@given(data=st.binary(max_size=512))
+def test_random_bytes_as_npy_are_refused_in_one_error(tmp_path_factory, data):
+    from inpaintenv.data.io import load_array
+
+    path = tmp_path_factory.mktemp("npy") / "x.npy"
+    path.write_bytes(b"\x93NUMPY" + data)
+    try:
+        arr = load_array(path)
+    except DepthFormatError:
+        return
+    assert arr.size <= MAX_FRAME_PIXELS
+
+
+def test_read_png_checks_signature_and_size_but_not_the_pixel_format(tmp_path):
+    from inpaintenv.data.io import read_png
+
+    mask = tmp_path / "mask.png"
+    mask.write_bytes(cv2.imencode(".png", np.full((4, 5, 3), 255, np.uint8))[1].tobytes())
+    assert read_png(mask).shape == (4, 5, 3)
+    (tmp_path / "bomb.png").write_bytes(png_bytes(60000, 60000, bit_depth=8))
+    with pytest.raises(DepthFormatError, match="declares 60000x60000"):
+        read_png(tmp_path / "bomb.png")
+    tiff = tmp_path / "t.png"
+    tiff.write_bytes(cv2.imencode(".tiff", np.ones((4, 5), np.uint8))[1].tobytes())
+    with pytest.raises(DepthFormatError, match="is a TIFF file, not a PNG"):
+        read_png(tiff)
