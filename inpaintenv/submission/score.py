@@ -82,8 +82,10 @@ def check_run_folder(out: str | os.PathLike, manifest: Manifest, predictions: st
 
 def submission_meta(name: str, manifest: Manifest, predictions: str | os.PathLike,
                     checked: CheckedPredictions) -> dict[str, Any]:
-    """``meta["submission"]`` of a scored folder: where it came from, its identity, what was left out."""
-    return {"name": name, "manifest": str(manifest.path), "predictions": str(predictions), **checked.summary()}
+    """``meta["submission"]`` of a scored folder: where it came from, whether its export was ``trusted``
+    (several seeds per frame), its identity, what was left out."""
+    return {"name": name, "manifest": str(manifest.path), "predictions": str(predictions),
+            "trusted": manifest.trusted, **checked.summary()}
 
 
 def without_ms(result: EvaluationResult, name: str) -> EvaluationResult:

@@ -55,6 +55,7 @@ def test_score_writes_the_benchmark_run_folder_with_classical_rows(exported, tmp
     doc, rows = rows_by_method(out)
     assert doc["meta"]["command"].startswith("inpaintenv score")
     assert doc["meta"]["submission"]["missing"] == [] and doc["meta"]["submission"]["identity"].startswith("predictions:")
+    assert doc["meta"]["submission"]["trusted"] is True  # exported with two seeds
     assert set(rows["telea-script"]) == set(rows["harmonic"]) and len(rows["harmonic"]) == 16
     # The submission's rows are evaluate()'s of the same method, bit for bit (through JSON).
     manifest = read_manifest(exported / "inputs.key.json")
