@@ -272,6 +272,16 @@ class ConcatDataset(DepthDataset):
         return f"ConcatDataset({' + '.join(repr(p) for p in self.parts)})"
 
 
+def name_from_path(name: str) -> str:
+    """A file or folder name as a frame id or drive name: bytes that are not UTF-8 become ``\\xNN``.
+
+    Python reads such bytes of a file name as surrogate escapes, which cannot be written
+    to a UTF-8 report, table or hash; the id keeps them visible and reversible by eye
+    (the file's path itself is kept as the system gave it). Any other name is unchanged.
+    """
+    return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
 def select_drives(
     dataset: DepthDataset,
     drives: Sequence[str] | None = None,
@@ -294,6 +304,9 @@ def select_drives(
         raise ValueError("drives is empty; pass None to keep every drive")
     if not drives and not exclude:
         return dataset
+    # Names typed on a command line carry a non-UTF-8 byte as a surrogate escape, drive ids as \xNN.
+    drives = None if drives is None else [name_from_path(str(d)) for d in drives]
+    exclude = None if exclude is None else [name_from_path(str(d)) for d in exclude]
     known = set(np.asarray(dataset.groups).tolist())
     unknown = sorted({*(drives or ()), *(exclude or ())} - known)
     if unknown:

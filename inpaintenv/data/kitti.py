@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..report.progress import count
-from .base import DepthDataset
+from .base import DepthDataset, name_from_path
 from .io import (
     DepthFormatError,
     PngHeader,
@@ -154,7 +154,7 @@ class KittiDepth(DepthDataset):
         self.split, self.camera, self.kind, self.crop = split, camera, kind, crop
         cameras = _CAMERAS if camera == "both" else (camera,)
 
-        wanted = None if drives is None else {str(d) for d in drives}
+        wanted = None if drives is None else {name_from_path(str(d)) for d in drives}
         index = _index_val_selection if split == "val_selection" else partial(_index_split, split=split)
         # Only the wanted drives are listed, so an unreadable drive left out does not stop the run.
         entries, searched = index(self.root, kind=kind, cameras=cameras, drives=wanted)
@@ -226,7 +226,7 @@ class KittiDepth(DepthDataset):
     def _summary_fields(self) -> dict[str, Any]:
         # raw_sizes: KITTI drives differ in raw frame size (1242x375, 1224x370, ...).
         return {
-            "root": str(self.root),
+            "root": name_from_path(str(self.root)),
             "split": self.split,
             "kind": self.kind,
             "camera": self.camera,
@@ -235,7 +235,7 @@ class KittiDepth(DepthDataset):
 
     def __repr__(self) -> str:
         return (
-            f"KittiDepth(root={str(self.root)!r}, split={self.split!r}, camera={self.camera!r}, "
+            f"KittiDepth(root={name_from_path(str(self.root))!r}, split={self.split!r}, camera={self.camera!r}, "
             f"kind={self.kind!r}, {count(len(self), 'frame')}, {count(len(np.unique(self.groups)), 'drive')}, "
             f"frame_shape={self.frame_shape})"
         )
@@ -327,13 +327,13 @@ def _index_split(
         )
     entries = []
     for drive_dir in _entries(base):
-        drive = drive_dir.name
+        drive = name_from_path(drive_dir.name)
         # A drive that is not wanted is not listed: an unreadable one then does not stop the run.
         if not drive.endswith("_sync") or (drives is not None and drive not in drives) or not drive_dir.is_dir():
             continue
         for cam in cameras:
             for png in _pngs(Path(drive_dir.path) / "proj_depth" / kind / cam):
-                entries.append((png, drive, cam, png.stem))
+                entries.append((png, drive, cam, name_from_path(png.stem)))
     cams = "{" + ",".join(cameras) + "}" if len(cameras) > 1 else cameras[0]
     return entries, str(base / "*_sync" / "proj_depth" / kind / cams / "*.png")
 
@@ -353,6 +353,7 @@ def _index_val_selection(
                 f"unexpected file name {png.name} in {base}; expected "
                 f"<drive>_sync_{folder}_<frame>_<camera>.png"
             )
-        if m["camera"] in cameras and (drives is None or m["drive"] in drives):
-            entries.append((png, m["drive"], m["camera"], m["frame"]))
+        drive = name_from_path(m["drive"])
+        if m["camera"] in cameras and (drives is None or drive in drives):
+            entries.append((png, drive, m["camera"], m["frame"]))
     return entries, str(base / f"*_sync_{folder}_*_image_0?.png")

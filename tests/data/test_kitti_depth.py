@@ -303,3 +303,23 @@ def test_unreadable_drive_folder_is_an_error_not_missing_frames(tree, monkeypatc
     _deny_listing(monkeypatch, tree / "train")
     with pytest.raises(PermissionError, match="permission denied listing"):
         KittiDepth(tree, crop=CROP)
+
+
+def test_names_that_are_not_utf8_become_readable_ids(tmp_path):
+    # A drive or frame name with a byte that is not UTF-8 reached reports as a surrogate
+    # escape, which no UTF-8 table, CSV or hash can hold; the file path stays as it is.
+    import os
+
+    drive = os.fsdecode(b"2011_09_26_drive_\xe9_sync")
+    path = tmp_path / "train" / drive / "proj_depth" / "groundtruth" / "image_02" / os.fsdecode(b"0000000005\xfe.png")
+    write_depth_png(path, _frame(16, 20, seed=0))
+    ds = KittiDepth(tmp_path, crop=CROP)
+    assert ds.paths == [path] and list(ds.groups) == ["2011_09_26_drive_\\xe9_sync"]
+    assert ds.frame_ids == ["2011_09_26_drive_\\xe9_sync/image_02/0000000005\\xfe"]
+    ",".join([*ds.frame_ids, repr(ds), str(ds.summary())]).encode("utf-8")  # no surrogate left
+    # The drive selects under either spelling: as typed in a shell (surrogate) or as shown.
+    assert len(KittiDepth(tmp_path, crop=CROP, drives=[drive])) == 1
+    assert len(KittiDepth(tmp_path, crop=CROP, drives=["2011_09_26_drive_\\xe9_sync"])) == 1
+    from inpaintenv.data import select_drives
+
+    assert len(select_drives(ds, [drive])) == 1
