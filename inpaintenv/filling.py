@@ -480,6 +480,8 @@ def fill(
         raise ValueError(f"batch_size must be >= 1, got {batch_size}")
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+    if holes is not None and not Path(holes).exists():
+        raise FileNotFoundError(f"--holes {holes}: no such mask file or folder")
     protect = [holes] if holes is not None and Path(holes).is_dir() else []
     jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points, protect=protect)
     if points is not None and not any(j.is_scan for j in jobs):

@@ -276,3 +276,26 @@ def test_a_scan_without_calibration_is_one_line_and_the_pngs_are_still_written(t
                  "--out", str(tmp_path / "out2"), "-m", "scanline", "-q"]) == 1
     err = capsys.readouterr().err
     assert "s.bin: calibration not found" in err and (tmp_path / "out2" / "f.png").is_file()
+
+
+def test_option_errors_come_before_any_file(tmp_path, capsys):
+    write_depth_png(tmp_path / "in" / "f.png", frames(1, (64, 96))[0])
+    assert main(["fill", str(tmp_path / "in"), "--holes", str(tmp_path / "none"), "-m", "scanline",
+                 "--out", str(tmp_path / "out"), "-q"]) == 1
+    assert "--holes" in capsys.readouterr().err and not (tmp_path / "out").exists()
+    with pytest.raises(ValueError, match="--jobs applies to methods that take n_jobs"):
+        fill(tmp_path / "in", tmp_path / "out", method=lambda x: np.nan_to_num(x, nan=1.0), missing=True, n_jobs=2)
+    with pytest.raises(ValueError, match="a box x0,y0,x1,y1 needs 0 <= x0 < x1"):
+        fill(tmp_path / "in", tmp_path / "out", method="scanline", boxes=[(5, 5, 5, 9)])
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["fill", "x", "--out", "y", "--box", "1,2,3"])
+    assert "a box is x0,y0,x1,y1" in capsys.readouterr().err
+
+
+def test_a_callable_method_and_jobs_for_a_classical_one(tmp_path):
+    write_depth_png(tmp_path / "in" / "f.png", frames(1, (64, 96))[0])
+    report = fill(tmp_path / "in", tmp_path / "out", method=lambda x: np.nan_to_num(x, nan=7.0),
+                  boxes=[(0, 0, 8, 8)], progress=False)
+    assert report.ok and (read_depth_png(tmp_path / "out" / "f.png")[:8, :8] == 7.0).all()
+    assert fill(tmp_path / "in", tmp_path / "out2", method="scanline", n_jobs=2, boxes=[(0, 0, 8, 8)],
+                progress=False).ok

@@ -13,6 +13,7 @@ module               what it holds
 ``train``            ``inpaintenv train``: fit a named preset, resumably
 ``export``           ``inpaintenv export``: write the occluded inputs as files
 ``score``            ``inpaintenv score``: check and score a folder of predictions
+``fill``             ``inpaintenv fill``: fill your own depth files and LiDAR scans
 ===================  ==================================================================
 
 Subcommand modules import the two options modules and the layers below ``cli`` (never
