@@ -176,11 +176,25 @@ def _missing_hint(manifest: Manifest, unexpected: list[str]) -> str:
     return ""
 
 
-def _scan(folder: Path, export: Path) -> tuple[set[str], dict[str, str]]:
+def _truth_files(dataset: DepthDataset) -> set[tuple[int, int]]:
+    """``(device, inode)`` of every ground-truth file ``dataset`` reads (KITTI exports), to refuse hard links to them."""
+    path = getattr(dataset, "path", None)
+    found = set()
+    for i in range(len(dataset) if callable(path) else 0):
+        try:
+            info = os.stat(path(i))  # type: ignore[misc]
+        except OSError:
+            continue  # named when the frame is read
+        found.add((info.st_dev, info.st_ino))
+    return found
+
+
+def _scan(folder: Path, export: Path, truth: set[tuple[int, int]]) -> tuple[set[str], dict[str, str]]:
     """The regular ``.png`` files under ``folder`` (relative paths), and what is refused there (path -> why).
 
     Links are never followed (a link to a file or a folder, inside or out, is refused:
-    ``score`` reads only files that lie in the predictions folder), and an export folder
+    ``score`` reads only files that lie in the predictions folder), a hard link to a
+    ground-truth file (``truth``: its device and inode) is refused, and an export folder
     inside ``folder`` is left out.
     """
     inside = export.resolve().relative_to(folder.resolve()).as_posix() + "/" if is_inside(export, folder) else None
@@ -198,8 +212,11 @@ def _scan(folder: Path, export: Path) -> tuple[set[str], dict[str, str]]:
             rel = path.relative_to(folder).as_posix()
             if inside is not None and rel.startswith(inside):
                 continue
-            mode = os.lstat(path).st_mode
-            if stat.S_ISLNK(mode):
+            info = os.lstat(path)
+            mode = info.st_mode
+            if (info.st_dev, info.st_ino) in truth:
+                refused[rel] = f"{rel} is a ground-truth file (a hard link to it)"
+            elif stat.S_ISLNK(mode):
                 if name.lower().endswith(".png"):
                     refused[rel] = f"{rel} is a symbolic link"
             elif name.endswith(".png"):
@@ -308,7 +325,7 @@ def check_predictions(
         raise ManifestError(f"the ground truth has frames of {dataset.frame_shape}, {manifest.path} of {shape}")
     require_key(manifest)
     expected = {item.input for item in manifest.items}
-    present, refused_at = _scan(folder, manifest.root)
+    present, refused_at = _scan(folder, manifest.root, _truth_files(dataset))
     refused = [refused_at[r] for r in sorted(refused_at)]
     behind = tuple(r + "/" for r in refused_at)  # paths under a refused (linked) folder: refused, not missing
     missing = sorted(p for p in expected - present - set(refused_at) if not p.startswith(behind))

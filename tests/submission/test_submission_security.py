@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from inpaintenv.cli import main
-from inpaintenv.data import write_depth_png
+from inpaintenv.data import KittiDepth, write_depth_png
 from inpaintenv.submission import ManifestError, SubmissionError, export, read_manifest, score
 
 DATA = ["--n-frames", "16", "--frame-shape", "64", "192"]
@@ -156,6 +156,27 @@ def test_a_fifo_is_refused_not_waited_on(submitted):
     os.mkfifo(target)
     with pytest.raises(SubmissionError, match="is not a regular file"):
         score(manifest.path, predictions)
+
+
+def test_a_hard_link_to_the_ground_truth_is_refused(tmp_path):
+    """Without the crop (a selection of 352 x 1216 frames), a ground-truth file is a valid
+    prediction that keeps every measured pixel: only its identity tells it apart."""
+    root = tmp_path / "kitti"
+    gt_file = root / "val" / "2011_09_26_drive_0002_sync" / "proj_depth" / "groundtruth" / "image_02" / "0000000000.png"
+    gt_file.parent.mkdir(parents=True)
+    raw = np.zeros((64, 192), np.uint16)
+    raw[::3, ::2] = np.arange(1, 1 + raw[::3, ::2].size, dtype=np.uint16).reshape(raw[::3, ::2].shape) % 9000 + 300
+    cv2.imwrite(str(gt_file), raw)
+    source = KittiDepth(root, split="val", crop=None)
+    m = export(tmp_path / "x", source, progress=False)
+    target = tmp_path / "p" / m.items[0].input
+    target.parent.mkdir(parents=True)
+    os.link(gt_file, target)
+    with pytest.raises(SubmissionError, match="is a ground-truth file"):
+        score(m.path, tmp_path / "p", kitti_root=root, allow_unfilled=True)
+    target.unlink()
+    fill(m, tmp_path / "p")
+    assert len(score(m.path, tmp_path / "p", kitti_root=root).rows) == 1
 
 
 # -- 2(d): each prediction is bound to its input --------------------------------------------
