@@ -20,6 +20,7 @@ Example
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import pickle
 import re
@@ -30,7 +31,7 @@ from typing import Any
 
 __all__ = [
     "ClusterError", "WorkerDataError", "add_scheduler_option", "check_client", "map_shards",
-    "open_client", "parse_scheduler",
+    "open_client", "parse_scheduler", "quiet_dask_logs",
 ]
 
 #: Seconds to wait for the scheduler to answer, or for a first worker to join it.
@@ -46,6 +47,11 @@ PRE_SPAWN_ENVIRON = "distributed.nanny.pre-spawn-environ"
 #: Dask's default MALLOC_TRIM_THRESHOLD_ for workers (bytes), unset by ``local:N``.
 DASK_MALLOC_TRIM = 65536
 _EXTRA_HINT = 'Dask is not installed: pip install "inpaintenv[dask]"'
+#: Loggers silenced while a run uses the cluster (below CRITICAL): a lost scheduler made
+#: them print tracebacks before the run's own one-line error.
+NOISY_LOGGERS = ("distributed", "tornado")
+#: Set to keep Dask's own log lines (and tracebacks) during a run, e.g. to debug a cluster.
+TRACEBACK_ENV = "INPAINTENV_TRACEBACK"
 
 
 class ClusterError(RuntimeError):
@@ -61,6 +67,30 @@ class WorkerDataError(OSError):
 # ---------------------------------------------------------------------------------------
 # Connecting
 # ---------------------------------------------------------------------------------------
+@contextmanager
+def quiet_dask_logs() -> Iterator[None]:
+    """Silence ``distributed``'s and ``tornado``'s log records below CRITICAL for the block.
+
+    Every failure of a run reaches the user as one line (:class:`ClusterError`); Dask's
+    own records of it (a lost connection's tracebacks) would come first. With
+    ``INPAINTENV_TRACEBACK`` set, nothing is silenced. Nested uses restore the levels
+    they found.
+    """
+    if os.environ.get(TRACEBACK_ENV):
+        yield
+        return
+    manager = logging.Logger.manager
+    names = [n for n in list(manager.loggerDict) if n.split(".")[0] in NOISY_LOGGERS]
+    loggers = [logging.getLogger(n) for n in dict.fromkeys([*NOISY_LOGGERS, *names])]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
+
 def _distributed(what: str = "a Dask client") -> Any:
     """The ``distributed`` module, or an ImportError naming the extra to install."""
     try:
@@ -124,6 +154,12 @@ def open_client(scheduler: str | None, *, timeout: float = CONNECT_TIMEOUT) -> I
         return
     kind, value = parse_scheduler(scheduler)
     dd = _distributed("--scheduler")
+    with quiet_dask_logs():
+        yield from _clients(dd, kind, value, timeout)
+
+
+def _clients(dd: Any, kind: str, value: Any, timeout: float) -> Iterator[Any]:
+    """The body of :func:`open_client`: one client, closed (with its local cluster) on exit."""
     if kind == "local":
         import dask
 
@@ -199,6 +235,13 @@ def map_shards(
     check_client(client)
     for key, value in shared.items():
         _check_picklable(value, key)
+    with quiet_dask_logs():
+        return _map_shards(dd, client, fn, shards, shared, on_result)
+
+
+def _map_shards(dd: Any, client: Any, fn: Callable[..., Any], shards: Sequence[Any], shared: Mapping[str, Any],
+                on_result: Callable[[Any], None] | None) -> list[Any]:
+    """The body of :func:`map_shards`, with Dask's log records silenced."""
     try:
         client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
     except TimeoutError:
