@@ -299,3 +299,11 @@ def test_a_callable_method_and_jobs_for_a_classical_one(tmp_path):
     assert report.ok and (read_depth_png(tmp_path / "out" / "f.png")[:8, :8] == 7.0).all()
     assert fill(tmp_path / "in", tmp_path / "out2", method="scanline", n_jobs=2, boxes=[(0, 0, 8, 8)],
                 progress=False).ok
+
+
+def test_progress_outside_a_terminal_is_plain_lines(tmp_path, capsys):
+    for k, d in enumerate(frames(2, (64, 96))):
+        write_depth_png(tmp_path / "in" / f"{k}.png", d)
+    assert main(["fill", str(tmp_path / "in"), "--missing", "-m", "scanline", "--out", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    assert "s/frame from its first batch" in err and "fill: 2 frames in" in err and "\r" not in err
