@@ -48,7 +48,7 @@ from .layout import (
 from .manifest import KEY, KIT, MANIFEST_NAME, Frame, Item, Manifest, ManifestError, default_key_path, read_manifest
 from .truth import describe_truth
 
-__all__ = ["check_one_mask_per_frame", "export", "protocol_record"]
+__all__ = ["check_one_mask_per_frame", "clean_stale", "export", "protocol_record"]
 
 
 def protocol_record(protocol: OcclusionProtocol) -> dict[str, Any]:
@@ -122,6 +122,9 @@ def _prepare_out(out: Path, overwrite: bool) -> bool:
 
 
 def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (any process is taken to run where signal 0 cannot ask)."""
+    if os.name != "posix":
+        return True  # os.kill would end the process there, not probe it
     try:
         os.kill(pid, 0)
     except ProcessLookupError:

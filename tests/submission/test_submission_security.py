@@ -109,6 +109,8 @@ def test_the_key_never_goes_into_the_kit(tmp_path, streets):
     assert m.path == tmp_path / "keys" / "k.json" and m.root == tmp_path / "x"
     fill(m, tmp_path / "p")
     assert len(score(m.path, tmp_path / "p").rows) == 2
+    shutil.rmtree(tmp_path / "x")  # the kit was handed out: the key alone scores
+    assert len(score(m.path, tmp_path / "p").rows) == 2
 
 
 # -- 2(b): score reads only regular files inside its folder ---------------------------------
