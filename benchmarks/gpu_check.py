@@ -39,7 +39,9 @@ written to ``--out`` (default ``$OUT/gpu_check.json`` when ``$OUT`` is set):
    ``UNetInpainter.fit`` (input encoding, loss, autocast), written out here as in
    ``scaling_training.py``; the samples come from the training data path
    (``OcclusionFrames``, ``make_loader`` with ``--workers`` workers and pinned memory on
-   CUDA) over in-memory synthetic frames, so PNG decoding is not part of it.
+   CUDA) over in-memory synthetic frames, so PNG decoding is not part of it. One more row
+   runs batch 16 bf16 with the estimator's default ``num_workers=0`` (samples loaded in
+   the training process).
 3. ``predict`` throughput, frames/s, on the CPU and on CUDA: the default release
    (``pretrained`` from the registry, kitti-ensemble-v1) and a ``study-unet-tv`` U-Net
    (weights after one training step: the time does not depend on them). A model without a
@@ -66,6 +68,7 @@ import json
 import math
 import os
 import platform
+import re
 import shutil
 import subprocess
 import sys
@@ -102,7 +105,7 @@ NEEDS = {"tests": 60.0, "train": 20.0, "predict": 10.0}
 def bf16_peak_tflops(device_name: str) -> float | None:
     """The dense bf16 peak of a GPU by name (see :data:`BF16_PEAK_TFLOPS`); None if unknown."""
     for key, peak in BF16_PEAK_TFLOPS:
-        if key in device_name:
+        if re.search(rf"\b{re.escape(key)}\b", device_name):  # not "RTX A1000" for "A100"
             return peak
     return None
 
@@ -313,9 +316,9 @@ def measure_training(cfg: dict[str, Any], pool: np.ndarray, batch: int, bf16: bo
 
 def training_line(row: dict[str, Any], peak: float | None) -> str:
     """One printed line per training row."""
-    head = f"train batch={row['batch']} {row['precision']}:"
-    if row.get("skipped") or row.get("error") and "samples_per_s" not in row:
-        return f"{head} not measured ({row.get('skipped') or row['error']})"
+    head = f"train batch={row['batch']} {row['precision']} workers={row['workers']}:"
+    if "samples_per_s" not in row:
+        return f"{head} not measured ({row.get('skipped') or row.get('error')})"
     share = f"{100 * row['bf16_peak_share']:.1f} % of the bf16 dense peak {peak:g}" if peak else "peak unknown"
     mem = row["peak_gpu_memory_bytes"]
     mem_s = f"{mem / 2**30:.2f} GiB" if mem is not None else "n/a (cpu)"
@@ -325,26 +328,34 @@ def training_line(row: dict[str, Any], peak: float | None) -> str:
             + (f"; ERROR {row['error']}" if row.get("error") else ""))
 
 
+def training_rows(batches: list[int], workers: int) -> list[tuple[int, bool, int]]:
+    """(batch, bf16, loader workers) of each row: every batch in fp32 and bf16 with ``workers``,
+    then the middle batch in bf16 with the estimator's default ``num_workers=0``."""
+    rows = [(batch, bf16, workers) for batch in batches for bf16 in (False, True)]
+    if workers:
+        rows.append((16 if 16 in batches else batches[len(batches) // 2], True, 0))
+    return rows
+
+
 def run_training(args: argparse.Namespace, device: torch.device, peak: float | None, budget: Budget) -> list[dict]:
     cfg = preset_config()
     pool = SyntheticStreets(n=args.pool, seed=0, frame_shape=tuple(args.frame)).load_batch(range(args.pool))
     rows = []
-    for batch in args.batches:
-        for bf16 in (False, True):
-            name = f"training batch={batch} {'bf16' if bf16 else 'fp32'}"
-            if not budget.allows(name, NEEDS["train"] if not args.quick else 1.0):
-                rows.append({"batch": batch, "precision": "bf16" if bf16 else "fp32", "skipped": "--max-seconds"})
-            else:
-                try:
-                    rows.append(measure_training(cfg, pool, batch, bf16, device, warmup=args.warmup,
-                                                 max_steps=args.steps, seconds=args.train_seconds,
-                                                 workers=args.workers, peak=peak, channels_last=args.channels_last))
-                except (torch.cuda.OutOfMemoryError, RuntimeError) as exc:  # one batch size failing is a finding
-                    rows.append({"batch": batch, "precision": "bf16" if bf16 else "fp32",
-                                 "error": f"{type(exc).__name__}: {str(exc).splitlines()[0][:300]}"})
-                    if device.type == "cuda":
-                        torch.cuda.empty_cache()
-            print(training_line(rows[-1], peak), flush=True)
+    for batch, bf16, workers in training_rows(args.batches, args.workers):
+        what = {"batch": batch, "precision": "bf16" if bf16 else "fp32", "workers": workers}
+        if not budget.allows(f"training batch={batch} {what['precision']} workers={workers}",
+                             NEEDS["train"] if not args.quick else 1.0):
+            rows.append({**what, "skipped": "--max-seconds"})
+        else:
+            try:
+                rows.append(measure_training(cfg, pool, batch, bf16, device, warmup=args.warmup,
+                                             max_steps=args.steps, seconds=args.train_seconds, workers=workers,
+                                             peak=peak, channels_last=args.channels_last))
+            except (torch.cuda.OutOfMemoryError, RuntimeError) as exc:  # one batch size failing is a finding
+                rows.append({**what, "error": f"{type(exc).__name__}: {str(exc).splitlines()[0][:300]}"})
+                if device.type == "cuda":
+                    torch.cuda.empty_cache()
+        print(training_line(rows[-1], peak), flush=True)
     return rows
 
 

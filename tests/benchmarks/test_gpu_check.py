@@ -53,8 +53,8 @@ def test_quick_run_prints_every_section(quick_run):
     assert "bf16 dense peak: peak unknown" in lines
     (tests,) = [line for line in lines if line.startswith("tests: ")]
     assert " 0 failed, 0 errors, 0 skipped on cpu (forced)" in tests
-    for precision in ("fp32", "bf16"):
-        (row,) = [line for line in lines if line.startswith(f"train batch=2 {precision}: ")]
+    for precision, workers in (("fp32", 1), ("bf16", 1), ("bf16", 0)):
+        (row,) = [line for line in lines if line.startswith(f"train batch=2 {precision} workers={workers}: ")]
         for part in ("samples/s", "data wait", "TFLOP/s", "GFLOP/step; peak unknown", "peak GPU memory n/a (cpu)"):
             assert part in row, (part, row)
     for model in ("pretrained", "study-unet-tv"):
@@ -80,7 +80,9 @@ def test_quick_run_json_has_the_keys_of_a_gpu_run(quick_run, load_benchmark):
     # The counted FLOPs are the architecture's (benchmarks/scaling_training.py's formula): the
     # backward costs two forwards less the first convolution's input gradient (batch 2, 1 channel).
     flops = 3 * load_benchmark("scaling_training").unet_conv_flops(16, 4, 64, 192, batch=2) - 2 * 18 * 16 * 64 * 192
-    assert [(r["batch"], r["precision"]) for r in summary["training"]] == [(2, "fp32"), (2, "bf16")]
+    # Each batch in fp32 and bf16 with the loader's workers, then bf16 without workers (fit's default).
+    assert [(r["batch"], r["precision"], r["workers"]) for r in summary["training"]] == [
+        (2, "fp32", 1), (2, "bf16", 1), (2, "bf16", 0)]
     for row in summary["training"]:
         assert TRAIN_KEYS <= set(row) and "error" not in row
         assert row["flop_per_step"] == flops
@@ -102,16 +104,23 @@ def test_bf16_peaks_by_device_name(gc):
     assert gc.bf16_peak_tflops("NVIDIA H100 PCIe") == 756.0
     assert gc.bf16_peak_tflops("NVIDIA A100-SXM4-80GB") == 312.0
     assert gc.bf16_peak_tflops("Tesla T4") is None
+    assert gc.bf16_peak_tflops("NVIDIA RTX A1000") is None  # not an A100
 
 
 def test_max_seconds_skips_with_a_line_and_keeps_the_keys(gc, capsys):
     summary = gc.main(["--quick", "--max-seconds", "0.001", "--skip-tests"])
     out = capsys.readouterr().out
-    assert "SKIPPED training batch=2 fp32:" in out and "SKIPPED predict:" in out
-    assert "train batch=2 bf16: not measured (--max-seconds)" in out
+    assert "SKIPPED training batch=2 fp32 workers=1:" in out and "SKIPPED predict:" in out
+    assert "train batch=2 bf16 workers=0: not measured (--max-seconds)" in out
     assert summary["sections"] == {"tests": "skipped: --skip-tests", "training": "skipped", "predict": "skipped"}
-    assert [r["skipped"] for r in summary["training"]] == ["--max-seconds"] * 2
+    assert [r["skipped"] for r in summary["training"]] == ["--max-seconds"] * 3
     assert out.splitlines()[-1].startswith("JSON ")
+
+
+def test_training_rows(gc):
+    assert gc.training_rows([4, 16, 64], 8) == [(4, False, 8), (4, True, 8), (16, False, 8), (16, True, 8),
+                                                (64, False, 8), (64, True, 8), (16, True, 0)]
+    assert gc.training_rows([2], 0) == [(2, False, 0), (2, True, 0)]  # no second row without workers
 
 
 def test_junit_counts(gc, tmp_path):

@@ -58,12 +58,15 @@ def _exact(device: torch.device) -> bool:
 
 
 def _assert_same_weights(a: UNetInpainter, b: UNetInpainter, exact: bool) -> None:
+    """Equal weights; within rounding, only the same seed's: Adam moves every weight by up to
+    ``lr`` (1e-3) a step whatever its gradient's size, so a gradient at rounding level moves
+    it either way by up to 3e-3 in 3 steps. The losses compare the training itself."""
     for name, value in a.model_.state_dict().items():
         other = b.model_.state_dict()[name]
         if exact:
             assert torch.equal(value, other), name
         else:
-            torch.testing.assert_close(value, other, rtol=0, atol=1e-3, msg=lambda m: f"{name}: {m}")
+            torch.testing.assert_close(value, other, rtol=0, atol=1e-2, msg=lambda m: f"{name}: {m}")
 
 
 def _assert_same_losses(a: list[float], b: list[float], exact: bool) -> None:
