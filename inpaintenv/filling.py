@@ -223,8 +223,9 @@ def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -
 
     Parameters
     ----------
-    method : estimator or callable
-        Anything :func:`inpaintenv.evaluate.evaluate` scores (``predict`` of NaN = fill).
+    method : str, estimator or callable
+        A registry name, or anything :func:`inpaintenv.evaluate.evaluate` scores (``predict``
+        of NaN = fill).
     depth : numpy.ndarray
         ``(H, W)`` float metres, 0 = no measurement, NaN = fill.
     fill : numpy.ndarray of bool, optional
@@ -238,7 +239,7 @@ def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -
     """
     depth = np.asarray(depth)
     mask = np.isnan(depth) if fill is None else np.asarray(fill, dtype=bool) | np.isnan(depth)
-    return _fill_batch(method, method_name(method), [depth], [mask])[0]
+    return _fill_batch(*_make_method(method, None, None), [depth], [mask])[0]
 
 
 def _fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np.ndarray]) -> list[np.ndarray]:
@@ -342,8 +343,9 @@ class _Run:
             suffix = path.suffix.lower()
             if suffix in (".png", ".npy"):
                 data = filled
-                if suffix == ".png":  # a filled depth below half a PNG step would be stored as 0 = no data
-                    data = np.where(item.fill, np.maximum(filled, 1 / KITTI_DEPTH_SCALE), filled)
+                tiny = item.fill & (filled < 1 / KITTI_DEPTH_SCALE)
+                if suffix == ".png" and tiny.any():  # below half a PNG step it would be stored as 0 = no data
+                    data = np.where(tiny, np.float32(1 / KITTI_DEPTH_SCALE), filled)
                 _atomic(path, lambda tmp, data=data: write_depth_file(tmp, data))
             else:
                 new = depth_to_points(filled, self.calibration(item.job), mask=item.fill)
@@ -490,8 +492,9 @@ def fill(
     for path, why in missing_inputs:
         report.failed.append((path, why))
         log(why)
-    todo = [j for j in jobs if overwrite or not all(o.exists() for o in j.outputs)]
-    report.skipped = [j.source for j in jobs if j not in todo]
+    done = [not overwrite and all(o.exists() for o in j.outputs) for j in jobs]
+    todo = [j for j, d in zip(jobs, done) if not d]
+    report.skipped = [j.source for j, d in zip(jobs, done) if d]
     if not todo or (missing_inputs and on_error == "stop"):
         return report
     hole_spec = _Holes(Path(holes) if holes is not None else None, tuple(_check_box(b) for b in boxes), missing)

@@ -307,3 +307,19 @@ def test_progress_outside_a_terminal_is_plain_lines(tmp_path, capsys):
     assert main(["fill", str(tmp_path / "in"), "--missing", "-m", "scanline", "--out", str(tmp_path / "out")]) == 0
     err = capsys.readouterr().err
     assert "s/frame from its first batch" in err and "fill: 2 frames in" in err and "\r" not in err
+
+
+def test_fill_depth_in_memory_and_what_a_method_leaves_at_zero(tmp_path, capsys):
+    from inpaintenv.filling import fill_depth
+
+    d = frames(1, (64, 96))[0]
+    mask = box_mask((64, 96), 0)
+    np.testing.assert_array_equal(fill_depth("scanline", d, mask), expected(make_method("scanline"), d, mask))
+    write_depth_png(tmp_path / "in" / "f.png", d)
+    tiny = fill(tmp_path / "in", tmp_path / "tiny", method=lambda x: np.nan_to_num(x, nan=0.001),
+                boxes=[(0, 0, 8, 8)], progress=False)
+    assert tiny.ok and (read_depth_png(tmp_path / "tiny" / "f.png")[:8, :8] == 1 / 256).all()  # not 0 = no data
+    zero = fill(tmp_path / "in", tmp_path / "zero", method=lambda x: np.nan_to_num(x, nan=0.0),
+                boxes=[(0, 0, 8, 8)], progress=False)
+    assert not zero.ok and "left 64 of the 64 pixels to fill at 0 m" in zero.failed[0][1]
+    assert not (tmp_path / "zero" / "f.png").exists()
