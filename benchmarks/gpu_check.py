@@ -31,8 +31,8 @@ written to ``--out`` (default ``$OUT/gpu_check.json`` when ``$OUT`` is set):
    the CPU and the device; the counts of passed, failed, errors and skipped tests.
 2. Training throughput of preset ``study-unet-tv``'s network and loss (its U-Net, L1 +
    λ hole L1 + β TV, Adam) on whole 352×1216 frames at batch 4, 16 and 64, fp32 and bf16
-   autocast: samples/s, model FLOP/s (``FlopCounterMode`` on the first step: the
-   convolutions forward and backward) and its share of the GPU's dense bf16 peak (a table
+   autocast: samples/s, model FLOP/s (``FlopCounterMode`` over one step's forward and
+   backward on the meta device: the convolutions; per timed step) and its share of the GPU's dense bf16 peak (a table
    of datasheet peaks by device name; otherwise "peak unknown"), the share of the step time
    spent blocked in the loader's ``next()`` (each step ends with a CUDA synchronisation),
    and peak GPU memory (``torch.cuda.max_memory_allocated``). The step is that of
