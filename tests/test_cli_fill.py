@@ -323,3 +323,29 @@ def test_fill_depth_in_memory_and_what_a_method_leaves_at_zero(tmp_path, capsys)
                 boxes=[(0, 0, 8, 8)], progress=False)
     assert not zero.ok and "left 64 of the 64 pixels to fill at 0 m" in zero.failed[0][1]
     assert not (tmp_path / "zero" / "f.png").exists()
+
+
+def test_ctrl_c_keeps_complete_files_and_the_rerun_resumes(png_folder, tmp_path, capsys, monkeypatch):
+    from estimators.classical import ScanlineInpainter
+
+    depth_dir, mask_dir, items = png_folder
+    original, calls = ScanlineInpainter.predict, [0]
+
+    def predict(self, X):
+        calls[0] += 1
+        if calls[0] > 1:
+            raise KeyboardInterrupt
+        return original(self, X)
+
+    monkeypatch.setattr(ScanlineInpainter, "predict", predict)
+    args = ["fill", str(depth_dir), "--holes", str(mask_dir), "-m", "scanline", "--batch-size", "1",
+            "--out", str(tmp_path / "out"), "-q"]
+    assert main(args) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"inpaintenv fill: interrupted; the files written so far are kept in {tmp_path / 'out'} (each "
+                   "complete); rerun the same command to go on (existing outputs are skipped)"]
+    written = sorted(p for p in (tmp_path / "out").rglob("*") if p.is_file())
+    assert [p.relative_to(tmp_path / "out") for p in written] == [items[0][0]]  # no temporary file left
+    monkeypatch.setattr(ScanlineInpainter, "predict", original)
+    assert main(args) == 0
+    assert "3 written, 1 skipped" in capsys.readouterr().err
