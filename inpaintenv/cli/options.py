@@ -141,20 +141,23 @@ def check_source_options(args: argparse.Namespace) -> str | None:
 
 
 def thread_count(text: str) -> int:
-    """``--threads N`` as argparse reads it: an integer in ``1..MAX_THREADS``, else one line naming the limit.
+    """``--threads N`` as argparse reads it: an integer of at most ``MAX_THREADS``, else one line naming the limit.
+
+    The lower bound (1) is the estimator's own check of ``num_threads``, which names the parameter.
 
     Raises
     ------
     argparse.ArgumentTypeError
-        For anything else (``100000`` threads made torch fail with "failed to map segment").
+        For a count above the limit (``100000`` threads made torch fail with "failed to
+        map segment") or text that is not a whole number.
     """
     try:
         n = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be a whole number of threads, got {text!r}") from None
-    if not 1 <= n <= MAX_THREADS:
-        raise argparse.ArgumentTypeError(f"must be 1..{MAX_THREADS} (MAX_THREADS: {THREADS_PER_CORE} per CPU core "
-                                         f"of this machine, at least {MIN_MAX_THREADS}), got {n}")
+    if n > MAX_THREADS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_THREADS} (MAX_THREADS: {THREADS_PER_CORE} per CPU "
+                                         f"core of this machine, at least {MIN_MAX_THREADS}), got {n}")
     return n
 
 

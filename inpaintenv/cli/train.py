@@ -19,6 +19,7 @@ from .options import (
     add_source_options,
     check_source_options,
     open_source_from_args,
+    thread_count,
 )
 
 
@@ -39,7 +40,7 @@ def add_train(subparsers: Any) -> None:
     p.add_argument("--out", default="runs/model", metavar="DIR", help="output folder (default runs/model)")
     p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")
     p.add_argument("--seed", type=int, metavar="S", help="override the preset's random_state")
-    p.add_argument("--threads", type=int, metavar="N", help="torch threads (override)")
+    p.add_argument("--threads", type=thread_count, metavar="N", help="torch threads (override; at most MAX_THREADS)")
     p.add_argument("--jobs", type=int, metavar="N",
                    help="frames whose training features are computed in parallel (override of n_jobs; "
                         "blend presets; -1 = all cores)")

@@ -59,7 +59,8 @@ def test_threads_option_type_names_its_limit():
     from inpaintenv.cli.options import MAX_THREADS, thread_count
 
     assert thread_count("3") == 3 and thread_count(str(MAX_THREADS)) == MAX_THREADS
-    for bad, words in (("100000", f"must be 1..{MAX_THREADS} (MAX_THREADS"), ("0", "must be 1.."),
+    assert thread_count("0") == 0  # refused by the estimator's num_threads check, which names it
+    for bad, words in (("100000", f"must be at most {MAX_THREADS} (MAX_THREADS"),
                        ("abc", "must be a whole number of threads, got 'abc'")):
         with pytest.raises(argparse.ArgumentTypeError, match=re.escape(words)):
             thread_count(bad)
@@ -73,3 +74,13 @@ def test_split_must_be_a_string(tmp_path):
 def test_dense_needs_synthetic(tmp_path):
     with pytest.raises(ValueError, match="dense"):
         open_source(tmp_path, kind="dense")
+
+
+def test_train_threads_is_bounded_in_option_parsing(capsys):
+    from inpaintenv.cli import main
+    from inpaintenv.cli.options import MAX_THREADS
+
+    with pytest.raises(SystemExit):
+        main(["train", "--threads", "100000", "--synthetic"])
+    err = capsys.readouterr().err
+    assert f"argument --threads: must be at most {MAX_THREADS} (MAX_THREADS" in err and "got 100000" in err
