@@ -14,7 +14,6 @@ the same rows. Progress goes to tqdm bars on a terminal and, in a log, to a line
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import re
@@ -40,11 +39,10 @@ from ..report.progress import (
     format_duration,
     stderr_is_terminal,
 )
-from ..report.files import write_text_atomic
-from .datakey import data_key
 from .identity import method_identity
 from .lock import run_lock
 from .ownership import adopt, check_folder, claim, remove
+from .run_state import RunMismatchError, RunStateError, differences, fingerprint, read_run_file, write_run_file
 from .suites import method_kind
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
@@ -57,32 +55,8 @@ PROGRESS_INTERVAL = 10.0
 UNAVAILABLE = (ImportError, KeyError, FileNotFoundError)
 
 
-class RunMismatchError(ValueError):
-    """The output folder holds rows of a different run (other data, seeds, protocols, or
-    another model under the same method name)."""
-
-
-class RunStateError(ValueError):
-    """The output folder's ``run.json`` (the resume state) cannot be read."""
-
-
 def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
-
-
-def _fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], seeds: Sequence[int]) -> dict[str, Any]:
-    ids = "\n".join(str(f) for f in dataset.frame_ids[:n_frames])
-    fingerprint = {
-        "source": repr(dataset),
-        "n_frames": n_frames,
-        "frames_sha1": hashlib.sha1(ids.encode()).hexdigest(),
-        "protocols": list(protocols),
-        "seeds": list(seeds),
-    }
-    data = data_key(dataset, n_frames)
-    if data:  # a generated source has nothing beyond its description
-        fingerprint["data"] = data
-    return fingerprint
 
 
 def _read_rows(path: Path) -> list[dict[str, Any]]:
@@ -97,59 +71,6 @@ def _read_rows(path: Path) -> list[dict[str, Any]]:
                 # A run killed mid-write leaves at most one partial last line.
                 continue
     return rows
-
-
-def _read_run_file(path: Path) -> dict[str, Any]:
-    """The resume state of ``path``; a damaged file is an error that names it."""
-    try:
-        state = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise RunStateError(
-            f"cannot read the resume state {path} ({exc}); pass --no-resume (resume=False) "
-            "to start over, or delete the file"
-        ) from None
-    if not isinstance(state, dict):
-        raise RunStateError(
-            f"{path} is not a benchmark resume state (a JSON object); pass --no-resume "
-            "(resume=False) to start over, or delete the file"
-        )
-    return state
-
-
-def _write_run_file(
-    path: Path, fingerprint: dict[str, Any], identities: dict[str, str], trained: dict[str, list[str]]
-) -> None:
-    # Whole or not at all: a kill mid-write must not leave a run.json that cannot be read.
-    # "training_drives" is kept so that a resume that builds no method still marks them.
-    claim(path.parent, path.name)
-    write_text_atomic(path, json.dumps({**fingerprint, "methods": identities, "training_drives": trained}, indent=1))
-
-
-#: What each fingerprint key is, for the message of a folder holding another run.
-_SETTINGS = {
-    "source": "the data source", "n_frames": "the number of frames", "frames_sha1": "the frames (their ids)",
-    "protocols": "the protocols (--protocol)", "seeds": "the seeds (--seed)", "unfilled": "--unfilled",
-}
-
-
-def _differences(previous: dict[str, Any], now: dict[str, Any]) -> list[str]:
-    """One phrase per setting in which the folder's run and this one differ."""
-    out = []
-    for key in [*_SETTINGS, *sorted((set(previous) | set(now)) - set(_SETTINGS) - {"data"})]:
-        before, after = previous.get(key), now.get(key)
-        if before == after:
-            continue
-        if key == "unfilled":
-            before = before or "not given (each method's own policy)"
-            after = after or "not given (each method's own policy)"
-        out.append(f"{_SETTINGS.get(key, key)}: {before} there, {after} now")
-    old_data, new_data = previous.get("data"), now.get("data")
-    if old_data is not None and old_data != new_data and previous.get("frames_sha1") == now.get("frames_sha1"):
-        changed = sorted(d for d in set(old_data) | set(new_data or {}) if old_data.get(d) != (new_data or {}).get(d))
-        shown = ", ".join(changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3 else "")
-        out.append(f"the ground truth changed since its rows were scored (the files of drive{'s' * (len(changed) != 1)} "
-                   f"{shown} differ in size, modification time or content)")
-    return out
 
 
 def _check_run(
@@ -353,19 +274,19 @@ class _Run:
         self._warmed: set[str] = set()  # methods warmed up (evaluate's ``warmup``) in this process
 
     def save(self) -> None:
-        _write_run_file(self.run_file, self.fingerprint, self.identities, self.trained)
+        write_run_file(self.run_file, self.fingerprint, self.identities, self.trained)
 
     def open(self, resume: bool, unfilled: str | None) -> None:
         """Check the folder holds this run (on resume) or clear its rows; read what it recorded."""
         adopt(self.out)
         self.rows_dir.mkdir(parents=True, exist_ok=True)
-        self.fingerprint = _fingerprint(self.dataset, self.total, self.protocols, self.seeds)
+        self.fingerprint = fingerprint(self.dataset, self.total, self.protocols, self.seeds)
         if unfilled is not None:
             # Only a run-wide choice: a method's own policy is part of what the method is, and
             # a run.json without the key (older runs, default runs) stays resumable.
             self.fingerprint["unfilled"] = unfilled
         if resume and self.run_file.exists():
-            previous = _read_run_file(self.run_file)
+            previous = read_run_file(self.run_file)
             recorded = previous.pop("methods", None)
             self.identities = {k: v for k, v in (recorded or {}).items() if isinstance(v, str)}
             self.trained = {k: [str(d) for d in v] for k, v in (previous.pop("training_drives", None) or {}).items()
@@ -374,10 +295,10 @@ class _Run:
                 # A folder from before the data's content was recorded: its content is unknown, so
                 # it is accepted as it is (as a method without a recorded identity) and recorded now.
                 previous["data"] = self.fingerprint["data"]
-            differences = _differences(previous, self.fingerprint)
-            if differences:
+            changed = differences(previous, self.fingerprint)
+            if changed:
                 raise RunMismatchError(
-                    f"{self.out} holds results of a different run ({'; '.join(differences)}); "
+                    f"{self.out} holds results of a different run ({'; '.join(changed)}); "
                     "choose another --out or pass --no-resume to score again there"
                 )
         if not resume:

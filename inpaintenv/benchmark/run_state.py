@@ -1,0 +1,101 @@
+"""The resume state of a run folder: ``run.json``, what keys a run, and why two runs differ.
+
+``run.json`` fingerprints a run (source, frame ids, protocols, seeds, a run-wide
+``unfilled``, and the data's content per drive, :mod:`.datakey`) and records what each
+method name stood for (:mod:`.identity`) and the drives learned methods were trained on.
+A resume into a folder of another run is refused with one line naming each setting that
+differs (:func:`differences`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..data.base import DepthDataset
+from ..report.files import write_text_atomic
+from .datakey import data_key
+from .ownership import claim
+
+__all__ = ["RunMismatchError", "RunStateError", "differences", "fingerprint", "read_run_file", "write_run_file"]
+
+
+class RunMismatchError(ValueError):
+    """The output folder holds rows of a different run (other data, seeds, protocols, or
+    another model under the same method name)."""
+
+
+class RunStateError(ValueError):
+    """The output folder's ``run.json`` (the resume state) cannot be read."""
+
+
+def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], seeds: Sequence[int]) -> dict[str, Any]:
+    """What keys a run: source, frames (count, ids), protocols, seeds and the data's content."""
+    ids = "\n".join(str(f) for f in dataset.frame_ids[:n_frames])
+    key = {
+        "source": repr(dataset),
+        "n_frames": n_frames,
+        "frames_sha1": hashlib.sha1(ids.encode()).hexdigest(),
+        "protocols": list(protocols),
+        "seeds": list(seeds),
+    }
+    data = data_key(dataset, n_frames)
+    if data:  # a generated source has nothing beyond its description
+        key["data"] = data
+    return key
+
+
+def read_run_file(path: Path) -> dict[str, Any]:
+    """The resume state of ``path``; a damaged file is an error that names it."""
+    try:
+        state = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise RunStateError(
+            f"cannot read the resume state {path} ({exc}); pass --no-resume (resume=False) "
+            "to start over, or delete the file"
+        ) from None
+    if not isinstance(state, dict):
+        raise RunStateError(
+            f"{path} is not a benchmark resume state (a JSON object); pass --no-resume "
+            "(resume=False) to start over, or delete the file"
+        )
+    return state
+
+
+def write_run_file(
+    path: Path, fingerprint: dict[str, Any], identities: dict[str, str], trained: dict[str, list[str]]
+) -> None:
+    # Whole or not at all: a kill mid-write must not leave a run.json that cannot be read.
+    # "training_drives" is kept so that a resume that builds no method still marks them.
+    claim(path.parent, path.name)
+    write_text_atomic(path, json.dumps({**fingerprint, "methods": identities, "training_drives": trained}, indent=1))
+
+
+#: What each fingerprint key is, for the message of a folder holding another run.
+_SETTINGS = {
+    "source": "the data source", "n_frames": "the number of frames", "frames_sha1": "the frames (their ids)",
+    "protocols": "the protocols (--protocol)", "seeds": "the seeds (--seed)", "unfilled": "--unfilled",
+}
+
+
+def differences(previous: dict[str, Any], now: dict[str, Any]) -> list[str]:
+    """One phrase per setting in which the folder's run and this one differ."""
+    out = []
+    for key in [*_SETTINGS, *sorted((set(previous) | set(now)) - set(_SETTINGS) - {"data"})]:
+        before, after = previous.get(key), now.get(key)
+        if before == after:
+            continue
+        if key == "unfilled":
+            before = before or "not given (each method's own policy)"
+            after = after or "not given (each method's own policy)"
+        out.append(f"{_SETTINGS.get(key, key)}: {before} there, {after} now")
+    old_data, new_data = previous.get("data"), now.get("data")
+    if old_data is not None and old_data != new_data and previous.get("frames_sha1") == now.get("frames_sha1"):
+        changed = sorted(d for d in set(old_data) | set(new_data or {}) if old_data.get(d) != (new_data or {}).get(d))
+        shown = ", ".join(changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3 else "")
+        out.append(f"the ground truth changed since its rows were scored (the files of drive{'s' * (len(changed) != 1)} "
+                   f"{shown} differ in size, modification time or content)")
+    return out
