@@ -242,22 +242,24 @@ def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -
     return _fill_batch(*_make_method(method, None, None), [depth], [mask])[0]
 
 
-def _fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np.ndarray]) -> list[np.ndarray]:
-    """Fill same-sized maps in one ``predict`` call; frames with nothing to fill are returned as they are."""
+def _fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np.ndarray], *,
+                copy: bool = True) -> list[np.ndarray]:
+    """Fill same-sized maps in one ``predict`` call (in place unless ``copy``); frames with nothing to fill
+    come back as they are."""
     todo = [k for k, f in enumerate(fills) if f.any()]
-    out = [d.copy() for d in depths]
+    out = [d.copy() for d in depths] if copy else list(depths)
     if not todo:
         return out
-    x = np.stack([depths[k] for k in todo]).astype(np.float32)
+    x = np.stack([depths[k] for k in todo]).astype(np.float32, copy=False)
     x[np.stack([fills[k] for k in todo])] = np.nan
     pred, _ = run_method(method, x, name)
     for k, p in zip(todo, pred):
-        filled = p[fills[k]]
-        if not (filled > 0).all():
+        unfilled = np.count_nonzero(fills[k] & (p <= 0))
+        if unfilled:
             raise MethodOutputError(
-                f"method {name!r} left {int((filled <= 0).sum())} of the {filled.size} pixels to fill at 0 m "
+                f"method {name!r} left {unfilled} of the {np.count_nonzero(fills[k])} pixels to fill at 0 m "
                 "(no measurement near them?); try another method, e.g. --method scanline")
-        out[k][fills[k]] = filled
+        np.copyto(out[k], p, where=fills[k], casting="same_kind")
     return out
 
 
@@ -360,7 +362,10 @@ class _Run:
     def predict(self, batch: list[_Item]) -> list[tuple[_Item, np.ndarray | None]]:
         """Fill a batch of same-sized items; a batch that fails is retried frame by frame to name the bad one."""
         try:
-            filled = _fill_batch(self.method, self.name, [i.depth for i in batch], [i.fill for i in batch])
+            # In place: the arrays are this run's own, and a batch retried frame by frame sets its fill
+            # pixels to NaN again, so what a failed batch wrote there is never read.
+            filled = _fill_batch(self.method, self.name, [i.depth for i in batch], [i.fill for i in batch],
+                                 copy=False)
             return list(zip(batch, filled))
         except Exception as exc:  # noqa: BLE001
             if os.environ.get("INPAINTENV_TRACEBACK"):
