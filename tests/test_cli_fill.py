@@ -314,7 +314,9 @@ def test_fill_depth_in_memory_and_what_a_method_leaves_at_zero(tmp_path, capsys)
 
     d = frames(1, (64, 96))[0]
     mask = box_mask((64, 96), 0)
+    before = d.copy()
     np.testing.assert_array_equal(fill_depth("scanline", d, mask), expected(make_method("scanline"), d, mask))
+    np.testing.assert_array_equal(d, before)  # the caller's array is not filled in place
     write_depth_png(tmp_path / "in" / "f.png", d)
     tiny = fill(tmp_path / "in", tmp_path / "tiny", method=lambda x: np.nan_to_num(x, nan=0.001),
                 boxes=[(0, 0, 8, 8)], progress=False)
