@@ -53,9 +53,8 @@ DEPTH_LIMIT: float = 65535.0 / 256.0
 #: more likely a channel axis (colour 3 or 4, grey 1) than a frame that narrow; 8 px is
 #: below any depth sensor's image and above any channel count.
 MIN_FRAME_SIDE: int = 8
-#: Largest frame, in pixels (width x height), that a depth file may declare or a source
-#: generate: 50 million, a 100 MB uint16 frame, a hundred times a KITTI frame (1242 x 375).
-#: A small PNG can declare 60000 x 60000; a typo in a frame size can ask for gigabytes.
+#: Largest frame (W x H pixels) a depth file may declare or a source generate: a 100 MB uint16
+#: frame, 100x KITTI's; a 7 MB PNG can declare 60000 x 60000, a typo in a size ask for gigabytes.
 MAX_FRAME_PIXELS: int = 50_000_000
 #: Smallest positive depth accepted in inputs and ground truth (1 mm). KITTI's PNG step is
 #: 1/256 m and LiDAR sees nothing nearer than decimetres, so a smaller positive value is
@@ -253,14 +252,13 @@ def reconstruction_problem(values: np.ndarray) -> str | None:
     Parameters
     ----------
     values : numpy.ndarray
-        A floating-point array (see :func:`as_depth_array`), any shape.
+        A floating-point array (:func:`as_depth_array`), any shape.
 
     Returns
     -------
     str or None
-        None when every value is allowed (decided by two reductions, see
-        :func:`in_depth_range`); else a phrase starting with "has" for the caller to
-        prefix with what the array is ("action has ...").
+        None when every value is allowed (two reductions, :func:`in_depth_range`); else a
+        phrase starting with "has", for the caller to prefix ("action has ...").
     """
     with np.errstate(over="ignore"):
         stored = values.astype(np.float32, copy=False)
@@ -344,11 +342,9 @@ def check_frame_shape(value: object, name: str = "frame_shape", *, minimum: int 
     Parameters
     ----------
     value : object
-        Two integers (a tuple, list or 1-D array); floats, bools and strings are refused.
-    name : str
-        Parameter name used in error messages (``"--frame-shape"``).
-    minimum : int
-        Smallest height and width.
+        Two integers (tuple, list, 1-D array); floats, bools and strings are refused.
+    name, minimum : str, int
+        Parameter name for messages (``"--frame-shape"``); smallest height and width.
 
     Raises
     ------

@@ -318,11 +318,7 @@ def _check_pred(pred: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def _checked_scored(scored_pred: np.ndarray) -> np.ndarray:
-    """The prediction at scored pixels as float64, which must be depth in ``[0, DEPTH_LIMIT]``.
-
-    The rule of every scored reconstruction (:func:`~inpaintenv.conventions.reconstruction_problem`,
-    the environment's action check), applied where ground truth exists.
-    """
+    """The prediction at scored pixels as float64, refused as the env refuses an action (``reconstruction_problem``)."""
     problem = reconstruction_problem(scored_pred)
     if problem is not None:
         raise ValueError(f"prediction at pixels with ground truth {problem}")
