@@ -74,9 +74,9 @@ def test_train_ctrl_c_is_one_line(tmp_path, capsys, monkeypatch):
     assert main(["train", "--preset", "smoke", "--n-frames", "4", "--frame-shape", "32", "96",
                  "--out", str(tmp_path), "--quiet"]) == 130
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1] == (f"inpaintenv train: interrupted; the checkpoints written so far are kept in "
-                       f"{tmp_path / 'checkpoints'} (one at the end of every epoch); rerun the same command "
-                       "to resume from the last one")
+    # Stopped before any step: nothing to keep (issue 43, item 20).
+    assert err[-1] == ("inpaintenv train: interrupted; no checkpoint was written (this run stopped before its first "
+                       "one, at the end of the first epoch); rerun the same command to start again")
 
 
 def test_train_says_whether_it_resumes_or_starts_over(tmp_path, capsys):
