@@ -136,7 +136,7 @@ def check_folder(out: str | os.PathLike) -> None:
         if first is not None:
             raise _foreign(out, first, "is neither empty nor a run folder of inpaintenv")
         return
-    stray = next((rel for rel in _run_paths(out) if rel not in owned), None)
+    stray = next((rel for rel in _run_paths(out) if rel not in owned and not _exempt(rel)), None)
     if stray is not None:
         raise _foreign(out, stray, "holds a file that no inpaintenv run wrote where a run writes its results")
 

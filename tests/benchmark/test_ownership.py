@@ -52,9 +52,11 @@ def test_a_users_file_at_a_run_path_of_a_run_folder_is_refused_not_replaced(tmp_
     assert main(["benchmark", "-m", "constant", *DATA, "--holdout", "0", "--figure-frames", "1", "--out", str(out)]) == 1
     one_line_naming(capsys, out, "figures/frame_0003.png")
     assert (out / "figures" / "frame_0003.png").read_bytes() == b"mine"
-    # Other files of a run folder (a README) are left alone and do not stop a run.
+    # Other files of a run folder (a README, the temporary file of a write a kill interrupted) are
+    # left alone and do not stop a run.
     (out / "figures" / "frame_0003.png").unlink()
     (out / "README.txt").write_text("about this run")
+    (out / "figures" / ".frame_0000.png.x1y2.tmp.png").write_bytes(b"half")
     assert main(["benchmark", "-m", "constant", *DATA, "--holdout", "0", "--figure-frames", "1", "--out", str(out)]) == 0
     assert (out / "README.txt").read_text() == "about this run"
 
