@@ -25,13 +25,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from .._version import __version__
 from ..conventions import check_int, check_seeds
 from ..data.base import Subset
-from ..data.io import KITTI_DEPTH_SCALE, write_depth_png
+from ..data.io import KITTI_DEPTH_SCALE, write_depth_png, write_png
 from ..evaluate import resolve_source
 from ..masks import OcclusionProtocol, get_protocol
 from .layout import (
@@ -285,8 +284,7 @@ def export(
                 input_rel, hole_rel = relative_paths(proto.name, seed, split, parts[i])
                 write_depth_png(tmp / input_rel, np.where(hole, np.float32(0), gt))
                 (tmp / hole_rel).parent.mkdir(parents=True, exist_ok=True)
-                if not cv2.imwrite(str(tmp / hole_rel), hole.astype(np.uint8) * np.uint8(HOLE_VALUE)):
-                    raise OSError(f"could not write {tmp / hole_rel}")
+                write_png(tmp / hole_rel, hole.astype(np.uint8) * np.uint8(HOLE_VALUE), "hole mask")
                 by_seed[seed].append(Item(
                     seed=seed, index=i, input=input_rel, hole=hole_rel, input_sha256=file_sha256(tmp / input_rel),
                     hole_sha256=file_sha256(tmp / hole_rel), hole_bits_sha256=hole_bits_sha256(hole),

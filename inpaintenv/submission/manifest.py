@@ -26,10 +26,9 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
-from ..data.io import read_depth_png
+from ..data.io import read_depth_png, read_png
 from .layout import HOLE_VALUE, MAX_FRAME_PIXELS, is_safe_relative
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "KEY", "KIT", "MANIFEST_NAME", "MAX_MANIFEST_BYTES", "Frame", "Item",
@@ -165,10 +164,7 @@ class Manifest:
     def read_hole(self, item: Item) -> np.ndarray:
         """The hole mask of ``item``, boolean (True = fill)."""
         path = self.root / item.hole
-        mask = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-        if mask is None:
-            raise FileNotFoundError(f"hole mask {path} is missing or unreadable")
-        return mask == HOLE_VALUE
+        return read_png(path, "hole mask") == HOLE_VALUE
 
     def kit_manifest(self) -> Manifest:
         """The manifest the submitter gets: this one without anything that names or rebuilds the ground truth."""
