@@ -53,9 +53,9 @@ def _frame_facts(dataset: DepthDataset, index: int) -> Iterator[bytes]:
         try:
             st = os.stat(path)
         except OSError:
-            yield f"{path}|missing".encode()
+            yield os.fsencode(path) + b"|missing"
         else:
-            yield f"{path}|{st.st_size}|{st.st_mtime_ns}".encode()
+            yield os.fsencode(path) + f"|{st.st_size}|{st.st_mtime_ns}".encode()
 
 
 def _frame_path(dataset: DepthDataset, index: int) -> Any:
@@ -80,7 +80,7 @@ def data_key(dataset: DepthDataset, n_frames: int) -> dict[str, str]:
     known = False
     for i in range(n_frames):
         h = digests.setdefault(str(dataset.groups[i]), hashlib.sha1())
-        h.update(str(dataset.frame_ids[i]).encode() + b"\0")
+        h.update(str(dataset.frame_ids[i]).encode("utf-8", "surrogateescape") + b"\0")
         for fact in _frame_facts(dataset, i):
             known = True
             h.update(fact + b"\0")

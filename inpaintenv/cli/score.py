@@ -71,7 +71,7 @@ def _score_interrupted(args: argparse.Namespace) -> str:
 def cmd_score(args: argparse.Namespace) -> int:
     """Run ``inpaintenv score``."""
     from ..benchmark.figures import write_figures
-    from ..benchmark.headline import headline_markdown, learned_vs_classical
+    from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..benchmark.lock import run_lock
     from ..benchmark.ownership import check_folder
     from ..benchmark.report import summary_table, to_markdown, write_report
@@ -122,9 +122,9 @@ def cmd_score(args: argparse.Namespace) -> int:
             "command": command, "submission": submission_meta(args.name, manifest, args.predictions, checked)})
         table = summary_table(report)
         print(to_markdown(table))
-        headline = headline_markdown(learned_vs_classical(report))
-        if headline:
-            print("\nBest learned vs strongest classical (hole RMSE ratio, paired 95 % CI):\n" + headline)
+        compared = learned_vs_classical(report)
+        if compared:
+            print(f"\n{headline_title(compared)} (hole RMSE ratio, paired 95 % CI):\n" + headline_markdown(compared))
         if args.figure_frames > 0:
             # Panels only of frames the submission has a prediction for under the first seed.
             absent = {i for i in range(len(dataset)) if (seeds[0], i) not in checked.method.scored_pairs}

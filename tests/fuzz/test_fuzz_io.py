@@ -233,6 +233,8 @@ _NON_UTF8_SCRIPT = textwrap.dedent("""
     assert "2011_09_26_drive_\\\\xe9_sync" in (out / "ev" / "results.csv").read_text()  # ids: \\xNN
     assert main(["show", "-m", "constant", "--out", str(out / "panel.png"), *argv]) == 0
     assert (out / "panel.png").read_bytes()[:4] == b"\\x89PNG"
+    assert main(["benchmark", "-m", "constant", "--figure-frames", "0", "--out", str(out / "bench"), *argv]) == 0
+    assert main(["export", "--out", str(out / "kit"), *argv]) == 0
     print("ok")
 """)
 
