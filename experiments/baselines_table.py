@@ -14,11 +14,11 @@ that ms/frame is single-core time.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
+from _common import default_root
 
 from estimators import (
     ConstantInpainter,
@@ -52,14 +52,6 @@ METHODS = {
     "scanline-2d-inverse": ScanlineInpainter(inverse=True, vertical=True),
     "constant": ConstantInpainter(),
 }
-#: Held out from tuning: defaults were only ever compared on this drive.
-TUNING_DRIVE = "2011_09_26_drive_9001_sync"
-
-
-def default_root() -> Path | None:
-    """``$INPAINTENV_KITTI_ROOT`` (None when unset: then ``--root`` is required)."""
-    env = os.environ.get("INPAINTENV_KITTI_ROOT")
-    return Path(env) if env else None
 
 
 def load_frames(root: Path, splits: list[str], drives: list[str] | None, every: int) -> list[DepthDataset]:

@@ -19,8 +19,7 @@ import argparse
 import json
 import sys
 
-from estimators.ensemble import MeanEnsembleInpainter
-from estimators.learned._checkpoint import CheckpointError
+from estimators import MeanEnsembleInpainter
 from estimators.learned.load import load_checkpoint
 
 
@@ -39,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
             p.error(f"a member is NAME=FOLDER, got {item!r}")
         try:
             members.append((name, load_checkpoint(folder)))
-        except CheckpointError as exc:
+        except (ValueError, OSError) as exc:  # not a model folder, or an unreadable one
             p.error(f"member {name}: {exc}")
     try:
         est = MeanEnsembleInpainter.from_fitted(members)

@@ -19,7 +19,7 @@ Examples
 
 ``--shared-features`` computes the candidate features once for both models (blend estimators
 that read the same candidates), as the ensemble release of the two does
-(``estimators.ensemble.MeanEnsembleInpainter``); the ms/frame column
+(``estimators.MeanEnsembleInpainter``); the ms/frame column
 comes from the same run (one untimed warm-up call per method).
 """
 
@@ -27,12 +27,12 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
-from focal_probe import load_method
 
-from estimators.ensemble import MeanEnsembleInpainter
+from estimators import MeanEnsembleInpainter
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
@@ -52,9 +52,18 @@ class MeanOfModels:
         return np.mean([np.asarray(m.predict(depth), dtype=np.float32) for m in self.models], axis=0)
 
 
+def load_method(spec: str) -> tuple[str, Any]:
+    """``(name, method)`` of a saved model folder (named after its run folder) or a registry name."""
+    path = Path(spec)
+    if path.is_dir():
+        run = path.parent.name if path.name == "model" else path.name
+        return run, make_method("checkpoint", path=path)
+    return spec, make_method(spec)
+
+
 def shared_feature_mean(models: list[Any]) -> MeanEnsembleInpainter:
     """The mean of blend estimators that read the same candidate features, computed once per
-    frame for all of them: the product's :class:`~estimators.ensemble.MeanEnsembleInpainter`
+    frame for all of them: the product's :class:`~estimators.MeanEnsembleInpainter`
     of the fitted models (what an ensemble release of them costs)."""
     others = [type(m).__name__ for m in models if not hasattr(m, "_predict_features")]
     if others:

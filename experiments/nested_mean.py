@@ -10,7 +10,7 @@ three candidates on the split's held-out drives:
 * ``first``: the first recipe's model (default ``context-kitti-draws``, kitti-context-v3's);
 * ``second``: the second recipe's model (default ``blend-kitti``, kitti-rect-v4's);
 * ``mean``: the per-pixel mean of the two, the second without its mirrored pass
-  (``--second-tta``), features computed once for both (``mean_of_models.shared_feature_mean``).
+  (``--second-tta``), features computed once for both (``MeanEnsembleInpainter``).
 
 ``--weight W`` (repeatable) adds the candidate ``mean-wW``: the weighted mean, the first model
 weighing ``W`` and the second ``1 - W`` (``MeanEnsembleInpainter(weights=...)``). A rerun with
@@ -29,7 +29,8 @@ land in ``OUT/outer-<fold>.json`` (``--by-drive`` prints their ratios per drive)
 Each candidate's ratio to the strongest classical method (``-m``) is pooled over the fold's
 inner splits (every held-out frame-mask counts once, paired 95 % interval); the lowest ratio
 is the fold's choice. The fold's report is then the chosen candidate's score on the outer
-held-out frames, which ``lodo_days.sh`` and ``mean_of_models.py`` measure.
+held-out frames, which ``lodo_days.sh`` and ``mean_of_models.py`` measure (``--outer``
+prints it for the mean candidates).
 
 Models land in ``OUT/train-without-<left-out>-<preset>/model``; one training set shared by
 several inner splits is trained once, and a rerun resumes. ``--link DIR`` reuses
@@ -55,8 +56,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mean_of_models import shared_feature_mean
 
+from estimators import MeanEnsembleInpainter
 from estimators.learned.load import load_checkpoint
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
@@ -127,6 +128,12 @@ def parse_mix(text: str, methods: list[str], *, gated: bool = False) -> tuple[An
         bounds = "S in (0, 1] and T >= 0" if gated else "S in (0, 1)"
         raise ValueError(f"{form} with METHOD one of -m ({', '.join(methods)}) and {bounds}, got {text!r}")
     return (parts[0], *numbers)
+
+
+def mean_of(first: Any, second: Any) -> MeanEnsembleInpainter:
+    """The product's per-pixel mean of two fitted models (blend models share their candidate features)."""
+    return MeanEnsembleInpainter.from_fitted([("first", first), ("second", second)],
+                                             predict_threads=first.predict_threads)
 
 
 def day_of(drive: str) -> str:
@@ -265,12 +272,12 @@ def main(argv: list[str] | None = None) -> int:
         first = load_checkpoint(model_dir(exclude, presets[0]))
         in_mean = load_checkpoint(model_dir(exclude, presets[1]))
         in_mean.set_params(tta=args.second_tta == "true")
-        mean = Memo(shared_feature_mean([first, in_mean]))
+        mean = Memo(mean_of(first, in_mean))
         methods: dict[str, Any] = {"first": first, "mean": mean}
         if "second" in wanted:  # the second model on its own, with its mirrored pass as saved
             methods["second"] = load_checkpoint(model_dir(exclude, presets[1]))
         for w in args.weight:
-            methods[f"mean-w{w:g}"] = shared_feature_mean([first, in_mean]).set_params(weights=[w, 1 - w])
+            methods[f"mean-w{w:g}"] = mean_of(first, in_mean).set_params(weights=[w, 1 - w])
         classical = {m: Memo(make_method(m)) for m in args.method}
         methods.update(classical)
         for m, share in shares:

@@ -22,23 +22,11 @@ import json
 import time
 from pathlib import Path
 
-import numpy as np
+from _common import N_TRAIN, SELECTION_DRIVE, sel_scores
 
 from estimators.presets import make_preset
 from inpaintenv.data import ArrayDataset, ConcatDataset, SyntheticStreets
 from inpaintenv.data.kitti import KittiDepth
-from inpaintenv.masks import get_protocol
-from inpaintenv.metrics import aggregate, frame_metrics
-
-DRIVE = "2011_09_26_drive_9001_sync"
-N_TRAIN = 56
-
-
-def sel_scores(predict, sel: np.ndarray, protocol: str = "rect-v1") -> dict:
-    """Hole/all RMSE of ``predict`` (batch of corrupted frames -> depth) on ``sel`` (seed 0)."""
-    holes = get_protocol(protocol).masks(sel.shape[1:], 0, range(len(sel)))
-    x = np.where(holes, np.nan, sel).astype(np.float32)
-    return aggregate(frame_metrics(predict(x), sel, holes))
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -58,7 +46,7 @@ def main(argv: list[str] | None = None) -> dict:
             p.error(f"override {item!r} is not name=value")
         overrides[key] = ast.literal_eval(value)
 
-    frames = KittiDepth(args.kitti_root, split="train", drives=[DRIVE])
+    frames = KittiDepth(args.kitti_root, split="train", drives=[SELECTION_DRIVE])
     train = ArrayDataset(frames.load_batch(range(N_TRAIN)))
     if args.synthetic:
         # Procedural streets add scene diversity the one real drive lacks; seed 1000

@@ -20,12 +20,12 @@ import json
 from collections.abc import Callable
 
 import numpy as np
+from _common import N_TRAIN, SELECTION_DRIVE, sel_scores
 
 from estimators.learned.load import load_checkpoint
 from estimators.learned.releases import load_release, shipped
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.registry import make_method
-from pretrained_selection import DRIVE, N_TRAIN, sel_scores
 
 PROTOCOLS = ("rect-v1", "lidar-dropout-v1", "ego-occlusion-v1", "freeform-v1")
 
@@ -54,7 +54,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p.add_argument("--kitti-root", required=True)
     p.add_argument("--protocol", action="append", help=f"default: all of {PROTOCOLS}")
     args = p.parse_intermixed_args(argv)
-    frames = KittiDepth(args.kitti_root, split="train", drives=[DRIVE])
+    frames = KittiDepth(args.kitti_root, split="train", drives=[SELECTION_DRIVE])
     sel = frames.load_batch(range(N_TRAIN, len(frames)))
     rows = []
     entries = [(m, "model") for m in args.models] + [(m, "method") for m in args.method]

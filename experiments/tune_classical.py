@@ -20,7 +20,7 @@ import numpy as np
 from sklearn.model_selection import ParameterGrid
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from baselines_table import TUNING_DRIVE, default_root
+from _common import TUNING_DRIVE, default_root
 
 from estimators import (
     HarmonicInpainter,

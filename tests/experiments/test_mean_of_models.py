@@ -27,20 +27,27 @@ def test_mean_is_the_per_pixel_average_of_the_members(load_experiment):
 
 def test_scores_both_models_and_their_mean_on_one_day(tiny_kitti, capsys, load_experiment):
     script = load_experiment("mean_of_models")
-    entries = script.main(["--kitti-root", str(tiny_kitti), "--day", "2011_09_26", "pretrained", "kitti-rect-v4",
+    entries = script.main(["--kitti-root", str(tiny_kitti), "--day", "2011_09_26", "pretrained", "kitti-mixed-v1",
                            "-m", "harmonic", "-m", "scanline", "--seed", "0"])
-    assert [e["learned"] for e in entries] == ["pretrained", "kitti-rect-v4", "mean"]
+    assert [e["learned"] for e in entries] == ["pretrained", "kitti-mixed-v1", "mean"]
     assert all(e["hole_ratio_n"] == 3 for e in entries)  # the day's three one-frame drives
     out = capsys.readouterr().out
     assert "| mean |" in out and "| pretrained |" in out
-    for bad in (["pretrained", "kitti-rect-v4"], ["pretrained", "kitti-rect-v4", "-m", "pretrained"],
-                ["pretrained", "kitti-rect-v4", "-m", "harmonic", "--day", "1999_01_01"]):
+    for bad in (["pretrained", "kitti-mixed-v1"], ["pretrained", "kitti-mixed-v1", "-m", "pretrained"],
+                ["pretrained", "kitti-mixed-v1", "-m", "harmonic", "--day", "1999_01_01"]):
         with pytest.raises(SystemExit):
             script.main(["--kitti-root", str(tiny_kitti), *bad])
 
 
-def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
+def _default_members() -> list:
+    """The two blend models of the shipped default (they read the same candidate features)."""
     from estimators.learned.releases import load_release
+
+    members = load_release("kitti-ensemble-v1").named_estimators_
+    return [members["context"], members["blend"]]
+
+
+def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
     from inpaintenv.conventions import corrupt
     from inpaintenv.data import SyntheticStreets
     from inpaintenv.masks import get_protocol
@@ -48,7 +55,7 @@ def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
     script = load_experiment("mean_of_models")
     gt = SyntheticStreets(n=1, frame_shape=(96, 320))[0]
     x = corrupt(gt, get_protocol("rect-v1").mask(gt.shape, seed=0, index=0))
-    models = [load_release("kitti-context-v3"), load_release("kitti-rect-v4")]
+    models = _default_members()
     separate = script.MeanOfModels(models).predict(x[None])
     shared = script.shared_feature_mean(models).predict(x)
     assert shared.shape == x.shape
@@ -60,12 +67,15 @@ def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
         script.shared_feature_mean([models[0], _Constant(1.0)])
 
 
-def test_second_model_parameters_are_checked(tiny_kitti, load_experiment):
+def test_second_model_parameters_are_checked(tiny_kitti, tmp_path, load_experiment):
     script = load_experiment("mean_of_models")
-    base = ["--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync", "kitti-context-v3", "kitti-rect-v4",
+    context, blend = _default_members()
+    folders = [str(context.save(tmp_path / "context")), str(blend.save(tmp_path / "blend"))]
+    base = ["--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync", *folders,
             "-m", "scanline", "--seed", "0", "--shared-features"]
     entries = script.main([*base, "--set-second", "tta=false"])
-    assert entries[1]["learned"] == "kitti-rect-v4 (tta=false)" and entries[2]["learned"] == "mean"
+    assert entries[0]["learned"] == "context" and entries[1]["learned"] == "blend (tta=false)"
+    assert entries[2]["learned"] == "mean"
     for bad in ("tta", "tta=notjson", "no_such_param=1"):
         with pytest.raises(SystemExit):
             script.main([*base, "--set-second", bad])
