@@ -18,7 +18,7 @@ EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 
 @pytest.fixture(scope="session")
 def load_experiment():
-    """``load_experiment("blend_lodo")``: ``experiments/blend_lodo.py`` as a module."""
+    """``load_experiment("nested_mean")``: ``experiments/nested_mean.py`` as a module."""
 
     def load(name: str) -> ModuleType:
         spec = importlib.util.spec_from_file_location(name, EXPERIMENTS / f"{name}.py")
