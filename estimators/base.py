@@ -26,6 +26,7 @@ from inpaintenv.conventions import DEFAULT_MAX_DEPTH, check_depth
 from inpaintenv.data.base import DepthDataset, as_dataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
+from inpaintenv.exceptions import InvalidInputError
 
 __all__ = [
     "BaseInpainter", "check_inpaint_input", "check_random_state", "iter_scoring_batches", "resolve_seed",
@@ -58,7 +59,7 @@ def check_inpaint_input(X: Any, *, require_hole: bool = True) -> np.ndarray:
     """
     arr = check_depth(X, name="X", allow_nan=True)
     if require_hole and not np.isnan(arr).any():
-        raise ValueError(
+        raise InvalidInputError(
             "X has no NaN: mark the pixels to fill with NaN (0 means 'no measurement', "
             "not 'hole')"
         )
@@ -74,7 +75,7 @@ def check_random_state(value: Any, name: str = "random_state") -> None:
     if value is None or isinstance(value, (np.random.RandomState, np.random.Generator)):
         return
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 0:
-        raise ValueError(
+        raise InvalidInputError(
             f"{name} must be None, a non-negative int, a numpy RandomState or a numpy Generator, got {value!r}"
         )
 
@@ -110,7 +111,7 @@ def iter_scoring_batches(
         x = check_inpaint_input(X)
         gt = check_depth(y, name="y")
         if x.shape != gt.shape:
-            raise ValueError(f"X has shape {x.shape} but y has {gt.shape}")
+            raise InvalidInputError(f"X has shape {x.shape} but y has {gt.shape}")
         if x.ndim == 2:
             x, gt = x[None], gt[None]
         yield x, gt, np.isnan(x)
@@ -182,7 +183,7 @@ class BaseInpainter(BaseEstimator):
         """
         dataset = as_dataset(X)
         if len(dataset) == 0:
-            raise ValueError("cannot fit on an empty dataset")
+            raise InvalidInputError("cannot fit on an empty dataset")
         self._fit(dataset)
         if not self._stateless:
             # Saved with the model: a benchmark marks the drives a model was trained on.
@@ -238,7 +239,7 @@ class BaseInpainter(BaseEstimator):
         if n_jobs is not None and (
             isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0
         ):
-            raise ValueError(
+            raise InvalidInputError(
                 f"{type(self).__name__}: n_jobs must be None or a non-zero integer "
                 f"(-1 = all cores), got {n_jobs!r}"
             )
@@ -285,5 +286,5 @@ class BaseInpainter(BaseEstimator):
         """
         table = aggregate(self.score_frames(X, y))
         if np.isnan(table["hole_rmse"]):
-            raise ValueError("no frame has ground truth inside its holes; nothing to score")
+            raise InvalidInputError("no frame has ground truth inside its holes; nothing to score")
         return -table["hole_rmse"]

@@ -42,6 +42,7 @@ from sklearn.utils import estimator_checks as skchecks
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.masks import get_protocol
+from inpaintenv.exceptions import InvalidInputError, UnknownNameError
 
 __all__ = ["CHECKS", "CheckData", "CheckSkipped", "check_inpainter", "make_check_data", "run_check"]
 
@@ -86,7 +87,7 @@ def make_check_data(X: Any = None) -> CheckData:
     else:
         gt = check_depth(np.asarray(X), name="X", ndim=(3,))
         if len(gt) < 2:
-            raise ValueError(f"X must hold at least 2 frames for the batch checks, got {len(gt)}")
+            raise InvalidInputError(f"X must hold at least 2 frames for the batch checks, got {len(gt)}")
     hole = get_protocol("rect-v1").masks(gt.shape[1:], 0, range(len(gt)))
     return CheckData(gt=gt, x=np.where(hole, np.float32(np.nan), gt).astype(np.float32))
 
@@ -324,7 +325,7 @@ def run_check(estimator: Any, name: str, data: CheckData) -> None:
         For an unknown name.
     """
     if name not in CHECKS:
-        raise KeyError(f"unknown check {name!r}; known: {', '.join(CHECKS)}")
+        raise UnknownNameError(f"unknown check {name!r}; known: {', '.join(CHECKS)}")
     try:
         CHECKS[name](estimator, data)
     except AssertionError as exc:

@@ -27,6 +27,7 @@ from ._scan import AxisScan
 from .classical._base import in_inverse_depth
 from .classical.harmonic import harmonic_fill
 from .classical.scanline import scanline_fill
+from inpaintenv.exceptions import InvalidInputError
 
 __all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "row_band_quantile"]
 
@@ -51,7 +52,7 @@ def _check_values_known(values: np.ndarray, known: np.ndarray) -> tuple[np.ndarr
     """``(values as float32, known)`` after checking both are 2-D, of one shape, ``known`` bool."""
     known = np.asarray(known)
     if known.ndim != 2 or known.dtype != bool or np.shape(values) != known.shape:
-        raise ValueError(
+        raise InvalidInputError(
             f"values and known must be 2-D arrays of one shape, known bool; got {np.shape(values)} "
             f"and {known.dtype} {known.shape}"
         )
@@ -88,9 +89,9 @@ def row_band_quantile(values: np.ndarray, known: np.ndarray, q: float, band: int
         ``(H, W)`` float32 metres.
     """
     if not 0.0 <= q <= 1.0:
-        raise ValueError(f"q must be in [0, 1], got {q!r}")
+        raise InvalidInputError(f"q must be in [0, 1], got {q!r}")
     if int(band) != band or band < 0:
-        raise ValueError(f"band must be a non-negative integer, got {band!r}")
+        raise InvalidInputError(f"band must be a non-negative integer, got {band!r}")
     values, known = _check_values_known(values, known)
     band = int(band)
     height, width = values.shape
@@ -148,7 +149,7 @@ def check_candidates(names: Sequence[str]) -> tuple[str, ...]:
     if isinstance(names, str) or not isinstance(names, Sequence) or not names or any(
         n not in _FILLS for n in names
     ):
-        raise ValueError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
+        raise InvalidInputError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
     return tuple(names)
 
 
@@ -228,7 +229,7 @@ def gap_distances(known: np.ndarray) -> np.ndarray:
     """
     known = np.asarray(known)
     if known.ndim != 2 or known.dtype != bool:
-        raise ValueError(f"known must be a 2-D bool array, got {known.dtype} with shape {known.shape}")
+        raise InvalidInputError(f"known must be a 2-D bool array, got {known.dtype} with shape {known.shape}")
     left, right = _distances_along_rows(known)
     up, down = _distances_along_rows(known.T)
     return np.stack([left, right, up.T, down.T]).astype(np.float32)

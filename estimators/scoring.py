@@ -19,6 +19,7 @@ from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import METRIC_NAMES, REGIONS, aggregate
 
 from .base import SCORE_PROTOCOL, SCORE_SEED, BaseInpainter
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = [
     "InpaintScorer",
@@ -47,13 +48,13 @@ class InpaintScorer:
 
     def __call__(self, estimator: Any, X: Any, y: Any = None) -> float:
         if not isinstance(estimator, BaseInpainter):
-            raise TypeError(
+            raise InvalidTypeError(
                 f"an inpaint scorer needs an estimators.BaseInpainter, got {type(estimator).__name__}"
             )
         per_frame = estimator.score_frames(X, y, protocol=self.protocol, seed=self.seed)
         value = aggregate(per_frame)[self.metric]
         if np.isnan(value):
-            raise ValueError(f"no frame has ground truth for {self.metric!r}; nothing to score")
+            raise InvalidInputError(f"no frame has ground truth for {self.metric!r}; nothing to score")
         return self._sign * float(value)
 
     def __repr__(self) -> str:
@@ -83,10 +84,10 @@ def make_inpaint_scorer(
     """
     known = [f"{r}_{m}" for r in REGIONS for m in METRIC_NAMES]
     if metric not in known:
-        raise ValueError(f"unknown metric {metric!r}; choose one of {', '.join(known)}")
+        raise InvalidInputError(f"unknown metric {metric!r}; choose one of {', '.join(known)}")
     get_protocol(protocol)  # fail now on an unknown protocol, not inside a CV loop
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        raise InvalidInputError(f"seed must be a non-negative integer, got {seed!r}")
     return InpaintScorer(metric, protocol, int(seed))
 
 

@@ -29,6 +29,8 @@ from concurrent.futures import CancelledError
 from contextlib import contextmanager, suppress
 from typing import Any
 
+from .exceptions import ClusterError, InvalidInputError, InvalidTypeError, MissingDependencyError, WorkerDataError
+
 __all__ = [
     "ClusterError", "WorkerDataError", "add_scheduler_option", "check_client", "map_shards",
     "open_client", "parse_scheduler", "quiet_dask_logs",
@@ -52,16 +54,6 @@ _EXTRA_HINT = 'Dask is not installed: pip install "inpaintenv[dask]"'
 NOISY_LOGGERS = ("distributed", "tornado")
 #: Set to keep Dask's own log lines (and tracebacks) during a run, e.g. to debug a cluster.
 TRACEBACK_ENV = "INPAINTENV_TRACEBACK"
-
-
-class ClusterError(RuntimeError):
-    """A distributed run could not finish: no scheduler or worker, workers that keep
-    dying, no shard finishing within :data:`SHARD_TIMEOUT`, or the scheduler or client
-    lost mid-run."""
-
-
-class WorkerDataError(OSError):
-    """A worker cannot read the data source (the message names the worker and the path)."""
 
 
 # ---------------------------------------------------------------------------------------
@@ -96,7 +88,7 @@ def _distributed(what: str = "a Dask client") -> Any:
     try:
         import distributed
     except ImportError:
-        raise ImportError(f"{what} needs Dask's distributed scheduler. {_EXTRA_HINT}") from None
+        raise MissingDependencyError(f"{what} needs Dask's distributed scheduler. {_EXTRA_HINT}") from None
     return distributed
 
 
@@ -124,7 +116,7 @@ def parse_scheduler(spec: str) -> tuple[str, Any]:
             return "local", n
     elif re.fullmatch(r"[a-z]+://\S+", spec.strip()):
         return "address", spec.strip()
-    raise ValueError(f"--scheduler takes tcp://HOST:PORT or local:N (N >= 1 worker processes), got {spec!r}")
+    raise InvalidInputError(f"--scheduler takes tcp://HOST:PORT or local:N (N >= 1 worker processes), got {spec!r}")
 
 
 @contextmanager
@@ -195,7 +187,7 @@ def check_client(client: Any) -> Any:
     dd = _distributed("client=")
     if not isinstance(client, dd.Client):
         hint = " (wrap it: Client(cluster))" if isinstance(client, dd.deploy.Cluster) else ""
-        raise TypeError(f"client must be a dask.distributed.Client, got {type(client).__name__}{hint}")
+        raise InvalidTypeError(f"client must be a dask.distributed.Client, got {type(client).__name__}{hint}")
     return client
 
 
@@ -369,7 +361,7 @@ def _check_picklable(value: Any, what: str) -> None:
     try:
         cloudpickle.dumps(value)
     except (pickle.PicklingError, TypeError, AttributeError) as exc:
-        raise TypeError(
+        raise InvalidTypeError(
             f"the {what} {type(value).__name__} cannot be sent to Dask workers (it does not pickle: "
             f"{_one_line(exc)}); open files, locks and live connections must be opened on the worker"
         ) from None

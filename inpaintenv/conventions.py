@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 
+from .exceptions import InvalidInputError, InvalidTypeError
+
 __all__ = [
     "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MAX_FRAME_PIXELS", "MIN_DEPTH", "MIN_FRAME_SIDE", "as_depth_array", "check_depth",
     "check_frame_shape", "check_int", "check_mask", "check_max_depth",
@@ -94,27 +96,27 @@ def as_depth_array(value: object, name: str = "depth") -> np.ndarray:
     if isinstance(value, np.ma.MaskedArray):
         # np.asarray would silently drop the mask: the masked pixels could mean "fill"
         # or "no data", so the caller has to say which.
-        raise TypeError(
+        raise InvalidTypeError(
             f"{name} is a numpy masked array; pass a plain array with 0 for no data "
             "(and NaN for pixels to fill), e.g. m.filled(0)"
         )
     if _is_sparse(value):
-        raise TypeError(
+        raise InvalidTypeError(
             f"{name} is a scipy.sparse {type(value).__name__}; depth maps are dense arrays: pass "
             f"{name}.toarray() (0 = no measurement)"
         )
     arr = np.asarray(value)
     if arr.dtype == np.bool_:
-        raise TypeError(f"{name} must be depth in metres, got a boolean array (dtype bool)")
+        raise InvalidTypeError(f"{name} must be depth in metres, got a boolean array (dtype bool)")
     if np.issubdtype(arr.dtype, np.integer):
         # Integer depth is never metres: an 8-bit image, raw KITTI PNG codes (metres x 256)
         # or millimetres. Refused everywhere, as the environment refuses an integer action.
-        raise TypeError(
+        raise InvalidTypeError(
             f"{name} has integer dtype {arr.dtype}; depth is floating-point metres (an 8-bit image? "
             "raw KITTI PNG values? divide by 256: x / 256.0)"
         )
     if not np.issubdtype(arr.dtype, np.floating):
-        raise TypeError(f"{name} must be a real numeric (floating-point) array of metres, got dtype {arr.dtype}")
+        raise InvalidTypeError(f"{name} must be a real numeric (floating-point) array of metres, got dtype {arr.dtype}")
     return arr
 
 
@@ -159,11 +161,11 @@ def check_depth(
     arr = as_depth_array(depth, name)
     if arr.ndim not in ndim:
         want = " or ".join(f"{d}-D" for d in ndim)
-        raise ValueError(f"{name} must be {want} (H, W) / (N, H, W), got shape {arr.shape}")
+        raise InvalidInputError(f"{name} must be {want} (H, W) / (N, H, W), got shape {arr.shape}")
     if arr.ndim == 3:
         _check_batch_shape(arr.shape, name)
     if arr.size == 0:
-        raise ValueError(f"{name} is empty (shape {arr.shape})")
+        raise InvalidInputError(f"{name} is empty (shape {arr.shape})")
     # A float64 value beyond float32's range becomes inf here; the range check below
     # reports the original value, not the inf.
     with np.errstate(over="ignore"):
@@ -187,25 +189,23 @@ def _below_min_depth(arr: np.ndarray) -> int:
 def _explain_bad_depth(arr: np.ndarray, name: str, allow_nan: bool) -> None:
     """Raise the ValueError saying what is wrong with ``arr`` (its original dtype), if anything."""
     if np.isinf(arr).any():
-        raise ValueError(f"{name} contains infinite values; use 0 for 'no measurement'")
+        raise InvalidInputError(f"{name} contains infinite values; use 0 for 'no measurement'")
     if not allow_nan and np.isnan(arr).any():
-        raise ValueError(
-            f"{name} contains NaN; NaN marks pixels to fill and is not allowed here "
-            "(use 0 for 'no measurement')"
-        )
+        raise InvalidInputError(f"{name} contains NaN; NaN marks pixels to fill and is not allowed here "
+                                "(use 0 for 'no measurement')")
     # NaN compares False, so these only look at real values.
     if (arr < 0).any():
-        raise ValueError(f"{name} contains negative depth (min {np.nanmin(arr):.3g} m)")
+        raise InvalidInputError(f"{name} contains negative depth (min {np.nanmin(arr):.3g} m)")
     if (arr > DEPTH_LIMIT).any():
         top = float(np.nanmax(arr))
         hint = ": raw PNG values? divide by 256" if top <= 65535 else ""
-        raise ValueError(
+        raise InvalidInputError(
             f"{name} has depth up to {top:.4g} m, above {DEPTH_LIMIT:.3f} m, the most a "
             f"KITTI 16-bit PNG can hold{hint}"
         )
     tiny = (arr > 0) & (arr < MIN_DEPTH)
     if tiny.any():
-        raise ValueError(
+        raise InvalidInputError(
             f"{name} has {int(tiny.sum())} pixels of positive depth below {MIN_DEPTH:g} m (smallest "
             f"{float(arr[tiny].min()):.3g} m); no sensor measures that: use 0 for 'no measurement'"
         )
@@ -217,12 +217,12 @@ def _check_batch_shape(shape: tuple[int, ...], name: str) -> None:
         return  # reported as empty by the caller
     if shape[-1] in (1, 3, 4):
         kind = "a channel axis" if shape[-1] == 1 else "colour channels (an RGB/RGBA image)"
-        raise ValueError(
+        raise InvalidInputError(
             f"{name} has shape {shape}: a trailing size-{shape[-1]} axis looks like {kind}; pass (H, W) "
             f"or (N, H, W) depth, not {shape[0]} frames of width {shape[-1]}"
         )
     if min(shape[1:]) < MIN_FRAME_SIDE:
-        raise ValueError(
+        raise InvalidInputError(
             f"{name} has shape {shape}: read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a "
             f"depth frame in an (N, H, W) batch is at least {MIN_FRAME_SIDE}x{MIN_FRAME_SIDE}"
         )
@@ -328,11 +328,11 @@ def check_int(value: object, name: str, *, minimum: int = 0, upper: int | None =
         If it is out of range.
     """
     if not _is_int(value):
-        raise TypeError(f"{name} must be an integer, got {_show(value)} ({type(value).__name__})")
+        raise InvalidTypeError(f"{name} must be an integer, got {_show(value)} ({type(value).__name__})")
     v = operator.index(value)  # type: ignore[arg-type]
     if v < minimum or (upper is not None and v >= upper):
         want = f">= {minimum}" if upper is None else f"in {minimum}..{upper - 1}"
-        raise ValueError(f"{name} must be {want}, got {v}")
+        raise InvalidInputError(f"{name} must be {want}, got {v}")
     return v
 
 
@@ -355,12 +355,12 @@ def check_frame_shape(value: object, name: str = "frame_shape", *, minimum: int 
     """
     if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list, np.ndarray)) or len(value) != 2 \
             or not all(_is_int(v) for v in value):
-        raise TypeError(f"{name} must be two integers (H, W), got {_show(value)}")
+        raise InvalidTypeError(f"{name} must be two integers (H, W), got {_show(value)}")
     h, w = (operator.index(v) for v in value)  # type: ignore[arg-type]
     if h < minimum or w < minimum:
-        raise ValueError(f"{name} must be at least {minimum} x {minimum} (H x W), got {h} x {w}")
+        raise InvalidInputError(f"{name} must be at least {minimum} x {minimum} (H x W), got {h} x {w}")
     if h * w > MAX_FRAME_PIXELS:
-        raise ValueError(f"{name} {h} x {w} is {h * w:,} pixels, more than the {MAX_FRAME_PIXELS:,} a frame may have "
+        raise InvalidInputError(f"{name} {h} x {w} is {h * w:,} pixels, more than the {MAX_FRAME_PIXELS:,} a frame may have "
                          "(MAX_FRAME_PIXELS)")
     return h, w
 
@@ -425,23 +425,23 @@ def check_seeds(
     elif isinstance(values, (str, bytes)) or not isinstance(values, Iterable) or (
         isinstance(values, np.ndarray) and values.ndim != 1
     ):
-        raise TypeError(f"{name} must be {kind}, got {_show(values)}")
+        raise InvalidTypeError(f"{name} must be {kind}, got {_show(values)}")
     else:
         items = list(values)
     if not items and not allow_empty:
-        raise ValueError(f"{name} is empty")
+        raise InvalidInputError(f"{name} is empty")
     bad = [v for v in items if not _is_int(v)]
     if bad:
-        raise TypeError(f"{name} must be {kind}, got {_show(values)}")
+        raise InvalidTypeError(f"{name} must be {kind}, got {_show(values)}")
     out = [operator.index(v) for v in items]
     if any(v < 0 for v in out):
-        raise ValueError(f"{name} must be {kind}, got {_show(values) if _is_int(values) else _show(out)}")
+        raise InvalidInputError(f"{name} must be {kind}, got {_show(values) if _is_int(values) else _show(out)}")
     if upper is not None and any(v >= upper for v in out):
         outside = [v for v in out if v >= upper]
-        raise ValueError(f"{name} {outside[:5]} are outside 0..{upper - 1}")
+        raise InvalidInputError(f"{name} {outside[:5]} are outside 0..{upper - 1}")
     if distinct and len(set(out)) != len(out):
         dup = sorted(v for v, n in Counter(out).items() if n > 1)  # linear: index lists can be long
-        raise ValueError(f"{name} must be {kind}, got {_show(out)} ({_show(dup)} repeated)")
+        raise InvalidInputError(f"{name} must be {kind}, got {_show(out)} ({_show(dup)} repeated)")
     return out
 
 
@@ -457,10 +457,10 @@ def check_max_depth(value: object, name: str = "max_depth") -> float:
     """
     msg = f"{name} must be a finite positive number of metres, got {_show(value)}"
     if not is_real_number(value):
-        raise TypeError(msg)
+        raise InvalidTypeError(msg)
     v = float(value)
     if not math.isfinite(v) or v <= 0:
-        raise ValueError(msg)
+        raise InvalidInputError(msg)
     return v
 
 
@@ -468,12 +468,12 @@ def check_mask(mask: object, shape: tuple[int, ...], *, name: str = "hole") -> n
     """Validate a boolean (or 0/1) occlusion mask of the given shape and return it as bool."""
     arr = np.asarray(mask)
     if arr.shape != tuple(shape):
-        raise ValueError(f"{name} mask has shape {arr.shape}, expected {tuple(shape)}")
+        raise InvalidInputError(f"{name} mask has shape {arr.shape}, expected {tuple(shape)}")
     if arr.dtype != np.bool_:
         if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
-            raise TypeError(f"{name} mask must be boolean or 0/1, got dtype {arr.dtype}")
+            raise InvalidTypeError(f"{name} mask must be boolean or 0/1, got dtype {arr.dtype}")
         if not np.isin(arr, (0, 1)).all():
-            raise ValueError(f"{name} mask must contain only 0 and 1")
+            raise InvalidInputError(f"{name} mask must contain only 0 and 1")
         arr = arr.astype(bool)
     return arr
 

@@ -55,16 +55,13 @@ from .report.results import (  # noqa: F401
     parse_row,
     skipped_markdown,
 )
+from .exceptions import BadFrameError, InvalidInputError
 
 __all__ = [
     "BAD_FRAME_ERRORS", "BadFrameError", "EvaluationResult", "MethodOutputError", "evaluate", "json_safe",
     "merge_skipped", "method_name", "parse_row", "resolve_source", "run_method", "skipped_markdown",
     "training_drives_of",
 ]
-
-
-class BadFrameError(ValueError):
-    """A ground-truth frame cannot be read or breaks the depth convention (the message names it)."""
 
 
 #: What loading an unreadable frame raises: a corrupt, truncated, 8-bit or vanished PNG
@@ -240,7 +237,7 @@ def evaluate(
     max_depth = check_max_depth(max_depth)
     total, frame_list = _frames_to_score(dataset, n_frames, indices)
     if on_bad_frame not in ("error", "skip"):
-        raise ValueError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
+        raise InvalidInputError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
     check_unfilled(unfilled)
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
@@ -286,7 +283,7 @@ def _frames_to_score(dataset: DepthDataset, n_frames: int | None, indices: Seque
     """``(total, frame positions)``: frames of the source in play, and the ones to score."""
     total = len(dataset)
     if total == 0:
-        raise ValueError("the data source has no frames")
+        raise InvalidInputError("the data source has no frames")
     if n_frames is not None:
         total = min(total, check_int(n_frames, "n_frames", minimum=1))
     if indices is None:

@@ -10,12 +10,9 @@ from typing import Any
 import numpy as np
 
 from .conventions import as_depth_array, in_depth_range, reconstruction_problem
+from .exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
 
 __all__ = ["MethodOutputError", "method_name", "run_method"]
-
-
-class MethodOutputError(ValueError):
-    """A method returned an unusable reconstruction (wrong shape, NaN/inf, negative, above 255.996 m)."""
 
 
 def method_name(method: Any) -> str:
@@ -42,7 +39,7 @@ def _as_predictor(method: Any) -> tuple[Callable[[np.ndarray], Any], bool]:
         return predict, True
     if callable(method):
         return method, bool(getattr(method, "batched", False))
-    raise TypeError(
+    raise InvalidTypeError(
         f"method must be a callable depth -> depth or an object with predict(), got "
         f"{type(method).__name__}"
     )
@@ -95,10 +92,10 @@ def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.
     """
     x = np.asarray(x, dtype=np.float32)
     if x.ndim != 3:
-        raise ValueError(f"run_method needs an (N, H, W) batch, got shape {x.shape}")
+        raise InvalidInputError(f"run_method needs an (N, H, W) batch, got shape {x.shape}")
     if len(x) == 0:
         # Otherwise the per-frame time divides by zero.
-        raise ValueError(f"run_method got no frames (shape {x.shape})")
+        raise InvalidInputError(f"run_method got no frames (shape {x.shape})")
     call, batched = _as_predictor(method)
     return _run(call, batched, x, name or method_name(method))
 

@@ -33,6 +33,7 @@ from .conventions import (
     check_max_depth,
     reconstruction_problem,
 )
+from .exceptions import InvalidInputError, UnfilledPixelsError, UnknownNameError
 
 __all__ = [
     "DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "UNFILLED", "ScoredPixels", "UnfilledPixelsError", "aggregate",
@@ -55,14 +56,10 @@ DEPTH_BIN_EDGES = (0.0, 10.0, 20.0, 30.0, 50.0, np.inf)
 UNFILLED = ("error", "interpolate", "zero")
 
 
-class UnfilledPixelsError(ValueError):
-    """A prediction is 0 m (unfilled) at hole pixels with ground truth and ``unfilled="error"``."""
-
-
 def check_unfilled(value: object, name: str = "unfilled") -> str:
     """``value`` if it is one of :data:`UNFILLED`, else a ValueError listing them."""
     if not isinstance(value, str) or value not in UNFILLED:
-        raise ValueError(f"{name} must be one of {', '.join(map(repr, UNFILLED))}, got {value!r}")
+        raise InvalidInputError(f"{name} must be one of {', '.join(map(repr, UNFILLED))}, got {value!r}")
     return value
 
 
@@ -313,7 +310,7 @@ def _check_pred(pred: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """``pred`` as an array after checking its dtype (:func:`~inpaintenv.conventions.as_depth_array`) and shape."""
     pred_arr = as_depth_array(pred, "prediction")
     if pred_arr.shape != shape:
-        raise ValueError(f"prediction has shape {pred_arr.shape}, ground truth {shape}")
+        raise InvalidInputError(f"prediction has shape {pred_arr.shape}, ground truth {shape}")
     return pred_arr
 
 
@@ -321,7 +318,7 @@ def _checked_scored(scored_pred: np.ndarray) -> np.ndarray:
     """The prediction at scored pixels as float64, refused as the env refuses an action (``reconstruction_problem``)."""
     problem = reconstruction_problem(scored_pred)
     if problem is not None:
-        raise ValueError(f"prediction at pixels with ground truth {problem}")
+        raise InvalidInputError(f"prediction at pixels with ground truth {problem}")
     return scored_pred.astype(np.float64)
 
 
@@ -385,26 +382,26 @@ def aggregate(
         ``max_depth``.
     """
     if how not in ("mean", "pooled"):
-        raise ValueError(f"how must be 'mean' or 'pooled', got {how!r}")
+        raise InvalidInputError(f"how must be 'mean' or 'pooled', got {how!r}")
     if all_frames not in ("scored", "every"):
-        raise ValueError(f"all_frames must be 'scored' or 'every', got {all_frames!r}")
+        raise InvalidInputError(f"all_frames must be 'scored' or 'every', got {all_frames!r}")
     max_depth = check_max_depth(max_depth)
     if isinstance(per_frame, list):
         if not per_frame:
-            raise ValueError("no frames to aggregate")
+            raise InvalidInputError("no frames to aggregate")
         cols = {k: np.asarray([row[k] for row in per_frame], dtype=np.float64) for k in per_frame[0]}
     else:
         cols = {k: np.atleast_1d(np.asarray(v, dtype=np.float64)) for k, v in per_frame.items()}
     missing = [f"{r}_{m}" for r in REGIONS for m in ("rmse", "mae", "count") if f"{r}_{m}" not in cols]
     if missing:
-        raise KeyError(f"per-frame metrics lack {missing}")
+        raise UnknownNameError(f"per-frame metrics lack {missing}")
     # Columns are matched frame by frame; unequal lengths would fail deep in numpy indexing.
     lengths = {k: v.shape for k, v in cols.items()}
     if len({s for s in lengths.values()}) != 1 or any(len(s) != 1 for s in lengths.values()):
-        raise ValueError(f"per-frame metric columns must be 1-D and of one length, got shapes {lengths}")
+        raise InvalidInputError(f"per-frame metric columns must be 1-D and of one length, got shapes {lengths}")
     n_frames = len(cols["all_rmse"])
     if n_frames == 0:
-        raise ValueError("no frames to aggregate")
+        raise InvalidInputError("no frames to aggregate")
     out: dict[str, float] = {"n_frames": n_frames}
     # A frame whose hole holds no ground truth tested nothing: it leaves every mean, not
     # only the hole ones (its all-pixel error would be ~0 and its PSNR huge).
@@ -474,10 +471,10 @@ def depth_binned_errors(
     pred_arr, gt, hole = _check_inputs(pred, gt, hole)
     edges_arr = np.asarray(edges, dtype=np.float64)
     if edges_arr.ndim != 1 or len(edges_arr) < 2 or not (np.diff(edges_arr) > 0).all():
-        raise ValueError(f"edges must be at least two increasing values, got {edges!r}")
+        raise InvalidInputError(f"edges must be at least two increasing values, got {edges!r}")
     scored = hole & (gt > 0)
     if not scored.any():
-        raise ValueError("no hole pixel has ground truth: nothing to break down")
+        raise InvalidInputError("no hole pixel has ground truth: nothing to break down")
     p = _checked_scored(pred_arr[scored])
     g = gt[scored].astype(np.float64)
     err = p - g

@@ -19,6 +19,7 @@ import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
 
 from ..base import BaseInpainter
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = ["FILL_MODES", "ClassicalInpainter", "in_inverse_depth", "unknown_mask"]
 
@@ -108,7 +109,7 @@ class ClassicalInpainter(BaseInpainter):
     def _check_bool(self, name: str) -> None:
         value = getattr(self, name)
         if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"{type(self).__name__}: {name} must be True or False, got {value!r}")
+            raise InvalidTypeError(f"{type(self).__name__}: {name} must be True or False, got {value!r}")
 
     def _check_int(self, name: str, low: int, high: int | None = None, *, odd: bool = False) -> None:
         value = getattr(self, name)
@@ -117,18 +118,18 @@ class ClassicalInpainter(BaseInpainter):
         if not ok:
             bound = f">= {low}" if high is None else f"in [{low}, {high}]"
             kind = "an odd integer" if odd else "an integer"
-            raise ValueError(f"{type(self).__name__}: {name} must be {kind} {bound}, got {value!r}")
+            raise InvalidInputError(f"{type(self).__name__}: {name} must be {kind} {bound}, got {value!r}")
 
     def _check_positive(self, name: str) -> None:
         value = getattr(self, name)
         ok = isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
         if not (ok and np.isfinite(value) and value > 0):
-            raise ValueError(f"{type(self).__name__}: {name} must be a positive number, got {value!r}")
+            raise InvalidInputError(f"{type(self).__name__}: {name} must be a positive number, got {value!r}")
 
     def _check_option(self, name: str, options: Sequence[Any]) -> None:
         value = getattr(self, name)
         if not isinstance(value, str) or value not in options:
-            raise ValueError(
+            raise InvalidInputError(
                 f"{type(self).__name__}: {name} must be one of {', '.join(map(repr, options))}, "
                 f"got {value!r}"
             )

@@ -23,6 +23,7 @@ from ._base import ClassicalInpainter
 from .harmonic import harmonic_fill
 from .nearest import nearest_fill
 from .scanline import scanline_fill
+from inpaintenv.exceptions import InvalidInputError
 
 __all__ = ["IPBasicInpainter"]
 
@@ -105,7 +106,7 @@ class IPBasicInpainter(ClassicalInpainter):
         super()._check_params()
         self._check_positive("max_depth")
         if self.max_depth <= 0.1:
-            raise ValueError(f"IPBasicInpainter: max_depth must exceed 0.1 m, got {self.max_depth!r}")
+            raise InvalidInputError(f"IPBasicInpainter: max_depth must exceed 0.1 m, got {self.max_depth!r}")
         if self.large_hole_kernel is not None:
             self._check_int("large_hole_kernel", 1, odd=True)
         self._check_bool("extrapolate")
@@ -119,7 +120,7 @@ class IPBasicInpainter(ClassicalInpainter):
         deepest = float(np.max(X, where=~np.isnan(X), initial=0.0))
         limit = float(self.max_depth) - 0.1
         if deepest > limit:
-            raise ValueError(
+            raise InvalidInputError(
                 f"X has depth up to {deepest:.4g} m, above max_depth={self.max_depth:g} "
                 f"(IPBasic inverts depth as max_depth - depth, so it must stay below "
                 f"{limit:.4g} m); raise max_depth"

@@ -26,6 +26,7 @@ from ..evaluate import EvaluationResult
 from ..report.stats import bootstrap_ratio_ci
 from ..report.tables import TRAINED_MARK, interval_cell, table_notes, trained_note
 from .suites import CLASSICAL, STUDY_CLASSICAL
+from ..exceptions import InvalidInputError
 
 __all__ = ["CLASSICAL_METHODS", "headline_markdown", "headline_title", "learned_vs_classical"]
 
@@ -95,7 +96,7 @@ def learned_vs_classical(
         ``undefined`` says why (it is absent otherwise).
     """
     if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+        raise InvalidInputError(f"confidence must be in (0, 1), got {confidence}")
     kinds = _kinds(result, frozenset(classical))
     trained = result.meta.get("training_drives") or {}
     groups: dict[tuple, dict[str, list[dict[str, Any]]]] = {}

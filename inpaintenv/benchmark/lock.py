@@ -23,6 +23,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from ..exceptions import RunLockedError
+
 try:  # POSIX
     import fcntl
 except ImportError:  # pragma: no cover - Windows
@@ -35,10 +37,6 @@ LOCK_FILE = "run.lock"
 
 # Locks this process holds: resolved path -> [open file, depth of nesting, flocked?].
 _HELD: dict[Path, list[Any]] = {}
-
-
-class RunLockedError(OSError):
-    """Another live process holds the run folder's lock."""
 
 
 def _pid_alive(pid: int) -> bool:

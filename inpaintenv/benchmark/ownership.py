@@ -27,6 +27,7 @@ from pathlib import Path
 
 from ..report.files import TEMP_SUFFIX, write_text_atomic
 from .lock import LOCK_FILE
+from ..exceptions import ForeignFolderError
 
 __all__ = [
     "LEDGER", "RUN_FILES", "ForeignFolderError", "adopt", "check_folder", "claim", "owns", "remove", "run_root",
@@ -44,10 +45,6 @@ RUN_FILES: tuple[str, ...] = (
 
 #: Files whose presence (without a ledger) marks a run folder written before ledgers existed.
 _LEGACY_MARKERS = ("run.json", "results.json")
-
-
-class ForeignFolderError(ValueError):
-    """The run folder holds a file that inpaintenv did not write where a run would write it."""
 
 
 def _foreign(out: Path, rel: str, why: str) -> ForeignFolderError:

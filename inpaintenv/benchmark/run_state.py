@@ -19,17 +19,9 @@ from ..data.base import DepthDataset
 from ..report.files import write_text_atomic
 from .datakey import data_key
 from .ownership import claim
+from ..exceptions import RunMismatchError, RunStateError
 
 __all__ = ["RunMismatchError", "RunStateError", "differences", "fingerprint", "read_run_file", "write_run_file"]
-
-
-class RunMismatchError(ValueError):
-    """The output folder holds rows of a different run (other data, seeds, protocols, or
-    another model under the same method name)."""
-
-
-class RunStateError(ValueError):
-    """The output folder's ``run.json`` (the resume state) cannot be read."""
 
 
 def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], seeds: Sequence[int]) -> dict[str, Any]:

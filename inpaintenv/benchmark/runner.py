@@ -44,6 +44,7 @@ from .lock import run_lock
 from .ownership import adopt, check_folder, claim, remove
 from .run_state import RunMismatchError, RunStateError, differences, fingerprint, read_run_file, write_run_file
 from .suites import method_kind
+from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
@@ -82,22 +83,22 @@ def _check_run(
     :func:`inpaintenv.evaluate.evaluate` accepts them).
     """
     if not isinstance(methods, Mapping):
-        raise TypeError(f"methods must be a mapping of name -> method, got {type(methods).__name__}")
+        raise InvalidTypeError(f"methods must be a mapping of name -> method, got {type(methods).__name__}")
     if not methods:
-        raise ValueError("methods is empty; give at least one name -> method")
+        raise InvalidInputError("methods is empty; give at least one name -> method")
     bad_names = [n for n in methods if not isinstance(n, str) or not n.strip()]
     if bad_names:
-        raise ValueError(f"method names must be non-empty strings, got {bad_names!r}")
+        raise InvalidInputError(f"method names must be non-empty strings, got {bad_names!r}")
 
     if isinstance(protocols, str):
         protocols = [protocols]
     if not isinstance(protocols, Sequence):
-        raise TypeError(f"protocols must be a protocol name or a list of them, got {type(protocols).__name__}")
+        raise InvalidTypeError(f"protocols must be a protocol name or a list of them, got {type(protocols).__name__}")
     names = [get_protocol(p).name for p in protocols]
     if not names:
-        raise ValueError("protocols is empty; give at least one occlusion protocol")
+        raise InvalidInputError("protocols is empty; give at least one occlusion protocol")
     if len(set(names)) != len(names):
-        raise ValueError(f"protocols must be distinct, got {names}")
+        raise InvalidInputError(f"protocols must be distinct, got {names}")
 
     seed_list = check_seeds(seeds, "seeds")
     if n_frames is not None:
@@ -201,7 +202,7 @@ def run_benchmark(
     """
     protocols, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size)
     if on_bad_frame not in ("error", "skip"):
-        raise ValueError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
+        raise InvalidInputError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
     policies = {
         name: check_unfilled(unfilled if unfilled is not None else getattr(m, "unfilled", "error"),
                              "unfilled" if unfilled is not None else f"the unfilled policy of {name!r}")
@@ -209,7 +210,7 @@ def run_benchmark(
     }
     dataset = resolve_source(source)
     if len(dataset) == 0:
-        raise ValueError("the data source has no frames")
+        raise InvalidInputError("the data source has no frames")
     check_folder(out_dir)  # before the lock file is made in someone else's folder
     with run_lock(out_dir, log):
         return _run_locked(
@@ -248,7 +249,7 @@ def _run_locked(
         if method is not None:
             results.extend(run.score(name, method))
     if not results:
-        raise ValueError("no method could be run here (see the messages above)")
+        raise InvalidInputError("no method could be run here (see the messages above)")
     return run.combine(results)
 
 

@@ -25,6 +25,7 @@ from .options import (
     check_source_options,
     open_source_from_args,
 )
+from ..exceptions import InvalidInputError
 
 __all__ = ["add_evaluate", "cmd_evaluate"]
 
@@ -84,14 +85,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     names = check_method_names(args.method or [])
     checkpoints = parse_checkpoints(args.checkpoint, names)
     if not names and not checkpoints:
-        raise ValueError("give at least one --method NAME or --checkpoint NAME=PATH")
+        raise InvalidInputError("give at least one --method NAME or --checkpoint NAME=PATH")
     get_protocol(args.protocol)
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
     out = Path(args.out) if args.out else None
     if out is not None:
         if out.exists() and not out.is_dir():
-            raise ValueError(f"--out {out} is a file; give a folder")
+            raise InvalidInputError(f"--out {out} is a file; give a folder")
         check_folder(out)  # someone else's folder is refused before any method is built
     methods = [(name, make_method(name, **_method_overrides(args)), unfilled_policy(name)) for name in names]
     methods += [(name, make_method("checkpoint", path=path), "error") for name, path in checkpoints.items()]

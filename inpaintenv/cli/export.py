@@ -14,6 +14,7 @@ from .options import (
     open_source_from_args,
     test_split,
 )
+from ..exceptions import InvalidInputError
 
 __all__ = ["add_export", "cmd_export"]
 
@@ -62,14 +63,14 @@ def cmd_export(args: argparse.Namespace) -> int:
     get_protocol(args.protocol)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder for the export")
+        raise InvalidInputError(f"--out {out} is a file; give a folder for the export")
     dataset = open_source_from_args(args)
     # The benchmark's frames: the same test split by default, so rows of both are comparable.
     holdout = args.holdout
     if holdout is None:
         holdout = SYNTHETIC_HOLDOUT if isinstance(dataset, SyntheticStreets) else 0.0
     if not 0.0 <= holdout < 1.0:
-        raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
+        raise InvalidInputError(f"--holdout must be in [0, 1), got {holdout}")
     if holdout > 0:
         dataset = test_split(dataset, holdout)
     manifest = export(out, dataset, args.protocol, seeds, overwrite=args.overwrite, progress=not args.quiet,

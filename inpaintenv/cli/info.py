@@ -9,6 +9,7 @@ from typing import Any
 
 from ..data.base import as_dataset
 from .options import add_common_options, add_source_options, open_source_from_args
+from ..exceptions import InvalidInputError
 
 __all__ = ["add_info", "cmd_info", "describe_source"]
 
@@ -25,7 +26,7 @@ def add_info(subparsers: Any) -> None:
 def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
     """``ds.summary()`` for ``inpaintenv info``, with ``--sample`` checked first."""
     if n_sample < 1:
-        raise ValueError(f"--sample must be >= 1, got {n_sample}")
+        raise InvalidInputError(f"--sample must be >= 1, got {n_sample}")
     return dict(as_dataset(ds).summary(n_sample=n_sample))
 
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..registry import canonical_name, resolve_class
+from ..exceptions import InvalidInputError
 
 __all__ = [
     "BAD_FRAME_CHOICES", "CHECKPOINT_FOLDER", "UNFILLED_CHOICES", "add_bad_frame_option", "add_checkpoint_option",
@@ -76,11 +77,11 @@ def check_method_names(names: Sequence[str]) -> list[str]:
     for name in names:
         canonical = canonical_name(name)
         if canonical == "checkpoint":
-            raise ValueError("-m checkpoint needs a path: pass --checkpoint NAME=PATH instead "
+            raise InvalidInputError("-m checkpoint needs a path: pass --checkpoint NAME=PATH instead "
                              f"({CHECKPOINT_FOLDER})")
         resolve_class(canonical)
         if canonical in out:
-            raise ValueError(f"method {name!r} is given twice (as {canonical!r})")
+            raise InvalidInputError(f"method {name!r} is given twice (as {canonical!r})")
         out.append(canonical)
     return out
 
@@ -101,10 +102,10 @@ def check_checkpoint_folder(path: str | Path, name: str = "--checkpoint") -> Pat
         raise FileNotFoundError(f"{name}: checkpoint not found: {p}; {CHECKPOINT_FOLDER}")
     if not p.is_dir():
         hint = f" (pass its folder {p.parent})" if p.name in ("model.safetensors", "config.json") else ""
-        raise ValueError(f"{name}: {p} is a file, not a checkpoint folder{hint}; {CHECKPOINT_FOLDER}")
+        raise InvalidInputError(f"{name}: {p} is a file, not a checkpoint folder{hint}; {CHECKPOINT_FOLDER}")
     has_model = (p / "model.safetensors").is_file() and (p / "config.json").is_file()
     if not has_model and not (p / "state.json").is_file():
-        raise ValueError(f"{name}: {p} is not a checkpoint folder; {CHECKPOINT_FOLDER}")
+        raise InvalidInputError(f"{name}: {p} is not a checkpoint folder; {CHECKPOINT_FOLDER}")
     return p
 
 
@@ -129,9 +130,9 @@ def parse_checkpoints(specs: Sequence[str], taken: Sequence[str] = ()) -> dict[s
     for spec in specs:
         name, sep, path = spec.partition("=")
         if not sep or not name or not path:
-            raise ValueError(f"--checkpoint takes NAME=PATH, got {spec!r}")
+            raise InvalidInputError(f"--checkpoint takes NAME=PATH, got {spec!r}")
         if name in out or name in taken:
-            raise ValueError(f"--checkpoint name {name!r} is used twice in this run; give each model its own NAME")
+            raise InvalidInputError(f"--checkpoint name {name!r} is used twice in this run; give each model its own NAME")
         out[name] = check_checkpoint_folder(path, f"--checkpoint {name}")
     return out
 

@@ -18,6 +18,7 @@ import sys
 from typing import Any
 
 from ..conventions import check_frame_shape
+from ..exceptions import InvalidInputError
 
 __all__ = ["MAX_THREADS", "SYNTHETIC_HOLDOUT", "add_common_options", "add_source_options", "check_source_options",
            "kitti_root_from_args", "open_source_from_args", "test_split", "thread_count"]
@@ -90,7 +91,7 @@ def kitti_root_from_args(args: argparse.Namespace) -> tuple[str | None, str]:
     """
     if args.kitti_root is not None:
         if not str(args.kitti_root).strip():
-            raise ValueError("--kitti-root is empty; give the folder holding train/ and val/ (or leave the option out)")
+            raise InvalidInputError("--kitti-root is empty; give the folder holding train/ and val/ (or leave the option out)")
         return args.kitti_root, "--kitti-root"
     if getattr(args, "synthetic", False):
         return None, "--synthetic"
@@ -114,26 +115,26 @@ def check_source_options(args: argparse.Namespace) -> str | None:
         if given:
             why = "--synthetic is given" if origin == "--synthetic" else (
                 f"no KITTI root is in effect (give --kitti-root PATH or set {KITTI_ROOT_ENV})")
-            raise ValueError(f"{' and '.join(given)} applies to KITTI data only, but {why}")
+            raise InvalidInputError(f"{' and '.join(given)} applies to KITTI data only, but {why}")
     else:
         given = [flag for flag, value in (("--frame-shape", args.frame_shape), ("--data-seed", args.data_seed))
                  if value is not None]
         if given:
             hint = " (add --synthetic for the built-in data)" if origin.startswith("$") else ""
-            raise ValueError(
+            raise InvalidInputError(
                 f"{' and '.join(given)} applies to the synthetic source only, but KITTI is in effect "
                 f"from {origin} {root}{hint}; KITTI frames are cropped to 352x1216"
             )
         if args.kind == "dense":
-            raise ValueError(f"--kind dense exists only for the synthetic source (KITTI from {origin} has no dense "
+            raise InvalidInputError(f"--kind dense exists only for the synthetic source (KITTI from {origin} has no dense "
                              "truth)")
     if args.n_frames is not None and args.n_frames < 1:
-        raise ValueError(f"--n-frames must be >= 1, got {args.n_frames}")
+        raise InvalidInputError(f"--n-frames must be >= 1, got {args.n_frames}")
     if root is None:
         from ..data.synthetic import MAX_SYNTHETIC_FRAMES
 
         if args.n_frames is not None and args.n_frames > MAX_SYNTHETIC_FRAMES:
-            raise ValueError(f"--n-frames {args.n_frames} is more than the {MAX_SYNTHETIC_FRAMES:,} frames the "
+            raise InvalidInputError(f"--n-frames {args.n_frames} is more than the {MAX_SYNTHETIC_FRAMES:,} frames the "
                              "synthetic source may have (MAX_SYNTHETIC_FRAMES)")
         if args.frame_shape is not None:
             check_frame_shape(args.frame_shape, "--frame-shape")
@@ -199,4 +200,4 @@ def test_split(dataset: Any, holdout: float) -> Any:
     try:
         return split_by_drive(dataset, test_size=holdout, seed=0)[1]
     except ValueError as exc:
-        raise ValueError(f"--holdout {holdout:g}: {exc}; pass --holdout 0 to score all frames") from None
+        raise InvalidInputError(f"--holdout {holdout:g}: {exc}; pass --holdout 0 to score all frames") from None

@@ -20,6 +20,7 @@ from .method_options import (
     figure_methods,
 )
 from .options import add_common_options
+from ..exceptions import InvalidInputError
 
 __all__ = ["add_score", "cmd_score"]
 
@@ -93,10 +94,10 @@ def cmd_score(args: argparse.Namespace) -> int:
     check_int(args.figure_frames, "--figure-frames", minimum=0)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder for the run")
+        raise InvalidInputError(f"--out {out} is a file; give a folder for the run")
     names = check_method_names(args.method or [])
     if args.name in names:
-        raise ValueError(f"--name {args.name!r} is also given by -m; give the predictions another name")
+        raise InvalidInputError(f"--name {args.name!r} is also given by -m; give the predictions another name")
     methods: dict[str, Any] = {
         name: LazyMethod(lambda name=name: build_method(name, {}), unfilled=unfilled_policy(name)) for name in names
     }

@@ -19,6 +19,7 @@ from .options import (
     check_source_options,
     open_source_from_args,
 )
+from ..exceptions import InvalidInputError, OutOfRangeError
 
 __all__ = ["add_show", "cmd_show"]
 
@@ -57,16 +58,16 @@ def cmd_show(args: argparse.Namespace) -> int:
     out = Path(args.out)
     # The panel is a PNG whatever the name: the suffix keeps names honest.
     if out.suffix.lower() != ".png":
-        raise ValueError(f"--out must be a .png file, got {args.out!r}")
+        raise InvalidInputError(f"--out must be a .png file, got {args.out!r}")
     if out.is_dir():
-        raise ValueError(f"--out must be a .png file, got {args.out!r}, a folder")
+        raise InvalidInputError(f"--out must be a .png file, got {args.out!r}, a folder")
     check_max_depth(args.max_depth, "--max-depth")
     check_seed(args.seed, "--seed")
     check_source_options(args)
     method = make_method(args.method) if args.method else None
     ds = open_source_from_args(args)
     if not 0 <= args.index < len(ds):
-        raise IndexError(f"--index {args.index} is out of range for a source of {len(ds)} frames")
+        raise OutOfRangeError(f"--index {args.index} is out of range for a source of {len(ds)} frames")
     proto = get_protocol(args.protocol)
     gt = ds[args.index]
     # The same mask evaluate() uses for (protocol, seed, index).

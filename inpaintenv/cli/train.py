@@ -21,6 +21,7 @@ from .options import (
     open_source_from_args,
     thread_count,
 )
+from ..exceptions import InvalidInputError
 
 
 def add_train(subparsers: Any) -> None:
@@ -132,7 +133,7 @@ def parse_set_option(item: str) -> tuple[str, Any]:
     key, sep, raw = item.partition("=")
     key = key.strip()
     if not sep or not key.isidentifier():
-        raise ValueError(f"--set takes KEY=VALUE with KEY a parameter name (member__param for an ensemble's "
+        raise InvalidInputError(f"--set takes KEY=VALUE with KEY a parameter name (member__param for an ensemble's "
                          f"member), got {item!r}")
     try:
         value = json.loads(raw)
@@ -286,7 +287,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
         if not preset_runs_joblib(args.preset):
-            raise ValueError(
+            raise InvalidInputError(
                 f"--scheduler spreads the training features of the blend presets; {args.preset} trains step by "
                 "step in one process (several processes or GPUs: torchrun -m estimators.distributed)"
             )
@@ -300,7 +301,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         key, value = parse_set_option(item)
         if key in overrides:
             other = _OVERRIDE_FLAGS.get(key, key) if key in from_flags else f"another --set {key}"
-            raise ValueError(f"--set {key} is given twice (also as {other}); give it once")
+            raise InvalidInputError(f"--set {key} is given twice (also as {other}); give it once")
         overrides[key] = value
     # Every parameter is checked before anything is written: a refused --max-steps must not
     # leave a train_args.json behind that the next run compares itself with.
@@ -308,7 +309,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     ds = open_source_from_args(args)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder")
+        raise InvalidInputError(f"--out {out} is a file; give a folder")
     record = {"preset": args.preset, "overrides": overrides, "source": repr(ds)}
     from ..benchmark.lock import run_lock
 

@@ -16,6 +16,7 @@ from ..conventions import (
     is_real_number,
 )
 from ..report.progress import count
+from ..exceptions import InvalidInputError, InvalidTypeError, OutOfRangeError
 
 __all__ = [
     "DepthDataset", "ArrayDataset", "ConcatDataset", "Subset", "as_dataset", "select_drives",
@@ -67,12 +68,12 @@ class DepthDataset(Sequence, ABC):
             if len(index) == 2 and index[1] is Ellipsis:
                 index = index[0]
             else:
-                raise IndexError("a dataset is indexed by frame only: ds[i] or ds[indices]")
+                raise OutOfRangeError("a dataset is indexed by frame only: ds[i] or ds[indices]")
         if isinstance(index, (int, np.integer)):
             n = len(self)
             i = int(index)
             if i < -n or i >= n:
-                raise IndexError(f"frame index {i} out of range for a dataset of {n} frames")
+                raise OutOfRangeError(f"frame index {i} out of range for a dataset of {n} frames")
             return self._load(i % n)
         if isinstance(index, slice):
             return Subset(self, np.arange(len(self))[index])
@@ -122,7 +123,7 @@ class DepthDataset(Sequence, ABC):
         frame = check_depth(self[index], name=name, ndim=(2,))
         if frame.shape != tuple(self.frame_shape):
             # Assigning it into a batch would broadcast e.g. a (1, W) frame without a word.
-            raise ValueError(f"{name} has shape {frame.shape}, the dataset says {tuple(self.frame_shape)}")
+            raise InvalidInputError(f"{name} has shape {frame.shape}, the dataset says {tuple(self.frame_shape)}")
         return frame
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
@@ -147,7 +148,7 @@ class DepthDataset(Sequence, ABC):
             sample, None without one) and ``sampled_frames``.
         """
         if isinstance(n_sample, bool) or not isinstance(n_sample, (int, np.integer)) or n_sample < 0:
-            raise ValueError(f"n_sample must be an integer >= 0, got {n_sample!r}")
+            raise InvalidInputError(f"n_sample must be an integer >= 0, got {n_sample!r}")
         drives, counts = np.unique(self.groups, return_counts=True)
         n = min(int(n_sample), len(self))
         sample = np.unique(np.linspace(0, len(self) - 1, num=n).round().astype(int)) if n else np.array([], int)
@@ -181,14 +182,14 @@ class Subset(DepthDataset):
         idx = np.asarray(indices)
         if idx.dtype == bool:
             if idx.shape != (len(parent),):
-                raise ValueError("a boolean index must have one entry per frame")
+                raise InvalidInputError("a boolean index must have one entry per frame")
             idx = np.flatnonzero(idx)
         if idx.size and not np.issubdtype(idx.dtype, np.integer):
-            raise TypeError(f"frame indices must be integers, got dtype {idx.dtype}")
+            raise InvalidTypeError(f"frame indices must be integers, got dtype {idx.dtype}")
         idx = idx.astype(np.int64).reshape(-1)
         n = len(parent)
         if idx.size and (idx.min() < -n or idx.max() >= n):
-            raise IndexError(f"frame indices out of range for a dataset of {n} frames")
+            raise OutOfRangeError(f"frame indices out of range for a dataset of {n} frames")
         # Flatten nested subsets so loading never walks a chain of views.
         if isinstance(parent, Subset):
             idx = parent.indices[idx % n]
@@ -220,17 +221,17 @@ class ArrayDataset(DepthDataset):
             self._frames: Sequence[np.ndarray] | np.ndarray = arr
         else:
             if len(frames) == 0:
-                raise ValueError("frames is empty")
+                raise InvalidInputError("frames is empty")
             self._frames = [check_depth(f, name=f"frames[{i}]", ndim=(2,)) for i, f in enumerate(frames)]
         shapes = {tuple(f.shape) for f in self._frames}
         if len(shapes) != 1:
-            raise ValueError(f"all frames must have one size, got {sorted(shapes)}")
+            raise InvalidInputError(f"all frames must have one size, got {sorted(shapes)}")
         self.frame_shape = shapes.pop()  # type: ignore[assignment]
         n = len(self._frames)
         if groups is None:
             groups = [f"frame{i}" for i in range(n)]
         if len(groups) != n:
-            raise ValueError(f"groups has {len(groups)} entries for {n} frames")
+            raise InvalidInputError(f"groups has {len(groups)} entries for {n} frames")
         self.groups = np.asarray([str(g) for g in groups])
         self.frame_ids = [f"{g}/{i}" for i, g in enumerate(self.groups)]
 
@@ -248,16 +249,16 @@ class ConcatDataset(DepthDataset):
 
     def __init__(self, parts: Sequence[DepthDataset]):
         if isinstance(parts, DepthDataset) or not isinstance(parts, (list, tuple)):
-            raise TypeError(
+            raise InvalidTypeError(
                 f"ConcatDataset needs a list of datasets, got {type(parts).__name__}"
             )
         if not parts:
-            raise ValueError("ConcatDataset needs at least one dataset")
+            raise InvalidInputError("ConcatDataset needs at least one dataset")
         for k, p in enumerate(parts):
             _require_dataset(p, f"ConcatDataset part {k}")
         shapes = {tuple(p.frame_shape) for p in parts}
         if len(shapes) != 1:
-            raise ValueError(f"datasets to concatenate have different frame sizes: {sorted(shapes)}")
+            raise InvalidInputError(f"datasets to concatenate have different frame sizes: {sorted(shapes)}")
         self.parts = list(parts)
         self.frame_shape = shapes.pop()  # type: ignore[assignment]
         self.groups = np.concatenate([np.asarray(p.groups) for p in parts])
@@ -298,10 +299,10 @@ def select_drives(
     """
     for name, value in (("drives", drives), ("exclude", exclude)):
         if isinstance(value, (str, bytes)):
-            raise TypeError(f"{name} must be a list of drive names, got the string {value!r}")
+            raise InvalidTypeError(f"{name} must be a list of drive names, got the string {value!r}")
     if drives is not None and len(drives) == 0:
         # "keep only these drives: none" would otherwise silently keep every drive.
-        raise ValueError("drives is empty; pass None to keep every drive")
+        raise InvalidInputError("drives is empty; pass None to keep every drive")
     if not drives and not exclude:
         return dataset
     # Names typed on a command line carry a non-UTF-8 byte as a surrogate escape, drive ids as \xNN.
@@ -310,21 +311,21 @@ def select_drives(
     known = set(np.asarray(dataset.groups).tolist())
     unknown = sorted({*(drives or ()), *(exclude or ())} - known)
     if unknown:
-        raise ValueError(f"unknown drives {unknown}; the dataset has {sorted(known)}")
+        raise InvalidInputError(f"unknown drives {unknown}; the dataset has {sorted(known)}")
     keep = np.ones(len(dataset), dtype=bool)
     if drives:
         keep &= np.isin(dataset.groups, list(drives))
     if exclude:
         keep &= ~np.isin(dataset.groups, list(exclude))
     if not keep.any():
-        raise ValueError("no frames left after selecting drives")
+        raise InvalidInputError("no frames left after selecting drives")
     return Subset(dataset, np.flatnonzero(keep))
 
 
 def _require_dataset(dataset: Any, what: str) -> DepthDataset:
     """``dataset`` if it is a DepthDataset, else a TypeError that says how to wrap arrays."""
     if not isinstance(dataset, DepthDataset):
-        raise TypeError(
+        raise InvalidTypeError(
             f"{what} must be a DepthDataset, got {type(dataset).__name__}; "
             "wrap arrays with inpaintenv.data.as_dataset(...)"
         )
@@ -377,12 +378,12 @@ def split_by_drive(
     seed = check_seed(seed, "seed")
     drives = np.unique(dataset.groups)
     if len(drives) < 2:
-        raise ValueError(
+        raise InvalidInputError(
             f"a drive-level split needs at least 2 drives, the dataset has {len(drives)}"
         )
     if isinstance(test_size, (float, np.floating)):
         if not 0.0 < test_size < 1.0:
-            raise ValueError(f"test_size as a fraction must be in (0, 1), got {test_size}")
+            raise InvalidInputError(f"test_size as a fraction must be in (0, 1), got {test_size}")
         n_test = int(round(test_size * len(drives)))
     else:
         # A count of drives; out-of-range counts are clamped below, as documented.
@@ -416,9 +417,9 @@ def subset(dataset: DepthDataset, fraction: float, seed: int = 0) -> Subset:
     _require_dataset(dataset, "subset's dataset")
     seed = check_seed(seed, "seed")
     if not is_real_number(fraction):
-        raise TypeError(f"fraction must be a number in (0, 1], got {fraction!r}")
+        raise InvalidTypeError(f"fraction must be a number in (0, 1], got {fraction!r}")
     if not 0.0 < fraction <= 1.0:
-        raise ValueError(f"fraction must be in (0, 1], got {fraction}")
+        raise InvalidInputError(f"fraction must be in (0, 1], got {fraction}")
     n = len(dataset)
     k = max(1, int(round(fraction * n)))
     keep = np.sort(np.random.default_rng(seed).choice(n, size=k, replace=False))

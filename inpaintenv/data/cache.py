@@ -38,6 +38,7 @@ import numpy as np
 
 from .base import DepthDataset, Subset
 from .io import KITTI_DEPTH_SCALE, depth_from_uint16
+from ..exceptions import InvalidInputError, InvalidTypeError, OutOfRangeError, StaleCacheError
 
 __all__ = ["CachedDataset", "StaleCacheError", "estimate_cache_bytes", "format_bytes"]
 
@@ -47,10 +48,6 @@ _ENCODING = "uint16 = round(metres * 256), 0 = no measurement"
 _MAX_CODE = np.iinfo(np.uint16).max
 #: Dataset attributes that change the pixels without changing the frame ids.
 _DESCRIBING_ATTRS = ("kind", "split", "camera", "crop", "seed", "frames_per_drive")
-
-
-class StaleCacheError(ValueError):
-    """The cache folder holds frames of another dataset (other ids, shape or source)."""
 
 
 def estimate_cache_bytes(dataset: DepthDataset) -> int:
@@ -102,10 +99,10 @@ def encode_depth(depth: np.ndarray, name: str = "frame") -> np.ndarray:
     """
     d = np.asarray(depth, dtype=np.float32)
     if not np.isfinite(d).all() or (d < 0).any():
-        raise ValueError(f"{name}: cached depth must be finite and non-negative")
+        raise InvalidInputError(f"{name}: cached depth must be finite and non-negative")
     codes = np.rint(d * np.float32(KITTI_DEPTH_SCALE))
     if codes.size and codes.max() > _MAX_CODE:
-        raise ValueError(
+        raise InvalidInputError(
             f"{name}: depth {float(d.max()):.2f} m exceeds 255.99 m, the range of the uint16 cache"
         )
     return codes.astype(np.uint16)
@@ -151,11 +148,11 @@ class CachedDataset(DepthDataset):
         check_space: bool = True,
     ):
         if not isinstance(dataset, DepthDataset):
-            raise TypeError(f"dataset must be a DepthDataset, got {type(dataset).__name__}")
+            raise InvalidTypeError(f"dataset must be a DepthDataset, got {type(dataset).__name__}")
         if on_stale not in ("error", "rebuild"):
-            raise ValueError(f"on_stale must be 'error' or 'rebuild', got {on_stale!r}")
+            raise InvalidInputError(f"on_stale must be 'error' or 'rebuild', got {on_stale!r}")
         if len(dataset) == 0:
-            raise ValueError("cannot cache an empty dataset")
+            raise InvalidInputError("cannot cache an empty dataset")
         self.dataset = dataset
         self.cache_dir = Path(cache_dir)
         self.frame_shape = tuple(int(s) for s in dataset.frame_shape)  # type: ignore[assignment]
@@ -269,7 +266,7 @@ class CachedDataset(DepthDataset):
             raise PermissionError(f"frame {index} is not cached and {self.cache_dir} is read-only")
         depth = self.dataset[index]
         if depth.shape != self.frame_shape:
-            raise ValueError(
+            raise InvalidInputError(
                 f"source frame {index} has shape {depth.shape}, expected {self.frame_shape}"
             )
         frames[index] = encode_depth(depth, name=f"frame {self.frame_ids[index]}")
@@ -279,7 +276,7 @@ class CachedDataset(DepthDataset):
         """Load several frames as one ``(N, H, W)`` float32 array (one read when cached)."""
         idx = np.asarray(list(indices), dtype=np.int64).reshape(-1)
         if idx.size and (idx.min() < -len(self) or idx.max() >= len(self)):
-            raise IndexError(f"frame indices out of range for a dataset of {len(self)} frames")
+            raise OutOfRangeError(f"frame indices out of range for a dataset of {len(self)} frames")
         idx %= len(self)
         frames, filled = self._arrays()
         for i in idx[filled[idx] == 0]:

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..exceptions import CalibrationError, InvalidInputError
+
 __all__ = ["CALIBRATION_LAYOUTS", "Calibration", "CalibrationError", "parse_size", "read_calibration"]
 
 #: What :func:`read_calibration` accepts, for error messages.
@@ -34,10 +36,6 @@ CALIBRATION_LAYOUTS = (
 )
 _RAW = ("calib_cam_to_cam.txt", "calib_velo_to_cam.txt")
 _K360 = ("perspective.txt", "calib_cam_to_velo.txt")
-
-
-class CalibrationError(ValueError):
-    """A calibration file or folder that cannot be read or lacks a matrix; the message names it."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,14 +96,14 @@ def parse_size(text: str) -> tuple[int, int]:
     except ValueError:
         size = None
     if size is None:
-        raise ValueError(f"an image size is WIDTHxHEIGHT in pixels, e.g. 1226x370, got {text!r}")
+        raise InvalidInputError(f"an image size is WIDTHxHEIGHT in pixels, e.g. 1226x370, got {text!r}")
     return _check_size(size)
 
 
 def _check_size(size: tuple[int, int]) -> tuple[int, int]:
     w, h = (int(v) for v in size)
     if w < 1 or h < 1 or w > 1 << 15 or h > 1 << 15:
-        raise ValueError(f"image size {w}x{h} is not a camera image (1 to 32768 pixels a side)")
+        raise InvalidInputError(f"image size {w}x{h} is not a camera image (1 to 32768 pixels a side)")
     return w, h
 
 

@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from ..conventions import MAX_FRAME_PIXELS, check_depth
+from ..exceptions import DepthFormatError, FileTooLargeError, InvalidInputError
 
 __all__ = [
     "KITTI_DEPTH_SCALE",
@@ -53,14 +54,6 @@ _HEADER_BYTES = 33
 _OTHER_FORMATS = {b"II*\x00": "a TIFF", b"MM\x00*": "a TIFF", b"\xff\xd8\xff": "a JPEG", b"BM": "a BMP",
                   b"GIF8": "a GIF", b"RIFF": "a WebP (RIFF)", b"P5": "a PGM", b"\x93NUMPY": "a NumPy .npy"}
 _COLOUR = {2: "3 channels (RGB)", 4: "2 channels (grey+alpha)", 6: "4 channels (RGBA)"}
-
-
-class DepthFormatError(ValueError):
-    """A file exists but is not a KITTI 16-bit single-channel depth PNG."""
-
-
-class FileTooLargeError(OSError):
-    """A file is larger than what it holds can need (read with a ``limit``); it is not read."""
 
 
 @dataclass(frozen=True)
@@ -416,9 +409,9 @@ def encode_png(image: np.ndarray, name: str | os.PathLike = "image") -> bytes:
     try:
         ok, buf = cv2.imencode(".png", image)
     except cv2.error as exc:
-        raise ValueError(f"cannot encode {name} as PNG: {str(exc).strip().splitlines()[-1]}") from None
+        raise InvalidInputError(f"cannot encode {name} as PNG: {str(exc).strip().splitlines()[-1]}") from None
     if not ok:
-        raise ValueError(f"cannot encode {name} as PNG")
+        raise InvalidInputError(f"cannot encode {name} as PNG")
     return buf.tobytes()
 
 
@@ -479,7 +472,7 @@ def write_depth_png(path: str | os.PathLike, depth: np.ndarray) -> None:
     """
     path = Path(path)
     if path.suffix.lower() != ".png":
-        raise ValueError(f"depth PNG path must end in .png, got {str(path)!r}")
+        raise InvalidInputError(f"depth PNG path must end in .png, got {str(path)!r}")
     # The shared check refuses bool/complex/object, empty, NaN/inf, negative and
     # > 65535/256 m arrays with messages that name the problem.
     check_depth(depth, name="depth to write", ndim=(2,))

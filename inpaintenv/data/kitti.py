@@ -31,6 +31,7 @@ from .io import (
     png_header,
     read_depth_png_raw,
 )
+from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = ["KittiDepth", "KITTI_URL", "KITTI_ROOT_ENV", "png_header", "bottom_center_crop"]
 
@@ -70,7 +71,7 @@ def bottom_center_crop(
     ch, cw = crop
     h, w = depth.shape
     if h < ch or w < cw:
-        raise ValueError(f"{name} is {w}x{h} (W x H), smaller than the crop {cw}x{ch}")
+        raise InvalidInputError(f"{name} is {w}x{h} (W x H), smaller than the crop {cw}x{ch}")
     top, left = h - ch, (w - cw) // 2
     view = depth[top:, left : left + cw]
     return np.ascontiguousarray(view) if copy else view
@@ -125,16 +126,16 @@ class KittiDepth(DepthDataset):
         drives: list[str] | tuple[str, ...] | None = None,
     ):
         if not isinstance(split, str):
-            raise TypeError(f"split must be 'train', 'val' or 'val_selection', got {split!r}")
+            raise InvalidTypeError(f"split must be 'train', 'val' or 'val_selection', got {split!r}")
         if split not in _SPLITS:
             # A typo, not missing data: no download instructions.
             close = difflib.get_close_matches(split, _SPLITS, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ValueError(f"unknown KITTI split {split!r}: splits are 'train', 'val' and 'val_selection'{hint}")
+            raise InvalidInputError(f"unknown KITTI split {split!r}: splits are 'train', 'val' and 'val_selection'{hint}")
         if kind not in _KINDS:
-            raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
+            raise InvalidInputError(f"kind must be one of {_KINDS}, got {kind!r}")
         if camera not in (*_CAMERAS, "both"):
-            raise ValueError(f"camera must be 'image_02', 'image_03' or 'both', got {camera!r}")
+            raise InvalidInputError(f"camera must be 'image_02', 'image_03' or 'both', got {camera!r}")
         if crop is not None:
             # Check the type before comparing: int('a') or len(5) would fail obscurely.
             if (
@@ -142,14 +143,14 @@ class KittiDepth(DepthDataset):
                 or len(crop) != 2
                 or not all(_is_whole(c) and c > 0 for c in crop)
             ):
-                raise ValueError(f"crop must be (H, W) positive integers or None, got {crop!r}")
+                raise InvalidInputError(f"crop must be (H, W) positive integers or None, got {crop!r}")
             crop = (int(crop[0]), int(crop[1]))
         if drives is not None:
             if isinstance(drives, str) or not isinstance(drives, (list, tuple)):
-                raise TypeError(f"drives must be a list of drive names, got {drives!r}")
+                raise InvalidTypeError(f"drives must be a list of drive names, got {drives!r}")
             if not drives:
                 # Otherwise every file is filtered out and the error says no PNG exists.
-                raise ValueError("drives is empty; pass None for every drive")
+                raise InvalidInputError("drives is empty; pass None for every drive")
         self.root = _resolve_root(root)
         self.split, self.camera, self.kind, self.crop = split, camera, kind, crop
         cameras = _CAMERAS if camera == "both" else (camera,)
@@ -162,7 +163,7 @@ class KittiDepth(DepthDataset):
             missing = sorted(wanted - {e[1] for e in entries})
             if missing:
                 available = sorted({e[1] for e in index(self.root, kind=kind, cameras=cameras)[0]})
-                raise ValueError(
+                raise InvalidInputError(
                     f"drives not found in {split!r} ({kind}, {camera}): {missing}; "
                     f"available: {available}"
                 )
@@ -180,7 +181,7 @@ class KittiDepth(DepthDataset):
             sizes = self.raw_sizes()
             if len(sizes) != 1:
                 listing = ", ".join(f"{w}x{h} ({n} frames)" for (w, h), n in sorted(sizes.items()))
-                raise ValueError(
+                raise InvalidInputError(
                     f"frames have different sizes (W x H): {listing}; pass crop=(H, W), "
                     "e.g. the default (352, 1216), to crop them to one size"
                 )
@@ -261,7 +262,7 @@ def _resolve_root(root: str | os.PathLike | None) -> Path:
         root = env
     if isinstance(root, str) and not root.strip():
         # Path("") is the current folder: a KITTI tree would be searched where the command runs.
-        raise ValueError("the KITTI root is an empty string; give the folder holding train/ and val/")
+        raise InvalidInputError("the KITTI root is an empty string; give the folder holding train/ and val/")
     path = Path(root).expanduser()
     if not path.is_dir():
         raise FileNotFoundError(f"KITTI root {path} does not exist or is not a folder.\n{_LAYOUT_HELP}")
@@ -274,7 +275,7 @@ def _refuse_twins(entries: list[tuple[Path, str, str, str]]) -> None:
     for path, *key in entries:
         other = seen.setdefault(tuple(key), path)  # type: ignore[arg-type]
         if other != path:
-            raise ValueError(f"two files hold frame {'/'.join(key)}: {other} and {path}; keep one")
+            raise InvalidInputError(f"two files hold frame {'/'.join(key)}: {other} and {path}; keep one")
 
 
 def _is_png_name(name: str) -> bool:
@@ -349,7 +350,7 @@ def _index_val_selection(
     for png in _pngs(base):
         m = _VAL_SELECTION_RE.match(png.name)
         if m is None:
-            raise ValueError(
+            raise InvalidInputError(
                 f"unexpected file name {png.name} in {base}; expected "
                 f"<drive>_sync_{folder}_<frame>_<camera>.png"
             )

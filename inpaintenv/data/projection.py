@@ -24,6 +24,7 @@ import numpy as np
 
 from .calibration import Calibration
 from .io import KITTI_DEPTH_SCALE
+from ..exceptions import InvalidInputError, ScanFormatError
 
 __all__ = [
     "MIN_SCAN_DEPTH", "ScanFormatError", "depth_to_points", "project_points", "project_scan", "read_scan",
@@ -33,10 +34,6 @@ __all__ = [
 #: Points at this depth or nearer (metres) are dropped by the projection, as KITTI's tool drops them.
 MIN_SCAN_DEPTH: float = 0.1
 _POINT_BYTES = 16  # x, y, z, reflectance as float32
-
-
-class ScanFormatError(ValueError):
-    """A file that is not a KITTI LiDAR scan (``N x 4`` float32); the message names it."""
 
 
 def read_scan(path: str | os.PathLike) -> np.ndarray:
@@ -74,7 +71,7 @@ def read_scan(path: str | os.PathLike) -> np.ndarray:
 def _as_points(points: np.ndarray) -> np.ndarray:
     pts = np.asarray(points)
     if pts.ndim != 2 or pts.shape[1] not in (3, 4) or not np.issubdtype(pts.dtype, np.floating):
-        raise ValueError(f"points must be a float (N, 3) or (N, 4) array, got {pts.dtype} of shape {pts.shape}")
+        raise InvalidInputError(f"points must be a float (N, 3) or (N, 4) array, got {pts.dtype} of shape {pts.shape}")
     return pts
 
 
@@ -171,13 +168,13 @@ def depth_to_points(depth: np.ndarray, calibration: Calibration, mask: np.ndarra
     """
     d = np.asarray(depth)
     if d.ndim != 2:
-        raise ValueError(f"depth must be (H, W), got shape {d.shape}")
+        raise InvalidInputError(f"depth must be (H, W), got shape {d.shape}")
     with np.errstate(invalid="ignore"):
         chosen = np.isfinite(d) & (d > 0)
     if mask is not None:
         m = np.asarray(mask, dtype=bool)
         if m.shape != d.shape:
-            raise ValueError(f"mask has shape {m.shape}, depth {d.shape}")
+            raise InvalidInputError(f"mask has shape {m.shape}, depth {d.shape}")
         chosen &= m
     rows, cols = np.nonzero(chosen)
     z = d[rows, cols].astype(np.float64)

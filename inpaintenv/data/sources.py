@@ -9,6 +9,7 @@ from ..conventions import check_int
 from .base import ConcatDataset, DepthDataset, Subset, select_drives
 from .kitti import KittiDepth
 from .synthetic import SyntheticStreets
+from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = ["open_source", "DEFAULT_SYNTHETIC_FRAMES"]
 
@@ -60,15 +61,15 @@ def open_source(
     if n_frames is not None:
         n_frames = check_int(n_frames, "n_frames", minimum=1)  # int("abc") failed obscurely
     if not isinstance(split, str):
-        raise TypeError(f"split must be a string such as 'train' or 'train,val', got {split!r}")
+        raise InvalidTypeError(f"split must be a string such as 'train' or 'train,val', got {split!r}")
     if kitti_root is None:
         n = DEFAULT_SYNTHETIC_FRAMES if n_frames is None else int(n_frames)
         return select_drives(SyntheticStreets(n=n, seed=seed, kind=kind), drives, exclude_drives)
     if kind == "dense":
-        raise ValueError("kind='dense' exists only for the synthetic source (KITTI has no dense truth)")
+        raise InvalidInputError("kind='dense' exists only for the synthetic source (KITTI has no dense truth)")
     splits = [s.strip() for s in split.split(",") if s.strip()]
     if not splits:
-        raise ValueError(f"no KITTI split named in {split!r}")
+        raise InvalidInputError(f"no KITTI split named in {split!r}")
     parts = [KittiDepth(kitti_root, split=s, camera=camera, kind=kind) for s in splits]
     ds = select_drives(parts[0] if len(parts) == 1 else ConcatDataset(parts), drives, exclude_drives)
     if n_frames is not None and n_frames < len(ds):

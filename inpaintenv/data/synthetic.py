@@ -31,6 +31,7 @@ import numpy as np
 
 from ..conventions import check_frame_shape, check_int, check_seed
 from .base import DepthDataset
+from ..exceptions import InvalidInputError
 
 __all__ = ["MAX_SYNTHETIC_FRAMES", "SyntheticStreets", "KITTI_FX", "KITTI_FY", "KITTI_CX", "KITTI_CY", "KITTI_RAW_SHAPE"]
 
@@ -443,7 +444,7 @@ class SyntheticStreets(DepthDataset):
         self.n = check_int(n, "n", minimum=1, upper=MAX_SYNTHETIC_FRAMES + 1)
         self.frames_per_drive = check_int(frames_per_drive, "frames_per_drive", minimum=1)
         if kind not in _KINDS:
-            raise ValueError(f"kind must be one of {_KINDS}, got {kind!r}")
+            raise InvalidInputError(f"kind must be one of {_KINDS}, got {kind!r}")
         self.frame_shape = check_frame_shape(frame_shape, "frame_shape")
         self.seed, self.kind = check_seed(seed, "seed"), kind
         self.camera = Camera(self.frame_shape)

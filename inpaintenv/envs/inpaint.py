@@ -49,6 +49,7 @@ from ..data.base import DepthDataset, as_dataset
 from ..masks import OcclusionProtocol, get_protocol
 from ..metrics import ScoredPixels, check_unfilled
 from .render import render_panel
+from ..exceptions import InvalidInputError, StateError
 
 __all__ = ["DEPTH_LIMIT", "MAX_FRAME_DRAWS", "MAX_MASK_REDRAWS", "DepthInpaintEnv", "draw_scored_hole"]
 
@@ -141,14 +142,14 @@ class DepthInpaintEnv(gym.Env):
     ):
         self.dataset: DepthDataset = as_dataset(dataset)
         if len(self.dataset) == 0:
-            raise ValueError("the dataset has no frames")
+            raise InvalidInputError("the dataset has no frames")
         self.protocol = get_protocol(protocol)
         max_depth = check_max_depth(max_depth)
         if max_depth > DEPTH_LIMIT:
-            raise ValueError(f"max_depth must be in (0, {DEPTH_LIMIT}], got {max_depth}")
+            raise InvalidInputError(f"max_depth must be in (0, {DEPTH_LIMIT}], got {max_depth}")
         self.max_depth = max_depth
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
+            raise InvalidInputError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
         self.render_mode = render_mode
@@ -196,7 +197,7 @@ class DepthInpaintEnv(gym.Env):
         options = dict(options or {})
         unknown = set(options) - {"index", "mask_seed"}
         if unknown:
-            raise ValueError(f"unknown reset options {sorted(unknown)}; known: 'index', 'mask_seed'")
+            raise InvalidInputError(f"unknown reset options {sorted(unknown)}; known: 'index', 'mask_seed'")
         index = options.get("index")
         mask_seed = options.get("mask_seed")
         if index is not None:
@@ -213,13 +214,13 @@ class DepthInpaintEnv(gym.Env):
             if hole is not None:
                 break
         if hole is None and index is not None:
-            raise ValueError(
+            raise InvalidInputError(
                 f"frame {i} ({self.dataset.frame_ids[i]}) has no valid ground truth inside any of "
                 f"{MAX_MASK_REDRAWS + 1} {self.protocol.name} masks, so no reconstruction could "
                 "be scored; choose another index"
             )
         if hole is None:
-            raise RuntimeError(
+            raise StateError(
                 f"{MAX_FRAME_DRAWS} random frames had no valid ground truth inside any "
                 f"{self.protocol.name} hole; does the dataset hold any measurement?"
             )
@@ -261,7 +262,7 @@ class DepthInpaintEnv(gym.Env):
             If called before ``reset`` or after the episode ended.
         """
         if self._done or self._scored is None or self._obs_depth is None or self._hole is None:
-            raise RuntimeError("the episode is over or has not started; call reset() first")
+            raise StateError("the episode is over or has not started; call reset() first")
         pred = self._check_action(action)
         m = self._scored.metrics(pred, max_depth=self.max_depth, unfilled=self.unfilled)
         metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items()}
@@ -302,11 +303,11 @@ class DepthInpaintEnv(gym.Env):
         # sparse matrices are refused as everywhere else).
         arr = as_depth_array(action, "action")
         if arr.shape != self.frame_shape:
-            raise ValueError(f"action has shape {arr.shape}, expected {self.frame_shape}")
+            raise InvalidInputError(f"action has shape {arr.shape}, expected {self.frame_shape}")
         # Checked as the action space holds it: float64 values are rounded to float32
         # first. The rule is every scored reconstruction's (evaluate and the metrics too).
         with np.errstate(over="ignore"):
             arr32 = arr.astype(np.float32, copy=False)
         if in_depth_range(arr32):  # two reductions settle the common case
             return arr32
-        raise ValueError(f"action {reconstruction_problem(arr)}")
+        raise InvalidInputError(f"action {reconstruction_problem(arr)}")

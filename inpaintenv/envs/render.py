@@ -19,6 +19,7 @@ import numpy as np
 
 from ..conventions import check_max_depth
 from ..report import style
+from ..exceptions import InvalidInputError
 
 __all__ = ["colorize_depth", "colorize_error", "render_panel"]
 
@@ -111,9 +112,9 @@ def render_panel(
     gt = np.asarray(gt, dtype=np.float32)
     hole = np.asarray(hole).astype(bool)
     if gt.ndim != 2 or hole.shape != gt.shape:
-        raise ValueError(f"need (H, W) ground truth and hole of one shape, got {gt.shape} and {hole.shape}")
+        raise InvalidInputError(f"need (H, W) ground truth and hole of one shape, got {gt.shape} and {hole.shape}")
     if pred is not None and np.shape(pred) != gt.shape:
-        raise ValueError(f"reconstruction has shape {np.shape(pred)}, expected {gt.shape}")
+        raise InvalidInputError(f"reconstruction has shape {np.shape(pred)}, expected {gt.shape}")
     # A NaN or inf scale would turn every tile black without a word.
     max_depth = check_max_depth(max_depth)
     if error_max is not None:

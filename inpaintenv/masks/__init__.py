@@ -14,6 +14,7 @@ from .freeform import FreeformV1
 from .lidar import LidarDropoutV1
 from .mixed import MixedV1
 from .rect import RectV1
+from ..exceptions import InvalidInputError, UnknownNameError
 
 __all__ = [
     "EgoOcclusionV1",
@@ -34,9 +35,9 @@ _REGISTRY: dict[str, type[OcclusionProtocol]] = {}
 def register_protocol(cls: type[OcclusionProtocol]) -> type[OcclusionProtocol]:
     """Register a protocol class under its ``name`` (usable as a decorator)."""
     if not cls.name:
-        raise ValueError(f"{cls.__name__} has no name")
+        raise InvalidInputError(f"{cls.__name__} has no name")
     if cls.name in _REGISTRY and _REGISTRY[cls.name] is not cls:
-        raise ValueError(f"protocol {cls.name!r} is already registered")
+        raise InvalidInputError(f"protocol {cls.name!r} is already registered")
     _REGISTRY[cls.name] = cls
     return cls
 
@@ -59,7 +60,7 @@ def get_protocol(protocol: str | OcclusionProtocol) -> OcclusionProtocol:
     try:
         return _REGISTRY[protocol]()
     except KeyError:
-        raise KeyError(
+        raise UnknownNameError(
             f"unknown occlusion protocol {protocol!r}; available: {', '.join(available_protocols())}"
         ) from None
 

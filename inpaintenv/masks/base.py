@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..conventions import check_seed, check_seeds
+from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = ["OcclusionProtocol", "mask_rng"]
 
@@ -68,7 +69,7 @@ class OcclusionProtocol(ABC):
         H, W = _check_shape(shape)
         _check_rng(rng)
         if H < self.MIN_SHAPE[0] or W < self.MIN_SHAPE[1]:
-            raise ValueError(
+            raise InvalidInputError(
                 f"{self.name} needs frames of at least {self.MIN_SHAPE[0]}x{self.MIN_SHAPE[1]} "
                 f"(H x W), got {H}x{W}"
             )
@@ -154,16 +155,16 @@ def _check_shape(shape: tuple[int, int]) -> tuple[int, int]:
     try:
         dims = [operator.index(d) for d in shape]  # ints only: 3.5 rows is an error
     except TypeError:
-        raise ValueError(f"mask shape must be (H, W) with integer H, W >= 1, got {shape!r}") from None
+        raise InvalidInputError(f"mask shape must be (H, W) with integer H, W >= 1, got {shape!r}") from None
     if len(dims) != 2 or min(dims) < 1:
-        raise ValueError(f"mask shape must be (H, W) with H, W >= 1, got {shape!r}")
+        raise InvalidInputError(f"mask shape must be (H, W) with H, W >= 1, got {shape!r}")
     return dims[0], dims[1]
 
 
 def _check_rng(rng: object) -> np.random.Generator:
     """Protocols draw only from a ``numpy.random.Generator``; refuse anything else clearly."""
     if not isinstance(rng, np.random.Generator):
-        raise TypeError(
+        raise InvalidTypeError(
             f"rng must be a numpy.random.Generator (e.g. mask_rng(name, seed, index)), "
             f"got {type(rng).__name__}"
         )

@@ -8,6 +8,7 @@ import numpy as np
 
 from ._raster import fill_intervals
 from .base import OcclusionProtocol
+from ..exceptions import InvalidInputError
 
 __all__ = ["EgoOcclusionV1"]
 
@@ -61,7 +62,7 @@ class EgoOcclusionV1(OcclusionProtocol):
         parts = tuple(parts)
         unknown = sorted(set(parts) - set(_PARTS))
         if unknown or not parts:
-            raise ValueError(
+            raise InvalidInputError(
                 f"parts must be a non-empty subset of {_PARTS}, got {parts!r}"
             )
         # Canonical order so that equal sets describe equally.

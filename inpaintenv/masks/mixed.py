@@ -11,6 +11,7 @@ from .ego import EgoOcclusionV1
 from .freeform import FreeformV1
 from .lidar import LidarDropoutV1
 from .rect import RectV1
+from ..exceptions import InvalidInputError
 
 __all__ = ["MixedV1"]
 
@@ -40,10 +41,10 @@ class MixedV1(OcclusionProtocol):
 
     def __init__(self, components: Sequence[str] = tuple(_COMPONENTS)):
         if isinstance(components, str) or not components:
-            raise ValueError(f"components must be a non-empty sequence of protocol names, got {components!r}")
+            raise InvalidInputError(f"components must be a non-empty sequence of protocol names, got {components!r}")
         unknown = [c for c in components if c not in _COMPONENTS]
         if unknown:
-            raise ValueError(f"unknown components {unknown}; choose from {sorted(_COMPONENTS)}")
+            raise InvalidInputError(f"unknown components {unknown}; choose from {sorted(_COMPONENTS)}")
         self.components = tuple(components)
         self._protocols = [_COMPONENTS[c]() for c in self.components]
         # The largest minimum over the components: every one must be able to draw.

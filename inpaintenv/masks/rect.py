@@ -8,6 +8,7 @@ import numpy as np
 
 from ..conventions import is_real_number
 from .base import OcclusionProtocol, _check_rng, _check_shape
+from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = ["RectV1"]
 
@@ -52,18 +53,18 @@ class RectV1(OcclusionProtocol):
         max_relative_aspect: float = 2.0,
     ):
         if not (isinstance(min_rects, (int, np.integer)) and isinstance(max_rects, (int, np.integer))):
-            raise TypeError("min_rects and max_rects must be integers")
+            raise InvalidTypeError("min_rects and max_rects must be integers")
         if not 1 <= min_rects <= max_rects:
-            raise ValueError(f"need 1 <= min_rects <= max_rects, got {min_rects}, {max_rects}")
+            raise InvalidInputError(f"need 1 <= min_rects <= max_rects, got {min_rects}, {max_rects}")
         for key, value in (("min_area", min_area), ("max_area", max_area),
                            ("max_relative_aspect", max_relative_aspect)):
             if not is_real_number(value):
-                raise TypeError(f"{key} must be a number, got {value!r}")
+                raise InvalidTypeError(f"{key} must be a number, got {value!r}")
         if not 0 < min_area <= max_area <= 1:
-            raise ValueError(f"need 0 < min_area <= max_area <= 1, got {min_area}, {max_area}")
+            raise InvalidInputError(f"need 0 < min_area <= max_area <= 1, got {min_area}, {max_area}")
         # inf would pass ">= 1" and overflow when the log-uniform shape is drawn.
         if not (max_relative_aspect >= 1 and math.isfinite(max_relative_aspect)):
-            raise ValueError(f"max_relative_aspect must be a finite number >= 1, got {max_relative_aspect}")
+            raise InvalidInputError(f"max_relative_aspect must be a finite number >= 1, got {max_relative_aspect}")
         self.min_rects, self.max_rects = int(min_rects), int(max_rects)
         self.min_area, self.max_area = float(min_area), float(max_area)
         self.max_relative_aspect = float(max_relative_aspect)
@@ -98,7 +99,7 @@ class RectV1(OcclusionProtocol):
         w_lo, w_hi = self._width_bounds((H, W))
         feasible = np.flatnonzero(w_lo <= w_hi) + 1  # heights with a valid whole width
         if feasible.size == 0:
-            raise ValueError(
+            raise InvalidInputError(
                 f"image {H}x{W} is too small for {self.name}: no rectangle covering "
                 f"{self.min_area:.0%}-{self.max_area:.0%} of its {total} pixels fits"
             )

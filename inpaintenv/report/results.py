@@ -21,6 +21,7 @@ from ..conventions import DEFAULT_MAX_DEPTH
 from ..metrics import METRIC_NAMES, REGIONS, aggregate
 from . import tables
 from .files import write_atomic, write_text_atomic
+from ..exceptions import InvalidInputError
 
 __all__ = [
     "ID_COLUMNS", "METRIC_COLUMNS", "ROW_COLUMNS", "EvaluationResult", "json_safe", "merge_skipped", "parse_row",
@@ -116,7 +117,7 @@ class EvaluationResult:
     def concat(cls, results: Sequence[EvaluationResult]) -> EvaluationResult:
         """Join several results (e.g. one per method) into one."""
         if not results:
-            raise ValueError("no results to concatenate")
+            raise InvalidInputError("no results to concatenate")
         rows = [row for r in results for row in r.rows]
         meta = dict(results[0].meta)
         meta["methods"] = list(dict.fromkeys(m for r in results for m in r.meta.get("methods", [])))

@@ -12,6 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..exceptions import InvalidInputError
+
 __all__ = ["FEW_FRAMES", "bootstrap_mean_ci", "bootstrap_ratio_ci"]
 
 #: Below this many frames an interval is marked as rough: a percentile bootstrap from so
@@ -92,7 +94,7 @@ def bootstrap_ratio_ci(
     a = np.asarray(a, dtype=np.float64).reshape(-1)
     b = np.asarray(b, dtype=np.float64).reshape(-1)
     if a.size != b.size or a.size == 0:
-        raise ValueError(f"a and b must be non-empty and paired, got {a.size} and {b.size} values")
+        raise InvalidInputError(f"a and b must be non-empty and paired, got {a.size} and {b.size} values")
     ratio = float(a.mean() / b.mean())
     if a.size == 1:
         return ratio, _NAN, _NAN
@@ -102,7 +104,7 @@ def bootstrap_ratio_ci(
 
 def _check_confidence(confidence: float) -> None:
     if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+        raise InvalidInputError(f"confidence must be in (0, 1), got {confidence}")
 
 
 def _resample(n: int, n_resamples: int, seed: int) -> np.ndarray:

@@ -46,6 +46,7 @@ from .layout import (
 )
 from .manifest import KEY, KIT, MANIFEST_NAME, Frame, Item, Manifest, ManifestError, default_key_path, read_manifest
 from .truth import describe_truth
+from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = ["check_one_mask_per_frame", "clean_stale", "export", "protocol_record"]
 
@@ -66,7 +67,7 @@ def check_one_mask_per_frame(seeds: list[int], trusted: bool, option: str = "tru
         If ``seeds`` has more than one seed and ``trusted`` is False.
     """
     if len(seeds) > 1 and not trusted:
-        raise ValueError(
+        raise InvalidInputError(
             f"a submission export draws one mask per frame: with seeds {', '.join(map(str, seeds))} each input would "
             "show the other seeds' holes as measured depth (the hidden ground truth); export one seed, or pass "
             f"{option} for an export that only your own method sees"
@@ -78,10 +79,10 @@ def _our_files(out: Path) -> dict[str, str]:
     try:
         old = read_manifest(out)
     except ManifestError as exc:
-        raise ValueError(f"--out {out} holds a manifest.json that cannot tell which files are the export's ({exc}); "
+        raise InvalidInputError(f"--out {out} holds a manifest.json that cannot tell which files are the export's ({exc}); "
                          "move it or give another folder") from None
     if old.role != KIT:
-        raise ValueError(f"--out {out}/manifest.json is not an export's kit manifest; give another folder")
+        raise InvalidInputError(f"--out {out}/manifest.json is not an export's kit manifest; give another folder")
     recorded = {i.input: i.input_sha256 for i in old.items}
     recorded.update({i.hole: i.hole_sha256 for i in old.items})
     return recorded
@@ -95,13 +96,13 @@ def _prepare_out(out: Path, overwrite: bool) -> bool:
     so a file of the user's, even one an edited manifest lists, is never deleted.
     """
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder for the export")
+        raise InvalidInputError(f"--out {out} is a file; give a folder for the export")
     if not out.exists() or not any(out.iterdir()):
         return False
     if not (out / MANIFEST_NAME).is_file():
-        raise ValueError(f"--out {out} is not empty and holds no export; give a new or empty folder")
+        raise InvalidInputError(f"--out {out} is not empty and holds no export; give a new or empty folder")
     if not overwrite:
-        raise ValueError(f"--out {out} holds an earlier export; pass --overwrite (overwrite=True) to replace it")
+        raise InvalidInputError(f"--out {out} holds an earlier export; pass --overwrite (overwrite=True) to replace it")
     recorded = _our_files(out)
     foreign = []
     for folder, dirs, files in os.walk(out):
@@ -114,7 +115,7 @@ def _prepare_out(out: Path, overwrite: bool) -> bool:
             if not stat.S_ISREG(mode) or rel not in recorded or file_sha256(path) != recorded[rel]:
                 foreign.append(rel)
     if foreign:
-        raise ValueError(f"--out {out} holds files the earlier export did not write, or changed since "
+        raise InvalidInputError(f"--out {out} holds files the earlier export did not write, or changed since "
                          f"({', '.join(sorted(foreign)[:3])}{', …' if len(foreign) > 3 else ''}); move them or give "
                          "another folder")
     return True
@@ -165,19 +166,19 @@ def clean_stale(out: Path) -> list[Path]:
 def _prepare_key(key: Path, out: Path, overwrite: bool) -> None:
     """Check that the score key may be written at ``key``: outside the export, and replacing only a key."""
     if is_inside(key, out):
-        raise ValueError(f"the score key {key} would lie in the export {out}, which goes to the submitter; "
+        raise InvalidInputError(f"the score key {key} would lie in the export {out}, which goes to the submitter; "
                          "give a key path outside it")
     if key.is_symlink() or (key.exists() and not key.is_file()):
-        raise ValueError(f"the score key's path {key} is not a plain file; give another --key")
+        raise InvalidInputError(f"the score key's path {key} is not a plain file; give another --key")
     if key.exists():
         try:
             is_key = read_manifest(key).role == KEY
         except (ManifestError, ValueError):
             is_key = False
         if not is_key:
-            raise ValueError(f"{key} exists and is not a score key; give another --key")
+            raise InvalidInputError(f"{key} exists and is not a score key; give another --key")
         if not overwrite:
-            raise ValueError(f"{key} holds the score key of an earlier export; pass --overwrite (overwrite=True) "
+            raise InvalidInputError(f"{key} holds the score key of an earlier export; pass --overwrite (overwrite=True) "
                              "to replace it")
 
 
@@ -239,11 +240,11 @@ def export(
     proto = get_protocol(protocol)
     seed_list = check_seeds(seeds, "seeds")
     if not isinstance(trusted, bool):
-        raise TypeError(f"trusted must be True or False, got {trusted!r}")
+        raise InvalidTypeError(f"trusted must be True or False, got {trusted!r}")
     check_one_mask_per_frame(seed_list, trusted)
     total = len(dataset)
     if total == 0:
-        raise ValueError("the data source has no frames")
+        raise InvalidInputError("the data source has no frames")
     if n_frames is not None:
         total = min(total, check_int(n_frames, "n_frames", minimum=1))
     if total < len(dataset):
@@ -273,7 +274,7 @@ def export(
             gt = dataset.load_batch([i])[0]
             tiny = (gt > 0) & (gt < 0.5 / KITTI_DEPTH_SCALE)
             if tiny.any():
-                raise ValueError(f"frame {i} ({dataset.frame_ids[i]}) has depth below 1/512 m, which KITTI's "
+                raise InvalidInputError(f"frame {i} ({dataset.frame_ids[i]}) has depth below 1/512 m, which KITTI's "
                                  "16-bit encoding stores as 0 (no measurement)")
             split, fields = per_frame[i]
             if "ground_truth_sha256" not in fields:

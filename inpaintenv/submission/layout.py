@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..data.io import MAX_FRAME_PIXELS  # a manifest may declare no larger frame than a depth PNG may
+from ..exceptions import UnsafeFileError
 
 __all__ = [
     "DEPTH_ENCODING", "HOLE_ENCODING", "HOLE_FOLDER", "HOLE_VALUE", "INPUT_FOLDER", "MAX_FRAME_PIXELS",
@@ -107,10 +108,6 @@ def is_inside(path: Path, folder: Path) -> bool:
     except ValueError:
         return False
     return True
-
-
-class UnsafeFileError(ValueError):
-    """A file ``score`` will not read: a link, not a regular file, outside its folder, or too large."""
 
 
 def max_png_bytes(shape: Sequence[int]) -> int:

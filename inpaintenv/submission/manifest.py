@@ -30,6 +30,7 @@ import numpy as np
 
 from ..data.io import read_depth_png, read_png
 from .layout import HOLE_VALUE, MAX_FRAME_PIXELS, is_safe_relative
+from ..exceptions import ManifestError
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "KEY", "KIT", "MANIFEST_NAME", "MAX_MANIFEST_BYTES", "Frame", "Item",
            "Manifest", "ManifestError", "default_key_path", "read_manifest", "require_key"]
@@ -53,10 +54,6 @@ def default_key_path(out: str | os.PathLike) -> Path:
     """Where ``export`` writes the score key of the export folder ``out``: ``<out>.key.json`` beside it."""
     folder = Path(os.path.abspath(out))
     return folder.parent / f"{folder.name}.key.json"
-
-
-class ManifestError(ValueError):
-    """A manifest cannot be read, or does not match the protocol or ground truth here."""
 
 
 @dataclass(frozen=True)

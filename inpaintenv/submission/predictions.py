@@ -32,6 +32,7 @@ from ..masks import OcclusionProtocol, get_protocol
 from .layout import UnsafeFileError, hole_bits_sha256, input_key, is_inside, max_png_bytes, read_inside
 from .manifest import Item, Manifest, ManifestError, require_key
 from .truth import verify_frame
+from ..exceptions import InvalidInputError, SubmissionError
 
 __all__ = ["ON_MISSING", "CheckedPredictions", "SubmissionError", "SubmittedPredictions", "check_predictions",
            "manifest_protocol"]
@@ -39,10 +40,6 @@ __all__ = ["ON_MISSING", "CheckedPredictions", "SubmissionError", "SubmittedPred
 #: Values of ``--on-missing``.
 ON_MISSING = ("error", "skip")
 _SHOWN = 3  # files named in a message before "and N more"
-
-
-class SubmissionError(ValueError):
-    """Predictions that cannot be scored: missing, unexpected or unusable files (all listed)."""
 
 
 def _count(n: int, noun: str) -> str:
@@ -312,7 +309,7 @@ def check_predictions(
         of the frame, measured pixels of the input not kept, holes left at 0).
     """
     if on_missing not in ON_MISSING:
-        raise ValueError(f"on_missing must be 'error' or 'skip', got {on_missing!r}")
+        raise InvalidInputError(f"on_missing must be 'error' or 'skip', got {on_missing!r}")
     folder = Path(predictions)
     if not folder.is_dir():
         raise FileNotFoundError(f"predictions folder {folder} does not exist")

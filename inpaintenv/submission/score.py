@@ -21,6 +21,7 @@ from .layout import is_inside
 from .manifest import Manifest, read_manifest, require_key
 from .predictions import CheckedPredictions, check_predictions
 from .truth import open_truth
+from ..exceptions import InvalidInputError
 
 __all__ = ["check_run_folder", "prepare", "score", "submission_meta", "without_ms"]
 
@@ -49,7 +50,7 @@ def prepare(
         ``checked.method`` is the submission as a method.
     """
     if not isinstance(name, str) or not name.strip():
-        raise ValueError(f"name must be a non-empty string, got {name!r}")
+        raise InvalidInputError(f"name must be a non-empty string, got {name!r}")
     m = require_key(manifest if isinstance(manifest, Manifest) else read_manifest(manifest))
     if kitti_root is None and source is None and m.ground_truth.get("type") == "kitti":
         kitti_root = os.environ.get(KITTI_ROOT_ENV) or None
@@ -73,10 +74,10 @@ def check_run_folder(out: str | os.PathLike, manifest: Manifest, predictions: st
     """
     path = Path(out)
     if path.exists() and not path.is_dir():
-        raise ValueError(f"--out {path} is a file; give a folder for the run")
+        raise InvalidInputError(f"--out {path} is a file; give a folder for the run")
     for folder, what in ((manifest.root, "export"), (Path(predictions), "predictions")):
         if is_inside(path, folder):
-            raise ValueError(f"--out {path} lies in the {what} folder {folder}; give a run folder outside it")
+            raise InvalidInputError(f"--out {path} lies in the {what} folder {folder}; give a run folder outside it")
     return path
 
 
@@ -168,9 +169,9 @@ def score(
     """
     extra = dict(methods or {})
     if name in extra:
-        raise ValueError(f"the submission's name {name!r} is also the name of a method of the run; choose another")
+        raise InvalidInputError(f"the submission's name {name!r} is also the name of a method of the run; choose another")
     if extra and out_dir is None:
-        raise ValueError("methods= needs out_dir= (a run folder holds the rows of several methods)")
+        raise InvalidInputError("methods= needs out_dir= (a run folder holds the rows of several methods)")
     m, dataset, checked = prepare(manifest, predictions, name=name, kitti_root=kitti_root, source=source,
                                   on_missing=on_missing, allow_unfilled=allow_unfilled, progress=progress)
     say = log or (lambda msg: None)

@@ -28,6 +28,7 @@ from ..data.kitti import KittiDepth, bottom_center_crop
 from ..data.synthetic import SyntheticStreets
 from .layout import array_sha256, file_sha256, is_inside
 from .manifest import Frame, Manifest, ManifestError
+from ..exceptions import InvalidInputError
 
 __all__ = ["ManifestFrames", "describe_truth", "open_truth", "verify_frame"]
 
@@ -168,7 +169,7 @@ def open_truth(manifest: Manifest, kitti_root: str | os.PathLike | None = None,
         return source
     if kind == "kitti":
         if kitti_root is None:
-            raise ValueError(f"{manifest.path} was exported from KITTI: pass --kitti-root <KITTI root> "
+            raise InvalidInputError(f"{manifest.path} was exported from KITTI: pass --kitti-root <KITTI root> "
                              "(kitti_root= in Python) or set $INPAINTENV_KITTI_ROOT")
         return ManifestFrames(manifest, kitti_root)
     if kind == "synthetic":
