@@ -2,7 +2,9 @@
 
 The shared API (:mod:`~estimators.base`, :mod:`~estimators.scoring`), the classical fills
 (:mod:`estimators.classical`, no torch) and the learned ones (:mod:`estimators.learned`,
-PyTorch). Classical methods import without torch; the learned ones load torch on first use.
+PyTorch). Classical methods import without torch; the learned ones load torch on first use
+and need the ``[learned]`` extra (``pip install "inpaintenv[learned]"``): without it,
+``from estimators import UNetInpainter`` raises an ``ImportError`` saying so.
 """
 
 from __future__ import annotations
@@ -60,6 +62,11 @@ def __getattr__(name: str):
     if name in _NEURAL:
         import importlib
 
+        from inpaintenv.registry import LEARNED_INSTALL, MissingExtraError, learned_missing
+
+        if missing := learned_missing():
+            raise MissingExtraError(f"estimators.{name} is a learned model and needs {' and '.join(missing)}, "
+                                    f"not installed here: {LEARNED_INSTALL}", name=__name__)
         return getattr(importlib.import_module(f".{_NEURAL[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

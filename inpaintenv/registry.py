@@ -5,6 +5,10 @@ each name maps to ``(module path, class name, keyword arguments)`` and the class
 imported only when :func:`make_method` builds it, so ``import inpaintenv`` never loads
 ``estimators``.
 
+The learned methods (modules under ``estimators.learned``) need the ``[learned]`` extra
+(torch, safetensors); without it, naming one raises :class:`MissingExtraError`, one line
+saying what to install (:data:`LEARNED_INSTALL`).
+
 >>> from inpaintenv.registry import available_methods, make_method
 >>> "telea-hole" in available_methods()
 True
@@ -16,18 +20,24 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import importlib.util
 import os
 import sys
 from dataclasses import dataclass, field
 from typing import Any
 
 __all__ = [
+    "LEARNED_DEPENDENCIES",
+    "LEARNED_INSTALL",
     "PRETRAINED_RELEASES",
     "MethodSpec",
+    "MissingExtraError",
     "available_aliases",
     "available_methods",
     "canonical_name",
     "get_spec",
+    "is_learned",
+    "learned_missing",
     "make_method",
     "register_alias",
     "register_method",
@@ -66,6 +76,20 @@ class MethodSpec:
 
 
 _CLASSICAL = "estimators.classical"
+_LEARNED = "estimators.learned"
+
+#: The modules the ``[learned]`` extra brings (import names).
+LEARNED_DEPENDENCIES: tuple[str, ...] = ("torch", "safetensors")
+#: What to install for the learned methods; the CPU build first keeps pip from pulling
+#: several GB of CUDA packages on a machine without a GPU.
+LEARNED_INSTALL = (
+    'pip install "inpaintenv[learned]" (on a CPU-only Linux machine, first '
+    "pip install torch --index-url https://download.pytorch.org/whl/cpu)"
+)
+
+
+class MissingExtraError(ImportError):
+    """A learned method was named, but the ``[learned]`` extra (torch, safetensors) is not installed."""
 _METHODS: dict[str, MethodSpec] = {}
 #: alias -> canonical name (old names kept working after a method was renamed).
 _ALIASES: dict[str, str] = {}
@@ -167,6 +191,35 @@ def unfilled_policy(name: str) -> str:
     return get_spec(name).unfilled
 
 
+def learned_missing() -> list[str]:
+    """The modules of the ``[learned]`` extra that cannot be found here (empty when installed).
+
+    Found without importing them (torch takes seconds to import).
+    """
+    missing = []
+    for module in LEARNED_DEPENDENCIES:
+        try:
+            found = importlib.util.find_spec(module) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            missing.append(module)
+    return missing
+
+
+def is_learned(name: str) -> bool:
+    """True if method ``name`` (a registered name or alias) is one of the package's learned models."""
+    module = get_spec(name).module
+    return module == _LEARNED or module.startswith(_LEARNED + ".")
+
+
+def _missing_extra(name: str, missing: list[str]) -> MissingExtraError:
+    what = "a saved learned model" if canonical_name(name) == "checkpoint" else "a learned model"
+    return MissingExtraError(
+        f"method {name!r} is {what} and needs {' and '.join(missing)}, not installed here: {LEARNED_INSTALL}"
+    )
+
+
 def resolve_class(name: str) -> Any:
     """Import the class (or factory) of method ``name`` without building it.
 
@@ -177,13 +230,20 @@ def resolve_class(name: str) -> Any:
     ------
     KeyError
         Unknown name.
+    MissingExtraError
+        A learned method, and the ``[learned]`` extra is not installed.
     ImportError
         The module cannot be imported or has no such class.
     """
     spec = get_spec(name)
+    if not _is_custom(name) and is_learned(name) and (missing := learned_missing()):
+        raise _missing_extra(name, missing)
     try:
         module = importlib.import_module(spec.module) if not _is_custom(name) else _import_custom(spec.module)
     except ImportError as exc:
+        root = str(getattr(exc, "name", None) or "").partition(".")[0]
+        if not _is_custom(name) and root in LEARNED_DEPENDENCIES:  # found by find_spec, yet not importable
+            raise _missing_extra(name, [root]) from exc
         raise ImportError(f"method {name!r} needs module {spec.module!r}, which cannot be imported: {exc}") from exc
     try:
         return getattr(module, spec.cls)
@@ -274,7 +334,7 @@ for _name, _cls, _kw, _desc in [
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc, unfilled="zero" if _kw.get("fill") == "hole" else "error")
 
-# The shipped learned models (need torch): small per-pixel MLPs that blend classical
+# The shipped learned models (need the [learned] extra): small per-pixel MLPs that blend classical
 # fills, so their names say "blend". Factories, not classes: they load the weights.
 # See docs/model_card.md.
 register_method(

@@ -10,7 +10,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..registry import available_methods, get_spec, make_method, unfilled_policy
+from ..registry import (
+    LEARNED_INSTALL, available_methods, get_spec, is_learned, learned_missing, make_method, unfilled_policy,
+)
 
 __all__ = ["KINDS", "SUITES", "suite_methods", "LazyMethod", "method_kind", "registry_kind"]
 
@@ -85,13 +87,21 @@ def suite_methods(
     overrides : dict, optional
         Constructor keywords applied to every method that accepts them (e.g. ``n_jobs``).
     warn : callable
-        Receives one line per method skipped because it is not available here.
+        Receives one line per method skipped because it is not available here, and one
+        line for all the learned ones left out when the ``[learned]`` extra is missing.
     """
     if suite not in SUITES:
         raise KeyError(f"unknown suite {suite!r}; available: {', '.join(SUITES)}")
     known = set(available_methods())
+    names = SUITES[suite]
+    learned = [name for name in names if name in known and is_learned(name)]
+    if learned and (missing := learned_missing()):
+        # The classical rest still gives a result: a user scoring their own method needs no torch.
+        warn(f"left out the learned methods {', '.join(learned)}: {' and '.join(missing)} not installed; "
+             f"to score them, {LEARNED_INSTALL}")
+        names = [name for name in names if name not in learned]
     out: dict[str, Any] = {}
-    for name in SUITES[suite]:
+    for name in names:
         if name not in known:
             warn(f"skipping {name!r}: not registered here (its package or weights are missing)")
             continue

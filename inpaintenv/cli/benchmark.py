@@ -103,7 +103,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     # Every argument is resolved and checked before any frame is scored: a typo in the
     # last option must not cost the hour spent on the first methods.
     check_source_options(args)
-    methods = _methods(args, log)
+    methods = _methods(args)
     protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
     if len(set(protocols)) != len(protocols):
         raise ValueError(f"--protocol values must be distinct, got {protocols}")
@@ -150,7 +150,11 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
-def _methods(args: argparse.Namespace, log: Any) -> dict[str, Any]:
+def _stderr(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+def _methods(args: argparse.Namespace) -> dict[str, Any]:
     """The run's methods by name, unbuilt: the ``--suite`` (``default`` when neither it nor ``-m``
     is given), then the ``-m`` names, then the ``--checkpoint`` models."""
     from ..benchmark.suites import LazyMethod, build_method, registry_kind, suite_methods
@@ -160,7 +164,8 @@ def _methods(args: argparse.Namespace, log: Any) -> dict[str, Any]:
     suite = args.suite or (None if args.method else "default")
     # An explicit --suite with -m is both: dropping the suite silently would score a run
     # without the classical methods its headline compares against.
-    methods: dict[str, Any] = suite_methods(suite, overrides=overrides, warn=log) if suite else {}
+    # Methods left out of the suite are said even with --quiet: the table would lack them silently.
+    methods: dict[str, Any] = suite_methods(suite, overrides=overrides, warn=_stderr) if suite else {}
     for name in check_method_names(args.method or []):
         methods.setdefault(
             name, LazyMethod(lambda name=name: build_method(name, overrides), unfilled=unfilled_policy(name),
