@@ -17,6 +17,12 @@ A training run directory holds immutable checkpoint directories ``ckpt-<step>`` 
 pointer file ``state.json`` = ``{"last": ..., "best": ...}`` that is replaced
 atomically, so a crash while writing never leaves ``last`` half-written.
 
+A checkpoint is data from outside: loading one never writes a file, never reads outside
+its folder (the pointers of ``state.json`` must be plain names of checkpoint folders of
+the run), and refuses weights without a recorded checksum, weights that are not floating
+point or not finite, and config entries of the wrong type, each with one
+:class:`CheckpointError` naming the file and the key or tensor.
+
 :class:`CheckpointMixin` gives the neural inpainters ``save`` / ``load`` on top of these
 files; :data:`CLASSES` maps the class name a checkpoint records to its class.
 """
@@ -26,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import tempfile
 import uuid
@@ -38,10 +45,16 @@ import torch
 from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 
+from ._checkpoint_checks import CheckpointError, build_checked, check_tensors, config_value, load_weights
+
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
     "CheckpointError",
+    "build_checked",
+    "check_tensors",
+    "config_value",
+    "load_weights",
     "flatten_optimizer_state",
     "load_shipped",
     "read_checkpoint",
@@ -58,10 +71,9 @@ FORMAT_VERSION = 1
 MODEL_FILE, CONFIG_FILE = "model.safetensors", "config.json"
 OPTIM_FILE, TRAINING_FILE = "optimizer.safetensors", "training.json"
 STATE_FILE = "state.json"
-
-
-class CheckpointError(ValueError):
-    """A checkpoint is missing, truncated, corrupt, or not an inpaintenv neural checkpoint."""
+#: What ``state.json`` may point at: a checkpoint folder of the run itself, by plain name
+#: (no separator, no ``..``), as :func:`write_run_checkpoint` names them.
+_RUN_ENTRY = re.compile(r"(ckpt|best)-[A-Za-z0-9_-]+")
 
 
 def _sha256(path: Path) -> str:
@@ -115,10 +127,15 @@ def _read_json(path: Path) -> dict[str, Any]:
     return obj
 
 
-def _read_tensors(path: Path, sha256: str | None) -> dict[str, torch.Tensor]:
+def _read_tensors(path: Path, sha256: Any, recorded_in: Path) -> dict[str, torch.Tensor]:
+    """The tensors of ``path``, after checking them against the checksum ``recorded_in`` holds."""
     if not path.is_file():
         raise CheckpointError(f"checkpoint file missing: {path}")
-    if sha256 is not None and _sha256(path) != sha256:
+    if not isinstance(sha256, str):
+        # Without a checksum an edited file would load as a silently different model.
+        raise CheckpointError(f"{recorded_in} records no SHA-256 of {path.name} (key {_sha_key(path)!r}): "
+                              "the file cannot be verified; save the model again")
+    if _sha256(path) != sha256:
         raise CheckpointError(
             f"{path} does not match the checksum recorded beside it: the checkpoint is "
             "truncated, corrupt, or was partly overwritten"
@@ -127,6 +144,10 @@ def _read_tensors(path: Path, sha256: str | None) -> dict[str, torch.Tensor]:
         return load_file(str(path), device="cpu")
     except (SafetensorError, OSError, ValueError) as e:
         raise CheckpointError(f"cannot read {path} as safetensors (truncated or corrupt): {e}") from None
+
+
+def _sha_key(path: Path) -> str:
+    return "optimizer_sha256" if path.name == OPTIM_FILE else "weights_sha256"
 
 
 def write_checkpoint(
@@ -170,17 +191,17 @@ def read_checkpoint(
     config = _read_json(path / CONFIG_FILE)
     if config.get("format") != FORMAT:
         raise CheckpointError(f"{path} is not an {FORMAT} checkpoint (format={config.get('format')!r})")
-    if int(config.get("format_version", -1)) > FORMAT_VERSION:
-        raise CheckpointError(
-            f"{path} has format version {config.get('format_version')}; this version reads <= {FORMAT_VERSION}"
-        )
-    weights = _read_tensors(path / MODEL_FILE, config.get("weights_sha256"))
+    version = config_value(config, "format_version", int, path / CONFIG_FILE)
+    if version > FORMAT_VERSION:
+        raise CheckpointError(f"{path} has format version {version}; this version reads <= {FORMAT_VERSION}")
+    weights = _read_tensors(path / MODEL_FILE, config.get("weights_sha256"), path / CONFIG_FILE)
+    check_tensors(weights, path / MODEL_FILE)
     if not training:
         return config, weights, None, None
     state = _read_json(path / TRAINING_FILE)
     if state.get("weights_sha256") != config.get("weights_sha256"):
         raise CheckpointError(f"{path}: training state and weights come from different saves")
-    optim = _read_tensors(path / OPTIM_FILE, state.get("optimizer_sha256"))
+    optim = _read_tensors(path / OPTIM_FILE, state.get("optimizer_sha256"), path / TRAINING_FILE)
     return config, weights, state, optim
 
 
@@ -211,11 +232,26 @@ def unflatten_optimizer_state(tensors: dict[str, torch.Tensor], meta: dict[str, 
 
 # -- training run directories ---------------------------------------------------------
 def read_run_state(run_dir: str | os.PathLike) -> dict[str, Any] | None:
-    """The ``{"last": name, "best": name | None}`` pointers of a run, or None if new."""
+    """The ``{"last": name, "best": name | None}`` pointers of a run, or None if new.
+
+    Raises
+    ------
+    CheckpointError
+        A pointer that is not the plain name of a checkpoint folder of the run (an absolute
+        path, ``..``, a separator, a missing ``last``): loading never leaves the run folder.
+    """
     path = Path(run_dir) / STATE_FILE
     if not path.exists():
         return None
-    return _read_json(path)
+    state = _read_json(path)
+    for key in ("last", "best"):
+        value = state.get(key)
+        if key == "best" and value is None:
+            continue
+        if not isinstance(value, str) or not _RUN_ENTRY.fullmatch(value):
+            raise CheckpointError(f"{path}: {key!r} must name a checkpoint folder of this run "
+                                  f"(ckpt-... or best-..., no path), got {value!r}")
+    return state
 
 
 def write_run_checkpoint(
@@ -389,37 +425,41 @@ class CheckpointMixin:
         Raises
         ------
         CheckpointError
-            If the checkpoint is missing, truncated, corrupt, or of another class.
+            If the checkpoint is missing, truncated, corrupt, tampered with (see the module
+            notes) or of another class.
         """
         path = Path(path)
         state = read_run_state(path) if path.is_dir() else None
         if state is not None:
             path = path / (state.get("best") or state["last"])
         config, weights, _, _ = read_checkpoint(path)
+        return cls.from_config(config, weights, path)
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
+        """The model a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory.
+
+        ``where`` names the checkpoint in errors (a folder, or an ensemble's member).
+        """
         klass = checkpoint_class(config.get("class"))
         if klass is None or not issubclass(klass, cls):
-            raise CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
-        params = dict(config["params"])
+            raise CheckpointError(f"{where} holds a {config.get('class')!r}, not a {cls.__name__}")
+        params = dict(config_value(config, "params", dict, where))
         if params.get("crop") is not None:
-            params["crop"] = tuple(params["crop"])
+            params["crop"] = tuple(config_value(params, "crop", list, where))
         if isinstance(params.get("warm_start"), str) and params["warm_start"].startswith("<"):
             params["warm_start"] = None  # an in-memory estimator cannot be restored; weights are
-        try:
-            est = klass(**params)
-        except TypeError as e:
-            raise CheckpointError(f"{path} has parameters this version does not know: {e}") from None
-        model = est._build_model(0)
-        try:
-            model.load_state_dict(weights)
-        except RuntimeError as e:
-            raise CheckpointError(f"{path}: weights do not fit the saved architecture: {e}") from None
-        est.model_ = model.eval()
-        fitted = config.get("fitted") or {}
-        est.history_ = fitted.get("history_") or progress_history(fitted)
-        est.n_steps_ = int(fitted.get("n_steps_", fitted.get("step", 0)) or 0)
-        est.seed_ = config.get("seed")
+        fitted = config_value(config, "fitted", dict, where, default={})
+        n_steps = config_value(fitted, "n_steps_", int, where,
+                               default=config_value(fitted, "step", int, where, default=0))
+        history = config_value(fitted, "history_", dict, where, default=None)
+        seed = config_value(config, "seed", int, where, default=None)
+        est = build_checked(klass, params, where)
+        est.model_ = load_weights(est._build_model(0), weights, where)
+        est.history_ = history or progress_history(fitted)
+        est.n_steps_ = n_steps
+        est.seed_ = seed
         est.model_params_ = est._model_params()
         restore_provenance(est, config)
         est.is_fitted_ = True
         return est
-

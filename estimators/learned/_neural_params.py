@@ -21,6 +21,7 @@ from inpaintenv.masks import get_protocol
 
 from ..base import check_random_state
 from ._checkpoint import cpu_state
+from ._limits import check_parameter_count
 from ._training import crop_shape
 from .nets import UNet
 
@@ -140,6 +141,11 @@ class NeuralParamsMixin:
                 f"(width * 2**{d}), more than the {MAX_CHANNELS} allowed (channels double per level, "
                 f"so parameters about quadruple); lower {d} or width"
             )
+
+    def _check_size(self) -> None:
+        """Refuse a network of more than ``MAX_PARAMETERS`` (counted before it is built)."""
+        sizes = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._model_param_names() if k not in ("candidates",))
+        check_parameter_count(lambda: self._build_model(0), sizes)
 
     def _downsampling(self) -> tuple[int, str]:
         """Total downsampling factor of the network and the parameters that set it."""

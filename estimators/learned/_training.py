@@ -263,6 +263,7 @@ class TrainingMixin:
 
     def _fit(self, dataset: DepthDataset) -> None:
         self._check_params()
+        self._check_size()
         check_depth(dataset[0], name="X[0]")
         self._check_frame_size(dataset.frame_shape)
         seed = resolve_seed(self.random_state)
@@ -300,6 +301,7 @@ class TrainingMixin:
             resumed = self._resume(run_dir, model, optimizer, device)
             if resumed is not None:
                 progress, best_state = resumed
+                self._set_rng_state(progress.pop("rng", None))
 
         data = OcclusionFrames(train_ds, protocol, self.crop, seed)
 
@@ -309,7 +311,8 @@ class TrainingMixin:
             tensors, meta = ckpt.flatten_optimizer_state(optimizer.state_dict())
             ckpt.write_run_checkpoint(
                 run_dir, progress["step"], {**config, "fitted": _fitted_summary(progress)},
-                cpu_state(model), {**progress, "optimizer": meta}, tensors, best_is_current=new_best,
+                cpu_state(model), {**progress, "optimizer": meta, "rng": self._rng_state()}, tensors,
+                best_is_current=new_best,
             )
 
         bar = tqdm(total=total, initial=progress["step"], disable=not self.verbose, desc=type(self).__name__, leave=False)
@@ -330,6 +333,14 @@ class TrainingMixin:
         self.model_ = model.to("cpu", memory_format=torch.contiguous_format).eval()
         self.history_ = progress["history"]
         self.n_steps_ = progress["step"]
+
+    def _rng_state(self) -> dict[str, Any] | None:
+        """As JSON, the state of a random stream that advances step by step (the PriorUNet's
+        flips), so a resume continues it; None: samples depend on ``(seed, epoch, index)`` only."""
+        return None
+
+    def _set_rng_state(self, state: dict[str, Any] | None) -> None:
+        """Restore what :meth:`_rng_state` returned (None: a checkpoint that recorded none)."""
 
     def _initial_model(self, seed: int) -> torch.nn.Module:
         """A new network, its encoder (or all of it, for ``warm_start=True``) copied from the warm start."""

@@ -44,6 +44,8 @@ from ..priors import (
     prior_features,
 )
 from . import _checkpoint as ckpt
+from ._limits import MAX_LAYERS, MAX_WIDTH, check_at_most, check_parameter_count
+from ._output import floor_holes
 from ._training import deterministic_torch, frame_label, torch_threads
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
@@ -234,6 +236,8 @@ class BlendInpainter(BaseInpainter):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+        check_at_most("width", self.width, MAX_WIDTH)
+        check_at_most("layers", self.layers, MAX_LAYERS)
         keep = self.keep
         if isinstance(keep, (str, bytes)) or not isinstance(keep, (tuple, list)) or not keep or any(
             isinstance(k, bool) or not isinstance(k, (int, float, np.floating)) or not 0.0 < k <= 1.0 for k in keep
@@ -261,6 +265,11 @@ class BlendInpainter(BaseInpainter):
                 "refit, or set them back"
             )
 
+    def _check_size(self) -> None:
+        """Refuse a network of more than ``MAX_PARAMETERS`` (counted before it is built)."""
+        check_parameter_count(self._build_model, ", ".join(
+            f"{k}={v!r}" for k, v in self._model_params().items() if k != "candidates"))
+
     def _build_model(self) -> PixelBlendNet:
         return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.layers),
                              n_endpoints=len(ENDPOINT_CHANNELS) if self.endpoints else 0,
@@ -269,6 +278,7 @@ class BlendInpainter(BaseInpainter):
     # -- fitting ---------------------------------------------------------------------------
     def _fit(self, dataset: DepthDataset) -> None:
         self._check_params()
+        self._check_size()
         start = time.perf_counter()
         seed = resolve_seed(self.random_state)  # one draw per fit: features and network share it
         x, y = self.training_pixels(dataset, seed=seed)
@@ -389,7 +399,7 @@ class BlendInpainter(BaseInpainter):
         with torch_threads(self.predict_threads), torch.inference_mode():
             for i, frame in enumerate(X):
                 out[i] = self._predict_frame(frame)
-        return out
+        return floor_holes(out, X)
 
     def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
         return self._predict_features(frame, self._features(frame))
@@ -425,36 +435,30 @@ class BlendInpainter(BaseInpainter):
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> BlendInpainter:
-        """Load a model written by :meth:`save`.
-
-        Raises
-        ------
-        estimators.learned._checkpoint.CheckpointError
-            Missing, corrupt or foreign files, or a checkpoint of another class.
-        """
+        """Load a model written by :meth:`save` (raises ``CheckpointError`` for missing, corrupt,
+        foreign or tampered-with files, or a checkpoint of another class)."""
         config, weights, _, _ = ckpt.read_checkpoint(path)
+        return cls.from_config(config, weights, path)
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> BlendInpainter:
+        """The model a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory
+        (``where`` names the checkpoint in errors)."""
         if config.get("class") != cls.__name__:
-            raise ckpt.CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
-        params = dict(config["params"])
+            raise ckpt.CheckpointError(f"{where} holds a {config.get('class')!r}, not a {cls.__name__}")
+        params = dict(ckpt.config_value(config, "params", dict, where))
         for name in cls._TUPLE_PARAMS:
-            params[name] = tuple(params[name])
-        try:
-            est = cls(**params)
-        except TypeError as e:
-            raise ckpt.CheckpointError(f"{path} has parameters this version does not know: {e}") from None
-        est._check_params()
-        est.model_ = est._build_model()
-        try:
-            est.model_.load_state_dict(weights)
-        except RuntimeError as e:
-            raise ckpt.CheckpointError(f"{path}: weights do not fit the recorded parameters: {e}") from None
-        est.model_.eval()
-        est.model_params_ = dict(config["model_params"])
-        fit = config.get("fit", {})
-        est.n_pixels_ = fit.get("n_pixels", 0)
-        est.training_frames_ = fit.get("training_frames", 0)
-        est.fit_seconds_ = fit.get("fit_seconds", float("nan"))
-        est.history_ = {"epoch_loss": list(fit.get("epoch_loss", []))}
+            if name in params:
+                params[name] = tuple(ckpt.config_value(params, name, list, where))
+        model_params = dict(ckpt.config_value(config, "model_params", dict, where))
+        fit = ckpt.config_value(config, "fit", dict, where, default={})
+        epoch_loss = ckpt.config_value(fit, "epoch_loss", list, where, default=[])
+        est = ckpt.build_checked(cls, params, where)
+        est.n_pixels_, est.training_frames_ = (ckpt.config_value(fit, k, int, where, default=0)
+                                               for k in ("n_pixels", "training_frames"))
+        est.fit_seconds_ = ckpt.config_value(fit, "fit_seconds", float, where, default=float("nan"))
+        est.model_ = ckpt.load_weights(est._build_model(), weights, where)
+        est.model_params_, est.history_ = model_params, {"epoch_loss": list(epoch_loss)}
         ckpt.restore_provenance(est, config)
         est.is_fitted_ = True
         return est

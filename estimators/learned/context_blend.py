@@ -35,6 +35,7 @@ from inpaintenv.masks import get_protocol
 from ..base import resolve_seed
 from ..priors import prior_features
 from . import _checkpoint as ckpt
+from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH, check_at_most
 from ._training import deterministic_torch, frame_label, torch_threads
 from .blend import BLEND_CANDIDATES, BlendInpainter
 from .nets.context_blend import ContextBlendEnsemble, ContextBlendNet, context_grid, frame_reference
@@ -203,11 +204,15 @@ class ContextBlendInpainter(BlendInpainter):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+        check_at_most("n_members", self.n_members, MAX_MEMBERS)
+        check_at_most("n_context", self.n_context, MAX_WIDTH)
         widths = self.context_widths
         if isinstance(widths, (str, bytes)) or not isinstance(widths, (tuple, list)) or not widths or any(
             isinstance(w, bool) or not isinstance(w, (int, np.integer)) or w < 1 for w in widths
         ):
             raise ValueError(f"context_widths must be a non-empty tuple of integers >= 1, got {widths!r}")
+        check_at_most("len(context_widths)", len(widths), MAX_LAYERS)
+        check_at_most("max(context_widths)", max(widths), MAX_WIDTH)
         b = self.balance
         if isinstance(b, bool) or not isinstance(b, (int, float, np.floating)) or not 0.0 <= b <= 1.0:
             raise ValueError(f"balance must be a number in [0, 1], got {b!r}")
@@ -238,6 +243,7 @@ class ContextBlendInpainter(BlendInpainter):
     # -- fitting ---------------------------------------------------------------------------
     def _fit(self, dataset: DepthDataset) -> None:
         self._check_params()
+        self._check_size()
         start = time.perf_counter()
         seed = resolve_seed(self.random_state)
         samples, groups = self.training_samples(dataset, seed=seed)

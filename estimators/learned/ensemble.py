@@ -39,6 +39,7 @@ from inpaintenv.environment import environment_info
 from ..base import BaseInpainter
 from . import _checkpoint as ckpt
 from . import blend, context_blend, neural, prior  # noqa: F401  (each registers the classes a member may be)
+from ._output import floor_holes
 from ._training import torch_threads
 
 __all__ = ["DEFAULT_ENSEMBLE", "MeanEnsembleInpainter", "pretrained_ensemble"]
@@ -178,6 +179,9 @@ class MeanEnsembleInpainter(BaseInpainter):
                              if getattr(self, k) is not None and k in accepted})
         return member
 
+    def _check_size(self) -> None:
+        """Nothing to check: each member checked its own size when it was built."""
+
     @classmethod
     def _own_params(cls) -> list[str]:
         return super()._get_param_names()
@@ -256,8 +260,8 @@ class MeanEnsembleInpainter(BaseInpainter):
         members = self.estimators_
         weights = self._member_weights(len(members))
         if not self.shares_features_:
-            return np.average([np.asarray(m.predict(X), np.float32) for m in members], axis=0,
-                              weights=weights).astype(np.float32)
+            return floor_holes(np.average([np.asarray(m.predict(X), np.float32) for m in members], axis=0,
+                                          weights=weights).astype(np.float32), X)
         for m in members:
             m._check_params()
             m._check_model_params()
@@ -266,7 +270,7 @@ class MeanEnsembleInpainter(BaseInpainter):
             for i, frame in enumerate(X):
                 feats = members[0]._features(frame)
                 out[i] = np.average([m._predict_features(frame, feats) for m in members], axis=0, weights=weights)
-        return out
+        return floor_holes(out, X)
 
     # -- persistence -----------------------------------------------------------------------
     def save(self, path: str | os.PathLike) -> Path:
@@ -305,40 +309,44 @@ class MeanEnsembleInpainter(BaseInpainter):
     def load(cls, path: str | os.PathLike) -> MeanEnsembleInpainter:
         """Load an ensemble written by :meth:`save`.
 
+        Each member is built in memory from its config and its share of the weights (no
+        file is written, whatever the config holds).
+
         Raises
         ------
         estimators.learned._checkpoint.CheckpointError
-            Missing, corrupt or foreign files, a checkpoint of another class, or a member
-            this version cannot load.
+            Missing, corrupt, foreign or tampered-with files, a checkpoint of another class,
+            a member name that is not an identifier, or a member this version cannot load.
         """
         config, weights, _, _ = ckpt.read_checkpoint(path)
+        return cls.from_config(config, weights, path)
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], path: Any) -> MeanEnsembleInpainter:
+        """The ensemble a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory
+        (``path`` names the checkpoint in errors)."""
         if config.get("class") != cls.__name__:
             raise ckpt.CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
-        members_config = config.get("members")
-        if not isinstance(members_config, list) or len(members_config) < 2:
-            raise ckpt.CheckpointError(f"{path}: config.json lists no members")
-        fitted, names = [], []
-        with tempfile.TemporaryDirectory() as tmp:
-            for entry in members_config:
-                name = str(entry.get("name"))
-                own = {k[len(name) + 1:]: v for k, v in weights.items() if k.startswith(f"{name}.")}
-                klass = ckpt.checkpoint_class(entry["config"].get("class"))
-                if klass is None or not hasattr(klass, "load"):
-                    raise ckpt.CheckpointError(f"{path}: member {name!r} is a {entry['config'].get('class')!r}, "
-                                               "which this version cannot load")
-                fitted.append(klass.load(ckpt.write_checkpoint(Path(tmp) / name, entry["config"], own)))
-                names.append(name)
-        stray = [k for k in weights if not any(k.startswith(f"{name}.") for name in names)]
+        entries = _member_entries(config, path)
+        names = [name for name, _ in entries]
+        stray = [k for k in weights if k.partition(".")[0] not in names]
         if stray:
             raise ckpt.CheckpointError(f"{path}: weights of no member: {stray[:3]}")
-        try:
-            est = cls([(n, clone(m)) for n, m in zip(names, fitted)], **dict(config.get("params") or {}))
-        except TypeError as e:
-            raise ckpt.CheckpointError(f"{path} has parameters this version does not know: {e}") from None
+        fitted = []
+        for name, member_config in entries:
+            where = f"{path} (member {name!r})"
+            klass = ckpt.checkpoint_class(member_config.get("class"))
+            if klass is None or not hasattr(klass, "from_config"):
+                raise ckpt.CheckpointError(f"{where} is a {member_config.get('class')!r}, which this version cannot load")
+            own = {k[len(name) + 1:]: v for k, v in weights.items() if k.startswith(f"{name}.")}
+            fitted.append(klass.from_config(member_config, own, where))
+        params = {**ckpt.config_value(config, "params", dict, path),
+                  "estimators": [(n, clone(m)) for n, m in zip(names, fitted)]}
+        est = ckpt.build_checked(cls, params, path)
         est._set_fitted(est._check_members(), fitted)
-        fit = config.get("fit") or {}
-        est.fit_seconds_ = fit.get("fit_seconds", float("nan"))
-        est.member_fit_seconds_ = list(fit.get("member_fit_seconds", []))
+        fit = ckpt.config_value(config, "fit", dict, path, default={})
+        est.fit_seconds_ = ckpt.config_value(fit, "fit_seconds", float, path, default=float("nan"))
+        est.member_fit_seconds_ = list(ckpt.config_value(fit, "member_fit_seconds", list, path, default=[]))
         ckpt.restore_provenance(est, config)
         est.is_fitted_ = True
         return est
@@ -382,6 +390,27 @@ class MeanEnsembleInpainter(BaseInpainter):
         if overrides:
             est.set_params(**overrides)
         return est
+
+
+def _member_entries(config: dict[str, Any], path: Any) -> list[tuple[str, dict[str, Any]]]:
+    """The ``(name, config)`` of every member a checkpoint's config lists, each name checked
+    as an identifier (it prefixes the member's weights and parameters; never a path)."""
+    entries = ckpt.config_value(config, "members", list, path)
+    if len(entries) < 2:
+        raise ckpt.CheckpointError(f"{path}: config.json 'members' must list at least two members, got {len(entries)}")
+    out: list[tuple[str, dict[str, Any]]] = []
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, dict):
+            raise ckpt.CheckpointError(f"{path}: config.json 'members'[{i}] must be a JSON object "
+                                       f"with 'name' and 'config', got {entry!r:.60}")
+        name = entry.get("name")
+        if not isinstance(name, str) or not _NAME.fullmatch(name):
+            raise ckpt.CheckpointError(f"{path}: config.json 'members'[{i}] has name {name!r:.60}; a member name "
+                                       "is letters, digits and single underscores, starting with a letter")
+        if name in (n for n, _ in out):
+            raise ckpt.CheckpointError(f"{path}: config.json names member {name!r} twice")
+        out.append((name, ckpt.config_value(entry, "config", dict, f"{path} (member {name!r})")))
+    return out
 
 
 def _share_features(members: list[Any]) -> bool:

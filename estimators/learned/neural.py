@@ -30,6 +30,7 @@ from ._checkpoint import CLASSES as _CLASSES
 from ._checkpoint import CheckpointMixin, progress_history  # noqa: F401
 from ._checkpoint import cpu_state as _cpu_state  # noqa: F401
 from ._neural_params import MAX_CHANNELS, NeuralParamsMixin  # noqa: F401
+from ._output import floor_holes
 from ._training import (  # noqa: F401
     TrainingMixin,
     _copy_encoder,
@@ -254,7 +255,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
             if self.channels_last:
                 model = model.to(memory_format=torch.channels_last)
             try:
-                return self._forward(self._compiled(model), X, device)
+                return floor_holes(self._forward(self._compiled(model), X, device), X)
             finally:
                 self.model_ = model.to("cpu", memory_format=torch.contiguous_format)
 

@@ -32,6 +32,7 @@ from ..priors import (
 )
 from . import _checkpoint as ckpt
 from . import neural
+from ._limits import MAX_LAYERS, MAX_WIDTH, check_at_most
 from ._training import backward_step
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
@@ -206,6 +207,9 @@ class PriorUNetInpainter(_NeuralInpainter):
         pb = self.pixel_batches
         if isinstance(pb, bool) or not isinstance(pb, (int, np.integer)) or pb < 1:
             raise ValueError(f"pixel_batches must be an integer >= 1, got {pb!r}")
+        if self.arch == "pixel":  # the U-Net's sizes are bounded by _check_capacity
+            check_at_most("width", self.width, MAX_WIDTH)
+            check_at_most("levels", self.levels, MAX_LAYERS)
         check_candidates(self.candidates)
         for name in ("flip", "tta", "endpoints", "relative"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
@@ -288,6 +292,18 @@ class PriorUNetInpainter(_NeuralInpainter):
             super()._train(dataset, seed, device)
         finally:
             del self._flip_rng
+
+    def _rng_state(self) -> dict[str, Any] | None:
+        # The flip and pixel-order stream advances every step: resuming must continue it.
+        return self._flip_rng.bit_generator.state
+
+    def _set_rng_state(self, state: dict[str, Any] | None) -> None:
+        if state is None:  # written before the stream was checkpointed: it restarts (not bit-identical)
+            return
+        try:
+            self._flip_rng.bit_generator.state = state
+        except (TypeError, ValueError, KeyError) as e:
+            raise ckpt.CheckpointError(f"the training checkpoint's random state does not fit this run: {e}") from None
 
     def _set_lr(self, optimizer) -> None:
         """Cosine decay of the learning rate over ``max_steps`` (5 % linear warm-up).

@@ -266,6 +266,39 @@ def test_training_is_reproducible(small_gt):
     assert a.history_["step_loss"] == b.history_["step_loss"]
 
 
+def _interrupt_after(monkeypatch, n_steps: int) -> None:
+    """Make the ``n_steps + 1``-th training step of a PriorUNetInpainter fit raise (a crash)."""
+    orig = PriorUNetInpainter._train_step
+    calls = {"n": 0}
+
+    def step(self, *args):
+        if calls["n"] == n_steps:
+            raise KeyboardInterrupt("simulated crash")
+        calls["n"] += 1
+        return orig(self, *args)
+
+    monkeypatch.setattr(PriorUNetInpainter, "_train_step", step)
+
+
+@pytest.mark.parametrize("arch", ARCH_IDS)
+def test_resume_equals_uninterrupted_run_bit_for_bit(small_gt, tmp_path, monkeypatch, arch):
+    # Flips (p = 0.5) and the per-pixel shuffles draw from one stream that advances every
+    # step: a resumed run must continue it from the checkpoint, not restart it.
+    kw = {**TINY, "arch": arch, "batch_size": 1, "max_steps": 6, "epochs": 3, "checkpoint_every": 1}
+    full = PriorUNetInpainter(**kw, checkpoint_dir=tmp_path / "a").fit(small_gt)
+    with monkeypatch.context() as m:
+        _interrupt_after(m, 4)  # mid-epoch 2 (3 frames, batch 1 -> 3 steps per epoch)
+        with pytest.raises(KeyboardInterrupt):
+            PriorUNetInpainter(**kw, checkpoint_dir=tmp_path / "b").fit(small_gt)
+    resumed = PriorUNetInpainter(**kw, checkpoint_dir=tmp_path / "b").fit(small_gt)
+    assert resumed.n_steps_ == full.n_steps_ == 6
+    assert resumed.history_ == full.history_
+    for key, value in full.model_.state_dict().items():
+        assert torch.equal(resumed.model_.state_dict()[key], value), key
+    x = _corrupt(small_gt)
+    np.testing.assert_array_equal(resumed.predict(x), full.predict(x))
+
+
 @pytest.mark.parametrize("arch", ARCH_IDS)
 def test_save_load_roundtrip(small_gt, tmp_path, arch):
     est = PriorUNetInpainter(**TINY, arch=arch, candidates=("scanline", "vertical")).fit(small_gt)

@@ -1,0 +1,93 @@
+"""What a checkpoint read from disk must satisfy before a model is built from it.
+
+A checkpoint is data from outside (``--checkpoint`` reaches ``evaluate``, ``benchmark`` and
+``score``): its weights must be floating point and finite, every config entry of the type
+the loaders read, and the estimator it describes must pass its own parameter checks and
+size limits (:mod:`estimators.learned._limits`) before any network is allocated. Each
+failure is one :class:`CheckpointError` naming the file and the key or tensor.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+
+__all__ = ["CheckpointError", "build_checked", "check_tensors", "config_value", "load_weights"]
+
+
+class CheckpointError(ValueError):
+    """A checkpoint is missing, truncated, corrupt, or not an inpaintenv neural checkpoint."""
+
+
+def check_tensors(tensors: dict[str, torch.Tensor], where: Any) -> dict[str, torch.Tensor]:
+    """``tensors`` if each is floating point and finite, else one :class:`CheckpointError`.
+
+    ``load_state_dict`` would cast integer weights silently and NaN weights only show up as
+    a NaN prediction, long after loading (the first tensor at fault is named).
+    """
+    for name, value in tensors.items():
+        if not value.is_floating_point():
+            raise CheckpointError(f"{where}: tensor {name!r} has dtype {str(value.dtype).removeprefix('torch.')}; "
+                                  "network weights are floating point")
+        if not bool(torch.isfinite(value).all()):
+            raise CheckpointError(f"{where}: tensor {name!r} holds NaN or inf values")
+    return tensors
+
+
+_REQUIRED = object()
+_KIND_NAMES = {dict: "a JSON object", list: "a list", str: "a string", int: "an integer", float: "a number",
+               bool: "true or false"}
+
+
+def config_value(config: dict[str, Any], key: str, kind: type | tuple[type, ...], where: Any,
+                 default: Any = _REQUIRED) -> Any:
+    """``config[key]`` if it is of ``kind`` (``default`` when absent or null), else one
+    :class:`CheckpointError` naming ``where`` (the file), the key and the value.
+
+    ``int`` never accepts a bool; ``float`` accepts an int.
+    """
+    value = config.get(key) if isinstance(config, dict) else None
+    if value is None:
+        if default is _REQUIRED:
+            raise CheckpointError(f"{where}: config.json has no {key!r} ({_kind_name(kind)})")
+        return default
+    kinds = kind if isinstance(kind, tuple) else (kind,)
+    if float in kinds:
+        kinds = (*kinds, int)
+    if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+        shown = repr(value)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        raise CheckpointError(f"{where}: config.json {key!r} must be {_kind_name(kind)}, got {shown}")
+    return value
+
+
+def _kind_name(kind: type | tuple[type, ...]) -> str:
+    kinds = kind if isinstance(kind, tuple) else (kind,)
+    return " or ".join(_KIND_NAMES.get(k, k.__name__) for k in kinds)
+
+
+def build_checked(klass: type, params: dict[str, Any], where: Any) -> Any:
+    """``klass(**params)`` after its parameter and size checks, or one :class:`CheckpointError`.
+
+    Runs before any network is built, so a tampered size never allocates.
+    """
+    try:
+        est = klass(**params)
+    except TypeError as e:
+        raise CheckpointError(f"{where} has parameters this version does not know: {e}") from None
+    try:
+        est._check_params()
+        est._check_size()
+    except (ValueError, TypeError, KeyError) as e:
+        raise CheckpointError(f"{where}: {e.args[0] if isinstance(e, KeyError) else e}") from None
+    return est
+
+
+def load_weights(model: torch.nn.Module, weights: dict[str, torch.Tensor], where: Any) -> torch.nn.Module:
+    """``model`` in eval mode with ``weights`` loaded, or one :class:`CheckpointError` if they do not fit."""
+    try:
+        model.load_state_dict(weights)
+    except RuntimeError as e:
+        raise CheckpointError(f"{where}: weights do not fit the saved architecture: {e}") from None
+    return model.eval()

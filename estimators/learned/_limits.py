@@ -1,0 +1,54 @@
+"""Size limits of the learned networks, checked before anything is allocated.
+
+A parameter (or a checkpoint's config) can ask for a network of any size: a blend width of
+1e5 is 1e10 weights, ``n_members=10**7`` ten million networks, ``levels=10**6`` a million
+layers; each would allocate until the process is killed, or end in ``MemoryError`` after
+minutes. Every learned family checks its sizes against these limits (one ``ValueError``
+naming the parameter, the value and the limit) and, before it builds a network at ``fit`` or
+``load``, the network's parameter count, counted on torch's ``meta`` device (no memory).
+
+The limits are far above every shipped recipe (the largest, kitti-ensemble-v1's context
+member, has width 64, 2 layers, 4 members and 0.9 M parameters in all).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import torch
+
+__all__ = ["MAX_LAYERS", "MAX_MEMBERS", "MAX_PARAMETERS", "MAX_WIDTH", "check_at_most", "check_parameter_count"]
+
+#: Most hidden units of a per-pixel MLP layer (and channels of a context level, context features).
+MAX_WIDTH = 4096
+#: Most hidden layers of a per-pixel MLP (and levels of a context network).
+MAX_LAYERS = 64
+#: Most networks of a ContextBlendInpainter (``n_members``).
+MAX_MEMBERS = 64
+#: Most trainable parameters of one estimator's network(s): 200 M (800 MB as float32), about
+#: twice the largest U-Net that ``MAX_CHANNELS`` lets through.
+MAX_PARAMETERS = 200_000_000
+
+
+def check_at_most(name: str, value: Any, limit: int) -> None:
+    """Raise one ``ValueError`` if the (already type-checked) integer ``value`` exceeds ``limit``."""
+    if value > limit:
+        raise ValueError(f"{name}={value!r} is more than the {limit} allowed "
+                         "(estimators.learned._limits); lower it")
+
+
+def check_parameter_count(build: Callable[[], torch.nn.Module], what: str) -> int:
+    """The parameter count of the network ``build()`` makes, counted without allocating memory.
+
+    Raises
+    ------
+    ValueError
+        More than :data:`MAX_PARAMETERS` parameters (``what`` names the settings that ask for them).
+    """
+    with torch.device("meta"):
+        count = sum(p.numel() for p in build().parameters())
+    if count > MAX_PARAMETERS:
+        raise ValueError(f"{what} gives a network of {count:,} parameters, more than the "
+                         f"{MAX_PARAMETERS:,} allowed (estimators.learned._limits); lower them")
+    return count
