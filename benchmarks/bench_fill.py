@@ -11,7 +11,9 @@ mask per frame to a temporary folder, then for each method times
   reading ahead and writing behind in two threads), with the same already-built method, so the model's
   loading time is in neither figure.
 
-The overhead is fill's time over predict's (the median over ``--repeat`` interleaved runs of the three).
+The overhead is fill's wall time over predict's (the median over ``--repeat`` interleaved runs of the
+three); the CPU time of all threads per frame says how much work reading and writing add, which the
+threads can hide only where a core is free.
 Examples::
 
     python benchmarks/bench_fill.py                                  # 100 synthetic frames, pretrained + scanline
@@ -58,43 +60,53 @@ def write_folder(folder: Path, frames: int, kitti_root: str | None) -> tuple[lis
     return depths, masks
 
 
-def time_predict(method, depths: list[np.ndarray], masks: list[np.ndarray], batch_size: int) -> float:
-    """Seconds of ``predict`` over the frames in memory, in batches (inputs built outside the clock)."""
+class Clock:
+    """Wall and CPU seconds (all threads of the process) of a ``with`` block."""
+
+    def __enter__(self) -> "Clock":
+        self.wall, self.cpu = time.perf_counter(), time.process_time()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.wall, self.cpu = time.perf_counter() - self.wall, time.process_time() - self.cpu
+
+
+def time_predict(method, depths: list[np.ndarray], masks: list[np.ndarray], batch_size: int) -> Clock:
+    """``predict`` over the frames in memory, in batches (inputs built outside the clock)."""
     inputs = [np.where(m, np.float32(np.nan), d) for d, m in zip(depths, masks)]
     batches = [np.stack(inputs[i:i + batch_size]) for i in range(0, len(inputs), batch_size)]
     method.predict(batches[0][:1])  # warm-up, as fill's first batch is not warmed
-    start = time.perf_counter()
-    for batch in batches:
-        method.predict(batch)
-    return time.perf_counter() - start
+    with Clock() as clock:
+        for batch in batches:
+            method.predict(batch)
+    return clock
 
 
-def time_serial(method, folder: Path, out: Path, batch_size: int) -> float:
-    """Seconds of the loop a user writes by hand: read a batch, predict, write, one thread."""
+def time_serial(method, folder: Path, out: Path, batch_size: int) -> Clock:
+    """The loop a user writes by hand: read a batch, predict, write, one thread."""
     from inpaintenv.data import read_depth_file, read_mask_file, write_depth_file
 
     names = sorted(p.name for p in (folder / "depth").iterdir())
-    start = time.perf_counter()
-    for i in range(0, len(names), batch_size):
-        depths = [read_depth_file(folder / "depth" / n) for n in names[i:i + batch_size]]
-        masks = [read_mask_file(folder / "masks" / n) for n in names[i:i + batch_size]]
-        pred = method.predict(np.stack([np.where(m, np.float32(np.nan), d) for d, m in zip(depths, masks)]))
-        for n, d, m, p in zip(names[i:i + batch_size], depths, masks, pred):
-            write_depth_file(out / n, np.where(m, p, d))
-    return time.perf_counter() - start
+    with Clock() as clock:
+        for i in range(0, len(names), batch_size):
+            depths = [read_depth_file(folder / "depth" / n) for n in names[i:i + batch_size]]
+            masks = [read_mask_file(folder / "masks" / n) for n in names[i:i + batch_size]]
+            pred = method.predict(np.stack([np.where(m, np.float32(np.nan), d) for d, m in zip(depths, masks)]))
+            for n, d, m, p in zip(names[i:i + batch_size], depths, masks, pred):
+                write_depth_file(out / n, np.where(m, p, d))
+    return clock
 
 
-def time_fill(method, folder: Path, out: Path, batch_size: int) -> float:
-    """Seconds of :func:`fill` on the folder (after one warm-up frame into another folder)."""
+def time_fill(method, folder: Path, out: Path, batch_size: int) -> Clock:
+    """:func:`fill` on the folder (after one warm-up frame into another folder)."""
     fill([sorted((folder / "depth").iterdir())[0]], folder / "warm", method=method, holes=folder / "masks" / "0000.png",
          batch_size=batch_size, progress=False)
-    start = time.perf_counter()
-    report = fill(folder / "depth", out, method=method, holes=folder / "masks", batch_size=batch_size,
-                  progress=False)
-    elapsed = time.perf_counter() - start
+    with Clock() as clock:
+        report = fill(folder / "depth", out, method=method, holes=folder / "masks", batch_size=batch_size,
+                      progress=False)
     if not report.ok or len(report.written) != len(list((folder / "depth").iterdir())):
         raise SystemExit(f"fill did not write every frame: {report.summary()}")
-    return elapsed
+    return clock
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -119,17 +131,20 @@ def main(argv: list[str] | None = None) -> dict:
                 runs.append((time_predict(method, depths, masks, args.batch_size),
                              time_serial(method, folder, folder / f"serial-{name}-{k}", args.batch_size),
                              time_fill(method, folder, folder / f"out-{name}-{k}", args.batch_size)))
-            predict_s, serial_s, fill_s = (min(r[j] for r in runs) for j in range(3))
-            overhead = statistics.median(100 * (f / p - 1) for p, _, f in runs)
-            serial_overhead = statistics.median(100 * (s / p - 1) for p, s, _ in runs)
+            predict_s, serial_s, fill_s = (min(r[j].wall for r in runs) for j in range(3))
+            cpu_ms = [1000 * min(r[j].cpu for r in runs) / args.frames for j in range(3)]
+            overhead = statistics.median(100 * (f.wall / p.wall - 1) for p, _, f in runs)
+            serial_overhead = statistics.median(100 * (s.wall / p.wall - 1) for p, s, _ in runs)
             rows.append({"method": name, "frames": args.frames, "repeat": args.repeat,
                          "predict_s": round(predict_s, 3), "serial_s": round(serial_s, 3), "fill_s": round(fill_s, 3),
                          "fill_fps": round(args.frames / fill_s, 2), "overhead_pct": round(overhead, 1),
-                         "serial_overhead_pct": round(serial_overhead, 1)})
+                         "serial_overhead_pct": round(serial_overhead, 1),
+                         "cpu_ms_per_frame": dict(zip(("predict", "serial", "fill"), (round(c, 1) for c in cpu_ms)))})
             print(f"{name}: {args.frames} frames of {depths[0].shape[1]}x{depths[0].shape[0]}, best of {args.repeat}: "
                   f"predict {predict_s:.2f} s, serial file loop {serial_s:.2f} s, fill {fill_s:.2f} s "
                   f"({rows[-1]['fill_fps']} frames/s); overhead over predict (median of the runs): fill "
-                  f"{overhead:+.1f} %, serial loop {serial_overhead:+.1f} %")
+                  f"{overhead:+.1f} %, serial loop {serial_overhead:+.1f} %; CPU ms/frame (all threads): predict "
+                  f"{cpu_ms[0]:.1f}, serial {cpu_ms[1]:.1f}, fill {cpu_ms[2]:.1f}")
     out = {"frame": list(depths[0].shape), "batch_size": args.batch_size, "rows": rows}
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1))

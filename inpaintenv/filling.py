@@ -113,7 +113,8 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
              list[FillJob], list[tuple[Path, str]], list[Path]]:
     """The jobs of a run: ``(jobs, missing inputs with why, ignored files)``.
 
-    ``protect``: further folders never written into (a folder of masks).
+    ``protect``: further files or folders never written into, whose files are not inputs (the mask
+    or folder of masks, when it lies inside an input folder).
 
     Raises
     ------
@@ -130,7 +131,8 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
         raise ValueError(f"--out {out} is a file; give a folder")
     out_abs = out.resolve()
     given_all = [Path(p) for p in inputs]
-    folders = [g.resolve() for g in given_all if g.is_dir()] + [Path(p).resolve() for p in protect]
+    masks = [Path(p).resolve() for p in protect]
+    folders = [g.resolve() for g in given_all if g.is_dir()] + masks
     files = {g.resolve() for g in given_all if g.is_file()}
     jobs, missing, ignored, by_output = [], [], [], {}
     for given in given_all:
@@ -138,7 +140,8 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
             if _is_under(out_abs, given.resolve()):
                 raise ValueError(f"--out {out} lies inside the input folder {given}; fill never writes into an "
                                  "input folder: give another --out")
-            found = [(p, p.relative_to(given)) for p in _walk(given)]
+            found = [(p, p.relative_to(given)) for p in _walk(given)
+                     if not masks or not any(_is_under(p.resolve(), m) for m in masks)]
         elif given.is_file():
             found = [(given, Path(given.name))]
         else:
@@ -489,7 +492,7 @@ def fill(
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     if holes is not None and not Path(holes).exists():
         raise FileNotFoundError(f"--holes {holes}: no such mask file or folder")
-    protect = [holes] if holes is not None and Path(holes).is_dir() else []
+    protect = [holes] if holes is not None else []
     jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points, protect=protect)
     if points is not None and not any(j.is_scan for j in jobs):
         raise ValueError("points (--points) applies to .bin LiDAR scans, and there are none among the inputs")

@@ -351,3 +351,13 @@ def test_ctrl_c_keeps_complete_files_and_the_rerun_resumes(png_folder, tmp_path,
     monkeypatch.setattr(ScanlineInpainter, "predict", original)
     assert main(args) == 0
     assert "3 written, 1 skipped" in capsys.readouterr().err
+
+
+def test_a_mask_inside_the_input_folder_is_not_an_input(tmp_path, capsys):
+    d = frames(1, (64, 96))[0]
+    write_depth_png(tmp_path / "in" / "f.png", d)
+    cv2.imwrite(str(tmp_path / "in" / "mask.png"), box_mask((64, 96), 0).astype(np.uint8) * 255)
+    rc = main(["fill", str(tmp_path / "in"), "--holes", str(tmp_path / "in" / "mask.png"), "-m", "scanline",
+               "--out", str(tmp_path / "out"), "-q"])
+    assert rc == 0 and "1 written, 0 skipped, 0 failed" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f.png"]
