@@ -62,11 +62,9 @@ def __getattr__(name: str):
     if name in _NEURAL:
         import importlib
 
-        from inpaintenv.registry import LEARNED_INSTALL, MissingExtraError, learned_missing
+        from inpaintenv.registry import require_learned
 
-        if missing := learned_missing():
-            raise MissingExtraError(f"estimators.{name} is a learned model and needs {' and '.join(missing)}, "
-                                    f"not installed here: {LEARNED_INSTALL}", name=__name__)
+        require_learned(f"estimators.{name} (a learned model)")
         return getattr(importlib.import_module(f".{_NEURAL[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

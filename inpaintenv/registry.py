@@ -39,8 +39,10 @@ __all__ = [
     "is_learned",
     "learned_missing",
     "make_method",
+    "missing_extra_error",
     "register_alias",
     "register_method",
+    "require_learned",
     "resolve_class",
     "unfilled_policy",
 ]
@@ -213,11 +215,27 @@ def is_learned(name: str) -> bool:
     return module == _LEARNED or module.startswith(_LEARNED + ".")
 
 
+def missing_extra_error(what: str, missing: list[str]) -> MissingExtraError:
+    """The one-line error for ``what`` (e.g. ``"method 'pretrained' (a learned model)"``), which
+    needs the ``missing`` modules of the ``[learned]`` extra."""
+    return MissingExtraError(f"{what} needs {' and '.join(missing)}, not installed here: {LEARNED_INSTALL}")
+
+
+def require_learned(what: str) -> None:
+    """Raise :class:`MissingExtraError` about ``what`` unless the ``[learned]`` extra is installed.
+
+    Raises
+    ------
+    MissingExtraError
+        If torch or safetensors cannot be found.
+    """
+    if missing := learned_missing():
+        raise missing_extra_error(what, missing)
+
+
 def _missing_extra(name: str, missing: list[str]) -> MissingExtraError:
     what = "a saved learned model" if canonical_name(name) == "checkpoint" else "a learned model"
-    return MissingExtraError(
-        f"method {name!r} is {what} and needs {' and '.join(missing)}, not installed here: {LEARNED_INSTALL}"
-    )
+    return missing_extra_error(f"method {name!r} ({what})", missing)
 
 
 def resolve_class(name: str) -> Any:

@@ -100,6 +100,8 @@ def test_default_suite_scores_classical_and_says_learned_left_out(tmp_path):
     ["benchmark", *SYNTHETIC, "--out", "run", "-m", "pretrained"],
     ["benchmark", *SYNTHETIC, "--out", "run", "--suite", "study", "-m", "kitti-rect-v4"],
     ["evaluate", *SYNTHETIC[:6], "--out", "run", "-m", "blend-pretrained"],
+    ["fill", "frame.npy", "--out", "run", "-m", "pretrained"],
+    ["train", "--list"],
 ])
 def test_naming_a_learned_method_is_one_line_naming_the_extra(tmp_path, argv):
     proc = _cli(tmp_path, *argv)
