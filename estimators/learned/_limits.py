@@ -8,7 +8,7 @@ naming the parameter, the value and the limit) and, before it builds a network a
 ``load``, the network's parameter count, counted on torch's ``meta`` device (no memory).
 
 The limits are far above every shipped recipe (the largest, kitti-ensemble-v1's context
-member, has width 64, 2 layers, 4 members and 0.9 M parameters in all).
+member, has width 64, 2 layers, 2 networks and 0.47 M parameters).
 """
 
 from __future__ import annotations
