@@ -162,3 +162,13 @@ def test_wheel_does_not_require_torch():
     extras = project["optional-dependencies"]
     assert {"torch", "safetensors"} <= _requirement_names(extras["learned"])
     assert "inpaintenv[learned]" in extras["test"]  # README's `pip install -e ".[test]"` still sets up everything
+
+
+def test_docs_say_what_each_extra_brings():
+    tomllib = pytest.importorskip("tomllib")
+    extras = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]) - {"dev"}
+    page = (ROOT / "docs" / "estimators.md").read_text()
+    assert "| `pip install -e .` |" in page
+    assert [e for e in sorted(extras) if f'| `pip install -e ".[{e}]"` |' not in page] == []
+    readme = (ROOT / "README.md").read_text()
+    assert 'pip install -e ".[learned]"' in readme and "[docs/estimators.md](docs/estimators.md)" in readme
