@@ -26,6 +26,8 @@ import sys
 from dataclasses import dataclass, field
 from typing import Any
 
+from .exceptions import MissingDependencyError
+
 __all__ = [
     "LEARNED_DEPENDENCIES",
     "LEARNED_INSTALL",
@@ -90,8 +92,11 @@ LEARNED_INSTALL = (
 )
 
 
-class MissingExtraError(ImportError):
-    """A learned method was named, but the ``[learned]`` extra (torch, safetensors) is not installed."""
+class MissingExtraError(MissingDependencyError):
+    """A learned method was named, but the ``[learned]`` extra (torch, safetensors) is not installed.
+
+    An ``ImportError`` (and an :class:`~inpaintenv.exceptions.InpaintenvError`: the CLI prints it as one line).
+    """
 _METHODS: dict[str, MethodSpec] = {}
 #: alias -> canonical name (old names kept working after a method was renamed).
 _ALIASES: dict[str, str] = {}

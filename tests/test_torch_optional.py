@@ -141,6 +141,8 @@ def test_learned_class_from_estimators_names_the_extra(tmp_path):
         try:
             from estimators import UNetInpainter
         except ImportError as exc:
+            from inpaintenv.exceptions import MissingDependencyError
+            assert isinstance(exc, MissingDependencyError), type(exc)  # one line in the CLI, never a traceback
             print("ImportError:", exc)
     """, tmp_path)
     assert proc.returncode == 0, proc.stderr
