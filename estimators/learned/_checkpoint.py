@@ -444,6 +444,8 @@ class CheckpointMixin:
         klass = checkpoint_class(config.get("class"))
         if klass is None or not issubclass(klass, cls):
             raise CheckpointError(f"{where} holds a {config.get('class')!r}, not a {cls.__name__}")
+        if klass is not cls:  # the recorded class's own reading (PriorUNetInpainter's tuples)
+            return klass.from_config(config, weights, where)
         params = dict(config_value(config, "params", dict, where))
         if params.get("crop") is not None:
             params["crop"] = tuple(config_value(params, "crop", list, where))

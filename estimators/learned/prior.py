@@ -420,9 +420,9 @@ class PriorUNetInpainter(_NeuralInpainter):
         return est
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> PriorUNetInpainter:
-        """Load a model written by :meth:`save` (see :meth:`UNetInpainter.load`)."""
-        est = super().load(path)
+    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> PriorUNetInpainter:
+        """The model a checkpoint describes (see :meth:`UNetInpainter.load`); ``candidates`` as a tuple."""
+        est = super().from_config(config, weights, where)
         est.candidates = tuple(est.candidates)
         return est
 

@@ -235,3 +235,15 @@ def test_the_limits_are_far_above_the_shipped_releases():
     for member in est.estimators_:
         n = sum(p.numel() for p in member.model_.parameters())
         assert n < _limits.MAX_PARAMETERS / 100
+
+
+def test_members_of_every_family_are_rebuilt_in_memory_as_they_were_saved(saved, tmp_path):
+    members = [("prior", load_checkpoint(saved["prior"])), ("unet", load_checkpoint(saved["unet"])),
+               ("blend", load_checkpoint(saved["blend"]))]
+    ensemble = MeanEnsembleInpainter.from_fitted(members)
+    loaded = load_checkpoint(ensemble.save(tmp_path / "ens"))
+    assert loaded.named_estimators_["prior"].candidates == members[0][1].candidates
+    assert isinstance(loaded.named_estimators_["prior"].candidates, tuple)
+    x = _streets(1, seed=3)[0]
+    x[10:25, 30:70] = float("nan")
+    assert (loaded.predict(x) == ensemble.predict(x)).all()
