@@ -361,3 +361,15 @@ def test_a_mask_inside_the_input_folder_is_not_an_input(tmp_path, capsys):
                "--out", str(tmp_path / "out"), "-q"])
     assert rc == 0 and "1 written, 0 skipped, 0 failed" in capsys.readouterr().err
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f.png"]
+
+
+def test_npz_input_and_points_without_scans(tmp_path, capsys):
+    x = frames(1, (48, 80))[0]
+    x[5:15, 10:40] = np.nan
+    np.savez(tmp_path / "f.npz", depth=x)
+    assert main(["fill", str(tmp_path / "f.npz"), "-m", "scanline", "--format", "both",
+                 "--out", str(tmp_path / "out"), "-q"]) == 0
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f.npy", "f.png"]
+    assert not np.isnan(np.load(tmp_path / "out" / "f.npy")).any()
+    assert main(["fill", str(tmp_path / "f.npz"), "--points", "bin", "--out", str(tmp_path / "o2"), "-q"]) == 1
+    assert "applies to .bin LiDAR scans" in capsys.readouterr().err
