@@ -42,7 +42,7 @@ from sklearn.utils import estimator_checks as skchecks
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.masks import get_protocol
-from inpaintenv.exceptions import InvalidInputError, UnknownNameError
+from inpaintenv.exceptions import InpaintenvError, InvalidInputError, UnknownNameError
 
 __all__ = ["CHECKS", "CheckData", "CheckSkipped", "check_inpainter", "make_check_data", "run_check"]
 
@@ -50,8 +50,9 @@ __all__ = ["CHECKS", "CheckData", "CheckSkipped", "check_inpainter", "make_check
 CHECK_SHAPE = (4, 32, 96)
 
 
-class CheckSkipped(Exception):
-    """A check that does not apply to this estimator (the message says why)."""
+class CheckSkipped(InpaintenvError):
+    """A check that does not apply to this estimator (the message says why); a signal to
+    the check runner, like pytest's skip, not an error in the estimator."""
 
 
 @dataclass

@@ -376,7 +376,7 @@ def check_seed(value: object, name: str = "seed") -> int:
         If it is negative.
     """
     if not _is_int(value) or operator.index(value) < 0:  # type: ignore[arg-type]
-        raise (ValueError if _is_int(value) else TypeError)(
+        raise (InvalidInputError if _is_int(value) else InvalidTypeError)(
             f"{name} must be a non-negative integer, got {_show(value)}"
         )
     return operator.index(value)  # type: ignore[arg-type]

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ..exceptions import UnknownNameError
 from ..registry import (
     LEARNED_INSTALL, available_methods, get_spec, is_learned, learned_missing, make_method, unfilled_policy,
 )
@@ -91,7 +92,7 @@ def suite_methods(
         line for all the learned ones left out when the ``[learned]`` extra is missing.
     """
     if suite not in SUITES:
-        raise KeyError(f"unknown suite {suite!r}; available: {', '.join(SUITES)}")
+        raise UnknownNameError(f"unknown suite {suite!r}; available: {', '.join(SUITES)}")
     known = set(available_methods())
     names = SUITES[suite]
     learned = [name for name in names if name in known and is_learned(name)]

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cluster import add_scheduler_option, open_client, parse_scheduler
+from ..exceptions import InvalidInputError
 from .method_options import (
     add_bad_frame_option,
     add_checkpoint_option,
@@ -106,7 +107,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     methods = _methods(args)
     protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
     if len(set(protocols)) != len(protocols):
-        raise ValueError(f"--protocol values must be distinct, got {protocols}")
+        raise InvalidInputError(f"--protocol values must be distinct, got {protocols}")
     seeds = check_seeds(args.seed or [0], "--seed")
     check_int(args.batch_size, "--batch-size", minimum=1)
     check_int(args.figure_frames, "--figure-frames", minimum=0)
@@ -114,7 +115,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         parse_scheduler(args.scheduler)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder for the run")
+        raise InvalidInputError(f"--out {out} is a file; give a folder for the run")
     check_folder(out)  # someone else's folder is refused before anything is built or written
     dataset, holdout = _dataset(args)
 
@@ -172,7 +173,7 @@ def _methods(args: argparse.Namespace) -> dict[str, Any]:
                              kind=registry_kind(name)))
     methods.update(checkpoint_methods(args.checkpoint, list(methods)))
     if not methods:
-        raise ValueError("no method to run")
+        raise InvalidInputError("no method to run")
     return methods
 
 
@@ -185,7 +186,7 @@ def _dataset(args: argparse.Namespace) -> tuple[Any, float]:
     if holdout is None:
         holdout = SYNTHETIC_HOLDOUT if isinstance(dataset, SyntheticStreets) else 0.0
     if not 0.0 <= holdout < 1.0:
-        raise ValueError(f"--holdout must be in [0, 1), got {holdout}")
+        raise InvalidInputError(f"--holdout must be in [0, 1), got {holdout}")
     if holdout > 0:
         dataset = test_split(dataset, holdout)
     return dataset, holdout
