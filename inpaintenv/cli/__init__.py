@@ -20,8 +20,8 @@ Subcommand modules import the two options modules and the layers below ``cli`` (
 this package face or each other), so each can be read alone.
 """
 
-from .main import INTERRUPTED, SUBCOMMANDS, USER_ERRORS, build_parser, main
+from .main import INTERRUPTED, SUBCOMMANDS, USER_ERRORS, build_parser, is_user_error, main
 from .options import add_source_options, open_source_from_args
 
-__all__ = ["INTERRUPTED", "SUBCOMMANDS", "USER_ERRORS", "add_source_options", "build_parser", "main",
+__all__ = ["INTERRUPTED", "SUBCOMMANDS", "USER_ERRORS", "add_source_options", "build_parser", "is_user_error", "main",
            "open_source_from_args"]
