@@ -32,6 +32,7 @@ from .data.calibration import Calibration, read_calibration
 from .data.depth_files import DEPTH_SUFFIXES, MASK_SUFFIXES, read_depth_file, read_mask_file, write_depth_file
 from .data.io import KITTI_DEPTH_SCALE
 from .data.projection import depth_to_points, project_scan, read_scan, write_points_bin, write_points_ply
+from .exceptions import InvalidInputError
 from .method_calls import MethodOutputError, method_name, run_method
 from .report.progress import FrameProgress, count
 
@@ -118,17 +119,17 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
 
     Raises
     ------
-    ValueError
+    InvalidInputError
         If an output would be an input or lie in an input (or ``protect``) folder, ``out``
         is a file, or two inputs would write the same output.
     """
     if format not in FORMATS:
-        raise ValueError(f"format must be one of {', '.join(FORMATS)}, got {format!r}")
+        raise InvalidInputError(f"format must be one of {', '.join(FORMATS)}, got {format!r}")
     if points not in POINT_FORMATS:
-        raise ValueError(f"points must be None, 'bin', 'ply' or 'both', got {points!r}")
+        raise InvalidInputError(f"points must be None, 'bin', 'ply' or 'both', got {points!r}")
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder")
+        raise InvalidInputError(f"--out {out} is a file; give a folder")
     out_abs = out.resolve()
     given_all = [Path(p) for p in inputs]
     masks = [Path(p).resolve() for p in protect]
@@ -138,7 +139,7 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
     for given in given_all:
         if given.is_dir():
             if _is_under(out_abs, given.resolve()):
-                raise ValueError(f"--out {out} lies inside the input folder {given}; fill never writes into an "
+                raise InvalidInputError(f"--out {out} lies inside the input folder {given}; fill never writes into an "
                                  "input folder: give another --out")
             found = [(p, p.relative_to(given)) for p in _walk(given)
                      if not masks or not any(_is_under(p.resolve(), m) for m in masks)]
@@ -160,10 +161,10 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
             outputs = tuple(out / rel.with_suffix(s) for s in (*FORMATS[format], *extra))
             for o in outputs:
                 if o.resolve() in files or any(_is_under(o.resolve(), f) for f in folders):
-                    raise ValueError(f"{path} would be filled into {o}, an input or inside an input folder; fill "
+                    raise InvalidInputError(f"{path} would be filled into {o}, an input or inside an input folder; fill "
                                      "never writes there: give another --out")
                 if o.resolve() in by_output:
-                    raise ValueError(f"{path} and {by_output[o.resolve()]} would both be written to {o}; "
+                    raise InvalidInputError(f"{path} and {by_output[o.resolve()]} would both be written to {o}; "
                                      "fill them into separate --out folders")
                 by_output[o.resolve()] = path
             jobs.append(FillJob(path, rel, outputs))
@@ -187,7 +188,7 @@ class _Holes:
         found = [p for s in MASK_SUFFIXES if (p := self.holes / job.rel.with_suffix(s)).is_file()]
         if len(found) != 1:
             why = "no mask" if not found else f"{len(found)} masks ({', '.join(p.name for p in found)})"
-            raise ValueError(f"{job.source}: {why} for it in {self.holes} (looked for "
+            raise InvalidInputError(f"{job.source}: {why} for it in {self.holes} (looked for "
                              f"{', '.join(str(job.rel.with_suffix(s)) for s in MASK_SUFFIXES)})")
         return found[0]
 
@@ -206,18 +207,18 @@ class _Holes:
         if self.holes is not None:
             mask, path = self._mask(job)
             if mask.shape != depth.shape:
-                raise ValueError(f"{job.source}: the mask {path} is {mask.shape[1]}x{mask.shape[0]}, the depth map "
+                raise InvalidInputError(f"{job.source}: the mask {path} is {mask.shape[1]}x{mask.shape[0]}, the depth map "
                                  f"{depth.shape[1]}x{depth.shape[0]} (width x height)")
             fill |= mask
         height, width = depth.shape
         for x0, y0, x1, y1 in self.boxes:
             if x0 >= width or y0 >= height:
-                raise ValueError(f"{job.source}: --box {x0},{y0},{x1},{y1} lies outside its {width}x{height} image")
+                raise InvalidInputError(f"{job.source}: --box {x0},{y0},{x1},{y1} lies outside its {width}x{height} image")
             fill[y0:y1, x0:x1] = True
         if self.missing:
             fill |= depth == 0
         if not self.given() and not fill.any():
-            raise ValueError(f"{job.source}: {NO_HOLES}")
+            raise InvalidInputError(f"{job.source}: {NO_HOLES}")
         return fill
 
 
@@ -310,7 +311,7 @@ class _Run:
         """Read the calibration once, before the scans; unreadable, it fails each scan (the others go on)."""
         source, size, camera = self._calib_args
         if source is None:
-            self._calib = ValueError("a LiDAR scan needs its calibration: give --calib PATH (a KITTI raw day "
+            self._calib = InvalidInputError("a LiDAR scan needs its calibration: give --calib PATH (a KITTI raw day "
                                      "folder, an odometry calib.txt with --size WxH, or a KITTI-360 calibration "
                                      "folder)")
             return
@@ -426,7 +427,7 @@ def _make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any,
     if n_jobs is not None:
         params = method.get_params() if hasattr(method, "get_params") else {}
         if "n_jobs" not in params:
-            raise ValueError(f"--jobs applies to methods that take n_jobs (the classical ones); "
+            raise InvalidInputError(f"--jobs applies to methods that take n_jobs (the classical ones); "
                              f"{method_name(method)} does not")
         method.set_params(n_jobs=n_jobs)
     return method, name
@@ -485,9 +486,9 @@ def fill(
     FillReport
     """
     if on_error not in ("continue", "stop"):
-        raise ValueError(f"on_error must be 'continue' or 'stop', got {on_error!r}")
+        raise InvalidInputError(f"on_error must be 'continue' or 'stop', got {on_error!r}")
     if batch_size < 1:
-        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+        raise InvalidInputError(f"batch_size must be >= 1, got {batch_size}")
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     if holes is not None and not Path(holes).exists():
@@ -495,7 +496,7 @@ def fill(
     protect = [holes] if holes is not None else []
     jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points, protect=protect)
     if points is not None and not any(j.is_scan for j in jobs):
-        raise ValueError("points (--points) applies to .bin LiDAR scans, and there are none among the inputs")
+        raise InvalidInputError("points (--points) applies to .bin LiDAR scans, and there are none among the inputs")
     report = FillReport(ignored=ignored)
     for path, why in missing_inputs:
         report.failed.append((path, why))
@@ -547,9 +548,9 @@ def _check_box(box: Sequence[int]) -> tuple[int, int, int, int]:
     """``(x0, y0, x1, y1)`` as ints with ``0 <= x0 < x1`` and ``0 <= y0 < y1``; one clear error otherwise."""
     values = tuple(box)
     if len(values) != 4 or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in values):
-        raise ValueError(f"a box is four pixel integers x0,y0,x1,y1, got {box!r}")
+        raise InvalidInputError(f"a box is four pixel integers x0,y0,x1,y1, got {box!r}")
     x0, y0, x1, y1 = (int(v) for v in values)
     if not (0 <= x0 < x1 and 0 <= y0 < y1):
-        raise ValueError(f"a box x0,y0,x1,y1 needs 0 <= x0 < x1 and 0 <= y0 < y1 (columns x0..x1-1, rows "
+        raise InvalidInputError(f"a box x0,y0,x1,y1 needs 0 <= x0 < x1 and 0 <= y0 < y1 (columns x0..x1-1, rows "
                          f"y0..y1-1), got {x0},{y0},{x1},{y1}")
     return x0, y0, x1, y1

@@ -9,6 +9,7 @@ import argparse
 import sys
 from typing import Any
 
+from ..exceptions import InvalidInputError
 from .method_options import check_checkpoint_folder, check_method_names
 from .options import add_common_options
 
@@ -109,9 +110,9 @@ def cmd_fill(args: argparse.Namespace) -> int:
     method: Any = None if args.checkpoint else check_method_names([args.method])[0]
     checkpoint = check_checkpoint_folder(args.checkpoint) if args.checkpoint else None
     if args.jobs is not None and args.jobs == 0:
-        raise ValueError("--jobs must be a non-zero integer (-1 = every core), got 0")
+        raise InvalidInputError("--jobs must be a non-zero integer (-1 = every core), got 0")
     if args.calib is None and (args.size or args.camera is not None):
-        raise ValueError("--size and --camera describe the camera of --calib; give --calib PATH with them")
+        raise InvalidInputError("--size and --camera describe the camera of --calib; give --calib PATH with them")
 
     def log(line: str) -> None:
         print(f"inpaintenv fill: {line}", file=sys.stderr, flush=True)

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from ..conventions import as_depth_array, check_depth
+from ..exceptions import InvalidInputError
 from .io import DepthFormatError, read_depth_png, write_depth_png
 
 __all__ = ["DEPTH_SUFFIXES", "MASK_SUFFIXES", "read_depth_file", "read_mask_file", "write_depth_file"]
@@ -153,10 +154,10 @@ def write_depth_file(path: str | os.PathLike, depth: np.ndarray) -> None:
         write_depth_png(path, depth)
         return
     if suffix not in (".npy", ".npz"):
-        raise ValueError(f"a depth file ends in {', '.join(DEPTH_SUFFIXES)}, got {str(path)!r}")
+        raise InvalidInputError(f"a depth file ends in {', '.join(DEPTH_SUFFIXES)}, got {str(path)!r}")
     arr = as_depth_array(depth, "depth to write")
     if arr.ndim != 2:
-        raise ValueError(f"depth to write must be (H, W), got shape {arr.shape}")
+        raise InvalidInputError(f"depth to write must be (H, W), got shape {arr.shape}")
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("wb") as f:  # a file object: np.save would otherwise append .npy to any other name
         if suffix == ".npy":
