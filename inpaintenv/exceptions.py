@@ -16,7 +16,7 @@ scikit-learn's ``sklearn.exceptions``::
     ├── InvalidTypeError (TypeError)       a value of the wrong type
     ├── UnknownNameError (KeyError)        no method, protocol, suite or check of that name
     ├── OutOfRangeError (IndexError)       a frame index past the end of a source
-    ├── MissingDependencyError (ImportError)  an optional extra is not installed
+    ├── MissingDependencyError (ImportError)  an optional extra or a user's module is missing
     ├── StateError (RuntimeError)          a call in the wrong order (step before reset)
     ├── ClusterError (RuntimeError)        a distributed run could not finish
     └── FileTooLargeError, RunLockedError, WorkerDataError (OSError)
@@ -66,7 +66,8 @@ class OutOfRangeError(InpaintenvError, IndexError):
 
 
 class MissingDependencyError(InpaintenvError, ImportError):
-    """An optional extra is not installed; the message says what to install."""
+    """A module something needs cannot be imported: an optional extra that is not installed
+    (the message says what to install), or the module of a user's ``-m module:function``."""
 
 
 class StateError(InpaintenvError, RuntimeError):
