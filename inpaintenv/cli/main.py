@@ -46,15 +46,14 @@ INTERRUPTED = 130
 USER_ERRORS: tuple[type[BaseException], ...] = (InpaintenvError, OSError)
 
 #: Modules (``fnmatch`` patterns) that still raise plain built-in errors for bad input, until
-#: they raise :mod:`inpaintenv.exceptions` too: a :data:`PENDING_ERRORS` raised *by a line of
-#: one of them* is a user error; one raised deeper (in torch, NumPy) is still a bug.
-PENDING_MODULES: tuple[str, ...] = (
-    "estimators", "estimators.learned", "estimators.learned.*",
-    "inpaintenv.registry", "inpaintenv.filling", "inpaintenv.cli.fill", "inpaintenv.data.lidar",
-    "inpaintenv.data.depth_files",
-)
-#: The built-in errors those modules raise on purpose.
-PENDING_ERRORS: tuple[type[BaseException], ...] = (ValueError, TypeError, KeyError, ImportError)
+#: they raise :mod:`inpaintenv.exceptions` too, and the built-in errors each raises on purpose:
+#: such an error raised *by a line of one of them* is a user error; one raised deeper (in
+#: torch, NumPy) or of another type (an ImportError of a broken import) is still a bug.
+PENDING_MODULES: dict[str, tuple[type[BaseException], ...]] = {
+    "estimators.learned": (ValueError, TypeError, KeyError),
+    "estimators.learned.*": (ValueError, TypeError, KeyError),
+    "inpaintenv.registry": (ValueError, TypeError, KeyError, ImportError),
+}
 
 #: ``add_<name>(subparsers)`` functions, one per subcommand.
 SUBCOMMANDS: list[Callable[[Any], None]] = [
@@ -112,14 +111,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def is_user_error(exc: BaseException) -> bool:
-    """True if ``exc`` is reported as one line: one of :data:`USER_ERRORS`, or a plain
-    :data:`PENDING_ERRORS` raised by a line of a module of :data:`PENDING_MODULES`."""
+    """True if ``exc`` is reported as one line: one of :data:`USER_ERRORS`, or a built-in error
+    that a line of a module of :data:`PENDING_MODULES` raised, of a type that module raises."""
     if isinstance(exc, USER_ERRORS):
         return True
-    if not isinstance(exc, PENDING_ERRORS):
-        return False
     module = _raising_module(exc)
-    return any(fnmatch.fnmatchcase(module, pattern) for pattern in PENDING_MODULES)
+    return any(isinstance(exc, types) and fnmatch.fnmatchcase(module, pattern)
+               for pattern, types in PENDING_MODULES.items())
 
 
 def _raising_module(exc: BaseException) -> str:
