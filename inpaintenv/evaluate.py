@@ -42,6 +42,8 @@ from .method_calls import (  # run_method and the method helpers stay importable
     method_name,
     run_method,
 )
+from .interval_metrics import INTERVAL_COLUMNS, check_coverage, interval_metrics
+from .method_intervals import IntervalSource, interval_source
 from .metrics import UnfilledPixelsError, _frame_metrics_checked, check_unfilled
 
 # The result type and its row format live in results.py; these names stay importable here.
@@ -140,6 +142,7 @@ def evaluate(
     client: Any = None,
     unfilled: str = "error",
     warmup: bool = False,
+    intervals: float | None = None,
 ) -> EvaluationResult:
     """Score ``method`` on every (seed, frame) pair of ``source`` under ``protocol``.
 
@@ -199,6 +202,15 @@ def evaluate(
         a lazily loaded model) is not counted as time per frame in ``ms``. Off by
         default, so that the method sees exactly the scored inputs; the benchmark runner
         warms every method up once. Local runs only: a cluster run records no ``ms``.
+    intervals : float, optional
+        Also score the method's per-pixel interval of this nominal coverage (in (0, 1),
+        e.g. 0.9), when it gives one: ``predict_interval(X, coverage=intervals) -> (low,
+        high)``, or ``predict(X, return_std=True) -> (pred, std)`` (see
+        :mod:`inpaintenv.method_intervals`). Its rows then gain the columns of
+        :data:`inpaintenv.interval_metrics.INTERVAL_COLUMNS` (coverage, width, the
+        error-rejection curve and the border-distance baseline); a method without an
+        interval gets the rows of a run without ``intervals``. Recorded in
+        ``meta["interval_coverage"]`` (and ``meta["interval_methods"]``, the methods that gave one).
 
     Returns
     -------
@@ -209,7 +221,9 @@ def evaluate(
     MethodOutputError
         If the method returns a wrong shape, a non-float, masked or sparse array, NaN/inf
         or negative depth, or (``unfilled="error"``) 0 m at a hole pixel with ground truth (the
-        message names the method).
+        message names the method); with ``intervals``, an interval that is not a
+        ``(low, high)`` pair of the batch's shape, is NaN/inf or negative, inverted, or
+        does not hold the prediction in the hole.
     BadFrameError
         With ``on_bad_frame="error"``, on a frame that cannot be read (the message names
         the file or frame).
@@ -239,6 +253,8 @@ def evaluate(
     if on_bad_frame not in ("error", "skip"):
         raise InvalidInputError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
     check_unfilled(unfilled)
+    if intervals is not None:
+        intervals = check_coverage(intervals, "intervals")
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
@@ -247,13 +263,15 @@ def evaluate(
         disable=None if progress else True, leave=False,
     )
     shared = {"dataset": dataset, "protocol": proto, "seeds": seed_list, "max_depth": max_depth, "name": label,
-              "on_bad_frame": on_bad_frame, "unfilled": unfilled}
+              "on_bad_frame": on_bad_frame, "unfilled": unfilled, "intervals": intervals}
     batches = [frame_list[s : s + batch_size] for s in range(0, len(frame_list), batch_size)]
     try:
         if client is not None:
             rows, skipped = _score_on_cluster(client, bar, on_batch, batches, method=method, **shared)
         else:
-            rows, skipped = _score_locally(call, batched, bar, on_batch, batches, warmup=bool(warmup), **shared)
+            source_of_interval = interval_source(method, intervals, label)
+            rows, skipped = _score_locally(call, batched, bar, on_batch, batches, warmup=bool(warmup),
+                                           interval=source_of_interval, **shared)
     finally:
         bar.close()
 
@@ -271,6 +289,9 @@ def evaluate(
         "unfilled": unfilled,
         "inpaintenv_version": __version__,
     }
+    if intervals is not None:
+        meta["interval_coverage"] = intervals
+        meta["interval_methods"] = [label] if any("hole_coverage" in r for r in rows) else []
     drives = training_drives_of(method)
     if drives is not None:
         meta["training_drives"] = {label: drives}
@@ -295,8 +316,14 @@ def _score_locally(
     call: Callable, batched: bool, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None,
     batches: list[list[int]], *, dataset: DepthDataset, protocol: OcclusionProtocol, seeds: list[int],
     max_depth: float, name: str, on_bad_frame: str, unfilled: str, warmup: bool = False,
+    interval: IntervalSource | None = None, intervals: float | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Rows and skipped frames of ``batches``, scored in this process (checked arguments)."""
+    """Rows and skipped frames of ``batches``, scored in this process (checked arguments).
+
+    ``interval`` (from ``intervals``, the coverage asked) adds the interval columns.
+    """
+    if interval is not None:
+        call = interval.wrap(call)
     rows: list[dict[str, Any]] = []
     skipped: list[dict[str, Any]] = []
     shape = tuple(dataset.frame_shape)
@@ -320,6 +347,9 @@ def _score_locally(
                 metrics = _frame_metrics_checked(pred, gt, hole, max_depth=max_depth, unfilled=unfilled)
             except UnfilledPixelsError as exc:
                 raise MethodOutputError(f"method {name!r}: {exc}") from None
+            if interval is not None:
+                low, high = interval.bounds(x, pred, hole)
+                metrics.update(interval_metrics(pred, gt, hole, low, high))
             batch_rows = _rows(name, protocol.name, seed, idx, dataset, hole.mean(axis=(1, 2)), metrics, ms)
             rows.extend(batch_rows)
             if on_batch is not None:
@@ -347,6 +377,9 @@ def _rows(
         for c in METRIC_COLUMNS:
             v = metrics[c][k]
             row[c] = int(v) if c.endswith("_count") else float(v)
+        for c in INTERVAL_COLUMNS:
+            if c in metrics:
+                row[c] = float(metrics[c][k])
         row["ms"] = ms
         batch_rows.append(row)
     return batch_rows
@@ -386,12 +419,13 @@ def _score_on_cluster(
 
 def _score_shard(
     indices: list[int], *, method: Any, dataset: DepthDataset, protocol: OcclusionProtocol,
-    seeds: list[int], max_depth: float, name: str, on_bad_frame: str, unfilled: str,
+    seeds: list[int], max_depth: float, name: str, on_bad_frame: str, unfilled: str, intervals: float | None = None,
 ) -> EvaluationResult:
     """One batch of a distributed :func:`evaluate`, run on a Dask worker."""
     return evaluate(
         method, dataset, protocol, seeds, indices=indices, batch_size=len(indices),
         max_depth=max_depth, progress=False, name=name, on_bad_frame=on_bad_frame, unfilled=unfilled,
+        intervals=intervals,
     )
 
 

@@ -486,3 +486,121 @@ def test_output_above_the_env_bound_is_refused_with_the_env_s_words():
     with pytest.raises(MethodOutputError) as from_evaluate:
         evaluate(too_deep, gt, progress=False, name="deep")
     assert str(from_env.value).removeprefix("action ") == str(from_evaluate.value).removeprefix("method 'deep': output ")
+
+
+# ---------------------------------------------------------------------------------------
+# Per-pixel intervals (evaluate(..., intervals=coverage))
+# ---------------------------------------------------------------------------------------
+class _TruthPlusMinusOne:
+    """Knows the truth (fills it) and gives the interval truth ± 1 m: coverage 1.0."""
+
+    def __init__(self, dataset):
+        self.fill = oracle_for(dataset)
+
+    def predict(self, x):
+        return np.stack([self.fill(f) for f in x]).astype(np.float32)
+
+    def predict_interval(self, x, coverage=0.9):
+        self.coverage_asked = coverage
+        p = self.predict(x)
+        return np.maximum(p - 1.0, 0.0), p + 1.0
+
+
+class _ConstantStd:
+    """scikit-learn's return_std protocol: predict(X, return_std=True) -> (pred, std)."""
+
+    def predict(self, x, return_std=False):
+        pred = np.nan_to_num(x, nan=12.0).astype(np.float32)
+        return (pred, np.full_like(pred, 2.0)) if return_std else pred
+
+
+def _fill_12(x):
+    return np.nan_to_num(x, nan=12.0)
+
+
+def test_interval_around_the_truth_has_coverage_one(gt_ds):
+    method = _TruthPlusMinusOne(gt_ds)
+    res = evaluate(method, gt_ds, intervals=0.8, progress=False)
+    assert method.coverage_asked == 0.8
+    assert res.meta["interval_coverage"] == 0.8 and res.meta["interval_methods"] == ["_TruthPlusMinusOne"]
+    for row in res.rows:
+        assert row["hole_coverage"] == 1.0
+        assert row["hole_rmse"] == 0.0 and math.isnan(row["rejection_auc"])  # a perfect fill has no curve
+    assert res.table[0]["hole_coverage"] == 1.0
+
+
+def test_interval_columns_equal_a_numpy_recomputation(gt_ds):
+    from statistics import NormalDist
+
+    res = evaluate(_ConstantStd(), gt_ds, intervals=0.9, progress=False, batch_size=2)
+    z = NormalDist().inv_cdf(0.95)
+    proto = get_protocol("rect-v1")
+    for row in res.rows:
+        gt = np.asarray(gt_ds)[row["index"]]
+        hole = proto.mask(gt.shape, row["seed"], row["index"])
+        pred = np.where(hole, 12.0, gt)
+        low, high = np.maximum(pred - 2 * z, 0), pred + 2 * z
+        covered, widths = [], []
+        for y, x in zip(*np.nonzero(hole & (gt > 0))):
+            covered.append(low[y, x] <= gt[y, x] <= high[y, x])
+            widths.append(high[y, x] - low[y, x])
+        assert row["hole_coverage"] == pytest.approx(np.mean(covered), abs=1e-12)
+        assert row["hole_interval_width"] == pytest.approx(np.mean(widths), rel=1e-6)
+
+
+def test_methods_without_intervals_keep_their_rows_bit_identical(gt_ds):
+    plain = evaluate(_fill_12, gt_ds, progress=False)
+    asked = evaluate(_fill_12, gt_ds, intervals=0.9, progress=False)
+    strip = [{k: v for k, v in r.items() if k != "ms"} for r in plain.rows]
+    assert [{k: v for k, v in r.items() if k != "ms"} for r in asked.rows] == strip
+    assert asked.meta["interval_methods"] == []
+    # The return_std method's prediction and rows are those of its plain predict.
+    std_rows = evaluate(_ConstantStd(), gt_ds, intervals=0.9, progress=False).rows
+    assert [{k: r[k] for k in strip[0] if k != "method"} for r in std_rows] == [
+        {k: v for k, v in r.items() if k != "method"} for r in strip
+    ]
+    # Without intervals= nothing is asked and no column appears.
+    assert "hole_coverage" not in evaluate(_TruthPlusMinusOne(gt_ds), gt_ds, progress=False).rows[0]
+
+
+def test_mixed_table_shows_a_dash_for_the_method_without_intervals(gt_ds, tmp_path):
+    both = EvaluationResult.concat([
+        evaluate(_ConstantStd(), gt_ds, intervals=0.9, progress=False, name="std"),
+        evaluate(_fill_12, gt_ds, intervals=0.9, progress=False, name="plain"),
+    ])
+    md = both.to_markdown()
+    assert "hole coverage" in md
+    plain_line = next(line for line in md.splitlines() if line.startswith("| plain"))
+    assert plain_line.count("| – ") == 5
+    assert "hole coverage" not in evaluate(_fill_12, gt_ds, progress=False).to_markdown()
+    back = EvaluationResult.from_csv(both.to_csv(tmp_path / "rows.csv"))
+    assert back.rows[0]["rmse_keep_80"] == both.rows[0]["rmse_keep_80"]
+
+
+class _BadInterval(_ConstantStd):
+    def __init__(self, make):
+        self.make = make
+
+    def predict_interval(self, x, coverage=0.9):
+        return self.make(self.predict(x))
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda p: (p + 1, p - 1), "inverted"),
+        (lambda p: (p * np.nan, p), "NaN"),
+        (lambda p: (p + 0.5, p + 1), "does not hold the prediction"),
+        (lambda p: (p[:, :-1], p[:, :-1]), "shape"),
+        (lambda p: p, r"\(low, high\)"),
+    ],
+)
+def test_bad_interval_is_refused_naming_the_method(gt_ds, make, message):
+    with pytest.raises(MethodOutputError, match=rf"'bad'.*{message}|{message}.*'bad'"):
+        evaluate(_BadInterval(make), gt_ds, intervals=0.9, progress=False, name="bad")
+
+
+@pytest.mark.parametrize("coverage", [0, 1, 1.2, "0.9", True])
+def test_bad_interval_coverage_is_refused(gt_ds, coverage):
+    with pytest.raises((ValueError, TypeError), match="intervals"):
+        evaluate(_fill_12, gt_ds, intervals=coverage, progress=False)

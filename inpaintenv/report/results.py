@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..conventions import DEFAULT_MAX_DEPTH
+from ..interval_metrics import INTERVAL_COLUMNS
 from ..metrics import METRIC_NAMES, REGIONS, aggregate
 from . import tables
 from .files import write_atomic, write_text_atomic
@@ -76,8 +77,9 @@ class EvaluationResult:
 
         Each output row holds the key values, :func:`inpaintenv.metrics.aggregate`'s
         result (``{region}_{metric}``, ``n_frames``, ``n_skipped_hole``), the mean
-        ``hole_fraction`` and ``ms_per_frame``. Groups keep the order of first
-        appearance.
+        ``hole_fraction`` and ``ms_per_frame``, and the mean of each interval column
+        (:data:`~inpaintenv.interval_metrics.INTERVAL_COLUMNS`) some row of the group has.
+        Groups keep the order of first appearance.
         """
         groups: dict[tuple, list[dict[str, Any]]] = {}
         for row in self.rows:
@@ -92,6 +94,9 @@ class EvaluationResult:
             entry["n_frames"] = int(agg["n_frames"])
             entry["hole_fraction"] = _mean(r["hole_fraction"] for r in rows)
             entry["ms_per_frame"] = _mean(r["ms"] for r in rows)
+            # Interval columns (evaluate(..., intervals=...)): means over the frames that have them.
+            for c in _interval_columns(rows):
+                entry[c] = _mean(r.get(c, math.nan) for r in rows)
             table.append(entry)
         return table
 
@@ -165,14 +170,22 @@ class EvaluationResult:
         return cls(rows=rows, meta=meta)
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write the per-frame rows as CSV (NaN written as an empty cell), whole or not at all."""
+        """Write the per-frame rows as CSV (NaN written as an empty cell), whole or not at all.
+
+        Columns: :data:`ROW_COLUMNS`, and the interval columns when some row has them (a
+        row without them leaves their cells empty).
+        """
+
+        # The interval columns only when some row has them (before "ms"), so runs without
+        # intervals write the file they always wrote.
+        columns = list(ROW_COLUMNS[:-1]) + _interval_columns(self.rows) + [ROW_COLUMNS[-1]]
 
         def write(tmp: Path) -> None:
             with tmp.open("w", newline="") as f:
-                writer = csv.DictWriter(f, fieldnames=list(ROW_COLUMNS), extrasaction="ignore")
+                writer = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
                 writer.writeheader()
                 for row in self.rows:
-                    writer.writerow({k: _csv_cell(row.get(k)) for k in ROW_COLUMNS})
+                    writer.writerow({k: _csv_cell(row.get(k, math.nan)) for k in columns})
 
         return write_atomic(path, write)
 
@@ -207,6 +220,12 @@ class EvaluationResult:
 
     def __repr__(self) -> str:
         return f"EvaluationResult({len(self.rows)} rows, methods={self.methods})"
+
+
+def _interval_columns(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The interval columns (in :data:`~inpaintenv.interval_metrics.INTERVAL_COLUMNS` order) some row has."""
+    present = {c for row in rows for c in INTERVAL_COLUMNS if c in row}
+    return [c for c in INTERVAL_COLUMNS if c in present]
 
 
 def merge_skipped(lists: Iterable[Sequence[dict[str, Any]]]) -> list[dict[str, Any]]:

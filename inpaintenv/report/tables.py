@@ -28,7 +28,7 @@ from .files import write_atomic
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
 __all__ = [
-    "FEW_MARK", "REPORT_METRICS", "TRAINED_MARK", "interval_cell", "method_cell", "summary_table", "table_notes",
+    "FEW_MARK", "INTERVAL_REPORT_METRICS", "REPORT_METRICS", "TRAINED_MARK", "interval_cell", "method_cell", "summary_table", "table_notes",
     "table_to_csv", "to_markdown", "trained_note",
 ]
 
@@ -54,6 +54,14 @@ REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
     ("all_psnr", "all PSNR (dB)", ".1f"),
     ("hole_mae", "hole MAE (m)", ".2f"),
     ("hole_irmse", "hole iRMSE (1/km)", ".1f"),
+)
+#: The columns a run with per-pixel intervals adds (``evaluate(..., intervals=0.9)``), same layout.
+INTERVAL_REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
+    ("hole_coverage", "hole coverage", ".1%"),
+    ("hole_interval_width", "interval width (m)", ".2f"),
+    ("rmse_keep_80", "hole RMSE, 80 % most confident (m)", ".2f"),
+    ("border_rmse_keep_80", "hole RMSE, 80 % nearest border (m)", ".2f"),
+    ("rejection_auc", "rejection AUC", ".3f"),
 )
 #: Mark of an interval from fewer than FEW_FRAMES frames.
 FEW_MARK = "†"
@@ -87,7 +95,8 @@ def summary_table(
         One entry per group, in order of first appearance: everything
         :meth:`EvaluationResult.group_table` holds (the ``keys``, every metric's mean,
         ``n_frames``, ``n_skipped_hole``, ``hole_fraction``, ``ms_per_frame``) and, per
-        metric of :data:`REPORT_METRICS`, ``{metric}_low`` / ``{metric}_high`` (NaN when
+        metric of :data:`REPORT_METRICS` (and of :data:`INTERVAL_REPORT_METRICS` when some
+        row has intervals), ``{metric}_low`` / ``{metric}_high`` (NaN when
         fewer than two frames entered the mean) and ``{metric}_n`` (frames in the mean).
         Frames without ground truth in their hole are left out of every mean. With a
         ``method`` key: ``trained_on``, the drives of the group that were in the method's
@@ -105,15 +114,25 @@ def summary_table(
             drives = {str(r["drive"]) for r in rows}
             entry["n_drives"] = len(drives)
             entry["trained_on"] = sorted(drives & set(trained.get(entry["method"]) or ()))
-        for metric, _, _ in REPORT_METRICS:
+        for metric, _, _ in _metrics_of(result.rows):
             # The rule of metrics.aggregate: a frame without hole truth tested nothing.
             vals = np.array(
-                [r[metric] if r["hole_count"] and r[metric] is not None else np.nan for r in rows], dtype=float
+                [r.get(metric) if r["hole_count"] and r.get(metric) is not None else np.nan for r in rows], dtype=float
             )
             _, low, high = bootstrap_mean_ci(vals, confidence=confidence, seed=seed)
             entry[f"{metric}_low"], entry[f"{metric}_high"] = low, high
             entry[f"{metric}_n"] = int(np.isfinite(vals).sum())
     return table
+
+
+def _has_intervals(entries: Sequence[dict[str, Any]]) -> bool:
+    """Whether some row or table entry carries an interval score."""
+    return any(not _missing(e.get("hole_coverage")) for e in entries)
+
+
+def _metrics_of(entries: Sequence[dict[str, Any]]) -> tuple[tuple[str, str, str], ...]:
+    """:data:`REPORT_METRICS`, followed by :data:`INTERVAL_REPORT_METRICS` when ``entries`` have intervals."""
+    return REPORT_METRICS + (INTERVAL_REPORT_METRICS if _has_intervals(entries) else ())
 
 
 def _missing(value: Any) -> bool:
@@ -207,9 +226,11 @@ def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "p
     """Markdown of :func:`summary_table` entries, the notes explaining it underneath.
 
     Columns: the ``keys``, ``frames``, ``skipped``, the :data:`REPORT_METRICS` (units in
-    the header; each cell by :func:`interval_cell`) and ``ms/frame``.
+    the header; each cell by :func:`interval_cell`), the :data:`INTERVAL_REPORT_METRICS`
+    when some entry has intervals (``–`` for a method without), and ``ms/frame``.
     """
-    heads = list(keys) + ["frames", "skipped"] + [h for _, h, _ in REPORT_METRICS] + ["ms/frame"]
+    report = _metrics_of(table)
+    heads = list(keys) + ["frames", "skipped"] + [h for _, h, _ in report] + ["ms/frame"]
     lines = [
         "| " + " | ".join(heads) + " |",
         "|" + "|".join(["---"] * len(keys) + ["---:"] * (len(heads) - len(keys))) + "|",
@@ -219,7 +240,7 @@ def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "p
     for entry in table:
         metric_cells = [
             interval_cell(entry.get(m), entry.get(f"{m}_low"), entry.get(f"{m}_high"), entry.get(f"{m}_n", 0), f)
-            for m, _, f in REPORT_METRICS
+            for m, _, f in report
         ]
         values += metric_cells
         ms = entry.get("ms_per_frame")
@@ -241,11 +262,11 @@ def table_to_csv(
 
     Columns: the ``keys``, ``n_frames``, ``n_skipped_hole``, per metric of
     :data:`REPORT_METRICS` ``{metric}``, ``{metric}_low``, ``{metric}_high``,
-    ``{metric}_n``, then ``hole_fraction``, ``ms_per_frame`` and ``trained_on`` (the
+    ``{metric}_n`` (also of :data:`INTERVAL_REPORT_METRICS` when some entry has intervals), then ``hole_fraction``, ``ms_per_frame`` and ``trained_on`` (the
     drives of the row in the method's training data, joined by ``;``; empty when none).
     """
     fields = list(keys) + ["n_frames", "n_skipped_hole"]
-    fields += [f"{m}{s}" for m, _, _ in REPORT_METRICS for s in ("", "_low", "_high", "_n")]
+    fields += [f"{m}{s}" for m, _, _ in _metrics_of(table) for s in ("", "_low", "_high", "_n")]
     fields += ["hole_fraction", "ms_per_frame", "trained_on"]
 
     def write(tmp: Path) -> None:
