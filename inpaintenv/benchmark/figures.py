@@ -33,7 +33,7 @@ from . import ownership
 
 __all__ = [
     "DISTANCE_BINS", "DISTANCE_FRAMES", "FramePredictions", "frame_panel", "plot_error_vs_distance",
-    "plot_error_vs_hole_size", "spread_indices", "write_figures",
+    "plot_error_rejection", "plot_error_vs_hole_size", "spread_indices", "write_figures",
 ]
 
 #: Ground-truth range bins (m) of the error-against-distance plot.
@@ -256,6 +256,56 @@ def plot_error_vs_hole_size(
     return _save(fig, path, dpi=100)
 
 
+#: (percent of hole pixels kept, row column of the method's curve, of the border baseline's).
+REJECTION_POINTS = ((100, "hole_rmse", "hole_rmse"), (90, "rmse_keep_90", "border_rmse_keep_90"),
+                    (80, "rmse_keep_80", "border_rmse_keep_80"), (50, "rmse_keep_50", "border_rmse_keep_50"))
+
+
+def plot_error_rejection(
+    result: EvaluationResult, path: str | Path, *, colours: Mapping[str, Any] | None = None
+) -> Path:
+    """Error-rejection curves from the rows: mean hole RMSE when only the most confident
+    100 / 90 / 80 / 50 % of hole pixels are kept, one solid line per method with intervals,
+    and dashed in its colour the baseline that keeps the pixels nearest the hole border.
+
+    Only the frames with interval columns (``evaluate(..., intervals=...)``) enter.
+    """
+    plt = _pyplot()
+    colours = colours or style.method_colours(result.methods)
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for row in result.rows:
+        if _finite(row.get("rmse_keep_80")):
+            groups.setdefault((row["method"], row["protocol"]), []).append(row)
+    protocols = list(dict.fromkeys(p for _, p in groups))
+    xs = [x for x, _, _ in REJECTION_POINTS]
+    for (method, protocol), rows in groups.items():
+        label = method if len(protocols) == 1 else f"{method} ({protocol})"
+        for k, (linestyle, what) in enumerate((("-", "most confident"), ("--", "nearest the border"))):
+            ys = [float(np.mean([r[cols[k]] for r in rows])) for _, *cols in REJECTION_POINTS]
+            ax.plot(xs, ys, marker="o", linestyle=linestyle, color=colours.get(method), label=f"{label}, {what}")
+    frames = len({(r["protocol"], r["seed"], r["index"]) for rows in groups.values() for r in rows})
+    coverage = result.meta.get("interval_coverage")
+    ax.set_title(f"{frames} frame-masks with intervals" + (f" (nominal coverage {coverage:g})" if coverage else ""),
+                 fontsize=9)
+    ax.set_xlabel("hole pixels kept (%)")
+    ax.set_ylabel("hole RMSE of the kept pixels (m), mean over frames")
+    ax.invert_xaxis()
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path, dpi=100)
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and np.isfinite(value)
+
+
+def has_intervals(result: EvaluationResult) -> bool:
+    """Whether some row of ``result`` carries interval scores (so ``error_rejection.png`` is drawn)."""
+    return any(_finite(r.get("rmse_keep_80")) for r in result.rows)
+
+
 def plot_error_vs_distance(
     methods: Mapping[str, Any],
     dataset: DepthDataset,
@@ -307,6 +357,8 @@ def _stamp(result: EvaluationResult, settings: dict[str, Any]) -> str:
     digest = hashlib.sha1(json.dumps(settings, sort_keys=True).encode())
     for r in result.rows:
         digest.update(f"{r['method']}|{r['protocol']}|{r['seed']}|{r['index']}|{r['hole_rmse']!r}\n".encode())
+        if "rmse_keep_80" in r:  # only rows with intervals: other runs keep the stamp they had
+            digest.update(f"{r['rmse_keep_80']!r}\n".encode())
     return digest.hexdigest()
 
 
@@ -329,7 +381,7 @@ def write_figures(
     Parameters
     ----------
     result : EvaluationResult
-        The run's rows (``error_vs_hole_size.png`` comes from them).
+        The run's rows (``error_vs_hole_size.png`` and, when rows carry intervals, ``error_rejection.png`` come from them).
     methods : mapping of str to zero-argument callable
         Name -> a function returning the built method (built only if a figure needs it).
     dataset : DepthDataset
@@ -354,6 +406,8 @@ def write_figures(
     indices = spread_indices(dataset, max(n_panels, DISTANCE_FRAMES), exclude)
     panels = indices[:n_panels]
     names = [out / f"frame_{i:04d}.png" for i in panels] + [out / "error_vs_hole_size.png", out / "error_vs_distance.png"]
+    if has_intervals(result):
+        names.append(out / "error_rejection.png")
     settings = {"panel_methods": list(panel_methods), "panels": panels, "distance": indices,
                 "protocol": protocol, "seed": seed, "version": inpaintenv.__version__,
                 "style": [style.DEPTH_CMAP, style.ERROR_CMAP, style.ERROR_PERCENTILE, list(style.METHOD_PALETTE)]}
@@ -373,6 +427,8 @@ def write_figures(
     for stale in sorted(set(out.glob("frame_*.png")) - set(names)):  # panels of other frames, drawn before
         ownership.remove(root, stale.resolve().relative_to(root.resolve()))  # only those a run recorded
     plot_error_vs_hole_size(result, out / "error_vs_hole_size.png", colours=colours)
+    if has_intervals(result):
+        plot_error_rejection(result, out / "error_rejection.png", colours=colours)
     ms = {e["method"]: e["ms_per_frame"] for e in result.group_table(("method",))}
     seconds = sum(ms.get(n, 0.0) for n in panel_methods) * len(indices) / 1000.0
     log(

@@ -32,6 +32,7 @@ from ..evaluate import (
     training_drives_of,
 )
 from ..masks import get_protocol
+from ..interval_metrics import check_coverage
 from ..metrics import check_unfilled
 from ..report.progress import (
     ProgressReporter,
@@ -130,6 +131,7 @@ def run_benchmark(
     on_bad_frame: str = "error",
     client: Any = None,
     unfilled: str | None = None,
+    interval_coverage: float | None = None,
 ) -> EvaluationResult:
     """Score every method under every protocol and seed; return all per-frame rows.
 
@@ -179,6 +181,11 @@ def run_benchmark(
         registry: ``"zero"`` for the study's hole-only baselines), else ``"error"``. A
         run-wide value is part of the run's fingerprint, so rows scored otherwise are
         never resumed into it. The policy of each method is in ``meta["unfilled"]``.
+    interval_coverage : float, optional
+        Also score the per-pixel interval of this nominal coverage (e.g. 0.9) of every
+        method that gives one (``evaluate``'s ``intervals``): its rows gain coverage,
+        width and the error-rejection columns; the others' rows are unchanged. Part of the
+        run's fingerprint, so rows scored without it are never resumed into such a run.
 
     Returns
     -------
@@ -208,6 +215,8 @@ def run_benchmark(
                              "unfilled" if unfilled is not None else f"the unfilled policy of {name!r}")
         for name, m in methods.items()
     }
+    if interval_coverage is not None:
+        interval_coverage = check_coverage(interval_coverage, "interval_coverage")
     dataset = resolve_source(source)
     if len(dataset) == 0:
         raise InvalidInputError("the data source has no frames")
@@ -215,7 +224,7 @@ def run_benchmark(
     with run_lock(out_dir, log):
         return _run_locked(
             methods, dataset, protocols, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
-            log or (lambda msg: None), on_bad_frame, client, policies, unfilled,
+            log or (lambda msg: None), on_bad_frame, client, policies, unfilled, interval_coverage,
         )
 
 
@@ -236,11 +245,13 @@ def _run_locked(
     methods: Mapping[str, Any], dataset: DepthDataset, protocols: list[str], seeds: list[int],
     n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
     say: Callable[[str], None], on_bad_frame: str, client: Any, policies: dict[str, str], unfilled: str | None,
+    interval_coverage: float | None = None,
 ) -> EvaluationResult:
     """The run inside the folder's lock: open the run folder, plan, score each method, combine."""
     total = len(dataset) if n_frames is None else min(len(dataset), int(n_frames))
     run = _Run(methods, dataset, protocols, seeds, total, out, say, policies,
-               {"batch_size": batch_size, "progress": progress, "on_bad_frame": on_bad_frame, "client": client})
+               {"batch_size": batch_size, "progress": progress, "on_bad_frame": on_bad_frame, "client": client,
+                "intervals": interval_coverage})
     run.open(resume, unfilled)
     run.plan()
     results: list[EvaluationResult] = []
@@ -286,6 +297,9 @@ class _Run:
             # Only a run-wide choice: a method's own policy is part of what the method is, and
             # a run.json without the key (older runs, default runs) stays resumable.
             self.fingerprint["unfilled"] = unfilled
+        if self.evaluate_kw.get("intervals") is not None:
+            # Rows with interval columns and rows without must never be mixed in one run.
+            self.fingerprint["interval_coverage"] = self.evaluate_kw["intervals"]
         if resume and self.run_file.exists():
             previous = read_run_file(self.run_file)
             recorded = previous.pop("methods", None)
@@ -452,6 +466,10 @@ class _Run:
              "unfilled": {name: self.policies[name] for name in combined.methods},
              "kinds": {name: method_kind(name, methods[name]) for name in combined.methods}}
         )
+        if self.evaluate_kw.get("intervals") is not None:
+            combined.meta["interval_coverage"] = self.evaluate_kw["intervals"]
+            combined.meta["interval_methods"] = [m for m in combined.methods
+                                                 if any("hole_coverage" in r for r in combined.rows if r["method"] == m)]
         combined.meta.pop("training_drives", None)
         if any(name in trained for name in methods):
             combined.meta["training_drives"] = {name: trained[name] for name in methods if name in trained}

@@ -9,6 +9,7 @@ from typing import Any
 
 from ..cluster import add_scheduler_option, open_client, parse_scheduler
 from ..exceptions import InvalidInputError
+from ..interval_metrics import check_coverage
 from .method_options import (
     add_bad_frame_option,
     add_checkpoint_option,
@@ -77,6 +78,11 @@ def add_benchmark(subparsers: Any) -> None:
     p.add_argument("--no-resume", action="store_true", help="discard rows already in --out")
     p.add_argument("--figure-frames", type=int, default=2, metavar="N",
                    help="frames drawn as study-style panels, spread over the drives (default 2; 0 = no figures)")
+    p.add_argument("--interval-coverage", type=float, metavar="C",
+                   help="also score the per-pixel interval of nominal coverage C (e.g. 0.9) of every method that "
+                        "gives one (predict_interval or predict(return_std=True)): hole coverage, interval width, "
+                        "hole RMSE of the most confident 90/80/50 %% of hole pixels, rejection AUC, the "
+                        "nearest-the-border baseline, and error_rejection.png")
     add_bad_frame_option(p)
     add_unfilled_option(p)
     add_scheduler_option(p)
@@ -111,6 +117,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     seeds = check_seeds(args.seed or [0], "--seed")
     check_int(args.batch_size, "--batch-size", minimum=1)
     check_int(args.figure_frames, "--figure-frames", minimum=0)
+    if args.interval_coverage is not None:
+        check_coverage(args.interval_coverage, "--interval-coverage")
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
     out = Path(args.out)
@@ -145,6 +153,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                 cached, dataset, protocols=protocols, seeds=seeds, out_dir=out,
                 resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
                 on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled,
+                interval_coverage=args.interval_coverage,
             )
         _report(args, result, out, holdout, {n: (lambda n=n: materialise(n, methods[n])) for n in methods},
                 methods, dataset, protocols[0], seeds[0], log)
