@@ -47,6 +47,7 @@ from ..conventions import (
 )
 from ..data.base import DepthDataset, as_dataset
 from ..masks import OcclusionProtocol, get_protocol
+from ..interval_metrics import check_coverage, interval_from_std, interval_metrics
 from ..metrics import ScoredPixels, check_unfilled
 from .render import render_panel
 from ..exceptions import InvalidInputError, StateError
@@ -108,6 +109,9 @@ class DepthInpaintEnv(gym.Env):
         An action of 0 m at a hole pixel with ground truth is refused (``ValueError`` counting
         the pixels; the default), filled first by the KITTI devkit's background
         interpolation, or scored as 0 m, as in :func:`inpaintenv.evaluate.evaluate`.
+    interval_coverage : float
+        Nominal coverage (in (0, 1), 0.9 by default) of the interval a ``std`` action
+        stands for: ``[depth - z·std, depth + z·std]`` clipped at 0 m, ``z`` its normal quantile.
 
     Observation
     -----------
@@ -119,7 +123,12 @@ class DepthInpaintEnv(gym.Env):
     Action
     ------
     float ``(H, W)`` reconstruction in metres, ``Box(0, DEPTH_LIMIT)``. Every pixel must
-    be finite; only pixels with ground truth are scored.
+    be finite; only pixels with ground truth are scored. A submission may also carry a
+    per-pixel interval: ``step`` then takes a dict ``{"depth": reconstruction, "low":
+    low, "high": high}`` or ``{"depth": reconstruction, "std": std}`` (float ``(H, W)``
+    metres each; in the hole finite with ``0 <= low <= depth <= high``, ``std >= 0``).
+    The action space stays the plain ``Box``: the dict is an extension ``step`` accepts,
+    and a plain array is scored as before.
 
     Reward and info
     ---------------
@@ -128,6 +137,9 @@ class DepthInpaintEnv(gym.Env):
     :func:`~inpaintenv.metrics.frame_metrics` (``hole_rmse``, ..., ``all_count``) as
     Python numbers, plus ``frame_id``, ``drive``, ``index``, ``mask_seed``,
     ``mask_redraws`` and ``hole_fraction``. ``reset`` returns the same episode keys.
+    With an interval, ``info`` also has the columns of
+    :data:`~inpaintenv.interval_metrics.INTERVAL_COLUMNS` (``hole_coverage``,
+    ``hole_interval_width``, ``rmse_keep_80``, ...) as floats; the reward is unchanged.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -139,6 +151,7 @@ class DepthInpaintEnv(gym.Env):
         max_depth: float = DEFAULT_MAX_DEPTH,
         render_mode: str | None = None,
         unfilled: str = "error",
+        interval_coverage: float = 0.9,
     ):
         self.dataset: DepthDataset = as_dataset(dataset)
         if len(self.dataset) == 0:
@@ -154,6 +167,7 @@ class DepthInpaintEnv(gym.Env):
             )
         self.render_mode = render_mode
         self.unfilled = check_unfilled(unfilled)
+        self.interval_coverage = check_coverage(interval_coverage, "interval_coverage")
         shape = tuple(int(s) for s in self.dataset.frame_shape)
         self.frame_shape: tuple[int, int] = shape  # type: ignore[assignment]
         self.observation_space = spaces.Dict(
@@ -263,9 +277,12 @@ class DepthInpaintEnv(gym.Env):
         """
         if self._done or self._scored is None or self._obs_depth is None or self._hole is None:
             raise StateError("the episode is over or has not started; call reset() first")
+        action, bounds = self._split_action(action)
         pred = self._check_action(action)
         m = self._scored.metrics(pred, max_depth=self.max_depth, unfilled=self.unfilled)
         metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items()}
+        if bounds is not None:
+            metrics.update(self._interval_info(pred, bounds))
         # Only render() reads the reconstruction later: copy it only then (the caller's
         # array is never kept, and a 352x1216 copy per step is not free).
         self._pred = np.array(pred, dtype=np.float32, copy=True) if self.render_mode is not None else None
@@ -297,6 +314,28 @@ class DepthInpaintEnv(gym.Env):
         # The check also refuses depth above DEPTH_LIMIT, the observation space's bound.
         # No copy: reset builds its own observation and scored pixels from the frame.
         return self.dataset.checked_frame(index, f"frame {index}")
+
+    def _split_action(self, action: Any) -> tuple[Any, dict[str, Any] | None]:
+        """``(reconstruction, interval entries or None)`` of a plain or dict action."""
+        if not isinstance(action, dict):
+            return action, None
+        keys = set(action)
+        if keys not in ({"depth", "low", "high"}, {"depth", "std"}):
+            raise InvalidInputError(f"a dict action has the keys 'depth', 'low', 'high' or 'depth', 'std'; "
+                                    f"got {sorted(map(str, keys))}")
+        return action["depth"], {k: v for k, v in action.items() if k != "depth"}
+
+    def _interval_info(self, pred: np.ndarray, bounds: dict[str, Any]) -> dict[str, float]:
+        """The interval columns of ``info`` for the checked reconstruction ``pred``."""
+        assert self._scored is not None and self._hole is not None
+        if "std" in bounds:
+            low, high = interval_from_std(pred, bounds["std"], self.interval_coverage)
+        else:
+            low, high = bounds["low"], bounds["high"]
+        # The ground truth, rebuilt from the pixels gathered at reset (the frame itself is not kept).
+        gt = np.zeros(self.frame_shape, dtype=np.float32)
+        gt.reshape(-1)[self._scored._index] = self._scored._gt
+        return {k: float(v) for k, v in interval_metrics(pred, gt, self._hole, low, high).items()}
 
     def _check_action(self, action: Any) -> np.ndarray:
         # The package's one input rule: a plain float array (masked arrays, integers,
