@@ -14,6 +14,7 @@ import hashlib
 import json
 import math
 import os
+import random
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -31,21 +32,24 @@ from inpaintenv.metrics import aggregate, frame_metrics
 
 from ..base import resolve_seed
 from . import _checkpoint as ckpt
-from ._checkpoint import CheckpointMixin, cpu_state
+from ._checkpoint import cpu_state
 from .losses import inpainting_loss
 from .nets import UNet
 
 __all__ = [
     "OcclusionFrames",
+    "Shard",
     "TrainingMixin",
     "crop_shape",
     "data_fingerprint",
     "encode_input",
     "epoch_order",
     "frame_label",
+    "global_rng_state",
     "make_loader",
     "deterministic_torch",
     "sample_rng",
+    "set_global_rng_state",
     "torch_threads",
 ]
 
@@ -128,7 +132,12 @@ def _worker_init(_: int) -> None:
 def make_loader(
     data: OcclusionFrames, order: np.ndarray, batch_size: int, num_workers: int, pin_memory: bool
 ) -> DataLoader:
-    """A loader visiting ``order`` (a list of frame indices) in batches, in that order."""
+    """A loader visiting ``order`` (a list of frame indices) in batches, in that order.
+
+    Its generator (which only seeds the workers' torch streams; samples are seeded by
+    ``(seed, epoch, index)``) is its own: drawing from the global torch stream each epoch
+    would make a run resumed mid-epoch draw once more than the uninterrupted one.
+    """
     return DataLoader(
         data,
         batch_size=batch_size,
@@ -137,6 +146,7 @@ def make_loader(
         pin_memory=pin_memory,
         worker_init_fn=_worker_init if num_workers else None,
         drop_last=False,
+        generator=torch.Generator().manual_seed(int(np.random.SeedSequence([data.seed, data.epoch]).generate_state(1)[0])),
     )
 
 
@@ -220,6 +230,92 @@ def deterministic_torch(enabled: bool = True) -> Iterator[None]:
         torch.use_deterministic_algorithms(before, warn_only=warn_before)
 
 
+class Shard:
+    """How one process takes part in a training run: here, alone (the whole batch).
+
+    The loop of :class:`TrainingMixin` asks it for the frames to visit, the batch to load,
+    the loss to log and the model to step; ``estimators.learned.distributed`` passes a
+    subclass that splits each global batch over the processes of a job and wraps the
+    model in ``DistributedDataParallel`` (as torchvision's reference scripts swap the
+    sampler and wrap the model around one loop).
+    """
+
+    #: This process writes the checkpoints and shows the progress bar.
+    writes: bool = True
+    #: Prefix of the run folder's name: a run's progress is only resumed by the same split.
+    run_prefix: str = ""
+    #: Extra entries of the checkpoint's config.
+    config: dict[str, Any] = {}
+
+    def check_data(self, n_frames: int, batch_size: int) -> None:
+        """Raise ValueError if ``n_frames`` training frames cannot be split as this shard needs."""
+
+    def batches_per_epoch(self, n_frames: int, batch_size: int) -> int:
+        """Optimiser steps in one full epoch."""
+        return math.ceil(n_frames / batch_size)
+
+    def local_batch(self, batch_size: int) -> int:
+        """Frames this process loads per step."""
+        return batch_size
+
+    def order(self, order: np.ndarray, batch_size: int) -> np.ndarray:
+        """The frames this process visits, in step order, out of an epoch's ``order``."""
+        return order
+
+    def wrap(self, model: torch.nn.Module, device: torch.device) -> torch.nn.Module:
+        """The module the training steps call (its parameters are ``model``'s)."""
+        return model
+
+    def mean_loss(self, loss: float, device: torch.device) -> float:
+        """The loss of the whole step (the mean over the processes)."""
+        return loss
+
+    def saved(self, run_dir: Path, step: int) -> None:
+        """Called after each checkpoint this process wrote."""
+
+    def done(self, progress: dict[str, Any]) -> None:
+        """Called once the last step is taken."""
+
+
+def global_rng_state() -> dict[str, Any]:
+    """The global torch (CPU), NumPy and Python random states, as JSON.
+
+    No training step draws from them today (weights are seeded under ``fork_rng``,
+    samples by ``(seed, epoch, index)``), but user code (a custom protocol, a loss) may:
+    a resumed run restores them so it continues as the uninterrupted one would have.
+    """
+    kind, key, pos, has_gauss, cached = np.random.get_state()
+    version, internal, gauss = random.getstate()
+    return {
+        "torch": torch.get_rng_state().numpy().tobytes().hex(),
+        "numpy": [kind, key.tolist(), int(pos), int(has_gauss), float(cached)],
+        "python": [version, list(internal), gauss],
+    }
+
+
+def set_global_rng_state(state: dict[str, Any] | None) -> None:
+    """Restore what :func:`global_rng_state` returned (None: a checkpoint that recorded none).
+
+    Raises
+    ------
+    CheckpointError
+        If ``state`` is not such a record.
+    """
+    if state is None:
+        return
+    try:
+        torch_state = torch.frombuffer(bytearray.fromhex(state["torch"]), dtype=torch.uint8)
+        kind, key, pos, has_gauss, cached = state["numpy"]
+        version, internal, gauss = state["python"]
+        numpy_state = (kind, np.asarray(key, dtype=np.uint32), int(pos), int(has_gauss), float(cached))
+        python_state = (int(version), tuple(int(v) for v in internal), gauss)
+        torch.set_rng_state(torch_state.clone())
+        np.random.set_state(numpy_state)
+        random.setstate(python_state)
+    except (KeyError, TypeError, ValueError, RuntimeError) as e:
+        raise ckpt.CheckpointError(f"the training checkpoint's global random state is not readable: {e}") from None
+
+
 #: Parameters that change nothing about the trained weights: left out of the run-directory
 #: hash so that e.g. changing ``verbose`` still resumes the same run.
 _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed")
@@ -262,31 +358,42 @@ class TrainingMixin:
         return Path(self.checkpoint_dir) / f"{type(self).__name__}-{digest}"
 
     def _fit(self, dataset: DepthDataset) -> None:
+        self._check_fit(dataset)
+        self._fit_on(dataset, resolve_seed(self.random_state), self._device())
+
+    def _check_fit(self, dataset: DepthDataset) -> None:
+        """Refuse bad parameters, too large a network and frames it cannot train on, before any work."""
         self._check_params()
         self._check_size()
         check_depth(dataset[0], name="X[0]")
         self._check_frame_size(dataset.frame_shape)
-        seed = resolve_seed(self.random_state)
-        device = self._device()
+
+    def _fit_on(self, dataset: DepthDataset, seed: int, device: torch.device, shard: Shard | None = None) -> None:
+        """Train on ``device`` with ``seed`` (one process of a distributed job when ``shard`` says so)."""
         with torch_threads(self.num_threads) as n_threads, deterministic_torch(torch.device(device).type == "cpu"):
             self.n_threads_ = n_threads
             self.fit_environment_ = environment_info(torch_details=True)
-            self._train(dataset, seed, device)
+            self._train(dataset, seed, device, shard)
         self.seed_ = seed
         self.model_params_ = self._model_params()
 
-    def _train(self, dataset: DepthDataset, seed: int, device: torch.device) -> None:
-        """Fit ``self.model_`` step by step, resuming from and writing checkpoints in the run folder."""
+    def _train(self, dataset: DepthDataset, seed: int, device: torch.device, shard: Shard | None = None) -> None:
+        """Fit ``self.model_`` step by step, resuming from and writing checkpoints in the run folder.
+
+        ``shard`` splits each global batch over the processes of a distributed job
+        (``estimators.learned.distributed``); None trains in this process alone.
+        """
+        shard = shard or Shard()
         if self.validation_fraction is not None:
             train_ds, val_ds = split_by_drive(dataset, self.validation_fraction, seed=seed)
         else:
             train_ds, val_ds = dataset, None
+        shard.check_data(len(train_ds), self.batch_size)
         protocol = get_protocol(self.protocol)
         model = self._initial_model(seed)
         optimizer, autocast, scaler = self._prepare_training(model, device)
-        step_model = self._compiled(model)
 
-        n_batches = math.ceil(len(train_ds) / self.batch_size)
+        n_batches = shard.batches_per_epoch(len(train_ds), self.batch_size)
         total = self.epochs * n_batches if self.max_steps is None else min(self.max_steps, self.epochs * n_batches)
         progress: dict[str, Any] = {
             "epoch": 0, "batch": 0, "step": 0, "finished": False,
@@ -294,39 +401,48 @@ class TrainingMixin:
         }
         best_state: dict[str, torch.Tensor] | None = None
         run_dir = self._run_dir(dataset, seed)
+        if run_dir is not None:
+            run_dir = run_dir.with_name(shard.run_prefix + run_dir.name)
         self.run_dir_ = run_dir
         config = {"class": type(self).__name__, "params": self._config_params(), "seed": seed,
-                  "torch_threads": torch.get_num_threads()}
+                  "torch_threads": torch.get_num_threads(), **shard.config}
         if run_dir is not None:
             resumed = self._resume(run_dir, model, optimizer, device)
             if resumed is not None:
                 progress, best_state = resumed
                 self._set_rng_state(progress.pop("rng", None))
-
+                set_global_rng_state(progress.pop("global_rng", None))
+        # Wrapped after the resume: DDP broadcasts the (resumed) weights of rank 0.
+        step_model = self._compiled(shard.wrap(model, device))
         data = OcclusionFrames(train_ds, protocol, self.crop, seed)
 
         def save(*, new_best: bool = False) -> None:
-            if run_dir is None:
+            if run_dir is None or not shard.writes:
                 return
             tensors, meta = ckpt.flatten_optimizer_state(optimizer.state_dict())
+            rngs = {"rng": self._rng_state(), "global_rng": global_rng_state()}
             ckpt.write_run_checkpoint(
                 run_dir, progress["step"], {**config, "fitted": _fitted_summary(progress)},
-                cpu_state(model), {**progress, "optimizer": meta, "rng": self._rng_state()}, tensors,
+                cpu_state(model), {**progress, "optimizer": meta, **rngs}, tensors,
                 best_is_current=new_best,
             )
+            shard.saved(run_dir, progress["step"])
 
-        bar = tqdm(total=total, initial=progress["step"], disable=not self.verbose, desc=type(self).__name__, leave=False)
+        bar = tqdm(total=total, initial=progress["step"], disable=not (self.verbose and shard.writes),
+                   desc=type(self).__name__, leave=False)
         running = None
         try:
             while not progress["finished"]:
                 stopped, running = self._train_epoch(
                     model, step_model, optimizer, scaler, autocast, data, progress, seed, device, bar, running, save,
+                    shard,
                 )
                 best_state, new_best = self._end_epoch(model, progress, val_ds, protocol, seed, device, best_state)
-                progress["finished"] = stopped or progress["epoch"] >= self.epochs
+                progress["finished"] = stopped or progress["epoch"] >= self.epochs or n_batches == 0
                 save(new_best=new_best)
         finally:
             bar.close()
+        shard.done(progress)
 
         if best_state is not None:
             model.load_state_dict(best_state)
@@ -357,15 +473,17 @@ class TrainingMixin:
     def _train_epoch(
         self, model: torch.nn.Module, step_model: torch.nn.Module, optimizer: Any, scaler: Any, autocast: Any, data: OcclusionFrames,
         progress: dict[str, Any], seed: int, device: torch.device, bar: Any, running: float | None, save: Any,
+        shard: Shard,
     ) -> tuple[bool, float | None]:
         """The optimiser steps of the current epoch from where ``progress`` stands; returns
         whether ``max_steps`` stopped it and the running loss shown on the bar."""
         epoch = progress["epoch"]
         data.epoch = epoch
-        order = epoch_order(len(data.frames), seed, epoch)[progress["batch"] * self.batch_size:]
-        model.train()
-        for gt, hole in make_loader(data, order, self.batch_size, self.num_workers, device.type == "cuda"):
-            loss = self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device)
+        batch = shard.local_batch(self.batch_size)
+        order = shard.order(epoch_order(len(data.frames), seed, epoch), self.batch_size)[progress["batch"] * batch:]
+        step_model.train()
+        for gt, hole in make_loader(data, order, batch, self.num_workers, device.type == "cuda"):
+            loss = shard.mean_loss(self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device), device)
             progress["history"]["step_loss"].append(loss)
             progress["step"] += 1
             progress["batch"] += 1
@@ -451,7 +569,7 @@ class TrainingMixin:
 
     def _warm_start_model(self) -> UNet:
         ws = self.warm_start
-        if isinstance(ws, CheckpointMixin):
+        if isinstance(ws, TrainingMixin):
             if not hasattr(ws, "model_"):
                 raise ValueError(
                     "warm_start estimator is not fitted (note: clone(), as in GridSearchCV, "
@@ -459,8 +577,12 @@ class TrainingMixin:
                 )
             return ws.model_
         if isinstance(ws, (str, os.PathLike)):
-            return CheckpointMixin.load(ws).model_
+            return self._load_warm_start(ws).model_
         raise TypeError(f"warm_start must be None, a path, or a fitted neural inpainter, got {type(ws).__name__}")
+
+    def _load_warm_start(self, path: str | os.PathLike) -> TrainingMixin:
+        """The fitted neural inpainter saved at ``path`` (any class of the family)."""
+        raise NotImplementedError(f"{type(self).__name__} cannot load a warm start from a path")
 
     def _validation_rmse(self, model, val_ds: DepthDataset, protocol, seed: int, device) -> float:
         parts = []

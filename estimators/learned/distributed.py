@@ -25,6 +25,9 @@ Semantics (see ``docs/neural.md``, "Multi-process / multi-GPU training"):
 * Rank 0 alone writes checkpoints (the estimator's atomic run checkpoints) and logs;
   every rank resumes from them, so a killed job restarted with the same command
   continues where it stopped.
+* The loop is ``fit``'s (:class:`~estimators.learned._training.TrainingMixin`), so
+  validation, warm start, checkpoints and resume work as there; :class:`DistributedShard`
+  only swaps the frames each rank loads, wraps the model and averages the logged loss.
 """
 
 from __future__ import annotations
@@ -43,22 +46,14 @@ import torch
 import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 
-from inpaintenv.data.base import DepthDataset, as_dataset
-from inpaintenv.masks import get_protocol
+from inpaintenv.data.base import as_dataset
 
 from ..base import resolve_seed
-from . import _checkpoint as ckpt
-from ._training import OcclusionFrames, epoch_order, make_loader, torch_threads
-from .neural import (
-    AutoencoderInpainter,
-    UNetInpainter,
-    _copy_encoder,
-    _cpu_state,
-    _fitted_summary,
-    _NeuralInpainter,
-)
+from . import _checkpoint as ckpt  # noqa: F401  (tests watch its writes)
+from ._training import Shard
+from .neural import AutoencoderInpainter, UNetInpainter, _NeuralInpainter
 
-__all__ = ["main", "rank_order", "train_distributed"]
+__all__ = ["DistributedShard", "main", "rank_order", "train_distributed"]
 
 _ENV = ("RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR", "MASTER_PORT")
 
@@ -112,18 +107,74 @@ def _shared_seed(est: _NeuralInpainter) -> int:
     return int(box[0])
 
 
+class DistributedShard(Shard):
+    """Rank ``rank`` of ``world`` processes: a slice of every global batch, DDP's model.
+
+    Global batch ``k`` is ``order[k*B:(k+1)*B]`` of the single-process epoch order; this
+    rank takes its elements ``rank, rank + world, ...``; an incomplete trailing global
+    batch is dropped. Rank 0 alone writes checkpoints and logs.
+    """
+
+    def __init__(self, rank: int, world: int, log: bool = True):
+        self.rank, self.world, self.log = int(rank), int(world), bool(log)
+        self.writes = self.rank == 0
+        # A step here is a global batch with drop_last: its progress must never be
+        # resumed by a single-process fit (or another world size).
+        self.run_prefix = f"ddp{self.world}-"
+        self.config = {"world_size": self.world}
+
+    def check_data(self, n_frames: int, batch_size: int) -> None:
+        if batch_size % self.world:
+            raise ValueError(f"batch_size={batch_size} (the global batch) is not a multiple of WORLD_SIZE={self.world}")
+        if n_frames < batch_size:
+            raise ValueError(f"{n_frames} training frames are fewer than one global batch of {batch_size}")
+
+    def batches_per_epoch(self, n_frames: int, batch_size: int) -> int:
+        return n_frames // batch_size
+
+    def local_batch(self, batch_size: int) -> int:
+        return batch_size // self.world
+
+    def order(self, order: np.ndarray, batch_size: int) -> np.ndarray:
+        return rank_order(order, batch_size, self.rank, self.world)
+
+    def wrap(self, model: torch.nn.Module, device: torch.device) -> torch.nn.Module:
+        # Compiled by the loop around this wrapper (not the inner module), as torch's DDP
+        # notes advise, so graph breaks line up with the gradient buckets.
+        return DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
+
+    def mean_loss(self, loss: float, device: torch.device) -> float:
+        total = torch.tensor([loss], dtype=torch.float64, device=device)
+        dist.all_reduce(total)
+        return float(total.item()) / self.world
+
+    def saved(self, run_dir: Path, step: int) -> None:
+        if self.log:
+            print(f"[rank 0/{self.world}] step {step}: checkpoint {run_dir}", flush=True)
+
+    def done(self, progress: dict[str, Any]) -> None:
+        if self.log and self.writes:
+            losses = progress["history"]["step_loss"]
+            last = losses[-1] if losses else math.nan
+            print(f"[rank 0/{self.world}] done: {progress['step']} steps, last loss {last:.5f}", flush=True)
+
+
 def train_distributed(
     est: _NeuralInpainter, X: Any, *, log: bool = True
 ) -> _NeuralInpainter:
     """Fit ``est`` on ``X`` data-parallel over the processes of a torchrun job.
 
+    The training loop is ``fit``'s (validation, warm start, checkpoints and resume
+    included); only the frames each process loads, the model (wrapped in
+    ``DistributedDataParallel``) and the logged loss (the mean over the ranks) differ.
+
     Parameters
     ----------
     est : UNetInpainter or AutoencoderInpainter
-        Unfitted configuration. ``batch_size`` is the global batch and must be a
-        multiple of ``WORLD_SIZE``; ``checkpoint_dir``/``checkpoint_every`` behave as in
-        ``fit`` (rank 0 writes, every rank resumes). ``validation_fraction`` and
-        ``warm_start=True`` are not supported here.
+        ``batch_size`` is the global batch and must be a multiple of ``WORLD_SIZE``;
+        ``checkpoint_dir``/``checkpoint_every`` behave as in ``fit`` (rank 0 writes,
+        every rank resumes). With ``validation_fraction`` every rank measures the
+        held-out drives (the same weights, so the same RMSE and the same best epoch).
     X : DepthDataset or array-like
         Training ground truth; every rank must pass the same frames.
     log : bool
@@ -137,111 +188,25 @@ def train_distributed(
     Raises
     ------
     ValueError
-        Unsupported parameters, or a batch that does not split over the ranks.
+        Bad parameters, or a batch that does not split over the ranks.
     RuntimeError
         Outside a torchrun environment.
     """
     # Exactly these two: subclasses (e.g. PriorUNetInpainter) train differently.
     if type(est) not in (UNetInpainter, AutoencoderInpainter):
         raise TypeError(f"train_distributed needs a UNetInpainter or AutoencoderInpainter, got {type(est).__name__}")
-    est._check_params()
-    if est.validation_fraction is not None:
-        raise ValueError("validation_fraction is not supported by distributed training; validate after fit")
-    if est.warm_start is True:
-        raise ValueError("warm_start=True is not supported by distributed training; pass a saved model path")
     dataset = as_dataset(X)
     if len(dataset) == 0:
         raise ValueError("cannot fit on an empty dataset")
-    est._check_frame_size(dataset.frame_shape)
+    est._check_fit(dataset)
     device = est._device()
-    with process_group(device.type) as (rank, world, local_rank), torch_threads(est.num_threads):
-        if est.batch_size % world:
-            raise ValueError(f"batch_size={est.batch_size} (the global batch) is not a multiple of WORLD_SIZE={world}")
-        if len(dataset) < est.batch_size:
-            raise ValueError(f"{len(dataset)} frames are fewer than one global batch of {est.batch_size}")
+    with process_group(device.type) as (rank, world, local_rank):
         if device.type == "cuda":
             device = torch.device("cuda", local_rank)
             torch.cuda.set_device(device)
-        seed = _shared_seed(est)
-        _train(est, dataset, seed, device, rank, world, log)
-        est.seed_ = seed
-        est.model_params_ = est._model_params()
+        est._fit_on(dataset, _shared_seed(est), device, DistributedShard(rank, world, log))
         est.is_fitted_ = True
     return est
-
-
-def _train(est: _NeuralInpainter, dataset: DepthDataset, seed: int, device: torch.device,
-           rank: int, world: int, log: bool) -> None:
-    model = est._build_model(seed)  # same seed on every rank; DDP also broadcasts rank 0's
-    if est.warm_start not in (None, False):
-        _copy_encoder(est._warm_start_model(), model)
-    optimizer, autocast, scaler = est._prepare_training(model, device)
-
-    progress: dict[str, Any] = {
-        "epoch": 0, "batch": 0, "step": 0, "finished": False, "epoch_start_step": 0,
-        "history": {"step_loss": [], "epoch_loss": [], "val_hole_rmse": [], "best_epoch": None},
-    }
-    # A run directory of its own: a step here is a global batch with drop_last, so its
-    # progress must never be resumed by a single-process fit (or another world size).
-    run_dir = est._run_dir(dataset, seed)
-    if run_dir is not None:
-        run_dir = run_dir.with_name(f"ddp{world}-{run_dir.name}")
-        resumed = est._resume(run_dir, model, optimizer, device)
-        if resumed is not None:
-            progress = resumed[0]
-    est.run_dir_ = run_dir
-    ddp = DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
-    # Compile the DDP wrapper (not the inner module), as torch's DDP notes advise, so
-    # graph breaks line up with the gradient buckets.
-    step_model = est._compiled(ddp)
-    config = {"class": type(est).__name__, "params": est._config_params(), "seed": seed,
-              "torch_threads": torch.get_num_threads(), "world_size": world}
-
-    def save() -> None:
-        if run_dir is None or rank != 0:
-            return
-        tensors, meta = ckpt.flatten_optimizer_state(optimizer.state_dict())
-        ckpt.write_run_checkpoint(run_dir, progress["step"], {**config, "fitted": _fitted_summary(progress)},
-                                  _cpu_state(model), {**progress, "optimizer": meta}, tensors)
-        if log:
-            print(f"[rank 0/{world}] step {progress['step']}: checkpoint {run_dir}", flush=True)
-
-    hist = progress["history"]
-    data = OcclusionFrames(dataset, get_protocol(est.protocol), est.crop, seed)
-    local_batch = est.batch_size // world
-    steps_per_epoch = len(dataset) // est.batch_size
-    while not progress["finished"]:
-        epoch = progress["epoch"]
-        data.epoch = epoch
-        order = rank_order(epoch_order(len(dataset), seed, epoch), est.batch_size, rank, world)
-        order = order[progress["batch"] * local_batch:]
-        stopped = False
-        ddp.train()
-        for gt, hole in make_loader(data, order, local_batch, est.num_workers, device.type == "cuda"):
-            # The estimator's own step (input encoding, loss, AMP); DDP's backward hooks
-            # all-reduce (average) the gradients before optimizer.step().
-            local = est._train_step(step_model, optimizer, scaler, autocast, gt, hole, device)
-            loss = torch.tensor([local], dtype=torch.float64, device=device)
-            dist.all_reduce(loss)
-            hist["step_loss"].append(float(loss.item()) / world)
-            progress["step"] += 1
-            progress["batch"] += 1
-            if est.max_steps is not None and progress["step"] >= est.max_steps:
-                stopped = True
-                break
-            if est.checkpoint_every and progress["step"] % est.checkpoint_every == 0:
-                save()
-        done = hist["step_loss"][progress["epoch_start_step"]:]
-        hist["epoch_loss"].append(float(np.mean(done)) if done else float("nan"))
-        progress.update(epoch=epoch + 1, batch=0, epoch_start_step=progress["step"])
-        progress["finished"] = stopped or progress["epoch"] >= est.epochs or steps_per_epoch == 0
-        save()
-    if log and rank == 0:
-        last = hist["step_loss"][-1] if hist["step_loss"] else math.nan
-        print(f"[rank 0/{world}] done: {progress['step']} steps, last loss {last:.5f}", flush=True)
-    est.model_ = model.to("cpu", memory_format=torch.contiguous_format).eval()
-    est.history_ = hist
-    est.n_steps_ = progress["step"]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -221,6 +221,10 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         self.keep_observed = keep_observed
         self.verbose = verbose
 
+    def _load_warm_start(self, path: str | os.PathLike) -> _NeuralInpainter:
+        # Any network of the family: a U-Net's encoder may start from a saved autoencoder.
+        return _NeuralInpainter.load(path)
+
     # -- prediction ------------------------------------------------------------------
     def _forward(self, model: UNet, X: np.ndarray, device: torch.device) -> np.ndarray:
         """Run ``model`` on an ``(N, H, W)`` batch with NaN holes; metres out."""

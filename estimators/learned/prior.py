@@ -285,11 +285,11 @@ class PriorUNetInpainter(_NeuralInpainter):
         return x[:, order] if order != list(range(x.shape[1])) else x
 
     # -- training ----------------------------------------------------------------------
-    def _train(self, dataset, seed: int, device: torch.device) -> None:
+    def _train(self, dataset, seed: int, device: torch.device, shard=None) -> None:
         # Flip decisions come from their own stream, independent of masks and crops.
         self._flip_rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0xF11B]))
         try:
-            super()._train(dataset, seed, device)
+            super()._train(dataset, seed, device, shard)
         finally:
             del self._flip_rng
 

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 import torch.multiprocessing as mp
 from torch.nn.parallel import DistributedDataParallel
 
@@ -122,9 +123,36 @@ def test_world_of_one_is_bit_identical_to_fit(one_process_group):
         assert np.array_equal(ddp.model_.state_dict()[k].numpy(), v.numpy()), k
 
 
+def _drives(n_drives: int = 4) -> ArrayDataset:
+    return ArrayDataset(_frames(), groups=[f"drive{i % n_drives}" for i in range(len(_frames()))])
+
+
+def test_world_of_one_validates_as_fit(one_process_group):
+    # fit's loop: the held-out drives are scored each epoch and the best epoch is kept.
+    params = {**PARAMS, "batch_size": 2, "max_steps": None, "validation_fraction": 0.25}
+    ddp = train_distributed(UNetInpainter(**params), _drives(), log=False)
+    single = UNetInpainter(**params).fit(_drives())
+    assert len(ddp.history_["val_hole_rmse"]) == 2
+    assert ddp.history_ == single.history_
+    for k, v in single.model_.state_dict().items():
+        assert torch.equal(ddp.model_.state_dict()[k], v), k
+
+
+def test_world_of_one_warm_starts_as_fit(one_process_group):
+    first = train_distributed(UNetInpainter(**PARAMS), _frames(), log=False)
+    before = {k: v.clone() for k, v in first.model_.state_dict().items()}
+    again = UNetInpainter(**PARAMS, warm_start=True)
+    again.model_ = first.model_
+    train_distributed(again, _frames(), log=False)
+    single = UNetInpainter(**PARAMS, warm_start=True)
+    single.model_ = UNetInpainter(**PARAMS).fit(_frames()).model_
+    single.fit(_frames())
+    assert any(not torch.equal(before[k], v) for k, v in again.model_.state_dict().items())
+    for k, v in single.model_.state_dict().items():
+        assert torch.equal(again.model_.state_dict()[k], v), k
+
+
 @pytest.mark.parametrize(("est", "err", "match"), [
-    (UNetInpainter(**{**PARAMS, "validation_fraction": 0.5}), ValueError, "validation_fraction"),
-    (UNetInpainter(**{**PARAMS, "warm_start": True}), ValueError, "warm_start=True"),
     (UNetInpainter(**{**PARAMS, "batch_size": 16}), ValueError, "fewer than one global batch"),
     ("not an estimator", TypeError, "UNetInpainter or AutoencoderInpainter"),
 ])

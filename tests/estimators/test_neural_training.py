@@ -1,16 +1,100 @@
-"""A short real training run: the U-Net must learn something about real KITTI depth."""
+"""The training loop: interrupt + resume is the uninterrupted run bit for bit, for every
+family trained step by step; a short real run must learn something about real KITTI depth."""
 
 from __future__ import annotations
 
+import json
+import random
+
 import numpy as np
 import pytest
+import torch
 
-from estimators.neural import UNetInpainter
+from estimators.learned import _training
+from estimators.learned.neural import _NeuralInpainter
+from estimators.neural import AutoencoderInpainter, UNetInpainter
+from estimators.prior import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
+# -- resume: every family, every random stream ----------------------------------------------
+#: Families whose fit runs the shared step loop (the blends fit in memory, without run checkpoints).
+FAMILIES = {
+    "unet": lambda **kw: UNetInpainter(width=4, depth=2, **kw),
+    "autoencoder": lambda **kw: AutoencoderInpainter(width=4, depth=2, **kw),
+    "prior-pixel": lambda **kw: PriorUNetInpainter(arch="pixel", width=4, levels=1, factor=2, **kw),
+    "prior-unet": lambda **kw: PriorUNetInpainter(arch="unet", width=4, levels=1, factor=2, **kw),
+}
+RESUME = {"batch_size": 1, "epochs": 2, "max_steps": 6, "random_state": 0, "num_threads": 1, "device": "cpu",
+          "checkpoint_every": 1}
+
+
+def _frames() -> np.ndarray:
+    rng = np.random.default_rng(0)
+    rows = np.linspace(5.0, 40.0, 32, dtype=np.float32)[:, None]
+    frames = np.stack([rows + np.linspace(0.0, 3.0, 48, dtype=np.float32)[None, :] + k for k in range(3)])
+    frames[rng.random(frames.shape) < 0.3] = 0.0
+    return frames.astype(np.float32)
+
+
+def _seed_globals(seed: int) -> None:
+    np.random.seed(seed)
+    random.seed(seed)
+    torch.manual_seed(seed)
+
+
+def _drawing_steps(monkeypatch, draws: list, crash_at: int | None = None) -> None:
+    """Make every training step draw from the global NumPy, Python and torch streams (as
+    user code inside a step may) and, optionally, the step ``crash_at`` raise (a crash)."""
+    for klass in (_NeuralInpainter, PriorUNetInpainter):
+        real = klass._train_step
+
+        def step(self, *args, _real=real):
+            if crash_at is not None and len(draws) == crash_at:
+                raise KeyboardInterrupt("simulated crash")
+            draws.append((np.random.random(), random.random(), torch.rand(1).item()))
+            return _real(self, *args)
+
+        monkeypatch.setattr(klass, "_train_step", step)
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_interrupted_and_resumed_run_is_the_uninterrupted_one(family, tmp_path, monkeypatch):
+    make, frames = FAMILIES[family], _frames()
+    full_draws: list = []
+    with monkeypatch.context() as m:
+        _drawing_steps(m, full_draws)
+        _seed_globals(1)
+        full = make(**RESUME, checkpoint_dir=tmp_path / "a").fit(frames)
+    draws: list = []
+    with monkeypatch.context() as m:
+        _drawing_steps(m, draws, crash_at=4)  # mid-epoch 2 (3 frames, batch 1: 3 steps an epoch)
+        _seed_globals(1)
+        with pytest.raises(KeyboardInterrupt):
+            make(**RESUME, checkpoint_dir=tmp_path / "b").fit(frames)
+        (run,) = (tmp_path / "b").iterdir()
+        assert json.loads((run / "state.json").read_text())["last"].startswith("ckpt-00000004")
+    with monkeypatch.context() as m:
+        _drawing_steps(m, draws)
+        _seed_globals(2)  # another process: its global streams start elsewhere
+        resumed = make(**RESUME, checkpoint_dir=tmp_path / "b").fit(frames)
+    assert draws == full_draws  # the global streams continued from the checkpoint
+    assert resumed.n_steps_ == full.n_steps_ == 6
+    assert resumed.history_ == full.history_
+    for key, value in full.model_.state_dict().items():
+        assert torch.equal(resumed.model_.state_dict()[key], value), key
+
+
+def test_unreadable_global_random_state_is_a_checkpoint_error():
+    from estimators.learned._checkpoint import CheckpointError
+
+    with pytest.raises(CheckpointError, match="global random state"):
+        _training.set_global_rng_state({"torch": "zz", "numpy": [], "python": []})
+
+
+# -- a short real run ---------------------------------------------------------------------
 CROP = (64, 128)
 TRAIN_DRIVE, HELD_OUT_DRIVE = "2011_09_26_drive_9001_sync", "2011_09_26_drive_9002_sync"
 
