@@ -58,6 +58,9 @@ def add_score(subparsers: Any) -> None:
     p.add_argument("--batch-size", type=int, default=4, help="frames per batch (default 4)")
     p.add_argument("--figure-frames", type=int, default=2, metavar="N",
                    help="frames drawn as panels, spread over the drives (default 2; 0 = no figures)")
+    p.add_argument("--interval-coverage", type=float, default=0.9, metavar="C",
+                   help="nominal coverage of the interval files beside the predictions (<name>_low.png and "
+                        "<name>_high.png, or <name>_std.png), when the folder has them (default 0.9)")
     add_common_options(p)
     p.set_defaults(func=cmd_score, on_interrupt=_score_interrupted)
 
@@ -79,6 +82,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, build_method
     from ..conventions import check_int
+    from ..interval_metrics import check_coverage
     from ..registry import unfilled_policy
     from ..submission.score import (
         check_run_folder,
@@ -92,6 +96,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     # the run folder is touched: a bad submission leaves nothing half-written.
     check_int(args.batch_size, "--batch-size", minimum=1)
     check_int(args.figure_frames, "--figure-frames", minimum=0)
+    check_coverage(args.interval_coverage, "--interval-coverage")
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InvalidInputError(f"--out {out} is a file; give a folder for the run")
@@ -116,6 +121,8 @@ def cmd_score(args: argparse.Namespace) -> int:
         result = run_benchmark(
             run_methods, dataset, protocols=[protocol], seeds=seeds, out_dir=out, resume=not args.no_resume,
             batch_size=args.batch_size, progress=not args.quiet, log=log,
+            # Only a folder with interval files asks for intervals: one without keeps the run it always had.
+            interval_coverage=args.interval_coverage if checked.method.interval_kind is not None else None,
         )
         report = without_ms(result, args.name)  # the rows keep the time spent reading the files
         command = "inpaintenv " + " ".join(getattr(args, "argv", []))

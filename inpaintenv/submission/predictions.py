@@ -29,6 +29,7 @@ import numpy as np
 from ..data.base import DepthDataset
 from ..data.io import depth_from_uint16
 from ..masks import OcclusionProtocol, get_protocol
+from .intervals import read_interval_files, split_interval_files
 from .layout import UnsafeFileError, hole_bits_sha256, input_key, is_inside, max_png_bytes, read_inside
 from .manifest import Item, Manifest, ManifestError, require_key
 from .truth import verify_frame
@@ -107,13 +108,19 @@ class SubmittedPredictions:
         How :func:`inpaintenv.evaluate.evaluate` and the runner score a 0 at a pixel with
         ground truth: ``"zero"`` (as 0 m) when the folder was checked with
         ``allow_unfilled``, else ``"error"``.
+    interval_kind : {"bounds", "std"} or None
+        The interval files beside the predictions (:mod:`.intervals`), if any; then
+        :attr:`predict_interval` reads them (it is None without).
     """
 
     batched = True
 
     def __init__(self, name: str, files: dict[str, tuple[str, str]], pairs: set[tuple[int, int]], identity: str,
-                 unfilled: str = "error", folder: str | None = None):
+                 unfilled: str = "error", folder: str | None = None,
+                 intervals: dict[str, list[tuple[str, str]]] | None = None, interval_kind: str | None = None):
         self.name = name
+        self.interval_kind = interval_kind if intervals and all(intervals.values()) else None
+        self._intervals = dict(intervals or {})
         self.identity = identity
         self.scored_pairs = frozenset(pairs)
         self.unfilled = unfilled
@@ -124,25 +131,56 @@ class SubmittedPredictions:
         x = np.asarray(x, dtype=np.float32)
         out = np.empty_like(x)
         for k in range(len(x)):
-            entry = self._files.get(input_key(x[k]))
-            if entry is None:
-                raise SubmissionError(f"{self.name}: no prediction for this input (not one of the manifest's inputs, "
-                                      "or one whose prediction was missing)")
-            path, digest = entry
-            if self._folder is None:
-                data = Path(path).read_bytes()
-            else:  # the same rules as when the folder was checked: no links, nothing outside, bounded
-                try:
-                    data = read_inside(Path(self._folder), path, max_png_bytes(x.shape[1:]))
-                except (UnsafeFileError, OSError) as exc:
-                    raise SubmissionError(f"prediction {path} can no longer be read ({exc}); run score again") from None
-            if hashlib.sha256(data).hexdigest() != digest:
-                raise SubmissionError(f"prediction {path} changed while it was being scored; run score again")
-            raw = decode_prediction(data, path, x.shape[1:])
-            if isinstance(raw, str):
-                raise SubmissionError(raw)
-            out[k] = depth_from_uint16(raw)
+            out[k] = depth_from_uint16(self._read(*self._entry(x[k]), x.shape[1:]))
         return out
+
+    @property
+    def predict_interval(self) -> Callable[..., tuple[np.ndarray, np.ndarray]] | None:
+        """``predict_interval(X, coverage) -> (low, high)`` from the interval files; None without any.
+
+        ``_low``/``_high`` files are the interval as given (whatever ``coverage`` is asked);
+        a ``_std`` file gives the normal interval of ``coverage`` around the prediction.
+        """
+        return self._predict_interval if self.interval_kind else None
+
+    def _predict_interval(self, x: np.ndarray, coverage: float = 0.9) -> tuple[np.ndarray, np.ndarray]:
+        from ..interval_metrics import interval_from_std  # lazy: only scoring with intervals needs it
+
+        x = np.asarray(x, dtype=np.float32)
+        low, high = np.empty(x.shape, np.float64), np.empty(x.shape, np.float64)
+        for k in range(len(x)):
+            key = input_key(x[k])
+            self._entry(x[k])  # refuses an input without a prediction, as __call__ does
+            maps = [depth_from_uint16(self._read(path, digest, x.shape[1:])) for path, digest in self._intervals[key]]
+            if self.interval_kind == "std":
+                low[k], high[k] = interval_from_std(depth_from_uint16(self._read(*self._files[key], x.shape[1:])),
+                                                    maps[0], coverage)
+            else:
+                low[k], high[k] = maps
+        return low, high
+
+    def _entry(self, frame: np.ndarray) -> tuple[str, str]:
+        entry = self._files.get(input_key(frame))
+        if entry is None:
+            raise SubmissionError(f"{self.name}: no prediction for this input (not one of the manifest's inputs, "
+                                  "or one whose prediction was missing)")
+        return entry
+
+    def _read(self, path: str, digest: str, shape: tuple[int, ...]) -> np.ndarray:
+        """The stored uint16 values of ``path``, read under the folder's rules and checked against ``digest``."""
+        if self._folder is None:
+            data = Path(path).read_bytes()
+        else:  # the same rules as when the folder was checked: no links, nothing outside, bounded
+            try:
+                data = read_inside(Path(self._folder), path, max_png_bytes(shape))
+            except (UnsafeFileError, OSError) as exc:
+                raise SubmissionError(f"prediction {path} can no longer be read ({exc}); run score again") from None
+        if hashlib.sha256(data).hexdigest() != digest:
+            raise SubmissionError(f"prediction {path} changed while it was being scored; run score again")
+        raw = decode_prediction(data, path, shape)  # type: ignore[arg-type]
+        if isinstance(raw, str):
+            raise SubmissionError(raw)
+        return raw
 
 
 @dataclass
@@ -160,8 +198,11 @@ class CheckedPredictions:
 
     def summary(self) -> dict[str, Any]:
         """JSON record of the submission for ``results.json``."""
-        return {"identity": self.method.identity, "scored": len(self.method.scored_pairs),
-                "missing": self.missing, "unexpected": self.unexpected}
+        out = {"identity": self.method.identity, "scored": len(self.method.scored_pairs),
+               "missing": self.missing, "unexpected": self.unexpected}
+        if self.method.interval_kind is not None:
+            out["intervals"] = self.method.interval_kind  # "bounds" (_low/_high files) or "std"
+        return out
 
 
 def _missing_hint(manifest: Manifest, unexpected: list[str]) -> str:
@@ -306,7 +347,10 @@ def check_predictions(
     SubmissionError
         One line listing missing, unexpected, refused (links, not regular files, larger
         than :func:`~.layout.max_png_bytes`) and unusable predictions (not a 16-bit PNG
-        of the frame, measured pixels of the input not kept, holes left at 0).
+        of the frame, measured pixels of the input not kept, holes left at 0), and
+        interval files (:mod:`.intervals`) that are partial (not all or none, of one
+        kind), refused or unusable (not a 16-bit PNG of the frame, bounds inverted or not
+        holding the prediction in the hole).
     """
     if on_missing not in ON_MISSING:
         raise InvalidInputError(f"on_missing must be 'error' or 'skip', got {on_missing!r}")
@@ -326,7 +370,9 @@ def check_predictions(
     refused = [refused_at[r] for r in sorted(refused_at)]
     behind = tuple(r + "/" for r in refused_at)  # paths under a refused (linked) folder: refused, not missing
     missing = sorted(p for p in expected - present - set(refused_at) if not p.startswith(behind))
-    unexpected = sorted(present - expected)
+    # Interval files beside a listed prediction (<name>_low/_high/_std.png, see .intervals) are not unexpected.
+    beside, interval_kind, interval_problems = split_interval_files(expected, present)
+    unexpected = sorted(present - expected - beside)
     if len(missing) == len(expected):
         raise SubmissionError(f"none of the {len(expected)} predictions of {manifest.path} is under {folder} (the "
                               f"first goes to {missing[0]}){_missing_hint(manifest, unexpected)}")
@@ -334,9 +380,10 @@ def check_predictions(
     by_frame: dict[int, list[Item]] = {}
     for item in manifest.items:
         by_frame.setdefault(item.index, []).append(item)
-    bad: list[str] = []
+    bad: list[str] = list(interval_problems)
     unfilled: list[str] = []
     files: dict[str, tuple[str, str]] = {}
+    intervals: dict[str, list[tuple[str, str]]] = {}
     pairs: set[tuple[int, int]] = set()
     digests: list[tuple[str, str]] = []
     for frame in manifest.frames:
@@ -371,6 +418,7 @@ def check_predictions(
             zeros = int(np.count_nonzero(raw[hole] == 0))
             if zeros and not allow_unfilled:
                 unfilled.append(f"{item.input} ({zeros} px)")
+            entries = read_interval_files(folder, item.input, interval_kind, shape, raw, hole, refused, bad)
             digest = hashlib.sha256(data).hexdigest()
             x = gt.copy()
             x[hole] = np.nan  # the input evaluate() builds for this (frame, seed)
@@ -380,6 +428,8 @@ def check_predictions(
                 bad.append(f"{item.input} differs from {files[key][0]} made for the same input")
             files[key] = (item.input, digest)
             digests.append((item.input, digest))
+            intervals[key] = entries
+            digests += entries  # other interval files, other identity: never resumed as the same rows
             pairs.add((item.seed, item.index))
     problems = _problems(manifest, folder, len(expected), missing if on_missing == "error" else [],
                          unexpected if on_missing == "error" else [], refused, bad, unfilled)
@@ -389,5 +439,6 @@ def check_predictions(
     for rel, digest in sorted(digests):
         h.update(f"{rel}\0{digest}\n".encode())
     method = SubmittedPredictions(name, files, pairs, identity=f"predictions:{h.hexdigest()}",
-                                  unfilled="zero" if allow_unfilled else "error", folder=str(folder))
+                                  unfilled="zero" if allow_unfilled else "error", folder=str(folder),
+                                  intervals=intervals, interval_kind=interval_kind)
     return CheckedPredictions(method=method, missing=missing, unexpected=unexpected)

@@ -17,6 +17,7 @@ from typing import Any
 from ..data.base import DepthDataset
 from ..data.kitti import KITTI_ROOT_ENV
 from ..evaluate import EvaluationResult, evaluate
+from ..interval_metrics import check_coverage
 from .layout import is_inside
 from .manifest import Manifest, read_manifest, require_key
 from .predictions import CheckedPredictions, check_predictions
@@ -110,6 +111,7 @@ def score(
     batch_size: int = 4,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    interval_coverage: float = 0.9,
 ) -> EvaluationResult:
     """Score the predictions in ``predictions`` for the inputs of ``manifest``.
 
@@ -152,6 +154,12 @@ def score(
         Progress bars on stderr (when it is a terminal).
     log : callable, optional
         Receives the run's messages.
+    interval_coverage : float
+        Nominal coverage (in (0, 1); 0.9 by default) of the interval files beside the
+        predictions, when the folder has them (``<name>_low.png`` / ``<name>_high.png``
+        or ``<name>_std.png``, see :mod:`.intervals`): the rows then gain the interval
+        columns of :func:`~inpaintenv.evaluate.evaluate`'s ``intervals``, and a ``_std``
+        file becomes the normal interval of this coverage. Unused without interval files.
 
     Returns
     -------
@@ -178,13 +186,17 @@ def score(
     if checked.missing or checked.unexpected:
         say(f"{name}: {checked.left_out()} (on_missing='skip')")
     method = checked.method
+    check_coverage(interval_coverage, "interval_coverage")
+    # Asked only when the folder has interval files: a folder without keeps the rows and run it always had.
+    coverage = interval_coverage if method.interval_kind is not None else None
     if out_dir is None:
         parts = []
         for seed in m.seeds:
             indices = sorted(i for s, i in method.scored_pairs if s == seed)
             if indices:
                 parts.append(evaluate(method, dataset, m.protocol_name, seeds=[seed], indices=indices,
-                                      batch_size=batch_size, progress=progress, name=name, unfilled=method.unfilled))
+                                      batch_size=batch_size, progress=progress, name=name, unfilled=method.unfilled,
+                                      intervals=coverage))
         result = EvaluationResult.concat(parts)
         result.meta.update({"seeds": m.seeds})
     else:
@@ -193,7 +205,7 @@ def score(
         out_dir = check_run_folder(out_dir, m, predictions)
         result = run_benchmark(
             {name: method, **extra}, dataset, protocols=[m.protocol_name], seeds=m.seeds, out_dir=Path(out_dir),
-            resume=resume, batch_size=batch_size, progress=progress, log=say,
+            resume=resume, batch_size=batch_size, progress=progress, log=say, interval_coverage=coverage,
         )
     result = without_ms(result, name)
     result.meta["submission"] = submission_meta(name, m, predictions, checked)
