@@ -26,8 +26,9 @@ It is scored on the hole pixels with ground truth (``gt > 0`` inside the hole), 
 ``border_rmse_keep_90/80/50``, ``border_rejection_auc``
     The same curve for a baseline that needs no interval at all: keep the hole pixels
     nearest the hole's border (Euclidean distance to the nearest pixel outside the hole,
-    ``cv2.distanceTransform`` with ``DIST_L2`` and a precise mask; the image's edge is not
-    a border). An interval is worth its name when it cuts more than this does.
+    ``cv2.distanceTransform`` with ``DIST_L2`` and a precise mask, ranked by its square
+    rounded to an integer so that the last bit of OpenCV's float result never re-ranks
+    tied pixels; the image's edge is not a border). An interval is worth its name when it cuts more than this does.
 ``oracle_rmse_keep_80``, ``oracle_rejection_auc``
     The curve of the ideal ranking (by the pixel's own absolute error).
 
@@ -264,7 +265,9 @@ def interval_metrics(
     scores = {
         # Widths compared to the millimetre: float rounding of equal widths must not rank pixels.
         "": np.round(hi_v - lo_v, 3),
-        "border_": border_distance(hole).reshape(-1)[idx].astype(np.float64),
+        # Ranked by the squared distance, an integer (dx² + dy²): OpenCV's float result can
+        # differ in the last bit between processes, which must not re-rank tied pixels.
+        "border_": np.rint(border_distance(hole).reshape(-1)[idx].astype(np.float64) ** 2),
         "oracle_": sq,
     }
     for prefix, score in scores.items():

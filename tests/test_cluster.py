@@ -124,7 +124,7 @@ def test_torch_method_on_workers_gives_the_serial_rows(client):
     pytest.importorskip("torch")
     from inpaintenv.registry import make_method
 
-    method = make_method("unet-pretrained")  # a learned model: torch on the workers
+    method = make_method("pretrained")  # a learned model: torch on the workers
     source = SyntheticStreets(n=4, frame_shape=(96, 320))
     dist = evaluate(method, source, batch_size=2, progress=False, client=client)
     serial = evaluate(method, source, batch_size=2, progress=False)
@@ -466,3 +466,23 @@ def test_scaling_doc_examples_run(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert out.count("| ScanlineInpainter | rect-v1 |") == 1 and "| TeleaInpainter | rect-v1 |" in out
     assert (tmp_path / "scaling-example" / "rows" / "scanline__rect-v1.jsonl").exists()
+
+
+class NearestWithBand:
+    """Nearest fill with the interval fill ± 2 m, for intervals scored on workers."""
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        return NearestInpainter(n_jobs=1).predict(x)
+
+    def predict_interval(self, x: np.ndarray, coverage: float = 0.9):
+        p = self.predict(x)
+        return np.maximum(p - 2.0, 0.0), p + 2.0
+
+
+def test_intervals_on_cluster_give_the_serial_rows(client, streets):
+    kw = {"seeds": [0], "batch_size": 4, "progress": False, "intervals": 0.9}
+    dist = evaluate(NearestWithBand(), streets, client=client, **kw)
+    serial = evaluate(NearestWithBand(), streets, **kw)
+    assert "hole_coverage" in serial.rows[0]
+    assert without_ms(dist.rows) == without_ms(serial.rows)
+    assert dist.meta == serial.meta

@@ -64,7 +64,7 @@ def _loop_metrics(pred, gt, hole, low, high):
                 wid.append(hi - lo)
                 err2.append((p - g) ** 2)
                 width.append(round(hi - lo, 3))
-                border.append(float(dist[k][y, x]))
+                border.append(round(float(dist[k][y, x]) ** 2))
         full = (sum(err2) / len(err2)) ** 0.5
         out["hole_coverage"].append(sum(cov) / len(cov))
         out["hole_interval_width"].append(sum(wid) / len(wid))
