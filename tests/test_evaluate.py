@@ -572,7 +572,9 @@ def test_mixed_table_shows_a_dash_for_the_method_without_intervals(gt_ds, tmp_pa
     assert "hole coverage" in md
     plain_line = next(line for line in md.splitlines() if line.startswith("| plain"))
     assert plain_line.count("| – ") == 5
-    assert "hole coverage" not in evaluate(_fill_12, gt_ds, progress=False).to_markdown()
+    assert "Per-pixel intervals:" in md  # the note under the table explains the columns
+    plain_md = evaluate(_fill_12, gt_ds, progress=False).to_markdown()
+    assert "hole coverage" not in plain_md and "Per-pixel intervals:" not in plain_md
     back = EvaluationResult.from_csv(both.to_csv(tmp_path / "rows.csv"))
     assert back.rows[0]["rmse_keep_80"] == both.rows[0]["rmse_keep_80"]
 
@@ -604,3 +606,32 @@ def test_bad_interval_is_refused_naming_the_method(gt_ds, make, message):
 def test_bad_interval_coverage_is_refused(gt_ds, coverage):
     with pytest.raises((ValueError, TypeError), match="intervals"):
         evaluate(_fill_12, gt_ds, intervals=coverage, progress=False)
+
+
+def test_concat_merges_the_methods_that_gave_intervals(gt_ds):
+    both = EvaluationResult.concat([
+        evaluate(_fill_12, gt_ds, intervals=0.9, progress=False, name="plain"),
+        evaluate(_ConstantStd(), gt_ds, intervals=0.9, progress=False, name="std"),
+    ])
+    assert both.meta["interval_methods"] == ["std"] and both.meta["interval_coverage"] == 0.9
+
+
+def test_cli_evaluate_interval_coverage(tmp_path, monkeypatch, capsys):
+    from inpaintenv.cli import main
+
+    (tmp_path / "bandmod.py").write_text(
+        "import numpy as np\n"
+        "class Band:\n"
+        "    def predict(self, x):\n"
+        "        return np.nan_to_num(x, nan=12.0).astype(np.float32)\n"
+        "    def predict_interval(self, x, coverage=0.9):\n"
+        "        p = self.predict(x)\n"
+        "        return np.maximum(p - 4.0, 0.0), p + 4.0\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    argv = ["evaluate", "-m", "bandmod:Band", "-m", "nearest", "--n-frames", "2", "--frame-shape", "64", "96", "-q"]
+    assert main([*argv, "--interval-coverage", "0.9"]) == 0
+    out = capsys.readouterr().out
+    assert "hole coverage" in out and "8.00" in out  # the width of ± 4 m
+    assert main([*argv, "--interval-coverage", "90"]) == 1
+    assert "--interval-coverage" in capsys.readouterr().err

@@ -50,6 +50,9 @@ def add_evaluate(subparsers: Any) -> None:
     p.add_argument("--n-jobs", type=int, help="n_jobs passed to each method")
     p.add_argument("--by-drive", action="store_true", help="also print a table per drive")
     p.add_argument("--out", metavar="DIR", help="write results.json, results.csv, table.md and table.csv here")
+    p.add_argument("--interval-coverage", type=float, metavar="C",
+                   help="also score the per-pixel interval of nominal coverage C (e.g. 0.9) of every method that "
+                        "gives one (coverage, width, error-rejection curve; see docs/evaluate.md)")
     add_bad_frame_option(p)
     add_unfilled_option(p)
     add_scheduler_option(p)
@@ -76,6 +79,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from ..benchmark.lock import run_lock
     from ..benchmark.ownership import check_folder
     from ..masks import get_protocol
+    from ..interval_metrics import check_coverage
     from ..registry import make_method, unfilled_policy
 
     # Check the options and build every method first, so a typo fails before any long run.
@@ -87,6 +91,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if not names and not checkpoints:
         raise InvalidInputError("give at least one --method NAME or --checkpoint NAME=PATH")
     get_protocol(args.protocol)
+    if args.interval_coverage is not None:
+        check_coverage(args.interval_coverage, "--interval-coverage")
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
     out = Path(args.out) if args.out else None
@@ -126,7 +132,8 @@ def _score(args: argparse.Namespace, methods: list[tuple[str, Any, str]], ds: An
         results = [
             evaluate(method, ds, protocol=args.protocol, seeds=seeds, batch_size=args.batch_size,
                      max_depth=args.max_depth, progress=not args.quiet, name=name, on_batch=on_batch,
-                     on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled or policy)
+                     on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled or policy,
+                     intervals=args.interval_coverage)
             for name, method, policy in methods
         ]
     result = EvaluationResult.concat(results)

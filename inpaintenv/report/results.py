@@ -135,6 +135,8 @@ class EvaluationResult:
         skipped = merge_skipped(r.meta.get("skipped_frames") or [] for r in results)
         if skipped:
             meta["skipped_frames"] = skipped
+        if any("interval_methods" in r.meta for r in results):
+            meta["interval_methods"] = list(dict.fromkeys(m for r in results for m in r.meta.get("interval_methods", [])))
         trained = {k: v for r in results for k, v in (r.meta.get("training_drives") or {}).items()}
         if trained:
             meta["training_drives"] = trained

@@ -222,6 +222,17 @@ def trained_note(cells: Sequence[str]) -> list[str]:
              "in the method's training data, so the row does not measure the method on unseen drives.")]
 
 
+def interval_note(entries: Sequence[dict[str, Any]]) -> list[str]:
+    """The line explaining the :data:`INTERVAL_REPORT_METRICS` columns, if the entries have them."""
+    if not _has_intervals(entries):
+        return []
+    return [("Per-pixel intervals: hole coverage = share of the hole's ground truth inside the method's interval; "
+             "interval width = its mean high − low; hole RMSE, 80 % most confident = over the 80 % of hole pixels "
+             "with the narrowest intervals, beside the 80 % nearest the hole border (a baseline that needs no "
+             "interval); rejection AUC = mean RMSE over keeping 5 %, 10 %, …, 100 % of the pixels ÷ hole RMSE "
+             "(1 = no better than chance, lower is better); – = the method gives no interval.")]
+
+
 def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "protocol")) -> str:
     """Markdown of :func:`summary_table` entries, the notes explaining it underneath.
 
@@ -252,7 +263,7 @@ def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "p
         cells += [str(entry["n_frames"]), str(entry["n_skipped_hole"])]
         cells += metric_cells + ["–" if _missing(ms) else f"{ms:.1f}"]
         lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines + [""] + table_notes(values) + trained_note(names))
+    return "\n".join(lines + [""] + table_notes(values) + trained_note(names) + interval_note(table))
 
 
 def table_to_csv(
