@@ -232,7 +232,6 @@ class BaseInpainter(BaseEstimator):
             out = np.where(observed, batch, out)
         return out[0] if x.ndim == 2 else out
 
-    @abstractmethod
     def _check_n_jobs(self) -> None:
         """Raise a clear error unless ``n_jobs`` is None or a non-zero integer (joblib's meaning)."""
         n_jobs = self.n_jobs
@@ -244,8 +243,11 @@ class BaseInpainter(BaseEstimator):
                 f"(-1 = all cores), got {n_jobs!r}"
             )
 
+    @abstractmethod
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         """Predict a validated ``(N, H, W)`` float32 batch (NaN = fill); must not modify X."""
+        # BaseEstimator is no ABC, so the decorator only documents: say it at the call.
+        raise NotImplementedError(f"{type(self).__name__} must implement _predict_batch")
 
     # -- scoring -----------------------------------------------------------------
     def score_frames(

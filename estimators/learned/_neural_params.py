@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import math
 from typing import Any
 
 import numpy as np
@@ -21,6 +20,7 @@ from inpaintenv.masks import get_protocol
 
 from ..base import check_random_state
 from ._checkpoint import cpu_state
+from ._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer, Options, Pair, Real
 from ._limits import check_parameter_count
 from ._training import crop_shape
 from .nets import UNet
@@ -30,9 +30,7 @@ __all__ = ["MAX_CHANNELS", "NeuralParamsMixin"]
 _AMP_CHOICES = (True, False, "cpu-bf16")
 _DEPTH_SCALES = ("fixed", "frame")
 _COMPILE_MODES = ("default", "reduce-overhead", "max-autotune", "max-autotune-no-cudagraphs")
-#: Accepted ``max_depth`` range (metres). Depths are divided by it: far outside this
-#: range the network's inputs and targets overflow or vanish in float32 and training
-#: fails with a NaN loss that says nothing about the cause.
+#: Accepted ``max_depth`` range (metres).
 _MAX_DEPTH_RANGE = (0.1, 1e5)
 #: Most channels allowed at the deepest U-Net level (``width * 2**depth``). The U-Net
 #: doubles its channels per level, so each extra level about quadruples the parameters:
@@ -41,68 +39,41 @@ _MAX_DEPTH_RANGE = (0.1, 1e5)
 MAX_CHANNELS = 2048
 
 
-class NeuralParamsMixin:
+class NeuralParamsMixin(ConstrainedParams):
     """Checks and interprets the parameters of a neural inpainter (documented on
     :class:`estimators.learned.neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
 
-    # -- parameters ----------------------------------------------------------------
-    def _check_params(self) -> None:
-        def int_at_least(name: str, low: int, optional: bool = False) -> None:
-            v = getattr(self, name)
-            if optional and v is None:
-                return
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
-                raise ValueError(f"{name} must be an integer >= {low}{' or None' if optional else ''}, got {v!r}")
+    _parameter_constraints: dict[str, list[Any]] = {
+        "width": [Integer(1)],
+        "depth": [Integer(1)],
+        "input_mask": [Bool()],
+        "depth_scale": [Options(*_DEPTH_SCALES)],
+        "hole_weight": [Real(0)],
+        "tv_weight": [Real(0)],
+        # Depths are divided by it: far outside this range (metres) inputs and targets
+        # overflow or vanish in float32 and training fails with an unexplained NaN loss.
+        "max_depth": [Real(*_MAX_DEPTH_RANGE)],
+        "lr": [Real(0, closed="neither")],
+        "weight_decay": [Real(0)],
+        "batch_size": [Integer(1)],
+        "epochs": [Integer(1)],
+        "max_steps": [Integer(1), None],
+        "crop": [Pair(Integer(1), "a pair of integers >= 1 (h, w)"), None],
+        "protocol": [Check(get_protocol)],  # an unknown name lists the known protocols
+        "validation_fraction": [Real(0, 1, closed="neither"), None],
+        "amp": [Options(*_AMP_CHOICES)],
+        "channels_last": [Bool()],
+        "compile": [Bool(), InstanceOf(dict, "a dict of torch.compile arguments"), Options(*_COMPILE_MODES)],
+        "num_threads": [Integer(1), None],
+        "num_workers": [Integer(0)],
+        "random_state": [Check(check_random_state)],
+        "checkpoint_every": [Integer(1), None],
+        "keep_observed": [Bool()],
+        "verbose": [Bool()],
+    }
 
-        def positive(name: str, allow_zero: bool = False) -> None:
-            v = getattr(self, name)
-            ok = isinstance(v, (int, float, np.number)) and not isinstance(v, bool) and math.isfinite(v)
-            if not ok or v < 0 or (v == 0 and not allow_zero):
-                raise ValueError(f"{name} must be a finite number {'>=' if allow_zero else '>'} 0, got {v!r}")
-
-        int_at_least("width", 1)
-        int_at_least("depth", 1)
-        int_at_least("batch_size", 1)
-        int_at_least("epochs", 1)
-        int_at_least("max_steps", 1, optional=True)
-        int_at_least("num_threads", 1, optional=True)
-        int_at_least("num_workers", 0)
-        int_at_least("checkpoint_every", 1, optional=True)
-        for name in ("max_depth", "lr"):
-            positive(name)
-        low, high = _MAX_DEPTH_RANGE
-        if not low <= self.max_depth <= high:
-            raise ValueError(
-                f"max_depth is the depth normalisation range in metres and must be in "
-                f"[{low:g}, {high:g}] (the study uses 80), got {self.max_depth!r}"
-            )
-        for name in ("hole_weight", "tv_weight", "weight_decay"):
-            positive(name, allow_zero=True)
-        if self.crop is not None:
-            c = self.crop
-            if not (isinstance(c, (tuple, list)) and len(c) == 2 and all(
-                isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1 for v in c
-            )):
-                raise ValueError(f"crop must be None or a pair of positive integers (h, w), got {c!r}")
-        if self.validation_fraction is not None and not (
-            isinstance(self.validation_fraction, float) and 0.0 < self.validation_fraction < 1.0
-        ):
-            raise ValueError(f"validation_fraction must be None or a float in (0, 1), got {self.validation_fraction!r}")
-        if self.amp not in _AMP_CHOICES or isinstance(self.amp, (int, float)) and not isinstance(self.amp, bool):
-            raise ValueError(f"amp must be one of {_AMP_CHOICES}, got {self.amp!r}")
-        check_random_state(self.random_state)
-        if not (
-            isinstance(self.compile, (bool, np.bool_, dict))
-            or (isinstance(self.compile, str) and self.compile in _COMPILE_MODES)
-        ):
-            raise ValueError(
-                f"compile must be True, False, a dict of torch.compile arguments or one of "
-                f"{_COMPILE_MODES}, got {self.compile!r}"
-            )
+    def _check_param_relations(self) -> None:
         self._check_capacity()
-        if self.depth_scale not in _DEPTH_SCALES:
-            raise ValueError(f"depth_scale must be one of {_DEPTH_SCALES}, got {self.depth_scale!r}")
-        get_protocol(self.protocol)  # KeyError listing the known protocols
 
     def _model_param_names(self) -> tuple[str, ...]:
         """Parameters the trained weights depend on: the architecture and how depth is

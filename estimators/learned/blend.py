@@ -44,7 +44,8 @@ from ..priors import (
     prior_features,
 )
 from . import _checkpoint as ckpt
-from ._limits import MAX_LAYERS, MAX_WIDTH, check_at_most, check_parameter_count
+from ._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
+from ._limits import MAX_LAYERS, MAX_WIDTH, check_parameter_count
 from ._output import floor_holes
 from ._training import deterministic_torch, frame_label, torch_threads
 from .nets import pixel_blend
@@ -82,7 +83,7 @@ def _pixel_samples(
     return feats[:, rows, cols].T.copy(), gt[rows, cols].astype(np.float32)
 
 
-class BlendInpainter(BaseInpainter):
+class BlendInpainter(ConstrainedParams, BaseInpainter):
     """Learned per-pixel blend of classical fills plus a scale-free residual.
 
     Parameters
@@ -226,31 +227,30 @@ class BlendInpainter(BaseInpainter):
     _TUPLE_PARAMS: tuple[str, ...] = ("candidates", "keep")
 
     # -- parameters ----------------------------------------------------------------------
-    def _check_params(self) -> None:
-        check_candidates(self.candidates)
-        for name in ("endpoints", "relative", "residual", "tta", "keep_observed", "verbose"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
-                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
-        for name, low in (("width", 1), ("layers", 1), ("masks_per_frame", 1), ("pixels_per_frame", 1),
-                          ("epochs", 1), ("batch_pixels", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-                raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-        check_at_most("width", self.width, MAX_WIDTH)
-        check_at_most("layers", self.layers, MAX_LAYERS)
-        keep = self.keep
-        if isinstance(keep, (str, bytes)) or not isinstance(keep, (tuple, list)) or not keep or any(
-            isinstance(k, bool) or not isinstance(k, (int, float, np.floating)) or not 0.0 < k <= 1.0 for k in keep
-        ):
-            raise ValueError(f"keep must be a non-empty tuple of fractions in (0, 1], got {keep!r}")
-        if isinstance(self.lr, bool) or not isinstance(self.lr, (int, float)) or not np.isfinite(self.lr) or self.lr <= 0:
-            raise ValueError(f"lr must be a finite number > 0, got {self.lr!r}")
-        for name in ("num_threads", "predict_threads", "max_pixels"):
-            value = getattr(self, name)
-            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
-                raise ValueError(f"{name} must be None or an integer >= 1, got {value!r}")
-        self._check_n_jobs()
-        get_protocol(self.protocol)  # unknown protocol: its own clear error
+    _parameter_constraints: dict[str, list[Any]] = {
+        "candidates": [Check(check_candidates)],
+        "endpoints": [Bool()],
+        "width": [Integer(1, limit=MAX_WIDTH)],
+        "layers": [Integer(1, limit=MAX_LAYERS)],
+        "relative": [Bool()],
+        "residual": [Bool()],
+        "keep": [Sequence(Real(0, 1, closed="right"), noun="a non-empty tuple of fractions in (0, 1]")],
+        "masks_per_frame": [Integer(1)],
+        "pixels_per_frame": [Integer(1)],
+        "max_pixels": [Integer(1), None],
+        "epochs": [Integer(1)],
+        "batch_pixels": [Integer(1)],
+        "lr": [Real(0, closed="neither")],
+        "protocol": [Check(get_protocol)],  # an unknown name lists the known protocols
+        "tta": [Bool()],
+        "num_threads": [Integer(1), None],
+        "predict_threads": [Integer(1), None],
+        "keep_observed": [Bool()],
+        "verbose": [Bool()],
+    }
+
+    def _check_param_relations(self) -> None:
+        self._check_n_jobs()  # joblib's meaning (estimators.base), shared with the classical methods
 
     def _model_params(self) -> dict[str, Any]:
         """The parameters the weights depend on."""

@@ -35,7 +35,8 @@ from inpaintenv.masks import get_protocol
 from ..base import resolve_seed
 from ..priors import prior_features
 from . import _checkpoint as ckpt
-from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH, check_at_most
+from ._constraints import Integer, Options, Real, Sequence
+from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH
 from ._training import deterministic_torch, frame_label, torch_threads
 from .blend import BLEND_CANDIDATES, BlendInpainter
 from .nets.context_blend import ContextBlendEnsemble, ContextBlendNet, context_grid, frame_reference
@@ -198,26 +199,15 @@ class ContextBlendInpainter(BlendInpainter):
     max_pixels = None
     _TUPLE_PARAMS = ("candidates", "keep", "context_widths")
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        for name, low in (("n_context", 1), ("batch_frames", 1), ("n_members", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-                raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-        check_at_most("n_members", self.n_members, MAX_MEMBERS)
-        check_at_most("n_context", self.n_context, MAX_WIDTH)
-        widths = self.context_widths
-        if isinstance(widths, (str, bytes)) or not isinstance(widths, (tuple, list)) or not widths or any(
-            isinstance(w, bool) or not isinstance(w, (int, np.integer)) or w < 1 for w in widths
-        ):
-            raise ValueError(f"context_widths must be a non-empty tuple of integers >= 1, got {widths!r}")
-        check_at_most("len(context_widths)", len(widths), MAX_LAYERS)
-        check_at_most("max(context_widths)", max(widths), MAX_WIDTH)
-        b = self.balance
-        if isinstance(b, bool) or not isinstance(b, (int, float, np.floating)) or not 0.0 <= b <= 1.0:
-            raise ValueError(f"balance must be a number in [0, 1], got {b!r}")
-        if self.member_samples not in ("shared", "own"):
-            raise ValueError(f"member_samples must be 'shared' or 'own', got {self.member_samples!r}")
+    _parameter_constraints = {
+        **BlendInpainter._parameter_constraints,
+        "n_context": [Integer(1, limit=MAX_WIDTH)],
+        "context_widths": [Sequence(Integer(1), max_len=MAX_LAYERS, max_item=MAX_WIDTH)],
+        "balance": [Real(0, 1)],
+        "batch_frames": [Integer(1)],
+        "n_members": [Integer(1, limit=MAX_MEMBERS)],
+        "member_samples": [Options("shared", "own")],
+    }
 
     def _model_params(self) -> dict[str, Any]:
         params = {"candidates": list(self.candidates), "n_context": int(self.n_context),

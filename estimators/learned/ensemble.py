@@ -36,9 +36,10 @@ from sklearn.base import clone
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.environment import environment_info
 
-from ..base import BaseInpainter
+from ..base import BaseInpainter, check_random_state
 from . import _checkpoint as ckpt
 from . import blend, context_blend, neural, prior  # noqa: F401  (each registers the classes a member may be)
+from ._constraints import Bool, Check, ConstrainedParams, Integer
 from ._output import floor_holes
 from ._training import torch_threads
 
@@ -55,7 +56,7 @@ _NAME = re.compile(r"[A-Za-z][A-Za-z0-9]*(_[A-Za-z0-9]+)*")
 _FILE_KEYS = ("format", "format_version", "weights_sha256")
 
 
-class MeanEnsembleInpainter(BaseInpainter):
+class MeanEnsembleInpainter(ConstrainedParams, BaseInpainter):
     """Per-pixel mean of the predictions of several learned inpainters.
 
     Parameters
@@ -148,8 +149,19 @@ class MeanEnsembleInpainter(BaseInpainter):
         return {item[0]: item[1] for item in members
                 if isinstance(item, (list, tuple)) and len(item) == 2 and isinstance(item[0], str)}
 
-    def _check_params(self) -> None:
+    #: The ensemble's own parameters; the members' are checked by the members (with the
+    #: shared ones applied), the pairs and weights by :meth:`_check_param_relations`.
+    _parameter_constraints: dict[str, list[Any]] = {
+        "random_state": [Check(check_random_state)],
+        "num_threads": [Integer(1), None],
+        "verbose": [Bool(), None],
+        "predict_threads": [Integer(1), None],
+        "keep_observed": [Bool()],
+    }
+
+    def _check_param_relations(self) -> None:
         """Check the members, the weights and, with the ensemble's shared parameters applied, each member's own."""
+        self._check_n_jobs()
         members = self._check_members()
         self._member_weights(len(members))
         for _, est in members:

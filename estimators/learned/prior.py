@@ -32,7 +32,8 @@ from ..priors import (
 )
 from . import _checkpoint as ckpt
 from . import neural
-from ._limits import MAX_LAYERS, MAX_WIDTH, check_at_most
+from ._constraints import Bool, Check, Integer, Options
+from ._limits import MAX_LAYERS, MAX_WIDTH
 from ._training import backward_step
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
@@ -46,6 +47,9 @@ __all__ = [
 #: ``"pixel"``: per-pixel MLP on candidates and gap lengths (the shipped recipe);
 #: ``"unet"``: U-Net at 1/``factor`` resolution on candidates and masks.
 ARCHS = ("pixel", "unet")
+
+#: Class attributes of PriorUNetInpainter (its recipe), not parameters: nothing to check.
+_FIXED_BY_RECIPE = ("depth", "input_mask", "depth_scale", "hole_weight", "tv_weight", "max_depth")
 
 #: Folder of the shipped models: ``NAME.safetensors`` (weights) + ``NAME.json`` (the
 #: ``config.json`` of a checkpoint written by :meth:`PriorUNetInpainter.save`).
@@ -197,23 +201,20 @@ class PriorUNetInpainter(_NeuralInpainter):
     def depth(self) -> int:
         return self.levels
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        if self.arch not in ARCHS:
-            raise ValueError(f"arch must be one of {ARCHS}, got {self.arch!r}")
-        f = self.factor
-        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
-            raise ValueError(f"factor must be an integer >= 1, got {f!r}")
-        pb = self.pixel_batches
-        if isinstance(pb, bool) or not isinstance(pb, (int, np.integer)) or pb < 1:
-            raise ValueError(f"pixel_batches must be an integer >= 1, got {pb!r}")
-        if self.arch == "pixel":  # the U-Net's sizes are bounded by _check_capacity
-            check_at_most("width", self.width, MAX_WIDTH)
-            check_at_most("levels", self.levels, MAX_LAYERS)
-        check_candidates(self.candidates)
-        for name in ("flip", "tta", "endpoints", "relative"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
-                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
+    _parameter_constraints = {
+        **{k: v for k, v in _NeuralInpainter._parameter_constraints.items() if k not in _FIXED_BY_RECIPE},
+        "arch": [Options(*ARCHS)],
+        # The U-Net's sizes are bounded more tightly by _check_capacity.
+        "width": [Integer(1, limit=MAX_WIDTH)],
+        "levels": [Integer(1, limit=MAX_LAYERS)],
+        "factor": [Integer(1)],
+        "candidates": [Check(check_candidates)],
+        "endpoints": [Bool()],
+        "relative": [Bool()],
+        "pixel_batches": [Integer(1)],
+        "flip": [Bool()],
+        "tta": [Bool()],
+    }
 
     def _model_param_names(self) -> tuple[str, ...]:
         # max_depth, input_mask and depth_scale are fixed by the class, not parameters.

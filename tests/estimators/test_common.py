@@ -145,3 +145,16 @@ def test_score(estimator, gt, x):
     # Without y the estimator corrupts gt with rect-v1 / seed 0 -- the same holes as x.
     assert without_y == pytest.approx(with_y)
     assert np.isfinite(without_y) and without_y <= 0
+
+
+def test_a_subclass_without_predict_batch_is_told_what_to_implement():
+    from estimators.base import BaseInpainter
+
+    class Half(BaseInpainter):
+        def _fit(self, dataset):
+            pass
+
+    x = np.full((8, 8), np.nan, np.float32)
+    x[0, 0] = 1.0
+    with pytest.raises(NotImplementedError, match="Half must implement _predict_batch"):
+        Half().fit(np.ones((2, 8, 8), np.float32)).predict(x)

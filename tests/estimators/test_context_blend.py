@@ -152,7 +152,7 @@ def test_mirrored_context_sampling_matches_flipped_grid():
     ({"balance": 2.0}, r"balance must be a number in \[0, 1\]"),
     ({"batch_frames": 0}, "batch_frames must be an integer >= 1"),
     ({"n_members": 0}, "n_members must be an integer >= 1"),
-    ({"member_samples": "each"}, "member_samples must be 'shared' or 'own'"),
+    ({"member_samples": "each"}, r"^member_samples must be one of \('shared', 'own'\), got 'each'$"),
 ])
 def test_bad_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import torch
 
 from estimators.learned.nets import UNet, UNetDecoder, UNetEncoder, pad_to_multiple
+from estimators.neural import UNetInpainter
 
 
 @pytest.fixture(autouse=True)
@@ -66,8 +68,8 @@ def test_padding_is_cropped_back_not_leaked():
         pad_to_multiple(x, 4, "reflect")
 
 
-@pytest.mark.parametrize("bad", [{"width": 0}, {"depth": 0}, {"in_channels": 0}, {"width": 2.5}])
-def test_bad_architecture_is_rejected(bad):
-    kwargs = {"in_channels": 1, "width": 4, "depth": 2} | bad
-    with pytest.raises(ValueError, match="must be an integer"):
-        UNet(**kwargs)
+@pytest.mark.parametrize("bad", [{"width": 0}, {"depth": 0}, {"width": 2.5}])
+def test_bad_architecture_is_refused_by_the_estimator_before_the_network(bad):
+    # The networks take checked sizes: the estimator's table names the parameter and value.
+    with pytest.raises(ValueError, match=rf"^{next(iter(bad))} must be an integer >= 1, got {next(iter(bad.values()))}$"):
+        UNetInpainter(**bad, random_state=0).fit(np.ones((2, 16, 16), np.float32))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import numpy as np
 import pytest
 import torch
@@ -191,15 +192,12 @@ def test_relative_pixel_net_scales_with_depth(n_endpoints):
     assert not torch.allclose(fixed.blend(scaled), 7.5 * fixed.blend(pixels))
 
 
-def test_net_rejects_wrong_channels_and_params():
+def test_net_rejects_wrong_channels():
     with pytest.raises(ValueError, match="expected input"):
         PriorUNet(n_candidates=2, width=4, levels=1, factor=2)(torch.zeros(1, 4, 8, 8))
-    with pytest.raises(ValueError, match="factor"):
-        PriorUNet(factor=0)
     with pytest.raises(ValueError, match="expected input"):
         PixelBlendNet(n_candidates=2, n_gaps=4, width=4, layers=1)(torch.zeros(1, 5, 8, 8))
-    with pytest.raises(ValueError, match="layers"):
-        PixelBlendNet(layers=0)
+
 
 
 # -- estimator -------------------------------------------------------------------------
@@ -314,7 +312,7 @@ def test_save_load_roundtrip(small_gt, tmp_path, arch):
      ("levels", 0, ValueError)],
 )
 def test_bad_params_raise_clear_errors(small_gt, param, value, error):
-    with pytest.raises(error, match=param if param != "levels" else "depth"):
+    with pytest.raises(error, match=rf"^{param} must be .*, got {re.escape(repr(value))}$"):
         PriorUNetInpainter(**{**TINY, param: value}).fit(small_gt)
 
 

@@ -16,6 +16,9 @@ Layout of :class:`ContextUNet` with ``widths=(w0, ..., wd)`` on the context grid
 
 Everything is relative to the frame's median log-depth, so the model is scale-free like
 the blend: a frame twice as deep gets a prediction twice as deep.
+
+Sizes are taken as given (positive integers): the estimators check their parameters
+(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations
@@ -123,8 +126,6 @@ class ContextUNet(nn.Module):
     def __init__(self, in_channels: int, out_channels: int, widths: Sequence[int] = (16, 32, 48, 64)):
         super().__init__()
         widths = tuple(widths)
-        if not widths or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in widths):
-            raise ValueError(f"widths must be a non-empty sequence of integers >= 1, got {widths!r}")
         self.widths = widths
         self.down = nn.ModuleList()
         prev = in_channels
@@ -175,8 +176,6 @@ class ContextBlendNet(nn.Module):
     def __init__(self, n_candidates: int, n_context: int = 8, widths: Sequence[int] = (16, 32, 48, 64),
                  width: int = 64, layers: int = 2, residual: bool = True):
         super().__init__()
-        if isinstance(n_context, bool) or not isinstance(n_context, int) or n_context < 1:
-            raise ValueError(f"n_context must be an integer >= 1, got {n_context!r}")
         self.n_context = n_context
         self.context = ContextUNet(len(GRID_BASE_CHANNELS) + n_candidates, n_context, widths)
         self.pixel = PixelBlendNet(n_candidates, 4, width, layers, n_endpoints=4, relative=True,

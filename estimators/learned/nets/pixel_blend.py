@@ -14,6 +14,9 @@ It has no notion of absolute image position on purpose: in probes on KITTI, posi
 features let a model memorise the training drive's layout (see docs/model_card.md).
 Only pixels asked for are computed, so training on hole pixels and predicting on
 unknown pixels costs time in proportion to those pixels alone.
+
+Sizes are taken as given (positive integers): the estimators check their parameters
+(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations
@@ -76,11 +79,6 @@ class PixelBlendNet(nn.Module):
         n_extra: int = 0,
     ):
         super().__init__()
-        for name, value, low in (("n_candidates", n_candidates, 1), ("n_gaps", n_gaps, 0),
-                                 ("width", width, 1), ("layers", layers, 1), ("n_endpoints", n_endpoints, 0),
-                                 ("n_extra", n_extra, 0)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
         self.n_candidates, self.n_gaps, self.width, self.layers = n_candidates, n_gaps, width, layers
         self.n_endpoints = n_endpoints
         self.relative = bool(relative)

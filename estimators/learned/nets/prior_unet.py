@@ -13,6 +13,9 @@ Layout (``factor=f``, ``width=w``, ``levels=L``)::
 The head starts at zero, so an untrained model returns the mean of the candidates.
 Working at 1/f resolution is what makes training affordable on 2 CPU cores; the
 full-resolution candidates keep the detail.
+
+Sizes are taken as given (positive integers): the estimators check their parameters
+(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations
@@ -51,9 +54,6 @@ class PriorUNet(nn.Module):
 
     def __init__(self, n_candidates: int = 4, width: int = 32, levels: int = 3, factor: int = 8):
         super().__init__()
-        for name, value in (("n_candidates", n_candidates), ("width", width), ("levels", levels), ("factor", factor)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         self.n_candidates, self.width, self.levels, self.factor = n_candidates, width, levels, factor
         in_channels = (4 + n_candidates) * factor * factor
         channels = [width * 2**level for level in range(levels + 1)]

@@ -9,6 +9,9 @@ Layout for ``width=w``, ``depth=d`` (``d`` 2×-downsamplings, ``d + 1`` resoluti
 
 A :class:`ConvBlock` is ``(3×3 conv -> GroupNorm -> ReLU) × 2``. Inputs of any size
 work: :class:`UNet` pads the bottom/right edge to a multiple of ``2**d`` and crops back.
+
+Sizes are taken as given (positive integers): the estimators check their parameters
+(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations
@@ -49,12 +52,6 @@ class ConvBlock(nn.Sequential):
         )
 
 
-def _check_arch(width: int, depth: int, in_channels: int) -> None:
-    for name, value, low in (("width", width, 1), ("depth", depth, 1), ("in_channels", in_channels, 1)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-
-
 class UNetEncoder(nn.Module):
     """Contracting path: ``depth + 1`` conv blocks with max-pooling between them.
 
@@ -69,7 +66,6 @@ class UNetEncoder(nn.Module):
 
     def __init__(self, in_channels: int, width: int, depth: int):
         super().__init__()
-        _check_arch(width, depth, in_channels)
         self.channels = [width * 2**level for level in range(depth + 1)]
         ins = [in_channels, *self.channels[:-1]]
         self.blocks = nn.ModuleList(ConvBlock(i, o) for i, o in zip(ins, self.channels))
@@ -99,7 +95,6 @@ class UNetDecoder(nn.Module):
 
     def __init__(self, width: int, depth: int, skip: bool = True):
         super().__init__()
-        _check_arch(width, depth, 1)
         self.skip = bool(skip)
         channels = [width * 2**level for level in range(depth + 1)]
         # blocks[l] produces level l from level l + 1.

@@ -1,0 +1,221 @@
+"""Parameter constraints of the learned estimators, declared once per class.
+
+Each class lists its parameters in ``_parameter_constraints`` (as scikit-learn's estimators
+do): for each name, the constraints one of which the value must meet (``None`` in the list
+allows None). :class:`ConstrainedParams` checks the table at ``fit`` and wherever the
+parameters are read (``predict``, ``load``), then the rules that tie several parameters
+together (:meth:`ConstrainedParams._check_param_relations`). A violation is one error naming
+the parameter, what it accepts and the value given.
+
+A local equivalent of ``sklearn.utils._param_validation`` (private there): the errors are
+inpaintenv's (``except ValueError`` / ``except TypeError`` still work), a size above the
+limits of :mod:`estimators.learned._limits` reads as those limits do, and NumPy scalars
+and ``numpy.bool_`` are accepted where their Python counterparts are.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
+
+from ._limits import check_at_most
+
+__all__ = [
+    "Bool", "Check", "ConstrainedParams", "Constraint", "InstanceOf", "Integer", "Options", "Pair", "Real",
+    "Sequence", "validate_params",
+]
+
+
+class Constraint:
+    """One kind of accepted value; ``str()`` says which, after "must be"."""
+
+    #: The error raised when no constraint of a parameter is met.
+    error: type[Exception] = InvalidInputError
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        raise NotImplementedError
+
+    def check_limits(self, name: str, value: Any) -> None:
+        """Raise the size-limit error for a value this constraint otherwise accepts."""
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+class Integer(Constraint):
+    """An integer (not a bool) ``>= low``; above ``limit`` it is the size limit's error."""
+
+    def __init__(self, low: int, limit: int | None = None):
+        self.low, self.limit = low, limit
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        return _is_int(value) and value >= self.low
+
+    def check_limits(self, name: str, value: Any) -> None:
+        if self.limit is not None:
+            check_at_most(name, value, self.limit)
+
+    def __str__(self) -> str:
+        return f"an integer >= {self.low}"
+
+
+class Real(Constraint):
+    """A finite number in an interval; ``closed`` says which ends belong to it."""
+
+    def __init__(self, low: float | None, high: float | None = None, closed: str = "both"):
+        self.low, self.high, self.closed = low, high, closed
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        if not _is_number(value) or not math.isfinite(value):
+            return False
+        left = self.closed in ("both", "left")
+        right = self.closed in ("both", "right")
+        above = self.low is None or (value >= self.low if left else value > self.low)
+        below = self.high is None or (value <= self.high if right else value < self.high)
+        return above and below
+
+    def __str__(self) -> str:
+        if self.high is None:
+            op = ">=" if self.closed in ("both", "left") else ">"
+            return f"a finite number {op} {self.low:g}"
+        left = "[" if self.closed in ("both", "left") else "("
+        right = "]" if self.closed in ("both", "right") else ")"
+        return f"a number in {left}{self.low:g}, {self.high:g}{right}"
+
+
+class Bool(Constraint):
+    """True or False (``numpy.bool_`` too); a wrong type is a ``TypeError``."""
+
+    error = InvalidTypeError
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        return isinstance(value, (bool, np.bool_))
+
+    def __str__(self) -> str:
+        return "True or False"
+
+
+class Options(Constraint):
+    """One of the listed values (``1`` is not ``True`` here)."""
+
+    def __init__(self, *values: Any):
+        self.values = values
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        flag = isinstance(value, (bool, np.bool_))
+        return any(
+            isinstance(v, bool) == flag and (isinstance(v, bool) or type(v) is type(value)) and v == value
+            for v in self.values
+        )
+
+    def __str__(self) -> str:
+        return f"one of {self.values}"
+
+
+class InstanceOf(Constraint):
+    """An instance of ``kind``, described as ``description``."""
+
+    def __init__(self, kind: type, description: str):
+        self.kind, self.description = kind, description
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        return isinstance(value, self.kind)
+
+    def __str__(self) -> str:
+        return self.description
+
+
+class Sequence(Constraint):
+    """A non-empty tuple (or list) of items meeting ``item``; sizes checked against limits."""
+
+    def __init__(self, item: Constraint, length: int | None = None, max_len: int | None = None,
+                 max_item: int | None = None, noun: str | None = None):
+        self.item, self.length, self.max_len, self.max_item = item, length, max_len, max_item
+        self.noun = noun
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        if not isinstance(value, (tuple, list)) or not value:
+            return False
+        if self.length is not None and len(value) != self.length:
+            return False
+        return all(self.item.is_satisfied_by(v) for v in value)
+
+    def check_limits(self, name: str, value: Any) -> None:
+        if self.max_len is not None:
+            check_at_most(f"len({name})", len(value), self.max_len)
+        if self.max_item is not None:
+            check_at_most(f"max({name})", max(value), self.max_item)
+
+    def __str__(self) -> str:
+        item = str(self.item).replace("an integer", "integers").replace("a number", "numbers")
+        item = item.replace("a finite number", "finite numbers")
+        return self.noun or f"a non-empty tuple of {item}"
+
+
+def Pair(item: Constraint, noun: str) -> Sequence:  # noqa: N802 (reads as a constraint class)
+    """Exactly two items meeting ``item`` (e.g. a crop ``(h, w)``)."""
+    return Sequence(item, length=2, noun=noun)
+
+
+class Check(Constraint):
+    """A value checked by ``check(value)``, which raises its own clear error (a protocol name,
+    candidate fills, a seed): the table still lists the parameter, the check stays where it lives."""
+
+    def __init__(self, check: Callable[[Any], Any]):
+        self.check = check
+
+    def is_satisfied_by(self, value: Any) -> bool:
+        self.check(value)
+        return True
+
+    def __str__(self) -> str:
+        return getattr(self.check, "__name__", "valid")
+
+
+def validate_params(owner: Any, constraints: Mapping[str, list[Constraint | None]]) -> None:
+    """Check ``owner``'s attributes named in ``constraints``.
+
+    Raises
+    ------
+    InvalidInputError, InvalidTypeError
+        ``"<name> must be <accepted> [or None], got <value>"`` for the first parameter that
+        meets none of its constraints (a ``TypeError`` when only a bool was accepted), or
+        the size-limit error of a value above :mod:`estimators.learned._limits`.
+    """
+    for name, options in constraints.items():
+        value = getattr(owner, name)
+        allowed = [c for c in options if c is not None]
+        if value is None and None in options:
+            continue
+        met = next((c for c in allowed if c.is_satisfied_by(value)), None)
+        if met is not None:
+            met.check_limits(name, value)
+            continue
+        accepted = " or ".join([str(c) for c in allowed] + (["None"] if None in options else []))
+        error = InvalidTypeError if all(c.error is InvalidTypeError for c in allowed) else InvalidInputError
+        raise error(f"{name} must be {accepted}, got {value!r}")
+
+
+class ConstrainedParams:
+    """Checks a class's ``_parameter_constraints`` (then its cross-parameter rules) in one place."""
+
+    #: Parameter name -> constraints, one of which its value must meet (None allows None).
+    _parameter_constraints: dict[str, list[Constraint | None]] = {}
+
+    def _check_params(self) -> None:
+        """Raise one clear error for the first parameter outside its documented range."""
+        validate_params(self, self._parameter_constraints)
+        self._check_param_relations()
+
+    def _check_param_relations(self) -> None:
+        """Rules that tie several (already checked) parameters together; none by default."""
