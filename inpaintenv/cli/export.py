@@ -28,7 +28,9 @@ def add_export(subparsers: Any) -> None:
             "Write, for every frame, the occluded input as a KITTI 16-bit depth PNG (0 = hole or no "
             "measurement) and the hole mask as an 8-bit PNG, in KITTI's folder layout, plus manifest.json: the kit "
             "for the submitter, which holds no ground truth. The score key (<out>.key.json beside --out by default) "
-            "names the ground truth; keep it, and score the predictions with `inpaintenv score --manifest <key>`."
+            "names the ground truth; keep it, and score the predictions with `inpaintenv score --manifest <key>`. "
+            "A prediction <name>.png may have its per-pixel interval beside it, as <name>_low.png and "
+            "<name>_high.png or as <name>_std.png (same encoding; all predictions or none); score reads them."
         ),
     )
     p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")

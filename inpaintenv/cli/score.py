@@ -35,6 +35,8 @@ def add_score(subparsers: Any) -> None:
             "Check a folder of predictions against an export's manifest and its ground truth, score them with the "
             "metrics of `evaluate`, and write the run folder and report of `inpaintenv benchmark` (results.json, "
             ".csv, .md, figures). Methods given by -m are scored on the same frames and masks in the same table. "
+            "Interval files beside the predictions (<name>_low.png and <name>_high.png, or <name>_std.png) add "
+            "coverage, width and the error-rejection curve (see --interval-coverage). "
             "Resumable: rerun the same command to continue."
         ),
     )

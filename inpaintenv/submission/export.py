@@ -196,6 +196,10 @@ def export(
 ) -> Manifest:
     """Write the occluded inputs, hole masks and manifest of every (frame, seed), and the score key.
 
+    The submitter writes one prediction PNG per input at its relative path and may put
+    its per-pixel interval beside it (``<name>_low.png`` and ``<name>_high.png``, or
+    ``<name>_std.png``; :mod:`.intervals`), which :func:`~.score.score` then scores.
+
     Parameters
     ----------
     out : path-like
