@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .exceptions import InvalidInputError, MethodOutputError
+from .exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
 from .interval_metrics import check_interval, interval_from_std
 
 __all__ = ["IntervalSource", "interval_source"]
@@ -80,7 +80,7 @@ class IntervalSource:
                     raise InvalidInputError(f"predict_interval must return (low, high), got {type(out).__name__}")
                 low, high = out
             return check_interval(pred, low, high, hole)
-        except (InvalidInputError, TypeError) as exc:
+        except (InvalidInputError, InvalidTypeError) as exc:  # the interval's checks; a bug in the method shows as such
             raise MethodOutputError(f"method {self.name!r}: {exc}") from None
 
 

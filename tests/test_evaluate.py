@@ -635,3 +635,9 @@ def test_cli_evaluate_interval_coverage(tmp_path, monkeypatch, capsys):
     assert "hole coverage" in out and "8.00" in out  # the width of ± 4 m
     assert main([*argv, "--interval-coverage", "90"]) == 1
     assert "--interval-coverage" in capsys.readouterr().err
+
+
+def test_integer_interval_is_refused_naming_the_method(gt_ds):
+    method = _BadInterval(lambda p: (np.zeros(p.shape, np.int32), np.ones(p.shape, np.int32)))
+    with pytest.raises(MethodOutputError, match="'bad'"):
+        evaluate(method, gt_ds, intervals=0.9, progress=False, name="bad")
