@@ -3,7 +3,7 @@
 A parameter (or a checkpoint's config) can ask for a network of any size: a blend width of
 1e5 is 1e10 weights, ``n_members=10**7`` ten million networks, ``levels=10**6`` a million
 layers; each would allocate until the process is killed, or end in ``MemoryError`` after
-minutes. Every learned family checks its sizes against these limits (one ``ValueError``
+minutes. Every learned family checks its sizes against these limits (one ``InvalidInputError``, a ``ValueError``,
 naming the parameter, the value and the limit) and, before it builds a network at ``fit`` or
 ``load``, the network's parameter count, counted on torch's ``meta`` device (no memory).
 
@@ -17,6 +17,8 @@ from collections.abc import Callable
 from typing import Any
 
 import torch
+
+from inpaintenv.exceptions import InvalidInputError
 
 __all__ = ["MAX_LAYERS", "MAX_MEMBERS", "MAX_PARAMETERS", "MAX_WIDTH", "check_at_most", "check_parameter_count"]
 
@@ -34,8 +36,8 @@ MAX_PARAMETERS = 200_000_000
 def check_at_most(name: str, value: Any, limit: int) -> None:
     """Raise one ``ValueError`` if the (already type-checked) integer ``value`` exceeds ``limit``."""
     if value > limit:
-        raise ValueError(f"{name}={value!r} is more than the {limit} allowed "
-                         "(estimators.learned._limits); lower it")
+        raise InvalidInputError(f"{name}={value!r} is more than the {limit} allowed "
+                                "(estimators.learned._limits); lower it")
 
 
 def check_parameter_count(build: Callable[[], torch.nn.Module], what: str) -> int:
@@ -43,12 +45,12 @@ def check_parameter_count(build: Callable[[], torch.nn.Module], what: str) -> in
 
     Raises
     ------
-    ValueError
-        More than :data:`MAX_PARAMETERS` parameters (``what`` names the settings that ask for them).
+    InvalidInputError
+        (a ``ValueError``) More than :data:`MAX_PARAMETERS` parameters (``what`` names the settings that ask for them).
     """
     with torch.device("meta"):
         count = sum(p.numel() for p in build().parameters())
     if count > MAX_PARAMETERS:
-        raise ValueError(f"{what} gives a network of {count:,} parameters, more than the "
-                         f"{MAX_PARAMETERS:,} allowed (estimators.learned._limits); lower them")
+        raise InvalidInputError(f"{what} gives a network of {count:,} parameters, more than the "
+                                f"{MAX_PARAMETERS:,} allowed (estimators.learned._limits); lower them")
     return count

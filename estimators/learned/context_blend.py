@@ -200,7 +200,9 @@ class ContextBlendInpainter(BlendInpainter):
     _TUPLE_PARAMS = ("candidates", "keep", "context_widths")
 
     _parameter_constraints = {
-        **BlendInpainter._parameter_constraints,
+        # endpoints, relative and max_pixels are fixed by the class above, not parameters.
+        **{k: v for k, v in BlendInpainter._parameter_constraints.items()
+           if k not in ("endpoints", "relative", "max_pixels")},
         "n_context": [Integer(1, limit=MAX_WIDTH)],
         "context_widths": [Sequence(Integer(1), max_len=MAX_LAYERS, max_item=MAX_WIDTH)],
         "balance": [Real(0, 1)],

@@ -1,0 +1,66 @@
+"""The parameter tables of the learned estimators: one line naming parameter, range and value."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from estimators.learned._constraints import Bool, Integer, Options, Real, Sequence, validate_params
+from estimators.learned.blend import BlendInpainter
+from estimators.learned.context_blend import ContextBlendInpainter
+from estimators.learned.ensemble import MeanEnsembleInpainter
+from estimators.neural import UNetInpainter
+from estimators.prior import PriorUNetInpainter
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
+
+
+class _Params:
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+
+TABLE = {
+    "n": [Integer(1, limit=8)],
+    "lr": [Real(0, closed="neither")],
+    "frac": [Real(0, 1, closed="right"), None],
+    "flag": [Bool()],
+    "mode": [Options("a", "b")],
+    "widths": [Sequence(Integer(1), max_len=3, max_item=16)],
+}
+GOOD = {"n": 2, "lr": 1e-3, "frac": None, "flag": True, "mode": "a", "widths": (4, 8)}
+
+
+@pytest.mark.parametrize(("bad", "error", "message"), [
+    ({"n": 0}, InvalidInputError, "n must be an integer >= 1, got 0"),
+    ({"n": True}, InvalidInputError, "n must be an integer >= 1, got True"),
+    ({"n": 2.0}, InvalidInputError, "n must be an integer >= 1, got 2.0"),
+    ({"n": 9}, InvalidInputError, "n=9 is more than the 8 allowed (estimators.learned._limits); lower it"),
+    ({"lr": 0}, InvalidInputError, "lr must be a finite number > 0, got 0"),
+    ({"lr": float("nan")}, InvalidInputError, "lr must be a finite number > 0, got nan"),
+    ({"frac": 0.0}, InvalidInputError, "frac must be a number in (0, 1] or None, got 0.0"),
+    ({"flag": 1}, InvalidTypeError, "flag must be True or False, got 1"),
+    ({"mode": "c"}, InvalidInputError, "mode must be one of ('a', 'b'), got 'c'"),
+    ({"widths": ()}, InvalidInputError, "widths must be a non-empty tuple of integers >= 1, got ()"),
+    ({"widths": "48"}, InvalidInputError, "widths must be a non-empty tuple of integers >= 1, got '48'"),
+    ({"widths": (1, 2, 3, 4)}, InvalidInputError, "len(widths)=4 is more than the 3 allowed"),
+    ({"widths": (32,)}, InvalidInputError, "max(widths)=32 is more than the 16 allowed"),
+])
+def test_one_line_names_parameter_range_and_value(bad, error, message):
+    with pytest.raises(error) as info:
+        validate_params(_Params(**{**GOOD, **bad}), TABLE)
+    assert str(info.value).startswith(message) and "\n" not in str(info.value)
+
+
+def test_numpy_scalars_pass_as_their_python_kind():
+    validate_params(_Params(**{**GOOD, "n": np.int64(3), "lr": np.float32(0.1), "flag": np.bool_(False),
+                               "frac": np.float64(1.0)}), TABLE)
+
+
+@pytest.mark.parametrize("klass", [UNetInpainter, PriorUNetInpainter, BlendInpainter, ContextBlendInpainter,
+                                   MeanEnsembleInpainter])
+def test_every_table_entry_is_a_parameter(klass):
+    # A table may leave out parameters checked where they are used (device, warm_start,
+    # the ensemble's members and weights), never list a name that is not one.
+    params = set(klass._get_param_names())
+    assert set(klass._parameter_constraints) <= params
+    assert len(klass._parameter_constraints) >= min(5, len(params) - 2)
