@@ -1,0 +1,110 @@
+"""Leave-one-day-out check of ConformalIntervalInpainter's 90 % intervals on real KITTI.
+
+For each recording day D of the train split: calibrate the wrapper around a fill that
+never saw any drive (a classical method) on the other days' drives, then score D's drives
+with ``inpaintenv.evaluate.evaluate(wrapper, ..., intervals=C)``; then the same with drive
+2011_09_26_drive_0001_sync (official maps) left out. Printed per fold: coverage of the
+interval in the hole, mean width, hole RMSE, the RMSE when the most confident 80 % are
+kept (and the share cut), and the border baseline (the 80 % nearest the hole border).
+Columns are the mean over the fold's frames of the per-frame values, as in the benchmark.
+
+    python benchmarks/interval_lodo.py --kitti-root /path/to/kitti [--frames-per-drive 6]
+
+``--checkpoint DAY=PATH`` (repeatable) wraps a learned fold model instead of ``--method``
+in the fold leaving DAY out (``drive-0001`` for the official-maps fold): the only honest
+way to calibrate a learned model, whose calibration drives it must never have seen.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from typing import Any
+
+import numpy as np
+
+OFFICIAL = "2011_09_26_drive_0001_sync"
+COLUMNS = ("hole_coverage", "hole_interval_width", "hole_rmse", "rmse_keep_80", "rmse_cut_80",
+           "border_rmse_keep_80")
+
+
+def frames_of(dataset: Any, drives: list[str], per_drive: int) -> Any:
+    """Up to ``per_drive`` frames of each drive, evenly spaced (image_02)."""
+    idx: list[int] = []
+    for d in drives:
+        where = np.flatnonzero(dataset.groups == d)
+        take = min(per_drive, len(where)) if per_drive > 0 else len(where)
+        idx += [int(i) for i in where[np.linspace(0, len(where) - 1, take).astype(int)]]
+    return dataset[idx]
+
+
+def folds(drives: list[str]) -> list[tuple[str, list[str], list[str]]]:
+    """``(name, calibration drives, scored drives)``: each day left out, then drive 0001."""
+    days = sorted({d[:10] for d in drives})
+    out = [(f"day-{day}", [d for d in drives if d[:10] != day], [d for d in drives if d[:10] == day]) for day in days]
+    if OFFICIAL in drives:
+        out.append(("drive-0001", [d for d in drives if d != OFFICIAL], [OFFICIAL]))
+    return out
+
+
+def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> dict[str, Any]:
+    from estimators.intervals import ConformalIntervalInpainter
+    from inpaintenv.evaluate import evaluate
+
+    start = time.perf_counter()
+    wrapper = ConformalIntervalInpainter(base, coverage=args.coverage, signals=tuple(args.signals),
+                                         spread_method=args.spread_method).fit(cal)
+    result = evaluate(wrapper, test, intervals=args.coverage, progress=False, name="conformal")
+    row = {c: float(np.nanmean([r[c] for r in result.rows])) for c in COLUMNS}
+    row["border_cut_80"] = 1 - row["border_rmse_keep_80"] / row["hole_rmse"]
+    row.update(n_frames=len(test), n_cal_pixels=wrapper.calibration_["n_pixels"],
+               n_cal_drives=len(wrapper.calibration_["drives"]), seconds=time.perf_counter() - start)
+    return row
+
+
+def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--kitti-root", required=True)
+    parser.add_argument("--method", default="scanline", help="registered fill to wrap (never saw any drive)")
+    parser.add_argument("--checkpoint", action="append", default=[], metavar="FOLD=PATH",
+                        help="a learned fold model trained without FOLD's drives (day-2011_09_26, ..., drive-0001)")
+    parser.add_argument("--spread-method", default="harmonic")
+    parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"])
+    parser.add_argument("--coverage", type=float, default=0.9)
+    parser.add_argument("--frames-per-drive", type=int, default=6, help="0 = every frame")
+    parser.add_argument("--json", help="also write the rows here")
+    args = parser.parse_args(argv)
+
+    from inpaintenv.data import KittiDepth
+    from inpaintenv.registry import make_method
+
+    dataset = KittiDepth(args.kitti_root, split="train")
+    drives = sorted({str(g) for g in dataset.groups})
+    checkpoints = dict(c.split("=", 1) for c in args.checkpoint)
+    rows = []
+    print("| fold | frames | cal. drives / pixels | coverage | mean width (m) | hole RMSE | keep-80 % RMSE "
+          "(cut) | border keep-80 % (cut) |\n|---|---:|---:|---:|---:|---:|---:|---:|")
+    for name, cal_drives, test_drives in folds(drives):
+        if name in checkpoints:
+            from estimators.learned.load import load  # a saved fold model (torch, the [learned] extra)
+
+            base = load(checkpoints[name])
+        else:
+            base = make_method(args.method)
+        row = run_fold(base, frames_of(dataset, cal_drives, args.frames_per_drive),
+                       frames_of(dataset, test_drives, args.frames_per_drive), args)
+        row["fold"] = name
+        rows.append(row)
+        print(f"| {name} | {row['n_frames']} | {row['n_cal_drives']} / {row['n_cal_pixels']} | "
+              f"{row['hole_coverage']:.3f} | {row['hole_interval_width']:.2f} | {row['hole_rmse']:.2f} | "
+              f"{row['rmse_keep_80']:.2f} ({row['rmse_cut_80']:.0%}) | "
+              f"{row['border_rmse_keep_80']:.2f} ({row['border_cut_80']:.0%}) |", flush=True)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=1)
+    return rows
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,452 @@
+"""Per-pixel intervals for any fitted inpainter: drive-grouped split conformal prediction.
+
+:class:`ConformalIntervalInpainter` wraps a fitted inpainter (classical or learned) the
+way scikit-learn's ``CalibratedClassifierCV(cv="prefit")`` wraps a fitted classifier:
+``fit`` is only the *calibration* step, on frames of drives the base model never saw.
+
+Calibration (``fit``): each calibration frame is occluded with the project's masks
+protocol (``rect-v1``, seed 0 by default, frame ``i`` gets mask ``i``, as ``score`` does),
+the base fills it, and on every hole pixel with ground truth the *normalised residual*
+``|gt - pred| / scale`` is recorded. ``scale`` is a small log-linear model of cheap
+signals of the pixel, fitted by least squares of ``log(|residual| + 0.05 m)`` on them:
+
+``"border"``
+    ``log(1 + d)``, ``d`` the distance in pixels to the hole's border
+    (:func:`inpaintenv.interval_metrics.border_distance`): the middle of a large hole errs more.
+``"depth"``
+    ``log(max(pred, 1 m))``: far pixels err more.
+``"spread"``
+    ``log(|pred - second| + 0.1 m)``, ``second`` a second cheap fill
+    (``spread_method``, a registered classical method): where two fills disagree, the
+    scene is ambiguous.
+
+The interval of nominal coverage ``c`` is ``pred ± q_c · scale`` (low clipped at 0 m),
+``q_c`` the split-conformal quantile of the normalised residuals with the finite-sample
+correction (the ``ceil((n + 1) c)``-th smallest of ``n``). The sorted residuals are kept
+as 2001 quantiles, so any coverage can be asked after calibration (rounded up to the next
+stored level: conservative by at most 0.05 %).
+
+The guarantee is marginal over pixels of frames exchangeable with the calibration frames;
+it holds on new drives only when the calibration drives are as new to the base model as
+the drives it is used on. **The base model must never have seen the calibration drives**:
+``fit`` takes whole drives (``groups``) and refuses drives the base records in
+``training_drives_``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from sklearn.base import BaseEstimator, MetaEstimatorMixin
+from sklearn.utils.validation import check_is_fitted
+
+from inpaintenv.data.base import DepthDataset, Subset, as_dataset
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
+from inpaintenv.interval_metrics import border_distance, check_coverage, normal_quantile
+from inpaintenv.masks import get_protocol
+
+from .base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, iter_scoring_batches, training_drives
+
+__all__ = ["ConformalIntervalInpainter", "SIGNALS"]
+
+#: The signals a scale model may use, in the order of its coefficients.
+SIGNALS: tuple[str, ...] = ("border", "depth", "spread")
+#: Levels at which the sorted normalised residuals are kept (0, 0.0005, ..., 1).
+N_LEVELS = 2001
+#: Offsets (metres) that keep the logs finite where the residual or the spread is 0.
+_RESIDUAL_FLOOR, _SPREAD_FLOOR, _DEPTH_FLOOR = 0.05, 0.1, 1.0
+_FORMAT = "inpaintenv-conformal-intervals-v1"
+
+
+def _features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second: np.ndarray | None) -> np.ndarray:
+    """``(n_hole_pixels, 1 + len(signals))`` design matrix of the hole pixels (intercept first)."""
+    cols = [np.ones(int(hole.sum()))]
+    for s in signals:
+        if s == "border":
+            cols.append(np.log1p(border_distance(hole)[hole].astype(np.float64)))
+        elif s == "depth":
+            cols.append(np.log(np.maximum(pred[hole].astype(np.float64), _DEPTH_FLOOR)))
+        else:  # spread
+            cols.append(np.log(np.abs(pred[hole].astype(np.float64) - second[hole]) + _SPREAD_FLOOR))
+    return np.stack(cols, axis=1)
+
+
+class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
+    """Per-pixel intervals around a fitted inpainter, calibrated on drives it never saw.
+
+    Parameters
+    ----------
+    estimator : fitted inpainter
+        Any object with ``predict(X) -> (N, H, W)`` metres (a classical method, a loaded
+        release). Never refitted; its prediction is returned unchanged.
+    coverage : float, default=0.9
+        Nominal coverage in (0, 1) of ``predict_interval`` without an argument and the
+        coverage ``std`` refers to (see :meth:`predict`).
+    signals : tuple of {"border", "depth", "spread"}, default=("border", "depth", "spread")
+        The scale signals (see the module docstring); an empty tuple gives a constant
+        width (plain split conformal).
+    spread_method : str, default="scanline"
+        Registered classical method giving the second fill of the ``"spread"`` signal;
+        must fill differently from ``estimator`` (refused at ``fit`` when the spread is 0
+        at every calibration pixel).
+    protocol : str, default="rect-v1"
+        Masks protocol occluding the calibration frames.
+    seed : int, default=0
+        Protocol seed (frame ``i`` of the calibration set gets mask ``i``).
+    max_fit_pixels : int, default=200000
+        Pixels (drawn with ``seed``) the scale's least squares is fitted on; the quantiles
+        use every calibration pixel.
+
+    Attributes
+    ----------
+    coef_ : numpy.ndarray
+        Intercept then one coefficient per signal of ``log scale``.
+    residual_quantiles_ : numpy.ndarray
+        The normalised residuals' quantiles at levels ``linspace(0, 1, 2001)`` (method "higher").
+    quantile_ : float
+        The conformal quantile ``q`` at ``coverage`` (exact order statistic).
+    calibration_ : dict
+        What it was calibrated on: ``drives``, ``n_frames``, ``n_pixels``, ``coverage``,
+        ``protocol``, ``seed``, ``base`` (the base's class), ``signals``.
+
+    Examples
+    --------
+    >>> from inpaintenv.data import KittiDepth                      # doctest: +SKIP
+    >>> from inpaintenv.registry import make_method                 # doctest: +SKIP
+    >>> cal = KittiDepth(split="train", drives=["2011_09_30_drive_9018_sync"])  # doctest: +SKIP
+    >>> wrapped = ConformalIntervalInpainter(make_method("scanline"), spread_method="nearest").fit(cal)  # doctest: +SKIP
+    >>> low, high = wrapped.predict_interval(x)                     # doctest: +SKIP
+    """
+
+    def __init__(
+        self, estimator: Any, coverage: float = 0.9, signals: tuple[str, ...] = SIGNALS,
+        spread_method: str = "scanline", protocol: str = SCORE_PROTOCOL, seed: int = SCORE_SEED,
+        max_fit_pixels: int = 200_000,
+    ) -> None:
+        self.estimator = estimator
+        self.coverage = coverage
+        self.signals = signals
+        self.spread_method = spread_method
+        self.protocol = protocol
+        self.seed = seed
+        self.max_fit_pixels = max_fit_pixels
+
+    # -- parameters --------------------------------------------------------------
+    def _check_params(self) -> tuple[str, ...]:
+        check_coverage(self.coverage, "coverage")
+        if isinstance(self.signals, str) or not isinstance(self.signals, (tuple, list)):
+            raise InvalidTypeError(f"signals must be a tuple of names from {SIGNALS}, got {self.signals!r}")
+        bad = [s for s in self.signals if s not in SIGNALS]
+        if bad or len(set(self.signals)) != len(self.signals):
+            raise InvalidInputError(f"signals must be distinct names from {SIGNALS}, got {tuple(self.signals)!r}")
+        if not callable(getattr(self.estimator, "predict", None)):
+            raise InvalidTypeError(f"estimator must have predict(X), got {type(self.estimator).__name__}")
+        if not isinstance(self.spread_method, str):
+            raise InvalidTypeError(f"spread_method must be a registered method name, got {self.spread_method!r}")
+        get_protocol(self.protocol)
+        for name in ("seed", "max_fit_pixels"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "seed" else 10):
+                raise InvalidInputError(f"{name} must be an integer >= {0 if name == 'seed' else 10}, got {v!r}")
+        return tuple(self.signals)
+
+    def _second_fill(self) -> Any:
+        from inpaintenv.registry import make_method
+
+        return make_method(self.spread_method)
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return hasattr(self, "calibration_")
+
+    # -- calibration -------------------------------------------------------------
+    def fit(self, X: Any, y: Any = None, *, groups: Sequence[Any] | None = None) -> ConformalIntervalInpainter:
+        """Calibrate on ground-truth frames of whole drives the base model never saw.
+
+        Parameters
+        ----------
+        X : DepthDataset, (N, H, W) array or sequence of (H, W) arrays
+            Ground truth (metres, 0 = no measurement); occluded here with ``protocol``.
+        y : None
+            Ignored.
+        groups : sequence of str, optional
+            The drive of each frame; required unless ``X`` is a dataset whose frames
+            carry drive ids (e.g. :class:`~inpaintenv.data.KittiDepth`).
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        InvalidInputError
+            Without drive ids, when a calibration drive is one the base was trained on
+            (its ``training_drives_``), or when no hole pixel has ground truth.
+        """
+        signals = self._check_params()
+        if hasattr(self.estimator, "fit"):  # an sklearn estimator must be fitted; a bare predictor is taken as is
+            check_is_fitted(self.estimator)
+        dataset = self._grouped(X, groups)
+        drives = sorted({str(g) for g in dataset.groups})
+        seen = sorted(set(drives) & set(getattr(self.estimator, "training_drives_", None) or ()))
+        if seen:
+            raise InvalidInputError(f"the base estimator was trained on calibration drives {seen}: calibrate on "
+                                    "drives it never saw, or the intervals will be too narrow on new drives")
+        second = self._second_fill() if "spread" in signals else None
+        feats, resid = [], []
+        for x, gt, hole in iter_scoring_batches(dataset, protocol=self.protocol, seed=int(self.seed)):
+            pred = np.asarray(self.estimator.predict(x), dtype=np.float32)
+            other = np.asarray(second.predict(x), dtype=np.float64) if second is not None else None
+            for k in range(len(x)):
+                scored = hole[k] & (gt[k] > 0)
+                if not scored.any():
+                    continue
+                f = _features(signals, pred[k], hole[k], None if other is None else other[k])
+                feats.append(f[scored[hole[k]]])
+                resid.append(np.abs(gt[k][scored].astype(np.float64) - pred[k][scored]))
+        if not resid:
+            raise InvalidInputError("no calibration frame has ground truth inside its holes; nothing to calibrate on")
+        F, r = np.concatenate(feats), np.concatenate(resid)
+        if "spread" in signals and np.ptp(F[:, 1 + signals.index("spread")]) == 0:
+            raise InvalidInputError(f"spread is the same at every calibration pixel: spread_method="
+                                    f"{self.spread_method!r} fills as the base does; choose another (e.g. 'nearest') "
+                                    "or leave 'spread' out of signals")
+        self.coef_ = self._fit_scale(F, r)
+        normed = r / self._scale_from(F)
+        self.residual_quantiles_ = np.quantile(normed, np.linspace(0.0, 1.0, N_LEVELS), method="higher")
+        self.n_calibration_pixels_ = int(r.size)
+        self.quantile_ = self._exact_quantile(np.sort(normed), float(self.coverage))
+        self.calibration_ = {
+            "drives": drives, "n_frames": len(dataset), "n_pixels": int(r.size), "coverage": float(self.coverage),
+            "protocol": self.protocol, "seed": int(self.seed), "base": type(self.estimator).__name__,
+            "signals": list(signals), "spread_method": self.spread_method if "spread" in signals else None,
+        }
+        return self
+
+    @staticmethod
+    def _grouped(X: Any, groups: Sequence[Any] | None) -> DepthDataset:
+        dataset = as_dataset(X)
+        if len(dataset) == 0:
+            raise InvalidInputError("cannot calibrate on an empty dataset")
+        if groups is not None:
+            if isinstance(groups, str) or len(groups) != len(dataset):
+                raise InvalidInputError(f"groups must give one drive id per frame ({len(dataset)}), got {groups!r:.80}")
+            dataset = Subset(dataset, np.arange(len(dataset)))  # a view: the caller's groups stay as they are
+            dataset.groups = np.asarray([str(g) for g in groups])
+        elif training_drives(dataset) is None:
+            raise InvalidInputError("calibration frames need drive ids: pass groups=[drive of each frame] (whole "
+                                    "drives the base never saw) or a dataset whose frames carry them (KittiDepth)")
+        return dataset
+
+    def _fit_scale(self, F: np.ndarray, r: np.ndarray) -> np.ndarray:
+        rng = np.random.default_rng(int(self.seed))
+        take = rng.choice(len(r), self.max_fit_pixels, replace=False) if len(r) > self.max_fit_pixels else slice(None)
+        coef, *_ = np.linalg.lstsq(F[take], np.log(r[take] + _RESIDUAL_FLOOR), rcond=None)
+        return coef
+
+    def _scale_from(self, F: np.ndarray) -> np.ndarray:
+        # Clipped so that one extreme signal never gives a zero or an overflowing width.
+        return np.exp(np.clip(F @ self.coef_, -12.0, 8.0))
+
+    @staticmethod
+    def _exact_quantile(sorted_normed: np.ndarray, coverage: float) -> float:
+        n = sorted_normed.size
+        k = math.ceil((n + 1) * coverage)
+        if k > n:
+            raise InvalidInputError(f"{n} calibration pixels are too few for a {coverage:g} interval (needs "
+                                    f"{math.ceil(coverage / (1 - coverage))})")
+        return max(float(sorted_normed[k - 1]), 1e-6)
+
+    def quantile_at(self, coverage: float | None = None) -> float:
+        """The conformal quantile ``q`` of ``coverage`` (the calibrated one by default).
+
+        Exact at the calibrated coverage; otherwise read from the stored quantiles at the
+        next level at or above ``ceil((n + 1) c) / n`` (conservative).
+        """
+        check_is_fitted(self)
+        c = float(self.coverage) if coverage is None else check_coverage(coverage)
+        if math.isclose(c, self.calibration_["coverage"]):
+            return self.quantile_
+        n = self.n_calibration_pixels_
+        level = math.ceil((n + 1) * c) / n
+        if level > 1:
+            raise InvalidInputError(f"{n} calibration pixels are too few for a {c:g} interval")
+        idx = min(N_LEVELS - 1, math.ceil(level * (N_LEVELS - 1) - 1e-9))
+        return max(float(self.residual_quantiles_[idx]), 1e-6)
+
+    # -- prediction --------------------------------------------------------------
+    def _scale(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> np.ndarray:
+        """Per-pixel scale (metres), 0 outside the hole; ``x``, ``pred``, ``hole`` are (N, H, W)."""
+        signals = tuple(self.calibration_["signals"])
+        other = None
+        if "spread" in signals:
+            other = np.asarray(self._second_fill().predict(x), dtype=np.float64)
+        out = np.zeros(pred.shape, dtype=np.float64)
+        for k in range(len(pred)):
+            if hole[k].any():
+                F = _features(signals, pred[k], hole[k], None if other is None else other[k])
+                out[k][hole[k]] = self._scale_from(F)
+        return out
+
+    def _batch(self, X: Any) -> tuple[np.ndarray, bool]:
+        x = check_inpaint_input(X, require_hole=False)
+        return (x[None], True) if x.ndim == 2 else (x, False)
+
+    def predict(self, X: Any, return_std: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """The base's prediction, unchanged; with ``return_std`` also a per-pixel std.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(H, W)`` or ``(N, H, W)`` metres, NaN = fill, 0 = no measurement.
+        return_std : bool, default=False
+            Also return ``std``.
+
+        Returns
+        -------
+        pred : numpy.ndarray
+            ``estimator.predict(X)`` exactly.
+        std : numpy.ndarray, only with ``return_std``
+            float32 metres, ``scale · q_c / z_c``: the conformal half-width at the
+            calibrated ``coverage`` ``c`` divided by the normal quantile ``z_c`` (1.645 for
+            0.9), so that ``pred ± z_c · std`` is the calibrated interval (what
+            :func:`inpaintenv.interval_metrics.interval_from_std` builds). It is a
+            "normal-equivalent" std: the residuals are not assumed normal, and
+            ``pred ± z · std`` at another coverage is *not* calibrated (use
+            :meth:`predict_interval`). 0 outside the hole (NaN pixels of ``X``).
+        """
+        check_is_fitted(self)
+        pred = self.estimator.predict(X)
+        if not return_std:
+            return pred
+        x, single = self._batch(X)
+        p = np.asarray(pred, dtype=np.float32).reshape(x.shape)
+        half = self._scale(x, p, np.isnan(x)) * self.quantile_
+        std = (half / normal_quantile(float(self.coverage))).astype(np.float32)
+        return pred, std[0] if single else std
+
+    def predict_interval(self, X: Any, coverage: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Per-pixel ``(low, high)`` of nominal ``coverage`` around the base's prediction.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(H, W)`` or ``(N, H, W)`` metres, NaN = fill.
+        coverage : float, optional
+            In (0, 1); the calibrated ``coverage`` by default. Any coverage works (the
+            calibration keeps the residual quantiles); see :meth:`quantile_at`.
+
+        Returns
+        -------
+        low, high : numpy.ndarray
+            float32 metres of ``X``'s shape: ``low = max(pred - q·scale, 0) <= pred <=
+            high = pred + q·scale``, finite with ``high - low > 0`` at every NaN pixel of
+            ``X``, and ``low = high = pred`` elsewhere (measured pixels are given, not filled).
+        """
+        check_is_fitted(self)
+        q = self.quantile_at(coverage)
+        x, single = self._batch(X)
+        pred = np.asarray(self.estimator.predict(x), dtype=np.float32)
+        half = self._scale(x, pred, np.isnan(x)) * q
+        low = np.maximum(pred - half, 0.0).astype(np.float32)
+        high = (pred + half).astype(np.float32)
+        low, high = np.minimum(low, pred), np.maximum(high, pred)  # float32 rounding never excludes pred
+        return (low[0], high[0]) if single else (low, high)
+
+    # -- persistence -------------------------------------------------------------
+    def to_dict(self, base: str | None = None) -> dict[str, Any]:
+        """The calibration as plain JSON types (see :meth:`save`)."""
+        check_is_fitted(self)
+        return {
+            "format": _FORMAT, "base": base if base is not None else self.calibration_["base"],
+            "base_class": type(self.estimator).__name__,
+            "params": {"coverage": float(self.coverage), "signals": list(self.signals),
+                       "spread_method": self.spread_method, "protocol": self.protocol, "seed": int(self.seed),
+                       "max_fit_pixels": int(self.max_fit_pixels)},
+            "coef": [float(c) for c in self.coef_], "quantile": self.quantile_,
+            "n_pixels": self.n_calibration_pixels_,
+            "residual_quantiles": [float(v) for v in self.residual_quantiles_],
+            "calibration": self.calibration_,
+        }
+
+    def save(self, path: str | os.PathLike, base: str | None = None) -> Path:
+        """Write the calibration (never the base model) as a small JSON file.
+
+        Parameters
+        ----------
+        path : path-like
+            The ``.json`` file to write (atomically: a reader never sees half a file).
+        base : str, optional
+            How :meth:`load` rebuilds the base without ``estimator=``: a registered
+            method name (``"scanline"``, ``"pretrained"``) or a checkpoint path. By
+            default the base's class name (then ``load`` needs ``estimator=``).
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        path = Path(path)
+        text = json.dumps(self.to_dict(base), indent=1)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+        try:
+            tmp.write_text(text)
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike, estimator: Any = None) -> ConformalIntervalInpainter:
+        """Read a calibration written by :meth:`save` around ``estimator``.
+
+        Parameters
+        ----------
+        path : path-like
+        estimator : fitted inpainter, optional
+            The base; by default rebuilt from the file's ``base`` with
+            :func:`inpaintenv.registry.make_method`. Its class must be the one calibrated.
+
+        Raises
+        ------
+        InvalidInputError
+            Naming the file and the key, for a file that is not such a calibration, or
+            when ``estimator``'s class differs from the one calibrated.
+        """
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise InvalidInputError(f"{path}: not a readable interval calibration ({exc})") from None
+        if not isinstance(data, dict) or data.get("format") != _FORMAT:
+            raise InvalidInputError(f"{path}: 'format' must be {_FORMAT!r}")
+        try:
+            if estimator is None:
+                from inpaintenv.registry import make_method
+
+                estimator = make_method(data["base"])
+            if type(estimator).__name__ != data["base_class"]:
+                raise InvalidInputError(f"{path}: calibrated for a {data['base_class']}, "
+                                        f"got a {type(estimator).__name__}")
+            params = data["params"]
+            out = cls(estimator, coverage=params["coverage"], signals=tuple(params["signals"]),
+                      spread_method=params["spread_method"], protocol=params["protocol"], seed=params["seed"],
+                      max_fit_pixels=params["max_fit_pixels"])
+            out._check_params()
+            out.coef_ = np.asarray(data["coef"], dtype=np.float64)
+            out.residual_quantiles_ = np.asarray(data["residual_quantiles"], dtype=np.float64)
+            out.quantile_ = float(data["quantile"])
+            out.n_calibration_pixels_ = int(data["n_pixels"])
+            out.calibration_ = dict(data["calibration"])
+        except (KeyError, TypeError) as exc:
+            raise InvalidInputError(f"{path}: missing or malformed key {exc}") from None
+        if out.coef_.shape != (1 + len(out.signals),) or out.residual_quantiles_.shape != (N_LEVELS,) \
+                or not (np.isfinite(out.coef_).all() and np.isfinite(out.residual_quantiles_).all()):
+            raise InvalidInputError(f"{path}: 'coef' must hold {1 + len(out.signals)} and 'residual_quantiles' "
+                                    f"{N_LEVELS} finite numbers")
+        return out

@@ -1,0 +1,212 @@
+"""ConformalIntervalInpainter: drive-grouped conformal intervals around a fitted inpainter."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.model_selection import GridSearchCV
+
+from estimators import ScanlineInpainter
+from estimators.base import iter_scoring_batches
+from estimators.intervals import ConformalIntervalInpainter
+from inpaintenv.data import ArrayDataset
+from inpaintenv.evaluate import evaluate
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
+
+from streets import streets
+
+H, W = 64, 96
+
+
+class FillTen:
+    """A fitted base filling every NaN with 10 m (measured pixels kept): residuals are the truth's noise."""
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return True
+
+    def predict(self, X):
+        x = np.asarray(X, dtype=np.float32)
+        return np.where(np.isnan(x), np.float32(10.0), x)
+
+
+def iid_frames(n: int, seed: int) -> np.ndarray:
+    """Exchangeable truth: every pixel 10 m plus independent noise, so split conformal is exact."""
+    rng = np.random.default_rng(seed)
+    return np.clip(10.0 + 2.0 * rng.standard_normal((n, H, W)), 0.1, None).astype(np.float32)
+
+
+def drives(n: int, prefix: str = "d") -> list[str]:
+    return [f"{prefix}{k // 2}" for k in range(n)]
+
+
+@pytest.fixture(scope="module")
+def street_wrapper() -> ConformalIntervalInpainter:
+    frames = streets(6, h=H, w=W, seed=1)
+    return ConformalIntervalInpainter(ScanlineInpainter(), spread_method="nearest").fit(frames, groups=drives(6))
+
+
+@pytest.fixture(scope="module")
+def street_input() -> np.ndarray:
+    x, _, _ = next(iter_scoring_batches(streets(3, h=H, w=W, seed=7), seed=3))
+    return x
+
+
+def test_interval_holds_prediction_positive_width_in_hole_zero_outside(street_wrapper, street_input):
+    x = street_input
+    pred = street_wrapper.predict(x)
+    low, high = street_wrapper.predict_interval(x)
+    hole = np.isnan(x)
+    assert low.shape == high.shape == x.shape
+    assert np.isfinite(low).all() and np.isfinite(high).all()
+    assert (low >= 0).all() and (low <= pred).all() and (pred <= high).all()  # never inverted, holds pred
+    assert (high[hole] - low[hole] > 0).all() and (high[hole] > 0).all()
+    np.testing.assert_array_equal(low[~hole], pred[~hole])
+    np.testing.assert_array_equal(high[~hole], pred[~hole])
+
+
+def test_single_frame_gives_single_frame_interval(street_wrapper, street_input):
+    low, high = street_wrapper.predict_interval(street_input[0])
+    low3, high3 = street_wrapper.predict_interval(street_input)
+    assert low.shape == street_input[0].shape
+    np.testing.assert_array_equal(high, high3[0])
+
+
+def test_return_std_leaves_prediction_bit_identical(street_wrapper, street_input):
+    plain = street_wrapper.predict(street_input)
+    pred, std = street_wrapper.predict(street_input, return_std=True)
+    np.testing.assert_array_equal(pred, plain)
+    np.testing.assert_array_equal(plain, ScanlineInpainter().predict(street_input))
+    hole = np.isnan(street_input)
+    assert (std[hole] > 0).all() and (std[~hole] == 0).all() and np.isfinite(std).all()
+
+
+def test_std_is_the_calibrated_interval_over_z(street_wrapper, street_input):
+    pred, std = street_wrapper.predict(street_input, return_std=True)
+    low, high = street_wrapper.predict_interval(street_input)
+    np.testing.assert_allclose(high - pred, 1.6448536269514722 * std, rtol=1e-5, atol=1e-5)
+
+
+def test_wider_coverage_is_wider(street_wrapper, street_input):
+    lo5, hi5 = street_wrapper.predict_interval(street_input, coverage=0.5)
+    lo9, hi9 = street_wrapper.predict_interval(street_input, coverage=0.9)
+    lo99, hi99 = street_wrapper.predict_interval(street_input, coverage=0.99)
+    assert (hi5 <= hi9).all() and (hi9 <= hi99).all() and (hi99 - lo99).sum() > (hi5 - lo5).sum()
+
+
+def test_coverage_near_nominal_on_exchangeable_data():
+    cal, test = iid_frames(20, seed=0), iid_frames(40, seed=1)
+    wrapper = ConformalIntervalInpainter(FillTen(), signals=("border", "depth")).fit(cal, groups=drives(20))
+    covered = total = 0
+    for x, gt, hole in iter_scoring_batches(test, seed=5):
+        low, high = wrapper.predict_interval(x)
+        scored = hole & (gt > 0)
+        covered += int(((gt >= low) & (gt <= high))[scored].sum())
+        total += int(scored.sum())
+    assert total > 30_000
+    assert abs(covered / total - 0.9) < 0.03
+    # Another coverage from the stored quantiles holds as well.
+    lo, hi = wrapper.predict_interval(x, coverage=0.5)
+    assert abs(((gt >= lo) & (gt <= hi))[scored].mean() - 0.5) < 0.06
+
+
+def test_finite_sample_quantile_is_the_ceil_order_statistic():
+    sorted_r = np.arange(1, 20, dtype=float)  # n = 19: ceil(20 * 0.9) = 18th smallest
+    assert ConformalIntervalInpainter._exact_quantile(sorted_r, 0.9) == 18.0
+    with pytest.raises(InvalidInputError, match="too few"):
+        ConformalIntervalInpainter._exact_quantile(sorted_r[:5], 0.9)
+
+
+def test_calibration_without_drive_ids_is_refused():
+    with pytest.raises(InvalidInputError, match="drive ids"):
+        ConformalIntervalInpainter(FillTen(), signals=()).fit(iid_frames(4, seed=0))
+    with pytest.raises(InvalidInputError, match="one drive id per frame"):
+        ConformalIntervalInpainter(FillTen(), signals=()).fit(iid_frames(4, seed=0), groups=["a"])
+
+
+def test_calibration_records_what_it_was_calibrated_on():
+    frames = iid_frames(4, seed=0)
+    wrapper = ConformalIntervalInpainter(FillTen(), signals=("border",)).fit(ArrayDataset(frames, groups=drives(4)))
+    cal = wrapper.calibration_
+    assert cal["drives"] == ["d0", "d1"] and cal["n_frames"] == 4 and cal["coverage"] == 0.9
+    assert cal["n_pixels"] == wrapper.n_calibration_pixels_ > 0 and cal["protocol"] == "rect-v1"
+
+
+def test_drives_the_base_was_trained_on_are_refused():
+    base = FillTen()
+    base.training_drives_ = ["d1"]
+    with pytest.raises(InvalidInputError, match=r"trained on calibration drives \['d1'\]"):
+        ConformalIntervalInpainter(base, signals=()).fit(iid_frames(4, seed=0), groups=drives(4))
+
+
+def test_spread_against_the_same_fill_is_refused():
+    with pytest.raises(InvalidInputError, match="spread_method='scanline' fills as the base does"):
+        ConformalIntervalInpainter(ScanlineInpainter()).fit(streets(2, h=H, w=W), groups=["a", "b"])
+
+
+@pytest.mark.parametrize("params, match", [
+    ({"coverage": 1.0}, "coverage"), ({"signals": ("width",)}, "signals"), ({"signals": "border"}, "signals"),
+    ({"seed": -1}, "seed"), ({"protocol": "nope"}, "nope"),
+])
+def test_bad_parameters_named(params, match):
+    with pytest.raises((InvalidInputError, InvalidTypeError, KeyError), match=match):
+        ConformalIntervalInpainter(FillTen(), **params).fit(iid_frames(2, seed=0), groups=["a", "b"])
+
+
+def test_unfitted_wrapper_refuses_intervals():
+    from sklearn.exceptions import NotFittedError
+
+    with pytest.raises(NotFittedError):
+        ConformalIntervalInpainter(FillTen()).predict_interval(iid_frames(1, seed=0))
+
+
+def test_save_load_round_trip(street_wrapper, street_input, tmp_path):
+    path = street_wrapper.save(tmp_path / "cal.json", base="scanline")
+    assert path.stat().st_size < 100_000
+    data = json.loads(path.read_text())
+    assert data["base"] == "scanline" and data["calibration"] == street_wrapper.calibration_
+    back = ConformalIntervalInpainter.load(path)  # base rebuilt from its registered name
+    assert back.get_params(deep=False).keys() == street_wrapper.get_params(deep=False).keys()
+    np.testing.assert_array_equal(back.coef_, street_wrapper.coef_)
+    for a, b in zip(back.predict_interval(street_input, 0.8), street_wrapper.predict_interval(street_input, 0.8)):
+        np.testing.assert_array_equal(a, b)
+    assert back.calibration_ == street_wrapper.calibration_
+
+
+def test_load_refuses_other_base_and_bad_files(street_wrapper, tmp_path):
+    path = street_wrapper.save(tmp_path / "cal.json")
+    with pytest.raises(InvalidInputError, match="calibrated for a ScanlineInpainter"):
+        ConformalIntervalInpainter.load(path, estimator=FillTen())
+    data = json.loads(path.read_text())
+    del data["coef"]
+    (tmp_path / "bad.json").write_text(json.dumps(data))
+    with pytest.raises(InvalidInputError, match="bad.json.*'coef'"):
+        ConformalIntervalInpainter.load(tmp_path / "bad.json", estimator=ScanlineInpainter())
+    (tmp_path / "junk.json").write_text("{")
+    with pytest.raises(InvalidInputError, match="junk.json"):
+        ConformalIntervalInpainter.load(tmp_path / "junk.json")
+
+
+def test_sklearn_clone_and_params():
+    wrapper = ConformalIntervalInpainter(ScanlineInpainter(), coverage=0.8, signals=("depth",))
+    twin = clone(wrapper)
+    assert twin.get_params(deep=False)["coverage"] == 0.8 and twin.signals == ("depth",)
+    assert "estimator__max_iter" in wrapper.get_params() or any(k.startswith("estimator__") for k in wrapper.get_params())
+    twin.set_params(coverage=0.7, signals=())
+    assert twin.coverage == 0.7 and wrapper.coverage == 0.8
+    grid = GridSearchCV(wrapper, {"coverage": [0.8, 0.9]})
+    assert clone(grid).estimator.coverage == 0.8
+
+
+def test_evaluate_scores_the_wrapper_interval(street_wrapper):
+    frames = streets(3, h=H, w=W, seed=11)
+    result = evaluate(street_wrapper, frames, intervals=0.9, progress=False, name="conformal")
+    assert all(np.isfinite(r["hole_coverage"]) and r["hole_interval_width"] > 0 for r in result.rows)
+    # The benchmark's coverage is the NumPy one on the same (protocol, seed 0, index) holes.
+    for row, (x, gt, hole) in zip(result.rows, (b for batch in iter_scoring_batches(frames, chunk=1)
+                                               for b in [tuple(a for a in batch)])):
+        low, high = street_wrapper.predict_interval(x)
+        scored = hole & (gt > 0)
+        assert row["hole_coverage"] == pytest.approx(((gt >= low) & (gt <= high))[scored].mean())
