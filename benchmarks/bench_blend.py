@@ -12,7 +12,7 @@ Examples
     python benchmarks/bench_blend.py                                   # synthetic frames
     python benchmarks/bench_blend.py --kitti-root <KITTI root> --frames 8
     python benchmarks/bench_blend.py --model runs/blend/model          # a trained folder
-    python benchmarks/bench_blend.py --name kitti-rect-v4              # any shipped release
+    python benchmarks/bench_blend.py --name kitti-ensemble-v1          # a shipped release of the blend family
 
 Times are medians over ``--frames`` frames (each predicted ``--repeat`` times, the
 fastest kept) after one warm-up call.

@@ -7,7 +7,7 @@ left-right flip average). Input is in memory, so PNG decoding is not part of the
 
 Examples
 --------
-    python benchmarks/bench_pretrained.py                      # kitti-rect-v3, synthetic frame
+    python benchmarks/bench_pretrained.py                      # kitti-mixed-v1, synthetic frame
     python benchmarks/bench_pretrained.py --kitti-root <KITTI root> --name kitti-mixed-v1
     python benchmarks/bench_pretrained.py --chunk 8192 --chunk 262144   # network chunk sizes
 
@@ -25,7 +25,10 @@ import numpy as np
 import torch
 
 import estimators.learned.nets.pixel_blend as pixel_blend
-from estimators.prior import DEFAULT_PRETRAINED, PriorUNetInpainter
+from estimators.prior import PriorUNetInpainter
+
+#: The shipped release of this class.
+DEFAULT_PRETRAINED = "kitti-mixed-v1"
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.masks import get_protocol
 

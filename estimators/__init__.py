@@ -49,13 +49,16 @@ __all__ = [
     "BlendInpainter",
     "ContextBlendInpainter",
     "MeanEnsembleInpainter",
+    "load",
+    "load_release",
 ]
 
-#: Exported lazily so that ``import estimators`` never imports torch: class -> module of
-#: :mod:`estimators.learned`.
+#: Exported lazily so that ``import estimators`` never imports torch: name -> module of
+#: :mod:`estimators.learned` (``load``: any saved model; ``load_release``: a shipped one by name).
 _NEURAL = {"UNetInpainter": "learned.neural", "AutoencoderInpainter": "learned.neural",
            "PriorUNetInpainter": "learned.prior", "BlendInpainter": "learned.blend",
-           "ContextBlendInpainter": "learned.context_blend", "MeanEnsembleInpainter": "learned.ensemble"}
+           "ContextBlendInpainter": "learned.context_blend", "MeanEnsembleInpainter": "learned.ensemble",
+           "load": "learned.load", "load_release": "learned.releases"}
 
 
 def __getattr__(name: str):

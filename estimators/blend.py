@@ -1,4 +1,4 @@
-"""``BlendInpainter``, the default learned release.
+"""``BlendInpainter``, the learned per-pixel blend of classical fills.
 
 A thin re-export of :mod:`estimators.learned.blend`, kept as the import path the docs
 show (and that benchmark run folders and pickles record); the code lives in
@@ -8,16 +8,12 @@ show (and that benchmark run folders and pickles record); the code lives in
 from .learned import blend as _module
 from .learned.blend import (
     BLEND_CANDIDATES,
-    DEFAULT_BLEND,
     BlendInpainter,
-    pretrained_blend,
 )
 
 __all__ = [
     "BLEND_CANDIDATES",
-    "DEFAULT_BLEND",
     "BlendInpainter",
-    "pretrained_blend",
 ]
 
 # The module's other names too, private ones included, as before the move to learned/

@@ -7,15 +7,11 @@ lives in ``estimators/learned/``.
 
 from .learned import context_blend as _module
 from .learned.context_blend import (
-    DEFAULT_CONTEXT_BLEND,
     ContextBlendInpainter,
-    pretrained_context_blend,
 )
 
 __all__ = [
-    "DEFAULT_CONTEXT_BLEND",
     "ContextBlendInpainter",
-    "pretrained_context_blend",
 ]
 
 # The module's other names too, private ones included, as before the move to learned/

@@ -5,9 +5,7 @@ A thin re-export of :mod:`estimators.learned.ensemble`, the import path the docs
 """
 
 from .learned.ensemble import (
-    DEFAULT_ENSEMBLE,
     MeanEnsembleInpainter,
-    pretrained_ensemble,
 )
 
-__all__ = ["DEFAULT_ENSEMBLE", "MeanEnsembleInpainter", "pretrained_ensemble"]
+__all__ = ["MeanEnsembleInpainter"]

@@ -1,4 +1,4 @@
-"""``PriorUNetInpainter`` and its shipped releases.
+"""``PriorUNetInpainter``, the networks over classical candidate fills.
 
 A thin re-export of :mod:`estimators.learned.prior`, kept as the import path the docs
 show (and that benchmark run folders and pickles record); the code lives in
@@ -8,20 +8,12 @@ show (and that benchmark run folders and pickles record); the code lives in
 from .learned import prior as _module
 from .learned.prior import (
     ARCHS,
-    DEFAULT_PRETRAINED,
-    PRETRAINED_DIR,
     PriorUNetInpainter,
-    available_pretrained,
-    pretrained_kitti,
 )
 
 __all__ = [
     "ARCHS",
-    "DEFAULT_PRETRAINED",
-    "PRETRAINED_DIR",
     "PriorUNetInpainter",
-    "available_pretrained",
-    "pretrained_kitti",
 ]
 
 # The module's other names too, private ones included, as before the move to learned/

@@ -19,7 +19,7 @@
 # classical" with its paired 95 % interval; rows land in OUT/bench-<fold>/results.json
 # (experiments/pooled_headline.py pools a fold's drives). Rerunning resumes.
 # TRAIN_FLAGS adds options to every `inpaintenv train` (e.g. "--threads 1 --jobs 1" beside
-# other work); BENCH_FLAGS to every `inpaintenv benchmark` (e.g. "-m kitti-rect-v4").
+# other work); BENCH_FLAGS to every `inpaintenv benchmark` (e.g. "-m kitti-mixed-v1").
 # TRAIN_JOBS=N trains the folds' models N at a time (separate processes) before any benchmark
 # runs, e.g. TRAIN_JOBS=2 TRAIN_FLAGS="--threads 1 --jobs 1" on 2 cores; default 1, in turn.
 # SUITE names the benchmark suite (default classical); SUITE= (empty) scores only the

@@ -26,12 +26,14 @@ import sys
 from dataclasses import dataclass, field
 from typing import Any
 
-from .exceptions import MissingDependencyError
+from .exceptions import MissingDependencyError, UnknownNameError
 
 __all__ = [
     "LEARNED_DEPENDENCIES",
     "LEARNED_INSTALL",
+    "DEFAULT_RELEASE",
     "PRETRAINED_RELEASES",
+    "REMOVED_RELEASES",
     "MethodSpec",
     "MissingExtraError",
     "available_aliases",
@@ -44,7 +46,9 @@ __all__ = [
     "missing_extra_error",
     "register_alias",
     "register_method",
+    "register_removed",
     "require_learned",
+    "shipped_releases",
     "resolve_class",
     "unfilled_policy",
 ]
@@ -100,6 +104,8 @@ class MissingExtraError(MissingDependencyError):
 _METHODS: dict[str, MethodSpec] = {}
 #: alias -> canonical name (old names kept working after a method was renamed).
 _ALIASES: dict[str, str] = {}
+#: former name -> the one-line error naming it gives (what to use instead).
+_REMOVED: dict[str, str] = {}
 
 
 def _check_name(name: str) -> None:
@@ -181,6 +187,8 @@ def get_spec(name: str) -> MethodSpec:
     name = canonical_name(name)
     if name in _METHODS:
         return _METHODS[name]
+    if name in _REMOVED:
+        raise UnknownNameError(_REMOVED[name])
     if ":" in name:
         module, _, cls = name.partition(":")
         if module and cls:
@@ -357,47 +365,74 @@ for _name, _cls, _kw, _desc in [
 ]:
     register_method(_name, _CLASSICAL, _cls, _kw, _desc, unfilled="zero" if _kw.get("fill") == "hole" else "error")
 
-# The shipped learned models (need the [learned] extra): small per-pixel MLPs that blend classical
-# fills, so their names say "blend". Factories, not classes: they load the weights.
-# See docs/model_card.md.
+# The shipped learned releases (need the [learned] extra), each registered under its own
+# name from its own JSON in estimators/pretrained/ (found without importing estimators).
+# One factory loads any of them: estimators.learned.releases.load_release.
+_RELEASES_MODULE = "estimators.learned.releases"
+#: The release ``pretrained`` loads (estimators.learned.releases.DEFAULT_RELEASE; checked by tests).
+DEFAULT_RELEASE = "kitti-ensemble-v1"
+#: The releases that left the package (the git tag releases-0.1 holds their weights and cards).
+REMOVED_RELEASES = ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3", "kitti-rect-v4",
+                     "kitti-context-v1", "kitti-context-v2", "kitti-context-v3")
+
+
+def _release_dir() -> Any:
+    """``estimators/pretrained``: ``estimators`` lies beside this package (in the repository and
+    in an installed wheel alike), so no import is needed to find it."""
+    from pathlib import Path
+
+    return Path(__file__).resolve().parents[1] / "estimators/pretrained"
+
+
+def shipped_releases() -> dict[str, str]:
+    """Every complete shipped release (weights and JSON present) and the class its JSON records."""
+    import json
+
+    folder = _release_dir()
+    if not folder.is_dir():
+        return {}
+    out = {}
+    for path in sorted(folder.glob("*.json")):
+        if path.with_suffix(".safetensors").is_file():
+            try:
+                out[path.stem] = str(json.loads(path.read_text(encoding="utf-8")).get("class"))
+            except (OSError, ValueError):
+                continue  # a broken release is refused with its own error when it is loaded
+    return out
+
+
+def register_removed(name: str, message: str) -> None:
+    """Make ``name`` a former method name: naming it raises one :class:`UnknownNameError` with ``message``."""
+    _check_name(name)
+    _REMOVED[name] = message
+
+
 register_method(
-    "pretrained", "estimators.learned.releases", "load_release", {},
-    "the default learned release, whatever its family (estimators.learned.releases.DEFAULT_RELEASE = kitti-ensemble-v1: "
-    "the per-pixel mean of kitti-context-v3's recipe and kitti-rect-v4's, one set of candidate fills for both), "
-    "trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
+    "pretrained", _RELEASES_MODULE, "load_release", {},
+    f"the default learned release ({DEFAULT_RELEASE}: the per-pixel mean of a context blend and a per-pixel "
+    "blend of classical fills, one set of candidate fills for both), trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
 )
-register_method(
-    "blend-pretrained-mixed", "estimators.learned.prior", "pretrained_kitti", {"name": "kitti-mixed-v1"},
-    "the learned blend of kitti-rect-v3 trained on all four occlusion protocols (mixed-v1; CC BY-NC-SA 3.0)",
-)
-# Former names of the default: the default is a learned blend (not a U-Net); old
-# commands keep working and load whatever the default is now.
+for _release, _class in shipped_releases().items():
+    register_method(_release, _RELEASES_MODULE, "load_release", {"name": _release},
+                    f"the shipped release {_release} ({_class}; docs/model_cards/{_release}.md; CC BY-NC-SA 3.0)")
+PRETRAINED_RELEASES: tuple[str, ...] = tuple(shipped_releases())
+# The default is a mean of two learned blends of classical fills: "blend" names it.
 register_alias("blend-pretrained", "pretrained")
-register_alias("unet-pretrained", "pretrained")
-register_alias("unet-pretrained-mixed", "blend-pretrained-mixed")
-
-# Every shipped release under its own name -> the module whose factory loads it, so that
-# older results stay re-runnable after the default moves on (``blend-pretrained`` is
-# whichever release is current).
-_RELEASE_LOADERS: dict[str, tuple[str, str]] = {
-    "kitti-rect-v1": ("estimators.learned.prior", "pretrained_kitti"),
-    "kitti-rect-v2": ("estimators.learned.prior", "pretrained_kitti"),
-    "kitti-rect-v3": ("estimators.learned.prior", "pretrained_kitti"),
-    "kitti-mixed-v1": ("estimators.learned.prior", "pretrained_kitti"),
-    "kitti-rect-v4": ("estimators.learned.blend", "pretrained_blend"),
-    "kitti-context-v1": ("estimators.learned.context_blend", "pretrained_context_blend"),
-    "kitti-context-v2": ("estimators.learned.context_blend", "pretrained_context_blend"),
-    "kitti-context-v3": ("estimators.learned.context_blend", "pretrained_context_blend"),
-    "kitti-ensemble-v1": ("estimators.learned.ensemble", "pretrained_ensemble"),
-}
-PRETRAINED_RELEASES: tuple[str, ...] = tuple(_RELEASE_LOADERS)
-for _release, (_module, _factory) in _RELEASE_LOADERS.items():
-    register_method(
-        _release, _module, _factory, {"name": _release},
-        f"the shipped release {_release} of the learned blend (docs/model_card.md; CC BY-NC-SA 3.0)",
-    )
+if "kitti-mixed-v1" in _METHODS:
+    register_method("blend-pretrained-mixed", _RELEASES_MODULE, "load_release", {"name": "kitti-mixed-v1"},
+                    "kitti-mixed-v1: the per-pixel learned blend trained on all four occlusion protocols "
+                    "(mixed-v1; CC BY-NC-SA 3.0)")
+# Names that loaded something else than they said (no U-Net in either), and the releases that
+# left the package (their weights and cards are in git under the tag releases-0.1).
+register_removed("unet-pretrained", "method 'unet-pretrained' was removed: it loaded an ensemble of learned "
+                 "blends, not a U-Net; use 'pretrained'")
+register_removed("unet-pretrained-mixed", "method 'unet-pretrained-mixed' was removed: it loaded a learned blend, "
+                 "not a U-Net; use 'blend-pretrained-mixed'")
+for _release in REMOVED_RELEASES:
+    register_removed(_release, f"release {_release!r} is no longer shipped (its weights are in the project's git "
+                     "history, tag releases-0.1); use 'pretrained' or one of: " + ", ".join(PRETRAINED_RELEASES))
 
 register_method(
-    "checkpoint", "estimators.learned.load", "load_checkpoint", {},
+    "checkpoint", "estimators.learned.load", "load", {},
     "a saved neural model: make_method('checkpoint', path=...)",
 )

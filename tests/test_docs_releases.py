@@ -1,5 +1,6 @@
-"""The docs name releases that exist, say which release each registered name loads, and
-speak to users, not to the issue tracker (issue 24, item 7)."""
+"""The docs name releases that exist (or existed: history), never offer a removed release as
+loadable, say which release each registered name loads, and speak to users, not to the issue
+tracker."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import pytest
 
 from inpaintenv.registry import (
     PRETRAINED_RELEASES,
+    REMOVED_RELEASES,
     available_aliases,
     get_spec,
     resolve_class,
@@ -22,6 +24,9 @@ DOCS = ["README.md", "CHANGELOG.md", *sorted(str(p.relative_to(ROOT)) for p in (
 RELEASE = re.compile(r"\bkitti-[a-z]+-v\d+\b")
 #: "`blend-pretrained` (`kitti-rect-v4`)": a registered name and, in brackets, what it loads.
 PAIRED = re.compile(r"`(?P<name>[a-z][\w-]*)`(?: \(alias `[\w-]+`\))?,? \(`(?P<release>kitti-[a-z]+-v\d+)`\)")
+#: A removed release offered as loadable: a method name, a loader's argument, a ``--name``.
+LOADABLE = re.compile(r"(?:-m |--learned |--name |pretrained\(\"|load_release\(\"|make_method\(\")"
+                      r"(?P<release>kitti-[a-z]+-v\d+)")
 ISSUE = re.compile(r"\bissues? ?#?\d+", re.IGNORECASE)
 
 
@@ -41,8 +46,15 @@ def release_loaded_by(name: str) -> str | None:
 
 @pytest.mark.parametrize("name", DOCS)
 def test_release_names_in_the_docs_are_registered(name):
-    unknown = sorted(set(RELEASE.findall(text(name))) - set(PRETRAINED_RELEASES))
+    unknown = sorted(set(RELEASE.findall(text(name))) - set(PRETRAINED_RELEASES) - set(REMOVED_RELEASES))
     assert not unknown, f"{name} names releases the registry does not have: {unknown} (it has {PRETRAINED_RELEASES})"
+
+
+@pytest.mark.parametrize("name", [d for d in DOCS if d != "CHANGELOG.md"])
+def test_removed_releases_are_not_offered_as_loadable(name):
+    """A release that left the package is history: no command or call in the docs loads it."""
+    offered = sorted({m["release"] for m in LOADABLE.finditer(text(name))} & set(REMOVED_RELEASES))
+    assert not offered, f"{name} loads releases that are no longer shipped: {offered} (shipped: {PRETRAINED_RELEASES})"
 
 
 def test_docs_say_which_release_each_name_loads():
@@ -85,6 +97,8 @@ def test_user_docs_do_not_cite_internal_issue_numbers(name):
 def test_the_checks_catch_stale_names():
     assert PAIRED.search("the default, `blend-pretrained` (`kitti-rect-v3`), and")["release"] == "kitti-rect-v3"
     assert PAIRED.search("`blend-pretrained` (alias `unet-pretrained`) (`kitti-rect-v3`)") is not None
+    assert LOADABLE.search('-m kitti-rect-v4 -m scanline')["release"] == "kitti-rect-v4"
+    assert LOADABLE.search('BlendInpainter.pretrained("kitti-rect-v4")') and not LOADABLE.search("kitti-rect-v4's recipe")
     assert ISSUE.search("the natural next step (issue 8).") and ISSUE.search("see issues #12")
     assert not ISSUE.search("issues/ tracker") and RELEASE.findall("kitti-rect-v9 and kitti-mixed-v1") == [
         "kitti-rect-v9", "kitti-mixed-v1"]

@@ -92,9 +92,9 @@ def test_evaluate_takes_checkpoint_name_path(tmp_path, capsys):
 
 
 def test_check_helpers():
-    assert check_method_names(["unet-pretrained", "scanline"]) == ["pretrained", "scanline"]
+    assert check_method_names(["blend-pretrained", "scanline"]) == ["pretrained", "scanline"]
     with pytest.raises(ValueError, match="given twice"):
-        check_method_names(["blend-pretrained", "unet-pretrained"])
+        check_method_names(["blend-pretrained", "pretrained"])
     with pytest.raises(ValueError, match="NAME=PATH"):
         parse_checkpoints(["mine"])
 

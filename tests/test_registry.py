@@ -63,52 +63,70 @@ def test_overrides_and_bad_override():
 
 
 def test_every_shipped_release_has_its_own_method_name():
-    """Older results stay re-runnable: each file in estimators/pretrained is a method."""
+    """Each release in estimators/pretrained is a method, registered from its own JSON."""
     pytest.importorskip("torch")
-    from estimators.blend import DEFAULT_BLEND, PRETRAINED_DIR
+    from estimators.learned._checkpoint import PRETRAINED_DIR
+    from estimators.learned.releases import DEFAULT_RELEASE
 
+    from inpaintenv.registry import DEFAULT_RELEASE as REGISTRY_DEFAULT
     from inpaintenv.registry import PRETRAINED_RELEASES
 
     shipped = {p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file()}
-    assert set(PRETRAINED_RELEASES) == shipped
-    est = make_method("kitti-rect-v1")
-    assert est.get_params()["relative"] is False  # v1 predates the scale-free blend
-    for name in PRETRAINED_RELEASES:  # each loads as the class its JSON names
+    assert set(PRETRAINED_RELEASES) == shipped == {"kitti-ensemble-v1", "kitti-mixed-v1"}
+    for name in PRETRAINED_RELEASES:  # each loads as the class its JSON names, through the one factory
+        assert get_spec(name).cls == "load_release" and get_spec(name).kwargs == {"name": name}
         assert type(make_method(name)).__name__ == json.loads((PRETRAINED_DIR / f"{name}.json").read_text())["class"]
-    from estimators.learned.releases import DEFAULT_RELEASE
-
-    assert DEFAULT_BLEND in PRETRAINED_RELEASES  # the former default stays loadable by name
-    for name in ("pretrained", "blend-pretrained", "unet-pretrained"):
+    assert REGISTRY_DEFAULT == DEFAULT_RELEASE == "kitti-ensemble-v1"
+    for name in ("pretrained", "blend-pretrained"):
         assert param_values(make_method(DEFAULT_RELEASE)) == param_values(make_method(name))
+
+
+def test_a_release_added_to_the_folder_is_registered(tmp_path, monkeypatch):
+    """No hand-kept list: the registry reads the release folder."""
+    from inpaintenv import registry
+
+    for name in ("kitti-mixed-v1", "kitti-new-v9"):
+        (tmp_path / f"{name}.json").write_text(json.dumps({"class": "PriorUNetInpainter"}))
+        (tmp_path / f"{name}.safetensors").write_bytes(b"")
+    (tmp_path / "half-v1.json").write_text("{}")  # no weights beside it: not a release
+    monkeypatch.setattr(registry, "_release_dir", lambda: tmp_path)
+    assert registry.shipped_releases() == {"kitti-mixed-v1": "PriorUNetInpainter", "kitti-new-v9": "PriorUNetInpainter"}
 
 
 def test_aliases_resolve_to_the_canonical_name():
     from inpaintenv.registry import available_aliases, canonical_name, register_alias
 
-    assert available_aliases()["unet-pretrained"] == "pretrained"
     assert available_aliases()["blend-pretrained"] == "pretrained"
-    assert available_aliases()["unet-pretrained-mixed"] == "blend-pretrained-mixed"
-    assert "unet-pretrained" not in available_methods() and "pretrained" in available_methods()
-    assert get_spec("unet-pretrained") is get_spec("blend-pretrained") is get_spec("pretrained")
-    assert get_spec("unet-pretrained-mixed").kwargs == {"name": "kitti-mixed-v1"}
-    assert canonical_name("unet-pretrained") == "pretrained" and canonical_name("telea") == "telea"
+    assert "pretrained" in available_methods() and "blend-pretrained-mixed" in available_methods()
+    assert get_spec("blend-pretrained") is get_spec("pretrained")
+    assert get_spec("blend-pretrained-mixed").kwargs == {"name": "kitti-mixed-v1"}
+    assert canonical_name("blend-pretrained") == "pretrained" and canonical_name("telea") == "telea"
     with pytest.raises(ValueError, match="already"):
         register_alias("telea", "ns")
     with pytest.raises(KeyError, match="no method"):
         register_alias("new-name", "not-a-method")
 
 
+@pytest.mark.parametrize(("name", "instead"), [("unet-pretrained", "'pretrained'"),
+                                               ("unet-pretrained-mixed", "'blend-pretrained-mixed'"),
+                                               ("kitti-rect-v4", "releases-0.1"),
+                                               ("kitti-context-v3", "releases-0.1")])
+def test_removed_names_say_what_to_use(name, instead):
+    """A name that loaded something else than it said (no U-Net), or a release that left the
+    package, is one error naming what to use instead."""
+    from inpaintenv.exceptions import UnknownNameError
+
+    assert name not in available_methods()
+    with pytest.raises(UnknownNameError, match=instead) as info:
+        get_spec(name)
+    assert "\n" not in str(info.value) and name in str(info.value)
+
+
 def test_suites_use_canonical_names():
     from inpaintenv.benchmark.suites import SUITES
 
     assert set(available_methods()) >= {n for names in SUITES.values() for n in names}
-    assert "pretrained" in SUITES["default"] and "unet-pretrained" not in SUITES["default"]
-
-
-def test_old_name_still_builds_the_shipped_blend():
-    pytest.importorskip("torch")
-    assert param_values(make_method("unet-pretrained")) == param_values(make_method("pretrained"))
-    assert param_values(make_method("blend-pretrained")) == param_values(make_method("pretrained"))
+    assert "pretrained" in SUITES["default"] and "blend-pretrained" not in SUITES["default"]
 
 
 def test_info_lists_aliases(capsys):
@@ -116,7 +134,7 @@ def test_info_lists_aliases(capsys):
 
     assert main(["info", "--n-frames", "2", "--frame-shape", "32", "96", "--sample", "1"]) == 0
     out = capsys.readouterr().out
-    assert "unet-pretrained -> pretrained" in out
+    assert "blend-pretrained -> pretrained" in out
 
 
 _USER_MODULE = '''

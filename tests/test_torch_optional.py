@@ -98,7 +98,7 @@ def test_default_suite_scores_classical_and_says_learned_left_out(tmp_path):
 
 @pytest.mark.parametrize("argv", [
     ["benchmark", *SYNTHETIC, "--out", "run", "-m", "pretrained"],
-    ["benchmark", *SYNTHETIC, "--out", "run", "--suite", "study", "-m", "kitti-rect-v4"],
+    ["benchmark", *SYNTHETIC, "--out", "run", "--suite", "study", "-m", "kitti-mixed-v1"],
     ["evaluate", *SYNTHETIC[:6], "--out", "run", "-m", "blend-pretrained"],
     ["fill", "frame.npy", "--out", "run", "-m", "pretrained"],
     ["train", "--list"],

@@ -1,35 +1,63 @@
-"""The learned inpainters (PyTorch), beside :mod:`estimators.classical`.
+"""The learned inpainters (PyTorch), beside :mod:`estimators.classical`: every public name here.
 
-==================  ====================================================================
-module              what it holds
-==================  ====================================================================
-``neural``          ``UNetInpainter``, ``AutoencoderInpainter``: the study's networks
-``prior``           ``PriorUNetInpainter``: networks over classical candidate fills
-                    (releases ``kitti-rect-v1``..``v3``, ``kitti-mixed-v1``)
-``blend``           ``BlendInpainter``: the per-pixel blend trained on pooled pixels
-                    (release ``kitti-rect-v4``)
-``context_blend``   ``ContextBlendInpainter``: the blend plus a low-resolution scene context
-                    (releases ``kitti-context-v1``..``v3``)
-``ensemble``        ``MeanEnsembleInpainter``: the per-pixel mean of several learned
-                    inpainters, sharing the blend family's features
-``load``            ``load_checkpoint``: any saved model, its class read from the files
-``presets``         the named training recipes of ``inpaintenv train``
-``distributed``     multi-process training (``torchrun -m estimators.distributed``)
-``nets/``           plain ``torch.nn.Module`` networks
-``losses``          the study's loss
-``_neural_params``  parameter checks of the step-trained networks
-``_training``       their training loop, threads, determinism
-``_checkpoint``     the checkpoint format: atomic writes, checksums, shipped releases
-==================  ====================================================================
+>>> from estimators import load                                          # doctest: +SKIP
+>>> from estimators.learned import MeanEnsembleInpainter, load_release
+>>> est = load_release()                      # the default release, DEFAULT_RELEASE
+>>> est.save("my-model"); same = load("my-model")
 
-Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_training`` ->
-``_neural_params`` -> ``neural`` -> ``prior`` / ``blend`` -> ``context_blend`` -> ``ensemble`` -> ``load``,
-``presets`` -> ``distributed``. Classical candidate fills come from
-:mod:`estimators.priors` (no torch). No module here imports this package face or
-``estimators``' face.
+=====================  ===============================================================
+name                   what it is
+=====================  ===============================================================
+``UNetInpainter``,     the study's networks
+``AutoencoderInpainter``
+``PriorUNetInpainter``  networks over classical candidate fills (release ``kitti-mixed-v1``)
+``BlendInpainter``     the per-pixel blend trained on pooled pixels
+``ContextBlendInpainter``  the blend plus a low-resolution scene context
+``MeanEnsembleInpainter``  the per-pixel mean of several learned inpainters (release
+                       ``kitti-ensemble-v1``, the default)
+``load`` (in           any saved model, its class read from its ``config.json``
+``estimators``)
+``load_release``       a shipped release by name; ``DEFAULT_RELEASE``, ``shipped``
+``CheckpointError``    a checkpoint that cannot be read
+=====================  ===============================================================
 
-The public import paths are ``estimators`` (every class, lazily) and the thin
-re-exports ``estimators.neural``, ``estimators.prior``, ``estimators.blend``,
-``estimators.context_blend``, ``estimators.ensemble``, ``estimators.presets`` and ``estimators.distributed`` that the docs and saved run
-folders name; this face imports nothing, so importing one family does not load the others.
+Every class saves and loads through one mixin (``_persistence``: ``save``, ``load``,
+``pretrained``, per-class ``_config`` / ``_from_config`` hooks) over one file format
+(``_checkpoint``). The training recipes are in :mod:`estimators.learned.presets`;
+multi-process training is ``torchrun -m estimators.distributed``.
+
+Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
+-> ``_neural_params`` -> ``neural`` -> ``prior`` / ``blend`` -> ``context_blend`` ->
+``ensemble`` -> ``load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
+fills come from :mod:`estimators.priors` (no torch). No module here imports this package
+face or ``estimators``' face; this face imports a module only when one of its names is
+first used, so importing one family does not load the others. (The function ``load``
+is exported by ``estimators``: here the name is the module ``load``.)
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: Public name -> the private module of this package that defines it.
+_EXPORTS: dict[str, str] = {
+    "UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior",
+    "BlendInpainter": "blend", "ContextBlendInpainter": "context_blend", "MeanEnsembleInpainter": "ensemble",
+    "load_checkpoint": "load", "load_release": "releases", "DEFAULT_RELEASE": "releases",
+    "shipped": "releases", "CheckpointError": "_checkpoint",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

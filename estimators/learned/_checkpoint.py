@@ -23,8 +23,9 @@ the run), and refuses weights without a recorded checksum, weights that are not 
 point or not finite, and config entries of the wrong type, each with one
 :class:`CheckpointError` naming the file and the key or tensor.
 
-:class:`CheckpointMixin` gives the neural inpainters ``save`` / ``load`` on top of these
-files; :data:`CLASSES` maps the class name a checkpoint records to its class.
+:mod:`~estimators.learned._persistence` gives every learned estimator ``save`` / ``load``
+on top of these files; :data:`CLASSES` maps the class name a checkpoint records to its
+class. The shipped releases are such files under flat names in :data:`PRETRAINED_DIR`.
 """
 
 from __future__ import annotations
@@ -56,11 +57,11 @@ __all__ = [
     "config_value",
     "load_weights",
     "flatten_optimizer_state",
-    "load_shipped",
     "read_checkpoint",
+    "read_model",
     "read_run_state",
     "release_folder",
-    "shipped_releases",
+    "shipped",
     "unflatten_optimizer_state",
     "write_checkpoint",
     "write_run_checkpoint",
@@ -296,39 +297,16 @@ def write_run_checkpoint(
 #: Folder of the shipped releases: ``NAME.safetensors`` + ``NAME.json`` (a checkpoint's
 #: two files under flat names).
 PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "pretrained"
+#: The release ``-m pretrained`` loads: the default learned method (docs/model_card.md).
+DEFAULT_RELEASE = "kitti-ensemble-v1"
 
 
-def shipped_releases(class_name: str, directory: Path = PRETRAINED_DIR) -> list[str]:
-    """Names of the complete releases in ``directory`` whose config records ``class_name``."""
+def shipped(directory: Path = PRETRAINED_DIR) -> dict[str, str]:
+    """Every complete release in ``directory`` (both files present) and the class its JSON records."""
     if not directory.is_dir():
-        return []
-    return sorted(p.stem for p in directory.glob("*.json") if p.with_suffix(".safetensors").is_file()
-                  and json.loads(p.read_text()).get("class") == class_name)
-
-
-def load_shipped(cls: type, name: Any, directory: Path = PRETRAINED_DIR) -> Any:
-    """Release ``name`` of class ``cls`` (its ``load`` reads the release's two files).
-
-    Raises
-    ------
-    KeyError
-        No complete release of that class under ``name`` (the message lists them).
-    """
-    shipped = shipped_releases(cls.__name__, directory)
-    if not isinstance(name, str) or name not in shipped:
-        raise KeyError(f"no pretrained {cls.__name__} {name!r}; shipped: {shipped}")
-    with release_folder(name, directory) as folder:
-        return cls.load(folder)
-
-
-#: The training drives of the releases shipped before their JSON recorded them (from their
-#: model cards' training commands: v1-v3 and mixed-v1 the first 56 frames of 9001, v4 9001
-#: and 9004). Every model saved since records ``training_drives`` itself.
-SHIPPED_TRAINING_DRIVES: dict[str, list[str]] = {
-    **{name: ["2011_09_26_drive_9001_sync"] for name in ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3",
-                                                          "kitti-mixed-v1")},
-    "kitti-rect-v4": ["2011_09_26_drive_9001_sync", "2011_09_26_drive_9004_sync"],
-}
+        return {}
+    return {p.stem: str(_read_json(p).get("class")) for p in sorted(directory.glob("*.json"))
+            if p.with_suffix(".safetensors").is_file()}
 
 
 def provenance(est: Any) -> dict[str, Any]:
@@ -349,24 +327,38 @@ def restore_provenance(est: Any, config: dict[str, Any]) -> None:
 
 
 @contextmanager
-def release_folder(name: str, directory: Path = PRETRAINED_DIR) -> Iterator[Path]:
-    """A temporary checkpoint folder holding release ``name``'s two files.
+def release_folder(name: Any, directory: Path = PRETRAINED_DIR) -> Iterator[Path]:
+    """A temporary checkpoint folder holding release ``name``'s two files, as shipped.
 
     The shipped pair is a checkpoint's files under flat names; copied (they are small)
     into one folder, they are read by the same checksum-verifying loader as any checkpoint.
-    A release JSON without ``training_drives`` gets them from :data:`SHIPPED_TRAINING_DRIVES`.
+
+    Raises
+    ------
+    KeyError
+        No complete release of that name in ``directory`` (the message lists them).
     """
+    releases = shipped(directory)
+    if not isinstance(name, str) or name not in releases:
+        raise KeyError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
     with tempfile.TemporaryDirectory() as tmp:
         for suffix, target in ((".safetensors", MODEL_FILE), (".json", CONFIG_FILE)):
             shutil.copyfile(directory / f"{name}{suffix}", Path(tmp) / target)
-        config = json.loads((Path(tmp) / CONFIG_FILE).read_text())
-        if config.get("training_drives") is None and name in SHIPPED_TRAINING_DRIVES:
-            config["training_drives"] = SHIPPED_TRAINING_DRIVES[name]
-            (Path(tmp) / CONFIG_FILE).write_text(json.dumps(config))
         yield Path(tmp)
 
 
-#: Neural estimator classes by the name a checkpoint's ``config.json`` records.
+def read_model(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch.Tensor], Path]:
+    """The config and checked weights of a model folder, or of a run folder's best (else last)
+    checkpoint, and the folder they were read from."""
+    path = Path(path)
+    state = read_run_state(path) if path.is_dir() else None
+    if state is not None:
+        path = path / (state.get("best") or state["last"])
+    config, weights, _, _ = read_checkpoint(path)
+    return config, weights, path
+
+
+#: Learned estimator classes by the name a checkpoint's ``config.json`` records.
 CLASSES: dict[str, type] = {}
 
 
@@ -374,10 +366,53 @@ def checkpoint_class(name: Any) -> type | None:
     """The estimator class a checkpoint names, or None if no such class is registered.
 
     Each learned family registers its classes in :data:`CLASSES` when its module is
-    imported; :func:`estimators.learned.load.load_checkpoint` imports every family first,
-    so this module never imports a family (or the package face) to find one.
+    imported; :func:`estimators.learned.load.load` imports every family first, so this
+    module never imports a family (or the package face) to find one.
     """
     return CLASSES.get(name) if isinstance(name, str) else None
+
+
+def recorded_class(config: dict[str, Any], where: Any) -> type:
+    """The registered class ``config`` records.
+
+    Raises
+    ------
+    CheckpointError
+        No class, or one this version does not know.
+    """
+    klass = checkpoint_class(config.get("class"))
+    if klass is None or not hasattr(klass, "_from_config"):
+        raise CheckpointError(f"{where} holds a {config.get('class')!r}, which this version cannot load "
+                              f"(known: {sorted(CLASSES)})")
+    return klass
+
+
+def from_checked(klass: type, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
+    """``klass._from_config`` of a checkpoint's config and weights, with its provenance, marked fitted."""
+    est = klass._from_config(config, weights, where)
+    restore_provenance(est, config)
+    est.is_fitted_ = True
+    return est
+
+
+def with_overrides(est: Any, name: str, overrides: dict[str, Any]) -> Any:
+    """``est`` (release ``name``) with prediction-time ``overrides`` set and checked against its weights.
+
+    Raises
+    ------
+    ValueError
+        An override of a parameter the weights depend on, or one the estimator does not have.
+    """
+    if not overrides:
+        return est
+    est.set_params(**overrides)
+    check = getattr(est, "_check_model_params", None)
+    if callable(check):
+        check()
+    for member in getattr(est, "estimators_", []):  # an ensemble's fitted members follow member__param
+        if callable(getattr(member, "_check_model_params", None)):
+            member._check_model_params()
+    return est
 
 
 def cpu_state(model: torch.nn.Module, clone: bool = False) -> dict[str, torch.Tensor]:
@@ -389,79 +424,3 @@ def cpu_state(model: torch.nn.Module, clone: bool = False) -> dict[str, torch.Te
 def progress_history(fitted: dict[str, Any]) -> dict[str, Any]:
     """History stored in a training-run checkpoint summary (or an empty one)."""
     return fitted.get("history") or {"step_loss": [], "epoch_loss": [], "val_hole_rmse": [], "best_epoch": None}
-
-
-class CheckpointMixin:
-    """``save`` and ``load`` of a neural inpainter: parameters and fitted state as JSON,
-    weights as safetensors (the file format is above)."""
-
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write the fitted model to the directory ``path`` (safetensors + JSON).
-
-        Returns
-        -------
-        pathlib.Path
-            The checkpoint directory; read it back with :meth:`load`.
-        """
-        if not hasattr(self, "model_"):
-            from sklearn.exceptions import NotFittedError
-
-            raise NotFittedError(f"this {type(self).__name__} is not fitted; nothing to save")
-        # The config is written from the current parameters: they must still describe the weights.
-        self._check_model_params()
-        config = {
-            "class": type(self).__name__,
-            "params": self._config_params(),
-            "seed": getattr(self, "seed_", None),
-            "fitted": {"n_steps_": getattr(self, "n_steps_", 0), "history_": getattr(self, "history_", None)},
-            **provenance(self),
-        }
-        return write_checkpoint(path, config, cpu_state(self.model_))
-
-    @classmethod
-    def load(cls, path: str | os.PathLike) -> Any:
-        """Load a model written by :meth:`save`, or the best (else last) model of a run dir.
-
-        Raises
-        ------
-        CheckpointError
-            If the checkpoint is missing, truncated, corrupt, tampered with (see the module
-            notes) or of another class.
-        """
-        path = Path(path)
-        state = read_run_state(path) if path.is_dir() else None
-        if state is not None:
-            path = path / (state.get("best") or state["last"])
-        config, weights, _, _ = read_checkpoint(path)
-        return cls.from_config(config, weights, path)
-
-    @classmethod
-    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
-        """The model a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory.
-
-        ``where`` names the checkpoint in errors (a folder, or an ensemble's member).
-        """
-        klass = checkpoint_class(config.get("class"))
-        if klass is None or not issubclass(klass, cls):
-            raise CheckpointError(f"{where} holds a {config.get('class')!r}, not a {cls.__name__}")
-        if klass is not cls:  # the recorded class's own reading (PriorUNetInpainter's tuples)
-            return klass.from_config(config, weights, where)
-        params = dict(config_value(config, "params", dict, where))
-        if params.get("crop") is not None:
-            params["crop"] = tuple(config_value(params, "crop", list, where))
-        if isinstance(params.get("warm_start"), str) and params["warm_start"].startswith("<"):
-            params["warm_start"] = None  # an in-memory estimator cannot be restored; weights are
-        fitted = config_value(config, "fitted", dict, where, default={})
-        n_steps = config_value(fitted, "n_steps_", int, where,
-                               default=config_value(fitted, "step", int, where, default=0))
-        history = config_value(fitted, "history_", dict, where, default=None)
-        seed = config_value(config, "seed", int, where, default=None)
-        est = build_checked(klass, params, where)
-        est.model_ = load_weights(est._build_model(0), weights, where)
-        est.history_ = history or progress_history(fitted)
-        est.n_steps_ = n_steps
-        est.seed_ = seed
-        est.model_params_ = est._model_params()
-        restore_provenance(est, config)
-        est.is_fitted_ = True
-        return est

@@ -14,16 +14,14 @@ hundred KITTI frames takes minutes on a CPU (the step-based loop of
 Prediction runs the MLP on the pixels to fill only.
 
 >>> from estimators.blend import BlendInpainter                     # doctest: +SKIP
->>> est = BlendInpainter.pretrained()                                # shipped release
+>>> est = BlendInpainter(epochs=3).fit(frames)                       # minutes on a CPU
 >>> est.predict(depth_with_nan_holes)                                # metres
 """
 
 from __future__ import annotations
 
-import os
 import time
 import warnings
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -47,11 +45,12 @@ from . import _checkpoint as ckpt
 from ._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
 from ._limits import MAX_LAYERS, MAX_WIDTH, check_parameter_count
 from ._output import floor_holes
+from ._persistence import PersistenceMixin
 from ._training import deterministic_torch, frame_label, torch_threads
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
 
-__all__ = ["BLEND_CANDIDATES", "DEFAULT_BLEND", "BlendInpainter", "pretrained_blend"]
+__all__ = ["BLEND_CANDIDATES", "BlendInpainter"]
 
 #: Default candidates: cheap row/column scans (one scan per axis serves all four, see
 #: :mod:`estimators._scan`) and the harmonic fill of inverse depth.
@@ -59,10 +58,6 @@ BLEND_CANDIDATES: tuple[str, ...] = (
     "scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse",
 )
 
-#: Folder of the shipped models (``NAME.safetensors`` + ``NAME.json``).
-PRETRAINED_DIR = ckpt.PRETRAINED_DIR
-#: The shipped release that ``blend-pretrained`` (alias ``unet-pretrained``) loads.
-DEFAULT_BLEND = "kitti-rect-v4"
 
 
 def _pixel_samples(
@@ -83,7 +78,7 @@ def _pixel_samples(
     return feats[:, rows, cols].T.copy(), gt[rows, cols].astype(np.float32)
 
 
-class BlendInpainter(ConstrainedParams, BaseInpainter):
+class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     """Learned per-pixel blend of classical fills plus a scale-free residual.
 
     Parameters
@@ -412,40 +407,19 @@ class BlendInpainter(ConstrainedParams, BaseInpainter):
         """One frame filled from its features (models with the same features can share them)."""
         return pixel_blend.fill_holes(self.model_, torch.from_numpy(feats[None]), flip_average=bool(self.tta))[0].numpy()
 
-    # -- persistence -----------------------------------------------------------------------
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write the fitted model to the folder ``path`` (``model.safetensors`` + ``config.json``).
-
-        Returns
-        -------
-        pathlib.Path
-            The folder; read it back with :meth:`load`.
-        """
-        if not getattr(self, "is_fitted_", False):
-            raise ValueError(f"{type(self).__name__} is not fitted; call fit first")
+    # -- persistence (the hooks of PersistenceMixin) ------------------------------------------
+    def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
         self._check_model_params()
         params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
         if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
             params["random_state"] = getattr(self, "seed_", None)  # not JSON: the seed the fit drew
-        config = {"class": type(self).__name__, "params": params, "model_params": self.model_params_,
+        config = {"params": params, "model_params": self.model_params_,
                   "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
-                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]},
-                  **ckpt.provenance(self)}
-        return ckpt.write_checkpoint(path, config, self.model_.state_dict())
+                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]}}
+        return config, self.model_.state_dict()
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> BlendInpainter:
-        """Load a model written by :meth:`save` (raises ``CheckpointError`` for missing, corrupt,
-        foreign or tampered-with files, or a checkpoint of another class)."""
-        config, weights, _, _ = ckpt.read_checkpoint(path)
-        return cls.from_config(config, weights, path)
-
-    @classmethod
-    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> BlendInpainter:
-        """The model a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory
-        (``where`` names the checkpoint in errors)."""
-        if config.get("class") != cls.__name__:
-            raise ckpt.CheckpointError(f"{where} holds a {config.get('class')!r}, not a {cls.__name__}")
+    def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> BlendInpainter:
         params = dict(ckpt.config_value(config, "params", dict, where))
         for name in cls._TUPLE_PARAMS:
             if name in params:
@@ -459,41 +433,10 @@ class BlendInpainter(ConstrainedParams, BaseInpainter):
         est.fit_seconds_ = ckpt.config_value(fit, "fit_seconds", float, where, default=float("nan"))
         est.model_ = ckpt.load_weights(est._build_model(), weights, where)
         est.model_params_, est.history_ = model_params, {"epoch_loss": list(epoch_loss)}
-        ckpt.restore_provenance(est, config)
-        est.is_fitted_ = True
-        return est
-
-    @classmethod
-    def pretrained(cls, name: str = DEFAULT_BLEND, **overrides: Any) -> BlendInpainter:
-        """Load a shipped release (``estimators/pretrained/NAME.{safetensors,json}``).
-
-        Parameters
-        ----------
-        name : str
-            Release name (default :data:`DEFAULT_BLEND`).
-        **overrides
-            Prediction-time parameters (``tta``, ``predict_threads``, ``keep_observed``).
-
-        Raises
-        ------
-        KeyError
-            No release of this class under ``name``.
-        ValueError
-            An override of a parameter the weights depend on.
-        """
-        est = ckpt.load_shipped(cls, name)
-        if overrides:
-            est.set_params(**overrides)
-            est._check_model_params()
         return est
 
 
-def pretrained_blend(name: str = DEFAULT_BLEND, **overrides: Any) -> BlendInpainter:
-    """Factory for the registry: a shipped :class:`BlendInpainter` release (see :meth:`BlendInpainter.pretrained`)."""
-    return BlendInpainter.pretrained(name, **overrides)
-
-
-# load_checkpoint (estimators.learned.load) finds classes by the name a checkpoint records.
+# estimators.learned.load finds classes by the name a checkpoint records.
 ckpt.CLASSES.setdefault("BlendInpainter", BlendInpainter)
 # Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
 BlendInpainter.__module__ = "estimators.blend"

@@ -14,7 +14,7 @@ frame's context grid, then trains on batches of samples. Drives contribute equal
 the scene prior its own street.
 
 >>> from estimators.learned.context_blend import ContextBlendInpainter     # doctest: +SKIP
->>> est = ContextBlendInpainter.pretrained()                         # shipped release
+>>> est = ContextBlendInpainter(epochs=4).fit(frames)               # tens of minutes on a CPU
 >>> est.predict(depth_with_nan_holes)                                # metres
 """
 
@@ -42,10 +42,8 @@ from .blend import BLEND_CANDIDATES, BlendInpainter
 from .nets.context_blend import ContextBlendEnsemble, ContextBlendNet, context_grid, frame_reference
 from .nets.pixel_blend import CHUNK
 
-__all__ = ["DEFAULT_CONTEXT_BLEND", "ContextBlendInpainter", "pretrained_context_blend"]
+__all__ = ["ContextBlendInpainter"]
 
-#: The shipped release of this class that ``pretrained`` loads.
-DEFAULT_CONTEXT_BLEND = "kitti-context-v3"
 
 
 def training_sample(
@@ -401,19 +399,8 @@ class ContextBlendInpainter(BlendInpainter):
         out[rows_np, cols_np] = torch.maximum(pred, floor).numpy()
         return out
 
-    # -- persistence -----------------------------------------------------------------------
-    @classmethod
-    def pretrained(cls, name: str = DEFAULT_CONTEXT_BLEND, **overrides: Any) -> ContextBlendInpainter:
-        """Load a shipped release (``estimators/pretrained/NAME.{safetensors,json}``)."""
-        return super().pretrained(name, **overrides)
 
-
-def pretrained_context_blend(name: str = DEFAULT_CONTEXT_BLEND, **overrides: Any) -> ContextBlendInpainter:
-    """Factory for the registry: a shipped :class:`ContextBlendInpainter` release."""
-    return ContextBlendInpainter.pretrained(name, **overrides)
-
-
-# load_checkpoint (estimators.learned.load) finds classes by the name a checkpoint records.
+# estimators.learned.load finds classes by the name a checkpoint records.
 ckpt.CLASSES.setdefault("ContextBlendInpainter", ContextBlendInpainter)
 # Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
 ContextBlendInpainter.__module__ = "estimators.context_blend"

@@ -21,12 +21,9 @@ Like scikit-learn's :class:`~sklearn.ensemble.VotingRegressor`, the members are 
 
 from __future__ import annotations
 
-import os
 import re
-import tempfile
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -41,22 +38,18 @@ from . import _checkpoint as ckpt
 from . import blend, context_blend, neural, prior  # noqa: F401  (each registers the classes a member may be)
 from ._constraints import Bool, Check, ConstrainedParams, Integer
 from ._output import floor_holes
+from ._persistence import PersistenceMixin
 from ._training import torch_threads
 
-__all__ = ["DEFAULT_ENSEMBLE", "MeanEnsembleInpainter", "pretrained_ensemble"]
-
-#: The shipped release of this class that ``pretrained`` loads.
-DEFAULT_ENSEMBLE = "kitti-ensemble-v1"
+__all__ = ["MeanEnsembleInpainter"]
 
 #: Parameters that, when set on the ensemble (not None), are passed to every member that has them.
 _SHARED_PARAMS = ("random_state", "num_threads", "n_jobs", "verbose")
 #: Member names: they prefix the members' parameters (``name__param``) and weights (``name.key``).
 _NAME = re.compile(r"[A-Za-z][A-Za-z0-9]*(_[A-Za-z0-9]+)*")
-#: Checkpoint keys of a member's own config that its ensemble's config.json does not repeat.
-_FILE_KEYS = ("format", "format_version", "weights_sha256")
 
 
-class MeanEnsembleInpainter(ConstrainedParams, BaseInpainter):
+class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     """Per-pixel mean of the predictions of several learned inpainters.
 
     Parameters
@@ -284,61 +277,31 @@ class MeanEnsembleInpainter(ConstrainedParams, BaseInpainter):
                 out[i] = np.average([m._predict_features(frame, feats) for m in members], axis=0, weights=weights)
         return floor_holes(out, X)
 
-    # -- persistence -----------------------------------------------------------------------
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write the fitted ensemble to the folder ``path``: one ``config.json`` holding every
-        member's config, one ``model.safetensors`` holding every member's weights (``name.key``).
-
-        Returns
-        -------
-        pathlib.Path
-            The folder; read it back with :meth:`load` or
-            :func:`estimators.learned.load.load_checkpoint`.
-        """
-        if not getattr(self, "is_fitted_", False):
-            raise ValueError(f"{type(self).__name__} is not fitted; call fit first")
+    # -- persistence (the hooks of PersistenceMixin) ------------------------------------------
+    def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+        """Every member's full config nested under its name; every member's weights as ``name.key``."""
         members = self._check_members()
         configs, weights = [], {}
-        with tempfile.TemporaryDirectory() as tmp:
-            for (name, _), est in zip(members, self.estimators_):
-                if not hasattr(est, "save"):
-                    raise ValueError(f"member {name!r} ({type(est).__name__}) cannot be saved")
-                config, member_weights, _, _ = ckpt.read_checkpoint(est.save(Path(tmp) / name))
-                configs.append({"name": name, "config": {k: v for k, v in config.items() if k not in _FILE_KEYS}})
-                weights.update({f"{name}.{k}": v for k, v in member_weights.items()})
+        for (name, _), est in zip(members, self.estimators_):
+            if not callable(getattr(est, "to_config", None)):
+                raise ValueError(f"member {name!r} ({type(est).__name__}) cannot be saved")
+            member_config, member_weights = est.to_config()
+            configs.append({"name": name, "config": member_config})
+            weights.update({f"{name}.{k}": v for k, v in member_weights.items()})
         params = {k: v for k, v in self.get_params(deep=False).items() if k != "estimators"}
         if not isinstance(params["random_state"], (int, type(None))):
             params["random_state"] = None  # a RandomState or Generator is not JSON; members record their seeds
         if params["weights"] is not None:
             params["weights"] = [float(w) for w in self._member_weights(len(members))]
-        config = {"class": type(self).__name__, "params": params, "members": configs,
+        config = {"params": params, "members": configs,
                   "fit": {"fit_seconds": float(getattr(self, "fit_seconds_", float("nan"))),
-                          "member_fit_seconds": list(getattr(self, "member_fit_seconds_", []))},
-                  **ckpt.provenance(self)}
-        return ckpt.write_checkpoint(path, config, weights)
+                          "member_fit_seconds": list(getattr(self, "member_fit_seconds_", []))}}
+        return config, weights
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> MeanEnsembleInpainter:
-        """Load an ensemble written by :meth:`save`.
-
-        Each member is built in memory from its config and its share of the weights (no
-        file is written, whatever the config holds).
-
-        Raises
-        ------
-        estimators.learned._checkpoint.CheckpointError
-            Missing, corrupt, foreign or tampered-with files, a checkpoint of another class,
-            a member name that is not an identifier, or a member this version cannot load.
-        """
-        config, weights, _, _ = ckpt.read_checkpoint(path)
-        return cls.from_config(config, weights, path)
-
-    @classmethod
-    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], path: Any) -> MeanEnsembleInpainter:
-        """The ensemble a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory
-        (``path`` names the checkpoint in errors)."""
-        if config.get("class") != cls.__name__:
-            raise ckpt.CheckpointError(f"{path} holds a {config.get('class')!r}, not a {cls.__name__}")
+    def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], path: Any) -> MeanEnsembleInpainter:
+        """Each member built in memory from its nested config and its share of the weights (no file
+        is written, whatever the config holds)."""
         entries = _member_entries(config, path)
         names = [name for name, _ in entries]
         stray = [k for k in weights if k.partition(".")[0] not in names]
@@ -347,11 +310,8 @@ class MeanEnsembleInpainter(ConstrainedParams, BaseInpainter):
         fitted = []
         for name, member_config in entries:
             where = f"{path} (member {name!r})"
-            klass = ckpt.checkpoint_class(member_config.get("class"))
-            if klass is None or not hasattr(klass, "from_config"):
-                raise ckpt.CheckpointError(f"{where} is a {member_config.get('class')!r}, which this version cannot load")
             own = {k[len(name) + 1:]: v for k, v in weights.items() if k.startswith(f"{name}.")}
-            fitted.append(klass.from_config(member_config, own, where))
+            fitted.append(ckpt.from_checked(ckpt.recorded_class(member_config, where), member_config, own, where))
         params = {**ckpt.config_value(config, "params", dict, path),
                   "estimators": [(n, clone(m)) for n, m in zip(names, fitted)]}
         est = ckpt.build_checked(cls, params, path)
@@ -359,8 +319,6 @@ class MeanEnsembleInpainter(ConstrainedParams, BaseInpainter):
         fit = ckpt.config_value(config, "fit", dict, path, default={})
         est.fit_seconds_ = ckpt.config_value(fit, "fit_seconds", float, path, default=float("nan"))
         est.member_fit_seconds_ = list(ckpt.config_value(fit, "member_fit_seconds", list, path, default=[]))
-        ckpt.restore_provenance(est, config)
-        est.is_fitted_ = True
         return est
 
     @classmethod
@@ -379,28 +337,6 @@ class MeanEnsembleInpainter(ConstrainedParams, BaseInpainter):
         est.training_drives_ = None if any(d is None for d in drives) else sorted(set().union(*drives))
         est.fit_environment_ = None
         est.is_fitted_ = True
-        return est
-
-    @classmethod
-    def pretrained(cls, name: str = DEFAULT_ENSEMBLE, **overrides: Any) -> MeanEnsembleInpainter:
-        """Load a shipped release (``estimators/pretrained/NAME.{safetensors,json}``).
-
-        Parameters
-        ----------
-        name : str
-            Release name (default :data:`DEFAULT_ENSEMBLE`).
-        **overrides
-            Prediction-time parameters, of the ensemble (``predict_threads``) or of a member
-            (``blend__tta``).
-
-        Raises
-        ------
-        KeyError
-            No release of this class under ``name``.
-        """
-        est = ckpt.load_shipped(cls, name)
-        if overrides:
-            est.set_params(**overrides)
         return est
 
 
@@ -432,12 +368,7 @@ def _share_features(members: list[Any]) -> bool:
     return len({(tuple(m.candidates), bool(m.endpoints)) for m in members}) == 1
 
 
-def pretrained_ensemble(name: str = DEFAULT_ENSEMBLE, **overrides: Any) -> MeanEnsembleInpainter:
-    """Factory for the registry: a shipped :class:`MeanEnsembleInpainter` release."""
-    return MeanEnsembleInpainter.pretrained(name, **overrides)
-
-
-# load_checkpoint (estimators.learned.load) finds classes by the name a checkpoint records.
+# estimators.learned.load finds classes by the name a checkpoint records.
 ckpt.CLASSES.setdefault("MeanEnsembleInpainter", MeanEnsembleInpainter)
 # Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
 MeanEnsembleInpainter.__module__ = "estimators.ensemble"

@@ -1,4 +1,4 @@
-"""``load_checkpoint``: any saved learned estimator, its class read from the checkpoint.
+"""``load``: any saved learned estimator, its class read from the checkpoint's ``config.json``.
 
 This module sits above every learned family and imports each one, so every class a
 checkpoint may name is registered (:data:`~estimators.learned._checkpoint.CLASSES`)
@@ -9,34 +9,32 @@ before one is looked up: no module below imports a family above it, by name or t
 from __future__ import annotations
 
 import os
-from pathlib import Path
 from typing import Any
 
 from . import _checkpoint as ckpt
-from . import blend, context_blend, ensemble, prior  # noqa: F401  (each registers its classes)
-from .neural import _NeuralInpainter
+from . import blend, context_blend, ensemble, neural, prior  # noqa: F401  (each registers its classes)
 
-__all__ = ["load_checkpoint"]
+__all__ = ["load", "load_checkpoint"]
 
 
-def load_checkpoint(path: str | os.PathLike) -> Any:
-    """Load any saved learned inpainter (its class is read from the checkpoint).
+def load(path: str | os.PathLike) -> Any:
+    """Load any saved learned inpainter: the class its ``config.json`` records reads it.
 
     Parameters
     ----------
     path : path-like
-        A model folder written by ``save`` or a training run folder.
+        A model folder written by ``save``, or a training run folder (its best, else
+        last, checkpoint).
 
     Raises
     ------
     CheckpointError
-        If the checkpoint is missing, corrupt, or of an unknown class.
+        If the checkpoint is missing, corrupt, tampered with, or of a class this version
+        does not know.
     """
-    # Estimators with their own training and file layout (BlendInpainter and its
-    # subclasses) load themselves; the step-trained networks share _NeuralInpainter.load.
-    config_file = Path(path) / ckpt.CONFIG_FILE
-    if config_file.is_file():
-        klass = ckpt.checkpoint_class(ckpt._read_json(config_file).get("class"))
-        if klass is not None and not issubclass(klass, _NeuralInpainter):
-            return klass.load(path)
-    return _NeuralInpainter.load(path)
+    config, weights, where = ckpt.read_model(path)
+    return ckpt.from_checked(ckpt.recorded_class(config, where), config, weights, where)
+
+
+#: The former name of :func:`load` (scripts, benchmarks and the ``checkpoint`` method use it).
+load_checkpoint = load

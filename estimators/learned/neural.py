@@ -10,7 +10,7 @@ cross-validated search.
 The estimator is split by job, as scikit-learn and skorch separate them: this module holds
 the parameters (``__init__``, documented below) and prediction; parameter validation and
 interpretation are in ``_neural_params.py``, the training loop in ``_training.py`` and
-``save`` / ``load`` in ``_checkpoint.py`` (mixins of :class:`_NeuralInpainter`).
+``save`` / ``load`` in ``_persistence.py`` (mixins of :class:`_NeuralInpainter`).
 """
 
 from __future__ import annotations
@@ -27,10 +27,11 @@ from ..base import BaseInpainter
 # before the split; code written then imports them from this module.
 from . import _checkpoint as ckpt
 from ._checkpoint import CLASSES as _CLASSES
-from ._checkpoint import CheckpointMixin, progress_history  # noqa: F401
+from ._checkpoint import progress_history  # noqa: F401
 from ._checkpoint import cpu_state as _cpu_state  # noqa: F401
 from ._neural_params import MAX_CHANNELS, NeuralParamsMixin  # noqa: F401
 from ._output import floor_holes
+from ._persistence import CheckpointMixin
 from ._training import (  # noqa: F401
     TrainingMixin,
     _copy_encoder,

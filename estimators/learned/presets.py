@@ -1,7 +1,13 @@
-"""Named training recipes, e.g. ``cpu-1h``: the shipped model's recipe, reproducible on a laptop.
+"""Named training recipes of ``inpaintenv train --preset NAME``.
+
+A shipped release is its own recipe: preset ``kitti-ensemble-v1`` is the estimator its
+JSON (``estimators/pretrained/kitti-ensemble-v1.json``) records, class and parameters,
+unfitted (:func:`release_recipe`), so training it on the drives the JSON names makes the
+release again; nothing is written down twice. The study's networks, the recipes the
+selection compared and a smoke run are in a small table of their own (:data:`STUDY_PRESETS`).
 
 >>> from estimators.presets import train_preset, PRESETS              # doctest: +SKIP
->>> est = train_preset("cpu-1h", KittiDepth(root, split="train", drives=[...]))
+>>> est = train_preset("kitti-mixed-v1", KittiDepth(root, split="train", drives=[...]))
 >>> est.save("my-model")
 
 The CLI's ``inpaintenv train --preset NAME`` calls :func:`train_preset`.
@@ -15,123 +21,117 @@ import os
 import time
 from typing import Any
 
+from . import _checkpoint as ckpt
+from . import load as _load  # noqa: F401  (imports every learned family: each registers its classes)
 from .blend import BlendInpainter
 from .context_blend import ContextBlendInpainter
-from .ensemble import MeanEnsembleInpainter
 from .neural import AutoencoderInpainter, UNetInpainter
 from .prior import PriorUNetInpainter
 
-__all__ = ["PRESETS", "STAGED_PRESETS", "available_presets", "check_preset", "describe_preset", "make_preset",
-           "preset_checkpoints", "preset_runs_joblib", "train_preset"]
+__all__ = ["PRESETS", "PRESET_ALIASES", "STAGED_PRESETS", "STUDY_PRESETS", "available_presets", "check_preset",
+           "describe_preset", "make_preset", "preset_checkpoints", "preset_runs_joblib", "release_recipe",
+           "train_preset"]
+
+#: Parameters a release's JSON records that belong to the run, not the recipe (the runner sets them).
+_RUN_PARAMS = ("verbose", "checkpoint_dir")
+
+
+def _recipe(config: dict[str, Any], where: str) -> tuple[type, dict[str, Any]]:
+    """The class and constructor keywords a checkpoint config records (an ensemble's members
+    built from their nested configs); JSON lists become the tuples the classes take."""
+    klass = ckpt.recorded_class(config, where)
+    params = {k: tuple(v) if isinstance(v, list) else v
+              for k, v in ckpt.config_value(config, "params", dict, where).items() if k not in _RUN_PARAMS}
+    if "members" in config:
+        params["estimators"] = []
+        for entry in ckpt.config_value(config, "members", list, where):
+            member_cls, member_params = _recipe(entry["config"], f"{where} (member {entry['name']!r})")
+            params["estimators"].append((entry["name"], member_cls(**member_params)))
+    return klass, params
+
+
+def release_recipe(name: str) -> tuple[type, dict[str, Any]]:
+    """The estimator class and parameters shipped release ``name`` was trained with, from its JSON.
+
+    Raises
+    ------
+    KeyError
+        No release of that name is shipped.
+    """
+    releases = ckpt.shipped()
+    if name not in releases:
+        raise KeyError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
+    path = ckpt.PRETRAINED_DIR / f"{name}.json"
+    return _recipe(ckpt._read_json(path), str(path))
+
+
+def _member(release: str, member: str, **changes: Any) -> dict[str, Any]:
+    """The parameters of ensemble release ``release``'s member ``member``, with ``changes``."""
+    _, params = release_recipe(release)
+    est = dict(params["estimators"])[member]
+    return {**est.get_params(deep=False), **changes}
+
+
+_ENSEMBLE, _MIXED = release_recipe("kitti-ensemble-v1"), release_recipe("kitti-mixed-v1")
+#: The context member of kitti-ensemble-v1 (two context blends, each on its own draw of samples).
+_CONTEXT = _member("kitti-ensemble-v1", "context")
+#: The per-pixel blend member of kitti-ensemble-v1, trained alone: with its mirrored pass.
+_BLEND = _member("kitti-ensemble-v1", "blend", tta=True)
+
+#: The shipped releases' recipes and their members', by release name: name -> (estimator class,
+#: constructor keywords, one-line description).
+RELEASE_PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
+    "kitti-ensemble-v1": (
+        *_ENSEMBLE,
+        "the shipped default (its JSON's recipe): per-pixel mean of kitti-ensemble-v1-context and "
+        "kitti-ensemble-v1-blend without its mirrored pass, trained one after the other on the same frames",
+    ),
+    "kitti-ensemble-v1-context": (
+        ContextBlendInpainter, _CONTEXT,
+        "kitti-ensemble-v1's context member alone: two context blends (ContextBlendInpainter), each trained on "
+        "its own draw of occlusions, thinning and pixels",
+    ),
+    "kitti-ensemble-v1-blend": (
+        BlendInpainter, _BLEND,
+        "kitti-ensemble-v1's blend member alone, with its mirrored pass: per-pixel learned blend of five "
+        "classical fills (BlendInpainter), minutes on 2 CPU cores",
+    ),
+    "kitti-mixed-v1": (
+        *_MIXED,
+        "the shipped free-form release (its JSON's recipe): scale-free per-pixel blend of six classical fills "
+        "trained on mixed-v1 (each frame's hole from one of the four protocols), 900 steps",
+    ),
+}
 
 #: The CPU-budget configuration shared by the study's variants below.
 _STUDY_CPU: dict[str, Any] = dict(
     width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
     hole_weight=2.0, random_state=0,
 )
+#: kitti-mixed-v1's recipe on rect-v1 occlusions: the selection's base (experiments/pretrained_selection.py).
+_RECT = {**_MIXED[1], "protocol": "rect-v1"}
 
-#: kitti-rect-v2's recipe, the base of the later releases: six candidates, 900 steps, one thread.
-_BLEND_V2: dict[str, Any] = dict(
-    arch="pixel", width=128, levels=3, pixel_batches=8, batch_size=4, lr=2e-3, max_steps=900, epochs=10_000,
-    candidates=("scanline", "scanline-inverse", "vertical", "harmonic", "vertical-inverse", "harmonic-inverse"),
-    flip=True, tta=True, num_threads=1, random_state=0,
-)
-
-#: kitti-rect-v4's recipe (BlendInpainter): chosen by leave-one-drive-out cross-validation
-#: on the train drives (experiments/blend_lodo.py; docs/reference/selection.md).
-_BLEND_V4: dict[str, Any] = dict(
-    candidates=("scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"),
-    endpoints=True, width=64, layers=2, relative=True, residual=True, keep=(1.0, 0.65, 0.4), masks_per_frame=3,
-    pixels_per_frame=3000, epochs=3, batch_pixels=8192, lr=2e-3, protocol="rect-v1", tta=True, random_state=0,
-    num_threads=2, n_jobs=2,
-)
-
-#: kitti-context-v1's recipe (ContextBlendInpainter): chosen by leave-one-day-out and
-#: leave-drive-0001-out cross-validation (experiments/context_blend.py; docs/reference/selection.md).
-_CONTEXT_V1: dict[str, Any] = dict(
-    candidates=("scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse"),
-    n_context=8, context_widths=(16, 32, 48, 64), width=64, layers=2, residual=True, keep=(1.0, 0.6),
-    masks_per_frame=3, pixels_per_frame=3000, balance=1.0, epochs=4, batch_frames=8, batch_pixels=1024, lr=2e-3,
-    protocol="rect-v1", tta=True, random_state=0, num_threads=2, n_jobs=2,
-)
-
-#: kitti-context-v2's recipe: kitti-context-v1's, two networks from different seeds averaged,
-#: without the mirrored second pass (it changed no fold by more than 0.003; the second
-#: network costs what the mirrored pass did). experiments/context_blend.py --ensemble;
-#: docs/reference/selection.md.
-_CONTEXT_V2: dict[str, Any] = {**_CONTEXT_V1, "n_members": 2, "tta": False}
-
-#: kitti-context-v2's recipe with each network trained on its own draw of occlusions,
-#: thinning and pixels (member_samples="own"): the run-to-run spread of one recipe on a
-#: fold follows the sample draw more than the initialisation, and v2's members share one.
-#: The shipped kitti-context-v3 (docs/model_cards/kitti-context-v3.md).
-_CONTEXT_DRAWS: dict[str, Any] = {**_CONTEXT_V2, "member_samples": "own"}
-
-#: The mean of kitti-context-v3's recipe and kitti-rect-v4's without its mirrored pass
-#: (the features are shared, the mirrored pass was the blend's own cost; it moved no fold's
-#: ratio by more than 0.002): experiments/nested_mean.py, docs/reference/selection.md.
-_ENSEMBLE_V1: dict[str, Any] = dict(estimators=[
-    ("context", ContextBlendInpainter(**_CONTEXT_DRAWS)),
-    ("blend", BlendInpainter(**{**_BLEND_V4, "tta": False})),
-])
-
-#: name -> (estimator class, constructor keywords, one-line description).
-PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
-    # the mean of kitti-context-v3's recipe and kitti-rect-v4's.
-    "ensemble-kitti": (
-        MeanEnsembleInpainter, _ENSEMBLE_V1,
-        "per-pixel mean of context-kitti-draws (two context blends) and blend-kitti without its mirrored pass, "
-        "trained one after the other on the same frames, candidate features shared at prediction; the shipped "
-        "kitti-ensemble-v1 (the default)",
-    ),
-    # kitti-context-v3: two context blends, each on its own samples.
-    "context-kitti-draws": (
-        ContextBlendInpainter, _CONTEXT_DRAWS,
-        "context-kitti-ensemble's two networks, each trained on its own draw of occlusions, thinning and pixels "
-        "(member_samples='own'); the same prediction cost, twice the training samples; the shipped kitti-context-v3",
-    ),
-    # kitti-context-v2: two context blends averaged, on one draw of samples.
-    "context-kitti-ensemble": (
-        ContextBlendInpainter, _CONTEXT_V2,
-        "context-kitti's recipe trained twice from different seeds, the two networks averaged, no mirrored "
-        "second pass (same prediction cost); the shipped kitti-context-v2",
-    ),
-    # kitti-context-v1: the blend plus a scene-context U-Net.
+#: The study's networks at a CPU budget, the recipes the selection compared, and a smoke run.
+STUDY_PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     "context-kitti": (
-        ContextBlendInpainter, _CONTEXT_V1,
-        "learned blend of five classical fills with scene context from a small U-Net over the whole frame at 1/8 "
-        "scale (ContextBlendInpainter), drives weighted equally, thinned copies (keep 1, 0.6), rect-v1; the "
-        "shipped kitti-context-v1",
+        ContextBlendInpainter,
+        {**_CONTEXT, "n_members": 1, "member_samples": "shared", "tta": True},
+        "one context blend with its mirrored pass (kitti-ensemble-v1's context member, one network): the "
+        "recipe the leave-one-day-out check starts from (experiments/lodo_days.sh)",
     ),
-    # kitti-rect-v4, the default learned release: minutes on 2 CPU cores.
-    "blend-kitti": (
-        BlendInpainter, _BLEND_V4,
-        "per-pixel learned blend of five classical fills (BlendInpainter), features computed once per frame and "
-        "occlusion, thinned-input copies (keep 1, 0.65, 0.4), rect-v1; the shipped kitti-rect-v4",
-    ),
-    # kitti-rect-v3: kitti-rect-v2's recipe with the scale-free blend (relative=True), 1500 steps.
     "cpu-1h": (
-        PriorUNetInpainter, {**_BLEND_V2, "relative": True, "max_steps": 1500},
-        "scale-free per-pixel learned blend of six classical fills (PixelBlendNet, relative=True), whole frames, "
-        "rect-v1, 1500 steps; 55 min on one core of a busy 2-core machine (the shipped kitti-rect-v3)",
+        PriorUNetInpainter, {**_RECT, "max_steps": 1500},
+        "kitti-mixed-v1's recipe on rect-v1 occlusions, 1500 steps (scale-free blend of six classical fills)",
     ),
-    # kitti-mixed-v1: the scale-free blend trained on the mixture of the four protocols.
-    "cpu-1h-mixed": (
-        PriorUNetInpainter, {**_BLEND_V2, "relative": True, "protocol": "mixed-v1"},
-        "scale-free blend trained on mixed-v1 (each frame's hole from one of the four protocols), 900 steps; "
-        "32 min on one core (the shipped kitti-mixed-v1)",
-    ),
-    # The recipe of kitti-rect-v2: six candidates, fixed depth scale, 900 steps.
     "cpu-1h-v2": (
-        PriorUNetInpainter, _BLEND_V2,
-        "kitti-rect-v2's recipe: six classical fills, fixed depth scale, 900 steps, 1 thread",
+        PriorUNetInpainter, {**_RECT, "relative": False},
+        "kitti-mixed-v1's recipe on rect-v1 occlusions at a fixed depth scale (relative=False), 900 steps",
     ),
-    # The recipe of the first shipped model, kitti-rect-v1 (four candidates, 300 steps).
     "cpu-1h-v1": (
         PriorUNetInpainter,
         dict(arch="pixel", width=128, levels=3, pixel_batches=8, batch_size=4, lr=2e-3, max_steps=300, epochs=10_000,
              flip=True, tta=True, num_threads=2, random_state=0),
-        "kitti-rect-v1's recipe: four classical fills, 300 steps, 2 threads",
+        "the first selection's recipe: four classical fills, 300 steps, 2 threads",
     ),
     # The study's variants at a CPU budget (crops, 16-channel 4-level U-Net); the study
     # trained full frames on a GPU. Use --max-steps to set the budget.
@@ -162,6 +162,22 @@ PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     ),
 }
 
+#: Former preset names -> the release-named preset each stands for.
+PRESET_ALIASES: dict[str, str] = {
+    "ensemble-kitti": "kitti-ensemble-v1",
+    "cpu-1h-mixed": "kitti-mixed-v1",
+    "context-kitti-draws": "kitti-ensemble-v1-context",
+    "blend-kitti": "kitti-ensemble-v1-blend",
+}
+
+#: Every single-stage preset: name -> (estimator class, constructor keywords, one-line description).
+#: An alias maps to its target's entry, its description saying so.
+PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
+    **RELEASE_PRESETS,
+    **{alias: (*RELEASE_PRESETS[target][:2], f"former name of {target}: {RELEASE_PRESETS[target][2]}")
+       for alias, target in PRESET_ALIASES.items()},
+    **STUDY_PRESETS,
+}
 
 #: Multi-stage recipes: name -> (stages, description). A stage is (estimator class,
 #: constructor keywords, share of the training frames it sees, warm-start from the

@@ -1,7 +1,7 @@
 """A learned inpainter built on classical priors: per-pixel blend of candidate fills + residual.
 
 >>> from estimators.prior import PriorUNetInpainter                  # doctest: +SKIP
->>> est = PriorUNetInpainter.pretrained("kitti-rect-v3")             # shipped weights
+>>> est = PriorUNetInpainter.pretrained("kitti-mixed-v1")            # shipped weights
 >>> est.predict(corrupted)                                           # metres
 
 The network (:class:`estimators.learned.nets.prior_unet.PriorUNet`) sees the corrupted depth,
@@ -40,9 +40,7 @@ from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
 from .neural import _NeuralInpainter
 
-__all__ = [
-    "ARCHS", "DEFAULT_PRETRAINED", "PRETRAINED_DIR", "PriorUNetInpainter", "available_pretrained", "pretrained_kitti",
-]
+__all__ = ["ARCHS", "PriorUNetInpainter"]
 
 #: ``"pixel"``: per-pixel MLP on candidates and gap lengths (the shipped recipe);
 #: ``"unet"``: U-Net at 1/``factor`` resolution on candidates and masks.
@@ -50,21 +48,6 @@ ARCHS = ("pixel", "unet")
 
 #: Class attributes of PriorUNetInpainter (its recipe), not parameters: nothing to check.
 _FIXED_BY_RECIPE = ("depth", "input_mask", "depth_scale", "hole_weight", "tv_weight", "max_depth")
-
-#: Folder of the shipped models: ``NAME.safetensors`` (weights) + ``NAME.json`` (the
-#: ``config.json`` of a checkpoint written by :meth:`PriorUNetInpainter.save`).
-PRETRAINED_DIR = ckpt.PRETRAINED_DIR
-
-#: The shipped model that :meth:`PriorUNetInpainter.pretrained` and the registry's
-#: ``blend-pretrained`` (alias ``unet-pretrained``) load by default (older releases stay loadable by name).
-DEFAULT_PRETRAINED = "kitti-rect-v3"
-
-
-def available_pretrained() -> list[str]:
-    """Names accepted by :meth:`PriorUNetInpainter.pretrained`."""
-    # The folder also holds releases of other classes (estimators.blend).
-    return ckpt.shipped_releases("PriorUNetInpainter")
-
 
 class PriorUNetInpainter(_NeuralInpainter):
     """Learned blend of classical candidate fills + residual, CPU-sized.
@@ -384,57 +367,12 @@ class PriorUNetInpainter(_NeuralInpainter):
                 out[start:start + len(chunk)] = pred.numpy()
         return out
 
-    # -- shipped weights -------------------------------------------------------------------
     @classmethod
-    def pretrained(cls, name: str = DEFAULT_PRETRAINED, **overrides: Any) -> PriorUNetInpainter:
-        """Load shipped weights by name (see :func:`available_pretrained`).
-
-        Parameters
-        ----------
-        name : str
-            ``"kitti-rect-v3"`` (default, :data:`DEFAULT_PRETRAINED`), ``"kitti-rect-v2"``
-            or ``"kitti-rect-v1"`` (earlier releases, kept so earlier results can be
-            re-run); all trained on one real KITTI drive with rect-v1 occlusions;
-            CC BY-NC-SA 3.0, see ``docs/model_card.md``.
-        **overrides
-            Prediction-time parameters to change, e.g. ``num_threads=2``, ``tta=False``,
-            ``device="cpu"``, ``batch_size=1``.
-
-        Raises
-        ------
-        KeyError
-            Unknown name (the message lists the shipped ones).
-        ValueError
-            An override of a parameter the weights depend on (``arch``, ``width``,
-            ``levels``, ``candidates``, ``endpoints``, ``relative``, ``factor``).
-        """
-        if not isinstance(name, str) or name not in available_pretrained():
-            raise KeyError(f"no pretrained model {name!r}; shipped: {available_pretrained()}")
-        with ckpt.release_folder(name) as folder:
-            est = cls.load(folder)
-        if overrides:
-            est.set_params(**overrides)
-            est._check_model_params(
-                f"the shipped {name!r} weights fix it; override only prediction-time parameters "
-                "(e.g. num_threads, tta, device, batch_size) or train your own model"
-            )
-        return est
-
-    @classmethod
-    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> PriorUNetInpainter:
+    def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> PriorUNetInpainter:
         """The model a checkpoint describes (see :meth:`UNetInpainter.load`); ``candidates`` as a tuple."""
-        est = super().from_config(config, weights, where)
+        est = super()._from_config(config, weights, where)
         est.candidates = tuple(est.candidates)
         return est
-
-
-def pretrained_kitti(name: str = DEFAULT_PRETRAINED, **overrides: Any) -> PriorUNetInpainter:
-    """Factory for the registry: a shipped model (by default :data:`DEFAULT_PRETRAINED`).
-
-    ``blend-pretrained`` calls it with no name; ``blend-pretrained-mixed`` with
-    ``name="kitti-mixed-v1"``. See :meth:`PriorUNetInpainter.pretrained`.
-    """
-    return PriorUNetInpainter.pretrained(name, **overrides)
 
 
 # The shared loader (estimators.learned.load) finds classes by name in this table.

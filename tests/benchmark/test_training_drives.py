@@ -104,13 +104,13 @@ def test_benchmark_report_marks_them_and_a_resume_remembers(tmp_path):
 
 @pytest.mark.kitti
 def test_release_scored_on_its_training_drive_is_marked(kitti_root, tmp_path, capsys):
-    # The command: kitti-rect-v4 (trained on 9001 and 9004) on drive 9001.
+    # A shipped release scored on a drive it was trained on: kitti-mixed-v1 (trained on 9001).
     pytest.importorskip("torch")
     from inpaintenv.cli import main
 
     assert main(["benchmark", "--kitti-root", str(kitti_root), "--drives", "2011_09_26_drive_9001_sync",
-                 "--n-frames", "2", "-m", "kitti-rect-v4", "-m", "scanline", "--figure-frames", "0", "--quiet",
+                 "--n-frames", "2", "-m", "kitti-mixed-v1", "-m", "scanline", "--figure-frames", "0", "--quiet",
                  "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert f"| kitti-rect-v4 {TRAINED_MARK} | rect-v1 |" in out
-    assert f"| rect-v1 | 2011_09_26_drive_9001_sync | 2 | 0 | kitti-rect-v4 {TRAINED_MARK} " in out
+    assert f"| kitti-mixed-v1 {TRAINED_MARK} | rect-v1 |" in out
+    assert f"| rect-v1 | 2011_09_26_drive_9001_sync | 2 | 0 | kitti-mixed-v1 {TRAINED_MARK} " in out

@@ -144,7 +144,7 @@ def test_no_ground_truth_in_any_hole_is_a_clear_error():
 
 
 def test_unknown_release_lists_the_shipped_ones():
-    with pytest.raises(KeyError, match="no pretrained BlendInpainter 'nope'"):
+    with pytest.raises(KeyError, match="no shipped release 'nope'; shipped: .*kitti-ensemble-v1"):
         BlendInpainter.pretrained("nope")
 
 
@@ -186,6 +186,8 @@ def test_identical_trainings_give_identical_weights_with_threads_and_jobs(tmp_pa
 
 
 def test_shipped_releases_know_their_training_drives():
-    assert BlendInpainter.pretrained("kitti-rect-v4").training_drives_ == [
-        "2011_09_26_drive_9001_sync", "2011_09_26_drive_9004_sync"]
+    from estimators.learned import load_release
+
+    blend = load_release("kitti-ensemble-v1").named_estimators_["blend"]
+    assert isinstance(blend, BlendInpainter) and len(blend.training_drives_) == 15
     assert BlendInpainter(**TINY).fit(_streets(n=2)).training_drives_ is None  # plain arrays name no drive

@@ -231,7 +231,7 @@ def test_huge_sizes_as_parameters_are_refused_at_fit(data, est, message):
 
 
 def test_the_limits_are_far_above_the_shipped_releases():
-    est = MeanEnsembleInpainter.pretrained()
+    est = MeanEnsembleInpainter.pretrained("kitti-ensemble-v1")
     for member in est.estimators_:
         n = sum(p.numel() for p in member.model_.parameters())
         assert n < _limits.MAX_PARAMETERS / 100

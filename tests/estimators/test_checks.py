@@ -61,9 +61,9 @@ def test_custom_frames_and_their_validation():
 
 def test_pretrained_release_is_checked_without_refitting():
     pytest.importorskip("torch")
-    from estimators.blend import BlendInpainter
+    from estimators.learned import load_release
 
-    est = BlendInpainter.pretrained()
+    est = load_release().named_estimators_["blend"]  # the default release's BlendInpainter
     before = {k: v for k, v in est.get_params().items()}
     report = check_inpainter(est)
     skipped = {k for k, v in report.items() if v.startswith("skipped: the estimator is already fitted")}

@@ -11,7 +11,7 @@ from estimators.classical import ScanlineInpainter
 from estimators.learned.nets.pixel_blend import PixelBlendNet
 from estimators.learned.nets.prior_unet import PriorUNet
 from estimators.presets import available_presets, make_preset, train_preset
-from estimators.prior import PriorUNetInpainter, available_pretrained
+from estimators.prior import PriorUNetInpainter
 from estimators.priors import (
     AVAILABLE_CANDIDATES,
     CANDIDATES,
@@ -338,18 +338,6 @@ def test_train_preset_smoke(small_gt):
     assert est.n_steps_ == 2 and est.fit_seconds_ > 0
 
 
-# -- shipped weights ------------------------------------------------------------------------
-def test_pretrained_overrides_prediction_params_but_not_the_architecture():
-    est = PriorUNetInpainter.pretrained(num_threads=1, tta=False, device="cpu", batch_size=1)
-    assert est.get_params()["tta"] is False and est.num_threads == 1
-    shipped = r"^width=64 differs from the 128 this model was trained with; the shipped 'kitti-rect-v3' weights fix it"
-    for change, match in (({"width": 64}, shipped),
-                          ({"candidates": ("scanline",)}, r"^candidates=\('scanline',\) differs from"),
-                          ({"relative": False}, r"^relative=False differs from the True")):
-        with pytest.raises(ValueError, match=match):
-            PriorUNetInpainter.pretrained(**change)
-
-
 @pytest.mark.parametrize("arch", ARCH_IDS)
 def test_model_params_changed_after_fit_raise(small_gt, arch):
     est = PriorUNetInpainter(**TINY, arch=arch).fit(small_gt)
@@ -363,48 +351,3 @@ def test_model_params_changed_after_fit_raise(small_gt, arch):
     # A list equal to the fitted tuple is the same setting; tta is prediction-time.
     est.set_params(**{**params, "candidates": list(CANDIDATES), "tta": False})
     assert est.predict(x).shape == x.shape
-
-
-def test_unknown_pretrained_name_lists_shipped():
-    with pytest.raises(KeyError, match="shipped"):
-        PriorUNetInpainter.pretrained("no-such-model")
-
-
-@pytest.mark.parametrize(("name", "preset"), [("kitti-rect-v3", "cpu-1h"), ("kitti-rect-v2", "cpu-1h-v2"),
-                                            ("kitti-rect-v1", "cpu-1h-v1"), ("kitti-mixed-v1", "cpu-1h-mixed")])
-def test_shipped_weights_were_trained_with_their_preset(name, preset):
-    from estimators.presets import PRESETS
-
-    params = PriorUNetInpainter.pretrained(name).get_params()
-    recipe = PRESETS[preset][1]
-    assert {k: params[k] for k in recipe} == recipe
-
-
-def test_default_pretrained_is_shipped():
-    from estimators.prior import DEFAULT_PRETRAINED
-
-    assert DEFAULT_PRETRAINED in available_pretrained()
-    assert PriorUNetInpainter.pretrained().relative is True  # v3 is the scale-free blend
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["kitti-rect-v3", "kitti-mixed-v1", "kitti-rect-v2", "kitti-rect-v1"])
-def test_pretrained_beats_constant_on_real_frame(kitti_root, name):
-    from estimators.classical import ConstantInpainter
-    from inpaintenv.conventions import corrupt
-    from inpaintenv.data import KittiDepth
-    from inpaintenv.masks import get_protocol
-    from inpaintenv.metrics import frame_metrics
-
-    gt = KittiDepth(kitti_root, split="val")[0]
-    assert gt.shape == (352, 1216)
-    hole = get_protocol("rect-v1").mask(gt.shape, 0, 0)
-    x = corrupt(gt, hole)
-    assert name in available_pretrained()
-    est = PriorUNetInpainter.pretrained(name, num_threads=2)
-    pred = est.predict(x)
-    assert pred.shape == gt.shape and np.isfinite(pred).all()
-    np.testing.assert_array_equal(pred[x > 0], x[x > 0])
-    ours = frame_metrics(pred[None], gt[None], hole[None])["hole_rmse"][0]
-    const = frame_metrics(ConstantInpainter().predict(x)[None], gt[None], hole[None])["hole_rmse"][0]
-    assert ours < const

@@ -34,7 +34,7 @@ def _run(kitti_root: Path, tmp_path: Path, *args: str, **env_vars: str) -> list[
     calls = tmp_path / "calls.txt"
     calls.write_text("")
     env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}", "LODO_CALLS": str(calls),
-           "BENCH_FLAGS": "-m kitti-rect-v4", **env_vars}
+           "BENCH_FLAGS": "-m kitti-mixed-v1", **env_vars}
     subprocess.run(["bash", str(SCRIPT), str(kitti_root), str(tmp_path / "out"), *args], env=env, check=True,
                    capture_output=True, text=True)
     return [line.split("\t") for line in calls.read_text().splitlines()]
@@ -54,7 +54,7 @@ def test_every_preset_trained_per_fold_and_scored_in_one_run(kitti_root, tmp_pat
         assert ("--max-steps" in call) == steps and (not steps or call[call.index("--max-steps") + 1] == "300")
     trained = {f"{c[c.index('--out') + 1]}/model" for c in trains}
     for call in benches:
-        assert call.count("--checkpoint") == 2 and "--suite" in call and call[-2:] == ["-m", "kitti-rect-v4"]
+        assert call.count("--checkpoint") == 2 and "--suite" in call and call[-2:] == ["-m", "kitti-mixed-v1"]
         scored = [call[i + 1].split("=", 1)[1] for i, a in enumerate(call) if a == "--checkpoint"]
         assert set(scored) <= trained  # every model scored is one the script trained
         assert call[call.index("--seed") + 1] == "0" and call.count("--seed") == 1

@@ -1,0 +1,156 @@
+"""``save`` / ``load`` / ``pretrained`` of every learned estimator: one mixin, per-class config hooks.
+
+Like segmentation_models_pytorch's hub mixin, a saved model is a folder whose
+``config.json`` records its class (see :mod:`~estimators.learned._checkpoint` for the
+files). Each family says only what is its own:
+
+``_config()``
+    ``(config, weights)``: the JSON-able entries of its config (``params`` and whatever
+    fitted state it keeps) and its named weight tensors.
+``_from_config(config, weights, where)``
+    The estimator those describe, built in memory from checked values (``where`` names
+    the checkpoint in errors).
+
+The mixin adds the class name and the provenance (training drives, machine) to the
+config, writes and reads the files, dispatches a load on the recorded class, and marks
+the result fitted. An ensemble nests its members' configs (see
+:class:`~estimators.learned.ensemble.MeanEnsembleInpainter`).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import torch
+from sklearn.exceptions import NotFittedError
+
+from . import _checkpoint as ckpt
+
+__all__ = ["CheckpointMixin", "PersistenceMixin"]
+
+
+class PersistenceMixin:
+    """``save``, ``load``, ``from_config`` and ``pretrained`` on top of two per-class hooks."""
+
+    def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+        raise NotImplementedError(f"{type(self).__name__} defines no _config(): it cannot be saved")
+
+    @classmethod
+    def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
+        raise NotImplementedError(f"{cls.__name__} defines no _from_config(): it cannot be loaded")
+
+    def to_config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+        """The full config (class, own entries, provenance) and the weights :meth:`save` writes.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            The estimator is not fitted (a ``ValueError``).
+        """
+        if not (getattr(self, "is_fitted_", False) or hasattr(self, "model_")):
+            raise NotFittedError(f"this {type(self).__name__} is not fitted; call fit first (nothing to save)")
+        config, weights = self._config()
+        return {"class": type(self).__name__, **config, **ckpt.provenance(self)}, weights
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the fitted model to the folder ``path`` (``model.safetensors`` + ``config.json``).
+
+        Returns
+        -------
+        pathlib.Path
+            The folder; read it back with :meth:`load` or :func:`estimators.learned.load`.
+        """
+        config, weights = self.to_config()
+        return ckpt.write_checkpoint(path, config, weights)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> Any:
+        """Load a model written by ``save`` (or the best, else last, model of a training run folder).
+
+        Raises
+        ------
+        CheckpointError
+            Missing, truncated, corrupt or tampered-with files, or a checkpoint of a class
+            that is not this one (or a subclass).
+        """
+        config, weights, where = ckpt.read_model(path)
+        return cls.from_config(config, weights, where)
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
+        """The model a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory
+        by the class the config records (this class or a subclass).
+
+        Raises
+        ------
+        CheckpointError
+            A class this version does not know, or one that is not ``cls``.
+        """
+        klass = ckpt.recorded_class(config, where)
+        if not issubclass(klass, cls):
+            raise ckpt.CheckpointError(f"{where} holds a {klass.__name__!r}, not a {cls.__name__}")
+        return ckpt.from_checked(klass, config, weights, where)
+
+    @classmethod
+    def pretrained(cls, name: str, **overrides: Any) -> Any:
+        """Load the shipped release ``name`` (see :func:`estimators.learned.load_release`),
+        which must be of this class.
+
+        Parameters
+        ----------
+        name : str
+            Release name (``estimators/pretrained/NAME.{safetensors,json}``).
+        **overrides
+            Prediction-time parameters (e.g. ``tta``, ``predict_threads``).
+
+        Raises
+        ------
+        KeyError
+            No release of that name is shipped.
+        CheckpointError
+            The release is of another class.
+        ValueError
+            An override of a parameter the weights depend on.
+        """
+        with ckpt.release_folder(name) as folder:
+            est = cls.load(folder)
+        return ckpt.with_overrides(est, name, overrides)
+
+
+class CheckpointMixin(PersistenceMixin):
+    """The hooks of the step-trained networks (:class:`~estimators.learned.neural._NeuralInpainter`):
+    parameters, seed, steps and history as JSON, the network's state dict as weights."""
+
+    def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+        if not hasattr(self, "model_"):
+            raise NotFittedError(f"this {type(self).__name__} is not fitted; nothing to save")
+        # The config is written from the current parameters: they must still describe the weights.
+        self._check_model_params()
+        config = {
+            "params": self._config_params(),
+            "seed": getattr(self, "seed_", None),
+            "fitted": {"n_steps_": getattr(self, "n_steps_", 0), "history_": getattr(self, "history_", None)},
+        }
+        return config, ckpt.cpu_state(self.model_)
+
+    @classmethod
+    def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
+        params = dict(ckpt.config_value(config, "params", dict, where))
+        if params.get("crop") is not None:
+            params["crop"] = tuple(ckpt.config_value(params, "crop", list, where))
+        if isinstance(params.get("warm_start"), str) and params["warm_start"].startswith("<"):
+            params["warm_start"] = None  # an in-memory estimator cannot be restored; weights are
+        fitted = ckpt.config_value(config, "fitted", dict, where, default={})
+        n_steps = ckpt.config_value(fitted, "n_steps_", int, where,
+                                    default=ckpt.config_value(fitted, "step", int, where, default=0))
+        history = ckpt.config_value(fitted, "history_", dict, where, default=None)
+        seed = ckpt.config_value(config, "seed", int, where, default=None)
+        est = ckpt.build_checked(cls, params, where)
+        est.model_ = ckpt.load_weights(est._build_model(0), weights, where)
+        est.history_ = history or ckpt.progress_history(fitted)
+        est.n_steps_ = n_steps
+        est.seed_ = seed
+        est.model_params_ = est._model_params()
+        return est
