@@ -20,7 +20,7 @@ from release_checks import (
 from estimators.learned import DEFAULT_RELEASE, CheckpointError, PriorUNetInpainter, load_release, shipped
 from estimators.learned._checkpoint import PRETRAINED_DIR
 from estimators.learned.load import load
-from estimators.presets import PRESET_ALIASES, PRESETS, make_preset
+from estimators.learned.presets import PRESET_ALIASES, PRESETS, make_preset
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.masks import get_protocol
 from inpaintenv.registry import make_method
@@ -52,6 +52,31 @@ def test_the_package_ships_the_default_and_the_free_form_release():
     assert registry_default == DEFAULT_RELEASE
     assert type(make_method("pretrained")).__name__ == "MeanEnsembleInpainter"
     assert param_values(make_method("blend-pretrained-mixed")) == param_values(load_release("kitti-mixed-v1"))
+
+
+def test_the_shipped_files_fit_a_small_wheel():
+    """The wheel stays under 4 MB: the release files are most of it (2.3 MB with both releases)."""
+    size = sum(p.stat().st_size for p in PRETRAINED_DIR.iterdir())
+    assert size < 3_000_000, f"estimators/pretrained holds {size:,} bytes"
+
+
+def test_one_load_function_and_one_default():
+    import estimators
+    from estimators.learned import load_checkpoint, releases
+    from estimators.learned._checkpoint import DEFAULT_RELEASE as file_default
+
+    assert estimators.load is load is load_checkpoint and estimators.load_release is load_release
+    assert releases.DEFAULT_RELEASE == file_default == DEFAULT_RELEASE
+
+
+def test_an_ensemble_nests_its_members_configs(tmp_path):
+    est = load_release()
+    config = json.loads((est.save(tmp_path / "ens") / "config.json").read_text())
+    members = {m["name"]: m["config"] for m in config["members"]}
+    assert list(members) == ["context", "blend"]
+    assert {m["class"] for m in members.values()} == {"ContextBlendInpainter", "BlendInpainter"}
+    assert all(m["training_drives"] == config["training_drives"] for m in members.values())
+    assert not any(k in m for m in members.values() for k in ("format", "weights_sha256"))  # one file's keys
 
 
 def test_loads_by_name_as_the_class_its_json_records(release):
