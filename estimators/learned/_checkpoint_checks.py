@@ -13,11 +13,10 @@ from typing import Any
 
 import torch
 
+# The project's one class for an unreadable checkpoint (a ValueError; one line in the CLI).
+from inpaintenv.exceptions import CheckpointError
+
 __all__ = ["CheckpointError", "build_checked", "check_tensors", "config_value", "load_weights"]
-
-
-class CheckpointError(ValueError):
-    """A checkpoint is missing, truncated, corrupt, or not an inpaintenv neural checkpoint."""
 
 
 def check_tensors(tensors: dict[str, torch.Tensor], where: Any) -> dict[str, torch.Tensor]:
