@@ -10,9 +10,11 @@ Columns are the mean over the fold's frames of the per-frame values, as in the b
 
     python benchmarks/interval_lodo.py --kitti-root /path/to/kitti [--frames-per-drive 6]
 
-``--checkpoint DAY=PATH`` (repeatable) wraps a learned fold model instead of ``--method``
-in the fold leaving DAY out (``drive-0001`` for the official-maps fold): the only honest
-way to calibrate a learned model, whose calibration drives it must never have seen.
+``--checkpoint FOLD=PATH`` (repeatable) wraps a learned fold model instead of ``--method``
+in the fold FOLD (``day-2011_09_26``, ..., ``drive-0001``): the only honest way to
+calibrate a learned model, whose calibration drives it must never have seen. It is then
+calibrated on the fold's left-in drives the model's ``training_drives_`` does not name, so
+the model must have been trained with a calibration day left out as well.
 """
 
 from __future__ import annotations
@@ -90,6 +92,12 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
             from estimators.learned.load import load  # a saved fold model (torch, the [learned] extra)
 
             base = load(checkpoints[name])
+            # Calibrate only on the left-in drives the fold model never saw (fit refuses the others).
+            seen = set(getattr(base, "training_drives_", None) or ())
+            cal_drives = [d for d in cal_drives if d not in seen]
+            if not cal_drives:
+                raise SystemExit(f"{name}: the fold model {checkpoints[name]} saw every drive outside the fold; "
+                                 "train it with a calibration day left out too (--exclude-drives)")
         else:
             base = make_method(args.method)
         row = run_fold(base, frames_of(dataset, cal_drives, args.frames_per_drive),
