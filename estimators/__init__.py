@@ -20,6 +20,7 @@ from .classical import (
     ScanlineInpainter,
     TeleaInpainter,
 )
+from .intervals import ConformalIntervalInpainter  # no torch: per-pixel intervals around any fitted inpainter
 from .scoring import (
     all_rmse_scorer,
     hole_mae_scorer,
@@ -30,6 +31,7 @@ from .scoring import (
 
 __all__ = [
     "BaseInpainter",
+    "ConformalIntervalInpainter",
     "ConstantInpainter",
     "HarmonicInpainter",
     "IPBasicInpainter",
