@@ -313,7 +313,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             ``estimator.predict(X)`` exactly.
         std : numpy.ndarray, only with ``return_std``
             float32 metres, ``scale · q_c / z_c``: the conformal half-width at the
-            calibrated ``coverage`` ``c`` divided by the normal quantile ``z_c`` (1.645 for
+            calibrated coverage ``c`` (``calibration_["coverage"]``) divided by the normal quantile ``z_c`` (1.645 for
             0.9), so that ``pred ± z_c · std`` is the calibrated interval (what
             :func:`inpaintenv.interval_metrics.interval_from_std` builds). It is a
             "normal-equivalent" std: the residuals are not assumed normal, and
@@ -327,7 +327,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         x, single = self._batch(X)
         p = np.asarray(pred, dtype=np.float32).reshape(x.shape)
         half = self._scale(x, p, np.isnan(x)) * self.quantile_
-        std = (half / normal_quantile(float(self.coverage))).astype(np.float32)
+        # The calibrated coverage, which quantile_ belongs to (a later set_params does not change it).
+        std = (half / normal_quantile(self.calibration_["coverage"])).astype(np.float32)
         return pred, std[0] if single else std
 
     def predict_interval(self, X: Any, coverage: float | None = None) -> tuple[np.ndarray, np.ndarray]:

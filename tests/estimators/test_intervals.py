@@ -210,3 +210,14 @@ def test_evaluate_scores_the_wrapper_interval(street_wrapper):
         low, high = street_wrapper.predict_interval(x)
         scored = hole & (gt > 0)
         assert row["hole_coverage"] == pytest.approx(((gt >= low) & (gt <= high))[scored].mean())
+
+
+def test_std_keeps_the_calibrated_coverage_after_set_params(street_input):
+    frames = streets(6, h=H, w=W, seed=1)
+    wrapper = ConformalIntervalInpainter(ScanlineInpainter(), spread_method="nearest").fit(frames, groups=drives(6))
+    _, std = wrapper.predict(street_input, return_std=True)
+    wrapper.set_params(coverage=0.5)  # without a new fit, std still refers to the calibrated 0.9
+    _, after = wrapper.predict(street_input, return_std=True)
+    np.testing.assert_array_equal(after, std)
+    low, high = wrapper.predict_interval(street_input)  # the new default coverage, from the stored quantiles
+    np.testing.assert_array_equal(high, wrapper.predict_interval(street_input, coverage=0.5)[1])
