@@ -156,10 +156,11 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
                 raise InvalidInputError(f"{name} must be an integer >= {0 if name == 'seed' else 10}, got {v!r}")
         return tuple(self.signals)
 
-    def _second_fill(self) -> Any:
+    @staticmethod
+    def _second_fill(name: str) -> Any:
         from inpaintenv.registry import make_method
 
-        return make_method(self.spread_method)
+        return make_method(name)
 
     def __sklearn_is_fitted__(self) -> bool:
         return hasattr(self, "calibration_")
@@ -197,7 +198,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         if seen:
             raise InvalidInputError(f"the base estimator was trained on calibration drives {seen}: calibrate on "
                                     "drives it never saw, or the intervals will be too narrow on new drives")
-        second = self._second_fill() if "spread" in signals else None
+        second = self._second_fill(self.spread_method) if "spread" in signals else None
         feats, resid = [], []
         for x, gt, hole in iter_scoring_batches(dataset, protocol=self.protocol, seed=int(self.seed)):
             pred = np.asarray(self.estimator.predict(x), dtype=np.float32)
@@ -285,7 +286,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         signals = tuple(self.calibration_["signals"])
         other = None
         if "spread" in signals:
-            other = np.asarray(self._second_fill().predict(x), dtype=np.float64)
+            # The calibrated fill, whatever spread_method says now.
+            other = np.asarray(self._second_fill(self.calibration_["spread_method"]).predict(x), dtype=np.float64)
         out = np.zeros(pred.shape, dtype=np.float64)
         for k in range(len(pred)):
             if hole[k].any():
@@ -363,12 +365,16 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     def to_dict(self, base: str | None = None) -> dict[str, Any]:
         """The calibration as plain JSON types (see :meth:`save`)."""
         check_is_fitted(self)
+        cal = self.calibration_
+        if cal["spread_method"] is not None and cal["spread_method"] != self.spread_method:
+            raise InvalidInputError(f"spread_method was set to {self.spread_method!r} after calibrating with "
+                                    f"{cal['spread_method']!r}: fit again")
         return {
             "format": _FORMAT, "base": base if base is not None else self.calibration_["base"],
             "base_class": type(self.estimator).__name__,
-            "params": {"coverage": float(self.coverage), "signals": list(self.signals),
-                       "spread_method": self.spread_method, "protocol": self.protocol, "seed": int(self.seed),
-                       "max_fit_pixels": int(self.max_fit_pixels)},
+            # What was calibrated, not parameters set since.
+            "params": {"coverage": cal["coverage"], "signals": cal["signals"], "spread_method": self.spread_method,
+                       "protocol": cal["protocol"], "seed": cal["seed"], "max_fit_pixels": int(self.max_fit_pixels)},
             "coef": [float(c) for c in self.coef_], "quantile": self.quantile_,
             "n_pixels": self.n_calibration_pixels_,
             "residual_quantiles": [float(v) for v in self.residual_quantiles_],

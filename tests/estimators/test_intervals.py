@@ -221,3 +221,13 @@ def test_std_keeps_the_calibrated_coverage_after_set_params(street_input):
     np.testing.assert_array_equal(after, std)
     low, high = wrapper.predict_interval(street_input)  # the new default coverage, from the stored quantiles
     np.testing.assert_array_equal(high, wrapper.predict_interval(street_input, coverage=0.5)[1])
+
+
+def test_interval_keeps_the_calibrated_spread_fill_after_set_params(street_input, tmp_path):
+    frames = streets(6, h=H, w=W, seed=1)
+    wrapper = ConformalIntervalInpainter(ScanlineInpainter(), spread_method="nearest").fit(frames, groups=drives(6))
+    before = wrapper.predict_interval(street_input)
+    wrapper.set_params(spread_method="harmonic")
+    np.testing.assert_array_equal(wrapper.predict_interval(street_input)[1], before[1])
+    with pytest.raises(InvalidInputError, match="spread_method was set to 'harmonic' after calibrating"):
+        wrapper.save(tmp_path / "cal.json")
