@@ -102,8 +102,7 @@ def read_interval_files(
         return []
     import hashlib
 
-    from .layout import UnsafeFileError, max_png_bytes, read_inside
-    from .predictions import decode_prediction  # lazy: predictions imports this module
+    from .layout import UnsafeFileError, decode_prediction, max_png_bytes, read_inside
 
     entries: list[tuple[str, str]] = []
     raws: list[np.ndarray] = []

@@ -20,6 +20,7 @@ import stat
 from collections.abc import Sequence
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ..data.io import MAX_FRAME_PIXELS  # a manifest may declare no larger frame than a depth PNG may
@@ -27,7 +28,7 @@ from ..exceptions import UnsafeFileError
 
 __all__ = [
     "DEPTH_ENCODING", "HOLE_ENCODING", "HOLE_FOLDER", "HOLE_VALUE", "INPUT_FOLDER", "MAX_FRAME_PIXELS",
-    "UnsafeFileError", "array_sha256", "file_sha256", "frame_parts", "hole_bits_sha256", "input_key", "is_inside",
+    "UnsafeFileError", "array_sha256", "decode_prediction", "file_sha256", "frame_parts", "hole_bits_sha256", "input_key", "is_inside",
     "is_safe_relative", "max_png_bytes", "read_inside", "relative_paths",
 ]
 
@@ -168,3 +169,17 @@ def read_inside(folder: Path, rel: str, limit: int) -> bytes:
     if len(data) > limit:
         raise UnsafeFileError(f"{rel} grew past {limit:,} bytes while being read; not read")
     return data
+
+
+def decode_prediction(data: bytes, name: str, shape: tuple[int, int]) -> np.ndarray | str:
+    """The stored uint16 values of a prediction PNG, or what is wrong with it (one phrase)."""
+    raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
+    if raw is None:
+        return f"{name} is not a readable PNG"
+    if raw.ndim != 2:
+        return f"{name} has {raw.shape[2]} channels (a depth map is single-channel)"
+    if raw.dtype != np.uint16:
+        return f"{name} is {8 * raw.dtype.itemsize}-bit (depth is a 16-bit PNG, metres × 256)"
+    if raw.shape != shape:
+        return f"{name} is {raw.shape[1]}x{raw.shape[0]}, the input {shape[1]}x{shape[0]} (W x H)"
+    return raw

@@ -23,14 +23,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from ..data.base import DepthDataset
 from ..data.io import depth_from_uint16
 from ..masks import OcclusionProtocol, get_protocol
 from .intervals import read_interval_files, split_interval_files
-from .layout import UnsafeFileError, hole_bits_sha256, input_key, is_inside, max_png_bytes, read_inside
+from .layout import (
+    UnsafeFileError, decode_prediction, hole_bits_sha256, input_key, is_inside, max_png_bytes, read_inside,
+)
 from .manifest import Item, Manifest, ManifestError, require_key
 from .truth import verify_frame
 from ..exceptions import InvalidInputError, SubmissionError
@@ -71,20 +72,6 @@ def manifest_protocol(manifest: Manifest) -> OcclusionProtocol:
         raise ManifestError(f"protocol {name} here differs from the one {manifest.path} was exported with (its "
                             f"parameters changed); score with inpaintenv {manifest.inpaintenv_version}")
     return proto
-
-
-def decode_prediction(data: bytes, name: str, shape: tuple[int, int]) -> np.ndarray | str:
-    """The stored uint16 values of a prediction PNG, or what is wrong with it (one phrase)."""
-    raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
-    if raw is None:
-        return f"{name} is not a readable PNG"
-    if raw.ndim != 2:
-        return f"{name} has {raw.shape[2]} channels (a depth map is single-channel)"
-    if raw.dtype != np.uint16:
-        return f"{name} is {8 * raw.dtype.itemsize}-bit (depth is a 16-bit PNG, metres × 256)"
-    if raw.shape != shape:
-        return f"{name} is {raw.shape[1]}x{raw.shape[0]}, the input {shape[1]}x{shape[0]} (W x H)"
-    return raw
 
 
 class SubmittedPredictions:
