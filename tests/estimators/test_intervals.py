@@ -231,3 +231,16 @@ def test_interval_keeps_the_calibrated_spread_fill_after_set_params(street_input
     np.testing.assert_array_equal(wrapper.predict_interval(street_input)[1], before[1])
     with pytest.raises(InvalidInputError, match="spread_method was set to 'harmonic' after calibrating"):
         wrapper.save(tmp_path / "cal.json")
+
+
+@pytest.mark.kitti
+def test_calibrated_on_one_day_scored_on_another_real_kitti(kitti_root):
+    from inpaintenv.data import KittiDepth
+
+    cal = KittiDepth(kitti_root, split="train", drives=["2011_09_30_drive_9018_sync", "2011_09_30_drive_9020_sync"])
+    test = KittiDepth(kitti_root, split="train", drives=["2011_10_03_drive_9034_sync"])[:2]
+    wrapper = ConformalIntervalInpainter(ScanlineInpainter(), spread_method="nearest").fit(cal)
+    assert wrapper.calibration_["drives"] == ["2011_09_30_drive_9018_sync", "2011_09_30_drive_9020_sync"]
+    assert wrapper.calibration_["n_frames"] == 12 and wrapper.calibration_["n_pixels"] > 100_000
+    rows = evaluate(wrapper, test, intervals=0.9, progress=False).rows
+    assert all(0.5 < r["hole_coverage"] <= 1 and r["rmse_keep_80"] < r["hole_rmse"] for r in rows)
