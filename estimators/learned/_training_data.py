@@ -1,0 +1,158 @@
+"""Training samples of the neural inpainters: seeded crops and occlusions, their loader and input encoding.
+
+Every random choice of a training sample (crop offset, occlusion mask) comes from a
+generator seeded by ``(seed, epoch, index)`` alone, and the visiting order of an epoch
+from ``(seed, epoch)``, so a sample does not depend on which worker loads it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Dataset
+
+from inpaintenv.data.base import DepthDataset
+from inpaintenv.masks import OcclusionProtocol
+
+__all__ = ["OcclusionFrames", "crop_shape", "data_fingerprint", "encode_input", "epoch_order", "frame_label",
+           "make_loader", "sample_rng"]
+
+#: Stream id of the epoch order, distinct from any frame index.
+_ORDER_STREAM = 2**31 - 1
+
+
+def sample_rng(seed: int, epoch: int, index: int) -> np.random.Generator:
+    """Generator of the crop and mask of training sample ``index`` in ``epoch``."""
+    return np.random.default_rng(np.random.SeedSequence([seed, epoch, index]))
+
+
+def epoch_order(n: int, seed: int, epoch: int) -> np.ndarray:
+    """The shuffled visiting order of ``n`` frames in ``epoch``."""
+    return sample_rng(seed, epoch, _ORDER_STREAM).permutation(n)
+
+
+def crop_shape(frame_shape: tuple[int, int], crop: tuple[int, int] | None) -> tuple[int, int]:
+    """Shape of the training samples: ``crop`` with each side clipped to the frame."""
+    fh, fw = (int(v) for v in frame_shape)
+    return (fh, fw) if crop is None else (min(int(crop[0]), fh), min(int(crop[1]), fw))
+
+
+class OcclusionFrames(Dataset):
+    """Torch view of a :class:`DepthDataset`: ``(ground truth, hole)`` per frame.
+
+    Each item is a random crop (or the whole frame) with a fresh occlusion drawn from
+    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Every
+    frame is validated (:meth:`~inpaintenv.data.DepthDataset.checked_frame`) as it is loaded,
+    so NaN, inf or negative depth in any frame stops training with an error naming
+    the frame instead of surfacing later as a NaN loss or training silently. Set
+    :attr:`epoch` before iterating an epoch (workers are re-created per epoch, so they
+    see the new value).
+
+    Parameters
+    ----------
+    frames : DepthDataset
+    protocol : OcclusionProtocol
+    crop : (int, int) or None
+        Crop size; each side is clipped to the frame size.
+    seed : int
+    """
+
+    def __init__(self, frames: DepthDataset, protocol: OcclusionProtocol, crop: tuple[int, int] | None, seed: int):
+        self.frames = frames
+        self.protocol = protocol
+        self.crop = crop_shape(frames.frame_shape, crop)
+        self.seed = int(seed)
+        self.epoch = 0
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
+        index = int(index)
+        rng = sample_rng(self.seed, self.epoch, index)
+        gt = self.frames.checked_frame(index, f"training frame {frame_label(self.frames, index)}")
+        (fh, fw), (ch, cw) = gt.shape, self.crop
+        top = int(rng.integers(0, fh - ch + 1))
+        left = int(rng.integers(0, fw - cw + 1))
+        gt = np.ascontiguousarray(gt[top : top + ch, left : left + cw])
+        hole = self.protocol.sample((ch, cw), rng)
+        return torch.from_numpy(gt), torch.from_numpy(hole)
+
+
+def frame_label(frames: DepthDataset, index: int) -> str:
+    """``"3 (id 'drive_a/3')"``: a frame's index and, when the dataset has them, its id."""
+    ids = getattr(frames, "frame_ids", None)
+    try:
+        return f"{index} (id {ids[index]!r})" if ids is not None else str(index)
+    except (IndexError, TypeError):  # a custom dataset with incomplete ids: index only
+        return str(index)
+
+
+def _worker_init(_: int) -> None:
+    # Loader workers only decode and crop; one thread each leaves the cores to training.
+    torch.set_num_threads(1)
+
+
+def make_loader(
+    data: OcclusionFrames, order: np.ndarray, batch_size: int, num_workers: int, pin_memory: bool
+) -> DataLoader:
+    """A loader visiting ``order`` (a list of frame indices) in batches, in that order.
+
+    Its generator (which only seeds the workers' torch streams; samples are seeded by
+    ``(seed, epoch, index)``) is its own: drawing from the global torch stream each epoch
+    would make a run resumed mid-epoch draw once more than the uninterrupted one.
+    """
+    return DataLoader(
+        data,
+        batch_size=batch_size,
+        sampler=order.tolist(),
+        num_workers=num_workers,
+        pin_memory=pin_memory,
+        worker_init_fn=_worker_init if num_workers else None,
+        drop_last=False,
+        generator=torch.Generator().manual_seed(int(np.random.SeedSequence([data.seed, data.epoch]).generate_state(1)[0])),
+    )
+
+
+def encode_input(
+    depth: torch.Tensor, hole: torch.Tensor, max_depth: float | torch.Tensor, input_mask: bool
+) -> torch.Tensor:
+    """Network input from observed depth (0 in holes and where unmeasured) and holes.
+
+    Parameters
+    ----------
+    depth : torch.Tensor
+        ``(N, H, W)`` metres, finite, 0 inside holes.
+    hole : torch.Tensor
+        ``(N, H, W)`` bool.
+    max_depth : float or torch.Tensor
+        Normalisation range (the study's 80 m), or a per-frame ``(N, 1, 1)`` scale.
+    input_mask : bool
+        False: one channel, ``depth / max_depth`` (the study). True: three channels,
+        adding the hole mask and the validity mask (``depth > 0``).
+
+    Returns
+    -------
+    torch.Tensor
+        ``(N, C, H, W)`` float32.
+    """
+    x = (depth / max_depth).unsqueeze(1)
+    if not input_mask:
+        return x
+    return torch.cat([x, hole.unsqueeze(1).to(x.dtype), (depth > 0).unsqueeze(1).to(x.dtype)], dim=1)
+
+
+def data_fingerprint(dataset: DepthDataset) -> str:
+    """A cheap identity of a dataset: ids, size, and the content of its first/last frame.
+
+    Used to name per-fit checkpoint directories, so two folds (or two datasets) never
+    share one, while refitting the same data resumes.
+    """
+    h = hashlib.sha256()
+    h.update(f"{type(dataset).__name__}|{len(dataset)}|{tuple(dataset.frame_shape)}|".encode())
+    h.update("\n".join(map(str, dataset.frame_ids)).encode())
+    for i in sorted({0, len(dataset) - 1}):
+        h.update(np.ascontiguousarray(dataset[i], dtype=np.float32).tobytes())
+    return h.hexdigest()
