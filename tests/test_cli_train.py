@@ -214,7 +214,7 @@ def test_loss_figure_has_whole_epochs_and_the_loss_unit():
 
 @pytest.mark.parametrize("argv, message", [
     (["--preset", "blend-kitti", "--max-steps", "10"], "preset 'blend-kitti' (BlendInpainter) has no parameter max_steps"),
-    (["--preset", "blend-kitti", "--threads", "0"], "num_threads must be None or an integer >= 1, got 0"),
+    (["--preset", "blend-kitti", "--threads", "0"], "num_threads must be an integer >= 1 or None, got 0"),
     (["--preset", "smoke", "--seed", "-1"], "random_state"),
     (["--preset", "study-cpu", "--jobs", "2"], "preset 'study-cpu' (AutoencoderInpainter) has no parameter n_jobs"),
     (["--preset", "blend-kitti", "--set", "masks_per_frame"], "--set takes KEY=VALUE"),

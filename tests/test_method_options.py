@@ -83,10 +83,9 @@ def test_evaluate_takes_checkpoint_name_path(tmp_path, capsys):
     path = model.fit(ArrayDataset(frames, groups=["a", "b"])).save(tmp_path / "ck")
     args = ["evaluate", "-m", "constant", "--checkpoint", f"mine={path}", "--frame-shape", "32", "96",
             "--n-frames", "2", "--quiet"]
-    # The one-epoch model's output, clipped at 0 m, is 0 m in places: refused unless --unfilled says how to score it.
-    assert main(args) == 1
-    assert "method 'mine': prediction is 0 m (unfilled) at" in capsys.readouterr().err
-    assert main([*args, "--unfilled", "zero"]) == 0
+    # A one-epoch model's raw output is 0 m in places; learned methods floor hole pixels at
+    # 1/256 m, so it is scored as an estimate, not refused as unfilled.
+    assert main(args) == 0
     out = capsys.readouterr().out
     assert "| mine | rect-v1 |" in out and "| constant | rect-v1 |" in out
 
