@@ -58,6 +58,7 @@ class NeuralParamsMixin(ConstrainedParams):
         "batch_size": [Integer(1)],
         "epochs": [Integer(1)],
         "max_steps": [Integer(1), None],
+        "max_minutes": [Real(0, closed="neither"), None],
         "crop": [Pair(Integer(1), "a pair of integers >= 1 (h, w)"), None],
         "protocol": [Check(get_protocol)],  # an unknown name lists the known protocols
         "validation_fraction": [Real(0, 1, closed="neither"), None],

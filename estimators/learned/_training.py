@@ -31,6 +31,7 @@ from inpaintenv.metrics import aggregate, frame_metrics
 
 from ..base import resolve_seed
 from . import _checkpoint as ckpt
+from ._budget import Budget, record_stop
 from ._checkpoint import cpu_state
 from .losses import inpainting_loss
 from ._training_data import (  # noqa: F401  (re-exported: the loop's data side)
@@ -139,6 +140,10 @@ class Shard:
     def done(self, progress: dict[str, Any]) -> None:
         """Called once the last step is taken."""
 
+    def agree_stop(self, stop: bool, device: torch.device) -> bool:
+        """Whether the run stops on its time budget now (all processes of a job must agree)."""
+        return stop
+
 
 def global_rng_state() -> dict[str, Any]:
     """The global torch (CPU), NumPy and Python random states, as JSON.
@@ -180,8 +185,10 @@ def set_global_rng_state(state: dict[str, Any] | None) -> None:
 
 
 #: Parameters that change nothing about the trained weights: left out of the run-directory
-#: hash so that e.g. changing ``verbose`` still resumes the same run.
-_RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed")
+#: hash so that e.g. changing ``verbose`` still resumes the same run (and a run stopped by
+#: its ``max_minutes`` continues when fit is called again).
+_RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed",
+                    "max_minutes")
 
 
 def backward_step(loss: torch.Tensor, optimizer: torch.optim.Optimizer, scaler: Any) -> float:
@@ -294,14 +301,21 @@ class TrainingMixin:
         bar = tqdm(total=total, initial=progress["step"], disable=not (self.verbose and shard.writes),
                    desc=type(self).__name__, leave=False)
         running = None
+        budget = Budget(getattr(self, "max_minutes", None))
+        progress["history"].pop("budget_stop", None)  # a resumed run records its own stop
         try:
             while not progress["finished"]:
                 stopped, running = self._train_epoch(
                     model, step_model, optimizer, scaler, autocast, data, progress, seed, device, bar, running, save,
-                    shard,
+                    shard, budget,
                 )
+                if stopped == "budget":
+                    # Mid-epoch, as a checkpoint_every save: fit again resumes from this step.
+                    record_stop(progress, budget, type(self).__name__, self.verbose and shard.writes)
+                    save()
+                    break
                 best_state, new_best = self._end_epoch(model, progress, val_ds, protocol, seed, device, best_state)
-                progress["finished"] = stopped or progress["epoch"] >= self.epochs or n_batches == 0
+                progress["finished"] = stopped == "steps" or progress["epoch"] >= self.epochs or n_batches == 0
                 save(new_best=new_best)
         finally:
             bar.close()
@@ -336,10 +350,11 @@ class TrainingMixin:
     def _train_epoch(
         self, model: torch.nn.Module, step_model: torch.nn.Module, optimizer: Any, scaler: Any, autocast: Any, data: OcclusionFrames,
         progress: dict[str, Any], seed: int, device: torch.device, bar: Any, running: float | None, save: Any,
-        shard: Shard,
-    ) -> tuple[bool, float | None]:
+        shard: Shard, budget: Budget | None = None,
+    ) -> tuple[str | None, float | None]:
         """The optimiser steps of the current epoch from where ``progress`` stands; returns
-        whether ``max_steps`` stopped it and the running loss shown on the bar."""
+        what stopped it early (``"steps"``: ``max_steps``; ``"budget"``: ``max_minutes``,
+        checked after every step; None: the epoch ended) and the running loss on the bar."""
         epoch = progress["epoch"]
         data.epoch = epoch
         batch = shard.local_batch(self.batch_size)
@@ -354,10 +369,12 @@ class TrainingMixin:
             bar.update(1)
             bar.set_postfix(loss=f"{running:.4f}", epoch=epoch)
             if self.max_steps is not None and progress["step"] >= self.max_steps:
-                return True, running
+                return "steps", running
+            if budget is not None and budget.minutes is not None and shard.agree_stop(budget.spent(), device):
+                return "budget", running
             if self.checkpoint_every and progress["step"] % self.checkpoint_every == 0:
                 save()
-        return False, running
+        return None, running
 
     def _end_epoch(
         self, model: torch.nn.Module, progress: dict[str, Any], val_ds: DepthDataset | None,

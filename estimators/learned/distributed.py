@@ -148,6 +148,12 @@ class DistributedShard(Shard):
         dist.all_reduce(total)
         return float(total.item()) / self.world
 
+    def agree_stop(self, stop: bool, device: torch.device) -> bool:
+        # Each rank's own clock: the job stops when any rank's budget ran out (no rank waits alone).
+        flag = torch.tensor([float(stop)], device=device)
+        dist.all_reduce(flag, op=dist.ReduceOp.MAX)
+        return bool(flag.item())
+
     def saved(self, run_dir: Path, step: int) -> None:
         if self.log:
             print(f"[rank 0/{self.world}] step {step}: checkpoint {run_dir}", flush=True)

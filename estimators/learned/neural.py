@@ -84,6 +84,12 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         Passes over the training frames.
     max_steps : int or None
         Stop after this many optimiser steps in total (even mid-epoch).
+    max_minutes : float or None
+        Wall-clock budget of one ``fit`` call, in minutes (None: no limit): training stops
+        after the step during which it ran out, writes its checkpoint and records the
+        stop in ``history_["budget_stop"]``. A later ``fit`` with the same parameters and
+        ``checkpoint_dir`` resumes from there with a whole new budget (each call counts
+        only its own time; ``max_minutes`` is left out of the run folder's key).
     crop : (int, int) or None
         Train on random ``(h, w)`` crops (each side clipped to the frame) instead of
         whole frames -- the practical choice on CPU. Occlusions are drawn on the crop.
@@ -141,7 +147,8 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         The trained network (on CPU after fit/load; moved to ``device`` to predict).
     history_ : dict
         ``step_loss`` (per step), ``epoch_loss`` (mean per epoch), ``val_hole_rmse``
-        (per epoch, metres, empty without validation), ``best_epoch``.
+        (per epoch, metres, empty without validation), ``best_epoch``; ``budget_stop``
+        (``step``, ``minutes``, ``max_minutes``) only when ``max_minutes`` stopped the fit.
     n_steps_ : int
         Optimiser steps taken.
     seed_ : int
@@ -178,6 +185,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         batch_size: int = 4,
         epochs: int = 10,
         max_steps: int | None = None,
+        max_minutes: float | None = None,
         crop: tuple[int, int] | None = None,
         protocol: str = "rect-v1",
         validation_fraction: float | None = None,
@@ -206,6 +214,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         self.batch_size = batch_size
         self.epochs = epochs
         self.max_steps = max_steps
+        self.max_minutes = max_minutes
         self.crop = crop
         self.protocol = protocol
         self.validation_fraction = validation_fraction

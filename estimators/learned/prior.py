@@ -84,7 +84,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         Random horizontal flips while training (p = 0.5).
     tta : bool, default True
         Average the prediction with that of the mirrored frame.
-    lr, weight_decay, batch_size, epochs, max_steps, crop, protocol,
+    lr, weight_decay, batch_size, epochs, max_steps, max_minutes, crop, protocol,
     validation_fraction, warm_start, device, amp, channels_last, compile, num_threads,
     num_workers, random_state, checkpoint_dir, checkpoint_every, keep_observed, verbose
         As in :class:`estimators.neural.UNetInpainter`. ``crop=None`` (whole frames) is
@@ -132,6 +132,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         batch_size: int = 4,
         epochs: int = 1000,
         max_steps: int | None = 600,
+        max_minutes: float | None = None,
         crop: tuple[int, int] | None = None,
         protocol: str = "rect-v1",
         validation_fraction: float | None = None,
@@ -163,6 +164,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         self.batch_size = batch_size
         self.epochs = epochs
         self.max_steps = max_steps
+        self.max_minutes = max_minutes
         self.crop = crop
         self.protocol = protocol
         self.validation_fraction = validation_fraction

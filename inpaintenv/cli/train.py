@@ -40,6 +40,9 @@ def add_train(subparsers: Any) -> None:
     p.add_argument("--list", action="store_true", help="list the presets and exit")
     p.add_argument("--out", default="runs/model", metavar="DIR", help="output folder (default runs/model)")
     p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")
+    p.add_argument("--max-minutes", type=float, metavar="M",
+                   help="wall-clock budget of this run in minutes (step-trained presets): training stops after the "
+                        "step during which it ran out, checkpointed; rerunning resumes with a new budget")
     p.add_argument("--seed", type=int, metavar="S", help="override the preset's random_state")
     p.add_argument("--threads", type=thread_count, metavar="N", help="torch threads (override; at most MAX_THREADS)")
     p.add_argument("--jobs", type=int, metavar="N",
@@ -89,8 +92,8 @@ def _stop_reason(est: Any) -> str | None:
     steps, max_steps, epochs = getattr(est, "n_steps_", None), params.get("max_steps"), params.get("epochs")
     if not isinstance(steps, int) or not isinstance(max_steps, int) or not isinstance(epochs, int) or epochs < 1:
         return None
-    if steps >= max_steps:
-        return None
+    if steps >= max_steps or "budget_stop" in (getattr(est, "history_", None) or {}):
+        return None  # the estimator said so itself when its max_minutes stopped it
     return (f"training stopped after {steps} of max_steps={max_steps} steps: its {epochs} epoch"
             f"{'s' * (epochs != 1)} ended first ({steps // epochs} steps each, one pass over the training frames "
             f"in batches of {params.get('batch_size', '?')}); --set epochs=N or more frames reach max_steps")
@@ -116,9 +119,9 @@ def _plain_progress(quiet: bool) -> Any:
 TRAIN_ARGS_FILE = "train_args.json"
 #: Overrides that change how fast, not what, is trained (the estimators leave them out of
 #: the key of their checkpoint folders, so a change still resumes).
-_RUN_INDEPENDENT_OVERRIDES = ("num_threads", "n_jobs")
-_OVERRIDE_FLAGS = {"max_steps": "--max-steps", "random_state": "--seed", "num_threads": "--threads",
-                   "n_jobs": "--jobs", "device": "--device"}
+_RUN_INDEPENDENT_OVERRIDES = ("num_threads", "n_jobs", "max_minutes")
+_OVERRIDE_FLAGS = {"max_steps": "--max-steps", "max_minutes": "--max-minutes", "random_state": "--seed",
+                   "num_threads": "--threads", "n_jobs": "--jobs", "device": "--device"}
 
 
 def parse_set_option(item: str) -> tuple[str, Any]:
@@ -295,7 +298,7 @@ def cmd_train(args: argparse.Namespace) -> int:
                 "step in one process (several processes or GPUs: torchrun -m estimators.distributed)"
             )
     overrides: dict[str, Any] = {}
-    for key, value in (("max_steps", args.max_steps), ("random_state", args.seed),
+    for key, value in (("max_steps", args.max_steps), ("max_minutes", args.max_minutes), ("random_state", args.seed),
                        ("num_threads", args.threads), ("n_jobs", args.jobs), ("device", args.device)):
         if value is not None:
             overrides[key] = value
