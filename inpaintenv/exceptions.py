@@ -18,6 +18,7 @@ scikit-learn's ``sklearn.exceptions``::
     ├── OutOfRangeError (IndexError)       a frame index past the end of a source
     ├── MissingDependencyError (ImportError)  an optional extra or a user's module is missing
     ├── StateError (RuntimeError)          a call in the wrong order (step before reset)
+    ├── TrainingDivergedError (FloatingPointError)  a training loss became NaN or inf
     ├── ClusterError (RuntimeError)        a distributed run could not finish
     └── FileTooLargeError, RunLockedError, WorkerDataError (OSError)
 
@@ -34,7 +35,7 @@ __all__ = [
     "FileTooLargeError", "ForeignFolderError", "InpaintenvError", "InvalidInputError", "InvalidTypeError",
     "ManifestError", "MethodOutputError", "MissingDependencyError", "OutOfRangeError", "RunLockedError",
     "RunMismatchError", "RunStateError", "ScanFormatError", "StaleCacheError", "StateError", "SubmissionError",
-    "UnfilledPixelsError", "UnknownNameError", "UnsafeFileError", "WorkerDataError",
+    "TrainingDivergedError", "UnfilledPixelsError", "UnknownNameError", "UnsafeFileError", "WorkerDataError",
 ]
 
 
@@ -118,6 +119,10 @@ class UnfilledPixelsError(InvalidInputError):
 
 class CheckpointError(InvalidInputError):
     """A saved model folder that cannot be loaded (missing, altered or of another format)."""
+
+
+class TrainingDivergedError(InpaintenvError, FloatingPointError):
+    """A training loss became NaN or inf (the message says at which step and what to lower)."""
 
 
 # --- runs, clusters and submissions --------------------------------------------------------
