@@ -30,7 +30,7 @@ import time
 import numpy as np
 import torch
 
-from estimators.neural import UNetInpainter
+from estimators.learned import UNetInpainter
 from inpaintenv.masks import get_protocol
 
 

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 import estimators.learned.nets.pixel_blend as pixel_blend
-from estimators.prior import PriorUNetInpainter
+from estimators.learned import PriorUNetInpainter
 
 #: The shipped release of this class.
 DEFAULT_PRETRAINED = "kitti-mixed-v1"

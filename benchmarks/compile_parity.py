@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from estimators.neural import load_checkpoint
+from estimators.learned import load_checkpoint
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.masks import get_protocol

@@ -85,7 +85,7 @@ from torch.utils.flop_counter import FlopCounterMode
 from estimators.learned._training import OcclusionFrames, encode_input, make_loader
 from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
-from estimators.presets import make_preset
+from estimators.learned.presets import make_preset
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.masks import get_protocol

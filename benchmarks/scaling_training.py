@@ -57,7 +57,7 @@ from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
 from inpaintenv.masks import get_protocol
 
-#: Defaults of the study's estimators (``estimators.neural``): normalisation, loss, Adam.
+#: Defaults of the study's estimators (``estimators.learned.neural``): normalisation, loss, Adam.
 MAX_DEPTH = 80.0
 HOLE_WEIGHT = 2.0
 TV_WEIGHT = 0.01
@@ -285,7 +285,7 @@ def _uptime() -> str:
 def kitti_costs(rates: dict[str, tuple[float, float]], frames: int = KITTI_TRAIN_FRAMES) -> list[dict]:
     """FLOPs of the study's recipes on full KITTI and their CPU extrapolation.
 
-    Recipes (``estimators.presets``): one epoch of the full-frame U-Net (width 32, depth
+    Recipes (``estimators.learned.presets``): one epoch of the full-frame U-Net (width 32, depth
     4, the GPU-sized ``study`` preset) and of the CPU presets' U-Net (width 16), and the
     whole two-stage ``study`` recipe -- autoencoder on 25 % of the frames, then U-Net on
     50 %, 20 epochs each, 10 % of each subset held out for a validation pass per epoch.

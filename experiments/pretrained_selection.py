@@ -24,7 +24,7 @@ from pathlib import Path
 
 from _common import N_TRAIN, SELECTION_DRIVE, sel_scores
 
-from estimators.presets import make_preset
+from estimators.learned.presets import make_preset
 from inpaintenv.data import ArrayDataset, ConcatDataset, SyntheticStreets
 from inpaintenv.data.kitti import KittiDepth
 

@@ -41,7 +41,7 @@ def test_train_lists_presets_and_rejects_unknown(capsys):
 def test_staged_preset_warm_starts_the_second_stage(tmp_path):
     import numpy as np
 
-    from estimators.presets import train_preset
+    from estimators.learned.presets import train_preset
     from inpaintenv.data import SyntheticStreets
 
     ds = SyntheticStreets(n=8, frame_shape=(64, 128))
@@ -201,7 +201,7 @@ def test_train_scheduler_computes_the_blend_features_on_dask_workers(tmp_path, c
 def test_loss_figure_has_whole_epochs_and_the_loss_unit():
     # loss.png of the blend preset had epochs 1.0, 1.5, 2.0, ... and "training loss" without a unit.
     pytest.importorskip("matplotlib")
-    from estimators.blend import BlendInpainter
+    from estimators.learned import BlendInpainter
     from inpaintenv.cli.train import loss_figure
 
     fig = loss_figure({"epoch_loss": [48.2, 42.9, 42.4]}, "blend", BlendInpainter.loss_label)

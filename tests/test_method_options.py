@@ -75,7 +75,7 @@ def test_evaluate_takes_checkpoint_name_path(tmp_path, capsys):
     pytest.importorskip("torch")
     import numpy as np
 
-    from estimators.neural import UNetInpainter
+    from estimators.learned import UNetInpainter
     from inpaintenv.data import ArrayDataset
 
     frames = np.stack([np.linspace(30.0, 5.0, 32, dtype=np.float32)[:, None] + np.zeros((1, 96), np.float32)] * 2)

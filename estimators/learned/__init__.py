@@ -24,7 +24,7 @@ name                   what it is
 Every class saves and loads through one mixin (``_persistence``: ``save``, ``load``,
 ``pretrained``, per-class ``_config`` / ``_from_config`` hooks) over one file format
 (``_checkpoint``). The training recipes are in :mod:`estimators.learned.presets`;
-multi-process training is ``torchrun -m estimators.distributed``.
+multi-process training is ``torchrun -m estimators.learned.distributed``.
 
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
 -> ``_neural_params`` -> ``neural`` -> ``prior`` / ``blend`` -> ``context_blend`` ->

@@ -10,10 +10,10 @@ The candidates are the expensive part, and they depend only on the frame and its
 so ``fit`` computes them once per (frame, occlusion), samples hole pixels with ground
 truth, and trains the MLP on the pooled pixels for a few epochs. Training on a few
 hundred KITTI frames takes minutes on a CPU (the step-based loop of
-:class:`~estimators.prior.PriorUNetInpainter` recomputes the candidates at every step).
+:class:`~estimators.learned.PriorUNetInpainter` recomputes the candidates at every step).
 Prediction runs the MLP on the pixels to fill only.
 
->>> from estimators.blend import BlendInpainter                     # doctest: +SKIP
+>>> from estimators.learned import BlendInpainter                     # doctest: +SKIP
 >>> est = BlendInpainter(epochs=3).fit(frames)                       # minutes on a CPU
 >>> est.predict(depth_with_nan_holes)                                # metres
 """
@@ -438,5 +438,3 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
 
 # estimators.learned.load finds classes by the name a checkpoint records.
 ckpt.CLASSES.setdefault("BlendInpainter", BlendInpainter)
-# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
-BlendInpainter.__module__ = "estimators.blend"

@@ -1,6 +1,6 @@
 """ContextBlendInpainter: the learned blend of classical fills, with a scene prior.
 
-:class:`~estimators.blend.BlendInpainter` decides per pixel from what lies on the four
+:class:`~estimators.learned.BlendInpainter` decides per pixel from what lies on the four
 axis lines through it. Here a small U-Net also reads the whole frame at 1/8 scale
 (:func:`~estimators.learned.nets.context_blend.context_grid`: measured log-depth, density, hole
 and candidate fills, relative to the frame's median depth) and hands every pixel scene
@@ -71,7 +71,7 @@ class ContextBlendInpainter(BlendInpainter):
 
     Parameters
     ----------
-    candidates : tuple of str, default :data:`~estimators.blend.BLEND_CANDIDATES`
+    candidates : tuple of str, default :data:`~estimators.learned.blend.BLEND_CANDIDATES`
         Classical fills the blend chooses between.
     n_context : int, default 8
         Context features per pixel.
@@ -402,5 +402,3 @@ class ContextBlendInpainter(BlendInpainter):
 
 # estimators.learned.load finds classes by the name a checkpoint records.
 ckpt.CLASSES.setdefault("ContextBlendInpainter", ContextBlendInpainter)
-# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
-ContextBlendInpainter.__module__ = "estimators.context_blend"

@@ -12,8 +12,8 @@ Like scikit-learn's :class:`~sklearn.ensemble.VotingRegressor`, the members are 
 ``get_params`` / ``set_params`` (so ``GridSearchCV`` can search them).
 
 >>> from estimators.learned.ensemble import MeanEnsembleInpainter            # doctest: +SKIP
->>> from estimators.blend import BlendInpainter
->>> from estimators.context_blend import ContextBlendInpainter
+>>> from estimators.learned import BlendInpainter
+>>> from estimators.learned import ContextBlendInpainter
 >>> est = MeanEnsembleInpainter([("context", ContextBlendInpainter()),
 ...                              ("blend", BlendInpainter(tta=False))]).fit(frames)
 >>> est.predict(depth_with_nan_holes)                                        # metres
@@ -370,5 +370,3 @@ def _share_features(members: list[Any]) -> bool:
 
 # estimators.learned.load finds classes by the name a checkpoint records.
 ckpt.CLASSES.setdefault("MeanEnsembleInpainter", MeanEnsembleInpainter)
-# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
-MeanEnsembleInpainter.__module__ = "estimators.ensemble"

@@ -6,7 +6,7 @@ unfitted (:func:`release_recipe`), so training it on the drives the JSON names m
 release again; nothing is written down twice. The study's networks, the recipes the
 selection compared and a smoke run are in a small table of their own (:data:`STUDY_PRESETS`).
 
->>> from estimators.presets import train_preset, PRESETS              # doctest: +SKIP
+>>> from estimators.learned.presets import train_preset, PRESETS              # doctest: +SKIP
 >>> est = train_preset("kitti-mixed-v1", KittiDepth(root, split="train", drives=[...]))
 >>> est.save("my-model")
 
@@ -260,7 +260,7 @@ def make_preset(name: str, **overrides: Any) -> Any:
         Unknown preset (the message lists the known ones).
     ValueError
         An override the preset's estimator does not have (e.g. ``max_steps`` for a
-        :class:`~estimators.blend.BlendInpainter`, which trains for ``epochs``), or a
+        :class:`~estimators.learned.BlendInpainter`, which trains for ``epochs``), or a
         ``member__param`` that names no member's parameter.
     """
     if name not in PRESETS:

@@ -22,7 +22,7 @@ __all__ = ["KINDS", "SUITES", "suite_methods", "LazyMethod", "method_kind", "reg
 #: own callable or estimator, a folder of predictions).
 KINDS = ("classical", "learned", "submitted")
 
-_PACKAGES = {"estimators.classical": "classical", "estimators.learned": "learned", "estimators.neural": "learned"}
+_PACKAGES = {"estimators.classical": "classical", "estimators.learned": "learned"}
 
 #: The study's three baselines as it ran them (holes only, unmeasured pixels as 0 m).
 STUDY_CLASSICAL = ["telea-hole", "ns-hole", "bilateral-hole"]

@@ -60,7 +60,7 @@ def test_rerun_with_another_checkpoint_under_the_same_name_is_refused(tmp_path, 
     torch = pytest.importorskip("torch")
     import numpy as np
 
-    from estimators.neural import UNetInpainter, load_checkpoint
+    from estimators.learned import UNetInpainter, load_checkpoint
     from inpaintenv.data import ArrayDataset
 
     rows = np.linspace(30.0, 5.0, 24, dtype=np.float32)[:, None]

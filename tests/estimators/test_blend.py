@@ -9,7 +9,7 @@ import pytest
 import torch
 from streets import streets as _streets
 
-from estimators.blend import BlendInpainter
+from estimators.learned import BlendInpainter
 from estimators.learned._checkpoint import CheckpointError
 from estimators.priors import prior_features
 from inpaintenv.data import ArrayDataset

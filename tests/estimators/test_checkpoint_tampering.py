@@ -11,14 +11,14 @@ import pytest
 import torch
 from streets import streets as _streets
 
-from estimators.ensemble import MeanEnsembleInpainter
+from estimators.learned import MeanEnsembleInpainter
 from estimators.learned import _limits
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
 from estimators.learned.blend import BlendInpainter
 from estimators.learned.context_blend import ContextBlendInpainter
 from estimators.learned.load import load_checkpoint
-from estimators.neural import UNetInpainter
-from estimators.prior import PriorUNetInpainter
+from estimators.learned import UNetInpainter
+from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset
 from inpaintenv.registry import make_method
 

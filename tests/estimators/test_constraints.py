@@ -9,8 +9,8 @@ from estimators.learned._constraints import Bool, Integer, Options, Real, Sequen
 from estimators.learned.blend import BlendInpainter
 from estimators.learned.context_blend import ContextBlendInpainter
 from estimators.learned.ensemble import MeanEnsembleInpainter
-from estimators.neural import UNetInpainter
-from estimators.prior import PriorUNetInpainter
+from estimators.learned import UNetInpainter
+from estimators.learned import PriorUNetInpainter
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
 

@@ -25,9 +25,9 @@ import torch
 import torch.multiprocessing as mp
 from torch.nn.parallel import DistributedDataParallel
 
-from estimators.distributed import rank_order, train_distributed
+from estimators.learned.distributed import rank_order, train_distributed
 from estimators.learned import distributed
-from estimators.neural import UNetInpainter, load_checkpoint
+from estimators.learned import UNetInpainter, load_checkpoint
 from inpaintenv.data import ArrayDataset
 
 WORLD = 2
@@ -162,7 +162,7 @@ def test_bad_configurations_are_clear_errors(one_process_group, est, err, match)
 
 
 def test_prior_unet_is_refused():
-    from estimators.prior import PriorUNetInpainter
+    from estimators.learned import PriorUNetInpainter
 
     with pytest.raises(TypeError, match="PriorUNetInpainter"):
         train_distributed(PriorUNetInpainter(), _frames())

@@ -10,7 +10,7 @@ from sklearn.base import clone
 from streets import streets as _streets
 
 from estimators.classical import HarmonicInpainter
-from estimators.ensemble import MeanEnsembleInpainter
+from estimators.learned import MeanEnsembleInpainter
 from estimators.learned._checkpoint import (
     CheckpointError,
     read_checkpoint,
@@ -156,7 +156,7 @@ def test_from_fitted_joins_saved_models(fitted, tmp_path):
 
 
 def test_the_preset_holds_the_two_shipped_recipes():
-    from estimators.presets import PRESETS, make_preset
+    from estimators.learned.presets import PRESETS, make_preset
 
     est = make_preset("ensemble-kitti", random_state=3)
     members = dict(est.estimators)

@@ -14,12 +14,12 @@ import torch
 from streets import streets as _streets
 
 from estimators.classical import HarmonicInpainter, ScanlineInpainter
-from estimators.ensemble import MeanEnsembleInpainter
+from estimators.learned import MeanEnsembleInpainter
 from estimators.learned._output import MIN_HOLE_DEPTH, floor_holes
 from estimators.learned.blend import BlendInpainter
 from estimators.learned.context_blend import ContextBlendInpainter
-from estimators.neural import UNetInpainter
-from estimators.prior import PriorUNetInpainter
+from estimators.learned import UNetInpainter
+from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset
 from inpaintenv.metrics import frame_metrics
 

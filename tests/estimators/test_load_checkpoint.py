@@ -1,9 +1,9 @@
 """load_checkpoint finds every neural class by the name its checkpoint records (issue 18).
 
-estimators.neural used to import estimators.prior inside load_checkpoint (an import
-circle, prior subclasses neural); load_checkpoint now lives in estimators.learned.load,
-above every learned family, so a fresh process loads a PriorUNetInpainter checkpoint
-through the public estimators.neural without importing estimators.prior first.
+load_checkpoint once imported the prior family inside itself (an import circle, prior
+subclasses neural); it now lives above every learned family, so a fresh process loads a
+PriorUNetInpainter checkpoint through the public estimators.learned with nothing imported
+beforehand.
 """
 
 from __future__ import annotations
@@ -14,12 +14,12 @@ import sys
 import numpy as np
 import pytest
 
-from estimators.prior import PriorUNetInpainter
+from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import SyntheticStreets
 
 
 @pytest.mark.slow
-def test_a_fresh_process_loads_a_prior_checkpoint_through_estimators_neural(tmp_path):
+def test_a_fresh_process_loads_a_prior_checkpoint_through_estimators_learned(tmp_path):
     frames = SyntheticStreets(n=4, frame_shape=(32, 96), frames_per_drive=2)
     est = PriorUNetInpainter(width=4, levels=1, batch_size=2, max_steps=2, random_state=0, num_threads=1)
     path = est.fit(frames).save(tmp_path / "model")
@@ -29,8 +29,8 @@ def test_a_fresh_process_loads_a_prior_checkpoint_through_estimators_neural(tmp_
     np.save(tmp_path / "want.npy", est.predict(x))
     code = (
         "import sys, numpy as np\n"
-        "from estimators.neural import load_checkpoint\n"
-        "assert 'estimators.prior' not in sys.modules\n"
+        "from estimators.learned import load_checkpoint\n"
+        "assert 'estimators.learned.prior' in sys.modules  # loading registered every family\n"
         f"est = load_checkpoint({str(path)!r})\n"
         "print(type(est).__name__)\n"
         f"np.testing.assert_array_equal(est.predict(np.load({str(tmp_path / 'x.npy')!r})), "

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from estimators.learned.nets import UNet, UNetDecoder, UNetEncoder, pad_to_multiple
-from estimators.neural import UNetInpainter
+from estimators.learned import UNetInpainter
 
 
 @pytest.fixture(autouse=True)

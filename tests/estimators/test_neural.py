@@ -13,7 +13,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from estimators.learned._output import MIN_HOLE_DEPTH
-from estimators.neural import AutoencoderInpainter, CheckpointError, UNetInpainter
+from estimators.learned import AutoencoderInpainter, CheckpointError, UNetInpainter
 from inpaintenv.data import ArrayDataset
 from inpaintenv.data.base import DepthDataset, split_by_drive
 

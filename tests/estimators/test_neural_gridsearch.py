@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from sklearn.model_selection import GridSearchCV, GroupKFold
 
-from estimators.neural import UNetInpainter
+from estimators.learned import UNetInpainter
 from inpaintenv.data import ArrayDataset
 
 H, W = 24, 40

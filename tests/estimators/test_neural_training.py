@@ -12,8 +12,8 @@ import torch
 
 from estimators.learned import _training
 from estimators.learned.neural import _NeuralInpainter
-from estimators.neural import AutoencoderInpainter, UNetInpainter
-from estimators.prior import PriorUNetInpainter
+from estimators.learned import AutoencoderInpainter, UNetInpainter
+from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.masks import get_protocol

@@ -10,8 +10,8 @@ import torch
 from estimators.classical import ScanlineInpainter
 from estimators.learned.nets.pixel_blend import PixelBlendNet
 from estimators.learned.nets.prior_unet import PriorUNet
-from estimators.presets import available_presets, make_preset, train_preset
-from estimators.prior import PriorUNetInpainter
+from estimators.learned.presets import available_presets, make_preset, train_preset
+from estimators.learned import PriorUNetInpainter
 from estimators.priors import (
     AVAILABLE_CANDIDATES,
     CANDIDATES,

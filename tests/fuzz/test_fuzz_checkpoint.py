@@ -20,12 +20,12 @@ from fuzz_settings import fast
 from hypothesis import given
 from hypothesis import strategies as st
 
-from estimators.ensemble import MeanEnsembleInpainter
+from estimators.learned import MeanEnsembleInpainter
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
 from estimators.learned.blend import BlendInpainter
 from estimators.learned.load import load_checkpoint
-from estimators.neural import UNetInpainter
-from estimators.prior import PriorUNetInpainter
+from estimators.learned import UNetInpainter
+from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import SyntheticStreets
 
 FAMILIES = ("blend", "ensemble", "unet", "prior")

@@ -27,12 +27,12 @@ import numpy as np
 import pytest
 import torch
 
-from estimators.distributed import train_distributed
+from estimators.learned.distributed import train_distributed
 from estimators.learned import distributed
 from estimators.learned._training import OcclusionFrames, epoch_order, make_loader
 from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
-from estimators.neural import UNetInpainter, load_checkpoint
+from estimators.learned import UNetInpainter, load_checkpoint
 from inpaintenv.data import ArrayDataset
 from inpaintenv.masks import get_protocol
 
@@ -160,7 +160,7 @@ def test_torchrun_one_process_command_line(gpu_device, tmp_path):
     if gpu_device.type == "cpu":
         env["CUDA_VISIBLE_DEVICES"] = ""
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=1", f"--master_port={_free_port()}",
-           "-m", "estimators.distributed", "--preset", "study-unet-tv", "--out", str(tmp_path / "out"),
+           "-m", "estimators.learned.distributed", "--preset", "study-unet-tv", "--out", str(tmp_path / "out"),
            "--n-frames", "2", "--batch-size", "2", "--max-steps", "1", "--num-threads", "1"]
     done = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=200)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
