@@ -108,6 +108,19 @@ _STUDY_CPU: dict[str, Any] = dict(
     width=16, depth=4, crop=(176, 416), batch_size=4, max_steps=1000, epochs=10_000,
     hole_weight=2.0, random_state=0,
 )
+#: The study's schedule at batch 4 (Adam 1e-3, weight decay 1e-6, λ = 2, β = 0.01).
+_STUDY_BATCH, _STUDY_LR, _STUDY_FINE_TUNE_LR = 4, 1e-3, 5e-4
+#: The batch the GPU recipes take: the learning rates scale by sqrt(16 / 4) = 2 (docs/neural.md).
+_GPU_BATCH = 16
+_GPU_LR_SCALE = (_GPU_BATCH / _STUDY_BATCH) ** 0.5
+#: The study's networks scaled to one GPU: full 352×1216 frames, batch 16, bf16 autocast,
+#: channels-last, 8 loader workers (pinned memory on CUDA), steps bounded by the clock
+#: (4 minutes a stage, so autoencoder + U-Net fit in 10 minutes; max_steps only a ceiling).
+_STUDY_GPU: dict[str, Any] = dict(
+    width=32, depth=4, crop=(352, 1216), batch_size=_GPU_BATCH, weight_decay=1e-6, hole_weight=2.0,
+    tv_weight=0.01, amp=True, channels_last=True, num_workers=8, max_steps=1_000_000, epochs=1_000_000,
+    max_minutes=4.0, random_state=0,
+)
 #: kitti-mixed-v1's recipe on rect-v1 occlusions: the selection's base (experiments/pretrained_selection.py).
 _RECT = {**_MIXED[1], "protocol": "rect-v1"}
 
@@ -146,6 +159,18 @@ STUDY_PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     "study-autoencoder": (
         AutoencoderInpainter, {**_STUDY_CPU, "tv_weight": 0.01},
         "the study's autoencoder ablation (no skips) on 176×416 crops",
+    ),
+    # The study's two networks at GPU scale (docs/neural.md "GPU recipes"); the U-Net is the
+    # fine-tuning stage: give it the autoencoder with warm_start (or train preset study-gpu).
+    "study-autoencoder-gpu": (
+        AutoencoderInpainter, {**_STUDY_GPU, "lr": _STUDY_LR * _GPU_LR_SCALE},
+        "the study's autoencoder stage on one GPU: full 352×1216 frames, batch 16 at lr 2e-3 (1e-3 × sqrt(16/4)), "
+        "bf16, channels-last, 8 workers, 4 minutes (max_minutes)",
+    ),
+    "study-unet-tv-gpu": (
+        UNetInpainter, {**_STUDY_GPU, "lr": _STUDY_FINE_TUNE_LR * _GPU_LR_SCALE},
+        "the study's U-Net + TV fine-tuning stage on one GPU: as study-autoencoder-gpu at lr 1e-3 (5e-4 × "
+        "sqrt(16/4)); --set warm_start=<saved autoencoder> starts its encoder from that stage",
     ),
     "unet-mask": (
         UNetInpainter, {**_STUDY_CPU, "tv_weight": 0.01, "input_mask": True},
@@ -195,6 +220,14 @@ STAGED_PRESETS: dict[str, tuple[list[tuple[type, dict[str, Any], float, bool]], 
         "the study's two-stage recipe on full frames (GPU-sized): autoencoder on 25 % of "
         "the frames, then a U-Net warm-started from it on 50 % at lr 5e-4; best "
         "validation hole RMSE",
+    ),
+    "study-gpu": (
+        [
+            (AutoencoderInpainter, PRESETS["study-autoencoder-gpu"][1], 1.0, False),
+            (UNetInpainter, PRESETS["study-unet-tv-gpu"][1], 1.0, True),
+        ],
+        "the study's two stages on one GPU (study-autoencoder-gpu, then study-unet-tv-gpu warm-started from it), "
+        "all the training frames, 4 minutes each",
     ),
     "study-cpu": (
         [
