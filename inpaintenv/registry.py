@@ -26,7 +26,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import Any
 
-from .exceptions import MissingDependencyError, UnknownNameError
+from .exceptions import InvalidInputError, InvalidTypeError, MissingDependencyError, UnknownNameError
 
 __all__ = [
     "LEARNED_DEPENDENCIES",
@@ -110,7 +110,7 @@ _REMOVED: dict[str, str] = {}
 
 def _check_name(name: str) -> None:
     if not isinstance(name, str) or not name or name != name.strip() or ":" in name:
-        raise ValueError(f"method names must be non-empty, without spaces at the ends or ':', got {name!r}")
+        raise InvalidInputError(f"method names must be non-empty, without spaces at the ends or ':', got {name!r}")
 
 
 def register_method(
@@ -129,9 +129,9 @@ def register_method(
     """
     _check_name(name)
     if unfilled not in ("error", "interpolate", "zero"):  # inpaintenv.metrics.UNFILLED (not imported: cheap module)
-        raise ValueError(f"unfilled must be 'error', 'interpolate' or 'zero', got {unfilled!r}")
+        raise InvalidInputError(f"unfilled must be 'error', 'interpolate' or 'zero', got {unfilled!r}")
     if (name in _METHODS or name in _ALIASES) and not overwrite:
-        raise ValueError(f"method {name!r} is already registered")
+        raise InvalidInputError(f"method {name!r} is already registered")
     _ALIASES.pop(name, None)
     spec = MethodSpec(module, cls, dict(kwargs or {}), description, unfilled)
     _METHODS[name] = spec
@@ -153,9 +153,9 @@ def register_alias(alias: str, target: str) -> None:
     """
     _check_name(alias)
     if alias in _METHODS or alias in _ALIASES:
-        raise ValueError(f"method {alias!r} is already registered")
+        raise InvalidInputError(f"method {alias!r} is already registered")
     if target not in _METHODS:
-        raise KeyError(f"cannot alias {alias!r} to {target!r}: no method of that name is registered")
+        raise UnknownNameError(f"cannot alias {alias!r} to {target!r}: no method of that name is registered")
     _ALIASES[alias] = target
 
 
@@ -195,7 +195,7 @@ def get_spec(name: str) -> MethodSpec:
             return MethodSpec(module, cls, {}, "custom method")
     close = difflib.get_close_matches(name, [*_METHODS, *_ALIASES], n=3)
     hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
-    raise KeyError(
+    raise UnknownNameError(
         f"unknown method {name!r}.{hint} Known methods: {', '.join(available_methods())} "
         "(or 'module:ClassName' / 'module:function')"
     )
@@ -275,11 +275,11 @@ def resolve_class(name: str) -> Any:
         root = str(getattr(exc, "name", None) or "").partition(".")[0]
         if not _is_custom(name) and root in LEARNED_DEPENDENCIES:  # found by find_spec, yet not importable
             raise _missing_extra(name, [root]) from exc
-        raise ImportError(f"method {name!r} needs module {spec.module!r}, which cannot be imported: {exc}") from exc
+        raise MissingDependencyError(f"method {name!r} needs module {spec.module!r}, which cannot be imported: {exc}") from exc
     try:
         return getattr(module, spec.cls)
     except AttributeError:
-        raise ImportError(f"method {name!r}: module {spec.module!r} has no class {spec.cls!r}") from None
+        raise MissingDependencyError(f"method {name!r}: module {spec.module!r} has no class {spec.cls!r}") from None
 
 
 def _is_custom(name: str) -> bool:
@@ -335,13 +335,13 @@ def make_method(name: str, **overrides: Any) -> Any:
         # A user's function depth -> depth, or an estimator object: the method itself, as
         # evaluate() takes it. Calling it here would pass it no depth at all.
         if kwargs:
-            raise TypeError(f"method {name!r} is a {type(cls).__name__}, not a class, so it takes no parameters; "
+            raise InvalidTypeError(f"method {name!r} is a {type(cls).__name__}, not a class, so it takes no parameters; "
                             f"got {kwargs}")
         return cls
     try:
         return cls(**kwargs)
     except TypeError as exc:
-        raise TypeError(f"method {name!r} ({spec.module}.{spec.cls}) rejected parameters {kwargs}: {exc}") from exc
+        raise InvalidTypeError(f"method {name!r} ({spec.module}.{spec.cls}) rejected parameters {kwargs}: {exc}") from exc
 
 
 # The classical baselines: both the study's way (fill="hole": only the occlusion is

@@ -191,27 +191,69 @@ def _raise_in(module_name: str, exc: BaseException) -> BaseException:
     raise AssertionError("not raised")
 
 
-@pytest.mark.parametrize(("module", "user_error"), [
-    ("estimators.learned._checkpoint", True),
-    ("estimators.learned", True),
-    ("inpaintenv.registry", True),
-    ("estimators.classical.telea", False),   # converted: a plain ValueError there is a bug
-    ("estimators.learnedX", False),
-    ("inpaintenv.filling", False),             # converted by now
-    ("estimators", False),                    # the package face raises ours (MissingExtraError)
-    ("inpaintenv.conventions", False),
-    ("torch.nn.functional", False),           # raised inside torch, called from learned code: a bug
+@pytest.mark.parametrize("module", [
+    "estimators.learned._checkpoint", "estimators.learned.presets", "estimators.learned",
+    "inpaintenv.registry", "estimators.classical.telea", "torch.nn.functional",
 ])
-def test_plain_errors_are_user_errors_only_when_raised_by_a_pending_module(module, user_error):
-    exc = _raise_in(module, ValueError("bad"))
-    assert cli_main.is_user_error(exc) is user_error
+@pytest.mark.parametrize("exc", [ValueError("bad"), TypeError("bad"), KeyError("bad"), ImportError("bad")])
+def test_a_plain_builtin_error_is_a_bug_whatever_module_raised_it(module, exc):
+    # No module is excused any more: bad input raises inpaintenv.exceptions everywhere.
+    assert cli_main.is_user_error(_raise_in(module, exc)) is False
+    assert not hasattr(cli_main, "PENDING_MODULES")
 
 
-def test_pending_modules_only_excuse_the_builtin_errors_they_raise():
-    assert not cli_main.is_user_error(_raise_in("inpaintenv.registry", AttributeError("x")))
-    assert not cli_main.is_user_error(_raise_in("estimators.learned.neural", IndexError("x")))
-    # A broken import inside the learned package is a bug, not a missing extra.
-    assert not cli_main.is_user_error(_raise_in("estimators.learned.neural", ImportError("cannot import name")))
-    assert cli_main.is_user_error(_raise_in("estimators.learned.presets", KeyError("unknown preset")))
-    assert cli_main.is_user_error(_raise_in("inpaintenv.registry", KeyError("unknown method")))
-    assert cli_main.is_user_error(_raise_in("inpaintenv.registry", ImportError("no module 'mine'")))
+def _train(tmp_path, capsys, *argv: str) -> tuple[int, str]:
+    """``inpaintenv train`` with ``argv``; its exit status and stderr."""
+    status = cli_main.main(["train", *argv, "--out", str(tmp_path / "run")])
+    return status, capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    # _neural_params' device check (on the estimator, at fit)
+    (("--preset", "smoke", "--set", "device=tpu"), "device must be one of"),
+    # presets' nested-parameter check
+    (("--preset", "smoke", "--set", "nope__x=1"), "has no nested parameter nope__x"),
+    (("--preset", "nope"), "unknown preset 'nope'"),
+])
+def test_a_learned_estimators_bad_input_is_one_line(tmp_path, capsys, monkeypatch, argv, message):
+    pytest.importorskip("torch")
+    monkeypatch.delenv("INPAINTENV_TRACEBACK", raising=False)
+    status, err = _train(tmp_path, capsys, *argv)
+    assert status == 1
+    # the progress lines, then the error as the one last line: no traceback
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith("inpaintenv train: error: ") and message in lines[-1], err
+    assert "Traceback" not in err and sum("error" in line for line in lines) == 1, err
+
+
+def test_an_unknown_release_or_method_is_one_line(capsys, monkeypatch):
+    monkeypatch.delenv("INPAINTENV_TRACEBACK", raising=False)
+    status = cli_main.main(["evaluate", "--synthetic", "-m", "kitti-mixed-v9"])
+    err = capsys.readouterr().err.strip()
+    assert status == 1
+    assert err.startswith("inpaintenv evaluate: error: unknown method 'kitti-mixed-v9'") and "\n" not in err, err
+
+
+def test_learned_and_registry_raise_ours():
+    pytest.importorskip("torch")
+    from estimators.learned import UNetInpainter
+    from estimators.learned._checkpoint import release_folder
+    from estimators.learned.presets import describe_preset, release_recipe
+    from inpaintenv import registry
+
+    for call in (lambda: describe_preset("nope"), lambda: release_recipe("nope"),
+                 lambda: release_folder("nope").__enter__(), lambda: registry.make_method("nope")):
+        with pytest.raises(UnknownNameError) as info:
+            call()
+        assert "nope" in str(info.value) and not str(info.value).startswith(("'", '"'))
+    with pytest.raises(InvalidInputError, match="device must be one of"):
+        UNetInpainter(device="tpu")._device()
+    with pytest.raises(exceptions.MissingDependencyError, match="cannot be imported"):
+        registry.make_method("no_such_module_xyz:Thing")
+    with pytest.raises(InvalidTypeError, match="rejected parameters"):
+        registry.make_method("scanline", no_such_parameter=1)
+
+
+def test_training_diverged_is_ours_and_a_floating_point_error():
+    assert issubclass(exceptions.TrainingDivergedError, FloatingPointError)
+    assert issubclass(exceptions.TrainingDivergedError, InpaintenvError)

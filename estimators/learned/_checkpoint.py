@@ -46,6 +46,8 @@ import torch
 from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 
+from inpaintenv.exceptions import UnknownNameError
+
 from ._checkpoint_checks import CheckpointError, build_checked, check_tensors, config_value, load_weights
 
 __all__ = [
@@ -340,7 +342,7 @@ def release_folder(name: Any, directory: Path = PRETRAINED_DIR) -> Iterator[Path
     """
     releases = shipped(directory)
     if not isinstance(name, str) or name not in releases:
-        raise KeyError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
+        raise UnknownNameError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
     with tempfile.TemporaryDirectory() as tmp:
         for suffix, target in ((".safetensors", MODEL_FILE), (".json", CONFIG_FILE)):
             shutil.copyfile(directory / f"{name}{suffix}", Path(tmp) / target)

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.masks import get_protocol
 
 from ..base import check_random_state
@@ -98,7 +99,7 @@ class NeuralParamsMixin(ConstrainedParams):
         for name, value in fitted.items():
             current = _plain(getattr(self, name, None))
             if current != value:
-                raise ValueError(
+                raise InvalidInputError(
                     f"{name}={current!r} differs from the {value!r} this model was trained with; {hint}"
                 )
 
@@ -108,7 +109,7 @@ class NeuralParamsMixin(ConstrainedParams):
         if self.depth > MAX_CHANNELS.bit_length() or int(self.width) << int(self.depth) > MAX_CHANNELS:
             d = self._depth_param
             count = str(int(self.width) << int(self.depth)) if self.depth <= 64 else "astronomically many"
-            raise ValueError(
+            raise InvalidInputError(
                 f"width={self.width}, {d}={self.depth} gives {count} channels at the deepest level "
                 f"(width * 2**{d}), more than the {MAX_CHANNELS} allowed (channels double per level, "
                 f"so parameters about quadruple); lower {d} or width"
@@ -134,7 +135,7 @@ class NeuralParamsMixin(ConstrainedParams):
         need, what = self._downsampling()
         if min(ch, cw) < need:
             kind = "crops" if self.crop is not None else "frames"
-            raise ValueError(
+            raise InvalidInputError(
                 f"{what} needs training {kind} of at least {need} px per side, got {ch}x{cw}; "
                 f"lower it or train on larger {kind}"
             )
@@ -150,26 +151,26 @@ class NeuralParamsMixin(ConstrainedParams):
         if self.device == "auto":
             return torch.device("cuda" if torch.cuda.is_available() else "cpu")
         if not isinstance(self.device, (str, torch.device)):
-            raise TypeError(f"device must be one of {choices}, got {self.device!r}")
+            raise InvalidTypeError(f"device must be one of {choices}, got {self.device!r}")
         try:
             dev = torch.device(self.device)
         except (RuntimeError, TypeError, ValueError):
-            raise ValueError(f"device must be one of {choices}, got {self.device!r}") from None
+            raise InvalidInputError(f"device must be one of {choices}, got {self.device!r}") from None
         if dev.type == "cpu":
             return dev
         if dev.type == "cuda":
             if not torch.cuda.is_available():
-                raise ValueError(f"device={self.device!r} but no CUDA device is available; use device='auto' or 'cpu'")
+                raise InvalidInputError(f"device={self.device!r} but no CUDA device is available; use device='auto' or 'cpu'")
             if dev.index is not None and dev.index >= torch.cuda.device_count():
-                raise ValueError(
+                raise InvalidInputError(
                     f"device={self.device!r} but only {torch.cuda.device_count()} CUDA device(s) are visible"
                 )
             return dev
         if dev.type == "mps":
             if not torch.backends.mps.is_available():
-                raise ValueError(f"device={self.device!r} but MPS is not available here; use device='auto' or 'cpu'")
+                raise InvalidInputError(f"device={self.device!r} but MPS is not available here; use device='auto' or 'cpu'")
             return dev
-        raise ValueError(f"device must be one of {choices}, got {self.device!r} (device type {dev.type!r} is not supported)")
+        raise InvalidInputError(f"device must be one of {choices}, got {self.device!r} (device type {dev.type!r} is not supported)")
 
     def _autocast(self, device: torch.device) -> tuple[Any, bool]:
         """Autocast context for ``device`` and whether fp16 gradient scaling is needed."""

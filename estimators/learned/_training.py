@@ -26,6 +26,7 @@ from tqdm.auto import tqdm
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset, split_by_drive
 from inpaintenv.environment import environment_info
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, TrainingDivergedError
 from inpaintenv.masks import OcclusionProtocol, get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
@@ -200,7 +201,7 @@ def backward_step(loss: torch.Tensor, optimizer: torch.optim.Optimizer, scaler: 
         If the loss is NaN or infinite (the step is not taken).
     """
     if not torch.isfinite(loss):
-        raise FloatingPointError(f"training loss became {loss.item()} at step; lower lr or disable amp")
+        raise TrainingDivergedError(f"training loss became {loss.item()} at step; lower lr or disable amp")
     if scaler is not None:
         scaler.scale(loss).backward()
         scaler.step(optimizer)
@@ -451,14 +452,14 @@ class TrainingMixin:
         ws = self.warm_start
         if isinstance(ws, TrainingMixin):
             if not hasattr(ws, "model_"):
-                raise ValueError(
+                raise InvalidInputError(
                     "warm_start estimator is not fitted (note: clone(), as in GridSearchCV, "
                     "drops fitted state; pass a path written by .save() instead)"
                 )
             return ws.model_
         if isinstance(ws, (str, os.PathLike)):
             return self._load_warm_start(ws).model_
-        raise TypeError(f"warm_start must be None, a path, or a fitted neural inpainter, got {type(ws).__name__}")
+        raise InvalidTypeError(f"warm_start must be None, a path, or a fitted neural inpainter, got {type(ws).__name__}")
 
     def _load_warm_start(self, path: str | os.PathLike) -> TrainingMixin:
         """The fitted neural inpainter saved at ``path`` (any class of the family)."""
@@ -490,7 +491,7 @@ def _copy_encoder(source: UNet, target: UNet) -> None:
     src, dst = source.encoder.state_dict(), target.encoder.state_dict()
     mismatch = [k for k in dst if k not in src or src[k].shape != dst[k].shape]
     if mismatch:
-        raise ValueError(
+        raise InvalidInputError(
             "warm_start encoder does not match this model (width/depth/input_mask must be "
             f"equal): source in_channels={source.in_channels}, width={source.width}, depth={source.depth}; "
             f"target in_channels={target.in_channels}, width={target.width}, depth={target.depth}"

@@ -31,6 +31,7 @@ from joblib import Parallel, delayed
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.environment import environment_info
+from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
 from inpaintenv.masks import get_protocol
 from inpaintenv.report.progress import FrameProgress
 
@@ -255,7 +256,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     def _check_model_params(self) -> None:
         if self._model_params() != self.model_params_:
             changed = sorted(k for k, v in self._model_params().items() if self.model_params_.get(k) != v)
-            raise ValueError(
+            raise InvalidInputError(
                 f"{', '.join(changed)} changed since the weights were made ({self.model_params_}); "
                 "refit, or set them back"
             )
@@ -278,7 +279,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         seed = resolve_seed(self.random_state)  # one draw per fit: features and network share it
         x, y = self.training_pixels(dataset, seed=seed)
         if not len(y):
-            raise ValueError("no training frame has ground truth inside its sampled holes; nothing to learn")
+            raise InvalidInputError("no training frame has ground truth inside its sampled holes; nothing to learn")
         with torch_threads(self.num_threads), deterministic_torch():
             self.fit_environment_ = environment_info(torch_details=True)
             self.model_, self.history_ = self._fit_pixels(x, y, seed)
@@ -374,7 +375,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
                     xb = xb[:, mirrored]
                 loss = (net.blend(xb) - yt[idx]).square().mean()
                 if not torch.isfinite(loss):
-                    raise FloatingPointError(f"training loss became {loss.item()} in epoch {epoch}; lower lr")
+                    raise TrainingDivergedError(f"training loss became {loss.item()} in epoch {epoch}; lower lr")
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 optimizer.step()

@@ -30,6 +30,7 @@ from torch import nn
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.environment import environment_info
+from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
 from inpaintenv.masks import get_protocol
 
 from ..base import resolve_seed
@@ -238,7 +239,7 @@ class ContextBlendInpainter(BlendInpainter):
         seed = resolve_seed(self.random_state)
         samples, groups = self.training_samples(dataset, seed=seed)
         if not samples:
-            raise ValueError("no training frame has ground truth inside its sampled holes; nothing to learn")
+            raise InvalidInputError("no training frame has ground truth inside its sampled holes; nothing to learn")
         with torch_threads(self.num_threads), deterministic_torch():
             self.fit_environment_ = environment_info(torch_details=True)
             self.model_, self.history_ = self._train(dataset, samples, groups, seed)
@@ -331,7 +332,7 @@ class ContextBlendInpainter(BlendInpainter):
             flip = bool(rng.random() < 0.5)  # mirror augmentation: the mirrored frame's samples
             loss = self._batch_loss(net, [samples[k] for k in picks], rng, flip, mirrored)
             if not torch.isfinite(loss):
-                raise FloatingPointError(f"training loss became {loss.item()} at step {step}; lower lr")
+                raise TrainingDivergedError(f"training loss became {loss.item()} at step {step}; lower lr")
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             optimizer.step()

@@ -47,6 +47,7 @@ import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 
 from inpaintenv.data.base import as_dataset
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, StateError
 
 from ..base import resolve_seed
 from . import _checkpoint as ckpt  # noqa: F401  (tests watch its writes)
@@ -80,7 +81,7 @@ def process_group(device_type: str) -> Iterator[tuple[int, int, int]]:
         return
     missing = [k for k in _ENV if k not in os.environ]
     if missing:
-        raise RuntimeError(
+        raise StateError(
             f"distributed training needs the torchrun environment; missing {', '.join(missing)}. "
             "Launch with `torchrun --nproc_per_node=N -m estimators.distributed ...`"
         )
@@ -125,9 +126,9 @@ class DistributedShard(Shard):
 
     def check_data(self, n_frames: int, batch_size: int) -> None:
         if batch_size % self.world:
-            raise ValueError(f"batch_size={batch_size} (the global batch) is not a multiple of WORLD_SIZE={self.world}")
+            raise InvalidInputError(f"batch_size={batch_size} (the global batch) is not a multiple of WORLD_SIZE={self.world}")
         if n_frames < batch_size:
-            raise ValueError(f"{n_frames} training frames are fewer than one global batch of {batch_size}")
+            raise InvalidInputError(f"{n_frames} training frames are fewer than one global batch of {batch_size}")
 
     def batches_per_epoch(self, n_frames: int, batch_size: int) -> int:
         return n_frames // batch_size
@@ -200,10 +201,10 @@ def train_distributed(
     """
     # Exactly these two: subclasses (e.g. PriorUNetInpainter) train differently.
     if type(est) not in (UNetInpainter, AutoencoderInpainter):
-        raise TypeError(f"train_distributed needs a UNetInpainter or AutoencoderInpainter, got {type(est).__name__}")
+        raise InvalidTypeError(f"train_distributed needs a UNetInpainter or AutoencoderInpainter, got {type(est).__name__}")
     dataset = as_dataset(X)
     if len(dataset) == 0:
-        raise ValueError("cannot fit on an empty dataset")
+        raise InvalidInputError("cannot fit on an empty dataset")
     est._check_fit(dataset)
     device = est._device()
     with process_group(device.type) as (rank, world, local_rank):

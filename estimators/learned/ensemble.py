@@ -32,6 +32,7 @@ from sklearn.base import clone
 
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.environment import environment_info
+from inpaintenv.exceptions import InvalidInputError
 
 from ..base import BaseInpainter, check_random_state
 from . import _checkpoint as ckpt
@@ -117,23 +118,23 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     def _check_members(self) -> list[tuple[str, Any]]:
         members = self.estimators
         if isinstance(members, (str, bytes)) or not isinstance(members, (list, tuple)) or len(members) < 2:
-            raise ValueError(f"estimators must be a list of at least two (name, estimator) pairs, got {members!r}")
+            raise InvalidInputError(f"estimators must be a list of at least two (name, estimator) pairs, got {members!r}")
         names = []
         for item in members:
             if not (isinstance(item, (list, tuple)) and len(item) == 2 and isinstance(item[0], str)):
-                raise ValueError(f"each member must be a (name, estimator) pair, got {item!r}")
+                raise InvalidInputError(f"each member must be a (name, estimator) pair, got {item!r}")
             name, est = item
             if not _NAME.fullmatch(name):
-                raise ValueError(f"member name {name!r}: use letters, digits and single underscores, "
+                raise InvalidInputError(f"member name {name!r}: use letters, digits and single underscores, "
                                  "starting with a letter (it prefixes the member's parameters as name__param)")
             if not (hasattr(est, "fit") and hasattr(est, "predict")):
-                raise ValueError(f"member {name!r} is a {type(est).__name__}, not an inpainter with fit and predict")
+                raise InvalidInputError(f"member {name!r} is a {type(est).__name__}, not an inpainter with fit and predict")
             names.append(name)
         if len(set(names)) != len(names):
-            raise ValueError(f"member names must be unique, got {names}")
+            raise InvalidInputError(f"member names must be unique, got {names}")
         if set(names) & set(self._own_params()):
             clash = sorted(set(names) & set(self._own_params()))
-            raise ValueError(f"member names must differ from the ensemble's parameters: {clash}")
+            raise InvalidInputError(f"member names must differ from the ensemble's parameters: {clash}")
         return [(n, e) for n, e in members]
 
     def _member_map(self) -> dict[str, Any]:
@@ -170,11 +171,11 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         try:
             w = np.asarray(self.weights, dtype=np.float64)
         except (TypeError, ValueError):
-            raise ValueError(f"weights must be numbers, one per member, got {self.weights!r}") from None
+            raise InvalidInputError(f"weights must be numbers, one per member, got {self.weights!r}") from None
         if w.shape != (n_members,):
-            raise ValueError(f"weights must hold one number per member ({n_members}), got {self.weights!r}")
+            raise InvalidInputError(f"weights must hold one number per member ({n_members}), got {self.weights!r}")
         if not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
-            raise ValueError(f"weights must be finite, non-negative and not all zero, got {self.weights!r}")
+            raise InvalidInputError(f"weights must be finite, non-negative and not all zero, got {self.weights!r}")
         return w
 
     def _with_shared(self, member: Any) -> Any:
@@ -221,7 +222,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
             elif name in members:
                 nested.setdefault(name, {})[sub] = value
             else:
-                raise ValueError(f"invalid parameter {key!r} for {type(self).__name__}: its own are "
+                raise InvalidInputError(f"invalid parameter {key!r} for {type(self).__name__}: its own are "
                                  f"{sorted(own)}, its members {sorted(members)} (name__param)")
         if replaced:  # otherwise `estimators` stays the very object given (scikit-learn's contract)
             self.estimators = list(members.items())
@@ -284,7 +285,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         configs, weights = [], {}
         for (name, _), est in zip(members, self.estimators_):
             if not callable(getattr(est, "to_config", None)):
-                raise ValueError(f"member {name!r} ({type(est).__name__}) cannot be saved")
+                raise InvalidInputError(f"member {name!r} ({type(est).__name__}) cannot be saved")
             member_config, member_weights = est.to_config()
             configs.append({"name": name, "config": member_config})
             weights.update({f"{name}.{k}": v for k, v in member_weights.items()})
@@ -331,7 +332,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         checked = est._check_members()
         not_fitted = [n for n, m in members if not getattr(m, "is_fitted_", False)]
         if not_fitted:
-            raise ValueError(f"members not fitted: {not_fitted}")
+            raise InvalidInputError(f"members not fitted: {not_fitted}")
         est._set_fitted(checked, [m for _, m in members])
         drives = [getattr(m, "training_drives_", None) for _, m in members]
         est.training_drives_ = None if any(d is None for d in drives) else sorted(set().union(*drives))

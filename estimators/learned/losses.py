@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import torch
 
+from inpaintenv.exceptions import InvalidInputError
+
 __all__ = ["hole_l1", "inpainting_loss", "masked_l1", "total_variation", "valid_l1"]
 
 
@@ -121,7 +123,7 @@ def inpainting_loss(
     torch.Tensor or (torch.Tensor, dict)
     """
     if hole_weight < 0 or tv_weight < 0:
-        raise ValueError(f"loss weights must be >= 0, got hole_weight={hole_weight}, tv_weight={tv_weight}")
+        raise InvalidInputError(f"loss weights must be >= 0, got hole_weight={hole_weight}, tv_weight={tv_weight}")
     _check(pred, target, valid, hole)
     l_valid = valid_l1(pred, target, valid)
     l_hole = hole_l1(pred, target, valid, hole)

@@ -21,6 +21,8 @@ import os
 import time
 from typing import Any
 
+from inpaintenv.exceptions import InvalidInputError, UnknownNameError
+
 from . import _checkpoint as ckpt
 from . import load as _load  # noqa: F401  (imports every learned family: each registers its classes)
 from .blend import BlendInpainter
@@ -60,7 +62,7 @@ def release_recipe(name: str) -> tuple[type, dict[str, Any]]:
     """
     releases = ckpt.shipped()
     if name not in releases:
-        raise KeyError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
+        raise UnknownNameError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
     path = ckpt.PRETRAINED_DIR / f"{name}.json"
     return _recipe(ckpt._read_json(path), str(path))
 
@@ -255,7 +257,7 @@ def describe_preset(name: str) -> str:
     if name in STAGED_PRESETS:
         stages, desc = STAGED_PRESETS[name]
         return f"{' -> '.join(c.__name__ for c, *_ in stages)}: {desc}"
-    raise KeyError(f"unknown preset {name!r}; known presets: {', '.join(available_presets())}")
+    raise UnknownNameError(f"unknown preset {name!r}; known presets: {', '.join(available_presets())}")
 
 
 def preset_runs_joblib(name: str) -> bool:
@@ -297,7 +299,7 @@ def make_preset(name: str, **overrides: Any) -> Any:
         ``member__param`` that names no member's parameter.
     """
     if name not in PRESETS:
-        raise KeyError(f"unknown single-stage preset {name!r}; known: {', '.join(PRESETS)}")
+        raise UnknownNameError(f"unknown single-stage preset {name!r}; known: {', '.join(PRESETS)}")
     cls, params, _ = PRESETS[name]
     params = copy.deepcopy(params)  # an ensemble's members are objects: each call gets its own
     accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
@@ -306,7 +308,7 @@ def make_preset(name: str, **overrides: Any) -> Any:
     nested = {k: v for k, v in overrides.items() if "__" in k}
     unknown = sorted(set(overrides) - accepted - set(nested))
     if unknown:
-        raise ValueError(
+        raise InvalidInputError(
             f"preset {name!r} ({cls.__name__}) has no parameter {', '.join(unknown)}; "
             f"its parameters: {', '.join(sorted(accepted))}"
         )
@@ -316,7 +318,7 @@ def make_preset(name: str, **overrides: Any) -> Any:
         bad = sorted(set(nested) - valid)
         if bad:
             members = sorted({k for k in valid if "__" in k})
-            raise ValueError(
+            raise InvalidInputError(
                 f"preset {name!r} ({cls.__name__}) has no nested parameter {', '.join(bad)}"
                 + (f"; its nested parameters: {', '.join(members)}" if members else " (it has no members)")
             )
@@ -345,7 +347,7 @@ def check_preset(name: str, **overrides: Any) -> None:
             accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
             unknown = sorted(set(overrides) - accepted)
             if unknown:
-                raise ValueError(f"preset {name!r} ({cls.__name__}) has no parameter {', '.join(unknown)}; "
+                raise InvalidInputError(f"preset {name!r} ({cls.__name__}) has no parameter {', '.join(unknown)}; "
                                  f"its parameters: {', '.join(sorted(accepted))}")
             ests.append(cls(**{**params, **overrides}))
     else:
@@ -412,7 +414,7 @@ def _train_stages(
         kwargs = {**params, **overrides, "checkpoint_dir": stage_dir, "verbose": verbose}
         if warm:
             if previous is None:
-                raise ValueError(f"preset {name!r}: stage {k + 1} warm-starts but has no previous stage")
+                raise InvalidInputError(f"preset {name!r}: stage {k + 1} warm-starts but has no previous stage")
             kwargs["warm_start"] = previous
         est = cls(**kwargs)
         start = time.perf_counter()

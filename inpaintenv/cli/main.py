@@ -19,7 +19,6 @@ Examples
 from __future__ import annotations
 
 import argparse
-import fnmatch
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -35,7 +34,7 @@ from .score import add_score
 from .show import add_show
 from .train import add_train
 
-__all__ = ["INTERRUPTED", "PENDING_MODULES", "SUBCOMMANDS", "USER_ERRORS", "build_parser", "is_user_error", "main"]
+__all__ = ["INTERRUPTED", "SUBCOMMANDS", "USER_ERRORS", "build_parser", "is_user_error", "main"]
 
 #: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
 INTERRUPTED = 130
@@ -44,16 +43,6 @@ INTERRUPTED = 130
 #: ours (bad input, a missing extra, a lost cluster) and the system's (a missing file, a full
 #: disk). Any other exception is a bug and shows its traceback.
 USER_ERRORS: tuple[type[BaseException], ...] = (InpaintenvError, OSError)
-
-#: Modules (``fnmatch`` patterns) that still raise plain built-in errors for bad input, until
-#: they raise :mod:`inpaintenv.exceptions` too, and the built-in errors each raises on purpose:
-#: such an error raised *by a line of one of them* is a user error; one raised deeper (in
-#: torch, NumPy) or of another type (an ImportError of a broken import) is still a bug.
-PENDING_MODULES: dict[str, tuple[type[BaseException], ...]] = {
-    "estimators.learned": (ValueError, TypeError, KeyError),
-    "estimators.learned.*": (ValueError, TypeError, KeyError),
-    "inpaintenv.registry": (ValueError, TypeError, KeyError, ImportError),
-}
 
 #: ``add_<name>(subparsers)`` functions, one per subcommand.
 SUBCOMMANDS: list[Callable[[Any], None]] = [
@@ -111,20 +100,5 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def is_user_error(exc: BaseException) -> bool:
-    """True if ``exc`` is reported as one line: one of :data:`USER_ERRORS`, or a built-in error
-    that a line of a module of :data:`PENDING_MODULES` raised, of a type that module raises."""
-    if isinstance(exc, USER_ERRORS):
-        return True
-    module = _raising_module(exc)
-    return any(isinstance(exc, types) and fnmatch.fnmatchcase(module, pattern)
-               for pattern, types in PENDING_MODULES.items())
-
-
-def _raising_module(exc: BaseException) -> str:
-    """The ``__name__`` of the module whose line raised ``exc`` (the innermost frame)."""
-    tb = exc.__traceback__
-    if tb is None:
-        return ""
-    while tb.tb_next is not None:
-        tb = tb.tb_next
-    return str(tb.tb_frame.f_globals.get("__name__", ""))
+    """True if ``exc`` is reported as one line: one of :data:`USER_ERRORS`."""
+    return isinstance(exc, USER_ERRORS)

@@ -32,6 +32,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from inpaintenv.exceptions import InvalidInputError
+
 from .pixel_blend import MIN_DEPTH, PixelBlendNet
 
 __all__ = ["CELL", "ContextBlendEnsemble", "ContextBlendNet", "ContextUNet", "context_grid", "frame_reference"]
@@ -229,7 +231,7 @@ class ContextBlendEnsemble(nn.Module):
     def __init__(self, members: Sequence[ContextBlendNet]):
         super().__init__()
         if len(members) < 2:
-            raise ValueError(f"an ensemble needs at least 2 members, got {len(members)}")
+            raise InvalidInputError(f"an ensemble needs at least 2 members, got {len(members)}")
         self.members = nn.ModuleList(members)
 
     @property

@@ -22,6 +22,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from inpaintenv.exceptions import InvalidInputError
+
 __all__ = ["ConvBlock", "UNet", "UNetDecoder", "UNetEncoder", "pad_to_multiple"]
 
 #: GroupNorm uses this many groups, or gcd(channels, GROUPS) for narrow layers.
@@ -116,7 +118,7 @@ class UNetDecoder(nn.Module):
 def pad_to_multiple(x: torch.Tensor, multiple: int, mode: str = "replicate") -> torch.Tensor:
     """Pad the bottom and right of an ``(N, C, H, W)`` tensor to multiples of ``multiple``."""
     if mode not in PAD_MODES:
-        raise ValueError(f"pad mode must be one of {PAD_MODES}, got {mode!r}")
+        raise InvalidInputError(f"pad mode must be one of {PAD_MODES}, got {mode!r}")
     h, w = x.shape[-2:]
     ph, pw = (-h) % multiple, (-w) % multiple
     if not (ph or pw):
@@ -158,7 +160,7 @@ class UNet(nn.Module):
     ):
         super().__init__()
         if pad_mode not in PAD_MODES:
-            raise ValueError(f"pad_mode must be one of {PAD_MODES}, got {pad_mode!r}")
+            raise InvalidInputError(f"pad_mode must be one of {PAD_MODES}, got {pad_mode!r}")
         self.in_channels, self.width, self.depth, self.skip = in_channels, width, depth, skip
         self.pad_mode = pad_mode
         self.encoder = UNetEncoder(in_channels, width, depth)
@@ -167,7 +169,7 @@ class UNet(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         if x.ndim != 4 or x.shape[1] != self.in_channels:
-            raise ValueError(
+            raise InvalidInputError(
                 f"expected input (N, {self.in_channels}, H, W), got {tuple(x.shape)}"
             )
         h, w = x.shape[-2:]
