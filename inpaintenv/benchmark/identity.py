@@ -1,9 +1,11 @@
 """What a benchmark method *is*, as a short string, so a resumed run never reuses rows
 that another model made under the same display name.
 
-* an estimator (has ``get_params``): ``module.Class(sorted params)`` without the
-  parameters that only change speed (:data:`RUNTIME_PARAMS`), plus ``weights:<sha256>``
-  of its fitted network when it has one (``model_.state_dict()``);
+* an estimator (has ``get_params``): ``Class(sorted params)`` without the parameters
+  that only change speed (:data:`RUNTIME_PARAMS`), plus ``weights:<sha256>`` of its
+  fitted network when it has one (``model_.state_dict()``), or, for an ensemble
+  (``named_estimators_``), ``members:[name=weights:<sha256>, ...]`` of its fitted members.
+  The class name, not its module: moving a class between modules keeps its identity;
 * a saved checkpoint: ``checkpoint:<sha256>`` of the checkpoint's files, computed from
   disk without loading the model (:func:`files_identity`);
 * any other callable: its qualified name, ``module.qualname`` (best effort: two lambdas
@@ -44,6 +46,18 @@ def _weights_sha256(model: Any) -> str:
         # float(): numpy has no bfloat16; the values, not their storage type, matter here.
         h.update(value.detach().cpu().float().numpy().tobytes())
     return h.hexdigest()
+
+
+def _fitted_weights(method: Any) -> str:
+    """``weights:<sha256>`` of a fitted network, ``members:[...]`` of a fitted ensemble, else ``""``."""
+    model = getattr(method, "model_", None)
+    if callable(getattr(model, "state_dict", None)):
+        return f"weights:{_weights_sha256(model)}"
+    members = getattr(method, "named_estimators_", None)
+    if isinstance(members, dict) and members:
+        parts = [f"{name}={_fitted_weights(est) or '-'}" for name, est in members.items()]
+        return f"members:[{', '.join(parts)}]"
+    return ""
 
 
 def files_identity(path: str | os.PathLike, kind: str = "checkpoint") -> str:
@@ -102,11 +116,9 @@ def method_identity(method: Any) -> str:
     get_params = getattr(method, "get_params", None)
     if callable(get_params):
         params = {k: v for k, v in get_params(deep=False).items() if k not in RUNTIME_PARAMS}
-        text = f"{_qualname(type(method))}({_ADDRESS.sub('', repr(sorted(params.items())))})"
-        model = getattr(method, "model_", None)
-        if callable(getattr(model, "state_dict", None)):
-            text += f" weights:{_weights_sha256(model)}"
-        return text
+        text = f"{type(method).__qualname__}({_ADDRESS.sub('', repr(sorted(params.items())))})"
+        weights = _fitted_weights(method)
+        return f"{text} {weights}" if weights else text
     if isinstance(getattr(method, "__qualname__", None), str):
         return _qualname(method)
     return _qualname(type(method))
