@@ -31,7 +31,7 @@ def test_gpu_recipe_is_the_study_schedule_scaled_to_a_gpu(name):
     est = make_preset(name)
     p = est.get_params()
     assert (p["hole_weight"], p["tv_weight"], p["weight_decay"]) == (2.0, 0.01, 1e-6)
-    assert p["crop"] == (352, 1216) and p["batch_size"] == 16
+    assert p["crop"] == (352, 1216) and p["batch_size"] == 16 and p["width"] == 16
     assert p["amp"] is True and p["channels_last"] is True and p["num_workers"] == 8
     assert p["max_minutes"] == 4.0
     study_lr = 1e-3 if name == "study-autoencoder-gpu" else 5e-4  # the study's stage lr at batch 4
