@@ -73,3 +73,20 @@ def test_a_run_within_budget_is_bit_identical_to_no_budget(make):
 def test_max_minutes_must_be_positive(bad):
     with pytest.raises((InvalidInputError, TypeError), match="max_minutes"):
         UNetInpainter(width=4, depth=2, max_minutes=bad, **RUN).fit(_frames())
+
+
+def test_a_distributed_job_stops_on_the_budget_as_fit(monkeypatch):
+    """A 1-process DDP job (gloo): its ranks agree on the stop, which lands after the same step as fit's."""
+    import socket
+
+    from estimators.learned.distributed import train_distributed
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    for key, value in {"RANK": "0", "LOCAL_RANK": "0", "WORLD_SIZE": "1", "MASTER_ADDR": "127.0.0.1",
+                       "MASTER_PORT": str(port)}.items():
+        monkeypatch.setenv(key, value)
+    _minute_per_call(monkeypatch)
+    ddp = train_distributed(UNetInpainter(width=4, depth=2, max_minutes=2.5, **RUN), _frames(), log=False)
+    assert ddp.n_steps_ == 3 and ddp.history_["budget_stop"]["step"] == 3
