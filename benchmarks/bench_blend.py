@@ -31,7 +31,7 @@ import numpy as np
 from estimators.classical import HarmonicInpainter
 from estimators.learned.load import load_checkpoint
 from estimators.learned.releases import DEFAULT_RELEASE, load_release
-from estimators.priors import prior_features
+from estimators.candidates import prior_features
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.masks import get_protocol
 

@@ -1,4 +1,4 @@
-"""One scan per axis for every row/column feature of :mod:`estimators.priors`.
+"""One scan per axis for every row/column feature of :mod:`estimators.candidates`.
 
 The row-wise and column-wise candidate fills (depth and inverse depth), the gap lengths
 and the endpoint depths all start from the same thing: the nearest measurement before
@@ -6,7 +6,7 @@ and after each pixel along an axis. Computed once per axis here and shared, they
 about a third of computing each feature on its own, with the same numbers as
 :func:`estimators.classical.scanline.scanline_fill`,
 :func:`estimators.classical._base.in_inverse_depth`,
-:func:`estimators.priors.gap_distances` and :func:`estimators.priors.endpoint_values`
+:func:`estimators.candidates.gap_distances` and :func:`estimators.candidates.endpoint_values`
 (checked by ``tests/estimators/test_scan.py``).
 """
 

@@ -29,7 +29,7 @@ multi-process training is ``torchrun -m estimators.learned.distributed``.
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
 -> ``_neural_params`` -> ``neural`` -> ``prior`` / ``blend`` -> ``context_blend`` ->
 ``ensemble`` -> ``load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
-fills come from :mod:`estimators.priors` (no torch). No module here imports this package
+fills come from :mod:`estimators.candidates` (no torch). No module here imports this package
 face or ``estimators``' face; this face imports a module only when one of its names is
 first used, so importing one family does not load the others. (The function ``load``
 is exported by ``estimators``: here the name is the module ``load``.)

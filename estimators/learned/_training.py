@@ -25,7 +25,7 @@ from tqdm.auto import tqdm
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset, split_by_drive
-from inpaintenv.environment import environment_info
+from inpaintenv.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, TrainingDivergedError
 from inpaintenv.masks import OcclusionProtocol, get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
@@ -406,7 +406,7 @@ class TrainingMixin:
         """Move ``model`` to ``device`` (channels-last if asked) and build the Adam optimizer,
         the autocast context and the CUDA gradient scaler (None when not needed).
 
-        Shared by :meth:`_train` and ``estimators.distributed`` so both train alike.
+        Shared by :meth:`_train` and ``estimators.learned.distributed`` so both train alike.
         """
         model.to(device)
         if self.channels_last:

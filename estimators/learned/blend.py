@@ -30,13 +30,13 @@ from joblib import Parallel, delayed
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
-from inpaintenv.environment import environment_info
+from inpaintenv.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
 from inpaintenv.masks import get_protocol
 from inpaintenv.report.progress import FrameProgress
 
 from ..base import BaseInpainter, resolve_seed
-from ..priors import (
+from ..candidates import (
     ENDPOINT_CHANNELS,
     GAP_CHANNELS,
     check_candidates,
@@ -86,7 +86,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     ----------
     candidates : tuple of str, default :data:`BLEND_CANDIDATES`
         Classical fills the blend chooses between (any of
-        :data:`estimators.priors.AVAILABLE_CANDIDATES`).
+        :data:`estimators.candidates.AVAILABLE_CANDIDATES`).
     endpoints : bool, default True
         Also give the depth of the nearest measurement left, right, above and below.
     width : int, default 64

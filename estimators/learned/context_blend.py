@@ -29,12 +29,12 @@ from torch import nn
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
-from inpaintenv.environment import environment_info
+from inpaintenv.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
 from inpaintenv.masks import get_protocol
 
 from ..base import resolve_seed
-from ..priors import prior_features
+from ..candidates import prior_features
 from . import _checkpoint as ckpt
 from ._constraints import Integer, Options, Real, Sequence
 from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH

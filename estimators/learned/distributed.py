@@ -2,7 +2,7 @@
 
 Launch one process per device with ``torchrun``::
 
-    torchrun --nproc_per_node=2 -m estimators.distributed \\
+    torchrun --nproc_per_node=2 -m estimators.learned.distributed \\
         --preset study-unet-tv --kitti-root /data/kitti --out runs/ddp --max-steps 1000
 
 or call :func:`train_distributed` from a process whose environment ``torchrun`` (or
@@ -83,7 +83,7 @@ def process_group(device_type: str) -> Iterator[tuple[int, int, int]]:
     if missing:
         raise StateError(
             f"distributed training needs the torchrun environment; missing {', '.join(missing)}. "
-            "Launch with `torchrun --nproc_per_node=N -m estimators.distributed ...`"
+            "Launch with `torchrun --nproc_per_node=N -m estimators.learned.distributed ...`"
         )
     dist.init_process_group(backend="nccl" if device_type == "cuda" else "gloo")
     try:
@@ -217,12 +217,12 @@ def train_distributed(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Command line: ``torchrun --nproc_per_node=N -m estimators.distributed ...``."""
+    """Command line: ``torchrun --nproc_per_node=N -m estimators.learned.distributed ...``."""
     from inpaintenv.data import open_source
 
     from .presets import PRESETS, make_preset
 
-    p = argparse.ArgumentParser(prog="python -m estimators.distributed", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="python -m estimators.learned.distributed", description=__doc__.split("\n")[0])
     p.add_argument("--preset", required=True, help="a single-stage U-Net/autoencoder preset, e.g. study-unet-tv")
     p.add_argument("--kitti-root", default=None, help="KITTI depth root (default: the synthetic streets)")
     p.add_argument("--split", default="train")
@@ -246,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     train_distributed(est, dataset)
     if int(os.environ.get("RANK", "0")) == 0:
         path = est.save(args.out / "model")
-        print(f"saved {path} (load with estimators.neural.load_checkpoint)", flush=True)
+        print(f"saved {path} (load with estimators.learned.load_checkpoint)", flush=True)
     return 0
 
 

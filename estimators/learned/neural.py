@@ -1,6 +1,6 @@
 """The study's learned inpainters as scikit-learn estimators: U-Net and autoencoder.
 
->>> from estimators.neural import UNetInpainter                      # doctest: +SKIP
+>>> from estimators.learned import UNetInpainter                      # doctest: +SKIP
 >>> est = UNetInpainter(width=16, crop=(176, 416), epochs=5, random_state=0)
 >>> est.fit(train_dataset).predict(corrupted)                         # metres
 
@@ -295,7 +295,3 @@ class AutoencoderInpainter(_NeuralInpainter):
 # The classes a checkpoint may name; each learned family registers its own on import
 # (estimators.learned.load imports them all before it looks one up).
 _CLASSES.update({"UNetInpainter": UNetInpainter, "AutoencoderInpainter": AutoencoderInpainter})
-# Their public path: a benchmark run folder records a method as ``module.Class(params)``
-# and pickles name the module, so both stay what they were before the move to learned/.
-UNetInpainter.__module__ = AutoencoderInpainter.__module__ = "estimators.neural"
-

@@ -1,15 +1,15 @@
 """A learned inpainter built on classical priors: per-pixel blend of candidate fills + residual.
 
->>> from estimators.prior import PriorUNetInpainter                  # doctest: +SKIP
+>>> from estimators.learned import PriorUNetInpainter                  # doctest: +SKIP
 >>> est = PriorUNetInpainter.pretrained("kitti-mixed-v1")            # shipped weights
 >>> est.predict(corrupted)                                           # metres
 
 The network (:class:`estimators.learned.nets.prior_unet.PriorUNet`) sees the corrupted depth,
-the hole and validity masks and the classical fills of :mod:`estimators.priors`
+the hole and validity masks and the classical fills of :mod:`estimators.candidates`
 (row-wise depth and inverse-depth interpolation, column-wise interpolation, harmonic),
 all computed on the whole frame, and predicts per pixel how to weight them plus a
 correction. Training, checkpoints, resuming, validation and saving are those of
-:class:`estimators.neural.UNetInpainter`; only the model, the input features, the loss
+:class:`estimators.learned.UNetInpainter`; only the model, the input features, the loss
 (L2 on the hole in metres, since the benchmark's metric is RMSE) and flip augmentation /
 test-time flip averaging differ. See ``docs/model_card.md`` for the shipped model.
 """
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from ..priors import (
+from ..candidates import (
     CANDIDATES,
     ENDPOINT_CHANNELS,
     GAP_CHANNELS,
@@ -66,11 +66,11 @@ class PriorUNetInpainter(_NeuralInpainter):
         unet only: pixel-unshuffle factor (the network runs at ``1/factor``). Training
         frames (or crops) must be at least ``factor * 2**levels`` px per side, and
         ``width * 2**levels`` at most 2048.
-    candidates : tuple of str, default :data:`estimators.priors.CANDIDATES` (any of ``AVAILABLE_CANDIDATES``)
+    candidates : tuple of str, default :data:`estimators.candidates.CANDIDATES` (any of ``AVAILABLE_CANDIDATES``)
         Classical fills given to the network.
     endpoints : bool, default False
         pixel only: also give the depth of the nearest measurement left, right, above
-        and below (:func:`estimators.priors.endpoint_values`), so the blend can tell a
+        and below (:func:`estimators.candidates.endpoint_values`), so the blend can tell a
         gap over one surface from one over a depth edge.
     relative : bool, default False
         pixel only: scale-free blend (see :class:`~estimators.learned.nets.pixel_blend.PixelBlendNet`):
@@ -87,17 +87,17 @@ class PriorUNetInpainter(_NeuralInpainter):
     lr, weight_decay, batch_size, epochs, max_steps, max_minutes, crop, protocol,
     validation_fraction, warm_start, device, amp, channels_last, compile, num_threads,
     num_workers, random_state, checkpoint_dir, checkpoint_every, keep_observed, verbose
-        As in :class:`estimators.neural.UNetInpainter`. ``crop=None`` (whole frames) is
+        As in :class:`estimators.learned.UNetInpainter`. ``crop=None`` (whole frames) is
         the recommended setting: candidates of a crop differ from those of the frame.
 
     Attributes
     ----------
     model_ : PriorUNet
     history_, n_steps_, seed_, run_dir_
-        As in :class:`estimators.neural.UNetInpainter`; ``step_loss`` is the hole MSE
+        As in :class:`estimators.learned.UNetInpainter`; ``step_loss`` is the hole MSE
         in m².
     model_params_ : dict
-        As in :class:`estimators.neural.UNetInpainter`: here ``arch``, ``width``,
+        As in :class:`estimators.learned.UNetInpainter`: here ``arch``, ``width``,
         ``levels``, ``candidates`` and ``endpoints``/``relative`` (pixel) or ``factor``
         (unet); changing one after fit makes ``predict`` and ``save`` raise.
     """
@@ -379,5 +379,3 @@ class PriorUNetInpainter(_NeuralInpainter):
 
 # The shared loader (estimators.learned.load) finds classes by name in this table.
 neural._CLASSES.setdefault("PriorUNetInpainter", PriorUNetInpainter)
-# Its public path, recorded in benchmark run folders and pickles (see estimators.learned.neural).
-PriorUNetInpainter.__module__ = "estimators.prior"

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..cluster import open_client, parse_scheduler
-from ..environment import environment_info
+from ..provenance import environment_info
 from .options import (
     add_common_options,
     add_source_options,
@@ -295,7 +295,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         if not preset_runs_joblib(args.preset):
             raise InvalidInputError(
                 f"--scheduler spreads the training features of the blend presets; {args.preset} trains step by "
-                "step in one process (several processes or GPUs: torchrun -m estimators.distributed)"
+                "step in one process (several processes or GPUs: torchrun -m estimators.learned.distributed)"
             )
     overrides: dict[str, Any] = {}
     for key, value in (("max_steps", args.max_steps), ("max_minutes", args.max_minutes), ("random_state", args.seed),

@@ -11,7 +11,7 @@ from streets import streets as _streets
 
 from estimators.learned import BlendInpainter
 from estimators.learned._checkpoint import CheckpointError
-from estimators.priors import prior_features
+from estimators.candidates import prior_features
 from inpaintenv.data import ArrayDataset
 
 TINY = dict(width=8, layers=1, epochs=2, masks_per_frame=2, pixels_per_frame=200, batch_pixels=128, num_threads=1)

@@ -15,7 +15,7 @@ from estimators.learned.nets.context_blend import (
     frame_reference,
 )
 from estimators.learned.nets.pixel_blend import PixelBlendNet
-from estimators.priors import candidate_fills
+from estimators.candidates import candidate_fills
 from inpaintenv.data import ArrayDataset
 
 TINY = dict(n_context=3, context_widths=(4, 8), width=8, layers=1, epochs=2, masks_per_frame=2, keep=(1.0, 0.6),

@@ -12,7 +12,7 @@ from estimators.learned.nets.pixel_blend import PixelBlendNet
 from estimators.learned.nets.prior_unet import PriorUNet
 from estimators.learned.presets import available_presets, make_preset, train_preset
 from estimators.learned import PriorUNetInpainter
-from estimators.priors import (
+from estimators.candidates import (
     AVAILABLE_CANDIDATES,
     CANDIDATES,
     NO_MEASUREMENT_DISTANCE,

@@ -8,7 +8,7 @@ import pytest
 from estimators._scan import fill_empty_rows
 from estimators.classical._base import in_inverse_depth
 from estimators.classical.scanline import scanline_fill
-from estimators.priors import (
+from estimators.candidates import (
     _FILLS,
     AVAILABLE_CANDIDATES,
     candidate_fills,

@@ -69,7 +69,7 @@ class PixelBlendNet(nn.Module):
     Notes
     -----
     Input ``(N, 3 + K + n_gaps + n_endpoints, H, W)`` as built by
-    :func:`estimators.priors.prior_features` with ``gaps=True`` (and ``endpoints=True``).
+    :func:`estimators.candidates.prior_features` with ``gaps=True`` (and ``endpoints=True``).
     """
 
     def __init__(
@@ -197,7 +197,7 @@ def fill_holes(
     ----------
     model : PixelBlendNet
     x : torch.Tensor
-        Features as built by :func:`estimators.priors.prior_features` (depth, hole,
+        Features as built by :func:`estimators.candidates.prior_features` (depth, hole,
         valid, candidates, gap lengths, endpoints), on the CPU.
     flip_average : bool
         Average with the mirrored frame's prediction (:meth:`PixelBlendNet.mirror_order`).

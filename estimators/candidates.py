@@ -8,7 +8,7 @@ the classical estimators' fill functions and are computed on the *whole* frame, 
 row-wise fill stays exact when a network later sees a crop of rows.
 
 >>> import numpy as np
->>> from estimators.priors import prior_features, CANDIDATES
+>>> from estimators.candidates import prior_features, CANDIDATES
 >>> x = np.full((4, 6), 10.0, dtype=np.float32); x[1:3, 2:4] = np.nan
 >>> prior_features(x).shape == (3 + len(CANDIDATES), 4, 6)
 True
