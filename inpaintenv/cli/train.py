@@ -41,8 +41,8 @@ def add_train(subparsers: Any) -> None:
     p.add_argument("--out", default="runs/model", metavar="DIR", help="output folder (default runs/model)")
     p.add_argument("--max-steps", type=int, metavar="N", help="override the preset's step budget")
     p.add_argument("--max-minutes", type=float, metavar="M",
-                   help="wall-clock budget of this run in minutes (step-trained presets): training stops after the "
-                        "step during which it ran out, checkpointed; rerunning resumes with a new budget")
+                   help="wall-clock budget in minutes of each training stage (step-trained presets): training stops "
+                        "after the step during which it ran out, checkpointed; rerunning resumes with a new budget")
     p.add_argument("--seed", type=int, metavar="S", help="override the preset's random_state")
     p.add_argument("--threads", type=thread_count, metavar="N", help="torch threads (override; at most MAX_THREADS)")
     p.add_argument("--jobs", type=int, metavar="N",
