@@ -13,6 +13,7 @@ from __future__ import annotations
 import errno
 import os
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -227,19 +228,29 @@ def read_depth_png_raw(path: str | os.PathLike) -> np.ndarray:
     Raises as :func:`read_depth_png`.
     """
     path = Path(path)
-    # One open: the header is checked before the rest of the file is read, so a file
-    # declaring a huge frame, or larger than its frame can need, is never read whole.
+    header, data = _read_png_file(path, "depth PNG", check_depth_header, _max_file_bytes)
+    return decode_depth_png(data, path, header)
+
+
+def _read_png_file(
+    path: Path, what: str, check_header: Callable[[Path, PngHeader], None], max_bytes: Callable[[PngHeader], int],
+) -> tuple[PngHeader, bytes]:
+    """A PNG file's checked header and its bytes, read in one open.
+
+    The header is checked (``check_header``) before the rest of the file is read, so a
+    file declaring a huge frame, or larger than its frame can need (``max_bytes``), is
+    never read whole; read errors name the path and the cause.
+    """
     try:
         with open(path, "rb") as f:
             head = f.read(_HEADER_BYTES)
             header = _parse_header(head, path)
-            check_depth_header(path, header)
-            data = head + _read_at_most(f, path, "depth PNG", _max_file_bytes(header))
+            check_header(path, header)
+            return header, head + _read_at_most(f, path, what, max_bytes(header))
     except FileTooLargeError:
         raise
     except OSError as exc:
-        raise _clear_os_error(exc, path, "depth PNG") from None
-    return decode_depth_png(data, path, header)
+        raise _clear_os_error(exc, path, what) from None
 
 
 def decode_depth_png(data: bytes, name: str | os.PathLike, header: PngHeader | None = None) -> np.ndarray:
@@ -297,16 +308,9 @@ def read_png(path: str | os.PathLike, what: str = "PNG") -> np.ndarray:
         As :func:`read_file_bytes`.
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as f:
-            head = f.read(_HEADER_BYTES)
-            header = _parse_header(head, path)
-            _check_declared_size(path, header)
-            data = head + _read_at_most(f, path, what, 8 * header.width * header.height + 4 * header.height + (1 << 20))
-    except FileTooLargeError:
-        raise
-    except OSError as exc:
-        raise _clear_os_error(exc, path, what) from None
+    # Any pixel format: at most 8 bytes a pixel (16-bit RGBA) uncompressed, plus filter bytes.
+    _, data = _read_png_file(path, what, _check_declared_size,
+                             lambda h: 8 * h.width * h.height + 4 * h.height + (1 << 20))
     try:
         img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     except cv2.error as exc:
