@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 from estimators.classical import HarmonicInpainter
-from estimators.learned.load import load_checkpoint
+from estimators.learned import load_checkpoint
 from estimators.learned.releases import DEFAULT_RELEASE, load_release
 from estimators.candidates import prior_features
 from inpaintenv.data import KittiDepth, SyntheticStreets

@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
           "(cut) | border keep-80 % (cut) |\n|---|---:|---:|---:|---:|---:|---:|---:|")
     for name, cal_drives, test_drives in folds(drives):
         if name in checkpoints:
-            from estimators.learned.load import load  # a saved fold model (torch, the [learned] extra)
+            from estimators.learned import load  # a saved fold model (torch, the [learned] extra)
 
             base = load(checkpoints[name])
             # Calibrate only on the left-in drives the fold model never saw (fit refuses the others).

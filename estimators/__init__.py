@@ -60,7 +60,7 @@ __all__ = [
 _NEURAL = {"UNetInpainter": "learned.neural", "AutoencoderInpainter": "learned.neural",
            "PriorUNetInpainter": "learned.prior", "BlendInpainter": "learned.blend",
            "ContextBlendInpainter": "learned.context_blend", "MeanEnsembleInpainter": "learned.ensemble",
-           "load": "learned.load", "load_release": "learned.releases"}
+           "load": "learned._load", "load_release": "learned.releases"}
 
 
 def __getattr__(name: str):

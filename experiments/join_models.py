@@ -20,7 +20,7 @@ import json
 import sys
 
 from estimators import MeanEnsembleInpainter
-from estimators.learned.load import load_checkpoint
+from estimators.learned import load_checkpoint
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from estimators import MeanEnsembleInpainter
-from estimators.learned.load import load_checkpoint
+from estimators.learned import load_checkpoint
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate

@@ -22,7 +22,7 @@ from collections.abc import Callable
 import numpy as np
 from _common import N_TRAIN, SELECTION_DRIVE, sel_scores
 
-from estimators.learned.load import load_checkpoint
+from estimators.learned import load_checkpoint
 from estimators.learned.releases import load_release, shipped
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.registry import make_method

@@ -433,6 +433,6 @@ for _release in REMOVED_RELEASES:
                      "history, tag releases-0.1); use 'pretrained' or one of: " + ", ".join(PRETRAINED_RELEASES))
 
 register_method(
-    "checkpoint", "estimators.learned.load", "load", {},
+    "checkpoint", "estimators.learned", "load", {},
     "a saved neural model: make_method('checkpoint', path=...)",
 )

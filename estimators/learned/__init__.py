@@ -1,6 +1,6 @@
 """The learned inpainters (PyTorch), beside :mod:`estimators.classical`: every public name here.
 
->>> from estimators import load                                          # doctest: +SKIP
+>>> from estimators.learned import load                                  # doctest: +SKIP
 >>> from estimators.learned import MeanEnsembleInpainter, load_release
 >>> est = load_release()                      # the default release, DEFAULT_RELEASE
 >>> est.save("my-model"); same = load("my-model")
@@ -15,8 +15,7 @@ name                   what it is
 ``ContextBlendInpainter``  the blend plus a low-resolution scene context
 ``MeanEnsembleInpainter``  the per-pixel mean of several learned inpainters (release
                        ``kitti-ensemble-v1``, the default)
-``load`` (in           any saved model, its class read from its ``config.json``
-``estimators``)
+``load``               any saved model, its class read from its ``config.json``
 ``load_release``       a shipped release by name; ``DEFAULT_RELEASE``, ``shipped``
 ``CheckpointError``    a checkpoint that cannot be read
 =====================  ===============================================================
@@ -28,11 +27,10 @@ multi-process training is ``torchrun -m estimators.learned.distributed``.
 
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
 -> ``_neural_params`` -> ``neural`` -> ``prior`` / ``blend`` -> ``context_blend`` ->
-``ensemble`` -> ``load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
+``ensemble`` -> ``_load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
 fills come from :mod:`estimators.candidates` (no torch). No module here imports this package
 face or ``estimators``' face; this face imports a module only when one of its names is
-first used, so importing one family does not load the others. (The function ``load``
-is exported by ``estimators``: here the name is the module ``load``.)
+first used, so importing one family does not load the others.
 """
 
 from __future__ import annotations
@@ -44,7 +42,7 @@ from typing import Any
 _EXPORTS: dict[str, str] = {
     "UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior",
     "BlendInpainter": "blend", "ContextBlendInpainter": "context_blend", "MeanEnsembleInpainter": "ensemble",
-    "load_checkpoint": "load", "load_release": "releases", "DEFAULT_RELEASE": "releases",
+    "load": "_load", "load_checkpoint": "_load", "load_release": "releases", "DEFAULT_RELEASE": "releases",
     "shipped": "releases", "CheckpointError": "_checkpoint",
 }
 

@@ -368,7 +368,7 @@ def checkpoint_class(name: Any) -> type | None:
     """The estimator class a checkpoint names, or None if no such class is registered.
 
     Each learned family registers its classes in :data:`CLASSES` when its module is
-    imported; :func:`estimators.learned.load.load` imports every family first, so this
+    imported; :func:`estimators.learned.load` imports every family first, so this
     module never imports a family (or the package face) to find one.
     """
     return CLASSES.get(name) if isinstance(name, str) else None

@@ -24,7 +24,7 @@ from typing import Any
 from inpaintenv.exceptions import InvalidInputError, UnknownNameError
 
 from . import _checkpoint as ckpt
-from . import load as _load  # noqa: F401  (imports every learned family: each registers its classes)
+from . import _load  # noqa: F401  (imports every learned family: each registers its classes)
 from .blend import BlendInpainter
 from .context_blend import ContextBlendInpainter
 from .neural import AutoencoderInpainter, UNetInpainter

@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 from . import _checkpoint as ckpt
-from .load import load
+from ._load import load
 
 __all__ = ["DEFAULT_RELEASE", "load_release", "shipped"]
 

@@ -16,7 +16,7 @@ from estimators.learned import _limits
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
 from estimators.learned.blend import BlendInpainter
 from estimators.learned.context_blend import ContextBlendInpainter
-from estimators.learned.load import load_checkpoint
+from estimators.learned import load_checkpoint
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset

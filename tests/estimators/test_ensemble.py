@@ -18,7 +18,7 @@ from estimators.learned._checkpoint import (
 )
 from estimators.learned.blend import BlendInpainter
 from estimators.learned.context_blend import ContextBlendInpainter
-from estimators.learned.load import load_checkpoint
+from estimators.learned import load_checkpoint
 from inpaintenv.data import ArrayDataset
 
 CONTEXT = dict(n_context=2, context_widths=(4, 8), width=8, layers=1, epochs=1, masks_per_frame=1, keep=(1.0,),

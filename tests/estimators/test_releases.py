@@ -19,7 +19,7 @@ from release_checks import (
 
 from estimators.learned import DEFAULT_RELEASE, CheckpointError, PriorUNetInpainter, load_release, shipped
 from estimators.learned._checkpoint import PRETRAINED_DIR
-from estimators.learned.load import load
+from estimators.learned import load
 from estimators.learned.presets import PRESET_ALIASES, PRESETS, make_preset
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.masks import get_protocol

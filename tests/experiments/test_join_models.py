@@ -9,7 +9,7 @@ import pytest
 def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_experiment):
     from estimators.learned import MeanEnsembleInpainter
     from estimators.learned.blend import BlendInpainter
-    from estimators.learned.load import load_checkpoint
+    from estimators.learned import load_checkpoint
     from inpaintenv.data import SyntheticStreets
 
     script = load_experiment("join_models")
