@@ -7,7 +7,7 @@ about a third of computing each feature on its own, with the same numbers as
 :func:`estimators.classical.scanline.scanline_fill`,
 :func:`estimators.classical._base.in_inverse_depth`,
 :func:`estimators.candidates.gap_distances` and :func:`estimators.candidates.endpoint_values`
-(checked by ``tests/estimators/test_scan.py``).
+(checked by ``tests/estimators/classical/test_scan.py``).
 """
 
 from __future__ import annotations
