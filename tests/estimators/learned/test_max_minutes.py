@@ -4,23 +4,18 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pytest
 import torch
 
 from estimators.learned import _budget
 from estimators.learned import AutoencoderInpainter, PriorUNetInpainter, UNetInpainter
 from inpaintenv.exceptions import InvalidInputError
+from training_helpers import gradient_frames
 
 RUN = {"batch_size": 1, "epochs": 3, "max_steps": 9, "random_state": 0, "num_threads": 1, "device": "cpu"}
 
 
-def _frames() -> np.ndarray:
-    rng = np.random.default_rng(0)
-    rows = np.linspace(5.0, 40.0, 32, dtype=np.float32)[:, None]
-    frames = np.stack([rows + np.linspace(0.0, 3.0, 48, dtype=np.float32)[None, :] + k for k in range(3)])
-    frames[rng.random(frames.shape) < 0.3] = 0.0
-    return frames.astype(np.float32)
+_frames = gradient_frames
 
 
 def _minute_per_call(monkeypatch) -> None:

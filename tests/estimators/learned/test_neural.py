@@ -16,6 +16,7 @@ from estimators.learned._output import MIN_HOLE_DEPTH
 from estimators.learned import AutoencoderInpainter, CheckpointError, UNetInpainter
 from inpaintenv.data import ArrayDataset
 from inpaintenv.data.base import DepthDataset, split_by_drive
+from training_helpers import interrupt_after
 
 H, W = 24, 40
 
@@ -183,16 +184,7 @@ def test_load_nonexistent(tmp_path):
 def _interrupt_after(monkeypatch, n_steps):
     from estimators.learned import neural
 
-    orig = neural._NeuralInpainter._train_step
-    calls = {"n": 0}
-
-    def step(self, *args):
-        if calls["n"] == n_steps:
-            raise KeyboardInterrupt("simulated crash")
-        calls["n"] += 1
-        return orig(self, *args)
-
-    monkeypatch.setattr(neural._NeuralInpainter, "_train_step", step)
+    interrupt_after(monkeypatch, neural._NeuralInpainter, n_steps)
 
 
 def test_resume_equals_uninterrupted_run(dataset, corrupted, tmp_path, monkeypatch):

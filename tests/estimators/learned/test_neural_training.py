@@ -18,6 +18,7 @@ from inpaintenv.data import ArrayDataset
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
+from training_helpers import gradient_frames
 
 # -- resume: every family, every random stream ----------------------------------------------
 #: Families whose fit runs the shared step loop (the blends fit in memory, without run checkpoints).
@@ -31,12 +32,7 @@ RESUME = {"batch_size": 1, "epochs": 2, "max_steps": 6, "random_state": 0, "num_
           "checkpoint_every": 1}
 
 
-def _frames() -> np.ndarray:
-    rng = np.random.default_rng(0)
-    rows = np.linspace(5.0, 40.0, 32, dtype=np.float32)[:, None]
-    frames = np.stack([rows + np.linspace(0.0, 3.0, 48, dtype=np.float32)[None, :] + k for k in range(3)])
-    frames[rng.random(frames.shape) < 0.3] = 0.0
-    return frames.astype(np.float32)
+_frames = gradient_frames
 
 
 def _seed_globals(seed: int) -> None:

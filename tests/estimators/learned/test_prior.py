@@ -12,6 +12,7 @@ from estimators.learned.nets.pixel_blend import PixelBlendNet
 from estimators.learned.nets.prior_unet import PriorUNet
 from estimators.learned.presets import available_presets, make_preset, train_preset
 from estimators.learned import PriorUNetInpainter
+from training_helpers import interrupt_after
 from estimators.candidates import (
     AVAILABLE_CANDIDATES,
     CANDIDATES,
@@ -265,17 +266,7 @@ def test_training_is_reproducible(small_gt):
 
 
 def _interrupt_after(monkeypatch, n_steps: int) -> None:
-    """Make the ``n_steps + 1``-th training step of a PriorUNetInpainter fit raise (a crash)."""
-    orig = PriorUNetInpainter._train_step
-    calls = {"n": 0}
-
-    def step(self, *args):
-        if calls["n"] == n_steps:
-            raise KeyboardInterrupt("simulated crash")
-        calls["n"] += 1
-        return orig(self, *args)
-
-    monkeypatch.setattr(PriorUNetInpainter, "_train_step", step)
+    interrupt_after(monkeypatch, PriorUNetInpainter, n_steps)
 
 
 @pytest.mark.parametrize("arch", ARCH_IDS)
