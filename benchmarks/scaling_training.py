@@ -57,7 +57,7 @@ from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
 from inpaintenv.masks import get_protocol
 
-#: Defaults of the study's estimators (``estimators.learned.neural``): normalisation, loss, Adam.
+#: Defaults of the study's estimators (``estimators.learned._neural``): normalisation, loss, Adam.
 MAX_DEPTH = 80.0
 HOLE_WEIGHT = 2.0
 TV_WEIGHT = 0.01

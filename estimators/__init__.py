@@ -57,9 +57,9 @@ __all__ = [
 
 #: Exported lazily so that ``import estimators`` never imports torch: name -> module of
 #: :mod:`estimators.learned` (``load``: any saved model; ``load_release``: a shipped one by name).
-_NEURAL = {"UNetInpainter": "learned.neural", "AutoencoderInpainter": "learned.neural",
-           "PriorUNetInpainter": "learned.prior", "BlendInpainter": "learned.blend",
-           "ContextBlendInpainter": "learned.context_blend", "MeanEnsembleInpainter": "learned.ensemble",
+_NEURAL = {"UNetInpainter": "learned._neural", "AutoencoderInpainter": "learned._neural",
+           "PriorUNetInpainter": "learned._prior", "BlendInpainter": "learned._blend",
+           "ContextBlendInpainter": "learned._context_blend", "MeanEnsembleInpainter": "learned._ensemble",
            "load": "learned._load", "load_release": "learned.releases"}
 
 

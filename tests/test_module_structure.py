@@ -149,7 +149,7 @@ def import_graph() -> dict[str, set[str]]:
 def test_graph_sees_static_imports_and_import_module_literals():
     graph = import_graph()
     assert "inpaintenv.conventions" in graph["estimators.base"]  # from inpaintenv.conventions import ...
-    assert "estimators.learned._checkpoint" in graph["estimators.learned.neural"]  # from . import _checkpoint as ckpt
+    assert "estimators.learned._checkpoint" in graph["estimators.learned._neural"]  # from . import _checkpoint as ckpt
     tree = ast.parse('import importlib\nimportlib.import_module("estimators.prior")\n'
                      'from importlib import import_module\nimport_module(".nets", "estimators")')
     calls = [n for n in ast.walk(tree) if isinstance(n, ast.Call)]
@@ -157,7 +157,7 @@ def test_graph_sees_static_imports_and_import_module_literals():
     typed = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .evaluate import X\nimport os")
     assert {type(n).__name__ for n in ast.walk(typed) if id(n) in _type_checking_only(typed)} >= {"ImportFrom"}
     # Typing-only imports are edges, and so are the module names a computed import_module reads.
-    assert "estimators.learned.neural" in graph["estimators"]  # lazy exports: {"UNetInpainter": "learned.neural"}
+    assert "estimators.learned._neural" in graph["estimators"]  # lazy exports: {"UNetInpainter": "learned._neural"}
     assert "estimators.learned.releases" in graph["inpaintenv.registry"]  # MethodSpec("estimators.learned.releases", ...)
 
 

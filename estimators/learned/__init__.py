@@ -26,8 +26,8 @@ Every class saves and loads through one mixin (``_persistence``: ``save``, ``loa
 multi-process training is ``torchrun -m estimators.learned.distributed``.
 
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
--> ``_neural_params`` -> ``neural`` -> ``prior`` / ``blend`` -> ``context_blend`` ->
-``ensemble`` -> ``_load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
+-> ``_neural_params`` -> ``_neural`` -> ``_prior`` / ``_blend`` -> ``_context_blend`` ->
+``_ensemble`` -> ``_load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
 fills come from :mod:`estimators.candidates` (no torch). No module here imports this package
 face or ``estimators``' face; this face imports a module only when one of its names is
 first used, so importing one family does not load the others.
@@ -40,8 +40,8 @@ from typing import Any
 
 #: Public name -> the private module of this package that defines it.
 _EXPORTS: dict[str, str] = {
-    "UNetInpainter": "neural", "AutoencoderInpainter": "neural", "PriorUNetInpainter": "prior",
-    "BlendInpainter": "blend", "ContextBlendInpainter": "context_blend", "MeanEnsembleInpainter": "ensemble",
+    "UNetInpainter": "_neural", "AutoencoderInpainter": "_neural", "PriorUNetInpainter": "_prior",
+    "BlendInpainter": "_blend", "ContextBlendInpainter": "_context_blend", "MeanEnsembleInpainter": "_ensemble",
     "load": "_load", "load_checkpoint": "_load", "load_release": "releases", "DEFAULT_RELEASE": "releases",
     "shipped": "releases", "CheckpointError": "_checkpoint",
 }

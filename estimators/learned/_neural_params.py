@@ -1,7 +1,7 @@
 """Parameters of the neural inpainters: validation, the device and precision they ask for,
 and the record of the parameters the trained weights depend on.
 
-One job of :class:`estimators.learned.neural._NeuralInpainter`, split out as scikit-learn keeps
+One job of :class:`estimators.learned._neural._NeuralInpainter`, split out as scikit-learn keeps
 ``_validate_params`` and skorch its parameter handling beside the estimator: the class
 stores its ``__init__`` arguments as given, and this mixin checks and interprets them at
 ``fit`` / ``predict`` time.
@@ -42,7 +42,7 @@ MAX_CHANNELS = 2048
 
 class NeuralParamsMixin(ConstrainedParams):
     """Checks and interprets the parameters of a neural inpainter (documented on
-    :class:`estimators.learned.neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
+    :class:`estimators.learned._neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
 
     _parameter_constraints: dict[str, list[Any]] = {
         "width": [Integer(1)],

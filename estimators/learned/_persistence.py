@@ -14,7 +14,7 @@ files). Each family says only what is its own:
 The mixin adds the class name and the provenance (training drives, machine) to the
 config, writes and reads the files, dispatches a load on the recorded class, and marks
 the result fitted. An ensemble nests its members' configs (see
-:class:`~estimators.learned.ensemble.MeanEnsembleInpainter`).
+:class:`~estimators.learned.MeanEnsembleInpainter`).
 """
 
 from __future__ import annotations
@@ -120,7 +120,7 @@ class PersistenceMixin:
 
 
 class CheckpointMixin(PersistenceMixin):
-    """The hooks of the step-trained networks (:class:`~estimators.learned.neural._NeuralInpainter`):
+    """The hooks of the step-trained networks (:class:`~estimators.learned._neural._NeuralInpainter`):
     parameters, seed, steps and history as JSON, the network's state dict as weights."""
 
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:

@@ -214,7 +214,7 @@ def backward_step(loss: torch.Tensor, optimizer: torch.optim.Optimizer, scaler: 
 
 class TrainingMixin:
     """The training loop of a neural inpainter: run directory, resume, warm start, the
-    optimiser steps and per-epoch validation (``fit`` of :class:`estimators.learned.neural._NeuralInpainter`).
+    optimiser steps and per-epoch validation (``fit`` of :class:`estimators.learned._neural._NeuralInpainter`).
 
     Relies on the parameter mixin (``_check_params``, ``_device``, ``_build_model``, ...)
     and the checkpoint mixin of the same class.

@@ -25,10 +25,10 @@ from inpaintenv.exceptions import InvalidInputError, UnknownNameError
 
 from . import _checkpoint as ckpt
 from . import _load  # noqa: F401  (imports every learned family: each registers its classes)
-from .blend import BlendInpainter
-from .context_blend import ContextBlendInpainter
-from .neural import AutoencoderInpainter, UNetInpainter
-from .prior import PriorUNetInpainter
+from ._blend import BlendInpainter
+from ._context_blend import ContextBlendInpainter
+from ._neural import AutoencoderInpainter, UNetInpainter
+from ._prior import PriorUNetInpainter
 
 __all__ = ["PRESETS", "PRESET_ALIASES", "STAGED_PRESETS", "STUDY_PRESETS", "available_presets", "check_preset",
            "describe_preset", "make_preset", "preset_checkpoints", "preset_runs_joblib", "release_recipe",

@@ -8,7 +8,7 @@ import pytest
 
 def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_experiment):
     from estimators.learned import MeanEnsembleInpainter
-    from estimators.learned.blend import BlendInpainter
+    from estimators.learned import BlendInpainter
     from estimators.learned import load_checkpoint
     from inpaintenv.data import SyntheticStreets
 

@@ -58,8 +58,8 @@ def three_days(tmp_path_factory):
 
 
 def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp_path, capsys, load_experiment):
-    from estimators.learned.blend import BlendInpainter
-    from estimators.learned.context_blend import ContextBlendInpainter
+    from estimators.learned import BlendInpainter
+    from estimators.learned import ContextBlendInpainter
     from inpaintenv.data import ArrayDataset
 
     script = load_experiment("nested_mean")

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 
 from estimators.learned import MeanEnsembleInpainter
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
-from estimators.learned.blend import BlendInpainter
+from estimators.learned import BlendInpainter
 from estimators.learned import load_checkpoint
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter

@@ -219,7 +219,7 @@ class ContextBlendNet(nn.Module):
 class ContextBlendEnsemble(nn.Module):
     """Several :class:`ContextBlendNet` of one architecture, trained from different seeds.
 
-    The estimator averages their predictions (:class:`~estimators.learned.context_blend.ContextBlendInpainter`
+    The estimator averages their predictions (:class:`~estimators.learned.ContextBlendInpainter`
     with ``n_members > 1``). Averaging cannot make a frame's error worse than the
     members' mean error: the squared error is convex in the prediction.
 

@@ -14,8 +14,8 @@ from streets import streets as _streets
 from estimators.learned import MeanEnsembleInpainter
 from estimators.learned import _limits
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
-from estimators.learned.blend import BlendInpainter
-from estimators.learned.context_blend import ContextBlendInpainter
+from estimators.learned import BlendInpainter
+from estimators.learned import ContextBlendInpainter
 from estimators.learned import load_checkpoint
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter

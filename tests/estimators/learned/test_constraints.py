@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from estimators.learned._constraints import Bool, Integer, Options, Real, Sequence, validate_params
-from estimators.learned.blend import BlendInpainter
-from estimators.learned.context_blend import ContextBlendInpainter
-from estimators.learned.ensemble import MeanEnsembleInpainter
+from estimators.learned import BlendInpainter
+from estimators.learned import ContextBlendInpainter
+from estimators.learned import MeanEnsembleInpainter
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError

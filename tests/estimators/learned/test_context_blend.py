@@ -7,7 +7,7 @@ import pytest
 import torch
 from streets import streets as _streets
 
-from estimators.learned.context_blend import ContextBlendInpainter
+from estimators.learned import ContextBlendInpainter
 from estimators.learned.nets.context_blend import (
     CELL,
     ContextBlendNet,

@@ -169,7 +169,7 @@ def test_prior_unet_is_refused():
 
 
 def test_distributed_run_resumes_after_a_crash(one_process_group, tmp_path, monkeypatch):
-    from estimators.learned import neural
+    from estimators.learned import _neural as neural
 
     params = {**PARAMS, "max_steps": 3, "checkpoint_every": 1}
     full = train_distributed(UNetInpainter(**params, checkpoint_dir=tmp_path / "a"), _frames(), log=False)

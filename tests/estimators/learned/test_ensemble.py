@@ -16,8 +16,8 @@ from estimators.learned._checkpoint import (
     read_checkpoint,
     write_checkpoint,
 )
-from estimators.learned.blend import BlendInpainter
-from estimators.learned.context_blend import ContextBlendInpainter
+from estimators.learned import BlendInpainter
+from estimators.learned import ContextBlendInpainter
 from estimators.learned import load_checkpoint
 from inpaintenv.data import ArrayDataset
 

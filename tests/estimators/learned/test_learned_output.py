@@ -16,8 +16,8 @@ from streets import streets as _streets
 from estimators.classical import HarmonicInpainter, ScanlineInpainter
 from estimators.learned import MeanEnsembleInpainter
 from estimators.learned._output import MIN_HOLE_DEPTH, floor_holes
-from estimators.learned.blend import BlendInpainter
-from estimators.learned.context_blend import ContextBlendInpainter
+from estimators.learned import BlendInpainter
+from estimators.learned import ContextBlendInpainter
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset

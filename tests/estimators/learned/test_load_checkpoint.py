@@ -30,7 +30,7 @@ def test_a_fresh_process_loads_a_prior_checkpoint_through_estimators_learned(tmp
     code = (
         "import sys, numpy as np\n"
         "from estimators.learned import load_checkpoint\n"
-        "assert 'estimators.learned.prior' in sys.modules  # loading registered every family\n"
+        "assert 'estimators.learned._prior' in sys.modules  # loading registered every family\n"
         f"est = load_checkpoint({str(path)!r})\n"
         "print(type(est).__name__)\n"
         f"np.testing.assert_array_equal(est.predict(np.load({str(tmp_path / 'x.npy')!r})), "

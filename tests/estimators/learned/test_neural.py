@@ -125,7 +125,7 @@ def test_max_steps_stops_mid_epoch(dataset):
 
 def test_crop_trains_on_crops(dataset, monkeypatch):
     seen = []
-    from estimators.learned import neural
+    from estimators.learned import _neural as neural
 
     orig = neural._NeuralInpainter._train_step
 
@@ -182,7 +182,7 @@ def test_load_nonexistent(tmp_path):
 
 # -- checkpoints during training and resume ------------------------------------------------
 def _interrupt_after(monkeypatch, n_steps):
-    from estimators.learned import neural
+    from estimators.learned import _neural as neural
 
     interrupt_after(monkeypatch, neural._NeuralInpainter, n_steps)
 
@@ -207,7 +207,7 @@ def test_resume_equals_uninterrupted_run(dataset, corrupted, tmp_path, monkeypat
 
 def test_finished_run_is_not_retrained(dataset, corrupted, tmp_path, monkeypatch):
     first = tiny(checkpoint_dir=tmp_path).fit(dataset)
-    from estimators.learned import neural
+    from estimators.learned import _neural as neural
 
     def fail(*a):
         raise AssertionError("should not train again")

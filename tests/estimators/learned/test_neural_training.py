@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from estimators.learned import _training
-from estimators.learned.neural import _NeuralInpainter
+from estimators.learned._neural import _NeuralInpainter
 from estimators.learned import AutoencoderInpainter, UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset

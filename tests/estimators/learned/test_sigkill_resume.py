@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimators.learned import neural
+from estimators.learned import _neural as neural
 from estimators.learned import CheckpointError, UNetInpainter
 
 # 6 frames in batches of 2: 3 steps per epoch, so max_steps=8 stops mid-epoch 2.
@@ -36,7 +36,7 @@ FRAMES = "np.random.default_rng(0).uniform(2.0, 60.0, (6, 40, 72)).astype(np.flo
 
 CHILD = f"""
 import time, numpy as np
-from estimators.learned import neural
+from estimators.learned import _neural as neural
 orig = neural._NeuralInpainter._train_step
 def slow(self, *a):
     loss = orig(self, *a)

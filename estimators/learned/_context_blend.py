@@ -13,7 +13,7 @@ frame's context grid, then trains on batches of samples. Drives contribute equal
 (``balance``): a long drive of near-identical consecutive frames would otherwise teach
 the scene prior its own street.
 
->>> from estimators.learned.context_blend import ContextBlendInpainter     # doctest: +SKIP
+>>> from estimators.learned import ContextBlendInpainter                # doctest: +SKIP
 >>> est = ContextBlendInpainter(epochs=4).fit(frames)               # tens of minutes on a CPU
 >>> est.predict(depth_with_nan_holes)                                # metres
 """
@@ -36,10 +36,10 @@ from inpaintenv.masks import get_protocol
 from ..base import resolve_seed
 from ..candidates import prior_features
 from . import _checkpoint as ckpt
+from ._blend import BLEND_CANDIDATES, BlendInpainter
 from ._constraints import Integer, Options, Real, Sequence
 from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH
 from ._training import deterministic_torch, frame_label, torch_threads
-from .blend import BLEND_CANDIDATES, BlendInpainter
 from .nets.context_blend import ContextBlendEnsemble, ContextBlendNet, context_grid, frame_reference
 from .nets.pixel_blend import CHUNK
 
@@ -72,7 +72,7 @@ class ContextBlendInpainter(BlendInpainter):
 
     Parameters
     ----------
-    candidates : tuple of str, default :data:`~estimators.learned.blend.BLEND_CANDIDATES`
+    candidates : tuple of str, default :data:`~estimators.learned._blend.BLEND_CANDIDATES`
         Classical fills the blend chooses between.
     n_context : int, default 8
         Context features per pixel.

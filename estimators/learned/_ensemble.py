@@ -11,7 +11,7 @@ Like scikit-learn's :class:`~sklearn.ensemble.VotingRegressor`, the members are 
 ``(name, estimator)`` pairs, and their parameters are reachable as ``name__param`` by
 ``get_params`` / ``set_params`` (so ``GridSearchCV`` can search them).
 
->>> from estimators.learned.ensemble import MeanEnsembleInpainter            # doctest: +SKIP
+>>> from estimators.learned import MeanEnsembleInpainter          # doctest: +SKIP
 >>> from estimators.learned import BlendInpainter
 >>> from estimators.learned import ContextBlendInpainter
 >>> est = MeanEnsembleInpainter([("context", ContextBlendInpainter()),
@@ -36,7 +36,7 @@ from inpaintenv.exceptions import InvalidInputError
 
 from ..base import BaseInpainter, check_random_state
 from . import _checkpoint as ckpt
-from . import blend, context_blend, neural, prior  # noqa: F401  (each registers the classes a member may be)
+from . import _blend, _context_blend, _neural, _prior  # noqa: F401  (each registers the classes a member may be)
 from ._constraints import Bool, Check, ConstrainedParams, Integer
 from ._output import floor_holes
 from ._persistence import PersistenceMixin

@@ -31,14 +31,14 @@ from ..candidates import (
     prior_features,
 )
 from . import _checkpoint as ckpt
-from . import neural
+from . import _neural as neural
 from ._constraints import Bool, Check, Integer, Options
 from ._limits import MAX_LAYERS, MAX_WIDTH
+from ._neural import _NeuralInpainter
 from ._training import backward_step
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
-from .neural import _NeuralInpainter
 
 __all__ = ["ARCHS", "PriorUNetInpainter"]
 
