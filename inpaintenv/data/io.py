@@ -267,13 +267,7 @@ def decode_depth_png(data: bytes, name: str | os.PathLike, header: PngHeader | N
     if header is None:
         header = _parse_header(data[:_HEADER_BYTES], Path(name))
         check_depth_header(name, header)
-    try:
-        # IMREAD_UNCHANGED keeps 16 bits and the channel count, so we can reject bad files.
-        raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
-    except cv2.error as exc:
-        raise DepthFormatError(f"cannot decode {name}: {str(exc).strip().splitlines()[-1]}") from None
-    if raw is None:
-        raise DepthFormatError(f"cannot decode {name}: truncated or corrupt PNG")
+    raw = _imdecode(data, name)
     if raw.ndim != 2:
         raise DepthFormatError(f"{name} has {raw.shape[2]} channels; a KITTI depth map is single-channel 16-bit")
     if raw.dtype != np.uint16:
@@ -311,12 +305,18 @@ def read_png(path: str | os.PathLike, what: str = "PNG") -> np.ndarray:
     # Any pixel format: at most 8 bytes a pixel (16-bit RGBA) uncompressed, plus filter bytes.
     _, data = _read_png_file(path, what, _check_declared_size,
                              lambda h: 8 * h.width * h.height + 4 * h.height + (1 << 20))
+    return _imdecode(data, path)
+
+
+def _imdecode(data: bytes, name: str | os.PathLike) -> np.ndarray:
+    """``data`` decoded by OpenCV as stored (IMREAD_UNCHANGED keeps 16 bits and the channel
+    count, so callers can refuse bad files); an undecodable file is one error naming ``name``."""
     try:
         img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     except cv2.error as exc:
-        raise DepthFormatError(f"cannot decode {path}: {str(exc).strip().splitlines()[-1]}") from None
+        raise DepthFormatError(f"cannot decode {name}: {str(exc).strip().splitlines()[-1]}") from None
     if img is None:
-        raise DepthFormatError(f"cannot decode {path}: truncated or corrupt PNG")
+        raise DepthFormatError(f"cannot decode {name}: truncated or corrupt PNG")
     return img
 
 
