@@ -43,7 +43,8 @@ def test_baselines_md_names_the_frames_its_command_scores(kitti_root, kitti_layo
     command = re.search(r"--drives ([^`\n]+)", text("docs/baselines.md")).group(1).split()
     train = kitti_layout("train")
     counts = {d: train[d] for d in command if d in train}
-    assert len(counts) == 2 and sum(counts.values()) == 80 and f"two of its {len(train)} `train` drives" in page
+    # The page names what its table was computed on; nothing here assumes the slice's size.
+    assert len(counts) == 2 and f"the {sum(counts.values())} `train` frames of two of its `train` drives" in page
     for drive, n in counts.items():
         assert f"`{drive}` ({n}" in page
     assert "first two drives" not in page
