@@ -194,14 +194,83 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             check_is_fitted(self.estimator)
         dataset = self._grouped(X, groups)
         drives = sorted({str(g) for g in dataset.groups})
-        seen = sorted(set(drives) & set(getattr(self.estimator, "training_drives_", None) or ()))
-        if seen:
-            raise InvalidInputError(f"the base estimator was trained on calibration drives {seen}: calibrate on "
-                                    "drives it never saw, or the intervals will be too narrow on new drives")
+        self._refuse_seen(self.estimator, drives, "the base estimator")
         second = self._second_fill(self.spread_method) if "spread" in signals else None
+        F, r = self._residuals(self.estimator, dataset, signals, second)
+        return self._calibrate(F, r, dataset, drives, signals)
+
+    def fit_out_of_fold(self, folds: Sequence[tuple[Any, Any]]) -> ConformalIntervalInpainter:
+        """Calibrate ``estimator`` on out-of-fold residuals of models of its recipe (cross-fitting).
+
+        For a model trained on every drive there is, such as a shipped release: each
+        ``(model, X)`` pair is a model trained *without* ``X``'s drives (a fold model of
+        the same recipe) and frames of those drives; the scale and the quantiles are fitted
+        on the pooled residuals of each fold model on its own left-out drives, then used
+        around ``estimator``. This is the "CV" estimate of cross-conformal prediction: it
+        assumes ``estimator``'s errors on new drives are no larger than its fold models'
+        (each trained on less data); ``calibration_["out_of_fold"]`` records it.
+
+        Parameters
+        ----------
+        folds : sequence of (fitted model, dataset)
+            Each model of ``estimator``'s class, each dataset of whole drives the model
+            never saw (checked against its ``training_drives_``), no drive in two folds.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        InvalidInputError
+            For no folds, a model of another class, a drive a fold model saw or a drive in
+            two folds.
+        """
+        signals = self._check_params()
+        if hasattr(self.estimator, "fit"):
+            check_is_fitted(self.estimator)
+        if isinstance(folds, (str, bytes)) or not isinstance(folds, Sequence) or not folds:
+            raise InvalidInputError("folds must be a non-empty sequence of (fold model, dataset) pairs")
+        second = self._second_fill(self.spread_method) if "spread" in signals else None
+        feats, resid, records, taken = [], [], [], {}
+        for k, fold in enumerate(folds):
+            if not (isinstance(fold, tuple) and len(fold) == 2):
+                raise InvalidInputError(f"folds[{k}] must be a (fold model, dataset) pair, got {type(fold).__name__}")
+            model, X = fold
+            if type(model) is not type(self.estimator):
+                raise InvalidInputError(f"folds[{k}]: the fold model is a {type(model).__name__}, the estimator a "
+                                        f"{type(self.estimator).__name__}: fold models must follow its recipe")
+            dataset = self._grouped(X, None)
+            drives = sorted({str(g) for g in dataset.groups})
+            self._refuse_seen(model, drives, f"folds[{k}]: the fold model")
+            twice = sorted(set(drives) & set(taken))
+            if twice:
+                raise InvalidInputError(f"folds[{k}]: drives {twice} are in folds[{taken[twice[0]]}] too; each drive "
+                                        "calibrates once")
+            taken.update({d: k for d in drives})
+            F, r = self._residuals(model, dataset, signals, second)
+            feats.append(F)
+            resid.append(r)
+            records.append({"drives": drives, "n_frames": len(dataset), "n_pixels": int(r.size),
+                            "training_drives": sorted(str(d) for d in getattr(model, "training_drives_", None) or ())})
+        self._calibrate(np.concatenate(feats), np.concatenate(resid), None, sorted(taken), signals,
+                        n_frames=sum(rec["n_frames"] for rec in records))
+        self.calibration_["out_of_fold"] = records
+        return self
+
+    @staticmethod
+    def _refuse_seen(model: Any, drives: Sequence[str], who: str) -> None:
+        seen = sorted(set(drives) & {str(d) for d in getattr(model, "training_drives_", None) or ()})
+        if seen:
+            raise InvalidInputError(f"{who} was trained on calibration drives {seen}: calibrate on drives it never "
+                                    "saw, or the intervals will be too narrow on new drives")
+
+    def _residuals(self, model: Any, dataset: DepthDataset, signals: tuple[str, ...],
+                   second: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The signals (design matrix) and absolute residuals of ``model`` on every scored hole pixel."""
         feats, resid = [], []
         for x, gt, hole in iter_scoring_batches(dataset, protocol=self.protocol, seed=int(self.seed)):
-            pred = np.asarray(self.estimator.predict(x), dtype=np.float32)
+            pred = np.asarray(model.predict(x), dtype=np.float32)
             other = np.asarray(second.predict(x), dtype=np.float64) if second is not None else None
             for k in range(len(x)):
                 scored = hole[k] & (gt[k] > 0)
@@ -212,7 +281,11 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
                 resid.append(np.abs(gt[k][scored].astype(np.float64) - pred[k][scored]))
         if not resid:
             raise InvalidInputError("no calibration frame has ground truth inside its holes; nothing to calibrate on")
-        F, r = np.concatenate(feats), np.concatenate(resid)
+        return np.concatenate(feats), np.concatenate(resid)
+
+    def _calibrate(self, F: np.ndarray, r: np.ndarray, dataset: DepthDataset | None, drives: list[str],
+                   signals: tuple[str, ...], n_frames: int | None = None) -> ConformalIntervalInpainter:
+        """Fit the scale on ``(F, r)`` and keep the normalised residuals' quantiles."""
         if "spread" in signals and np.ptp(F[:, 1 + signals.index("spread")]) == 0:
             raise InvalidInputError(f"spread is the same at every calibration pixel: spread_method="
                                     f"{self.spread_method!r} fills as the base does; choose another (e.g. 'nearest') "
@@ -223,7 +296,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         self.n_calibration_pixels_ = int(r.size)
         self.quantile_ = self._exact_quantile(np.sort(normed), float(self.coverage))
         self.calibration_ = {
-            "drives": drives, "n_frames": len(dataset), "n_pixels": int(r.size), "coverage": float(self.coverage),
+            "drives": drives, "n_frames": len(dataset) if dataset is not None else int(n_frames or 0),
+            "n_pixels": int(r.size), "coverage": float(self.coverage),
             "protocol": self.protocol, "seed": int(self.seed), "base": type(self.estimator).__name__,
             "signals": list(signals), "spread_method": self.spread_method if "spread" in signals else None,
         }

@@ -244,3 +244,51 @@ def test_calibrated_on_one_day_scored_on_another_real_kitti(kitti_root):
     assert wrapper.calibration_["n_frames"] == 12 and wrapper.calibration_["n_pixels"] > 100_000
     rows = evaluate(wrapper, test, intervals=0.9, progress=False).rows
     assert all(0.5 < r["hole_coverage"] <= 1 and r["rmse_keep_80"] < r["hole_rmse"] for r in rows)
+
+
+class FoldTen(FillTen):
+    """A fold model of FillTen's recipe that records the drives it was trained on."""
+
+    def __init__(self, seen: list[str]) -> None:
+        self.training_drives_ = seen
+
+
+def test_out_of_fold_calibration_of_one_fold_equals_fit_on_its_drives():
+    frames = iid_frames(6, seed=2)
+    fold = FoldTen(seen=["x0"])
+    direct = ConformalIntervalInpainter(FoldTen(seen=[]), signals=("border", "depth")).fit(frames, groups=drives(6))
+    full = FoldTen(seen=["d0", "d1", "d2", "x0"])  # saw every drive: only out-of-fold calibration can serve it
+    cross = ConformalIntervalInpainter(full, signals=("border", "depth")).fit_out_of_fold(
+        [(fold, ArrayDataset(frames, groups=drives(6)))])
+    np.testing.assert_array_equal(cross.coef_, direct.coef_)
+    np.testing.assert_array_equal(cross.residual_quantiles_, direct.residual_quantiles_)
+    assert cross.quantile_ == direct.quantile_ and cross.calibration_["drives"] == ["d0", "d1", "d2"]
+    assert cross.calibration_["out_of_fold"] == [
+        {"drives": ["d0", "d1", "d2"], "n_frames": 6, "n_pixels": direct.n_calibration_pixels_,
+         "training_drives": ["x0"]}]
+
+
+def test_out_of_fold_calibration_pools_the_folds(tmp_path):
+    a, b = iid_frames(4, seed=3), iid_frames(4, seed=4)
+    folds = [(FoldTen(seen=["b0", "b1"]), ArrayDataset(a, groups=drives(4, "a"))),
+             (FoldTen(seen=["a0", "a1"]), ArrayDataset(b, groups=drives(4, "b")))]
+    wrapper = ConformalIntervalInpainter(FoldTen(seen=["a0", "a1", "b0", "b1"]), signals=()).fit_out_of_fold(folds)
+    cal = wrapper.calibration_
+    assert cal["drives"] == ["a0", "a1", "b0", "b1"] and cal["n_frames"] == 8
+    assert cal["n_pixels"] == sum(f["n_pixels"] for f in cal["out_of_fold"]) == wrapper.n_calibration_pixels_
+    loaded = ConformalIntervalInpainter.load(wrapper.save(tmp_path / "cal.json"), estimator=FoldTen(seen=[]))
+    assert loaded.calibration_["out_of_fold"] == cal["out_of_fold"] and loaded.quantile_ == wrapper.quantile_
+
+
+@pytest.mark.parametrize("folds, match", [
+    ([], "non-empty sequence"),
+    ([(FoldTen(seen=[]),)], r"folds\[0\] must be a \(fold model, dataset\) pair"),
+    ([(FillTen(), None)], "fold model is a FillTen, the estimator a FoldTen"),
+    ([(FoldTen(seen=["d1"]), "frames")], r"folds\[0\]: the fold model was trained on calibration drives \['d1'\]"),
+    ([(FoldTen(seen=[]), "frames"), (FoldTen(seen=[]), "frames")], r"drives \['d0', 'd1'\] are in folds\[0\] too"),
+])
+def test_out_of_fold_calibration_refuses_bad_folds(folds, match):
+    frames = ArrayDataset(iid_frames(4, seed=0), groups=drives(4))
+    folds = [tuple(frames if v == "frames" else v for v in f) for f in folds]
+    with pytest.raises(InvalidInputError, match=match):
+        ConformalIntervalInpainter(FoldTen(seen=["d0", "d1"]), signals=()).fit_out_of_fold(folds)
