@@ -29,10 +29,11 @@ from . import _checkpoint as ckpt
 from ._checkpoint import CLASSES as _CLASSES
 from ._checkpoint import progress_history  # noqa: F401
 from ._checkpoint import cpu_state as _cpu_state  # noqa: F401
-from ._neural_params import MAX_CHANNELS, NeuralParamsMixin  # noqa: F401
+from ._neural_params import MAX_CHANNELS, STUDY_CONSTRAINTS, NeuralParamsMixin  # noqa: F401
 from ._output import floor_holes
 from ._persistence import CheckpointMixin
 from ._training import (  # noqa: F401
+    Augmentation,
     TrainingMixin,
     _copy_encoder,
     _fitted_summary,
@@ -93,6 +94,16 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
     crop : (int, int) or None
         Train on random ``(h, w)`` crops (each side clipped to the frame) instead of
         whole frames -- the practical choice on CPU. Occlusions are drawn on the crop.
+    flip : bool, default False
+        Mirror each training sample left-right with probability 0.5 (its depth and hole
+        together). The decision, like the crop and the occlusion, is drawn from
+        ``(seed, epoch, index)`` (a stream of its own: turning flips on leaves every crop
+        and occlusion as it was), so it is the same on any device, with any
+        ``num_workers`` and after a resume.
+    depth_jitter : float in (1, 2] or None, default None
+        Multiply each training sample's depth by a factor drawn log-uniformly from
+        ``[1/depth_jitter, depth_jitter]`` (from the same stream as ``flip``): the scene
+        nearer or farther. None: no scaling.
     protocol : str, default "rect-v1"
         Occlusion protocol; masks are redrawn for every sample and epoch.
     validation_fraction : float or None
@@ -126,7 +137,16 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         ``torch.set_num_threads`` during fit/predict (restored after). None keeps the
         process setting (joblib workers already get ``cores // n_jobs``).
     num_workers : int, default 0
-        DataLoader worker processes (each runs one torch thread).
+        DataLoader worker processes (each runs one torch thread), kept for the whole fit
+        (``persistent_workers``); batches are pinned when training on CUDA. Any number
+        gives the same samples.
+    sample_device : {"cpu", "auto", "train"}, default "cpu"
+        Where training batches are cropped, occluded and augmented. "cpu": in the
+        loader (its workers, if any). "train": on the device the network trains on,
+        from whole frames the loader decodes; the random choices are drawn on the CPU
+        as before, so the samples are the same bit for bit (``rect-v1`` rectangles are
+        rasterised on the device, other protocols' masks drawn on the CPU and sent).
+        "auto": "train" when training on CUDA, else "cpu".
     random_state : int, numpy RandomState or Generator, or None
         Seeds weights, crops, masks and order. None draws a fresh seed per fit; a
         RandomState or Generator gives its next number (the seed used is ``seed_``).
@@ -187,6 +207,8 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         max_steps: int | None = None,
         max_minutes: float | None = None,
         crop: tuple[int, int] | None = None,
+        flip: bool = False,
+        depth_jitter: float | None = None,
         protocol: str = "rect-v1",
         validation_fraction: float | None = None,
         warm_start: Any = None,
@@ -196,6 +218,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         compile: bool | str | dict = False,
         num_threads: int | None = None,
         num_workers: int = 0,
+        sample_device: str = "cpu",
         random_state: int | np.random.RandomState | np.random.Generator | None = None,
         checkpoint_dir: str | os.PathLike | None = None,
         checkpoint_every: int | None = None,
@@ -216,6 +239,8 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         self.max_steps = max_steps
         self.max_minutes = max_minutes
         self.crop = crop
+        self.flip = flip
+        self.depth_jitter = depth_jitter
         self.protocol = protocol
         self.validation_fraction = validation_fraction
         self.warm_start = warm_start
@@ -225,6 +250,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         self.compile = compile
         self.num_threads = num_threads
         self.num_workers = num_workers
+        self.sample_device = sample_device
         self.random_state = random_state
         self.checkpoint_dir = checkpoint_dir
         self.checkpoint_every = checkpoint_every
@@ -274,7 +300,28 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
                 self.model_ = model.to("cpu", memory_format=torch.contiguous_format)
 
 
-class UNetInpainter(_NeuralInpainter):
+class _StudyInpainter(_NeuralInpainter):
+    """The study's two networks: the shared implementation plus sample augmentation and
+    sampling on the training device (parameters ``flip``, ``depth_jitter``, ``sample_device``).
+
+    PriorUNetInpainter shares :class:`_NeuralInpainter` but not this: it computes its
+    features from CPU samples and flips them itself.
+    """
+
+    _parameter_constraints = STUDY_CONSTRAINTS
+    # Left out of the run folder's key at their defaults: folders written before the
+    # parameters existed still resume.
+    _run_key_defaults = {"flip": False, "depth_jitter": None}
+
+    def _augmentation(self) -> Augmentation:
+        jitter = None if self.depth_jitter is None else float(self.depth_jitter)
+        return Augmentation(flip=bool(self.flip), depth_jitter=jitter)
+
+    def _sample_on_device(self, device: torch.device) -> bool:
+        return self.sample_device == "train" or (self.sample_device == "auto" and device.type == "cuda")
+
+
+class UNetInpainter(_StudyInpainter):
     __doc__ = (_NeuralInpainter.__doc__ or "").replace(
         "Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.",
         "The study's U-Net inpainter: encoder-decoder with skip connections, trained with\n"
@@ -283,7 +330,7 @@ class UNetInpainter(_NeuralInpainter):
     _skip = True
 
 
-class AutoencoderInpainter(_NeuralInpainter):
+class AutoencoderInpainter(_StudyInpainter):
     __doc__ = (_NeuralInpainter.__doc__ or "").replace(
         "Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.",
         "The study's autoencoder ablation: the U-Net with every skip connection removed.\n"

@@ -26,11 +26,14 @@ from ._limits import check_parameter_count
 from ._training import crop_shape
 from .nets import UNet
 
-__all__ = ["MAX_CHANNELS", "NeuralParamsMixin"]
+__all__ = ["MAX_CHANNELS", "NeuralParamsMixin", "STUDY_CONSTRAINTS"]
 
 _AMP_CHOICES = (True, False, "cpu-bf16")
 _DEPTH_SCALES = ("fixed", "frame")
 _COMPILE_MODES = ("default", "reduce-overhead", "max-autotune", "max-autotune-no-cudagraphs")
+_SAMPLE_DEVICES = ("auto", "cpu", "train")
+#: Largest ``depth_jitter``: a sample at most twice as near or as far as recorded.
+_MAX_DEPTH_JITTER = 2.0
 #: Accepted ``max_depth`` range (metres).
 _MAX_DEPTH_RANGE = (0.1, 1e5)
 #: Most channels allowed at the deepest U-Net level (``width * 2**depth``). The U-Net
@@ -245,6 +248,17 @@ class NeuralParamsMixin(ConstrainedParams):
         else:
             return model
         return torch.compile(model, **kwargs)
+
+
+#: The table of the study's two networks (U-Net, autoencoder): the shared one plus their
+#: augmentation and sampling parameters. Kept apart because PriorUNetInpainter builds its
+#: table from the shared one and has neither (it flips its own features, on the CPU).
+STUDY_CONSTRAINTS: dict[str, list[Any]] = {
+    **NeuralParamsMixin._parameter_constraints,
+    "flip": [Bool()],
+    "depth_jitter": [Real(1, _MAX_DEPTH_JITTER, closed="right"), None],
+    "sample_device": [Options(*_SAMPLE_DEVICES)],
+}
 
 
 def _plain(value: Any) -> Any:

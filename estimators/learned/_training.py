@@ -1,10 +1,11 @@
-"""Training of the neural inpainters: the loop, its resume state and its threads (samples: :mod:`._training_data`).
+"""Training of the neural inpainters: the loop, its resume state and its threads (samples:
+:mod:`._training_data`; their loader and the device path: :mod:`._sampling`).
 
-Reproducibility: every random choice of a training sample (crop offset, occlusion mask)
-comes from a generator seeded by ``(seed, epoch, index)`` alone, and the visiting order
-of an epoch from ``(seed, epoch)``. A sample therefore does not depend on which worker
-loads it or on whether training was interrupted, and resuming mid-epoch only needs the
-epoch and the number of batches already done.
+Reproducibility: every random choice of a training sample (crop offset, occlusion mask,
+flip, depth factor) comes from generators seeded by ``(seed, epoch, index)`` alone, and the
+visiting order of an epoch from ``(seed, epoch)``. A sample therefore does not depend on
+which worker loads it, on the device that assembles it or on whether training was
+interrupted, and resuming mid-epoch only needs the epoch and the number of batches done.
 """
 
 from __future__ import annotations
@@ -14,7 +15,6 @@ import hashlib
 import json
 import math
 import os
-import random
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -35,8 +35,11 @@ from . import _checkpoint as ckpt
 from ._budget import Budget, record_stop
 from ._checkpoint import cpu_state
 from .losses import inpainting_loss
+from ._random_state import global_rng_state, set_global_rng_state
+from ._sampling import TrainingBatches
 from ._training_data import (  # noqa: F401  (re-exported: the loop's data side)
-    OcclusionFrames, crop_shape, data_fingerprint, encode_input, epoch_order, frame_label, make_loader, sample_rng,
+    Augmentation, OcclusionFrames, crop_shape, data_fingerprint, encode_input, epoch_order, frame_label, make_loader,
+    sample_rng,
 )
 from .nets import UNet
 
@@ -146,50 +149,11 @@ class Shard:
         return stop
 
 
-def global_rng_state() -> dict[str, Any]:
-    """The global torch (CPU), NumPy and Python random states, as JSON.
-
-    No training step draws from them today (weights are seeded under ``fork_rng``,
-    samples by ``(seed, epoch, index)``), but user code (a custom protocol, a loss) may:
-    a resumed run restores them so it continues as the uninterrupted one would have.
-    """
-    kind, key, pos, has_gauss, cached = np.random.get_state()
-    version, internal, gauss = random.getstate()
-    return {
-        "torch": torch.get_rng_state().numpy().tobytes().hex(),
-        "numpy": [kind, key.tolist(), int(pos), int(has_gauss), float(cached)],
-        "python": [version, list(internal), gauss],
-    }
-
-
-def set_global_rng_state(state: dict[str, Any] | None) -> None:
-    """Restore what :func:`global_rng_state` returned (None: a checkpoint that recorded none).
-
-    Raises
-    ------
-    CheckpointError
-        If ``state`` is not such a record.
-    """
-    if state is None:
-        return
-    try:
-        torch_state = torch.frombuffer(bytearray.fromhex(state["torch"]), dtype=torch.uint8)
-        kind, key, pos, has_gauss, cached = state["numpy"]
-        version, internal, gauss = state["python"]
-        numpy_state = (kind, np.asarray(key, dtype=np.uint32), int(pos), int(has_gauss), float(cached))
-        python_state = (int(version), tuple(int(v) for v in internal), gauss)
-        torch.set_rng_state(torch_state.clone())
-        np.random.set_state(numpy_state)
-        random.setstate(python_state)
-    except (KeyError, TypeError, ValueError, RuntimeError) as e:
-        raise ckpt.CheckpointError(f"the training checkpoint's global random state is not readable: {e}") from None
-
-
 #: Parameters that change nothing about the trained weights: left out of the run-directory
 #: hash so that e.g. changing ``verbose`` still resumes the same run (and a run stopped by
 #: its ``max_minutes`` continues when fit is called again).
 _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed",
-                    "max_minutes")
+                    "max_minutes", "sample_device")
 
 
 def backward_step(loss: torch.Tensor, optimizer: torch.optim.Optimizer, scaler: Any) -> float:
@@ -223,7 +187,8 @@ class TrainingMixin:
     def _run_dir(self, dataset: DepthDataset, seed: int) -> Path | None:
         if self.checkpoint_dir is None:
             return None
-        params = {k: v for k, v in self._config_params().items() if k not in _RUN_INDEPENDENT}
+        params = {k: v for k, v in self._config_params().items() if k not in _RUN_INDEPENDENT
+                  and not (k in self._run_key_defaults and v == self._run_key_defaults[k])}
         key = json.dumps({"params": params, "seed": seed, "data": data_fingerprint(dataset)}, sort_keys=True)
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
         return Path(self.checkpoint_dir) / f"{type(self).__name__}-{digest}"
@@ -285,7 +250,9 @@ class TrainingMixin:
                 set_global_rng_state(progress.pop("global_rng", None))
         # Wrapped after the resume: DDP broadcasts the (resumed) weights of rank 0.
         step_model = self._compiled(shard.wrap(model, device))
-        data = OcclusionFrames(train_ds, protocol, self.crop, seed)
+        data = OcclusionFrames(train_ds, protocol, self.crop, seed, self._augmentation())
+        batches = TrainingBatches(data, shard.local_batch(self.batch_size), self.num_workers, device,
+                                  self._sample_on_device(device))
 
         def save(*, new_best: bool = False) -> None:
             if run_dir is None or not shard.writes:
@@ -307,7 +274,7 @@ class TrainingMixin:
         try:
             while not progress["finished"]:
                 stopped, running = self._train_epoch(
-                    model, step_model, optimizer, scaler, autocast, data, progress, seed, device, bar, running, save,
+                    model, step_model, optimizer, scaler, autocast, batches, progress, seed, device, bar, running, save,
                     shard, budget,
                 )
                 if stopped == "budget":
@@ -320,6 +287,7 @@ class TrainingMixin:
                 save(new_best=new_best)
         finally:
             bar.close()
+            batches.close()
         shard.done(progress)
 
         if best_state is not None:
@@ -336,6 +304,18 @@ class TrainingMixin:
     def _set_rng_state(self, state: dict[str, Any] | None) -> None:
         """Restore what :meth:`_rng_state` returned (None: a checkpoint that recorded none)."""
 
+    #: Parameters left out of the run folder's key at these values (added after run folders
+    #: were written, so those still resume).
+    _run_key_defaults: dict[str, Any] = {}
+
+    def _augmentation(self) -> Augmentation | None:
+        """Flips and depth factors of the training samples (None: crops and occlusions only)."""
+        return None
+
+    def _sample_on_device(self, device: torch.device) -> bool:
+        """Whether batches are cropped and occluded on ``device`` (:mod:`._sampling`)."""
+        return False
+
     def _initial_model(self, seed: int) -> torch.nn.Module:
         """A new network, its encoder (or all of it, for ``warm_start=True``) copied from the warm start."""
         model = self._build_model(seed)
@@ -349,7 +329,8 @@ class TrainingMixin:
         return model
 
     def _train_epoch(
-        self, model: torch.nn.Module, step_model: torch.nn.Module, optimizer: Any, scaler: Any, autocast: Any, data: OcclusionFrames,
+        self, model: torch.nn.Module, step_model: torch.nn.Module, optimizer: Any, scaler: Any, autocast: Any,
+        batches: TrainingBatches,
         progress: dict[str, Any], seed: int, device: torch.device, bar: Any, running: float | None, save: Any,
         shard: Shard, budget: Budget | None = None,
     ) -> tuple[str | None, float | None]:
@@ -357,11 +338,10 @@ class TrainingMixin:
         what stopped it early (``"steps"``: ``max_steps``; ``"budget"``: ``max_minutes``,
         checked after every step; None: the epoch ended) and the running loss on the bar."""
         epoch = progress["epoch"]
-        data.epoch = epoch
         batch = shard.local_batch(self.batch_size)
-        order = shard.order(epoch_order(len(data.frames), seed, epoch), self.batch_size)[progress["batch"] * batch:]
+        order = shard.order(epoch_order(len(batches.data), seed, epoch), self.batch_size)[progress["batch"] * batch:]
         step_model.train()
-        for gt, hole in make_loader(data, order, batch, self.num_workers, device.type == "cuda"):
+        for gt, hole in batches.epoch(epoch, order):
             loss = shard.mean_loss(self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device), device)
             progress["history"]["step_loss"].append(loss)
             progress["step"] += 1

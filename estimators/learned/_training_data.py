@@ -1,13 +1,17 @@
-"""Training samples of the neural inpainters: seeded crops and occlusions, their loader and input encoding.
+"""Training samples of the neural inpainters: seeded crops, occlusions and augmentations,
+their loader and input encoding.
 
-Every random choice of a training sample (crop offset, occlusion mask) comes from a
-generator seeded by ``(seed, epoch, index)`` alone, and the visiting order of an epoch
-from ``(seed, epoch)``, so a sample does not depend on which worker loads it.
+Every random choice of a training sample (crop offset, occlusion mask, flip, depth factor)
+comes from generators seeded by ``(seed, epoch, index)`` alone, and the visiting order of
+an epoch from ``(seed, epoch)``, so a sample does not depend on which worker loads it, on
+the device that assembles it (:mod:`._sampling`) or on an interruption.
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
+from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -16,11 +20,14 @@ from torch.utils.data import DataLoader, Dataset
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.masks import OcclusionProtocol
 
-__all__ = ["OcclusionFrames", "crop_shape", "data_fingerprint", "encode_input", "epoch_order", "frame_label",
-           "make_loader", "sample_rng"]
+__all__ = ["Augmentation", "OcclusionFrames", "SampleDraw", "crop_shape", "data_fingerprint", "encode_input",
+           "epoch_order", "frame_label", "make_loader", "sample_rng"]
 
 #: Stream id of the epoch order, distinct from any frame index.
 _ORDER_STREAM = 2**31 - 1
+#: Fourth seed word of a sample's augmentation draws: a stream apart from its crop and mask,
+#: so turning augmentation on leaves every crop and occlusion as it was.
+_AUGMENT_STREAM = 1
 
 
 def sample_rng(seed: int, epoch: int, index: int) -> np.random.Generator:
@@ -39,16 +46,64 @@ def crop_shape(frame_shape: tuple[int, int], crop: tuple[int, int] | None) -> tu
     return (fh, fw) if crop is None else (min(int(crop[0]), fh), min(int(crop[1]), fw))
 
 
+@dataclass(frozen=True)
+class Augmentation:
+    """Random changes of a training sample beyond its crop and occlusion.
+
+    Parameters
+    ----------
+    flip : bool
+        Mirror the sample left-right with probability 0.5 (depth and hole together).
+    depth_jitter : float or None
+        Multiply the sample's depth by ``exp(U(-log r, log r))`` for ``r = depth_jitter``
+        (log-uniform on ``[1/r, r]``), a scene nearer or farther; None: no scaling.
+    """
+
+    flip: bool = False
+    depth_jitter: float | None = None
+
+    @property
+    def active(self) -> bool:
+        return bool(self.flip) or self.depth_jitter is not None
+
+    def draw(self, seed: int, epoch: int, index: int) -> tuple[bool, np.float32]:
+        """Whether sample ``index`` of ``epoch`` is flipped, and its depth factor (float32)."""
+        if not self.active:
+            return False, np.float32(1.0)
+        rng = np.random.default_rng(np.random.SeedSequence([seed, epoch, index, _AUGMENT_STREAM]))
+        # Both numbers always drawn: turning one augmentation on never moves the other's draws.
+        u_flip, u_scale = rng.random(2)
+        factor = 1.0 if self.depth_jitter is None else math.exp((2.0 * u_scale - 1.0) * math.log(self.depth_jitter))
+        return bool(self.flip) and bool(u_flip < 0.5), np.float32(factor)
+
+
+@dataclass(frozen=True)
+class SampleDraw:
+    """The random choices of one training sample: crop offset, occlusion, flip, depth factor.
+
+    ``hole`` is the occlusion drawn on the crop's shape, or None when it was drawn as
+    ``rects`` (``(top, left, height, width)`` of ``rect-v1``, rasterised by the device path).
+    """
+
+    top: int
+    left: int
+    hole: np.ndarray | None
+    rects: list[tuple[int, int, int, int]] | None
+    flip: bool
+    factor: np.float32
+
+
 class OcclusionFrames(Dataset):
     """Torch view of a :class:`DepthDataset`: ``(ground truth, hole)`` per frame.
 
     Each item is a random crop (or the whole frame) with a fresh occlusion drawn from
-    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``. Every
+    ``protocol`` on the crop's shape, both seeded by ``(seed, epoch, index)``, then the
+    ``augment`` draws (flip, depth factor) from their own stream of the same triple. Every
     frame is validated (:meth:`~inpaintenv.data.DepthDataset.checked_frame`) as it is loaded,
     so NaN, inf or negative depth in any frame stops training with an error naming
-    the frame instead of surfacing later as a NaN loss or training silently. Set
-    :attr:`epoch` before iterating an epoch (workers are re-created per epoch, so they
-    see the new value).
+    the frame instead of surfacing later as a NaN loss or training silently. An item is a
+    frame index (of the epoch in :attr:`epoch`) or an ``(epoch, index)`` pair, which the
+    training loop's loader passes so that workers kept across epochs need no update.
 
     Parameters
     ----------
@@ -57,28 +112,55 @@ class OcclusionFrames(Dataset):
     crop : (int, int) or None
         Crop size; each side is clipped to the frame size.
     seed : int
+    augment : Augmentation or None
+        None: crops and occlusions only.
     """
 
-    def __init__(self, frames: DepthDataset, protocol: OcclusionProtocol, crop: tuple[int, int] | None, seed: int):
+    def __init__(self, frames: DepthDataset, protocol: OcclusionProtocol, crop: tuple[int, int] | None, seed: int,
+                 augment: Augmentation | None = None):
         self.frames = frames
         self.protocol = protocol
         self.crop = crop_shape(frames.frame_shape, crop)
         self.seed = int(seed)
+        self.augment = augment or Augmentation()
         self.epoch = 0
 
     def __len__(self) -> int:
         return len(self.frames)
 
-    def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
-        index = int(index)
-        rng = sample_rng(self.seed, self.epoch, index)
-        gt = self.frames.checked_frame(index, f"training frame {frame_label(self.frames, index)}")
-        (fh, fw), (ch, cw) = gt.shape, self.crop
+    def key(self, item: int | tuple[int, int]) -> tuple[int, int]:
+        """``(epoch, index)`` of an item (a bare index belongs to :attr:`epoch`)."""
+        if isinstance(item, (tuple, list)):
+            return int(item[0]), int(item[1])
+        return self.epoch, int(item)
+
+    def frame(self, index: int) -> np.ndarray:
+        """Frame ``index``, whole, validated."""
+        return self.frames.checked_frame(index, f"training frame {frame_label(self.frames, index)}")
+
+    def draw(self, epoch: int, index: int, rectangles: bool = False) -> SampleDraw:
+        """The random choices of sample ``index`` in ``epoch``; ``rectangles``: the occlusion as
+        ``protocol.rectangles`` (same generator, same draws as ``protocol.sample``)."""
+        rng = sample_rng(self.seed, epoch, index)
+        (fh, fw), (ch, cw) = tuple(self.frames.frame_shape), self.crop
         top = int(rng.integers(0, fh - ch + 1))
         left = int(rng.integers(0, fw - cw + 1))
-        gt = np.ascontiguousarray(gt[top : top + ch, left : left + cw])
-        hole = self.protocol.sample((ch, cw), rng)
-        return torch.from_numpy(gt), torch.from_numpy(hole)
+        rects = self.protocol.rectangles((ch, cw), rng) if rectangles else None
+        hole = None if rectangles else self.protocol.sample((ch, cw), rng)
+        flip, factor = self.augment.draw(self.seed, epoch, index)
+        return SampleDraw(top, left, hole, rects, flip, factor)
+
+    def __getitem__(self, item: int | tuple[int, int]) -> tuple[torch.Tensor, torch.Tensor]:
+        epoch, index = self.key(item)
+        gt = self.frame(index)
+        d, (ch, cw) = self.draw(epoch, index), self.crop
+        gt, hole = gt[d.top : d.top + ch, d.left : d.left + cw], d.hole
+        if d.flip:
+            gt, hole = gt[:, ::-1], hole[:, ::-1]
+        gt = np.ascontiguousarray(gt)
+        if d.factor != 1.0:
+            gt = gt * d.factor  # float32 times float32: the same rounding as the device path
+        return torch.from_numpy(gt), torch.from_numpy(np.ascontiguousarray(hole))
 
 
 def frame_label(frames: DepthDataset, index: int) -> str:

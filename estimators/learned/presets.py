@@ -116,14 +116,16 @@ _STUDY_BATCH, _STUDY_LR, _STUDY_FINE_TUNE_LR = 4, 1e-3, 5e-4
 _GPU_BATCH = 16
 _GPU_LR_SCALE = (_GPU_BATCH / _STUDY_BATCH) ** 0.5
 #: The study's networks scaled to one GPU: full 352×1216 frames, batch 16, bf16 autocast,
-#: channels-last, 8 loader workers (pinned memory on CUDA), steps bounded by the clock
+#: channels-last, 8 persistent loader workers (pinned memory on CUDA) that only decode, the
+#: occlusions and flips made on the GPU (sample_device="auto"), random left-right flips (the
+#: many more steps a GPU affords see each frame many times), steps bounded by the clock
 #: (4 minutes a stage, so autoencoder + U-Net fit in 10 minutes; max_steps only a ceiling).
 #: Width 16, the network of the CPU rows (study-unet-tv): a fold's U-Net is 7.9 MB, so four
 #: come back from the device machine (width 32 is 31 MB, over its 16 MiB a file).
 _STUDY_GPU: dict[str, Any] = dict(
     width=16, depth=4, crop=(352, 1216), batch_size=_GPU_BATCH, weight_decay=1e-6, hole_weight=2.0,
-    tv_weight=0.01, amp=True, channels_last=True, num_workers=8, max_steps=1_000_000, epochs=1_000_000,
-    max_minutes=4.0, random_state=0,
+    tv_weight=0.01, amp=True, channels_last=True, num_workers=8, sample_device="auto", flip=True,
+    max_steps=1_000_000, epochs=1_000_000, max_minutes=4.0, random_state=0,
 )
 #: kitti-mixed-v1's recipe on rect-v1 occlusions: the selection's base (experiments/pretrained_selection.py).
 _RECT = {**_MIXED[1], "protocol": "rect-v1"}
@@ -169,7 +171,7 @@ STUDY_PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
     "study-autoencoder-gpu": (
         AutoencoderInpainter, {**_STUDY_GPU, "lr": _STUDY_LR * _GPU_LR_SCALE},
         "the study's autoencoder stage on one GPU: full 352×1216 frames, batch 16 at lr 2e-3 (1e-3 × sqrt(16/4)), "
-        "bf16, channels-last, 8 workers, 4 minutes (max_minutes)",
+        "bf16, channels-last, 8 workers, flips, occlusions made on the GPU, 4 minutes (max_minutes)",
     ),
     "study-unet-tv-gpu": (
         UNetInpainter, {**_STUDY_GPU, "lr": _STUDY_FINE_TUNE_LR * _GPU_LR_SCALE},

@@ -1,4 +1,5 @@
-"""The CUDA paths of the U-Net training: bf16 autocast, a 1-process DDP job, resume, samples.
+"""The CUDA paths of the U-Net training: bf16 autocast, a 1-process DDP job, resume, samples
+(through the loader and assembled on the device, ``sample_device="train"``).
 
 Every test here is marked ``gpu`` and runs on the ``gpu_device`` fixture (tests/conftest.py):
 ``cuda`` on a machine with a GPU, the CPU when ``INPAINTENV_GPU_TESTS_ON_CPU=1`` (as in
@@ -29,7 +30,8 @@ import torch
 
 from estimators.learned.distributed import train_distributed
 from estimators.learned import distributed
-from estimators.learned._training import OcclusionFrames, epoch_order, make_loader
+from estimators.learned._sampling import TrainingBatches
+from estimators.learned._training import Augmentation, OcclusionFrames, epoch_order, make_loader
 from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
 from estimators.learned import UNetInpainter, load_checkpoint
@@ -259,6 +261,38 @@ def test_first_step_loss_agrees_on_cpu_and_device(gpu_device):
     cpu = UNetInpainter(**params, device="cpu").fit(_frames())
     dev = UNetInpainter(**params, device=str(gpu_device)).fit(_frames())
     _assert_same_losses(cpu.history_["step_loss"], dev.history_["step_loss"], _exact(gpu_device))
+
+
+@pytest.mark.timeout(120)
+def test_samples_made_on_the_device_are_the_loaders(gpu_device):
+    # sample_device="train": whole frames through pinned memory, then crop, rect-v1 rectangles,
+    # flips and depth factors on the device, from the draws the loader path makes on the CPU.
+    data = OcclusionFrames(ArrayDataset(_frames()), get_protocol("rect-v1"), (32, 64), seed=7,
+                           augment=Augmentation(flip=True, depth_jitter=1.5))
+    order = epoch_order(len(data), 7, 0)
+    loader_path = TrainingBatches(data, 4, 2, gpu_device, on_device=False)
+    device_path = TrainingBatches(data, 4, 2, gpu_device, on_device=True)
+    assert loader_path.loader.pin_memory == (gpu_device.type == "cuda")
+    for epoch in (0, 1):  # the second epoch from the same persistent workers
+        a, b = list(loader_path.epoch(epoch, order)), list(device_path.epoch(epoch, order))
+        assert len(a) == len(b) == 2
+        for (ga, ha), (gb, hb) in zip(a, b):
+            assert ga.device.type == "cpu" and gb.device.type == gpu_device.type
+            if gpu_device.type == "cuda":
+                assert ga.is_pinned() and ha.is_pinned()
+            assert torch.equal(ga, gb.cpu()) and torch.equal(ha, hb.cpu())
+    loader_path.close()
+    device_path.close()
+
+
+@pytest.mark.timeout(180)
+def test_fit_sampling_on_the_device_is_the_loader_paths_fit(gpu_device):
+    # The same samples: on the CPU identical weights; on CUDA within the rounding of its kernels.
+    params = {**TINY, "device": str(gpu_device), "amp": False, "flip": True}
+    loader_path = UNetInpainter(**params).fit(_frames())
+    device_path = UNetInpainter(**params, sample_device="train").fit(_frames())
+    _assert_same_losses(device_path.history_["step_loss"], loader_path.history_["step_loss"], _exact(gpu_device))
+    _assert_same_weights(device_path, loader_path, _exact(gpu_device))
 
 
 def test_forced_cpu_mode_is_reported(gpu_device):

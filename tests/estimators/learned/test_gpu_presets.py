@@ -33,6 +33,8 @@ def test_gpu_recipe_is_the_study_schedule_scaled_to_a_gpu(name):
     assert (p["hole_weight"], p["tv_weight"], p["weight_decay"]) == (2.0, 0.01, 1e-6)
     assert p["crop"] == (352, 1216) and p["batch_size"] == 16 and p["width"] == 16
     assert p["amp"] is True and p["channels_last"] is True and p["num_workers"] == 8
+    # Flips on (many more steps see each frame many times); occlusions made on the GPU when there is one.
+    assert p["flip"] is True and p["depth_jitter"] is None and p["sample_device"] == "auto"
     assert p["max_minutes"] == 4.0
     study_lr = 1e-3 if name == "study-autoencoder-gpu" else 5e-4  # the study's stage lr at batch 4
     assert p["lr"] == pytest.approx(study_lr * math.sqrt(16 / 4))

@@ -25,6 +25,11 @@ from training_helpers import gradient_frames
 FAMILIES = {
     "unet": lambda **kw: UNetInpainter(width=4, depth=2, **kw),
     "autoencoder": lambda **kw: AutoencoderInpainter(width=4, depth=2, **kw),
+    # The study networks' augmentation, drawn per (seed, epoch, index): a resume redraws it alike,
+    # on either sampling path and with persistent loader workers.
+    "unet-flip-jitter": lambda **kw: UNetInpainter(width=4, depth=2, flip=True, depth_jitter=1.5, **kw),
+    "unet-flip-device": lambda **kw: UNetInpainter(width=4, depth=2, flip=True, sample_device="train", **kw),
+    "autoencoder-flip-workers": lambda **kw: AutoencoderInpainter(width=4, depth=2, flip=True, num_workers=2, **kw),
     "prior-pixel": lambda **kw: PriorUNetInpainter(arch="pixel", width=4, levels=1, factor=2, **kw),
     "prior-unet": lambda **kw: PriorUNetInpainter(arch="unet", width=4, levels=1, factor=2, **kw),
 }
