@@ -37,11 +37,13 @@ written to ``--out`` (default ``$OUT/gpu_check.json`` when ``$OUT`` is set):
    spent blocked in the loader's ``next()`` (each step ends with a CUDA synchronisation),
    and peak GPU memory (``torch.cuda.max_memory_allocated``). The step is that of
    ``UNetInpainter.fit`` (input encoding, loss, autocast), written out here as in
-   ``scaling_training.py``; the samples come from the training data path
-   (``OcclusionFrames``, ``make_loader`` with ``--workers`` workers and pinned memory on
-   CUDA) over in-memory synthetic frames, so PNG decoding is not part of it. One more row
-   runs batch 16 bf16 with the estimator's default ``num_workers=0`` (samples loaded in
-   the training process).
+   ``scaling_training.py``; the samples come from fit's data path (``OcclusionFrames``
+   through ``TrainingBatches``: one loader with ``--workers`` persistent workers and pinned
+   memory on CUDA) over in-memory synthetic frames, so PNG decoding is not part of it.
+   ``--sample-device train`` makes every row's samples as ``sample_device="train"`` does
+   (the workers hand over whole frames; crop and ``rect-v1`` occlusions are made on the
+   device). One more row runs batch 16 bf16 with the estimator's default ``num_workers=0``
+   (samples loaded in the training process).
 3. ``predict`` throughput, frames/s, on the CPU and on CUDA: the default release
    (``pretrained`` from the registry, kitti-ensemble-v1) and a ``study-unet-tv`` U-Net
    (weights after one training step: the time does not depend on them). A model without a
@@ -58,6 +60,7 @@ Examples
 --------
     python benchmarks/gpu_check.py --quick
     python benchmarks/gpu_check.py --out gpu_check.json --max-seconds 420
+    python benchmarks/gpu_check.py --skip-tests --sample-device train --out gpu_check_train.json
 """
 
 from __future__ import annotations
@@ -82,7 +85,8 @@ import numpy as np
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
-from estimators.learned._training import OcclusionFrames, encode_input, make_loader
+from estimators.learned._sampling import TrainingBatches
+from estimators.learned._training import OcclusionFrames, encode_input
 from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
 from estimators.learned.presets import make_preset
@@ -269,10 +273,11 @@ def _sync(device: torch.device) -> None:
 
 def measure_training(cfg: dict[str, Any], pool: np.ndarray, batch: int, bf16: bool, device: torch.device, *,
                      warmup: int, max_steps: int, seconds: float, workers: int, peak: float | None,
-                     channels_last: bool = False) -> dict[str, Any]:
-    """Samples/s, model FLOP/s, data-wait share and peak memory of one batch size and precision."""
+                     channels_last: bool = False, sample_device: str = "cpu") -> dict[str, Any]:
+    """Samples/s, model FLOP/s, data-wait share and peak memory of one batch size and precision
+    (``sample_device``: "cpu", samples made in the loader; "train", on ``device``)."""
     row: dict[str, Any] = {"batch": batch, "precision": "bf16" if bf16 else "fp32",
-                           "frame": list(pool.shape[1:]), "workers": workers}
+                           "frame": list(pool.shape[1:]), "workers": workers, "sample_device": sample_device}
     if device.type == "cuda":
         torch.cuda.empty_cache()
         torch.cuda.reset_peak_memory_stats(device)
@@ -285,7 +290,8 @@ def measure_training(cfg: dict[str, Any], pool: np.ndarray, batch: int, bf16: bo
     n = batch * (warmup + max_steps)
     data = OcclusionFrames(CycledFrames(pool, n), get_protocol(cfg["protocol"]), None, seed=0)
     row["flop_per_step"] = train_step_flops(cfg, batch, tuple(pool.shape[1:]))
-    batches = iter(make_loader(data, np.arange(n), batch, workers, device.type == "cuda"))
+    loader = TrainingBatches(data, batch, workers, device, on_device=sample_device == "train")
+    batches = loader.epoch(0, np.arange(n))
     for _ in range(warmup):
         step(*next(batches))
     _sync(device)
@@ -302,7 +308,8 @@ def measure_training(cfg: dict[str, Any], pool: np.ndarray, batch: int, bf16: bo
         wait, total = wait + t1 - t0, total + t2 - t0
         if k >= 1 and t2 > t_end:
             break
-    del batches  # stops the loader's workers
+    del batches
+    loader.close()  # stops the loader's workers
     steps = len(losses)
     row.update(steps=steps, step_ms=1e3 * total / steps, samples_per_s=batch * steps / total,
                data_wait_share=wait / total, model_tflops=row["flop_per_step"] * steps / total / 1e12,
@@ -316,7 +323,8 @@ def measure_training(cfg: dict[str, Any], pool: np.ndarray, batch: int, bf16: bo
 
 def training_line(row: dict[str, Any], peak: float | None) -> str:
     """One printed line per training row."""
-    head = f"train batch={row['batch']} {row['precision']} workers={row['workers']}:"
+    made = " sampled on the device" if row.get("sample_device") == "train" else ""
+    head = f"train batch={row['batch']} {row['precision']} workers={row['workers']}{made}:"
     if "samples_per_s" not in row:
         return f"{head} not measured ({row.get('skipped') or row.get('error')})"
     share = f"{100 * row['bf16_peak_share']:.1f} % of the bf16 dense peak {peak:g}" if peak else "peak unknown"
@@ -342,7 +350,8 @@ def run_training(args: argparse.Namespace, device: torch.device, peak: float | N
     pool = SyntheticStreets(n=args.pool, seed=0, frame_shape=tuple(args.frame)).load_batch(range(args.pool))
     rows = []
     for batch, bf16, workers in training_rows(args.batches, args.workers):
-        what = {"batch": batch, "precision": "bf16" if bf16 else "fp32", "workers": workers}
+        what = {"batch": batch, "precision": "bf16" if bf16 else "fp32", "workers": workers,
+                "sample_device": args.sample_device}
         if not budget.allows(f"training batch={batch} {what['precision']} workers={workers}",
                              NEEDS["train"] if not args.quick else 1.0):
             rows.append({**what, "skipped": "--max-seconds"})
@@ -350,7 +359,8 @@ def run_training(args: argparse.Namespace, device: torch.device, peak: float | N
             try:
                 rows.append(measure_training(cfg, pool, batch, bf16, device, warmup=args.warmup,
                                              max_steps=args.steps, seconds=args.train_seconds, workers=workers,
-                                             peak=peak, channels_last=args.channels_last))
+                                             peak=peak, channels_last=args.channels_last,
+                                             sample_device=args.sample_device))
             except (torch.cuda.OutOfMemoryError, RuntimeError) as exc:  # one batch size failing is a finding
                 rows.append({**what, "error": f"{type(exc).__name__}: {str(exc).splitlines()[0][:300]}"})
                 if device.type == "cuda":
@@ -426,6 +436,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--predict-seconds", type=float, default=None, help="seconds per predict row (default 8)")
     p.add_argument("--channels-last", action="store_true", help="train in the channels-last memory format")
     p.add_argument("--cudnn-benchmark", action="store_true", help="torch.backends.cudnn.benchmark = True")
+    p.add_argument("--sample-device", choices=("cpu", "train"), default="cpu",
+                   help="where training samples are cropped and occluded: in the loader (cpu, default) or on "
+                        "the training device (train), as the estimators' sample_device")
     p.add_argument("--skip-tests", action="store_true", help="leave out section 1")
     args = p.parse_args(argv)
     quick = args.quick
@@ -485,7 +498,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         print(f"tests: not run ({sections['tests']})")
 
     print(f"\n## 2. training throughput: {PRESET} network and loss, {args.frame[0]}x{args.frame[1]} frames, "
-          f"{args.workers} loader workers", flush=True)
+          f"{args.workers} loader workers" + (", samples made on the device" if args.sample_device == "train" else ""),
+          flush=True)
     training = run_training(args, device, peak, budget)
     sections["training"] = "ran" if any("samples_per_s" in r for r in training) else "skipped"
 
