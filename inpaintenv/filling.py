@@ -6,7 +6,9 @@ calibration) becomes an output at the same path relative to its input under ``ou
 the pixels to fill are NaN (arrays), a hole mask (``holes``), boxes (``boxes``) or every
 pixel without a measurement (``missing``). Measured pixels come out bit-identical, filled
 ones positive and finite. Outputs that exist are skipped (the run resumes), each written
-atomically; a bad file is one line naming it, and the others are still written.
+atomically; a bad file is one line naming it, and the others are still written. With
+``confidence`` each depth file gets its per-pixel interval beside it (``<name>_low`` and
+``<name>_high``, in the same formats), from the method's ``predict_interval``.
 
 >>> from inpaintenv.filling import fill
 >>> report = fill(["my_depth/"], "filled/", holes="my_masks/", method="scanline")   # doctest: +SKIP
@@ -24,16 +26,20 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
 from .data.calibration import Calibration, read_calibration
 from .data.depth_files import DEPTH_SUFFIXES, MASK_SUFFIXES, read_depth_file, read_mask_file, write_depth_file
+from .conventions import DEPTH_LIMIT
 from .data.io import KITTI_DEPTH_SCALE
 from .data.projection import depth_to_points, project_scan, read_scan, write_points_bin, write_points_ply
 from .exceptions import InvalidInputError
+from .interval_metrics import check_coverage
 from .method_calls import MethodOutputError, method_name, run_method
+from .method_intervals import IntervalSource
 from .report.progress import FrameProgress, count
 
 __all__ = ["FORMATS", "NO_HOLES", "POINT_FORMATS", "FillJob", "FillReport", "fill", "fill_depth", "plan"]
@@ -43,6 +49,8 @@ FORMATS = {"png": (".png",), "npy": (".npy",), "both": (".png", ".npy")}
 #: Values of ``points``: the point files written per scan.
 POINT_FORMATS = {None: (), "bin": (".bin",), "ply": (".ply",), "both": (".bin", ".ply")}
 SCAN_SUFFIX = ".bin"
+#: Suffixes (before the format's) of the interval files written beside each depth file.
+INTERVAL_SUFFIXES = ("_low", "_high")
 #: The error of an input where nothing marks a pixel to fill.
 NO_HOLES = ("nothing marks the pixels to fill: give --holes MASK (a mask file, or a folder of masks by relative "
             "path; nonzero = fill), --box x0,y0,x1,y1 or --missing (every pixel without a measurement), or mark "
@@ -61,11 +69,19 @@ class FillJob:
         Its path relative to the input it was found in (the file name for a file input).
     outputs : tuple of pathlib.Path
         The depth files, then (scans only) the point files.
+    intervals : tuple of (pathlib.Path, pathlib.Path)
+        With ``confidence``: per depth file, its ``_low`` and ``_high`` files.
     """
 
     source: Path
     rel: Path
     outputs: tuple[Path, ...]
+    intervals: tuple[tuple[Path, Path], ...] = ()
+
+    @property
+    def all_outputs(self) -> tuple[Path, ...]:
+        """Every file the job writes: depth, interval and point files."""
+        return (*self.outputs, *(p for pair in self.intervals for p in pair))
 
     @property
     def is_scan(self) -> bool:
@@ -109,13 +125,19 @@ def _is_under(path: Path, folder: Path) -> bool:
     return path == folder or folder in path.parents
 
 
+def _interval_pair(path: Path) -> tuple[Path, Path]:
+    """The ``_low`` and ``_high`` files beside the depth file ``path``."""
+    return tuple(path.with_name(path.stem + s + path.suffix) for s in INTERVAL_SUFFIXES)  # type: ignore[return-value]
+
+
 def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format: str = "png",
-         points: str | None = None, protect: Sequence[str | os.PathLike] = ()) -> tuple[
+         points: str | None = None, protect: Sequence[str | os.PathLike] = (), confidence: bool = False) -> tuple[
              list[FillJob], list[tuple[Path, str]], list[Path]]:
     """The jobs of a run: ``(jobs, missing inputs with why, ignored files)``.
 
     ``protect``: further files or folders never written into, whose files are not inputs (the mask
-    or folder of masks, when it lies inside an input folder).
+    or folder of masks, when it lies inside an input folder). ``confidence``: each depth file
+    has its interval files beside it.
 
     Raises
     ------
@@ -159,7 +181,9 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
                 continue
             extra = POINT_FORMATS[points] if suffix == SCAN_SUFFIX else ()
             outputs = tuple(out / rel.with_suffix(s) for s in (*FORMATS[format], *extra))
-            for o in outputs:
+            intervals = tuple(_interval_pair(out / rel.with_suffix(s)) for s in FORMATS[format]) if confidence else ()
+            job = FillJob(path, rel, outputs, intervals)
+            for o in job.all_outputs:
                 if o.resolve() in files or any(_is_under(o.resolve(), f) for f in folders):
                     raise InvalidInputError(f"{path} would be filled into {o}, an input or inside an input folder; fill "
                                      "never writes there: give another --out")
@@ -167,7 +191,7 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
                     raise InvalidInputError(f"{path} and {by_output[o.resolve()]} would both be written to {o}; "
                                      "fill them into separate --out folders")
                 by_output[o.resolve()] = path
-            jobs.append(FillJob(path, rel, outputs))
+            jobs.append(job)
     return jobs, missing, ignored
 
 
@@ -247,16 +271,21 @@ def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -
 
 
 def _fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np.ndarray], *,
-                copy: bool = True) -> list[np.ndarray]:
+                copy: bool = True, interval: IntervalSource | None = None) -> list[np.ndarray]:
     """Fill same-sized maps in one ``predict`` call (in place unless ``copy``); frames with nothing to fill
-    come back as they are."""
+    come back as they are. With ``interval``, each filled map is followed by its ``low`` and ``high``
+    (the list holds ``3 · len(depths)`` arrays, in the depth's dtype)."""
     todo = [k for k, f in enumerate(fills) if f.any()]
     out = [d.copy() for d in depths] if copy else list(depths)
     if not todo:
-        return out
+        return [a for d in out for a in (d, d, d)] if interval is not None else out
     x = np.stack([depths[k] for k in todo]).astype(np.float32, copy=False)
-    x[np.stack([fills[k] for k in todo])] = np.nan
-    pred, _ = run_method(method, x, name)
+    hole = np.stack([fills[k] for k in todo])
+    x[hole] = np.nan
+    # An object with predict is called batched; the interval source may swap in predict(X, return_std=True).
+    caller = SimpleNamespace(predict=interval.wrap(method.predict)) if interval is not None else method
+    pred, _ = run_method(caller, x, name)
+    bounds = interval.bounds(x, pred, hole) if interval is not None else None
     for k, p in zip(todo, pred):
         unfilled = np.count_nonzero(fills[k] & (p <= 0))
         if unfilled:
@@ -264,7 +293,13 @@ def _fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np
                 f"method {name!r} left {unfilled} of the {np.count_nonzero(fills[k])} pixels to fill at 0 m "
                 "(no measurement near them?); try another method, e.g. --method scanline")
         np.copyto(out[k], p, where=fills[k], casting="same_kind")
-    return out
+    if bounds is None:
+        return out
+    lows, highs = [d.copy() for d in out], [d.copy() for d in out]
+    for j, k in enumerate(todo):  # measured pixels: low = high = the measurement; unmeasured, unfilled: 0
+        np.copyto(lows[k], bounds[0][j], where=fills[k], casting="same_kind")
+        np.copyto(highs[k], bounds[1][j], where=fills[k], casting="same_kind")
+    return [a for triple in zip(out, lows, highs) for a in triple]
 
 
 def _atomic(path: Path, write: Callable[[Path], None]) -> None:
@@ -299,6 +334,7 @@ class _Run:
     def __init__(self, holes: _Holes, calibration: Any, size: tuple[int, int] | None, camera: int | None,
                  report: FillReport, log: Callable[[str], None], stop: bool) -> None:
         self.method: Any = None
+        self.interval: IntervalSource | None = None
         self.name, self.holes = "", holes
         self._calib_args: tuple[Any, Any, Any] = (calibration, size, camera)
         self._calib: Calibration | Exception | None = None
@@ -306,6 +342,9 @@ class _Run:
 
     def set_method(self, method: Any, name: str) -> None:
         self.method, self.name = method, name
+
+    def set_interval(self, method: Any, name: str, source: IntervalSource) -> None:
+        self.method, self.name, self.interval = method, name, source
 
     def load_calibration(self) -> None:
         """Read the calibration once, before the scans; unreadable, it fails each scan (the others go on)."""
@@ -342,9 +381,16 @@ class _Run:
                 raise
             return _Item(job, error=_message(job, exc))
 
-    def write(self, item: _Item, filled: np.ndarray) -> None:
-        """Write every output of one filled input, each atomically (in the writer thread)."""
+    def write(self, item: _Item, arrays: tuple[np.ndarray, ...]) -> None:
+        """Write every output of one filled input (``arrays``: the filled map, then with an interval its
+        low and high), each atomically (in the writer thread)."""
         assert item.fill is not None
+        filled = arrays[0]
+        for pair in item.job.intervals:
+            for path, bound in zip(pair, arrays[1:]):
+                if path.suffix.lower() == ".png":  # the PNG range: the interval's top end is cut there
+                    bound = np.minimum(bound, np.float32(DEPTH_LIMIT))
+                _atomic(path, lambda tmp, data=bound: write_depth_file(tmp, data))
         for path in item.job.outputs:
             suffix = path.suffix.lower()
             if suffix in (".png", ".npy"):
@@ -363,14 +409,16 @@ class _Run:
         self.report.failed.append((item.job.source, message))
         self.log(message)
 
-    def predict(self, batch: list[_Item]) -> list[tuple[_Item, np.ndarray | None]]:
-        """Fill a batch of same-sized items; a batch that fails is retried frame by frame to name the bad one."""
+    def predict(self, batch: list[_Item]) -> list[tuple[_Item, tuple[np.ndarray, ...] | None]]:
+        """Fill a batch of same-sized items: per item the filled map (then, with an interval, its low and
+        high); a batch that fails is retried frame by frame to name the bad one."""
         try:
             # In place: the arrays are this run's own, and a batch retried frame by frame sets its fill
             # pixels to NaN again, so what a failed batch wrote there is never read.
-            filled = _fill_batch(self.method, self.name, [i.depth for i in batch], [i.fill for i in batch],
-                                 copy=False)
-            return list(zip(batch, filled))
+            out = _fill_batch(self.method, self.name, [i.depth for i in batch], [i.fill for i in batch],
+                              copy=False, interval=self.interval)
+            step = 1 if self.interval is None else 3
+            return [(item, tuple(out[step * k:step * (k + 1)])) for k, item in enumerate(batch)]
         except Exception as exc:  # noqa: BLE001
             if os.environ.get("INPAINTENV_TRACEBACK"):
                 raise
@@ -433,6 +481,34 @@ def _make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any,
     return method, name
 
 
+def _interval_method(method: Any, name: str, given: Any, intervals: str | os.PathLike | None,
+                     coverage: float) -> tuple[Any, str, IntervalSource]:
+    """The method of a ``confidence`` run, its name and its interval source.
+
+    ``given`` is the ``method`` argument as given: a registry name whose release ships an
+    interval calibration becomes ``<name>-intervals``; ``intervals`` (a saved calibration)
+    wraps ``method``; a method with its own interval is used as it is.
+    """
+    from .method_intervals import interval_source
+    from .registry import available_methods, canonical_name, make_method
+
+    if intervals is not None:
+        if not Path(intervals).is_file():
+            raise FileNotFoundError(f"--intervals {intervals}: no such calibration file")
+        method = make_method("intervals", path=intervals, estimator=method)
+        name = f"{name}+intervals"
+    elif isinstance(given, str) and f"{canonical_name(given)}-intervals" in available_methods():
+        method = make_method(f"{canonical_name(given)}-intervals")
+    source = interval_source(method, coverage, name)
+    if source is None:
+        shipped = [m[: -len("-intervals")] for m in available_methods() if m.endswith("-intervals")]
+        ships = f", or a method shipped with one ({', '.join(shipped)})" if shipped else ""
+        raise InvalidInputError(
+            f"--confidence needs a per-pixel interval and method {name!r} has none: give --intervals CAL.json (a "
+            f"ConformalIntervalInpainter calibration of this method, saved with .save){ships}")
+    return method, name, source
+
+
 def fill(
     inputs: str | os.PathLike | Sequence[str | os.PathLike], out: str | os.PathLike, *,
     method: Any = "pretrained", checkpoint: str | os.PathLike | None = None,
@@ -440,7 +516,8 @@ def fill(
     calibration: str | os.PathLike | Calibration | None = None, size: tuple[int, int] | None = None,
     camera: int | None = None, format: str = "png", points: str | None = None, overwrite: bool = False,
     on_error: str = "continue", n_jobs: int | None = None, batch_size: int = 4, progress: bool = True,
-    log: Callable[[str], None] | None = None,
+    log: Callable[[str], None] | None = None, confidence: float | None = None,
+    intervals: str | os.PathLike | None = None,
 ) -> FillReport:
     """Fill depth files and LiDAR scans (files or folders, read recursively) into ``out``.
 
@@ -480,6 +557,15 @@ def fill(
         A progress bar on a terminal, progress lines otherwise.
     log : callable, optional
         Receives each error line (default: printed to stderr).
+    confidence : float, optional
+        Nominal coverage in (0, 1) of a per-pixel interval written beside each depth file,
+        as ``<name>_low`` and ``<name>_high`` in the same formats (low = high = the
+        measurement at measured pixels, 0 where nothing was measured or filled; in a PNG
+        ``high`` is capped at 65535/256 m). From the method's ``predict_interval`` (or
+        ``predict(X, return_std=True)``); ``"pretrained"`` uses its shipped calibration.
+    intervals : path-like, optional
+        With ``confidence``: a calibration saved by
+        :meth:`estimators.intervals.ConformalIntervalInpainter.save` to wrap ``method`` in.
 
     Returns
     -------
@@ -489,19 +575,24 @@ def fill(
         raise InvalidInputError(f"on_error must be 'continue' or 'stop', got {on_error!r}")
     if batch_size < 1:
         raise InvalidInputError(f"batch_size must be >= 1, got {batch_size}")
+    if confidence is not None:
+        confidence = check_coverage(confidence, "confidence")
+    elif intervals is not None:
+        raise InvalidInputError("--intervals is the calibration of --confidence's interval: give --confidence too")
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     if holes is not None and not Path(holes).exists():
         raise FileNotFoundError(f"--holes {holes}: no such mask file or folder")
     protect = [holes] if holes is not None else []
-    jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points, protect=protect)
+    jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points, protect=protect,
+                                         confidence=confidence is not None)
     if points is not None and not any(j.is_scan for j in jobs):
         raise InvalidInputError("points (--points) applies to .bin LiDAR scans, and there are none among the inputs")
     report = FillReport(ignored=ignored)
     for path, why in missing_inputs:
         report.failed.append((path, why))
         log(why)
-    done = [not overwrite and all(o.exists() for o in j.outputs) for j in jobs]
+    done = [not overwrite and all(o.exists() for o in j.all_outputs) for j in jobs]
     todo = [j for j, d in zip(jobs, done) if not d]
     report.skipped = [j.source for j, d in zip(jobs, done) if d]
     if not todo or (missing_inputs and on_error == "stop"):
@@ -511,6 +602,9 @@ def fill(
     if any(j.is_scan for j in todo):
         run.load_calibration()  # first: a missing --size fails in a second, not after loading a model
     run.set_method(*_make_method(method, checkpoint, n_jobs))
+    if confidence is not None:
+        run.set_interval(*_interval_method(run.method, run.name, None if checkpoint is not None else method,
+                                           intervals, confidence))
     writes: deque[tuple[_Item, Future]] = deque()
 
     def settle(wait_for: int) -> bool:

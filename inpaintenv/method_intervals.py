@@ -5,7 +5,8 @@ The protocol, scikit-learn's way, tried in this order:
 1. ``method.predict_interval(X, coverage=c) -> (low, high)``: the method names its own
    interval of nominal coverage ``c`` for the ``(N, H, W)`` batch ``X`` (metres). The
    prediction still comes from the timed call of ``predict`` (or of the callable); the
-   interval call is not timed.
+   interval call is not timed. A ``predict_interval`` that takes ``prediction=`` is given
+   that prediction, so it need not predict again.
 2. ``method.predict(X, return_std=True) -> (pred, std)`` (as ``GaussianProcessRegressor``
    and ``BayesianRidge`` return it), when ``predict`` takes a ``return_std`` argument:
    this one call is timed and gives both; the interval is the normal one of
@@ -28,9 +29,9 @@ from .interval_metrics import check_interval, interval_from_std
 __all__ = ["IntervalSource", "interval_source"]
 
 
-def _takes_return_std(predict: Callable) -> bool:
+def _takes(function: Callable, argument: str) -> bool:
     try:
-        return "return_std" in inspect.signature(predict).parameters
+        return argument in inspect.signature(function).parameters
     except (TypeError, ValueError):  # builtins without a signature
         return False
 
@@ -75,7 +76,8 @@ class IntervalSource:
                 std, self._std = self._std, None
                 low, high = interval_from_std(pred, std, self.coverage)
             else:
-                out = self.method.predict_interval(x, coverage=self.coverage)
+                given = {"prediction": pred} if _takes(self.method.predict_interval, "prediction") else {}
+                out = self.method.predict_interval(x, coverage=self.coverage, **given)
                 if not (isinstance(out, tuple) and len(out) == 2):
                     raise InvalidInputError(f"predict_interval must return (low, high), got {type(out).__name__}")
                 low, high = out
@@ -91,6 +93,6 @@ def interval_source(method: Any, coverage: float | None, name: str) -> IntervalS
     if callable(getattr(method, "predict_interval", None)):
         return IntervalSource(method, coverage, name, "interval")
     predict = getattr(method, "predict", None)
-    if callable(predict) and _takes_return_std(predict):
+    if callable(predict) and _takes(predict, "return_std"):
         return IntervalSource(method, coverage, name, "std")
     return None

@@ -26,6 +26,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import Any
 
+from .classical_methods import CLASSICAL_METHODS, CLASSICAL_MODULE
 from .exceptions import InvalidInputError, InvalidTypeError, MissingDependencyError, UnknownNameError
 
 __all__ = [
@@ -83,7 +84,6 @@ class MethodSpec:
     unfilled: str = "error"
 
 
-_CLASSICAL = "estimators.classical"
 _LEARNED = "estimators.learned"
 
 #: The modules the ``[learned]`` extra brings (import names).
@@ -344,26 +344,9 @@ def make_method(name: str, **overrides: Any) -> Any:
         raise InvalidTypeError(f"method {name!r} ({spec.module}.{spec.cls}) rejected parameters {kwargs}: {exc}") from exc
 
 
-# The classical baselines: both the study's way (fill="hole": only the occlusion is
-# filled, LiDAR gaps stay 0 and can flow into the hole as 0 m, scored as 0 m as the study
-# did) and the right way (fill="invalid": every missing pixel).
-for _name, _cls, _kw, _desc in [
-    ("telea", "TeleaInpainter", {"fill": "invalid"}, "OpenCV Telea, fills every missing pixel"),
-    ("telea-hole", "TeleaInpainter", {"fill": "hole"}, "OpenCV Telea as the study ran it (hole only)"),
-    ("ns", "NavierStokesInpainter", {"fill": "invalid"}, "OpenCV Navier-Stokes, every missing pixel"),
-    ("ns-hole", "NavierStokesInpainter", {"fill": "hole"}, "OpenCV Navier-Stokes as the study ran it"),
-    ("bilateral", "IterativeBilateralInpainter", {"fill": "invalid"}, "iterative bilateral, every missing pixel"),
-    ("bilateral-hole", "IterativeBilateralInpainter", {"fill": "hole"}, "iterative bilateral as the study ran it"),
-    ("ipbasic", "IPBasicInpainter", {}, "IP-Basic-style morphological depth completion"),
-    ("nearest", "NearestInpainter", {}, "nearest measured pixel"),
-    ("harmonic", "HarmonicInpainter", {}, "harmonic (Laplace) interpolation"),
-    ("harmonic-inverse", "HarmonicInpainter", {"inverse": True}, "harmonic interpolation of inverse depth (exact on planes)"),
-    ("scanline", "ScanlineInpainter", {}, "row-wise linear interpolation of depth"),
-    ("scanline-inverse", "ScanlineInpainter", {"inverse": True}, "row-wise linear interpolation of inverse depth"),
-    ("scanline-2d", "ScanlineInpainter", {"vertical": True}, "row- and column-wise interpolation, blended by gap length"),
-    ("constant", "ConstantInpainter", {}, "median of the measured pixels"),
-]:
-    register_method(_name, _CLASSICAL, _cls, _kw, _desc, unfilled="zero" if _kw.get("fill") == "hole" else "error")
+# The classical baselines (inpaintenv.classical_methods holds their table).
+for _name, _cls, _kw, _desc in CLASSICAL_METHODS:
+    register_method(_name, CLASSICAL_MODULE, _cls, _kw, _desc, unfilled="zero" if _kw.get("fill") == "hole" else "error")
 
 # The shipped learned releases (need the [learned] extra), each registered under its own
 # name from its own JSON in estimators/pretrained/ (found without importing estimators).
@@ -431,6 +414,28 @@ register_removed("unet-pretrained-mixed", "method 'unet-pretrained-mixed' was re
 for _release in REMOVED_RELEASES:
     register_removed(_release, f"release {_release!r} is no longer shipped (its weights are in the project's git "
                      "history, tag releases-0.1); use 'pretrained' or one of: " + ", ".join(PRETRAINED_RELEASES))
+
+# Releases shipped with a per-pixel interval calibration (estimators/pretrained/intervals/<release>.json):
+# <release>-intervals predicts as the release and adds predict_interval / predict(X, return_std=True).
+_INTERVALS_MODULE = "estimators.intervals"
+
+
+def shipped_interval_calibrations() -> tuple[str, ...]:
+    """The shipped releases that have an interval calibration (found without importing estimators)."""
+    folder = _release_dir() / "intervals"
+    return tuple(sorted(p.stem for p in folder.glob("*.json") if p.stem in _METHODS)) if folder.is_dir() else ()
+
+
+for _release in shipped_interval_calibrations():
+    register_method(f"{_release}-intervals", _INTERVALS_MODULE, "release_intervals", {"name": _release},
+                    f"{_release} with its shipped 90 % per-pixel intervals (drive-grouped conformal; "
+                    "docs/model_card.md, 'Per-pixel intervals'); predicts as the release")
+if DEFAULT_RELEASE in shipped_interval_calibrations():
+    register_alias("pretrained-intervals", f"{DEFAULT_RELEASE}-intervals")
+register_method(
+    "intervals", _INTERVALS_MODULE, "load_intervals", {},
+    "a saved interval calibration around its base: make_method('intervals', path=..., estimator=...)",
+)
 
 register_method(
     "checkpoint", "estimators.learned", "load", {},

@@ -22,6 +22,8 @@ recipes (docs/fill.md):
     inpaintenv fill depth/ --holes masks/ --out filled/
   .npy float metres with NaN where to fill (written as .npy, and as PNG with --format both):
     inpaintenv fill frames/ --format npy --out filled/
+  the same, with a 90 % interval per pixel beside each filled map (<name>_low, <name>_high):
+    inpaintenv fill frames/ --format npy --confidence 0.9 --out filled/
   a LiDAR scan with its calibration, densified, with the filled points back in the LiDAR frame:
     inpaintenv fill 2011_09_26_drive_0001_sync/velodyne_points/data/ --calib 2011_09_26/ \\
         --missing --points bin --out filled/
@@ -89,6 +91,14 @@ def add_fill(subparsers: Any) -> None:
     which.add_argument("--method", "-m", default="pretrained", metavar="NAME",
                        help="method name (default pretrained); see `inpaintenv info` for the list")
     which.add_argument("--checkpoint", metavar="PATH", help="a saved model's folder instead of --method")
+    c = p.add_argument_group("per-pixel confidence")
+    c.add_argument("--confidence", type=float, nargs="?", const=0.9, metavar="COVERAGE",
+                   help="also write an interval of this nominal coverage beside each depth file, <name>_low and "
+                        "<name>_high in the same format (default 0.9 when given alone); --method pretrained ships "
+                        "its calibration, other methods need --intervals")
+    c.add_argument("--intervals", metavar="CAL.json",
+                   help="a saved interval calibration of the method (ConformalIntervalInpainter.save), for "
+                        "--confidence")
     o.add_argument("--jobs", type=int, metavar="N", help="parallel frames for the classical methods")
     o.add_argument("--batch-size", type=int, default=4, metavar="N", help="same-sized frames per call (default 4)")
     o.add_argument("--overwrite", action="store_true", help="redo inputs whose outputs exist (skipped otherwise)")
@@ -121,7 +131,8 @@ def cmd_fill(args: argparse.Namespace) -> int:
         args.inputs, args.out, method=method, checkpoint=checkpoint, holes=args.holes, boxes=args.box,
         missing=args.missing, calibration=args.calib, size=args.size, camera=args.camera, format=args.format,
         points=args.points, overwrite=args.overwrite, on_error=args.on_error, n_jobs=args.jobs,
-        batch_size=args.batch_size, progress=not args.quiet, log=log,
+        batch_size=args.batch_size, progress=not args.quiet, log=log, confidence=args.confidence,
+        intervals=args.intervals,
     )
     print(report.summary(), file=sys.stderr)
     return 0 if report.ok else 1

@@ -1,3 +1,4 @@
+# long module: one class, whose calibration, prediction and persistence share its fitted attributes
 """Per-pixel intervals for any fitted inpainter: drive-grouped split conformal prediction.
 
 :class:`ConformalIntervalInpainter` wraps a fitted inpainter (classical or learned) the
@@ -51,7 +52,8 @@ from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.interval_metrics import border_distance, check_coverage, normal_quantile
 from inpaintenv.masks import get_protocol
 
-from .base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, iter_scoring_batches, training_drives
+from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, iter_scoring_batches, training_drives
+from ._bases import CLASSICAL_FILLS, make_base
 
 __all__ = ["ConformalIntervalInpainter", "SIGNALS"]
 
@@ -118,9 +120,9 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     Examples
     --------
     >>> from inpaintenv.data import KittiDepth                      # doctest: +SKIP
-    >>> from inpaintenv.registry import make_method                 # doctest: +SKIP
+    >>> from estimators import ScanlineInpainter                     # doctest: +SKIP
     >>> cal = KittiDepth(split="train", drives=["2011_09_30_drive_9018_sync"])  # doctest: +SKIP
-    >>> wrapped = ConformalIntervalInpainter(make_method("scanline"), spread_method="nearest").fit(cal)  # doctest: +SKIP
+    >>> wrapped = ConformalIntervalInpainter(ScanlineInpainter(), spread_method="nearest").fit(cal)  # doctest: +SKIP
     >>> low, high = wrapped.predict_interval(x)                     # doctest: +SKIP
     """
 
@@ -158,9 +160,9 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
 
     @staticmethod
     def _second_fill(name: str) -> Any:
-        from inpaintenv.registry import make_method
-
-        return make_method(name)
+        if name not in CLASSICAL_FILLS:
+            raise InvalidInputError(f"spread_method must be a classical method ({', '.join(CLASSICAL_FILLS)}), got {name!r}")
+        return make_base(name)
 
     def __sklearn_is_fitted__(self) -> bool:
         return hasattr(self, "calibration_")
@@ -407,7 +409,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         std = (half / normal_quantile(self.calibration_["coverage"])).astype(np.float32)
         return pred, std[0] if single else std
 
-    def predict_interval(self, X: Any, coverage: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def predict_interval(self, X: Any, coverage: float | None = None, *,
+                         prediction: Any = None) -> tuple[np.ndarray, np.ndarray]:
         """Per-pixel ``(low, high)`` of nominal ``coverage`` around the base's prediction.
 
         Parameters
@@ -417,6 +420,9 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         coverage : float, optional
             In (0, 1); the calibrated ``coverage`` by default. Any coverage works (the
             calibration keeps the residual quantiles); see :meth:`quantile_at`.
+        prediction : array-like, optional
+            ``predict(X)``'s result when the caller has it already (``evaluate`` and
+            ``inpaintenv fill`` pass theirs): the base is then not run again.
 
         Returns
         -------
@@ -428,8 +434,17 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         check_is_fitted(self)
         q = self.quantile_at(coverage)
         x, single = self._batch(X)
-        pred = np.asarray(self.estimator.predict(x), dtype=np.float32)
-        half = self._scale(x, pred, np.isnan(x)) * q
+        if prediction is None:
+            pred = np.asarray(self.estimator.predict(x), dtype=np.float32)
+        else:
+            pred = np.asarray(prediction, dtype=np.float32)
+            if pred.size != x.size:
+                raise InvalidInputError(f"prediction has shape {pred.shape}, X {np.shape(X)}: pass predict(X)")
+            pred = pred.reshape(x.shape)
+        hole = np.isnan(x)
+        half = self._scale(x, pred, hole) * q
+        # A width below float32's resolution at pred would round to an empty interval.
+        half[hole] = np.maximum(half[hole], 4.0 * np.spacing(np.abs(pred[hole])))
         low = np.maximum(pred - half, 0.0).astype(np.float32)
         high = (pred + half).astype(np.float32)
         low, high = np.minimum(low, pred), np.maximum(high, pred)  # float32 rounding never excludes pred
@@ -491,7 +506,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         path : path-like
         estimator : fitted inpainter, optional
             The base; by default rebuilt from the file's ``base`` with
-            :func:`inpaintenv.registry.make_method`. Its class must be the one calibrated.
+            its name (a classical method, a shipped release or a model folder). Its class
+            must be the one calibrated.
 
         Raises
         ------
@@ -508,9 +524,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             raise InvalidInputError(f"{path}: 'format' must be {_FORMAT!r}")
         try:
             if estimator is None:
-                from inpaintenv.registry import make_method
-
-                estimator = make_method(data["base"])
+                estimator = make_base(data["base"])
             if type(estimator).__name__ != data["base_class"]:
                 raise InvalidInputError(f"{path}: calibrated for a {data['base_class']}, "
                                         f"got a {type(estimator).__name__}")
@@ -531,3 +545,4 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             raise InvalidInputError(f"{path}: 'coef' must hold {1 + len(out.signals)} and 'residual_quantiles' "
                                     f"{N_LEVELS} finite numbers")
         return out
+

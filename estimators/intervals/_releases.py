@@ -1,0 +1,72 @@
+"""The interval calibrations shipped with releases, and loading a saved one by path."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from inpaintenv.exceptions import InvalidInputError
+
+from ._conformal import ConformalIntervalInpainter
+
+__all__ = ["load_intervals", "release_intervals", "shipped_intervals"]
+
+
+def _intervals_dir() -> Path:
+    """``estimators/pretrained/intervals``: one calibration JSON per release that has one."""
+    return Path(__file__).resolve().parents[1] / "pretrained" / "intervals"
+
+
+def shipped_intervals() -> list[str]:
+    """The releases shipped with an interval calibration (``release_intervals`` loads them)."""
+    folder = _intervals_dir()
+    return sorted(p.stem for p in folder.glob("*.json")) if folder.is_dir() else []
+
+
+def release_intervals(name: str | None = None, **overrides: Any) -> ConformalIntervalInpainter:
+    """A shipped release wrapped in its shipped interval calibration.
+
+    Parameters
+    ----------
+    name : str, optional
+        Release name; the default release (``pretrained``) by default.
+    **overrides
+        Prediction-time parameters of the release (see
+        :func:`estimators.learned.releases.load_release`).
+
+    Returns
+    -------
+    ConformalIntervalInpainter
+        ``predict`` is the release's, bit for bit; ``predict_interval`` and
+        ``predict(X, return_std=True)`` use the calibration of
+        ``estimators/pretrained/intervals/<name>.json`` (what it was calibrated on is in
+        ``calibration_``; docs/model_card.md, "Per-pixel intervals").
+
+    Raises
+    ------
+    InvalidInputError
+        When the release has no shipped calibration (the message lists those that have one).
+    """
+    from estimators.learned.releases import DEFAULT_RELEASE, load_release
+
+    name = DEFAULT_RELEASE if name is None else name
+    path = _intervals_dir() / f"{name}.json"
+    if not isinstance(name, str) or not path.is_file():
+        have = ", ".join(shipped_intervals()) or "none"
+        raise InvalidInputError(f"release {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
+                                "one with ConformalIntervalInpainter(...).fit on drives it never saw and save it")
+    return ConformalIntervalInpainter.load(path, estimator=load_release(name, **overrides))
+
+
+def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalIntervalInpainter:
+    """:meth:`ConformalIntervalInpainter.load` as a function (the registry's ``intervals`` method).
+
+    Parameters
+    ----------
+    path : path-like
+        A calibration written by :meth:`ConformalIntervalInpainter.save`.
+    estimator : fitted inpainter, optional
+        The base; rebuilt from the file's ``base`` by default.
+    """
+    return ConformalIntervalInpainter.load(path, estimator=estimator)

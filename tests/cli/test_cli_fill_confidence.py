@@ -1,0 +1,123 @@
+"""``inpaintenv fill --confidence``: a per-pixel interval beside each filled depth file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from estimators import ScanlineInpainter
+from estimators.intervals import ConformalIntervalInpainter
+from inpaintenv.cli import main
+from inpaintenv.conventions import DEPTH_LIMIT
+from inpaintenv.data import SyntheticStreets, read_depth_png, write_depth_png
+from inpaintenv.exceptions import InvalidInputError
+from inpaintenv.filling import fill
+
+SHAPE = (64, 96)
+
+
+def frames(n: int, seed: int = 0) -> list[np.ndarray]:
+    """Synthetic LiDAR-like frames with 5 % depth noise, so that a fill errs inside its holes."""
+    ds = SyntheticStreets(n=n, frame_shape=SHAPE, kind="velodyne_raw", seed=seed)
+    rng = np.random.default_rng(seed)
+    return [(np.asarray(ds[i]) * (1 + 0.05 * rng.standard_normal(SHAPE))).clip(0).astype(np.float32)
+            for i in range(n)]
+
+
+@pytest.fixture(scope="module")
+def calibration(tmp_path_factory) -> tuple[Path, ConformalIntervalInpainter]:
+    """scanline calibrated on 6 synthetic frames of 3 drives, saved to cal.json."""
+    wrapper = ConformalIntervalInpainter(ScanlineInpainter(), spread_method="nearest").fit(
+        frames(6, seed=1), groups=[f"d{k // 2}" for k in range(6)])
+    path = tmp_path_factory.mktemp("cal") / "cal.json"
+    return wrapper.save(path, base="scanline"), wrapper
+
+
+def holed(seed: int = 5) -> np.ndarray:
+    x = frames(1, seed=seed)[0]
+    x[20:40, 30:60] = np.nan
+    return x
+
+
+def test_interval_files_hold_the_fill_and_equal_predict_interval(calibration, tmp_path):
+    path, wrapper = calibration
+    x = holed()
+    _npy(tmp_path / "in" / "a.npy", x)
+    rc = main(["fill", str(tmp_path / "in"), "--format", "both", "--confidence", "--intervals", str(path),
+               "-m", "scanline", "--out", str(tmp_path / "out"), "-q"])
+    assert rc == 0
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert names == ["a.npy", "a.png", "a_high.npy", "a_high.png", "a_low.npy", "a_low.png"]
+    filled, low, high = (np.load(tmp_path / "out" / f"a{s}.npy") for s in ("", "_low", "_high"))
+    hole = np.isnan(x)
+    assert np.isfinite(low).all() and np.isfinite(high).all()
+    assert (low <= filled).all() and (filled <= high).all() and ((high - low)[hole] > 0).all()
+    np.testing.assert_array_equal(low[~hole], filled[~hole])  # measured (or unmeasured 0) pixels: no width
+    np.testing.assert_array_equal(high[~hole], filled[~hole])
+    ref_low, ref_high = wrapper.predict_interval(x)  # the calibrated 0.9 interval of the same prediction
+    np.testing.assert_array_equal(low[hole], ref_low[hole])
+    np.testing.assert_array_equal(high[hole], ref_high[hole])
+    # The PNGs are the same bounds at 1/256 m, still ordered.
+    p_low, p_fill, p_high = (read_depth_png(tmp_path / "out" / f"a{s}.png") for s in ("_low", "", "_high"))
+    assert (p_low <= p_fill).all() and (p_fill <= p_high).all()
+    assert np.abs(p_high - np.minimum(high, DEPTH_LIMIT))[hole].max() <= 0.5 / 256 + 1e-6
+
+
+def test_another_coverage_is_nested(calibration, tmp_path):
+    path, _ = calibration
+    x = holed()
+    widths = {}
+    for c in (0.5, 0.95):
+        fill([_npy(tmp_path / "in" / "a.npy", x)], tmp_path / f"out{c}", method="scanline", format="npy",
+             confidence=c, intervals=path, progress=False)
+        low, high = (np.load(tmp_path / f"out{c}" / f"a{s}.npy") for s in ("_low", "_high"))
+        widths[c] = (high - low)[np.isnan(x)]
+    assert (widths[0.5] <= widths[0.95]).all() and widths[0.5].mean() < widths[0.95].mean()
+
+
+def _npy(path: Path, x: np.ndarray) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.save(path, x)
+    return path
+
+
+def test_an_estimator_with_its_own_interval_and_resume(calibration, tmp_path):
+    _, wrapper = calibration
+    src = tmp_path / "in"
+    for k, d in enumerate(frames(2, seed=3)):
+        d[10:30, 20:50] = 0  # no data there: filled with --missing
+        write_depth_png(src / f"{k}.png", d)
+    report = fill([src], tmp_path / "out", method=wrapper, missing=True, confidence=0.9, progress=False)
+    assert len(report.written) == 2
+    (tmp_path / "out" / "1_high.png").unlink()  # a run cut short: that input is redone, the other kept
+    again = fill([src], tmp_path / "out", method=wrapper, missing=True, confidence=0.9, progress=False)
+    assert [p.name for p in again.written] == ["1.png"] and [p.name for p in again.skipped] == ["0.png"]
+    assert (tmp_path / "out" / "1_high.png").is_file()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--confidence", "-m", "scanline"], "method 'scanline' has none: give --intervals CAL.json"),
+    (["--intervals", "CAL", "-m", "scanline"], "give --confidence too"),
+    (["--confidence", "1.5", "--intervals", "CAL", "-m", "scanline"], "confidence"),
+    (["--confidence", "--intervals", "NOFILE", "-m", "scanline"], "no such calibration file"),
+    (["--confidence", "--intervals", "CAL", "-m", "harmonic"], "calibrated for a ScanlineInpainter"),
+])
+def test_bad_confidence_options_are_one_line(calibration, tmp_path, capsys, args, message):
+    path, _ = calibration
+    _npy(tmp_path / "in" / "a.npy", holed())
+    args = [str(path) if a == "CAL" else str(tmp_path / "none.json") if a == "NOFILE" else a for a in args]
+    rc = main(["fill", str(tmp_path / "in"), *args, "--out", str(tmp_path / "out"), "-q"])
+    err = capsys.readouterr().err
+    assert rc != 0 and message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_an_input_named_like_an_interval_file_is_refused(calibration, tmp_path):
+    path, _ = calibration
+    _npy(tmp_path / "in" / "a.npy", holed())
+    _npy(tmp_path / "in" / "a_low.npy", holed())
+    with pytest.raises(InvalidInputError, match="would both be written to"):
+        fill([tmp_path / "in"], tmp_path / "out", method="scanline", format="npy", confidence=0.9,
+             intervals=path, progress=False)
