@@ -481,24 +481,29 @@ def _make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any,
     return method, name
 
 
-def _interval_method(method: Any, name: str, given: Any, intervals: str | os.PathLike | None,
-                     coverage: float) -> tuple[Any, str, IntervalSource]:
-    """The method of a ``confidence`` run, its name and its interval source.
+def _shipped_interval_name(method: Any) -> Any:
+    """``<name>-intervals`` for a registry name whose release ships an interval calibration; else ``method``."""
+    from .registry import available_aliases, available_methods, canonical_name
 
-    ``given`` is the ``method`` argument as given: a registry name whose release ships an
-    interval calibration becomes ``<name>-intervals``; ``intervals`` (a saved calibration)
-    wraps ``method``; a method with its own interval is used as it is.
-    """
+    if isinstance(method, str):
+        name = f"{canonical_name(method)}-intervals"
+        if name in available_methods() or name in available_aliases():
+            return name
+    return method
+
+
+def _interval_method(method: Any, name: str, intervals: str | os.PathLike | None,
+                     coverage: float) -> tuple[Any, str, IntervalSource]:
+    """The method of a ``confidence`` run, its name and its interval source: ``intervals`` (a saved
+    calibration) wraps ``method``; a method with its own interval is used as it is."""
     from .method_intervals import interval_source
-    from .registry import available_methods, canonical_name, make_method
+    from .registry import available_methods, make_method
 
     if intervals is not None:
         if not Path(intervals).is_file():
             raise FileNotFoundError(f"--intervals {intervals}: no such calibration file")
         method = make_method("intervals", path=intervals, estimator=method)
         name = f"{name}+intervals"
-    elif isinstance(given, str) and f"{canonical_name(given)}-intervals" in available_methods():
-        method = make_method(f"{canonical_name(given)}-intervals")
     source = interval_source(method, coverage, name)
     if source is None:
         shipped = [m[: -len("-intervals")] for m in available_methods() if m.endswith("-intervals")]
@@ -601,10 +606,11 @@ def fill(
     run = _Run(hole_spec, calibration, size, camera, report, log, on_error == "stop")
     if any(j.is_scan for j in todo):
         run.load_calibration()  # first: a missing --size fails in a second, not after loading a model
+    if confidence is not None and checkpoint is None and intervals is None:
+        method = _shipped_interval_name(method)  # "pretrained" -> "pretrained-intervals": its calibration
     run.set_method(*_make_method(method, checkpoint, n_jobs))
     if confidence is not None:
-        run.set_interval(*_interval_method(run.method, run.name, None if checkpoint is not None else method,
-                                           intervals, confidence))
+        run.set_interval(*_interval_method(run.method, run.name, intervals, confidence))
     writes: deque[tuple[_Item, Future]] = deque()
 
     def settle(wait_for: int) -> bool:

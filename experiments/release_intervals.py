@@ -1,0 +1,80 @@
+"""The interval calibration shipped with a release: out-of-fold residuals of its leave-one-day-out fold models.
+
+The release saw every drive of the slice, so no drive can calibrate it directly. Its three
+fold models (the release's recipe, each trained without one recording day and a few
+calibration drives: docs/model_card.md, "Per-pixel intervals") can: every drive is scored by
+the fold model trained without that drive's whole day, and
+``ConformalIntervalInpainter.fit_out_of_fold`` fits the scale and the quantiles on those
+pooled residuals, then wraps the release. The result is written to
+``estimators/pretrained/intervals/<release>.json`` (``--out`` to write elsewhere).
+
+    python experiments/release_intervals.py --kitti-root <KITTI root> \
+        --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def spaced_frames(dataset: Any, drives: list[str], per_drive: int) -> Any:
+    """Up to ``per_drive`` evenly spaced frames of each drive (all of them for 0)."""
+    idx: list[int] = []
+    for d in drives:
+        where = np.flatnonzero(dataset.groups == d)
+        take = min(per_drive, len(where)) if per_drive > 0 else len(where)
+        idx += [int(i) for i in where[np.linspace(0, len(where) - 1, take).astype(int)]]
+    return dataset[idx]
+
+
+def main(argv: list[str] | None = None) -> Path:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--kitti-root", required=True)
+    parser.add_argument("--release", default="kitti-ensemble-v1")
+    parser.add_argument("--fold", action="append", required=True, metavar="DAY=MODEL",
+                        help="a fold model trained without every drive of recording day DAY (repeatable)")
+    parser.add_argument("--frames-per-drive", type=int, default=12, help="0 = every frame")
+    parser.add_argument("--spread-method", default="scanline")
+    parser.add_argument("--coverage", type=float, default=0.9)
+    parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
+    args = parser.parse_args(argv)
+
+    from estimators.intervals import ConformalIntervalInpainter
+    from estimators.learned import load
+    from estimators.learned.releases import load_release
+    from inpaintenv.data import KittiDepth
+
+    dataset = KittiDepth(args.kitti_root, split="train")
+    drives = sorted({str(g) for g in dataset.groups})
+    folds = []
+    for entry in args.fold:
+        day, _, path = entry.partition("=")
+        model = load(path)
+        mine = [d for d in drives if d.startswith(day)]
+        if not mine:
+            raise SystemExit(f"--fold {entry}: no drive of day {day!r} in {args.kitti_root}")
+        folds.append((model, spaced_frames(dataset, mine, args.frames_per_drive)))
+        print(f"{day}: {len(mine)} drives scored by {path}", flush=True)
+    left = sorted(set(drives) - {str(g) for _, ds in folds for g in ds.groups})
+    if left:
+        raise SystemExit(f"no fold scores drives {left}: give a --fold for their day")
+    start = time.perf_counter()
+    wrapper = ConformalIntervalInpainter(load_release(args.release), coverage=args.coverage,
+                                         spread_method=args.spread_method).fit_out_of_fold(folds)
+    out = Path(args.out) if args.out else (Path(__file__).resolve().parents[1] / "estimators" / "pretrained"
+                                           / "intervals" / f"{args.release}.json")
+    wrapper.save(out, base=args.release)
+    cal = wrapper.calibration_
+    print(f"{out}: {len(cal['drives'])} drives, {cal['n_frames']} frames, {cal['n_pixels']} pixels, "
+          f"q = {wrapper.quantile_:.3f} at {cal['coverage']}, coef {np.round(wrapper.coef_, 3).tolist()} "
+          f"({time.perf_counter() - start:.0f} s)")
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,81 @@
+"""The interval calibration shipped with the default release (estimators/pretrained/intervals/)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from estimators.intervals import ConformalIntervalInpainter, release_intervals, shipped_intervals
+from estimators.intervals._releases import _intervals_dir
+from estimators.learned import DEFAULT_RELEASE, load_release
+from inpaintenv.cli import main
+from inpaintenv.data import SyntheticStreets, write_depth_png
+from inpaintenv.exceptions import InvalidInputError
+from inpaintenv.masks import get_protocol
+from inpaintenv.registry import available_aliases, canonical_name, make_method
+
+
+@pytest.fixture(scope="module")
+def wrapped() -> ConformalIntervalInpainter:
+    return release_intervals()
+
+
+@pytest.fixture(scope="module")
+def holed() -> np.ndarray:
+    x = np.asarray(SyntheticStreets(n=1, frame_shape=(96, 320), seed=3)[0], dtype=np.float32)
+    x[get_protocol("rect-v1").mask(x.shape, seed=0, index=1)] = np.nan
+    return x
+
+
+def test_the_default_release_ships_a_calibration_registered_as_pretrained_intervals(wrapped):
+    assert DEFAULT_RELEASE in shipped_intervals()
+    assert canonical_name("pretrained-intervals") == available_aliases()["pretrained-intervals"]
+    assert type(make_method("pretrained-intervals")) is ConformalIntervalInpainter
+    assert type(wrapped.estimator) is type(load_release())
+
+
+def test_its_calibration_is_out_of_fold_on_drives_each_fold_model_never_saw(wrapped):
+    cal = wrapped.calibration_
+    folds = cal["out_of_fold"]
+    assert len(folds) >= 2 and cal["coverage"] == 0.9 and cal["protocol"] == "rect-v1"
+    drives = [d for f in folds for d in f["drives"]]
+    assert sorted(drives) == cal["drives"] and len(set(drives)) == len(drives)  # each drive calibrates once
+    for f in folds:
+        assert f["training_drives"] and not set(f["drives"]) & set(f["training_drives"])
+        assert f["n_pixels"] > 0
+    assert cal["n_pixels"] == sum(f["n_pixels"] for f in folds) == wrapped.n_calibration_pixels_
+    # The release itself saw them all: only out-of-fold residuals can calibrate it.
+    assert set(cal["drives"]) <= set(wrapped.estimator.training_drives_)
+    raw = json.loads((_intervals_dir() / f"{DEFAULT_RELEASE}.json").read_text())
+    assert raw["base"] == DEFAULT_RELEASE and raw["params"]["spread_method"] == "scanline"
+
+
+def test_prediction_is_the_release_bit_for_bit_and_the_interval_holds_it(wrapped, holed):
+    pred = load_release().predict(holed)
+    np.testing.assert_array_equal(wrapped.predict(holed), pred)
+    same, std = wrapped.predict(holed, return_std=True)
+    np.testing.assert_array_equal(same, pred)
+    low, high = wrapped.predict_interval(holed)
+    hole = np.isnan(holed)
+    assert np.isfinite(low).all() and np.isfinite(high).all() and (std[hole] > 0).all() and (std[~hole] == 0).all()
+    assert (low <= pred).all() and (pred <= high).all() and ((high - low)[hole] > 0).all()
+    assert (low >= 0).all() and (low[~hole] == high[~hole]).all()
+
+
+def test_fill_confidence_with_the_default_method(tmp_path, holed, wrapped):
+    depth = np.nan_to_num(holed, nan=0.0)
+    write_depth_png(tmp_path / "in" / "f.png", depth)
+    np.save(tmp_path / "mask.npy", np.isnan(holed))
+    rc = main(["fill", str(tmp_path / "in"), "--holes", str(tmp_path / "mask.npy"), "--format", "npy",
+               "--confidence", "--out", str(tmp_path / "out"), "-q"])
+    assert rc == 0
+    filled, low, high = (np.load(tmp_path / "out" / f"f{s}.npy") for s in ("", "_low", "_high"))
+    hole = np.isnan(holed)
+    assert (low <= filled).all() and (filled <= high).all() and ((high - low)[hole] > 0).all()
+
+
+def test_a_release_without_a_calibration_is_named():
+    with pytest.raises(InvalidInputError, match="has no shipped interval calibration"):
+        release_intervals("no-such-release")

@@ -1,0 +1,67 @@
+"""experiments/release_intervals.py: the shipped calibration from fold models, each drive scored by its day's fold."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from inpaintenv.data.io import write_depth_png
+
+DAYS = {"2011_09_26": ("9001", "9002"), "2011_09_30": ("9018",)}
+
+
+class FoldFill:
+    """A fitted stand-in of the release's class: fills every NaN with 10 m, records the drives it saw."""
+
+    def __init__(self, seen: list[str]) -> None:
+        self.training_drives_ = seen
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return True
+
+    def predict(self, X):
+        x = np.asarray(X, dtype=np.float32)
+        return np.where(np.isnan(x), np.float32(10.0), x)
+
+
+@pytest.fixture
+def two_days(tmp_path):
+    rng = np.random.default_rng(0)
+    for day, numbers in DAYS.items():
+        for n in numbers:
+            folder = tmp_path / "train" / f"{day}_drive_{n}_sync" / "proj_depth" / "groundtruth" / "image_02"
+            folder.mkdir(parents=True)
+            for f in range(2):
+                depth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
+                write_depth_png(folder / f"{f:010d}.png", depth.astype(np.float32))
+    return tmp_path
+
+
+def test_every_drive_is_calibrated_by_the_fold_model_without_its_day(load_experiment, two_days, tmp_path,
+                                                                      monkeypatch, capsys):
+    import estimators.learned
+    import estimators.learned.releases
+
+    drives = {day: [f"{day}_drive_{n}_sync" for n in numbers] for day, numbers in DAYS.items()}
+    every = sorted(d for ds in drives.values() for d in ds)
+    models = {f"m-{day}": FoldFill([d for d in every if not d.startswith(day)]) for day in DAYS}
+    monkeypatch.setattr(estimators.learned, "load", lambda path: models[str(path)])
+    monkeypatch.setattr(estimators.learned.releases, "load_release", lambda name: FoldFill(every))
+    out = load_experiment("release_intervals").main([
+        "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",
+        *[a for day in DAYS for a in ("--fold", f"{day}=m-{day}")]])
+    cal = json.loads(out.read_text())["calibration"]
+    assert cal["drives"] == every and cal["n_frames"] == 2 * len(every)
+    assert [f["drives"] for f in cal["out_of_fold"]] == [drives[day] for day in DAYS]
+    assert "3 drives" in capsys.readouterr().out
+
+
+def test_a_day_without_a_fold_is_refused(load_experiment, two_days, tmp_path, monkeypatch):
+    import estimators.learned
+
+    monkeypatch.setattr(estimators.learned, "load", lambda path: FoldFill([]))
+    with pytest.raises(SystemExit, match="no fold scores drives"):
+        load_experiment("release_intervals").main([
+            "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--fold", "2011_09_26=m"])
