@@ -5,8 +5,11 @@ never saw any drive (a classical method) on the other days' drives, then score D
 with ``inpaintenv.evaluate.evaluate(wrapper, ..., intervals=C)``; then the same with drive
 2011_09_26_drive_0001_sync (official maps) left out. Printed per fold: coverage of the
 interval in the hole, mean width, hole RMSE, the RMSE when the most confident 80 % are
-kept (and the share cut), and the border baseline (the 80 % nearest the hole border).
-Columns are the mean over the fold's frames of the per-frame values, as in the benchmark.
+kept (and the share cut), and the border baseline (the 80 % nearest the hole border); then
+the error-rejection curve per fold (90 / 80 / 50 % kept, its AUC). Columns are the mean over
+the fold's frames of the per-frame values, as in the benchmark. Drives the base was trained
+on (its ``training_drives_``) are left out of both calibration and scoring, so a release
+trained on a few drives (``--method kitti-mixed-v1 --protocol mixed-v1``) is checked too.
 
     python benchmarks/interval_lodo.py --kitti-root /path/to/kitti [--frames-per-drive 6]
 
@@ -27,8 +30,8 @@ from typing import Any
 import numpy as np
 
 OFFICIAL = "2011_09_26_drive_0001_sync"
-COLUMNS = ("hole_coverage", "hole_interval_width", "hole_rmse", "rmse_keep_80", "rmse_cut_80",
-           "border_rmse_keep_80")
+COLUMNS = ("hole_coverage", "hole_interval_width", "hole_rmse", "rmse_keep_90", "rmse_keep_80", "rmse_keep_50",
+           "rmse_cut_80", "rejection_auc", "border_rmse_keep_80")
 
 
 def frames_of(dataset: Any, drives: list[str], per_drive: int) -> Any:
@@ -56,8 +59,9 @@ def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> dict[s
 
     start = time.perf_counter()
     wrapper = ConformalIntervalInpainter(base, coverage=args.coverage, signals=tuple(args.signals),
-                                         spread_method=args.spread_method).fit(cal)
-    result = evaluate(wrapper, test, intervals=args.coverage, progress=False, name="conformal")
+                                         spread_method=args.spread_method, protocol=args.protocol).fit(cal)
+    result = evaluate(wrapper, test, protocol=args.protocol, intervals=args.coverage, progress=False,
+                      name="conformal")
     row = {c: float(np.nanmean([r[c] for r in result.rows])) for c in COLUMNS}
     row["border_cut_80"] = 1 - row["border_rmse_keep_80"] / row["hole_rmse"]
     row.update(n_frames=len(test), n_cal_pixels=wrapper.calibration_["n_pixels"],
@@ -74,6 +78,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--spread-method", default="harmonic")
     parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"])
     parser.add_argument("--coverage", type=float, default=0.9)
+    parser.add_argument("--protocol", default="rect-v1", help="masks protocol of calibration and scoring")
     parser.add_argument("--frames-per-drive", type=int, default=6, help="0 = every frame")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
@@ -87,19 +92,23 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     rows = []
     print("| fold | frames | cal. drives / pixels | coverage | mean width (m) | hole RMSE | keep-80 % RMSE "
           "(cut) | border keep-80 % (cut) |\n|---|---:|---:|---:|---:|---:|---:|---:|")
+    curves = []
     for name, cal_drives, test_drives in folds(drives):
         if name in checkpoints:
             from estimators.learned import load  # a saved fold model (torch, the [learned] extra)
 
             base = load(checkpoints[name])
-            # Calibrate only on the left-in drives the fold model never saw (fit refuses the others).
-            seen = set(getattr(base, "training_drives_", None) or ())
-            cal_drives = [d for d in cal_drives if d not in seen]
-            if not cal_drives:
-                raise SystemExit(f"{name}: the fold model {checkpoints[name]} saw every drive outside the fold; "
-                                 "train it with a calibration day left out too (--exclude-drives)")
         else:
             base = make_method(args.method)
+        # Calibrate and score only drives the base never saw (a release trained on some drives).
+        seen = set(getattr(base, "training_drives_", None) or ())
+        cal_drives = [d for d in cal_drives if d not in seen]
+        test_drives = [d for d in test_drives if d not in seen]
+        if not cal_drives:
+            raise SystemExit(f"{name}: the base saw every drive outside the fold; train it with calibration "
+                             "drives left out too (--exclude-drives)")
+        if not test_drives:
+            continue
         row = run_fold(base, frames_of(dataset, cal_drives, args.frames_per_drive),
                        frames_of(dataset, test_drives, args.frames_per_drive), args)
         row["fold"] = name
@@ -108,6 +117,11 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
               f"{row['hole_coverage']:.3f} | {row['hole_interval_width']:.2f} | {row['hole_rmse']:.2f} | "
               f"{row['rmse_keep_80']:.2f} ({row['rmse_cut_80']:.0%}) | "
               f"{row['border_rmse_keep_80']:.2f} ({row['border_cut_80']:.0%}) |", flush=True)
+        curves.append(f"| {name} | {row['rmse_keep_90']:.2f} | {row['rmse_keep_80']:.2f} | {row['rmse_keep_50']:.2f} | "
+                      f"{row['hole_rmse']:.2f} | {row['rejection_auc']:.3f} |")
+    print("\nError-rejection curve (hole RMSE when the most confident share is kept; AUC: mean over 5 %, ..., 100 % "
+          "kept ÷ hole RMSE):\n| fold | keep 90 % | keep 80 % | keep 50 % | all | AUC |\n|---|---:|---:|---:|---:|---:|")
+    print("\n".join(curves))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)

@@ -10,6 +10,12 @@ pooled residuals, then wraps the release. The result is written to
 
     python experiments/release_intervals.py --kitti-root <KITTI root> \
         --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
+
+A release that was trained on a few drives only (``kitti-mixed-v1``: frames of one drive) needs
+no fold models: without ``--fold`` it is calibrated directly on every drive its
+``training_drives_`` does not name, with its own masks protocol (``--protocol``)::
+
+    python experiments/release_intervals.py --kitti-root <KITTI root> --release kitti-mixed-v1 --protocol mixed-v1
 """
 
 from __future__ import annotations
@@ -36,11 +42,12 @@ def main(argv: list[str] | None = None) -> Path:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kitti-root", required=True)
     parser.add_argument("--release", default="kitti-ensemble-v1")
-    parser.add_argument("--fold", action="append", required=True, metavar="DAY=MODEL",
+    parser.add_argument("--fold", action="append", default=[], metavar="DAY=MODEL",
                         help="a fold model trained without every drive of recording day DAY (repeatable)")
     parser.add_argument("--frames-per-drive", type=int, default=12, help="0 = every frame")
     parser.add_argument("--spread-method", default="scanline")
     parser.add_argument("--coverage", type=float, default=0.9)
+    parser.add_argument("--protocol", default="rect-v1", help="masks protocol the calibration frames are occluded with")
     parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
     args = parser.parse_args(argv)
 
@@ -60,12 +67,20 @@ def main(argv: list[str] | None = None) -> Path:
             raise SystemExit(f"--fold {entry}: no drive of day {day!r} in {args.kitti_root}")
         folds.append((model, spaced_frames(dataset, mine, args.frames_per_drive)))
         print(f"{day}: {len(mine)} drives scored by {path}", flush=True)
-    left = sorted(set(drives) - {str(g) for _, ds in folds for g in ds.groups})
-    if left:
-        raise SystemExit(f"no fold scores drives {left}: give a --fold for their day")
+    release = load_release(args.release)
     start = time.perf_counter()
-    wrapper = ConformalIntervalInpainter(load_release(args.release), coverage=args.coverage,
-                                         spread_method=args.spread_method).fit_out_of_fold(folds)
+    wrapper = ConformalIntervalInpainter(release, coverage=args.coverage, spread_method=args.spread_method,
+                                         protocol=args.protocol)
+    if folds:
+        left = sorted(set(drives) - {str(g) for _, ds in folds for g in ds.groups})
+        if left:
+            raise SystemExit(f"no fold scores drives {left}: give a --fold for their day")
+        wrapper.fit_out_of_fold(folds)
+    else:
+        unseen = sorted(set(drives) - set(getattr(release, "training_drives_", None) or ()))
+        if not unseen:
+            raise SystemExit(f"{args.release} saw every drive of {args.kitti_root}: give its fold models (--fold)")
+        wrapper.fit(spaced_frames(dataset, unseen, args.frames_per_drive))
     out = Path(args.out) if args.out else (Path(__file__).resolve().parents[1] / "estimators" / "pretrained"
                                            / "intervals" / f"{args.release}.json")
     wrapper.save(out, base=args.release)

@@ -483,12 +483,17 @@ def _make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any,
 
 def _shipped_interval_name(method: Any) -> Any:
     """``<name>-intervals`` for a registry name whose release ships an interval calibration; else ``method``."""
-    from .registry import available_aliases, available_methods, canonical_name
+    from .registry import DEFAULT_RELEASE, available_aliases, available_methods, canonical_name, get_spec
 
-    if isinstance(method, str):
-        name = f"{canonical_name(method)}-intervals"
-        if name in available_methods() or name in available_aliases():
-            return name
+    if isinstance(method, str) and not method.count(":"):
+        canon = canonical_name(method)
+        spec = get_spec(canon)
+        names = [f"{canon}-intervals"]
+        if spec.cls == "load_release":  # any name of a release: blend-pretrained-mixed is kitti-mixed-v1
+            names.append(f"{spec.kwargs.get('name', DEFAULT_RELEASE)}-intervals")
+        for name in names:
+            if name in available_methods() or name in available_aliases():
+                return name
     return method
 
 

@@ -65,3 +65,17 @@ def test_a_day_without_a_fold_is_refused(load_experiment, two_days, tmp_path, mo
     with pytest.raises(SystemExit, match="no fold scores drives"):
         load_experiment("release_intervals").main([
             "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--fold", "2011_09_26=m"])
+
+
+def test_without_folds_a_release_is_calibrated_on_the_drives_it_never_saw(load_experiment, two_days, tmp_path,
+                                                                           monkeypatch):
+    import estimators.learned.releases
+
+    monkeypatch.setattr(estimators.learned.releases, "load_release",
+                        lambda name: FoldFill(["2011_09_26_drive_9001_sync"]))
+    out = load_experiment("release_intervals").main([
+        "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",
+        "--protocol", "mixed-v1"])
+    data = json.loads(out.read_text())
+    assert data["calibration"]["drives"] == ["2011_09_26_drive_9002_sync", "2011_09_30_drive_9018_sync"]
+    assert data["params"]["protocol"] == "mixed-v1" and "out_of_fold" not in data["calibration"]

@@ -1,0 +1,60 @@
+"""benchmarks/interval_lodo.py: each day left out, calibrated on the others, never on a drive the base saw."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from inpaintenv.data.io import write_depth_png
+
+DRIVES = ["2011_09_26_drive_9001_sync", "2011_09_26_drive_9002_sync", "2011_09_30_drive_9018_sync",
+          "2011_09_30_drive_9020_sync"]
+
+
+class SawOneDrive:
+    """scanline-like stand-in trained on drive 9001: fills every NaN with 10 m."""
+
+    training_drives_ = [DRIVES[0]]
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return True
+
+    def predict(self, X):
+        x = np.asarray(X, dtype=np.float32)
+        return np.where(np.isnan(x), np.float32(10.0), x)
+
+
+@pytest.fixture
+def two_days(tmp_path):
+    rng = np.random.default_rng(0)
+    for drive in DRIVES:
+        folder = tmp_path / "train" / drive / "proj_depth" / "groundtruth" / "image_02"
+        folder.mkdir(parents=True)
+        for f in range(2):
+            depth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
+            write_depth_png(folder / f"{f:010d}.png", depth.astype(np.float32))
+    return tmp_path
+
+
+def test_folds_rows_and_curve(load_benchmark, two_days, tmp_path, capsys):
+    rows = load_benchmark("interval_lodo").main(["--kitti-root", str(two_days), "--spread-method", "nearest",
+                                                 "--frames-per-drive", "0", "--json", str(tmp_path / "rows.json")])
+    assert [r["fold"] for r in rows] == ["day-2011_09_26", "day-2011_09_30"]
+    assert all(r["n_cal_drives"] == 2 and r["n_frames"] == 4 and 0 < r["hole_coverage"] <= 1 for r in rows)
+    assert all(np.isfinite([r["rmse_keep_90"], r["rmse_keep_50"], r["rejection_auc"]]).all() for r in rows)
+    assert json.loads((tmp_path / "rows.json").read_text()) == rows
+    out = capsys.readouterr().out
+    assert "| fold | keep 90 % | keep 80 % | keep 50 % | all | AUC |" in out and "| day-2011_09_30 |" in out
+
+
+def test_drives_the_base_saw_are_neither_calibrated_nor_scored(load_benchmark, two_days, monkeypatch):
+    import inpaintenv.registry
+
+    monkeypatch.setattr(inpaintenv.registry, "make_method", lambda name: SawOneDrive())
+    rows = load_benchmark("interval_lodo").main(["--kitti-root", str(two_days), "--method", "saw-one-drive",
+                                                 "--signals", "border", "--frames-per-drive", "0"])
+    by_fold = {r["fold"]: r for r in rows}
+    assert by_fold["day-2011_09_26"]["n_frames"] == 2      # 9002 only: 9001 was the base's
+    assert by_fold["day-2011_09_30"]["n_cal_drives"] == 1  # calibrated on 9002 only
