@@ -1,4 +1,4 @@
-"""The interval calibration shipped with the default release (estimators/pretrained/intervals/)."""
+"""The interval calibrations shipped with releases (estimators/pretrained/intervals/)."""
 
 from __future__ import annotations
 
@@ -74,6 +74,33 @@ def test_fill_confidence_with_the_default_method(tmp_path, holed, wrapped):
     filled, low, high = (np.load(tmp_path / "out" / f"f{s}.npy") for s in ("", "_low", "_high"))
     hole = np.isnan(holed)
     assert (low <= filled).all() and (filled <= high).all() and ((high - low)[hole] > 0).all()
+
+
+@pytest.mark.parametrize("name", shipped_intervals())
+def test_every_shipped_calibration_never_saw_its_calibration_drives(name):
+    wrapped = release_intervals(name)
+    cal = wrapped.calibration_
+    raw = json.loads((_intervals_dir() / f"{name}.json").read_text())
+    assert raw["base"] == name and make_method(f"{name}-intervals").calibration_ == cal
+    if "out_of_fold" in cal:  # each drive by a fold model that never saw it
+        assert all(not set(f["drives"]) & set(f["training_drives"]) for f in cal["out_of_fold"])
+    else:  # calibrated directly: the release never saw a calibration drive
+        assert cal["drives"] and not set(cal["drives"]) & set(wrapped.estimator.training_drives_)
+    x = np.asarray(SyntheticStreets(n=1, frame_shape=(96, 320), seed=4)[0], dtype=np.float32)
+    x[get_protocol(cal["protocol"]).mask(x.shape, seed=0, index=0)] = np.nan
+    np.testing.assert_array_equal(wrapped.predict(x), load_release(name).predict(x))
+    low, high = wrapped.predict_interval(x)
+    assert ((high - low)[np.isnan(x)] > 0).all() and (low[~np.isnan(x)] == high[~np.isnan(x)]).all()
+
+
+def test_fill_confidence_finds_a_release_calibration_under_its_other_names(tmp_path, holed):
+    if "kitti-mixed-v1" not in shipped_intervals():
+        pytest.skip("kitti-mixed-v1 ships no calibration")
+    write_depth_png(tmp_path / "in" / "f.png", np.nan_to_num(holed, nan=0.0))
+    np.save(tmp_path / "mask.npy", np.isnan(holed))
+    rc = main(["fill", str(tmp_path / "in"), "--holes", str(tmp_path / "mask.npy"), "-m", "blend-pretrained-mixed",
+               "--confidence", "0.8", "--out", str(tmp_path / "out"), "-q"])
+    assert rc == 0 and (tmp_path / "out" / "f_high.png").is_file()
 
 
 def test_a_release_without_a_calibration_is_named():
