@@ -34,16 +34,6 @@ COLUMNS = ("hole_coverage", "hole_interval_width", "hole_rmse", "rmse_keep_90", 
            "rmse_cut_80", "rejection_auc", "border_rmse_keep_80")
 
 
-def frames_of(dataset: Any, drives: list[str], per_drive: int) -> Any:
-    """Up to ``per_drive`` frames of each drive, evenly spaced (image_02)."""
-    idx: list[int] = []
-    for d in drives:
-        where = np.flatnonzero(dataset.groups == d)
-        take = min(per_drive, len(where)) if per_drive > 0 else len(where)
-        idx += [int(i) for i in where[np.linspace(0, len(where) - 1, take).astype(int)]]
-    return dataset[idx]
-
-
 def folds(drives: list[str]) -> list[tuple[str, list[str], list[str]]]:
     """``(name, calibration drives, scored drives)``: each day left out, then drive 0001."""
     days = sorted({d[:10] for d in drives})
@@ -84,7 +74,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
 
-    from inpaintenv.data import KittiDepth
+    from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.registry import make_method
 
     dataset = KittiDepth(args.kitti_root, split="train")
@@ -110,8 +100,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
                              "drives left out too (--exclude-drives)")
         if not test_drives:
             continue
-        row = run_fold(base, frames_of(dataset, cal_drives, args.frames_per_drive),
-                       frames_of(dataset, test_drives, args.frames_per_drive), args)
+        row = run_fold(base, spaced_per_drive(dataset, args.frames_per_drive, cal_drives),
+                       spaced_per_drive(dataset, args.frames_per_drive, test_drives), args)
         row["fold"] = name
         rows.append(row)
         print(f"| {name} | {row['n_frames']} | {row['n_cal_drives']} / {row['n_cal_pixels']} | "

@@ -28,16 +28,6 @@ from typing import Any
 import numpy as np
 
 
-def spaced_frames(dataset: Any, drives: list[str], per_drive: int) -> Any:
-    """Up to ``per_drive`` evenly spaced frames of each drive (all of them for 0)."""
-    idx: list[int] = []
-    for d in drives:
-        where = np.flatnonzero(dataset.groups == d)
-        take = min(per_drive, len(where)) if per_drive > 0 else len(where)
-        idx += [int(i) for i in where[np.linspace(0, len(where) - 1, take).astype(int)]]
-    return dataset[idx]
-
-
 def main(argv: list[str] | None = None) -> Path:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kitti-root", required=True)
@@ -54,7 +44,7 @@ def main(argv: list[str] | None = None) -> Path:
     from estimators.intervals import ConformalIntervalInpainter
     from estimators.learned import load
     from estimators.learned.releases import load_release
-    from inpaintenv.data import KittiDepth
+    from inpaintenv.data import KittiDepth, spaced_per_drive
 
     dataset = KittiDepth(args.kitti_root, split="train")
     drives = sorted({str(g) for g in dataset.groups})
@@ -65,7 +55,7 @@ def main(argv: list[str] | None = None) -> Path:
         mine = [d for d in drives if d.startswith(day)]
         if not mine:
             raise SystemExit(f"--fold {entry}: no drive of day {day!r} in {args.kitti_root}")
-        folds.append((model, spaced_frames(dataset, mine, args.frames_per_drive)))
+        folds.append((model, spaced_per_drive(dataset, args.frames_per_drive, mine)))
         print(f"{day}: {len(mine)} drives scored by {path}", flush=True)
     release = load_release(args.release)
     start = time.perf_counter()
@@ -80,7 +70,7 @@ def main(argv: list[str] | None = None) -> Path:
         unseen = sorted(set(drives) - set(getattr(release, "training_drives_", None) or ()))
         if not unseen:
             raise SystemExit(f"{args.release} saw every drive of {args.kitti_root}: give its fold models (--fold)")
-        wrapper.fit(spaced_frames(dataset, unseen, args.frames_per_drive))
+        wrapper.fit(spaced_per_drive(dataset, args.frames_per_drive, unseen))
     out = Path(args.out) if args.out else (Path(__file__).resolve().parents[1] / "estimators" / "pretrained"
                                            / "intervals" / f"{args.release}.json")
     wrapper.save(out, base=args.release)

@@ -1,7 +1,8 @@
 """Data sources: real KITTI depth and the built-in synthetic streets, plus splits."""
 
 from .base import (
-    ArrayDataset, ConcatDataset, DepthDataset, Subset, as_dataset, select_drives, split_by_drive, subset,
+    ArrayDataset, ConcatDataset, DepthDataset, Subset, as_dataset, select_drives, spaced_per_drive, split_by_drive,
+    subset,
 )
 from .cache import CachedDataset, StaleCacheError, estimate_cache_bytes
 from .calibration import Calibration, CalibrationError, read_calibration
@@ -43,6 +44,7 @@ __all__ = [
     "read_mask_file",
     "read_scan",
     "select_drives",
+    "spaced_per_drive",
     "split_by_drive",
     "subset",
     "write_depth_file",

@@ -322,6 +322,40 @@ def select_drives(
     return Subset(dataset, np.flatnonzero(keep))
 
 
+def spaced_per_drive(dataset: DepthDataset, per_drive: int, drives: Sequence[str] | None = None) -> Subset:
+    """Up to ``per_drive`` evenly spaced frames of each drive, first and last included.
+
+    So that a check weighs drives alike whatever their length (one KITTI drive may hold twenty
+    times another's frames). ``per_drive=0`` keeps every frame.
+
+    Parameters
+    ----------
+    dataset : DepthDataset
+        Frames carrying drive ids (``groups``).
+    per_drive : int
+        Frames kept per drive (0 = all).
+    drives : sequence of str, optional
+        The drives, in this order; every drive of ``dataset`` (sorted) by default.
+
+    Raises
+    ------
+    InvalidInputError
+        For a negative ``per_drive`` or a drive the dataset does not have.
+    """
+    if isinstance(per_drive, bool) or not isinstance(per_drive, (int, np.integer)) or per_drive < 0:
+        raise InvalidInputError(f"per_drive must be an integer >= 0 (0 = every frame), got {per_drive!r}")
+    groups = np.asarray(dataset.groups)
+    drives = sorted(set(groups.tolist())) if drives is None else [str(d) for d in drives]
+    idx: list[int] = []
+    for d in drives:
+        where = np.flatnonzero(groups == d)
+        if not where.size:
+            raise InvalidInputError(f"unknown drive {d!r}; the dataset has {sorted(set(groups.tolist()))}")
+        take = min(per_drive, where.size) if per_drive else where.size
+        idx += where[np.linspace(0, where.size - 1, take).astype(int)].tolist()
+    return Subset(dataset, np.asarray(idx, dtype=np.int64))
+
+
 def _require_dataset(dataset: Any, what: str) -> DepthDataset:
     """``dataset`` if it is a DepthDataset, else a TypeError that says how to wrap arrays."""
     if not isinstance(dataset, DepthDataset):

@@ -11,6 +11,7 @@ from sklearn.model_selection import GroupKFold, cross_validate
 from sklearn.utils import _safe_indexing
 
 from inpaintenv.data import ArrayDataset, ConcatDataset, DepthDataset, Subset, SyntheticStreets, split_by_drive, subset
+from inpaintenv.exceptions import InvalidInputError
 
 
 class CountingStreets(SyntheticStreets):
@@ -144,3 +145,19 @@ def test_select_drives_refuses_an_empty_list_and_a_bare_string(ds):
         select_drives(ds, drive)
     with pytest.raises(TypeError, match="exclude must be a list"):
         select_drives(ds, None, drive)
+
+
+def test_spaced_per_drive_weighs_drives_alike_first_and_last_kept():
+    from inpaintenv.data import ArrayDataset, spaced_per_drive
+
+    frames = np.zeros((13, 8, 8), np.float32)
+    groups = ["a"] * 10 + ["b"] * 3
+    ds = ArrayDataset(frames, groups=groups)
+    picked = spaced_per_drive(ds, 4)
+    assert list(picked.groups) == ["a"] * 4 + ["b"] * 3
+    assert list(picked.indices) == [0, 3, 6, 9, 10, 11, 12]
+    assert list(spaced_per_drive(ds, 0, drives=["b"]).indices) == [10, 11, 12]
+    with pytest.raises(InvalidInputError, match="unknown drive 'c'"):
+        spaced_per_drive(ds, 2, drives=["c"])
+    with pytest.raises(InvalidInputError, match="per_drive must be an integer >= 0"):
+        spaced_per_drive(ds, -1)
