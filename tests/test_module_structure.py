@@ -239,3 +239,15 @@ def test_size_checks_see_long_code_and_accept_written_reasons(tmp_path):
     (tmp_path / "big.py").write_text("x = 1\n" * (MAX_LINES + 1))
     (tmp_path / "ok.py").write_text("# long module: generated table\n" + "x = 1\n" * (MAX_LINES + 1))
     assert list(long_modules([tmp_path / "big.py", tmp_path / "ok.py"])) == [str(tmp_path / "big.py")]
+
+
+def test_test_modules_have_distinct_names():
+    # The tests folders have no __init__.py, so pytest imports each test module by its file
+    # name: two of one name in different folders stop the whole run at collection.
+    seen: dict[str, Path] = {}
+    clashes = []
+    for path in sorted((ROOT / "tests").rglob("test_*.py")):
+        if path.name in seen:
+            clashes.append(f"{seen[path.name].relative_to(ROOT)} and {path.relative_to(ROOT)}")
+        seen.setdefault(path.name, path)
+    assert not clashes, "test modules sharing a name: " + "; ".join(clashes)
