@@ -5,7 +5,8 @@
 loads a shipped release in its shipped calibration (``estimators/pretrained/intervals/``).
 """
 
-from ._conformal import SIGNALS, ConformalIntervalInpainter
+from ._conformal import SIGNALS, WEIGHTINGS, ConformalIntervalInpainter, weighted_quantiles
 from ._releases import load_intervals, release_intervals, shipped_intervals
 
-__all__ = ["SIGNALS", "ConformalIntervalInpainter", "load_intervals", "release_intervals", "shipped_intervals"]
+__all__ = ["SIGNALS", "WEIGHTINGS", "ConformalIntervalInpainter", "load_intervals", "release_intervals", "shipped_intervals",
+           "weighted_quantiles"]

@@ -22,10 +22,24 @@ signals of the pixel, fitted by least squares of ``log(|residual| + 0.05 m)`` on
     scene is ambiguous.
 
 The interval of nominal coverage ``c`` is ``pred ± q_c · scale`` (low clipped at 0 m),
-``q_c`` the split-conformal quantile of the normalised residuals with the finite-sample
-correction (the ``ceil((n + 1) c)``-th smallest of ``n``). The sorted residuals are kept
-as 2001 quantiles, so any coverage can be asked after calibration (rounded up to the next
-stored level: conservative by at most 0.05 %).
+``q_c`` a quantile of the normalised residuals, weighted in one of two ways
+(``weighting``):
+
+``"frame"`` (default)
+    Every calibration frame weighs the same (each of its ``n_k`` scored pixels ``1 / n_k``),
+    so that the *mean over frames of each frame's coverage*, the figure the benchmark
+    reports (``hole_coverage``), is ``c`` on the calibration frames. Without it the frames
+    with the most hole pixels set ``q``, and the mean over frames falls short of ``c``
+    whenever the frames with large holes are the easier ones. The weighted quantile is an
+    estimate: a frame's coverage is a share, to which split conformal's order-statistic
+    argument does not apply, so no finite-sample correction is made.
+``"pixel"``
+    Every scored pixel weighs the same: the split-conformal quantile with the finite-sample
+    correction (the ``ceil((n + 1) c)``-th smallest of ``n``), whose guarantee is for a pixel
+    drawn from all the test pixels pooled.
+
+The weighted residuals are kept as 2001 quantiles, so any coverage can be asked after
+calibration (rounded up to the next stored level: conservative by at most 0.05 %).
 
 The guarantee is marginal over pixels of frames exchangeable with the calibration frames;
 it holds on new drives only when the calibration drives are as new to the base model as
@@ -36,6 +50,7 @@ the drives it is used on. **The base model must never have seen the calibration 
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import os
@@ -55,7 +70,7 @@ from inpaintenv.masks import get_protocol
 from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, iter_scoring_batches, training_drives
 from ._bases import CLASSICAL_FILLS, make_base
 
-__all__ = ["ConformalIntervalInpainter", "SIGNALS"]
+__all__ = ["ConformalIntervalInpainter", "SIGNALS", "WEIGHTINGS", "weighted_quantiles"]
 
 #: The signals a scale model may use, in the order of its coefficients.
 SIGNALS: tuple[str, ...] = ("border", "depth", "spread")
@@ -64,6 +79,8 @@ N_LEVELS = 2001
 #: Offsets (metres) that keep the logs finite where the residual or the spread is 0.
 _RESIDUAL_FLOOR, _SPREAD_FLOOR, _DEPTH_FLOOR = 0.05, 0.1, 1.0
 _FORMAT = "inpaintenv-conformal-intervals-v1"
+#: How the calibration pixels weigh in the quantile (see the module docstring).
+WEIGHTINGS: tuple[str, ...] = ("frame", "pixel")
 
 
 def _features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second: np.ndarray | None) -> np.ndarray:
@@ -77,6 +94,19 @@ def _features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second
         else:  # spread
             cols.append(np.log(np.abs(pred[hole].astype(np.float64) - second[hole]) + _SPREAD_FLOOR))
     return np.stack(cols, axis=1)
+
+
+def weighted_quantiles(values: np.ndarray, weights: np.ndarray, levels: Sequence[float]) -> np.ndarray:
+    """The smallest ``v`` of ``values`` whose weighted share at or below it reaches each level.
+
+    With equal weights this is ``np.quantile(values, levels, method="inverted_cdf")``.
+    """
+    order = np.argsort(values, kind="stable")
+    cdf = np.cumsum(weights[order], dtype=np.float64)
+    cdf /= cdf[-1]
+    # A level hit up to rounding must not step to the next value.
+    idx = np.searchsorted(cdf, np.asarray(levels, dtype=np.float64) - 1e-12, side="left")
+    return values[order][np.minimum(idx, len(order) - 1)]
 
 
 class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
@@ -104,6 +134,10 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     max_fit_pixels : int, default=200000
         Pixels (drawn with ``seed``) the scale's least squares is fitted on; the quantiles
         use every calibration pixel.
+    weighting : {"frame", "pixel"}, default="frame"
+        How calibration pixels weigh in ``q``: each frame alike (the benchmark's mean over
+        frames of the coverage is then ``coverage`` on the calibration frames) or each
+        pixel alike (split conformal's finite-sample correction, for pooled pixels).
 
     Attributes
     ----------
@@ -115,7 +149,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         The conformal quantile ``q`` at ``coverage`` (exact order statistic).
     calibration_ : dict
         What it was calibrated on: ``drives``, ``n_frames``, ``n_pixels``, ``coverage``,
-        ``protocol``, ``seed``, ``base`` (the base's class), ``signals``.
+        ``protocol``, ``seed``, ``base`` (the base's class), ``signals``, ``weighting``.
 
     Examples
     --------
@@ -129,7 +163,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     def __init__(
         self, estimator: Any, coverage: float = 0.9, signals: tuple[str, ...] = SIGNALS,
         spread_method: str = "scanline", protocol: str = SCORE_PROTOCOL, seed: int = SCORE_SEED,
-        max_fit_pixels: int = 200_000,
+        max_fit_pixels: int = 200_000, weighting: str = "frame",
     ) -> None:
         self.estimator = estimator
         self.coverage = coverage
@@ -138,6 +172,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         self.protocol = protocol
         self.seed = seed
         self.max_fit_pixels = max_fit_pixels
+        self.weighting = weighting
 
     # -- parameters --------------------------------------------------------------
     def _check_params(self) -> tuple[str, ...]:
@@ -151,6 +186,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             raise InvalidTypeError(f"estimator must have predict(X), got {type(self.estimator).__name__}")
         if not isinstance(self.spread_method, str):
             raise InvalidTypeError(f"spread_method must be a registered method name, got {self.spread_method!r}")
+        if self.weighting not in WEIGHTINGS:
+            raise InvalidInputError(f"weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
         get_protocol(self.protocol)
         for name in ("seed", "max_fit_pixels"):
             v = getattr(self, name)
@@ -198,8 +235,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         drives = sorted({str(g) for g in dataset.groups})
         self._refuse_seen(self.estimator, drives, "the base estimator")
         second = self._second_fill(self.spread_method) if "spread" in signals else None
-        F, r = self._residuals(self.estimator, dataset, signals, second)
-        return self._calibrate(F, r, dataset, drives, signals)
+        F, r, frame = self._residuals(self.estimator, dataset, signals, second)
+        return self._calibrate(F, r, frame, dataset, drives, signals)
 
     def fit_out_of_fold(self, folds: Sequence[tuple[Any, Any]]) -> ConformalIntervalInpainter:
         """Calibrate ``estimator`` on out-of-fold residuals of models of its recipe (cross-fitting).
@@ -234,7 +271,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         if isinstance(folds, (str, bytes)) or not isinstance(folds, Sequence) or not folds:
             raise InvalidInputError("folds must be a non-empty sequence of (fold model, dataset) pairs")
         second = self._second_fill(self.spread_method) if "spread" in signals else None
-        feats, resid, records, taken = [], [], [], {}
+        feats, resid, frames, records, taken = [], [], [], [], {}
         for k, fold in enumerate(folds):
             if not (isinstance(fold, tuple) and len(fold) == 2):
                 raise InvalidInputError(f"folds[{k}] must be a (fold model, dataset) pair, got {type(fold).__name__}")
@@ -250,13 +287,15 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
                 raise InvalidInputError(f"folds[{k}]: drives {twice} are in folds[{taken[twice[0]]}] too; each drive "
                                         "calibrates once")
             taken.update({d: k for d in drives})
-            F, r = self._residuals(model, dataset, signals, second)
+            F, r, frame = self._residuals(model, dataset, signals, second)
             feats.append(F)
             resid.append(r)
+            # Frame numbers stay distinct across folds: they only group pixels for the weights.
+            frames.append(frame + sum(rec["n_frames"] for rec in records))
             records.append({"drives": drives, "n_frames": len(dataset), "n_pixels": int(r.size),
                             "training_drives": sorted(str(d) for d in getattr(model, "training_drives_", None) or ())})
-        self._calibrate(np.concatenate(feats), np.concatenate(resid), None, sorted(taken), signals,
-                        n_frames=sum(rec["n_frames"] for rec in records))
+        self._calibrate(np.concatenate(feats), np.concatenate(resid), np.concatenate(frames), None, sorted(taken),
+                        signals, n_frames=sum(rec["n_frames"] for rec in records))
         self.calibration_["out_of_fold"] = records
         return self
 
@@ -268,9 +307,10 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
                                     "saw, or the intervals will be too narrow on new drives")
 
     def _residuals(self, model: Any, dataset: DepthDataset, signals: tuple[str, ...],
-                   second: Any) -> tuple[np.ndarray, np.ndarray]:
-        """The signals (design matrix) and absolute residuals of ``model`` on every scored hole pixel."""
-        feats, resid = [], []
+                   second: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The signals (design matrix), absolute residuals and frame number of ``model``'s every scored hole pixel."""
+        feats, resid, frame = [], [], []
+        start = 0
         for x, gt, hole in iter_scoring_batches(dataset, protocol=self.protocol, seed=int(self.seed)):
             pred = np.asarray(model.predict(x), dtype=np.float32)
             other = np.asarray(second.predict(x), dtype=np.float64) if second is not None else None
@@ -281,27 +321,38 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
                 f = _features(signals, pred[k], hole[k], None if other is None else other[k])
                 feats.append(f[scored[hole[k]]])
                 resid.append(np.abs(gt[k][scored].astype(np.float64) - pred[k][scored]))
+                frame.append(np.full(resid[-1].size, start + k, dtype=np.int64))
+            start += len(x)
         if not resid:
             raise InvalidInputError("no calibration frame has ground truth inside its holes; nothing to calibrate on")
-        return np.concatenate(feats), np.concatenate(resid)
+        return np.concatenate(feats), np.concatenate(resid), np.concatenate(frame)
 
-    def _calibrate(self, F: np.ndarray, r: np.ndarray, dataset: DepthDataset | None, drives: list[str],
-                   signals: tuple[str, ...], n_frames: int | None = None) -> ConformalIntervalInpainter:
-        """Fit the scale on ``(F, r)`` and keep the normalised residuals' quantiles."""
+    def _calibrate(self, F: np.ndarray, r: np.ndarray, frame: np.ndarray, dataset: DepthDataset | None,
+                   drives: list[str], signals: tuple[str, ...], n_frames: int | None = None) -> ConformalIntervalInpainter:
+        """Fit the scale on ``(F, r)`` and keep the normalised residuals' (weighted) quantiles."""
         if "spread" in signals and np.ptp(F[:, 1 + signals.index("spread")]) == 0:
             raise InvalidInputError(f"spread is the same at every calibration pixel: spread_method="
                                     f"{self.spread_method!r} fills as the base does; choose another (e.g. 'nearest') "
                                     "or leave 'spread' out of signals")
         self.coef_ = self._fit_scale(F, r)
         normed = r / self._scale_from(F)
-        self.residual_quantiles_ = np.quantile(normed, np.linspace(0.0, 1.0, N_LEVELS), method="higher")
         self.n_calibration_pixels_ = int(r.size)
-        self.quantile_ = self._exact_quantile(np.sort(normed), float(self.coverage))
+        if self.weighting == "pixel":
+            self.residual_quantiles_ = np.quantile(normed, np.linspace(0.0, 1.0, N_LEVELS), method="higher")
+            self.quantile_ = self._exact_quantile(np.sort(normed), float(self.coverage))
+        else:
+            self._exact_quantile(np.sort(normed), float(self.coverage))  # the same "too few pixels" check
+            _, inverse, counts = np.unique(frame, return_inverse=True, return_counts=True)
+            levels = np.linspace(0.0, 1.0, N_LEVELS)
+            self.residual_quantiles_ = weighted_quantiles(normed, 1.0 / counts[inverse], levels)
+            self.quantile_ = max(float(weighted_quantiles(normed, 1.0 / counts[inverse], [float(self.coverage)])[0]),
+                                 1e-6)
         self.calibration_ = {
             "drives": drives, "n_frames": len(dataset) if dataset is not None else int(n_frames or 0),
             "n_pixels": int(r.size), "coverage": float(self.coverage),
             "protocol": self.protocol, "seed": int(self.seed), "base": type(self.estimator).__name__,
             "signals": list(signals), "spread_method": self.spread_method if "spread" in signals else None,
+            "weighting": self.weighting,
         }
         return self
 
@@ -350,7 +401,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         if math.isclose(c, self.calibration_["coverage"]):
             return self.quantile_
         n = self.n_calibration_pixels_
-        level = math.ceil((n + 1) * c) / n
+        # The pixel weighting's finite-sample correction; the frame weighting has none.
+        level = c if self.calibration_.get("weighting", "pixel") == "frame" else math.ceil((n + 1) * c) / n
         if level > 1:
             raise InvalidInputError(f"{n} calibration pixels are too few for a {c:g} interval")
         idx = min(N_LEVELS - 1, math.ceil(level * (N_LEVELS - 1) - 1e-9))
@@ -463,11 +515,12 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             "base_class": type(self.estimator).__name__,
             # What was calibrated, not parameters set since.
             "params": {"coverage": cal["coverage"], "signals": cal["signals"], "spread_method": self.spread_method,
-                       "protocol": cal["protocol"], "seed": cal["seed"], "max_fit_pixels": int(self.max_fit_pixels)},
+                       "protocol": cal["protocol"], "seed": cal["seed"], "max_fit_pixels": int(self.max_fit_pixels),
+                       "weighting": cal.get("weighting", "pixel")},
             "coef": [float(c) for c in self.coef_], "quantile": self.quantile_,
             "n_pixels": self.n_calibration_pixels_,
             "residual_quantiles": [float(v) for v in self.residual_quantiles_],
-            "calibration": self.calibration_,
+            "calibration": copy.deepcopy(self.calibration_),  # a caller editing the dict leaves the wrapper as is
         }
 
     def save(self, path: str | os.PathLike, base: str | None = None) -> Path:
@@ -531,13 +584,16 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             params = data["params"]
             out = cls(estimator, coverage=params["coverage"], signals=tuple(params["signals"]),
                       spread_method=params["spread_method"], protocol=params["protocol"], seed=params["seed"],
-                      max_fit_pixels=params["max_fit_pixels"])
+                      max_fit_pixels=params["max_fit_pixels"],
+                      # Files written before the frame weighting were calibrated by pixel.
+                      weighting=params.get("weighting", "pixel"))
             out._check_params()
             out.coef_ = np.asarray(data["coef"], dtype=np.float64)
             out.residual_quantiles_ = np.asarray(data["residual_quantiles"], dtype=np.float64)
             out.quantile_ = float(data["quantile"])
             out.n_calibration_pixels_ = int(data["n_pixels"])
             out.calibration_ = dict(data["calibration"])
+            out.calibration_.setdefault("weighting", out.weighting)
         except (KeyError, TypeError) as exc:
             raise InvalidInputError(f"{path}: missing or malformed key {exc}") from None
         if out.coef_.shape != (1 + len(out.signals),) or out.residual_quantiles_.shape != (N_LEVELS,) \

@@ -115,6 +115,63 @@ def test_coverage_near_nominal_on_exchangeable_data():
     assert abs(((gt >= lo) & (gt <= hi))[scored].mean() - 0.5) < 0.06
 
 
+def uneven_frames(n: int, seed: int) -> np.ndarray:
+    """Truth whose noise grows from frame to frame: the frames differ in how hard they are."""
+    rng = np.random.default_rng(seed)
+    sd = np.linspace(0.2, 4.0, n)[:, None, None]
+    return np.clip(10.0 + sd * rng.standard_normal((n, H, W)), 0.1, None).astype(np.float32)
+
+
+def coverage_by_frame(wrapper, frames, seed=0) -> tuple[np.ndarray, float]:
+    """Each frame's coverage of its hole, and the coverage of all hole pixels pooled."""
+    per_frame, covered, total = [], 0, 0
+    for x, gt, hole in iter_scoring_batches(frames, seed=seed):
+        low, high = wrapper.predict_interval(x)
+        inside = (gt >= low) & (gt <= high)
+        for k in range(len(x)):
+            scored = hole[k] & (gt[k] > 0)
+            per_frame.append(inside[k][scored].mean())
+            covered, total = covered + int(inside[k][scored].sum()), total + int(scored.sum())
+    return np.asarray(per_frame), covered / total
+
+
+def test_frame_weighting_calibrates_the_mean_over_frames_pixel_weighting_the_pooled_pixels():
+    frames = uneven_frames(12, seed=0)
+    by_frame = ConformalIntervalInpainter(FillTen(), signals=()).fit(frames, groups=drives(12))
+    by_pixel = ConformalIntervalInpainter(FillTen(), signals=(), weighting="pixel").fit(frames, groups=drives(12))
+    assert by_frame.calibration_["weighting"] == "frame" and by_pixel.calibration_["weighting"] == "pixel"
+    per_frame, _ = coverage_by_frame(by_frame, frames)
+    # On its own calibration frames the frame-weighted q gives a mean over frames of c (up to one pixel's share).
+    assert abs(per_frame.mean() - 0.9) < 0.005
+    _, pooled = coverage_by_frame(by_pixel, frames)
+    assert pooled >= 0.9 and pooled - 0.9 < 0.005
+    # The hole sizes differ, so the two quantiles differ.
+    assert by_frame.quantile_ != by_pixel.quantile_
+
+
+def test_weighted_quantiles_with_equal_weights_are_numpys_inverted_cdf():
+    from estimators.intervals._conformal import weighted_quantiles
+
+    values = np.random.default_rng(0).standard_normal(1001)
+    levels = np.linspace(0.0, 1.0, 101)
+    np.testing.assert_array_equal(weighted_quantiles(values, np.ones(values.size), levels),
+                                  np.quantile(values, levels, method="inverted_cdf"))
+    # One value carrying half the weight is the median.
+    w = np.ones(values.size)
+    w[17] = values.size - 1
+    assert weighted_quantiles(values, w, [0.5])[0] <= values[17]
+
+
+def test_files_without_weighting_load_as_pixel_weighted(street_wrapper, tmp_path):
+    # Calibrations written before the frame weighting (the shipped v1 files) were by pixel.
+    data = street_wrapper.to_dict("scanline")
+    del data["params"]["weighting"], data["calibration"]["weighting"]
+    (tmp_path / "old.json").write_text(json.dumps(data))
+    old = ConformalIntervalInpainter.load(tmp_path / "old.json")
+    assert old.weighting == "pixel" and old.calibration_["weighting"] == "pixel"
+    assert old.quantile_ == street_wrapper.quantile_
+
+
 def test_finite_sample_quantile_is_the_ceil_order_statistic():
     sorted_r = np.arange(1, 20, dtype=float)  # n = 19: ceil(20 * 0.9) = 18th smallest
     assert ConformalIntervalInpainter._exact_quantile(sorted_r, 0.9) == 18.0
@@ -151,7 +208,7 @@ def test_spread_against_the_same_fill_is_refused():
 
 @pytest.mark.parametrize("params, match", [
     ({"coverage": 1.0}, "coverage"), ({"signals": ("width",)}, "signals"), ({"signals": "border"}, "signals"),
-    ({"seed": -1}, "seed"), ({"protocol": "nope"}, "nope"),
+    ({"seed": -1}, "seed"), ({"protocol": "nope"}, "nope"), ({"weighting": "drive"}, "weighting"),
 ])
 def test_bad_parameters_named(params, match):
     with pytest.raises((InvalidInputError, InvalidTypeError, KeyError), match=match):
