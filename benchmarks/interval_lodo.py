@@ -7,7 +7,9 @@ with ``inpaintenv.evaluate.evaluate(wrapper, ..., intervals=C)``; then the same 
 interval in the hole, mean width, hole RMSE, the RMSE when the most confident 80 % are
 kept (and the share cut), and the border baseline (the 80 % nearest the hole border); then
 the error-rejection curve per fold (90 / 80 / 50 % kept, its AUC). Columns are the mean over
-the fold's frames of the per-frame values, as in the benchmark. Drives the base was trained
+the fold's frames of the per-frame values, as in the benchmark; coverage and cut carry their
+standard error over those frames (how far other frames and masks of the same drives could
+move the mean; drives vary more, see ``interval_split_spread.py``). Drives the base was trained
 on (its ``training_drives_``) are left out of both calibration and scoring, so a release
 trained on a few drives (``--method kitti-mixed-v1 --protocol mixed-v1``) is checked too.
 
@@ -43,6 +45,13 @@ def folds(drives: list[str]) -> list[tuple[str, list[str], list[str]]]:
     return out
 
 
+def standard_error(values: list[float]) -> float:
+    """Standard error of the mean of the finite ``values`` (NaN for fewer than two)."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    return float(v.std(ddof=1) / np.sqrt(v.size)) if v.size > 1 else float("nan")
+
+
 def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> dict[str, Any]:
     from estimators.intervals import ConformalIntervalInpainter
     from inpaintenv.evaluate import evaluate
@@ -53,6 +62,7 @@ def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> dict[s
     result = evaluate(wrapper, test, protocol=args.protocol, intervals=args.coverage, progress=False,
                       name="conformal")
     row = {c: float(np.nanmean([r[c] for r in result.rows])) for c in COLUMNS}
+    row.update({f"{c}_se": standard_error([r[c] for r in result.rows]) for c in ("hole_coverage", "rmse_cut_80")})
     # Per frame, then the mean: the same reading as rmse_cut_80 (the benchmark's per-frame column).
     row["border_cut_80"] = float(np.nanmean([1 - r["border_rmse_keep_80"] / r["hole_rmse"] for r in result.rows]))
     row.update(n_frames=len(test), n_cal_pixels=wrapper.calibration_["n_pixels"],
@@ -81,8 +91,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     drives = sorted({str(g) for g in dataset.groups})
     checkpoints = dict(c.split("=", 1) for c in args.checkpoint)
     rows = []
-    print("| fold | frames | cal. drives / pixels | coverage | mean width (m) | hole RMSE | keep-80 % RMSE "
-          "(cut) | border keep-80 % (cut) |\n|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| fold | frames | cal. drives / pixels | coverage ± se | mean width (m) | hole RMSE | keep-80 % RMSE "
+          "(cut ± se) | border keep-80 % (cut) |\n|---|---:|---:|---:|---:|---:|---:|---:|")
     curves = []
     for name, cal_drives, test_drives in folds(drives):
         if name in checkpoints:
@@ -105,8 +115,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
         row["fold"] = name
         rows.append(row)
         print(f"| {name} | {row['n_frames']} | {row['n_cal_drives']} / {row['n_cal_pixels']} | "
-              f"{row['hole_coverage']:.3f} | {row['hole_interval_width']:.2f} | {row['hole_rmse']:.2f} | "
-              f"{row['rmse_keep_80']:.2f} ({row['rmse_cut_80']:.0%}) | "
+              f"{row['hole_coverage']:.3f} ± {row['hole_coverage_se']:.3f} | {row['hole_interval_width']:.2f} | "
+              f"{row['hole_rmse']:.2f} | {row['rmse_keep_80']:.2f} ({row['rmse_cut_80']:.1%} ± {row['rmse_cut_80_se']:.1%}) | "
               f"{row['border_rmse_keep_80']:.2f} ({row['border_cut_80']:.0%}) |", flush=True)
         curves.append(f"| {name} | {row['rmse_keep_90']:.2f} | {row['rmse_keep_80']:.2f} | {row['rmse_keep_50']:.2f} | "
                       f"{row['hole_rmse']:.2f} | {row['rejection_auc']:.3f} |")

@@ -101,12 +101,12 @@ def weighted_quantiles(values: np.ndarray, weights: np.ndarray, levels: Sequence
 
     With equal weights this is ``np.quantile(values, levels, method="inverted_cdf")``.
     """
-    order = np.argsort(values, kind="stable")
+    order = np.argsort(values)  # ties need no stable order: tied values are the same value
     cdf = np.cumsum(weights[order], dtype=np.float64)
     cdf /= cdf[-1]
     # A level hit up to rounding must not step to the next value.
     idx = np.searchsorted(cdf, np.asarray(levels, dtype=np.float64) - 1e-12, side="left")
-    return values[order][np.minimum(idx, len(order) - 1)]
+    return values[order[np.minimum(idx, len(order) - 1)]]
 
 
 class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
@@ -337,16 +337,16 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         self.coef_ = self._fit_scale(F, r)
         normed = r / self._scale_from(F)
         self.n_calibration_pixels_ = int(r.size)
+        levels = np.linspace(0.0, 1.0, N_LEVELS)
         if self.weighting == "pixel":
-            self.residual_quantiles_ = np.quantile(normed, np.linspace(0.0, 1.0, N_LEVELS), method="higher")
-            self.quantile_ = self._exact_quantile(np.sort(normed), float(self.coverage))
+            ordered = np.sort(normed)  # one sort for both: np.quantile(..., method="higher") reads these indices
+            self.residual_quantiles_ = ordered[np.ceil(levels * (ordered.size - 1)).astype(np.int64)]
+            self.quantile_ = self._exact_quantile(ordered, float(self.coverage))
         else:
-            self._exact_quantile(np.sort(normed), float(self.coverage))  # the same "too few pixels" check
-            _, inverse, counts = np.unique(frame, return_inverse=True, return_counts=True)
-            levels = np.linspace(0.0, 1.0, N_LEVELS)
-            self.residual_quantiles_ = weighted_quantiles(normed, 1.0 / counts[inverse], levels)
-            self.quantile_ = max(float(weighted_quantiles(normed, 1.0 / counts[inverse], [float(self.coverage)])[0]),
-                                 1e-6)
+            self._check_enough_pixels(normed.size, float(self.coverage))  # refused as the pixel weighting is
+            per_frame = np.bincount(frame)  # frame numbers are small non-negative integers
+            found = weighted_quantiles(normed, 1.0 / per_frame[frame], np.append(levels, float(self.coverage)))
+            self.residual_quantiles_, self.quantile_ = found[:-1], max(float(found[-1]), 1e-6)
         self.calibration_ = {
             "drives": drives, "n_frames": len(dataset) if dataset is not None else int(n_frames or 0),
             "n_pixels": int(r.size), "coverage": float(self.coverage),
@@ -382,12 +382,17 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         return np.exp(np.clip(F @ self.coef_, -12.0, 8.0))
 
     @staticmethod
-    def _exact_quantile(sorted_normed: np.ndarray, coverage: float) -> float:
-        n = sorted_normed.size
+    def _check_enough_pixels(n: int, coverage: float) -> int:
+        """The rank ``ceil((n + 1) c)`` of the split-conformal quantile; refused when it exceeds ``n``."""
         k = math.ceil((n + 1) * coverage)
         if k > n:
             raise InvalidInputError(f"{n} calibration pixels are too few for a {coverage:g} interval (needs "
                                     f"{math.ceil(coverage / (1 - coverage))})")
+        return k
+
+    @classmethod
+    def _exact_quantile(cls, sorted_normed: np.ndarray, coverage: float) -> float:
+        k = cls._check_enough_pixels(sorted_normed.size, coverage)
         return max(float(sorted_normed[k - 1]), 1e-6)
 
     def quantile_at(self, coverage: float | None = None) -> float:

@@ -45,8 +45,17 @@ def test_folds_rows_and_curve(load_benchmark, two_days, tmp_path, capsys):
     assert all(r["n_cal_drives"] == 2 and r["n_frames"] == 4 and 0 < r["hole_coverage"] <= 1 for r in rows)
     assert all(np.isfinite([r["rmse_keep_90"], r["rmse_keep_50"], r["rejection_auc"]]).all() for r in rows)
     assert json.loads((tmp_path / "rows.json").read_text()) == rows
+    assert all(r["hole_coverage_se"] >= 0 and np.isfinite(r["rmse_cut_80_se"]) for r in rows)
     out = capsys.readouterr().out
     assert "| fold | keep 90 % | keep 80 % | keep 50 % | all | AUC |" in out and "| day-2011_09_30 |" in out
+
+
+def test_standard_error_is_numpys(load_benchmark):
+    se = load_benchmark("interval_lodo").standard_error
+    values = [0.8, 0.95, float("nan"), 0.9, 1.0]
+    finite = np.array([0.8, 0.95, 0.9, 1.0])
+    assert se(values) == pytest.approx(finite.std(ddof=1) / 2)
+    assert np.isnan(se([0.9])) and np.isnan(se([float("nan"), 0.9]))
 
 
 def test_drives_the_base_saw_are_neither_calibrated_nor_scored(load_benchmark, two_days, monkeypatch):

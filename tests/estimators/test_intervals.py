@@ -320,9 +320,11 @@ def test_out_of_fold_calibration_of_one_fold_equals_fit_on_its_drives():
     full = FoldTen(seen=["d0", "d1", "d2", "x0"])  # saw every drive: only out-of-fold calibration can serve it
     cross = ConformalIntervalInpainter(full, signals=("border", "depth")).fit_out_of_fold(
         [(fold, ArrayDataset(frames, groups=drives(6)))])
-    np.testing.assert_array_equal(cross.coef_, direct.coef_)
-    np.testing.assert_array_equal(cross.residual_quantiles_, direct.residual_quantiles_)
-    assert cross.quantile_ == direct.quantile_ and cross.calibration_["drives"] == ["d0", "d1", "d2"]
+    # Equal up to BLAS rounding: least squares on a copy at another address may differ in the last bits.
+    np.testing.assert_allclose(cross.coef_, direct.coef_, rtol=1e-8)
+    np.testing.assert_allclose(cross.residual_quantiles_, direct.residual_quantiles_, rtol=1e-8)
+    assert cross.quantile_ == pytest.approx(direct.quantile_, rel=1e-8)
+    assert cross.calibration_["drives"] == ["d0", "d1", "d2"]
     assert cross.calibration_["out_of_fold"] == [
         {"drives": ["d0", "d1", "d2"], "n_frames": 6, "n_pixels": direct.n_calibration_pixels_,
          "training_drives": ["x0"]}]
