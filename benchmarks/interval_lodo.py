@@ -58,7 +58,8 @@ def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> dict[s
 
     start = time.perf_counter()
     wrapper = ConformalIntervalInpainter(base, coverage=args.coverage, signals=tuple(args.signals),
-                                         spread_method=args.spread_method, protocol=args.protocol).fit(cal)
+                                         spread_method=args.spread_method, protocol=args.protocol,
+                                         weighting=args.weighting).fit(cal)
     result = evaluate(wrapper, test, protocol=args.protocol, intervals=args.coverage, progress=False,
                       name="conformal")
     row = {c: float(np.nanmean([r[c] for r in result.rows])) for c in COLUMNS}
@@ -80,6 +81,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"])
     parser.add_argument("--coverage", type=float, default=0.9)
     parser.add_argument("--protocol", default="rect-v1", help="masks protocol of calibration and scoring")
+    parser.add_argument("--weighting", default="frame", choices=("frame", "pixel"),
+                        help="how calibration pixels weigh in the quantile (ConformalIntervalInpainter)")
     parser.add_argument("--frames-per-drive", type=int, default=6, help="0 = every frame")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)

@@ -50,6 +50,14 @@ def test_folds_rows_and_curve(load_benchmark, two_days, tmp_path, capsys):
     assert "| fold | keep 90 % | keep 80 % | keep 50 % | all | AUC |" in out and "| day-2011_09_30 |" in out
 
 
+def test_weighting_reaches_the_wrapper(load_benchmark, two_days):
+    by = {w: load_benchmark("interval_lodo").main(["--kitti-root", str(two_days), "--spread-method", "nearest",
+                                                   "--frames-per-drive", "0", "--weighting", w]) for w in ("frame", "pixel")}
+    # Same scale model, another quantile: the width changes; the ranking only where low is clipped at 0 m.
+    assert [r["rmse_cut_80"] for r in by["frame"]] == pytest.approx([r["rmse_cut_80"] for r in by["pixel"]], abs=0.01)
+    assert [r["hole_interval_width"] for r in by["frame"]] != [r["hole_interval_width"] for r in by["pixel"]]
+
+
 def test_standard_error_is_numpys(load_benchmark):
     se = load_benchmark("interval_lodo").standard_error
     values = [0.8, 0.95, float("nan"), 0.9, 1.0]
