@@ -1,0 +1,167 @@
+"""Which per-pixel signals rank a fold model's errors: the probe behind the shipped interval signals.
+
+For each ``--fold DAY=MODEL`` (a fold model of ``interval_folds.sh``, trained without DAY and
+a few calibration drives), the model fills two sets of frames, each occluded as
+``benchmarks/interval_lodo.py`` occludes it (rect-v1, seed 0, ``--frames-per-drive`` evenly
+spaced frames per drive): its calibration drives (the other days' drives its
+``training_drives_`` does not name) and DAY's drives. Every hole pixel with truth gives its
+absolute error and its signals. Each variant fits a scale on the calibration pixels, ranks
+each scored frame's hole pixels by it, and keeps the most confident 80 %; printed per fold is
+the mean over frames of the share of hole RMSE cut (the benchmark's ``rmse_cut_80``).
+
+Variants: ``shipped`` (border distance, depth, spread against ``scanline``; least squares
+of the log error, as ``ConformalIntervalInpainter``), ``+members`` (the disagreement of an
+ensemble's members, ``|m1 - m2|``, or their standard deviation beyond two), ``members for
+spread``, ``+candidates`` (standard deviation of five candidate fills), ``+gradient`` (of the
+fill), ``shipped, squared error`` (the same signals fitted to the squared error by a Poisson
+GLM with log link: the ranking the RMSE cut rewards) and ``boosted trees`` (scikit-learn's
+``HistGradientBoostingRegressor`` on every signal, log error).
+
+    python experiments/interval_signals.py --kitti-root <KITTI root> \\
+        --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+CANDIDATES = ("scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse")
+#: Variant name -> (signals, how the scale is fitted).
+VARIANTS: dict[str, tuple[tuple[str, ...], str]] = {
+    "shipped": (("border", "depth", "spread"), "log"),
+    "+members": (("border", "depth", "spread", "members"), "log"),
+    "members for spread": (("border", "depth", "members"), "log"),
+    "+candidates": (("border", "depth", "spread", "candidates"), "log"),
+    "+gradient": (("border", "depth", "spread", "gradient"), "log"),
+    "shipped, squared error": (("border", "depth", "spread"), "squared"),
+    "boosted trees": (("border", "depth", "spread", "members", "candidates", "gradient"), "trees"),
+}
+
+
+def frame_signals(x: np.ndarray, pred: np.ndarray, hole: np.ndarray, scored: np.ndarray, second: np.ndarray,
+                  members: np.ndarray | None) -> dict[str, np.ndarray]:
+    """Every signal of the scored pixels of one frame (each already on a log scale)."""
+    from estimators.candidates import candidate_fills
+    from inpaintenv.interval_metrics import border_distance
+
+    p = pred[scored].astype(np.float64)
+    gy, gx = np.gradient(pred.astype(np.float64))
+    out = {"border": np.log1p(border_distance(hole)[scored]), "depth": np.log(np.maximum(p, 1.0)),
+           "spread": np.log(np.abs(p - second[scored]) + 0.1),
+           "candidates": np.log(np.std(candidate_fills(x, CANDIDATES)[:, scored], axis=0) + 0.1),
+           "gradient": np.log(np.hypot(gx, gy)[scored] + 0.05)}
+    if members is not None:
+        m = members[:, scored].astype(np.float64)
+        out["members"] = np.log((np.abs(m[0] - m[1]) if len(m) == 2 else np.std(m, axis=0)) + 0.1)
+    return out
+
+
+def collect(model: Any, dataset: Any) -> list[dict[str, np.ndarray]]:
+    """Per frame with scored hole pixels: ``error`` and every signal of those pixels."""
+    from estimators.base import iter_scoring_batches
+    from inpaintenv.registry import make_method
+
+    scanline = make_method("scanline")
+    frames = []
+    for x, gt, hole in iter_scoring_batches(dataset):
+        pred = np.asarray(model.predict(x), np.float32)
+        second = np.asarray(scanline.predict(x), np.float32)
+        members = (np.stack([np.asarray(m.predict(x), np.float32) for m in model.estimators_], axis=1)
+                   if hasattr(model, "estimators_") else None)
+        for k in range(len(x)):
+            scored = hole[k] & (gt[k] > 0)
+            if scored.any():
+                row = frame_signals(x[k], pred[k], hole[k], scored, second[k],
+                                    None if members is None else members[k])
+                row["error"] = np.abs(gt[k][scored].astype(np.float64) - pred[k][scored])
+                frames.append(row)
+    return frames
+
+
+def fit_scale(frames: list[dict[str, np.ndarray]], signals: tuple[str, ...], how: str, seed: int = 0):
+    """A function of one frame's signals returning a score that orders its pixels (larger = less confident)."""
+    X = np.column_stack([np.concatenate([f[s] for f in frames]) for s in signals])
+    r = np.concatenate([f["error"] for f in frames])
+    rng = np.random.default_rng(seed)
+    take = rng.choice(len(r), 200_000, replace=False) if len(r) > 200_000 else slice(None)
+    X, r = X[take], r[take]
+    if how == "log":
+        coef, *_ = np.linalg.lstsq(np.column_stack([np.ones(len(r)), X]), np.log(r + 0.05), rcond=None)
+        return lambda F: coef[0] + F @ coef[1:]
+    if how == "squared":
+        from sklearn.linear_model import PoissonRegressor
+
+        glm = PoissonRegressor(alpha=0.0, max_iter=300).fit(X, r ** 2)
+        return lambda F: F @ glm.coef_
+    from sklearn.ensemble import HistGradientBoostingRegressor
+
+    trees = HistGradientBoostingRegressor(max_iter=200, random_state=seed).fit(X, np.log(r + 0.05))
+    return trees.predict
+
+
+def keep_80_cut(frames: list[dict[str, np.ndarray]], signals: tuple[str, ...], score: Any) -> float:
+    """Mean over frames of ``1 - RMSE(most confident 80 %) / RMSE(all)`` of the hole."""
+    cuts = []
+    for f in frames:
+        e = f["error"]
+        full = math.sqrt(float(np.mean(e ** 2)))
+        if full == 0:
+            continue
+        kept = np.argsort(score(np.column_stack([f[s] for s in signals])), kind="stable")[:math.ceil(0.8 * e.size)]
+        cuts.append(1.0 - math.sqrt(float(np.mean(e[kept] ** 2))) / full)
+    return float(np.mean(cuts))
+
+
+def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--kitti-root", required=True)
+    parser.add_argument("--fold", action="append", default=[], required=True, metavar="DAY=MODEL",
+                        help="a fold model trained without recording day DAY and its calibration drives")
+    parser.add_argument("--frames-per-drive", type=int, default=6, help="0 = every frame")
+    parser.add_argument("--json", help="also write the cuts here")
+    args = parser.parse_args(argv)
+
+    from estimators.learned import load
+    from inpaintenv.data import KittiDepth, spaced_per_drive
+
+    dataset = KittiDepth(args.kitti_root, split="train")
+    drives = sorted({str(g) for g in dataset.groups})
+    cuts: dict[str, dict[str, float]] = {name: {} for name in VARIANTS}
+    for entry in args.fold:
+        start = time.perf_counter()
+        day, _, path = entry.partition("=")
+        model = load(path)
+        seen = set(getattr(model, "training_drives_", None) or ())
+        scored = [d for d in drives if d.startswith(day) and d not in seen]
+        calibration = [d for d in drives if not d.startswith(day) and d not in seen]
+        if not scored or not calibration:
+            raise SystemExit(f"--fold {entry}: needs drives of {day} and of other days that the model never saw "
+                             f"(scored: {len(scored)}, calibration: {len(calibration)})")
+        cal = collect(model, spaced_per_drive(dataset, args.frames_per_drive, calibration))
+        test = collect(model, spaced_per_drive(dataset, args.frames_per_drive, scored))
+        for name, (signals, how) in VARIANTS.items():
+            if "members" in signals and "members" not in cal[0]:
+                continue  # not an ensemble
+            cuts[name][day] = keep_80_cut(test, signals, fit_scale(cal, signals, how))
+        print(f"{day}: {len(calibration)} calibration / {len(scored)} scored drives, {len(test)} scored frames "
+              f"({time.perf_counter() - start:.0f} s)", flush=True)
+    days = [e.partition("=")[0] for e in args.fold]
+    print("\n| variant | " + " | ".join(days) + " |\n|---|" + "---:|" * len(days))
+    for name, row in cuts.items():
+        if row:
+            print(f"| {name} | " + " | ".join(f"{row[d]:.1%}" for d in days) + " |")
+    cuts = {name: row for name, row in cuts.items() if row}
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(cuts, fh, indent=1)
+    return cuts
+
+
+if __name__ == "__main__":
+    main()
