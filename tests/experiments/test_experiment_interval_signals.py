@@ -43,7 +43,7 @@ def two_days(tmp_path_factory):
         for n in numbers:
             folder = root / "train" / f"{day}_drive_{n}_sync" / "proj_depth" / "groundtruth" / "image_02"
             folder.mkdir(parents=True)
-            for f in range(2):
+            for f in range(1):
                 depth = np.where(rng.random((375, 1242)) < 0.3, ramp * (1 + 0.05 * rng.standard_normal()), 0.0)
                 write_depth_png(folder / f"{f:010d}.png", depth.astype(np.float32))
     return root
