@@ -16,6 +16,11 @@ no fold models: without ``--fold`` it is calibrated directly on every drive its
 ``training_drives_`` does not name, with its own masks protocol (``--protocol``)::
 
     python experiments/release_intervals.py --kitti-root <KITTI root> --release kitti-mixed-v1 --protocol mixed-v1
+
+A classical fill (``--release scanline``) saw no drive: it is calibrated the same way, on every
+drive, and ships as ``<name>-intervals``::
+
+    python experiments/release_intervals.py --kitti-root <KITTI root> --release scanline --spread-method nearest
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ import numpy as np
 def main(argv: list[str] | None = None) -> Path:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kitti-root", required=True)
-    parser.add_argument("--release", default="kitti-ensemble-v1")
+    parser.add_argument("--release", default="kitti-ensemble-v1", help="a shipped release or a classical fill")
     parser.add_argument("--fold", action="append", default=[], metavar="DAY=MODEL",
                         help="a fold model trained without every drive of recording day DAY (repeatable)")
     parser.add_argument("--frames-per-drive", type=int, default=12, help="0 = every frame")
@@ -43,8 +48,8 @@ def main(argv: list[str] | None = None) -> Path:
 
     from estimators.intervals import ConformalIntervalInpainter
     from estimators.learned import load
-    from estimators.learned.releases import load_release
     from inpaintenv.data import KittiDepth, spaced_per_drive
+    from inpaintenv.registry import make_method
 
     dataset = KittiDepth(args.kitti_root, split="train")
     drives = sorted({str(g) for g in dataset.groups})
@@ -57,7 +62,7 @@ def main(argv: list[str] | None = None) -> Path:
             raise SystemExit(f"--fold {entry}: no drive of day {day!r} in {args.kitti_root}")
         folds.append((model, spaced_per_drive(dataset, args.frames_per_drive, mine)))
         print(f"{day}: {len(mine)} drives scored by {path}", flush=True)
-    release = load_release(args.release)
+    release = make_method(args.release)
     start = time.perf_counter()
     wrapper = ConformalIntervalInpainter(release, coverage=args.coverage, spread_method=args.spread_method,
                                          protocol=args.protocol)

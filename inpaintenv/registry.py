@@ -223,9 +223,13 @@ def learned_missing() -> list[str]:
 
 
 def is_learned(name: str) -> bool:
-    """True if method ``name`` (a registered name or alias) is one of the package's learned models."""
-    module = get_spec(name).module
-    return module == _LEARNED or module.startswith(_LEARNED + ".")
+    """True if method ``name`` (a registered name or alias) is one of the package's learned models,
+    or a shipped interval calibration of one (``pretrained-intervals``)."""
+    spec = get_spec(name)
+    base = spec.kwargs.get("name") if spec.module == _INTERVALS_MODULE else None
+    if isinstance(base, str) and base in _METHODS:
+        return is_learned(base)
+    return spec.module == _LEARNED or spec.module.startswith(_LEARNED + ".")
 
 
 def missing_extra_error(what: str, missing: list[str]) -> MissingExtraError:
@@ -415,13 +419,14 @@ for _release in REMOVED_RELEASES:
     register_removed(_release, f"release {_release!r} is no longer shipped (its weights are in the project's git "
                      "history, tag releases-0.1); use 'pretrained' or one of: " + ", ".join(PRETRAINED_RELEASES))
 
-# Releases shipped with a per-pixel interval calibration (estimators/pretrained/intervals/<release>.json):
-# <release>-intervals predicts as the release and adds predict_interval / predict(X, return_std=True).
+# Methods (releases, classical fills) shipped with a per-pixel interval calibration
+# (estimators/pretrained/intervals/<name>.json): <name>-intervals predicts as <name> and adds
+# predict_interval / predict(X, return_std=True).
 _INTERVALS_MODULE = "estimators.intervals"
 
 
 def shipped_interval_calibrations() -> tuple[str, ...]:
-    """The shipped releases that have an interval calibration (found without importing estimators)."""
+    """The registered methods shipped with an interval calibration (found without importing estimators)."""
     folder = _release_dir() / "intervals"
     return tuple(sorted(p.stem for p in folder.glob("*.json") if p.stem in _METHODS)) if folder.is_dir() else ()
 
@@ -429,7 +434,8 @@ def shipped_interval_calibrations() -> tuple[str, ...]:
 for _release in shipped_interval_calibrations():
     register_method(f"{_release}-intervals", _INTERVALS_MODULE, "release_intervals", {"name": _release},
                     f"{_release} with its shipped 90 % per-pixel intervals (drive-grouped conformal; "
-                    "docs/model_card.md, 'Per-pixel intervals'); predicts as the release")
+                    + ("docs/model_card.md" if _release in PRETRAINED_RELEASES else "docs/estimators.md")
+                    + ", 'Per-pixel intervals'); predicts as " + _release)
 if DEFAULT_RELEASE in shipped_interval_calibrations():
     register_alias("pretrained-intervals", f"{DEFAULT_RELEASE}-intervals")
 register_method(

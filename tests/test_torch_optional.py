@@ -101,6 +101,8 @@ def test_default_suite_scores_classical_and_says_learned_left_out(tmp_path):
     ["benchmark", *SYNTHETIC, "--out", "run", "--suite", "study", "-m", "kitti-mixed-v1"],
     ["evaluate", *SYNTHETIC[:6], "--out", "run", "-m", "blend-pretrained"],
     ["fill", "frame.npy", "--out", "run", "-m", "pretrained"],
+    ["fill", "frame.npy", "--out", "run", "--confidence"],
+    ["benchmark", *SYNTHETIC, "--out", "run", "-m", "pretrained-intervals", "--interval-coverage", "0.9"],
     ["train", "--list"],
 ])
 def test_naming_a_learned_method_is_one_line_naming_the_extra(tmp_path, argv):
@@ -133,6 +135,17 @@ def test_fill_with_a_classical_method(tmp_path):
     assert proc.returncode == 0, proc.stderr
     filled = np.load(next((tmp_path / "filled").rglob("*.npy")))
     assert np.allclose(filled, 10.0)
+
+
+def test_fill_with_a_classical_methods_shipped_interval(tmp_path):
+    depth = np.full((48, 64), 10.0, np.float32)
+    depth[10:30, 20:50] = np.nan
+    np.save(tmp_path / "frame.npy", depth)
+    proc = _cli(tmp_path, "fill", "frame.npy", "--out", "filled", "-m", "scanline", "--confidence", "--format", "npy",
+                "-q")
+    assert proc.returncode == 0, proc.stderr
+    low, high = (np.load(tmp_path / "filled" / f"frame_{s}.npy") for s in ("low", "high"))
+    assert (high - low)[10:30, 20:50].min() > 0 and (low <= high).all()
 
 
 def test_learned_class_from_estimators_names_the_extra(tmp_path):

@@ -1,4 +1,4 @@
-"""The interval calibrations shipped with releases, and loading a saved one by path."""
+"""The interval calibrations shipped with the package (releases and classical fills), and loading a saved one by path."""
 
 from __future__ import annotations
 
@@ -14,49 +14,62 @@ __all__ = ["load_intervals", "release_intervals", "shipped_intervals"]
 
 
 def _intervals_dir() -> Path:
-    """``estimators/pretrained/intervals``: one calibration JSON per release that has one."""
+    """``estimators/pretrained/intervals``: one calibration JSON per method that ships one."""
     return Path(__file__).resolve().parents[1] / "pretrained" / "intervals"
 
 
 def shipped_intervals() -> list[str]:
-    """The releases shipped with an interval calibration (``release_intervals`` loads them)."""
+    """The methods (releases and classical fills) shipped with an interval calibration (``release_intervals`` loads them)."""
     folder = _intervals_dir()
     return sorted(p.stem for p in folder.glob("*.json")) if folder.is_dir() else []
 
 
 def release_intervals(name: str | None = None, **overrides: Any) -> ConformalIntervalInpainter:
-    """A shipped release wrapped in its shipped interval calibration.
+    """A shipped release, or a classical fill, wrapped in its shipped interval calibration.
 
     Parameters
     ----------
     name : str, optional
-        Release name; the default release (``pretrained``) by default.
+        Release name (the default release, ``pretrained``, by default) or the name of a classical
+        fill that ships a calibration (``shipped_intervals()`` lists them all).
     **overrides
         Prediction-time parameters of the release (see
-        :func:`estimators.learned.releases.load_release`).
+        :func:`estimators.learned.releases.load_release`) or parameters of the classical fill
+        (``n_jobs``, ...).
 
     Returns
     -------
     ConformalIntervalInpainter
-        ``predict`` is the release's, bit for bit; ``predict_interval`` and
+        ``predict`` is the method's, bit for bit; ``predict_interval`` and
         ``predict(X, return_std=True)`` use the calibration of
         ``estimators/pretrained/intervals/<name>.json`` (what it was calibrated on is in
-        ``calibration_``; docs/model_card.md, "Per-pixel intervals").
+        ``calibration_``; docs/model_card.md and docs/estimators.md, "Per-pixel intervals").
 
     Raises
     ------
     InvalidInputError
-        When the release has no shipped calibration (the message lists those that have one).
+        When the method has no shipped calibration (the message lists those that have one).
     """
-    from estimators.learned.releases import DEFAULT_RELEASE, load_release
+    from ._bases import CLASSICAL_FILLS, make_base
 
-    name = DEFAULT_RELEASE if name is None else name
-    path = _intervals_dir() / f"{name}.json"
-    if not isinstance(name, str) or not path.is_file():
+    if name is None:
+        from estimators.learned.releases import DEFAULT_RELEASE
+
+        name = DEFAULT_RELEASE
+    path = _intervals_dir() / f"{name}.json" if isinstance(name, str) else None
+    if path is None or not path.is_file():
         have = ", ".join(shipped_intervals()) or "none"
-        raise InvalidInputError(f"release {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
+        raise InvalidInputError(f"method {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
                                 "one with ConformalIntervalInpainter(...).fit on drives it never saw and save it")
-    return ConformalIntervalInpainter.load(path, estimator=load_release(name, **overrides))
+    if name in CLASSICAL_FILLS:
+        base = make_base(name)
+        if overrides:
+            base.set_params(**overrides)
+    else:
+        from estimators.learned.releases import load_release
+
+        base = load_release(name, **overrides)
+    return ConformalIntervalInpainter.load(path, estimator=base)
 
 
 def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalIntervalInpainter:

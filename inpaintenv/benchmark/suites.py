@@ -23,6 +23,8 @@ __all__ = ["KINDS", "SUITES", "suite_methods", "LazyMethod", "method_kind", "reg
 KINDS = ("classical", "learned", "submitted")
 
 _PACKAGES = {"estimators.classical": "classical", "estimators.learned": "learned"}
+#: Wrappers that add to a base's output without changing it: they are of their base's kind.
+_WRAPPERS = "estimators.intervals"
 
 #: The study's three baselines as it ran them (holes only, unmeasured pixels as 0 m).
 STUDY_CLASSICAL = ["telea-hole", "ns-hole", "bilateral-hole"]
@@ -120,8 +122,14 @@ def _package_kind(module: str) -> str | None:
 
 def registry_kind(name: str) -> str:
     """The kind of registered method ``name``: where its class lives (``estimators.classical``:
-    classical, ``estimators.learned``: learned); a method registered from elsewhere is submitted."""
-    return _package_kind(get_spec(name).module) or "submitted"
+    classical, ``estimators.learned``: learned); a shipped interval calibration
+    (``pretrained-intervals``, ``scanline-intervals``) is of its base's kind; a method
+    registered from elsewhere is submitted."""
+    spec = get_spec(name)
+    base = spec.kwargs.get("name") if _package_kind(spec.module) is None and spec.module == _WRAPPERS else None
+    if isinstance(base, str) and base in available_methods():
+        return registry_kind(base)
+    return _package_kind(spec.module) or "submitted"
 
 
 def method_kind(name: str, method: Any) -> str:
@@ -129,7 +137,7 @@ def method_kind(name: str, method: Any) -> str:
 
     In order: its own ``kind`` attribute (a :class:`LazyMethod`, or any method that says
     so); a built object's class from this package's ``estimators.classical`` or
-    ``estimators.learned``; a lazy method of a saved checkpoint (its identity) is learned,
+    ``estimators.learned`` (an ``estimators.intervals`` wrapper: its base's); a lazy method of a saved checkpoint (its identity) is learned,
     one named like a registered method has that method's kind; anything else -- a user's
     callable or estimator, a folder of predictions -- is submitted.
     """
@@ -137,7 +145,10 @@ def method_kind(name: str, method: Any) -> str:
     if kind in KINDS:
         return kind
     if not getattr(method, "lazy", False):
-        return _package_kind(getattr(type(method), "__module__", "") or "") or "submitted"
+        module = getattr(type(method), "__module__", "") or ""
+        if (module == _WRAPPERS or module.startswith(_WRAPPERS + ".")) and hasattr(method, "estimator"):
+            return method_kind(name, method.estimator)
+        return _package_kind(module) or "submitted"
     if str(getattr(method, "identity", None) or "").startswith("checkpoint:"):
         return "learned"
     return registry_kind(name) if name in available_methods() else "submitted"

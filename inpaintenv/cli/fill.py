@@ -10,6 +10,7 @@ import sys
 from typing import Any
 
 from ..exceptions import InvalidInputError
+from ..registry import DEFAULT_RELEASE, shipped_interval_calibrations
 from .method_options import check_checkpoint_folder, check_method_names
 from .options import add_common_options
 
@@ -94,8 +95,9 @@ def add_fill(subparsers: Any) -> None:
     c = p.add_argument_group("per-pixel confidence")
     c.add_argument("--confidence", type=float, nargs="?", const=0.9, metavar="COVERAGE",
                    help="also write an interval of this nominal coverage beside each depth file, <name>_low and "
-                        "<name>_high in the same format (default 0.9 when given alone); --method pretrained ships "
-                        "its calibration, other methods need --intervals")
+                        "<name>_high in the same format (default 0.9 when given alone); shipped with their "
+                        f"calibration: {', '.join(shipped_interval_calibrations())} (pretrained is "
+                        f"{DEFAULT_RELEASE}); other methods need --intervals")
     c.add_argument("--intervals", metavar="CAL.json",
                    help="a saved interval calibration of the method (ConformalIntervalInpainter.save), for "
                         "--confidence")

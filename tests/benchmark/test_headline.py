@@ -112,3 +112,21 @@ def test_a_classical_method_at_0_m_makes_the_ratio_undefined_not_a_crash():
     md = headline_markdown([row])
     assert "| undefined ¶ | undefined ¶ |" in md
     assert "¶ harmonic scores 0 m in the holes: a ratio to 0 is undefined." in md
+
+
+def test_an_interval_wrapper_is_of_its_bases_kind():
+    # pretrained-intervals predicts as pretrained: learned, never "submitted" for living elsewhere.
+    from estimators.classical import ScanlineInpainter
+    from estimators.intervals import ConformalIntervalInpainter
+
+    from inpaintenv.benchmark.suites import LazyMethod, method_kind, registry_kind
+
+    assert method_kind("pretrained-intervals", LazyMethod(lambda: None, kind=registry_kind("pretrained-intervals"))) \
+        == "learned"
+    assert registry_kind("pretrained-intervals") == "learned"
+    assert method_kind("mine", ConformalIntervalInpainter(ScanlineInpainter())) == "classical"
+
+    def my_median(x):
+        return np.where(np.isnan(x), np.nanmedian(x), x)
+
+    assert method_kind("mine", ConformalIntervalInpainter(my_median)) == "submitted"

@@ -98,7 +98,7 @@ def test_an_estimator_with_its_own_interval_and_resume(calibration, tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--confidence", "-m", "scanline"], "method 'scanline' has none: give --intervals CAL.json"),
+    (["--confidence", "-m", "harmonic"], "method 'harmonic' has none: give --intervals CAL.json"),
     (["--intervals", "CAL", "-m", "scanline"], "give --confidence too"),
     (["--confidence", "1.5", "--intervals", "CAL", "-m", "scanline"], "confidence"),
     (["--confidence", "--intervals", "NOFILE", "-m", "scanline"], "no such calibration file"),
@@ -121,3 +121,21 @@ def test_an_input_named_like_an_interval_file_is_refused(calibration, tmp_path):
     with pytest.raises(InvalidInputError, match="would both be written to"):
         fill([tmp_path / "in"], tmp_path / "out", method="scanline", format="npy", confidence=0.9,
              intervals=path, progress=False)
+
+
+def test_scanline_fills_with_its_shipped_interval_without_a_calibration_file(tmp_path):
+    from estimators.intervals import release_intervals
+
+    x = holed()
+    _npy(tmp_path / "in" / "a.npy", x)
+    rc = main(["fill", str(tmp_path / "in"), "--format", "npy", "--confidence", "-m", "scanline",
+               "--out", str(tmp_path / "out"), "-q"])
+    assert rc == 0
+    filled, low, high = (np.load(tmp_path / "out" / f"a{s}.npy") for s in ("", "_low", "_high"))
+    shipped = release_intervals("scanline")
+    hole = np.isnan(x)
+    np.testing.assert_array_equal(filled[hole], shipped.predict(x)[hole])
+    ref_low, ref_high = shipped.predict_interval(x)
+    np.testing.assert_array_equal(low[hole], ref_low[hole])
+    np.testing.assert_array_equal(high[hole], ref_high[hole])
+    assert ((high - low)[hole] > 0).all()

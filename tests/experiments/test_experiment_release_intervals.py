@@ -79,3 +79,13 @@ def test_without_folds_a_release_is_calibrated_on_the_drives_it_never_saw(load_e
     data = json.loads(out.read_text())
     assert data["calibration"]["drives"] == ["2011_09_26_drive_9002_sync", "2011_09_30_drive_9018_sync"]
     assert data["params"]["protocol"] == "mixed-v1" and "out_of_fold" not in data["calibration"]
+
+
+def test_a_classical_fill_is_calibrated_on_every_drive(load_experiment, two_days, tmp_path):
+    out = load_experiment("release_intervals").main([
+        "--kitti-root", str(two_days), "--release", "scanline", "--out", str(tmp_path / "cal.json"),
+        "--spread-method", "nearest", "--frames-per-drive", "1"])
+    data = json.loads(out.read_text())
+    every = sorted(f"{day}_drive_{n}_sync" for day, numbers in DAYS.items() for n in numbers)
+    assert data["base"] == "scanline" and data["calibration"]["drives"] == every
+    assert data["params"]["spread_method"] == "nearest" and "out_of_fold" not in data["calibration"]
