@@ -52,7 +52,7 @@ written to ``--out`` (default ``$OUT/gpu_check.json`` when ``$OUT`` is set):
 4. The environment (device name, torch, CUDA, cuDNN) and the JSON summary.
 
 ``--quick`` runs the same sections and prints the same lines and keys on the CPU in under a
-minute on two cores (64×192 frames, batch 2, 2 timed steps, 2 frames to predict; the tests
+minute on two cores (32×96 frames, batch 2, 2 timed steps, 2 frames to predict; the tests
 of section 1 with ``INPAINTENV_GPU_TESTS_ON_CPU=1``): CI runs it
 (tests/benchmarks/test_gpu_check.py).
 
@@ -449,7 +449,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     for key, value in defaults.items():
         if getattr(args, key) is None:
             setattr(args, key, value)
-    args.frame = (64, 192) if quick else (352, 1216)
+    args.frame = (32, 96) if quick else (352, 1216)
     for key in ("steps", "pool", "predict_frames"):
         if getattr(args, key) < 1:
             p.error(f"--{key.replace('_', '-')} must be >= 1, got {getattr(args, key)}")

@@ -46,7 +46,7 @@ def _positive(value) -> bool:
 def test_quick_run_prints_every_section(quick_run):
     stdout, _ = quick_run
     lines = stdout.splitlines()
-    for header in ("## 1. tests marked gpu", "## 2. training throughput: study-unet-tv network and loss, 64x192",
+    for header in ("## 1. tests marked gpu", "## 2. training throughput: study-unet-tv network and loss, 32x96",
                    "## 3. predict throughput", "## 4. summary"):
         assert any(line.startswith(header) for line in lines), header
     assert any(line.startswith("device: cpu") and "torch " in line and "CUDA none" in line for line in lines)
@@ -79,7 +79,7 @@ def test_quick_run_json_has_the_keys_of_a_gpu_run(quick_run, load_benchmark):
     assert tests["error"] is None and tests["failures"] == []
     # The counted FLOPs are the architecture's (benchmarks/scaling_training.py's formula): the
     # backward costs two forwards less the first convolution's input gradient (batch 2, 1 channel).
-    flops = 3 * load_benchmark("scaling_training").unet_conv_flops(16, 4, 64, 192, batch=2) - 2 * 18 * 16 * 64 * 192
+    flops = 3 * load_benchmark("scaling_training").unet_conv_flops(16, 4, 32, 96, batch=2) - 2 * 18 * 16 * 32 * 96
     # Each batch in fp32 and bf16 with the loader's workers, then bf16 without workers (fit's default).
     assert [(r["batch"], r["precision"], r["workers"]) for r in summary["training"]] == [
         (2, "fp32", 1), (2, "bf16", 1), (2, "bf16", 0)]
