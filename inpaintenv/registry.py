@@ -41,6 +41,7 @@ __all__ = [
     "available_methods",
     "canonical_name",
     "get_spec",
+    "interval_base",
     "is_learned",
     "learned_missing",
     "make_method",
@@ -222,14 +223,21 @@ def learned_missing() -> list[str]:
     return missing
 
 
+def interval_base(name: str) -> str | None:
+    """The registered method that method ``name``'s shipped interval calibration wraps
+    (``"kitti-ensemble-v1"`` for ``pretrained-intervals``); None for any other method."""
+    spec = get_spec(name)
+    base = spec.kwargs.get("name") if spec.module == _INTERVALS_MODULE else None
+    return base if isinstance(base, str) and base in _METHODS else None
+
+
 def is_learned(name: str) -> bool:
     """True if method ``name`` (a registered name or alias) is one of the package's learned models,
     or a shipped interval calibration of one (``pretrained-intervals``)."""
-    spec = get_spec(name)
-    base = spec.kwargs.get("name") if spec.module == _INTERVALS_MODULE else None
-    if isinstance(base, str) and base in _METHODS:
+    if (base := interval_base(name)) is not None:
         return is_learned(base)
-    return spec.module == _LEARNED or spec.module.startswith(_LEARNED + ".")
+    module = get_spec(name).module
+    return module == _LEARNED or module.startswith(_LEARNED + ".")
 
 
 def missing_extra_error(what: str, missing: list[str]) -> MissingExtraError:

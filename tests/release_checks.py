@@ -1,4 +1,4 @@
-"""Checks every shipped learned release passes (imported by the release test modules)."""
+"""Checks every shipped learned release, and every shipped interval, passes (imported by their test modules)."""
 
 from __future__ import annotations
 
@@ -57,3 +57,17 @@ def class_in_fresh_process(method: str) -> str:
     """The class name a fresh interpreter (as the CLI is) builds for registry name ``method``."""
     code = f"from inpaintenv.registry import make_method; print(type(make_method({method!r})).__name__)"
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+
+
+def check_shipped_interval(wrapped: Any, x: np.ndarray, pred: np.ndarray) -> None:
+    """A shipped interval around ``pred``, its base's prediction of ``x`` (NaN = hole): the
+    prediction unchanged by ``return_std``, an interval finite, never inverted or empty in the
+    hole, holding the prediction, non-negative, and of no width where ``x`` is given."""
+    np.testing.assert_array_equal(wrapped.predict(x), pred)
+    same, std = wrapped.predict(x, return_std=True)
+    np.testing.assert_array_equal(same, pred)
+    low, high = wrapped.predict_interval(x)
+    hole = np.isnan(x)
+    assert np.isfinite(low).all() and np.isfinite(high).all() and (std[hole] > 0).all() and (std[~hole] == 0).all()
+    assert (low <= pred).all() and (pred <= high).all() and ((high - low)[hole] > 0).all()
+    assert (low >= 0).all() and (low[~hole] == high[~hole]).all()

@@ -12,7 +12,8 @@ from typing import Any
 
 from ..exceptions import UnknownNameError
 from ..registry import (
-    LEARNED_INSTALL, available_methods, get_spec, is_learned, learned_missing, make_method, unfilled_policy,
+    LEARNED_INSTALL, available_methods, get_spec, interval_base, is_learned, learned_missing, make_method,
+    unfilled_policy,
 )
 
 __all__ = ["KINDS", "SUITES", "suite_methods", "LazyMethod", "method_kind", "registry_kind"]
@@ -23,7 +24,7 @@ __all__ = ["KINDS", "SUITES", "suite_methods", "LazyMethod", "method_kind", "reg
 KINDS = ("classical", "learned", "submitted")
 
 _PACKAGES = {"estimators.classical": "classical", "estimators.learned": "learned"}
-#: Wrappers that add to a base's output without changing it: they are of their base's kind.
+#: Where the interval wrappers live: a built one is of its base's kind.
 _WRAPPERS = "estimators.intervals"
 
 #: The study's three baselines as it ran them (holes only, unmeasured pixels as 0 m).
@@ -125,11 +126,9 @@ def registry_kind(name: str) -> str:
     classical, ``estimators.learned``: learned); a shipped interval calibration
     (``pretrained-intervals``, ``scanline-intervals``) is of its base's kind; a method
     registered from elsewhere is submitted."""
-    spec = get_spec(name)
-    base = spec.kwargs.get("name") if _package_kind(spec.module) is None and spec.module == _WRAPPERS else None
-    if isinstance(base, str) and base in available_methods():
+    if (base := interval_base(name)) is not None:
         return registry_kind(base)
-    return _package_kind(spec.module) or "submitted"
+    return _package_kind(get_spec(name).module) or "submitted"
 
 
 def method_kind(name: str, method: Any) -> str:
@@ -137,8 +136,8 @@ def method_kind(name: str, method: Any) -> str:
 
     In order: its own ``kind`` attribute (a :class:`LazyMethod`, or any method that says
     so); a built object's class from this package's ``estimators.classical`` or
-    ``estimators.learned`` (an ``estimators.intervals`` wrapper: its base's); a lazy method of a saved checkpoint (its identity) is learned,
-    one named like a registered method has that method's kind; anything else -- a user's
+    ``estimators.learned`` (an ``estimators.intervals`` wrapper: its base's); a lazy method of
+    a saved checkpoint (its identity) is learned, one named like a registered method has that method's kind; anything else -- a user's
     callable or estimator, a folder of predictions -- is submitted.
     """
     kind = getattr(method, "kind", None)

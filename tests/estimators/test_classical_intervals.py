@@ -14,6 +14,7 @@ from inpaintenv.benchmark.suites import method_kind, registry_kind
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.masks import get_protocol
 from inpaintenv.registry import available_methods, is_learned, make_method
+from release_checks import check_shipped_interval
 
 SHIPPED = [name for name in shipped_intervals() if name in CLASSICAL_FILLS]
 
@@ -36,15 +37,7 @@ def test_it_predicts_as_the_fill_and_its_interval_holds_it(name):
     assert type(wrapped) is ConformalIntervalInpainter and method_kind(f"{name}-intervals", wrapped) == "classical"
     cal = wrapped.calibration_
     x = holed(cal["protocol"])
-    pred = make_method(name).predict(x)
-    np.testing.assert_array_equal(wrapped.predict(x), pred)
-    same, std = wrapped.predict(x, return_std=True)
-    np.testing.assert_array_equal(same, pred)
-    low, high = wrapped.predict_interval(x)
-    hole = np.isnan(x)
-    assert np.isfinite(low).all() and np.isfinite(high).all() and (std[hole] > 0).all() and (std[~hole] == 0).all()
-    assert (low <= pred).all() and (pred <= high).all() and ((high - low)[hole] > 0).all()
-    assert (low >= 0).all() and (low[~hole] == high[~hole]).all()
+    check_shipped_interval(wrapped, x, make_method(name).predict(x))
 
 
 @pytest.mark.parametrize("name", SHIPPED)

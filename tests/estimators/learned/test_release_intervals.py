@@ -16,6 +16,7 @@ from inpaintenv.data import SyntheticStreets, write_depth_png
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import get_protocol
 from inpaintenv.registry import available_aliases, canonical_name, make_method
+from release_checks import check_shipped_interval
 
 
 @pytest.fixture(scope="module")
@@ -54,15 +55,7 @@ def test_its_calibration_is_out_of_fold_on_drives_each_fold_model_never_saw(wrap
 
 
 def test_prediction_is_the_release_bit_for_bit_and_the_interval_holds_it(wrapped, holed):
-    pred = load_release().predict(holed)
-    np.testing.assert_array_equal(wrapped.predict(holed), pred)
-    same, std = wrapped.predict(holed, return_std=True)
-    np.testing.assert_array_equal(same, pred)
-    low, high = wrapped.predict_interval(holed)
-    hole = np.isnan(holed)
-    assert np.isfinite(low).all() and np.isfinite(high).all() and (std[hole] > 0).all() and (std[~hole] == 0).all()
-    assert (low <= pred).all() and (pred <= high).all() and ((high - low)[hole] > 0).all()
-    assert (low >= 0).all() and (low[~hole] == high[~hole]).all()
+    check_shipped_interval(wrapped, holed, load_release().predict(holed))
 
 
 def test_fill_confidence_with_the_default_method(tmp_path, holed, wrapped):
@@ -90,9 +83,7 @@ def test_every_shipped_release_calibration_never_saw_its_calibration_drives(name
         assert cal["drives"] and not set(cal["drives"]) & set(wrapped.estimator.training_drives_)
     x = np.asarray(SyntheticStreets(n=1, frame_shape=(96, 320), seed=4)[0], dtype=np.float32)
     x[get_protocol(cal["protocol"]).mask(x.shape, seed=0, index=0)] = np.nan
-    np.testing.assert_array_equal(wrapped.predict(x), load_release(name).predict(x))
-    low, high = wrapped.predict_interval(x)
-    assert ((high - low)[np.isnan(x)] > 0).all() and (low[~np.isnan(x)] == high[~np.isnan(x)]).all()
+    check_shipped_interval(wrapped, x, load_release(name).predict(x))
 
 
 def test_fill_confidence_finds_a_release_calibration_under_its_other_names(tmp_path, holed):
