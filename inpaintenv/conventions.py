@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from .exceptions import InvalidInputError, InvalidTypeError
+from .files.limits import MAX_FRAME_PIXELS
 
 __all__ = [
     "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MAX_FRAME_PIXELS", "MIN_DEPTH", "MIN_FRAME_SIDE", "as_depth_array", "check_depth",
@@ -55,9 +56,6 @@ DEPTH_LIMIT: float = 65535.0 / 256.0
 #: more likely a channel axis (colour 3 or 4, grey 1) than a frame that narrow; 8 px is
 #: below any depth sensor's image and above any channel count.
 MIN_FRAME_SIDE: int = 8
-#: Largest frame (W x H pixels) a depth file may declare or a source generate: a 100 MB uint16
-#: frame, 100x KITTI's; a 7 MB PNG can declare 60000 x 60000, a typo in a size ask for gigabytes.
-MAX_FRAME_PIXELS: int = 50_000_000
 #: Smallest positive depth accepted in inputs and ground truth (1 mm). KITTI's PNG step is
 #: 1/256 m and LiDAR sees nothing nearer than decimetres, so a smaller positive value is
 #: a unit mistake or numerical debris (1e-30, subnormals), not a measurement.

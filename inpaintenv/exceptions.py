@@ -32,7 +32,7 @@ from __future__ import annotations
 
 __all__ = [
     "BadFrameError", "CalibrationError", "CheckpointError", "ClusterError", "DataError", "DepthFormatError",
-    "FileTooLargeError", "ForeignFolderError", "InpaintenvError", "InvalidInputError", "InvalidTypeError",
+    "FileTooLargeError", "ForeignFolderError", "InpaintenvError", "InvalidInputError", "InvalidTypeError", "JSONFileError",
     "ManifestError", "MethodOutputError", "MissingDependencyError", "OutOfRangeError", "RunLockedError",
     "RunMismatchError", "RunStateError", "ScanFormatError", "StaleCacheError", "StateError", "SubmissionError",
     "TrainingDivergedError", "UnfilledPixelsError", "UnknownNameError", "UnsafeFileError", "WorkerDataError",
@@ -102,6 +102,10 @@ class StaleCacheError(DataError):
     """The cache folder holds frames of another dataset (other ids, shape or source)."""
 
 
+class JSONFileError(DataError):
+    """A JSON document that is broken, nested too deeply or holds a value it may not (NaN)."""
+
+
 class FileTooLargeError(InpaintenvError, OSError):
     """A file is larger than what it holds can need (read with a ``limit``); it is not read."""
 
@@ -160,7 +164,8 @@ class SubmissionError(InvalidInputError):
 
 
 class UnsafeFileError(InvalidInputError):
-    """A file ``score`` will not read: a link, not a regular file, outside its folder, or too large."""
+    """A file the package will not read or write: a FIFO, device or socket, a link inside a
+    folder the command owns, outside its folder, or text that does not decode."""
 
 
 class ManifestError(InvalidInputError):

@@ -27,7 +27,7 @@ from ..evaluate import EvaluationResult, run_method
 from ..masks import get_protocol
 from ..metrics import frame_metrics, interpolate_background
 from ..report import style
-from ..report.files import write_atomic, write_text_atomic
+from ..files import write_atomic, write_text_atomic
 from ..report.progress import count
 from . import ownership
 

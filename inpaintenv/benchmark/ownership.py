@@ -25,7 +25,7 @@ import os
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from ..report.files import TEMP_SUFFIX, write_text_atomic
+from ..files import TEMP_PREFIX, write_text_atomic
 from .lock import LOCK_FILE
 from ..exceptions import ForeignFolderError
 
@@ -56,7 +56,8 @@ def _foreign(out: Path, rel: str, why: str) -> ForeignFolderError:
 
 def _exempt(rel: str) -> bool:
     name = rel.rsplit("/", 1)[-1]
-    return rel in (LEDGER, LOCK_FILE) or (name.startswith(".") and TEMP_SUFFIX in name)
+    # Temporaries of an interrupted write: today's prefix, and the ``.<name>.<random>.tmp`` of earlier versions.
+    return rel in (LEDGER, LOCK_FILE) or name.startswith(TEMP_PREFIX) or (name.startswith(".") and ".tmp" in name)
 
 
 def _files(out: Path) -> Iterator[str]:

@@ -9,7 +9,7 @@ from typing import Any
 
 from ..provenance import environment_info
 from ..evaluate import EvaluationResult, json_safe, skipped_markdown
-from ..report.files import write_text_atomic
+from ..files import write_text_atomic
 from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
 from .headline import headline_markdown, headline_title, learned_vs_classical
 from .ownership import claim

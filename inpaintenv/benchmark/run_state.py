@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data.base import DepthDataset
-from ..report.files import write_text_atomic
+from ..files import write_text_atomic
 from .datakey import data_key
 from .ownership import claim
 from ..exceptions import RunMismatchError, RunStateError

@@ -112,7 +112,7 @@ def _score(args: argparse.Namespace, methods: list[tuple[str, Any, str]], ds: An
     """Score ``methods``, print the table and, with ``--out`` (whose lock is held), write the files."""
     from ..benchmark.ownership import adopt, claim, remove
     from ..evaluate import EvaluationResult, evaluate, skipped_markdown
-    from ..report.files import write_text_atomic
+    from ..files import write_text_atomic
     from ..report.tables import summary_table, table_to_csv
 
     on_batch = None

@@ -331,7 +331,7 @@ def _train_locked(args: argparse.Namespace, ds: Any, out: Path, record: dict[str
     from estimators.learned.presets import preset_checkpoints, train_preset
 
     from ..evaluate import json_safe
-    from ..report.files import write_atomic, write_text_atomic
+    from ..files import write_atomic, write_text_atomic
 
     done = finished_model(out, record)
     if done is not None:

@@ -21,7 +21,7 @@ from ..conventions import DEFAULT_MAX_DEPTH
 from ..interval_metrics import INTERVAL_COLUMNS
 from ..metrics import METRIC_NAMES, REGIONS, aggregate
 from . import tables
-from .files import write_atomic, write_text_atomic
+from ..files import write_atomic, write_text_atomic
 from ..exceptions import InvalidInputError
 
 __all__ = [

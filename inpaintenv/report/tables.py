@@ -24,7 +24,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from .files import write_atomic
+from ..files import write_atomic
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
 __all__ = [

@@ -11,7 +11,8 @@ import pytest
 
 from inpaintenv.benchmark import run_benchmark, write_report
 from inpaintenv.benchmark.figures import plot_error_vs_hole_size
-from inpaintenv.report import files
+from inpaintenv import files
+from inpaintenv.files import writing as files_writing
 
 REPORT = ("results.json", "results.csv", "table.csv", "by_drive.csv", "results.md")
 
@@ -56,7 +57,7 @@ def test_a_write_that_fails_midway_leaves_the_old_report(reported, monkeypatch):
     monkeypatch.undo()
     after = snapshot(out)
     assert {k: v for k, v in after.items() if k in REPORT} == {k: v for k, v in before.items() if k in REPORT}
-    assert not [p for p in out.rglob("*") if files.TEMP_SUFFIX in p.name]  # no temporary file left
+    assert not [p for p in out.rglob("*") if p.name.startswith(files.TEMP_PREFIX)]  # no temporary file left
 
 
 @pytest.mark.parametrize("failing", [0, 1, 4])
@@ -64,7 +65,7 @@ def test_a_full_disk_at_any_report_file_names_it_and_keeps_it(reported, monkeypa
     out, rerun = reported
     before = snapshot(out)
     calls = []
-    real = files.os.fsync
+    real = files_writing.os.fsync
 
     def fsync(fd):  # the disk fills when the data reach it
         calls.append(fd)
@@ -72,7 +73,7 @@ def test_a_full_disk_at_any_report_file_names_it_and_keeps_it(reported, monkeypa
             no_space()
         real(fd)
 
-    monkeypatch.setattr(files.os, "fsync", fsync)
+    monkeypatch.setattr(files_writing.os, "fsync", fsync)
     with pytest.raises(OSError, match=f"cannot write {out / REPORT[failing]}: No space left on device"):
         write_report(rerun, out)
     assert snapshot(out)[REPORT[failing]] == before[REPORT[failing]]
@@ -83,7 +84,7 @@ def test_a_figure_that_cannot_be_written_keeps_the_old_one(reported, monkeypatch
     path = out / "figures" / "error_vs_hole_size.png"
     plot_error_vs_hole_size(rerun, path)
     old = path.read_bytes()
-    monkeypatch.setattr(files.os, "fsync", no_space)
+    monkeypatch.setattr(files_writing.os, "fsync", no_space)
     with pytest.raises(OSError, match=f"cannot write {path}: No space left on device"):
         plot_error_vs_hole_size(rerun, path)
     assert path.read_bytes() == old

@@ -56,7 +56,8 @@ def test_a_users_file_at_a_run_path_of_a_run_folder_is_refused_not_replaced(tmp_
     # left alone and do not stop a run.
     (out / "figures" / "frame_0003.png").unlink()
     (out / "README.txt").write_text("about this run")
-    (out / "figures" / ".frame_0000.png.x1y2.tmp.png").write_bytes(b"half")
+    (out / "figures" / ".frame_0000.png.x1y2.tmp.png").write_bytes(b"half")  # an earlier version's name
+    (out / "figures" / ".inpaintenv-tmp-999999-0a1b.png").write_bytes(b"half")
     assert main(["benchmark", "-m", "constant", *DATA, "--holdout", "0", "--figure-frames", "1", "--out", str(out)]) == 0
     assert (out / "README.txt").read_text() == "about this run"
 

@@ -1,0 +1,209 @@
+"""Writing files: whole or not at all, never through a planted link.
+
+Every write of the package goes through :func:`write_atomic`: the content goes to a
+temporary file created exclusively (``O_EXCL | O_NOFOLLOW``) under an unpredictable,
+short name in the target's folder, is flushed to disk and renamed over the target.
+A rename replaces a symbolic link at the target rather than writing through it, a kill
+mid-write leaves the previous file intact, and the temporary name does not grow with
+the target's, so a 250-byte file name is written like any other. Temporary files carry
+the writer's process id, so :func:`remove_stale_temporaries` can clear those a killed
+run left behind. Appends (row files) and lock files open without following a link and
+refuse anything but a regular file.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import secrets
+import stat
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..exceptions import UnsafeFileError
+from .reading import describe_kind
+
+__all__ = [
+    "TEMP_PREFIX", "append_text", "open_lock", "remove_stale_temporaries", "write_atomic", "write_bytes_atomic",
+    "write_text_atomic",
+]
+
+#: Prefix of every temporary file while a file is written: ``.inpaintenv-tmp-<pid>-<random><suffix>``.
+TEMP_PREFIX = ".inpaintenv-tmp-"
+_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
+
+
+def _naming(exc: OSError, path: Path, what: str = "") -> OSError:
+    """``exc`` as an OSError of the same errno whose message names ``path``."""
+    if isinstance(exc, UnsafeFileError):
+        return exc
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    message = f"cannot write {what + ' ' if what else ''}{path}: {reason}"
+    if isinstance(exc, PermissionError) or exc.errno == errno.EROFS:
+        return PermissionError(exc.errno, message)
+    return OSError(exc.errno, message) if exc.errno is not None else OSError(message)
+
+
+def _temporary(folder: Path, suffix: str) -> Path:
+    """A new, empty file of ``folder`` under an unpredictable name, created exclusively."""
+    name = f"{TEMP_PREFIX}{os.getpid()}-{secrets.token_hex(8)}{suffix[:16]}"
+    fd = os.open(folder / name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | _CLOEXEC, 0o666)
+    os.close(fd)
+    return folder / name
+
+
+def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: str = "") -> Path:
+    """Call ``write(tmp)`` on a fresh temporary file beside ``path``, fsync it, rename it to ``path``.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write (its folder is created if missing). A symbolic link there is
+        replaced, never written through.
+    write : callable
+        Writes the whole content to the path it is given (a file of the same folder
+        ending with ``path``'s suffix, so writers that choose a format by the name, as
+        matplotlib does, choose the same).
+    what : str
+        What the file is, for messages.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OSError
+        The cause (e.g. no space left on device) with ``path`` named; ``path`` is unchanged.
+    """
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.is_dir() and not path.is_symlink():
+            raise IsADirectoryError(errno.EISDIR, "it is a folder")
+        tmp = _temporary(path.parent, path.suffix)
+    except OSError as exc:
+        raise _naming(exc, path, what) from None
+    try:
+        write(tmp)
+        fd = os.open(tmp, os.O_RDONLY | os.O_NOFOLLOW | _CLOEXEC)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise _naming(exc, path, what) from None
+        raise
+    return path
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes, what: str = "") -> Path:
+    """Write ``data`` to ``path`` whole or not at all (see :func:`write_atomic`)."""
+    return write_atomic(path, lambda tmp: tmp.write_bytes(data), what)
+
+
+def write_text_atomic(path: str | os.PathLike, text: str, what: str = "") -> Path:
+    """Write ``text`` (UTF-8) to ``path`` whole or not at all (see :func:`write_atomic`)."""
+    return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"), what)
+
+
+def _open_owned(path: Path, flags: int, what: str) -> int:
+    """Open a file of a folder the command owns: no link followed, regular files only."""
+    try:
+        fd = os.open(path, flags | os.O_NOFOLLOW | os.O_NONBLOCK | _CLOEXEC, 0o666)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise UnsafeFileError(f"{what} {path} is a symbolic link; a command writes its own files only, never "
+                                  "through a link") from None
+        raise _naming(exc, path, what) from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        raise UnsafeFileError(f"{what} {path} is {describe_kind(mode)}, not a regular file; not written")
+    return fd
+
+
+def append_text(path: str | os.PathLike, text: str, what: str = "file") -> None:
+    """Append ``text`` (UTF-8) to the regular file ``path`` (created if missing), never through a link.
+
+    Raises
+    ------
+    UnsafeFileError
+        ``path`` is a symbolic link, a FIFO, a device or a socket.
+    OSError
+        The cause, naming ``path``.
+    """
+    path = Path(path)
+    fd = _open_owned(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, what)
+    try:
+        data = text.encode("utf-8")
+        while data:
+            data = data[os.write(fd, data):]
+    except OSError as exc:
+        raise _naming(exc, path, what) from None
+    finally:
+        os.close(fd)
+
+
+def open_lock(path: str | os.PathLike, what: str = "lock file") -> int:
+    """Open (create) the lock file ``path`` for reading and writing without truncating or following a link.
+
+    Returns
+    -------
+    int
+        The descriptor (the caller locks, writes and closes it).
+
+    Raises
+    ------
+    UnsafeFileError
+        ``path`` is a symbolic link or not a regular file.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return _open_owned(path, os.O_RDWR | os.O_CREAT, what)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def remove_stale_temporaries(folder: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files of :func:`write_atomic` in ``folder`` whose writer is no longer running.
+
+    Only regular files named ``.inpaintenv-tmp-<pid>-...`` of a process that has ended
+    are removed (a kill -9 mid-write leaves one); nothing else is touched.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        if not entry.name.startswith(TEMP_PREFIX):
+            continue
+        pid = entry.name[len(TEMP_PREFIX):].split("-", 1)[0]
+        if not pid.isdigit() or int(pid) == os.getpid() or _alive(int(pid)):
+            continue
+        try:
+            if entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            pass
+    return removed
