@@ -1,0 +1,146 @@
+"""The method of a ``fill`` run: made from a name, a checkpoint or an object, and called on a batch."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import InvalidInputError
+from ..method_calls import MethodOutputError, method_name, run_method
+from ..method_intervals import IntervalSource
+
+__all__ = ["fill_batch", "fill_depth", "interval_method", "make_method", "shipped_interval_name"]
+
+
+def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -> np.ndarray:
+    """Fill one depth map in memory, as :func:`~inpaintenv.filling.fill` fills each file.
+
+    Parameters
+    ----------
+    method : str, estimator or callable
+        A registry name, or anything :func:`inpaintenv.evaluate.evaluate` scores (``predict``
+        of NaN = fill).
+    depth : numpy.ndarray
+        ``(H, W)`` float metres, 0 = no measurement, NaN = fill.
+    fill : numpy.ndarray of bool, optional
+        Further pixels to fill (a hole mask).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``depth``'s dtype and shape: measured pixels outside the fill bit-identical, pixels
+        without a measurement outside it still 0, filled pixels positive and finite.
+    """
+    depth = np.asarray(depth)
+    mask = np.isnan(depth) if fill is None else np.asarray(fill, dtype=bool) | np.isnan(depth)
+    return fill_batch(*make_method(method, None, None), [depth], [mask])[0]
+
+
+def fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np.ndarray], *,
+               copy: bool = True, interval: IntervalSource | None = None) -> list[np.ndarray]:
+    """Fill same-sized maps in one ``predict`` call.
+
+    In place unless ``copy``; frames with nothing to fill come back as they are. With
+    ``interval``, each filled map is followed by its ``low`` and ``high`` (the list holds
+    ``3 · len(depths)`` arrays, in the depth's dtype).
+
+    Raises
+    ------
+    MethodOutputError
+        If the method leaves a pixel to fill at 0 m, or its output is unusable.
+    """
+    todo = [k for k, f in enumerate(fills) if f.any()]
+    out = [d.copy() for d in depths] if copy else list(depths)
+    if not todo:
+        return [a for d in out for a in (d, d, d)] if interval is not None else out
+    x = np.stack([depths[k] for k in todo]).astype(np.float32, copy=False)
+    hole = np.stack([fills[k] for k in todo])
+    x[hole] = np.nan
+    # An object with predict is called batched; the interval source may swap in predict(X, return_std=True).
+    caller = SimpleNamespace(predict=interval.wrap(method.predict)) if interval is not None else method
+    pred, _ = run_method(caller, x, name)
+    bounds = interval.bounds(x, pred, hole) if interval is not None else None
+    for k, p in zip(todo, pred):
+        unfilled = np.count_nonzero(fills[k] & (p <= 0))
+        if unfilled:
+            raise MethodOutputError(
+                f"method {name!r} left {unfilled} of the {np.count_nonzero(fills[k])} pixels to fill at 0 m "
+                "(no measurement near them?); try another method, e.g. --method scanline")
+        np.copyto(out[k], p, where=fills[k], casting="same_kind")
+    if bounds is None:
+        return out
+    lows, highs = [d.copy() for d in out], [d.copy() for d in out]
+    for j, k in enumerate(todo):  # measured pixels: low = high = the measurement; unmeasured, unfilled: 0
+        np.copyto(lows[k], bounds[0][j], where=fills[k], casting="same_kind")
+        np.copyto(highs[k], bounds[1][j], where=fills[k], casting="same_kind")
+    return [a for triple in zip(out, lows, highs) for a in triple]
+
+
+def make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any, str]:
+    """The method of a run and its name: a registry name, a checkpoint folder, or an estimator as given."""
+    from ..registry import canonical_name
+    from ..registry import make_method as make
+
+    name = str(method) if isinstance(method, str) else method_name(method)
+    if checkpoint is not None:
+        method, name = make("checkpoint", path=checkpoint), str(checkpoint)
+    elif isinstance(method, str):
+        method = make(canonical_name(method))
+    if n_jobs is not None:
+        params = method.get_params() if hasattr(method, "get_params") else {}
+        if "n_jobs" not in params:
+            raise InvalidInputError(f"--jobs applies to methods that take n_jobs (the classical ones); "
+                                    f"{method_name(method)} does not")
+        method.set_params(n_jobs=n_jobs)
+    return method, name
+
+
+def shipped_interval_name(method: Any) -> Any:
+    """``<name>-intervals`` for a registry name whose release ships an interval calibration; else ``method``."""
+    from ..registry import DEFAULT_RELEASE, available_aliases, available_methods, canonical_name, get_spec
+
+    if isinstance(method, str) and not method.count(":"):
+        canon = canonical_name(method)
+        spec = get_spec(canon)
+        names = [f"{canon}-intervals"]
+        if spec.cls == "load_release":  # any name of a release: blend-pretrained-mixed is kitti-mixed-v1
+            names.append(f"{spec.kwargs.get('name', DEFAULT_RELEASE)}-intervals")
+        for name in names:
+            if name in available_methods() or name in available_aliases():
+                return name
+    return method
+
+
+def interval_method(method: Any, name: str, intervals: str | os.PathLike | None,
+                    coverage: float) -> tuple[Any, str, IntervalSource]:
+    """The method of a ``confidence`` run, its name and its interval source.
+
+    ``intervals`` (a saved calibration) wraps ``method``; a method with its own interval is
+    used as it is.
+
+    Raises
+    ------
+    InvalidInputError
+        If the method has no interval and no calibration is given.
+    """
+    from ..method_intervals import interval_source
+    from ..registry import available_methods
+    from ..registry import make_method as make
+
+    if intervals is not None:
+        if not Path(intervals).is_file():
+            raise FileNotFoundError(f"--intervals {intervals}: no such calibration file")
+        method = make("intervals", path=intervals, estimator=method)
+        name = f"{name}+intervals"
+    source = interval_source(method, coverage, name)
+    if source is None:
+        shipped = [m[: -len("-intervals")] for m in available_methods() if m.endswith("-intervals")]
+        ships = f", or a method shipped with one ({', '.join(shipped)})" if shipped else ""
+        raise InvalidInputError(
+            f"--confidence needs a per-pixel interval and method {name!r} has none: give --intervals CAL.json (a "
+            f"ConformalIntervalInpainter calibration of this method, saved with .save){ships}")
+    return method, name, source
