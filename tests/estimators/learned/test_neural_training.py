@@ -129,7 +129,7 @@ def short_run(kitti_root) -> dict[str, float]:
     hole = get_protocol("rect-v1").masks(CROP, 123, range(len(gt)))
     x = np.where(hole, np.nan, gt).astype(np.float32)
 
-    params = {"width": 8, "depth": 3, "crop": CROP, "batch_size": 4, "epochs": 10_000, "random_state": 0, "num_threads": 2}
+    params = {"width": 8, "depth": 3, "crop": CROP, "batch_size": 4, "epochs": 10_000, "random_state": 0, "num_threads": 1}
     untrained = UNetInpainter(**params, max_steps=1, lr=1e-12).fit(train)
     study = UNetInpainter(**params, max_steps=300).fit(train)
     ours = UNetInpainter(**params, max_steps=300, depth_scale="frame", input_mask=True).fit(train)
