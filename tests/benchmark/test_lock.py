@@ -88,3 +88,50 @@ def test_locked_error_is_a_user_error():
     from inpaintenv.cli import USER_ERRORS
 
     assert issubclass(RunLockedError, USER_ERRORS)
+
+
+def _score_argv(tmp_path):
+    """``inpaintenv score`` of a tiny export whose predictions are its inputs with the holes at 10 m."""
+    import numpy as np
+
+    from inpaintenv.data.io import read_depth_png, write_depth_png
+    from inpaintenv.submission import read_manifest
+
+    assert main(["export", "--n-frames", "4", "--frame-shape", "32", "96", "--holdout", "0", "--trusted", "--out",
+                 str(tmp_path / "in"), "-q"]) == 0
+    for item in read_manifest(tmp_path / "in.key.json").items:
+        x = read_depth_png(tmp_path / "in" / item.input)
+        write_depth_png(tmp_path / "pred" / item.input, np.where(x > 0, x, 10.0))
+    return ["score", "--manifest", str(tmp_path / "in.key.json"), "--predictions", str(tmp_path / "pred"),
+            "--name", "mine", "--figure-frames", "0", "-q"]
+
+
+@pytest.mark.parametrize("command", ["benchmark", "train", "score"])
+def test_a_symlinked_lock_file_is_refused_and_its_target_untouched(tmp_path, capsys, command):
+    # Issue 50, item 1: run.lock -> ../victim used to be opened "a+" and truncated through the link.
+    if command == "train":
+        pytest.importorskip("torch")
+    victim = tmp_path / "victim"
+    victim.write_text("the user's data\n")
+    out = tmp_path / "R"
+    out.mkdir()
+    (out / LOCK_FILE).symlink_to("../victim")
+    argv = {
+        "benchmark": ARGV,
+        "train": ["train", "--preset", "smoke", "--n-frames", "8", "--frame-shape", "64", "192", "--quiet"],
+        "score": _score_argv(tmp_path) if command == "score" else [],
+    }[command]
+    assert main([*argv, "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "run.lock" in err and "symbolic link" in err, err
+    assert victim.read_text() == "the user's data\n"
+    assert sorted(p.name for p in out.iterdir()) == [LOCK_FILE]
+
+
+def test_a_fifo_lock_file_is_refused_at_once(tmp_path):
+    # Issue 50, item 14: a FIFO named run.lock must not block the run.
+    from inpaintenv.exceptions import UnsafeFileError
+
+    os.mkfifo(tmp_path / LOCK_FILE)
+    with pytest.raises(UnsafeFileError, match="FIFO"), run_lock(tmp_path):
+        pass
