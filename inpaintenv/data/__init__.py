@@ -7,6 +7,7 @@ from .base import (
 from .cache import CachedDataset, StaleCacheError, estimate_cache_bytes
 from .calibration import Calibration, CalibrationError, read_calibration
 from .depth_files import read_depth_file, read_mask_file, write_depth_file
+from .inputs import INPUT_KINDS
 from .io import DepthFormatError, read_depth_png, write_depth_png
 from .kitti import KITTI_ROOT_ENV, KITTI_URL, KittiDepth, bottom_center_crop, png_header
 from .projection import (
@@ -23,6 +24,7 @@ __all__ = [
     "ConcatDataset",
     "DepthDataset",
     "DepthFormatError",
+    "INPUT_KINDS",
     "KITTI_ROOT_ENV",
     "KITTI_URL",
     "KittiDepth",

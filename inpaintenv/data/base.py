@@ -17,6 +17,7 @@ from ..conventions import (
 )
 from ..report.progress import count
 from ..exceptions import InvalidInputError, InvalidTypeError, OutOfRangeError
+from .inputs import InputsMixin, check_input_kind
 
 __all__ = [
     "DepthDataset", "ArrayDataset", "ConcatDataset", "Subset", "as_dataset", "select_drives",
@@ -24,7 +25,7 @@ __all__ = [
 ]
 
 
-class DepthDataset(Sequence, ABC):
+class DepthDataset(InputsMixin, Sequence, ABC):
     """A lazy, indexable sequence of ground-truth depth maps of one fixed size.
 
     Subclasses implement :meth:`_load` and set ``groups`` (one drive id per frame),
@@ -32,6 +33,8 @@ class DepthDataset(Sequence, ABC):
 
     Items are ``(H, W)`` float32 metres, 0 = no measurement. Integer indexing loads one
     frame; slices and integer arrays return a :class:`Subset` (nothing is loaded).
+    ``input_kind`` says what a method is given: the frame itself (``"map"``) or a separate
+    LiDAR scan of it (``"scan"``, see :mod:`inpaintenv.data.inputs`).
 
     A dataset looks like a lazy ``(N, H, W)`` array to scikit-learn (``shape``,
     ``len``, ``ds[indices, ...]``), so ``GridSearchCV`` and ``cross_validate`` split it
@@ -199,9 +202,16 @@ class Subset(DepthDataset):
         self.frame_shape = parent.frame_shape
         self.groups = np.asarray(parent.groups)[self.indices]
         self.frame_ids = [parent.frame_ids[i] for i in self.indices]
+        self.input_kind = parent.input_kind
 
     def _load(self, index: int) -> np.ndarray:
         return self.parent[int(self.indices[index])]
+
+    def _load_input(self, index: int) -> np.ndarray:
+        return self.parent._load_input(int(self.indices[index]))
+
+    def _load_pair(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        return self.parent._load_pair(int(self.indices[index]))
 
 
 class ArrayDataset(DepthDataset):
@@ -213,9 +223,12 @@ class ArrayDataset(DepthDataset):
         Ground-truth depth maps in metres.
     groups : sequence of str, optional
         Drive id per frame; by default every frame is its own group.
+    inputs : array-like or sequence of array-like, optional
+        A measured scan per frame (same count and size as ``frames``): the dataset's input
+        kind is then ``"scan"`` and ``frames`` is only the target.
     """
 
-    def __init__(self, frames: Any, groups: Sequence[Any] | None = None):
+    def __init__(self, frames: Any, groups: Sequence[Any] | None = None, inputs: Any = None):
         if isinstance(frames, np.ndarray) or not isinstance(frames, Sequence):
             arr = check_depth(frames, name="frames", ndim=(3,))
             self._frames: Sequence[np.ndarray] | np.ndarray = arr
@@ -234,9 +247,18 @@ class ArrayDataset(DepthDataset):
             raise InvalidInputError(f"groups has {len(groups)} entries for {n} frames")
         self.groups = np.asarray([str(g) for g in groups])
         self.frame_ids = [f"{g}/{i}" for i, g in enumerate(self.groups)]
+        self._inputs: Any = None
+        if inputs is not None:
+            scans = check_depth(np.asarray(inputs), name="inputs", ndim=(3,))
+            if scans.shape != (n, *self.frame_shape):
+                raise InvalidInputError(f"inputs has shape {scans.shape}, the frames {(n, *self.frame_shape)}")
+            self._inputs, self.input_kind = scans, "scan"
 
     def _load(self, index: int) -> np.ndarray:
         return np.asarray(self._frames[index], dtype=np.float32)
+
+    def _load_input(self, index: int) -> np.ndarray:
+        return self._load(index) if self._inputs is None else self._inputs[index]
 
 
 class ConcatDataset(DepthDataset):
@@ -259,15 +281,31 @@ class ConcatDataset(DepthDataset):
         shapes = {tuple(p.frame_shape) for p in parts}
         if len(shapes) != 1:
             raise InvalidInputError(f"datasets to concatenate have different frame sizes: {sorted(shapes)}")
+        kinds = sorted({p.input_kind for p in parts})
+        if len(kinds) != 1:
+            raise InvalidInputError(f"datasets to concatenate have different input kinds: {kinds}")
         self.parts = list(parts)
+        self.input_kind = check_input_kind(kinds[0], "the parts' input kind")
         self.frame_shape = shapes.pop()  # type: ignore[assignment]
         self.groups = np.concatenate([np.asarray(p.groups) for p in parts])
         self.frame_ids = [f for p in parts for f in p.frame_ids]
         self._offsets = np.cumsum([0] + [len(p) for p in parts])
 
-    def _load(self, index: int) -> np.ndarray:
+    def _part(self, index: int) -> tuple[DepthDataset, int]:
         part = int(np.searchsorted(self._offsets, index, side="right")) - 1
-        return self.parts[part][int(index - self._offsets[part])]
+        return self.parts[part], int(index - self._offsets[part])
+
+    def _load(self, index: int) -> np.ndarray:
+        part, i = self._part(index)
+        return part[i]
+
+    def _load_input(self, index: int) -> np.ndarray:
+        part, i = self._part(index)
+        return part._load_input(i)
+
+    def _load_pair(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        part, i = self._part(index)
+        return part._load_pair(i)
 
     def __repr__(self) -> str:
         return f"ConcatDataset({' + '.join(repr(p) for p in self.parts)})"

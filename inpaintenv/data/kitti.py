@@ -32,6 +32,7 @@ from .io import (
     read_depth_png_raw,
 )
 from ..exceptions import InvalidInputError, InvalidTypeError
+from .inputs import check_input_kind
 
 __all__ = ["KittiDepth", "KITTI_URL", "KITTI_ROOT_ENV", "png_header", "bottom_center_crop"]
 
@@ -98,6 +99,10 @@ class KittiDepth(DepthDataset):
         only allowed if all frames share one size.
     drives : list or tuple of str, optional
         Only these drives (e.g. ``"2011_09_26_drive_0001_sync"``); must not be empty.
+    input : {"map", "scan"}
+        What a method is given (:mod:`inpaintenv.data.inputs`): the frame itself, or
+        (``"scan"``, with ``kind="groundtruth"``) the frame's own single scan
+        (``velodyne_raw``), cropped like it; frames without both files are left out.
 
     Attributes
     ----------
@@ -107,6 +112,8 @@ class KittiDepth(DepthDataset):
         ``"<drive>/<camera>/<frame>"``.
     paths : list of pathlib.Path
         The PNG of each frame.
+    input_paths : list of pathlib.Path
+        The PNG of each frame's input (its scan for ``input="scan"``, else ``paths``).
 
     Examples
     --------
@@ -124,6 +131,7 @@ class KittiDepth(DepthDataset):
         kind: str = "groundtruth",
         crop: tuple[int, int] | None = (352, 1216),
         drives: list[str] | tuple[str, ...] | None = None,
+        input: str = "map",
     ):
         if not isinstance(split, str):
             raise InvalidTypeError(f"split must be 'train', 'val' or 'val_selection', got {split!r}")
@@ -134,6 +142,9 @@ class KittiDepth(DepthDataset):
             raise InvalidInputError(f"unknown KITTI split {split!r}: splits are 'train', 'val' and 'val_selection'{hint}")
         if kind not in _KINDS:
             raise InvalidInputError(f"kind must be one of {_KINDS}, got {kind!r}")
+        self.input_kind = check_input_kind(input)
+        if input == "scan" and kind != "groundtruth":
+            raise InvalidInputError(f"input='scan' pairs a scan with its ground truth: kind must be 'groundtruth', got {kind!r}")
         if camera not in (*_CAMERAS, "both"):
             raise InvalidInputError(f"camera must be 'image_02', 'image_03' or 'both', got {camera!r}")
         if crop is not None:
@@ -171,10 +182,13 @@ class KittiDepth(DepthDataset):
         if not entries:
             raise FileNotFoundError(f"no depth PNGs found: searched {searched}\n{_LAYOUT_HELP}")
         entries.sort(key=lambda e: (e[1], e[2], e[3]))  # drive, camera, frame
+        if input == "scan":
+            entries = _pair_with_scans(entries, index(self.root, kind="velodyne_raw", cameras=cameras, drives=wanted))
 
         self.paths: list[Path] = [e[0] for e in entries]
+        self.input_paths: list[Path] = [e[-1] for e in entries] if input == "scan" else self.paths
         self.groups = np.asarray([e[1] for e in entries])
-        self.frame_ids = [f"{d}/{c}/{f}" for _, d, c, f in entries]
+        self.frame_ids = [f"{e[1]}/{e[2]}/{e[3]}" for e in entries]
         self._headers: list[PngHeader] | None = None
 
         if crop is None:
@@ -191,11 +205,17 @@ class KittiDepth(DepthDataset):
             # Reject 8-bit/RGB trees early from the first file's header; the rest is
             # checked when decoded.
             check_depth_header(self.paths[0], png_header(self.paths[0]))
+            check_depth_header(self.input_paths[0], png_header(self.input_paths[0]))
             self.frame_shape = crop
 
     # -- loading -----------------------------------------------------------------
     def _load(self, index: int) -> np.ndarray:
-        path = self.paths[index]
+        return self._read(self.paths[index])
+
+    def _load_input(self, index: int) -> np.ndarray:
+        return self._read(self.input_paths[index])
+
+    def _read(self, path: Path) -> np.ndarray:
         raw = read_depth_png_raw(path)
         if self.crop is None:
             if raw.shape != self.frame_shape:
@@ -230,6 +250,7 @@ class KittiDepth(DepthDataset):
             "root": name_from_path(str(self.root)),
             "split": self.split,
             "kind": self.kind,
+            "input": self.input_kind,
             "camera": self.camera,
             "raw_sizes": {f"{w}x{h}": n for (w, h), n in sorted(self.raw_sizes().items())},
         }
@@ -237,9 +258,25 @@ class KittiDepth(DepthDataset):
     def __repr__(self) -> str:
         return (
             f"KittiDepth(root={name_from_path(str(self.root))!r}, split={self.split!r}, camera={self.camera!r}, "
-            f"kind={self.kind!r}, {count(len(self), 'frame')}, {count(len(np.unique(self.groups)), 'drive')}, "
+            f"kind={self.kind!r}, {'input=' + repr(self.input_kind) + ', ' if self.input_kind != 'map' else ''}"
+            f"{count(len(self), 'frame')}, {count(len(np.unique(self.groups)), 'drive')}, "
             f"frame_shape={self.frame_shape})"
         )
+
+
+def _pair_with_scans(
+    entries: list[tuple[Path, str, str, str]], found: tuple[list[tuple[Path, str, str, str]], str]
+) -> list[tuple[Path, str, str, str, Path]]:
+    """Each ground-truth entry with its frame's scan appended; frames without a scan are left out."""
+    scans, searched = found
+    _refuse_twins(scans)
+    by_key = {tuple(e[1:]): e[0] for e in scans}
+    paired = [(*e, by_key[tuple(e[1:])]) for e in entries if tuple(e[1:]) in by_key]
+    if not paired:
+        raise FileNotFoundError(
+            f"no frame has both its ground truth and its scan: scans searched {searched}\n{_LAYOUT_HELP}"
+        )
+    return paired  # type: ignore[return-value]
 
 
 def _is_whole(value: object) -> bool:

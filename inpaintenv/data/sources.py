@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 from ..conventions import check_int
 from .base import ConcatDataset, DepthDataset, Subset, select_drives
+from .inputs import check_input_kind
 from .kitti import KittiDepth
 from .synthetic import SyntheticStreets
 from ..exceptions import InvalidInputError, InvalidTypeError
@@ -26,6 +27,7 @@ def open_source(
     camera: str = "image_02",
     drives: Sequence[str] | None = None,
     exclude_drives: Sequence[str] | None = None,
+    input: str = "map",
 ) -> DepthDataset:
     """Open the data source used by the CLI, the environments and the benchmarks.
 
@@ -53,6 +55,9 @@ def open_source(
     drives, exclude_drives : sequence of str, optional
         Keep only / drop these drives (applied before ``n_frames``), e.g. to score on
         drives a model never saw.
+    input : {"map", "scan"}
+        What a method is given (:mod:`inpaintenv.data.inputs`): the ground-truth map, or
+        each frame's single scan paired with its ground truth (needs ``kind="groundtruth"``).
 
     Returns
     -------
@@ -62,15 +67,16 @@ def open_source(
         n_frames = check_int(n_frames, "n_frames", minimum=1)  # int("abc") failed obscurely
     if not isinstance(split, str):
         raise InvalidTypeError(f"split must be a string such as 'train' or 'train,val', got {split!r}")
+    input = check_input_kind(input)
     if kitti_root is None:
         n = DEFAULT_SYNTHETIC_FRAMES if n_frames is None else int(n_frames)
-        return select_drives(SyntheticStreets(n=n, seed=seed, kind=kind), drives, exclude_drives)
+        return select_drives(SyntheticStreets(n=n, seed=seed, kind=kind, input=input), drives, exclude_drives)
     if kind == "dense":
         raise InvalidInputError("kind='dense' exists only for the synthetic source (KITTI has no dense truth)")
     splits = [s.strip() for s in split.split(",") if s.strip()]
     if not splits:
         raise InvalidInputError(f"no KITTI split named in {split!r}")
-    parts = [KittiDepth(kitti_root, split=s, camera=camera, kind=kind) for s in splits]
+    parts = [KittiDepth(kitti_root, split=s, camera=camera, kind=kind, input=input) for s in splits]
     ds = select_drives(parts[0] if len(parts) == 1 else ConcatDataset(parts), drives, exclude_drives)
     if n_frames is not None and n_frames < len(ds):
         return Subset(ds, range(int(n_frames)))

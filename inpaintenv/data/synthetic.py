@@ -24,6 +24,7 @@ Sampled pixels keep the dense value exactly (no range noise).
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -31,30 +32,17 @@ import numpy as np
 
 from ..conventions import check_frame_shape, check_int, check_seed
 from .base import DepthDataset
+from .inputs import check_input_kind
+from .synthetic_lidar import (  # noqa: F401  (KITTI_* and Camera are part of this module's API)
+    KITTI_CX, KITTI_CY, KITTI_FX, KITTI_FY, KITTI_RAW_SHAPE, Camera, accumulated_scans, single_scan,
+)
 from ..exceptions import InvalidInputError
 
 __all__ = ["MAX_SYNTHETIC_FRAMES", "SyntheticStreets", "KITTI_FX", "KITTI_FY", "KITTI_CX", "KITTI_CY", "KITTI_RAW_SHAPE"]
 
-# KITTI P_rect_02 of 2011_09_26 (the raw 1242x375 image).
-KITTI_FX = KITTI_FY = 721.5377
-KITTI_CX, KITTI_CY = 609.5593, 172.854
-KITTI_RAW_SHAPE = (375, 1242)
 CAMERA_HEIGHT = 1.65
 MAX_DEPTH = 80.0
 _T_NEAR = 0.3  # no surface closer than this to the camera
-
-# Velodyne HDL-64E: 32 upper lasers +2 .. -8.33 deg, 32 lower lasers -8.83 .. -24.8 deg.
-BEAM_ELEVATIONS_DEG = np.concatenate([np.linspace(2.0, -8.33, 32), np.linspace(-8.83, -24.8, 32)])
-LIDAR_OFFSET = (0.0, -0.08, -0.27)  # lidar in camera coordinates (x right, y down, z forward)
-# In the real slice's velodyne_raw the top returns sit at +2.9..+4.5 deg seen from the
-# camera (vehicle pitch, mounting), not +2 deg: tilt the simulated lidar up by 2 deg.
-# Applied as an elevation offset (exact straight ahead, ~0.5 deg less at the image edge).
-LIDAR_PITCH_DEG = 2.0
-AZIMUTH_STEP_DEG = 0.17  # horizontal spacing of one laser's returns at 10 Hz
-RETURN_PROB = 0.8  # fraction of lidar returns kept (dark/specular surfaces drop out)
-GT_SCAN_OFFSETS = range(-5, 6)  # KITTI accumulates 11 scans around each frame
-GT_KEEP_PROB = 0.62  # accumulated points surviving KITTI's consistency filtering
-
 _KINDS = ("groundtruth", "velodyne_raw", "dense")
 
 
@@ -221,28 +209,6 @@ def _render_ellipsoid(
 MAX_SYNTHETIC_FRAMES: int = 1_000_000
 
 
-@dataclass(frozen=True)
-class Camera:
-    """Pinhole camera with KITTI's intrinsics, principal point shifted by a bottom-centre crop."""
-
-    shape: tuple[int, int]
-
-    @property
-    def cx(self) -> float:
-        return KITTI_CX - (KITTI_RAW_SHAPE[1] - self.shape[1]) // 2
-
-    @property
-    def cy(self) -> float:
-        return KITTI_CY - (KITTI_RAW_SHAPE[0] - self.shape[0])
-
-    def rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per-column ``x/z`` and per-row ``y/z`` of the pixel rays (camera frame)."""
-        h, w = self.shape
-        a = (np.arange(w) - self.cx) / KITTI_FX
-        b = (np.arange(h) - self.cy) / KITTI_FY
-        return a, b
-
-
 def render_dense(scene: Scene, frame: int, camera: Camera, yaw_jitter: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Dense depth (float32, 0 = sky / beyond 80 m) and the mask of moving objects."""
     a, b = camera.rays()
@@ -280,126 +246,6 @@ def render_dense(scene: Scene, frame: int, camera: Camera, yaw_jitter: float = 0
     return depth, is_moving & (depth > 0)
 
 
-# ----------------------------------------------------------------------------- lidar
-_LUT_STEP = 1e-4  # resolution of the nearest-beam table in tan(elevation)
-
-
-@lru_cache(maxsize=1)
-def _beam_lut() -> tuple[float, np.ndarray, np.ndarray]:
-    """Nearest beam (index and tan(elevation)) for tan(elevation) quantised by ``_LUT_STEP``."""
-    tan_beams = np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG + LIDAR_PITCH_DEG))
-    lo = tan_beams.min() - 0.01
-    grid = lo + _LUT_STEP * np.arange(int((tan_beams.max() + 0.01 - lo) / _LUT_STEP) + 2)
-    nearest = np.abs(grid[:, None] - tan_beams[None, :]).argmin(axis=1)
-    return lo, nearest.astype(np.intp), tan_beams[nearest].astype(np.float32)
-
-
-class _Points:
-    """Camera-frame points of the pixels a lidar can reach, with what every scan needs.
-
-    Only valid pixels not above the top laser as seen from the lidar ``min_forward``
-    metres ahead are kept: a point above the lidar looks lowest from the pose farthest
-    from it (the least forward one), so that pose bounds all scans. This drops the high
-    facade and tree pixels no laser reaches before the per-scan work.
-    """
-
-    def __init__(self, depth: np.ndarray, camera: Camera, min_forward: float = 0.0):
-        a, b = (r.astype(np.float32) for r in camera.rays())
-        # Whole-image arithmetic, then one gather per array (cheaper than compressing twice).
-        x2 = depth * a[None, :]
-        x2 *= x2
-        up = np.float32(LIDAR_OFFSET[1]) - depth * b[:, None]  # height above the lidar
-        dz = depth - np.float32(LIDAR_OFFSET[2] + min_forward)
-        rh = np.sqrt(x2 + dz * dz)
-        tan_top = np.float32(np.tan(np.deg2rad(BEAM_ELEVATIONS_DEG.max() + LIDAR_PITCH_DEG)) + 0.01)
-        self.flat = np.flatnonzero((depth > 0) & (up < tan_top * rh))
-        self.t = self.z = depth.take(self.flat)
-        self.x2 = x2.take(self.flat)
-        self.up = up.take(self.flat)
-        self.half_px = np.float32(0.5 / KITTI_FY) * self.t  # half a pixel row, in metres at the point
-
-    def scatter(self, keep: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-        """A depth map holding the kept points, 0 elsewhere."""
-        out = np.zeros(shape, dtype=np.float32)
-        idx = np.flatnonzero(keep)
-        out.ravel()[self.flat[idx]] = self.t[idx]
-        return out
-
-
-def _beam_hits(
-    p: _Points, forward: float, buf: tuple[np.ndarray, np.ndarray] | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Points that some laser's elevation passes within half a pixel of, seen from a
-    lidar ``forward`` metres ahead of this frame's; and the index (into the nearest-beam
-    table) of that laser. ``buf``: two float32 work arrays of the points' size, reused
-    across scans (in-place arithmetic is ~20 % faster than temporaries here)."""
-    lo, nearest, tan_near = _beam_lut()
-    rh, work = buf if buf is not None else (np.empty_like(p.t), np.empty_like(p.t))
-    # rh = horizontal distance from the lidar
-    np.subtract(p.z, np.float32(LIDAR_OFFSET[2] + forward), out=rh)
-    np.multiply(rh, rh, out=rh)
-    np.add(rh, p.x2, out=rh)
-    np.sqrt(rh, out=rh)
-    # q = nearest-beam table index of tan(elevation) = up / rh
-    np.divide(p.up, rh, out=work)
-    np.subtract(work, np.float32(lo), out=work)
-    np.multiply(work, np.float32(1.0 / _LUT_STEP), out=work)
-    q = work.astype(np.intp)
-    # |tan_e - tan_beam| < half_px / rh, multiplied through by rh. mode="clip" maps
-    # elevations outside the table to the top/bottom laser (and skips bounds checks).
-    tan_near.take(q, out=work, mode="clip")
-    np.multiply(work, rh, out=work)
-    np.subtract(p.up, work, out=work)
-    np.abs(work, out=work)
-    return work < p.half_px, q
-
-
-def single_scan(depth: np.ndarray, camera: Camera, rng: np.random.Generator) -> np.ndarray:
-    """One 64-beam scan: each laser returns at azimuths ``phase + k * step``; a pixel is
-    sampled when a laser's elevation and one of its azimuths fall inside it."""
-    p = _Points(depth, camera)
-    hit, q = _beam_hits(p, 0.0)
-    idx = np.flatnonzero(hit)  # the azimuth test only for the ~20 % passing elevation
-    _, nearest, _ = _beam_lut()
-    a, _ = camera.rays()
-    az = np.arctan(a)
-    width = np.cos(az) ** 2 / KITTI_FX  # angular width of each column
-    step = np.deg2rad(AZIMUTH_STEP_DEG)
-    phase = rng.uniform(0.0, step, size=len(BEAM_ELEVATIONS_DEG))
-    az_hit = np.mod(az[None, :] + width / 2 - phase[:, None], step) < width  # (beams, columns)
-    beam = nearest.take(q.take(idx), mode="clip")
-    cols = p.flat.take(idx) % depth.shape[1]
-    kept = az_hit[beam, cols] & (rng.random(idx.shape, dtype=np.float32) < RETURN_PROB)
-    out = np.zeros_like(depth)
-    sel = idx[kept]
-    out.ravel()[p.flat[sel]] = p.t[sel]
-    return out
-
-
-def accumulated_scans(
-    depth: np.ndarray, moving: np.ndarray, camera: Camera, speed: float, rng: np.random.Generator
-) -> np.ndarray:
-    """KITTI-style semi-dense ground truth: scans at frames ``i-5 .. i+5`` accumulated.
-
-    The elevation test is exact per scan; the azimuth test is drawn at the end: a pixel
-    passed by ``c`` lasers is kept with probability ``1 - (1 - p)^c``, ``p`` being the
-    chance that a laser returns inside one column. Moving objects keep only the
-    current scan (KITTI drops their smeared points).
-    """
-    forwards = [k * speed for k in GT_SCAN_OFFSETS]
-    p = _Points(depth, camera, min_forward=min(forwards))
-    static = ~moving.ravel()[p.flat]
-    count = np.zeros(p.t.shape, dtype=np.uint8)
-    buf = (np.empty_like(p.t), np.empty_like(p.t))
-    for f in forwards:
-        hit, _ = _beam_hits(p, f, buf)
-        count += hit if f == 0 else hit & static
-    p_col = min(1.0, (1.0 / KITTI_FX) / np.deg2rad(AZIMUTH_STEP_DEG)) * RETURN_PROB
-    keep_prob = (1.0 - (1.0 - p_col) ** np.arange(len(forwards) + 1)).astype(np.float32)
-    kept = rng.random(count.shape, dtype=np.float32) < keep_prob[count] * np.float32(GT_KEEP_PROB)
-    return p.scatter(kept, depth.shape)
-
-
 # ----------------------------------------------------------------------------- dataset
 class SyntheticStreets(DepthDataset):
     """Built-in procedural street depth at KITTI's geometry; needs no download.
@@ -423,6 +269,10 @@ class SyntheticStreets(DepthDataset):
     frames_per_drive : int
         Consecutive frames sharing one street (the ego moves ~1 m per frame); they
         share a group so splits never separate them.
+    input : {"map", "scan"}
+        What a method is given (:mod:`inpaintenv.data.inputs`). ``"scan"`` (with
+        ``kind="groundtruth"``): the frame's ``"velodyne_raw"`` scan, simulated from the same
+        render as its ground truth (the frames of ``kind="velodyne_raw"`` and ``"groundtruth"``).
 
     Examples
     --------
@@ -438,6 +288,7 @@ class SyntheticStreets(DepthDataset):
         frame_shape: tuple[int, int] = (352, 1216),
         kind: str = "groundtruth",
         frames_per_drive: int = 8,
+        input: str = "map",
     ):
         # Integers only, never coerced: int("abc") failed obscurely, int(0.9) would quietly
         # give seed 0's frames under another name; bounded so that a typo cannot ask for gigabytes.
@@ -445,6 +296,9 @@ class SyntheticStreets(DepthDataset):
         self.frames_per_drive = check_int(frames_per_drive, "frames_per_drive", minimum=1)
         if kind not in _KINDS:
             raise InvalidInputError(f"kind must be one of {_KINDS}, got {kind!r}")
+        self.input_kind = check_input_kind(input)
+        if input == "scan" and kind != "groundtruth":
+            raise InvalidInputError(f"input='scan' pairs a scan with its ground truth: kind must be 'groundtruth', got {kind!r}")
         self.frame_shape = check_frame_shape(frame_shape, "frame_shape")
         self.seed, self.kind = check_seed(seed, "seed"), kind
         self.camera = Camera(self.frame_shape)
@@ -455,24 +309,45 @@ class SyntheticStreets(DepthDataset):
     def _scene(self, drive: int) -> Scene:
         return _cached_scene(self.seed, drive, self.frames_per_drive)
 
-    def _load(self, index: int) -> np.ndarray:
+    def _render(self, index: int) -> tuple[np.ndarray, np.ndarray, float, np.random.Generator]:
+        """Dense depth, moving-object mask, ego speed and the rng the samplings of frame ``index`` draw from."""
         drive, k = divmod(index, self.frames_per_drive)
         scene = self._scene(drive)
         rng = np.random.default_rng([self.seed, index, 1])
         depth, moving = render_dense(scene, k, self.camera, yaw_jitter=np.deg2rad(rng.uniform(-0.3, 0.3)))
+        return depth, moving, scene.speed, rng
+
+    def _load(self, index: int) -> np.ndarray:
+        depth, moving, speed, rng = self._render(index)
         if self.kind == "dense":
             return depth
         if self.kind == "velodyne_raw":
             return single_scan(depth, self.camera, rng)
-        return accumulated_scans(depth, moving, self.camera, scene.speed, rng)
+        return accumulated_scans(depth, moving, self.camera, speed, rng)
+
+    def _load_input(self, index: int) -> np.ndarray:
+        if self.input_kind == "map":
+            return self._load(index)
+        depth, _, _, rng = self._render(index)
+        return single_scan(depth, self.camera, rng)
+
+    def _load_pair(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        if self.input_kind == "map":
+            frame = self._load(index)
+            return frame, frame
+        # One render; the scan draws from a copy of the rng, so each equals its own kind's frame.
+        depth, moving, speed, rng = self._render(index)
+        scan = single_scan(depth, self.camera, copy.deepcopy(rng))
+        return scan, accumulated_scans(depth, moving, self.camera, speed, rng)
 
     def _summary_fields(self) -> dict:
-        return {"seed": self.seed, "kind": self.kind}
+        return {"seed": self.seed, "kind": self.kind, "input": self.input_kind}
 
     def __repr__(self) -> str:
         return (
             f"SyntheticStreets(n={self.n}, seed={self.seed}, kind={self.kind!r}, "
-            f"frame_shape={self.frame_shape}, frames_per_drive={self.frames_per_drive})"
+            f"frame_shape={self.frame_shape}, frames_per_drive={self.frames_per_drive}"
+            f"{', input=' + repr(self.input_kind) if self.input_kind != 'map' else ''})"
         )
 
 
