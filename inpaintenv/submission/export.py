@@ -10,15 +10,18 @@ input would show the other seeds' holes as measured depth, so the maximum over a
 inputs would be its ground truth. Several seeds need ``trusted=True``, for an export
 that only one's own method sees.
 
-The export is built in a temporary folder beside ``out`` and moved into place only when
-complete, so an error or Ctrl-C leaves nothing half-written; a later export removes the
-temporary folders that killed exports of the same user left behind.
+The export is built in a temporary folder beside ``out``, created exclusively under an
+unpredictable name (a link planted at a guessed name cannot redirect it), and moved into
+place only when complete; the score key is written through :func:`inpaintenv.files.write_atomic`.
+So an error or Ctrl-C leaves nothing half-written; a later export removes the temporary
+folders that killed exports of the same user left behind.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import secrets
 import shutil
 import stat
 from collections.abc import Sequence
@@ -32,6 +35,7 @@ from ..conventions import check_int, check_seeds
 from ..data.base import Subset
 from ..data.io import KITTI_DEPTH_SCALE, write_depth_png, write_png
 from ..evaluate import resolve_source
+from ..files import remove_stale_temporaries, write_atomic
 from ..masks import OcclusionProtocol, get_protocol
 from .layout import (
     DEPTH_ENCODING,
@@ -112,7 +116,8 @@ def _prepare_out(out: Path, overwrite: bool) -> bool:
             mode = os.lstat(path).st_mode
             if stat.S_ISDIR(mode) or rel == MANIFEST_NAME:
                 continue
-            if not stat.S_ISREG(mode) or rel not in recorded or file_sha256(path) != recorded[rel]:
+            if not stat.S_ISREG(mode) or rel not in recorded or \
+                    file_sha256(path, "exported file", follow_links=False) != recorded[rel]:
                 foreign.append(rel)
     if foreign:
         raise InvalidInputError(f"--out {out} holds files the earlier export did not write, or changed since "
@@ -137,12 +142,12 @@ def _pid_alive(pid: int) -> bool:
 def clean_stale(out: Path) -> list[Path]:
     """Remove the temporary folders and files that killed exports into ``out`` left beside it.
 
-    Only ``.<out>.partial-<pid>`` (and ``.<out>.replaced-<pid>`` when ``out`` itself is in
-    place, and the key's ``.<key>.partial-<pid>``) whose process is gone and which belong
-    to this user are removed. Returns what was removed.
+    Only ``.<out>.partial-<pid>-<random>`` (and ``.<out>.replaced-<pid>-<random>`` when
+    ``out`` itself is in place, and the key's ``.<key>.partial-<pid>`` of earlier versions)
+    whose process is gone and which belong to this user are removed. Returns what was removed.
     """
     removed = []
-    pattern = re.compile(rf"^\.{re.escape(out.name)}(?:\.key\.json)?\.(partial|replaced)-(\d+)$")
+    pattern = re.compile(rf"^\.{re.escape(out.name)}(?:\.key\.json)?\.(partial|replaced)-(\d+)(?:-[0-9a-f]+)?$")
     if not out.parent.is_dir():
         return removed
     for entry in out.parent.iterdir():
@@ -161,6 +166,34 @@ def clean_stale(out: Path) -> list[Path]:
             entry.unlink()
         removed.append(entry)
     return removed
+
+
+def _new_folder(out: Path, kind: str) -> Path:
+    """A new empty folder beside ``out``, created exclusively under an unpredictable name.
+
+    ``mkdir`` fails on anything already there, a planted link included, so nothing of the
+    export is ever written through a name someone else chose.
+    """
+    out.parent.mkdir(parents=True, exist_ok=True)
+    folder = out.parent / f".{out.name}.{kind}-{os.getpid()}-{secrets.token_hex(8)}"
+    folder.mkdir()
+    return folder
+
+
+def _install(tmp: Path, out: Path, replace: bool) -> None:
+    """Move the complete export ``tmp`` to ``out`` (an earlier export there is moved aside, then removed).
+
+    Whole folders are renamed, which never writes through a link; a file is never replaced here.
+    """
+    if replace:
+        trash = out.parent / f".{out.name}.replaced-{os.getpid()}-{secrets.token_hex(8)}"
+        out.rename(trash)
+        tmp.rename(out)
+        shutil.rmtree(trash)
+    else:
+        if out.exists():
+            out.rmdir()  # empty, checked before
+        tmp.rename(out)
 
 
 def _prepare_key(key: Path, out: Path, overwrite: bool) -> None:
@@ -265,9 +298,8 @@ def export(
     truth, per_frame = describe_truth(dataset)
     parts = frame_parts(dataset.frame_ids, [str(g) for g in dataset.groups])
 
-    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    key_tmp = key_path.parent / f".{key_path.name}.partial-{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
+    remove_stale_temporaries(key_path.parent)
+    tmp = _new_folder(out, "partial")
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
     bar = tqdm(total=total * len(seed_list), desc="export", unit="frame", disable=None if progress else True, leave=False)
@@ -303,21 +335,15 @@ def export(
             role=KEY, kit=Path(os.path.relpath(os.path.abspath(given), key_path.parent)).as_posix(), trusted=trusted,
         )
         manifest.kit_manifest().write(tmp / MANIFEST_NAME)
-        key_path.parent.mkdir(parents=True, exist_ok=True)
-        manifest.write(key_tmp)
-        if replace:
-            trash = out.parent / f".{out.name}.replaced-{os.getpid()}"
-            os.replace(out, trash)
-            os.replace(tmp, out)
-            shutil.rmtree(trash)
-        else:
-            if out.exists():
-                out.rmdir()  # empty, checked above
-            os.replace(tmp, out)
-        os.replace(key_tmp, key_path)
+
+        def key_then_kit(key_tmp: Path) -> None:
+            # The key is complete on disk before the kit moves in, and renamed into place right after.
+            manifest.write(key_tmp)
+            _install(tmp, out, replace)
+
+        write_atomic(key_path, key_then_kit, "score key")
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
-        key_tmp.unlink(missing_ok=True)
         raise
     finally:
         bar.close()

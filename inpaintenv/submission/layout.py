@@ -17,19 +17,20 @@ import hashlib
 import os
 import re
 import stat
+import struct
 from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ..data.io import MAX_FRAME_PIXELS  # a manifest may declare no larger frame than a depth PNG may
-from ..exceptions import UnsafeFileError
+from ..exceptions import FileTooLargeError, UnsafeFileError
+from ..files import MAX_FRAME_PIXELS, open_regular, read_bytes  # a manifest may declare no larger frame than a depth PNG may
 
 __all__ = [
     "DEPTH_ENCODING", "HOLE_ENCODING", "HOLE_FOLDER", "HOLE_VALUE", "INPUT_FOLDER", "MAX_FRAME_PIXELS",
     "UnsafeFileError", "array_sha256", "decode_prediction", "file_sha256", "frame_parts", "hole_bits_sha256", "input_key", "is_inside",
-    "is_safe_relative", "max_png_bytes", "read_inside", "relative_paths",
+    "is_safe_relative", "max_png_bytes", "png_declared_size", "read_inside", "relative_paths",
 ]
 
 #: Folder of the occluded inputs (where KITTI keeps a method's sparse input).
@@ -42,6 +43,7 @@ DEPTH_ENCODING = "16-bit single-channel PNG, metres = value / 256, 0 = hole or n
 HOLE_ENCODING = f"8-bit single-channel PNG, {HOLE_VALUE} = hole (pixels to fill), 0 = not"
 
 _SAFE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def _slug(text: str) -> str:
@@ -74,10 +76,11 @@ def relative_paths(protocol: str, seed: int, split: str, parts: tuple[str, str, 
     return f"{base}/{INPUT_FOLDER}/{camera}/{frame}.png", f"{base}/{HOLE_FOLDER}/{camera}/{frame}.png"
 
 
-def file_sha256(path: str | os.PathLike) -> str:
-    """sha256 of a file's bytes."""
+def file_sha256(path: str | os.PathLike, what: str = "file", *, follow_links: bool = True) -> str:
+    """sha256 of a regular file's bytes (a FIFO or device is refused, see :func:`inpaintenv.files.open_regular`)."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    fd = open_regular(path, what, follow_links=follow_links)
+    with os.fdopen(fd, "rb") as f:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
@@ -156,30 +159,43 @@ def read_inside(folder: Path, rel: str, limit: int) -> bytes:
         raise UnsafeFileError(f"{rel} is a symbolic link (only regular files inside {folder} are read)")
     if not is_inside(path, folder):
         raise UnsafeFileError(f"{rel} lies outside {folder} through a linked folder (only files inside it are read)")
-    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
-    fd = os.open(path, flags)
-    with os.fdopen(fd, "rb") as f:
-        info = os.fstat(f.fileno())
-        if not stat.S_ISREG(info.st_mode):
-            raise UnsafeFileError(f"{rel} is not a regular file")
-        if info.st_size > limit:
-            raise UnsafeFileError(f"{rel} is {info.st_size:,} bytes, more than the {limit:,} a 16-bit PNG of the "
-                                  "frame can need; not read")
-        data = f.read(limit + 1)
-    if len(data) > limit:
-        raise UnsafeFileError(f"{rel} grew past {limit:,} bytes while being read; not read")
-    return data
+    try:  # no link followed, no FIFO waited on, the size checked before anything is read
+        return read_bytes(path, "prediction", limit=limit, follow_links=False)
+    except FileTooLargeError as exc:
+        raise UnsafeFileError(str(exc)) from None
+
+
+def png_declared_size(data: bytes) -> tuple[int, int] | None:
+    """``(height, width)`` a PNG's header declares, or None if ``data`` does not begin with a PNG header."""
+    if len(data) < 24 or data[:8] != _PNG_SIGNATURE or data[12:16] != b"IHDR":
+        return None
+    width, height = struct.unpack(">II", data[16:24])
+    return height, width
 
 
 def decode_prediction(data: bytes, name: str, shape: tuple[int, int]) -> np.ndarray | str:
-    """The stored uint16 values of a prediction PNG, or what is wrong with it (one phrase)."""
-    raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
+    """The stored uint16 values of a prediction PNG, or what is wrong with it (one phrase).
+
+    The header's declared size is checked against ``shape`` before anything is decoded:
+    a small file can declare gigabytes of pixels (a PNG bomb), and OpenCV would allocate
+    them, or decode a TIFF or JPEG named ``.png``.
+    """
+    declared = png_declared_size(data)
+    if declared is None:
+        return f"{name} is not a readable PNG"
+    if declared != tuple(shape):
+        return (f"{name} declares {declared[1]}x{declared[0]}, the input is {shape[1]}x{shape[0]} (W x H); "
+                "not decoded")
+    try:
+        raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error:
+        raw = None
     if raw is None:
         return f"{name} is not a readable PNG"
     if raw.ndim != 2:
         return f"{name} has {raw.shape[2]} channels (a depth map is single-channel)"
     if raw.dtype != np.uint16:
         return f"{name} is {8 * raw.dtype.itemsize}-bit (depth is a 16-bit PNG, metres × 256)"
-    if raw.shape != shape:
+    if raw.shape != tuple(shape):
         return f"{name} is {raw.shape[1]}x{raw.shape[0]}, the input {shape[1]}x{shape[0]} (W x H)"
     return raw

@@ -18,7 +18,6 @@ dropped item or a truncated number.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from collections.abc import Callable
@@ -30,7 +29,8 @@ import numpy as np
 
 from ..data.io import read_depth_png, read_png
 from .layout import HOLE_VALUE, MAX_FRAME_PIXELS, is_safe_relative
-from ..exceptions import ManifestError
+from ..exceptions import FileTooLargeError, JSONFileError, ManifestError
+from ..files import read_json, write_json
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "KEY", "KIT", "MANIFEST_NAME", "MAX_MANIFEST_BYTES", "Frame", "Item",
            "Manifest", "ManifestError", "default_key_path", "read_manifest", "require_key"]
@@ -191,8 +191,7 @@ class Manifest:
     def write(self, path: str | os.PathLike | None = None) -> Path:
         """Write the manifest (to :attr:`path` by default); returns the path written."""
         target = Path(path) if path is not None else self.path
-        target.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
-        return target
+        return write_json(target, self.to_dict(), indent=1)
 
 
 def require_key(manifest: Manifest) -> Manifest:
@@ -231,16 +230,13 @@ def read_manifest(path: str | os.PathLike) -> Manifest:
     p = Path(path)
     if p.is_dir():
         p = p / MANIFEST_NAME
-    if not p.is_file():
+    if not os.path.lexists(p):
         raise FileNotFoundError(f"no manifest at {p}; give the score key (<export>.key.json) written by "
                                 "`inpaintenv export`")
-    if p.stat().st_size > MAX_MANIFEST_BYTES:
-        raise ManifestError(f"{p} is {p.stat().st_size:,} bytes, more than the {MAX_MANIFEST_BYTES:,} a manifest "
-                            "may have (inpaintenv.submission.manifest.MAX_MANIFEST_BYTES)")
-    try:
-        doc = json.loads(p.read_bytes().decode("utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
-        raise ManifestError(f"{p} is not valid JSON ({exc})") from None
+    try:  # a regular file (no FIFO waited on), bounded in size and nesting, numbers finite
+        doc = read_json(p, "manifest", limit=MAX_MANIFEST_BYTES, allow_nan=False)
+    except (JSONFileError, FileTooLargeError) as exc:
+        raise ManifestError(str(exc)) from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise ManifestError(f"{p} is not an inpaintenv export manifest (no \"format\": \"{FORMAT}\")")
     if doc.get("format_version") != FORMAT_VERSION:

@@ -35,6 +35,7 @@ from .layout import (
 from .manifest import Item, Manifest, ManifestError, require_key
 from .truth import verify_frame
 from ..exceptions import InvalidInputError, SubmissionError
+from ..files import loads_json, read_bytes
 
 __all__ = ["ON_MISSING", "CheckedPredictions", "SubmissionError", "SubmittedPredictions", "check_predictions",
            "manifest_protocol"]
@@ -67,7 +68,7 @@ def manifest_protocol(manifest: Manifest) -> OcclusionProtocol:
     except KeyError:
         raise ManifestError(f"{manifest.path} was exported with protocol {name!r}, which this inpaintenv "
                             f"does not have; score with inpaintenv {manifest.inpaintenv_version}") from None
-    here = json.loads(json.dumps(proto.describe()))
+    here = loads_json(json.dumps(proto.describe()), "protocol description")  # as the manifest stores it
     if here != manifest.protocol.get("description"):
         raise ManifestError(f"protocol {name} here differs from the one {manifest.path} was exported with (its "
                             f"parameters changed); score with inpaintenv {manifest.inpaintenv_version}")
@@ -156,7 +157,7 @@ class SubmittedPredictions:
     def _read(self, path: str, digest: str, shape: tuple[int, ...]) -> np.ndarray:
         """The stored uint16 values of ``path``, read under the folder's rules and checked against ``digest``."""
         if self._folder is None:
-            data = Path(path).read_bytes()
+            data = read_bytes(path, "prediction", limit=max_png_bytes(shape))
         else:  # the same rules as when the folder was checked: no links, nothing outside, bounded
             try:
                 data = read_inside(Path(self._folder), path, max_png_bytes(shape))
