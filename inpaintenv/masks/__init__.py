@@ -9,6 +9,7 @@ A mask is reproducible from ``(protocol, seed, frame index)`` alone::
 from __future__ import annotations
 
 from .base import OcclusionProtocol, mask_rng
+from .densify import DensifyV1
 from .ego import EgoOcclusionV1
 from .freeform import FreeformV1
 from .lidar import LidarDropoutV1
@@ -17,6 +18,7 @@ from .rect import RectV1
 from ..exceptions import InvalidInputError, UnknownNameError
 
 __all__ = [
+    "DensifyV1",
     "EgoOcclusionV1",
     "FreeformV1",
     "LidarDropoutV1",
@@ -65,5 +67,5 @@ def get_protocol(protocol: str | OcclusionProtocol) -> OcclusionProtocol:
         ) from None
 
 
-for _cls in (RectV1, LidarDropoutV1, EgoOcclusionV1, FreeformV1, MixedV1):
+for _cls in (RectV1, LidarDropoutV1, EgoOcclusionV1, FreeformV1, MixedV1, DensifyV1):
     register_protocol(_cls)

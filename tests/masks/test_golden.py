@@ -21,6 +21,7 @@ GOLDEN = {
     "ego-occlusion-v1": "aa66c676d4eca1ff",
     "freeform-v1": "d6ae45301b122ea0",
     "mixed-v1": "6604d76d35bc9568",
+    "densify-v1": "00771d0490d50d2d",
 }
 
 
