@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -27,7 +28,8 @@ from ..evaluate import EvaluationResult, run_method
 from ..masks import get_protocol
 from ..metrics import frame_metrics, interpolate_background
 from ..report import style
-from ..files import write_atomic, write_text_atomic
+from ..exceptions import FileTooLargeError, JSONFileError
+from ..files import read_json, write_atomic, write_text_atomic
 from ..report.progress import count
 from . import ownership
 
@@ -66,6 +68,20 @@ def _save(fig: Any, path: str | Path, dpi: int) -> Path:
     finally:
         _pyplot().close(fig)
     return path
+
+
+def _stamp_of(path: Path) -> str | None:
+    """The stamp ``figures.json`` records, or None when it is missing or unreadable (the figures are redrawn).
+
+    A link, FIFO or device at ``figures.json`` is refused, never read or waited on.
+    """
+    if not os.path.lexists(path):
+        return None
+    try:
+        doc = read_json(path, "figure stamp", follow_links=False)
+    except (JSONFileError, FileTooLargeError):
+        return None  # unreadable stamp: redraw
+    return doc.get("stamp") if isinstance(doc, dict) else None
 
 
 def spread_indices(dataset: DepthDataset, k: int, exclude: Collection[int] = ()) -> list[int]:
@@ -413,13 +429,9 @@ def write_figures(
                 "style": [style.DEPTH_CMAP, style.ERROR_CMAP, style.ERROR_PERCENTILE, list(style.METHOD_PALETTE)]}
     stamp_path = out / "figures.json"
     stamp = _stamp(result, settings)
-    if stamp_path.exists() and all(p.exists() for p in names):
-        try:
-            if json.loads(stamp_path.read_text()).get("stamp") == stamp:
-                log(f"figures in {out} already show these rows; not redrawn")
-                return names
-        except (json.JSONDecodeError, AttributeError):
-            pass  # unreadable stamp: redraw
+    if _stamp_of(stamp_path) == stamp and all(p.exists() for p in names):
+        log(f"figures in {out} already show these rows; not redrawn")
+        return names
     root = ownership.run_root(out)
     ownership.adopt(root)  # a folder holding files no run wrote is refused before anything is drawn
     out.mkdir(parents=True, exist_ok=True)

@@ -25,9 +25,9 @@ import os
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from ..files import TEMP_PREFIX, write_text_atomic
+from ..files import MAX_JSON_BYTES, TEMP_PREFIX, loads_json, read_bytes, read_json, write_text_atomic
 from .lock import LOCK_FILE
-from ..exceptions import ForeignFolderError
+from ..exceptions import ForeignFolderError, InpaintenvError
 
 __all__ = [
     "LEDGER", "RUN_FILES", "ForeignFolderError", "adopt", "check_folder", "claim", "owns", "remove", "run_root",
@@ -78,17 +78,19 @@ def _run_paths(out: Path) -> Iterator[str]:
 
 def _read(out: Path) -> set[str] | None:
     path = out / LEDGER
-    if not path.exists():
+    if not os.path.lexists(path):
         return None
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        # A file of the folder the run owns: a link, FIFO, huge or deeply nested ledger is refused at once.
+        doc = loads_json(read_bytes(path, "the list", limit=MAX_JSON_BYTES, follow_links=False), "it")
         files = doc["files"]
         if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
             raise TypeError
-    except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+    except (InpaintenvError, OSError, KeyError, TypeError) as exc:
+        why = f" ({exc})" if isinstance(exc, (InpaintenvError, OSError)) else ""
         raise ForeignFolderError(
-            f"cannot read {path}, the list of the files inpaintenv wrote in {out}; delete that folder's run files "
-            "and the list, or give another --out"
+            f"cannot read {path}, the list of the files inpaintenv wrote in {out}{why}; delete that folder's run "
+            "files and the list, or give another --out"
         ) from None
     return set(files)
 
@@ -99,11 +101,11 @@ def _write(out: Path, files: Iterable[str]) -> None:
 
 def _legacy(out: Path) -> bool:
     """A run folder of inpaintenv from before ledgers: its run.json, or a results.json of ours."""
-    if (out / "run.json").is_file():
+    if (out / "run.json").is_file() and not (out / "run.json").is_symlink():
         return True
     try:
-        doc = json.loads((out / "results.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError, UnicodeDecodeError):
+        doc = read_json(out / "results.json", "results", follow_links=False)
+    except (InpaintenvError, OSError):
         return False
     return isinstance(doc, dict) and {"meta", "rows"} <= set(doc)
 
@@ -209,6 +211,6 @@ def run_root(folder: str | os.PathLike) -> Path:
     when the parent is a run folder (``figures/`` of a benchmark run)."""
     folder = Path(folder)
     parent = folder.parent
-    if not (folder / LEDGER).exists() and (parent / LEDGER).exists():
+    if not os.path.lexists(folder / LEDGER) and os.path.lexists(parent / LEDGER):
         return parent
     return folder

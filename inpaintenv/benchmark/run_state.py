@@ -16,10 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from ..data.base import DepthDataset
-from ..files import write_text_atomic
+from ..files import read_json, write_text_atomic
 from .datakey import data_key
 from .ownership import claim
-from ..exceptions import RunMismatchError, RunStateError
+from ..exceptions import InpaintenvError, RunMismatchError, RunStateError
 
 __all__ = ["RunMismatchError", "RunStateError", "differences", "fingerprint", "read_run_file", "write_run_file"]
 
@@ -41,14 +41,18 @@ def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], 
 
 
 def read_run_file(path: Path) -> dict[str, Any]:
-    """The resume state of ``path``; a damaged file is an error that names it."""
+    """The resume state of ``path``; a damaged file is an error that names it.
+
+    Read as a file of a folder the run owns: a link, FIFO or device there is refused at
+    once, and so is a document too large or nested too deeply (:func:`inpaintenv.files.read_json`).
+    """
     try:
-        state = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise RunStateError(
-            f"cannot read the resume state {path} ({exc}); pass --no-resume (resume=False) "
-            "to start over, or delete the file"
-        ) from None
+        state = read_json(path, "the file", follow_links=False)
+    except FileNotFoundError:
+        raise
+    except (InpaintenvError, OSError) as exc:  # broken, too deep or large, a link or FIFO: named by exc
+        raise RunStateError(f"cannot read the resume state ({exc}); pass --no-resume (resume=False) to start over, "
+                            "or delete the file") from None
     if not isinstance(state, dict):
         raise RunStateError(
             f"{path} is not a benchmark resume state (a JSON object); pass --no-resume "

@@ -14,7 +14,6 @@ the same rows. Progress goes to tqdm bars on a terminal and, in a log, to a line
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -27,10 +26,10 @@ from ..evaluate import (
     EvaluationResult,
     evaluate,
     merge_skipped,
-    parse_row,
     resolve_source,
     training_drives_of,
 )
+from ..files import remove_stale_temporaries
 from ..masks import get_protocol
 from ..interval_metrics import check_coverage
 from ..metrics import check_unfilled
@@ -43,9 +42,10 @@ from ..report.progress import (
 from .identity import method_identity
 from .lock import run_lock
 from .ownership import adopt, check_folder, claim, remove
+from .rows import append_rows, end_partial_line, read_rows
 from .run_state import RunMismatchError, RunStateError, differences, fingerprint, read_run_file, write_run_file
 from .suites import method_kind
-from ..exceptions import InvalidInputError, InvalidTypeError
+from ..exceptions import InvalidInputError, InvalidTypeError, UnsafeFileError
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
@@ -59,20 +59,6 @@ UNAVAILABLE = (ImportError, KeyError, FileNotFoundError)
 
 def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
-
-
-def _read_rows(path: Path) -> list[dict[str, Any]]:
-    rows = []
-    if path.exists():
-        for line in path.read_text().splitlines():
-            if not line.strip():
-                continue
-            try:
-                rows.append(parse_row(json.loads(line)))
-            except json.JSONDecodeError:
-                # A run killed mid-write leaves at most one partial last line.
-                continue
-    return rows
 
 
 def _check_run(
@@ -291,7 +277,11 @@ class _Run:
     def open(self, resume: bool, unfilled: str | None) -> None:
         """Check the folder holds this run (on resume) or clear its rows; read what it recorded."""
         adopt(self.out)
+        if self.rows_dir.is_symlink():
+            raise UnsafeFileError(f"{self.rows_dir} is a symbolic link; a run writes its rows in its own folder only")
         self.rows_dir.mkdir(parents=True, exist_ok=True)
+        for folder in (self.out, self.rows_dir, self.out / "figures"):
+            remove_stale_temporaries(folder)  # left by a writer killed mid-write
         self.fingerprint = fingerprint(self.dataset, self.total, self.protocols, self.seeds)
         if unfilled is not None:
             # Only a run-wide choice: a method's own policy is part of what the method is, and
@@ -331,7 +321,7 @@ class _Run:
             name: {p: self.rows_dir / f"{_slug(name)}__{_slug(p)}.jsonl" for p in protocols} for name in methods
         }
         existing = {
-            name: {p: [r for r in _read_rows(path) if r["method"] == name] for p, path in by_protocol.items()}
+            name: {p: [r for r in read_rows(path) if r["method"] == name] for p, path in by_protocol.items()}
             for name, by_protocol in self.paths.items()
         }
         self.done = {
@@ -418,44 +408,35 @@ class _Run:
             path = self.paths[name][protocol]
             self._score_protocol(name, method, protocol, path)
             keep = {(s, i) for s in self.seeds for i in range(self.total)}
-            rows = [r for r in _read_rows(path) if r["method"] == name and (r["seed"], r["index"]) in keep]
+            rows = [r for r in read_rows(path) if r["method"] == name and (r["seed"], r["index"]) in keep]
             # One row per (seed, frame) even if a crash left a duplicate line behind.
             unique = {(r["seed"], r["index"]): r for r in rows}
             results.append(EvaluationResult(rows=[unique[k] for k in sorted(unique)], meta={"methods": [name]}))
         return results
 
     def _score_protocol(self, name: str, method: Any, protocol: str, path: Path) -> None:
-        if path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n"):
-            # A kill mid-write left a partial last line: end it so new rows start clean.
-            with path.open("a") as f:
-                f.write("\n")
-        # Opened at the first scored batch: a run stopped by its first frame (a corrupt
+        end_partial_line(path)
+        # Claimed at the first scored batch: a run stopped by its first frame (a corrupt
         # PNG) must not leave an empty row file behind.
-        handle: list[Any] = []
+        claimed: list[bool] = []
         reporter = self.reporter
 
         def append(batch_rows: list[dict[str, Any]]) -> None:
-            if not handle:
+            if not claimed:
                 claim(self.out, path.relative_to(self.out))
-                handle.append(path.open("a"))
-            for row in batch_rows:
-                handle[0].write(json.dumps(row) + "\n")
-            handle[0].flush()
+                claimed.append(True)
+            append_rows(path, batch_rows)
             if reporter is not None:
                 reporter.update(len(batch_rows))
 
-        try:
-            for seed, indices in self.todos[name][protocol].items():
-                if not indices:
-                    continue
-                warmup = name not in self._warmed  # once per method, not per seed or protocol
-                self._warmed.add(name)
-                part = evaluate(method, self.dataset, protocol, seeds=[seed], indices=indices, name=name,
-                                on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)
-                self.skipped.append(part.meta.get("skipped_frames") or [])
-        finally:
-            if handle:
-                handle[0].close()
+        for seed, indices in self.todos[name][protocol].items():
+            if not indices:
+                continue
+            warmup = name not in self._warmed  # once per method, not per seed or protocol
+            self._warmed.add(name)
+            part = evaluate(method, self.dataset, protocol, seeds=[seed], indices=indices, name=name,
+                            on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)
+            self.skipped.append(part.meta.get("skipped_frames") or [])
 
     def combine(self, results: list[EvaluationResult]) -> EvaluationResult:
         """Every method's rows in one result, with the run's meta and its skipped frames."""

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -112,7 +111,8 @@ def _score(args: argparse.Namespace, methods: list[tuple[str, Any, str]], ds: An
     """Score ``methods``, print the table and, with ``--out`` (whose lock is held), write the files."""
     from ..benchmark.ownership import adopt, claim, remove
     from ..evaluate import EvaluationResult, evaluate, skipped_markdown
-    from ..files import write_text_atomic
+    from ..benchmark.rows import append_rows
+    from ..files import remove_stale_temporaries, write_text_atomic
     from ..report.tables import summary_table, table_to_csv
 
     on_batch = None
@@ -123,10 +123,10 @@ def _score(args: argparse.Namespace, methods: list[tuple[str, Any, str]], ds: An
         claim(out, *OUT_FILES)
         partial = out / "partial-rows.jsonl"
         partial.unlink(missing_ok=True)  # recorded above; created by the first scored batch, never left empty
+        remove_stale_temporaries(out)  # left by a writer killed mid-write
 
         def on_batch(rows: list[dict[str, Any]]) -> None:
-            with partial.open("a") as f:
-                f.writelines(json.dumps(row) + "\n" for row in rows)
+            append_rows(partial, rows)  # never through a link planted there
 
     with open_client(args.scheduler) as client:
         results = [
