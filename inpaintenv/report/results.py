@@ -8,6 +8,7 @@ so that reading and reporting rows needs none of the loop's machinery.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from collections.abc import Iterable, Sequence
@@ -21,7 +22,7 @@ from ..conventions import DEFAULT_MAX_DEPTH
 from ..interval_metrics import INTERVAL_COLUMNS
 from ..metrics import METRIC_NAMES, REGIONS, aggregate
 from . import tables
-from ..files import write_atomic, write_text_atomic
+from ..files import MAX_JSON_BYTES, read_json, read_text, write_bytes_atomic, write_text_atomic
 from ..exceptions import InvalidInputError
 
 __all__ = [
@@ -164,7 +165,10 @@ class EvaluationResult:
     @classmethod
     def from_json(cls, path: str | Path) -> EvaluationResult:
         """Read a result written by :meth:`to_json`."""
-        doc = json.loads(Path(path).read_text())
+        doc = read_json(path, "results file")  # bounded in size and nesting; a FIFO is refused at once
+        if not isinstance(doc, dict) or not isinstance(doc.get("rows"), list) or not all(
+                isinstance(r, dict) for r in doc["rows"]):
+            raise InvalidInputError(f"{path} is not a results.json of inpaintenv (an object whose rows are objects)")
         rows = [parse_row(r) for r in doc["rows"]]
         meta = dict(doc.get("meta", {}))
         if doc.get("skipped_frames"):
@@ -182,20 +186,19 @@ class EvaluationResult:
         # intervals write the file they always wrote.
         columns = list(ROW_COLUMNS[:-1]) + _interval_columns(self.rows) + [ROW_COLUMNS[-1]]
 
-        def write(tmp: Path) -> None:
-            with tmp.open("w", newline="") as f:
-                writer = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
-                writer.writeheader()
-                for row in self.rows:
-                    writer.writerow({k: _csv_cell(row.get(k, math.nan)) for k in columns})
-
-        return write_atomic(path, write)
+        text = io.StringIO(newline="")
+        writer = csv.DictWriter(text, fieldnames=columns, extrasaction="ignore")
+        writer.writeheader()
+        for row in self.rows:
+            writer.writerow({k: _csv_cell(row.get(k, math.nan)) for k in columns})
+        return write_bytes_atomic(path, text.getvalue().encode("utf-8"))
 
     @classmethod
     def from_csv(cls, path: str | Path) -> EvaluationResult:
         """Read per-frame rows written by :meth:`to_csv` (``meta`` is empty)."""
-        with Path(path).open(newline="") as f:
-            rows = [parse_row(r) for r in csv.DictReader(f)]
+        # A results CSV is as large as its results.json can be; a FIFO is refused at once.
+        text = read_text(path, "results CSV", limit=MAX_JSON_BYTES)
+        rows = [parse_row(r) for r in csv.DictReader(io.StringIO(text, newline=""))]
         return cls(rows=rows, meta={})
 
     def to_markdown(

@@ -16,6 +16,7 @@ writes one value with its interval, by the rule every table follows:
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 from collections.abc import Sequence
@@ -24,7 +25,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..files import write_atomic
+from ..files import write_bytes_atomic
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
 __all__ = [
@@ -280,14 +281,12 @@ def table_to_csv(
     fields += [f"{m}{s}" for m, _, _ in _metrics_of(table) for s in ("", "_low", "_high", "_n")]
     fields += ["hole_fraction", "ms_per_frame", "trained_on"]
 
-    def write(tmp: Path) -> None:
-        with tmp.open("w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
-            writer.writeheader()
-            for entry in table:
-                row = {k: "" if _missing(entry.get(k)) else entry.get(k) for k in fields}
-                row["trained_on"] = ";".join(entry.get("trained_on") or [])
-                writer.writerow(row)
-
+    text = io.StringIO(newline="")
+    writer = csv.DictWriter(text, fieldnames=fields, extrasaction="ignore")
+    writer.writeheader()
+    for entry in table:
+        row = {k: "" if _missing(entry.get(k)) else entry.get(k) for k in fields}
+        row["trained_on"] = ";".join(entry.get("trained_on") or [])
+        writer.writerow(row)
     # Whole or not at all: a full disk leaves the previous table.
-    return write_atomic(path, write)
+    return write_bytes_atomic(path, text.getvalue().encode("utf-8"))

@@ -136,3 +136,15 @@ def test_stale_temporaries_of_a_killed_writer_are_removed_at_start(capsys, run):
     assert main([*ARGV, "--out", str(run)]) == 0
     assert not any(p.exists() for p in stale)
     assert alive.exists()
+
+
+def test_results_readers_refuse_nested_json_and_fifos(tmp_path):
+    from inpaintenv.evaluate import EvaluationResult
+    from inpaintenv.exceptions import JSONFileError, UnsafeFileError
+
+    (tmp_path / "results.json").write_text(NESTED)
+    with pytest.raises(JSONFileError, match="nested deeper"):
+        EvaluationResult.from_json(tmp_path / "results.json")
+    os.mkfifo(tmp_path / "results.csv")
+    with no_hang(), pytest.raises(UnsafeFileError, match="FIFO"):
+        EvaluationResult.from_csv(tmp_path / "results.csv")
