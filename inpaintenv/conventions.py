@@ -213,7 +213,8 @@ def _check_batch_shape(shape: tuple[int, ...], name: str) -> None:
     """Refuse an ``(N, H, W)`` shape whose frames cannot be depth maps (see :data:`MIN_FRAME_SIDE`)."""
     if shape[0] == 0 or shape[1] == 0 or shape[2] == 0:
         return  # reported as empty by the caller
-    if shape[-1] in (1, 3, 4):
+    # A channel axis only where the (H, W, C) reading is an image; (1, 1, 1) is a 1x1 frame, too small either way.
+    if shape[-1] in (1, 3, 4) and min(shape[:2]) >= MIN_FRAME_SIDE:
         kind = "a channel axis" if shape[-1] == 1 else "colour channels (an RGB/RGBA image)"
         raise InvalidInputError(
             f"{name} has shape {shape}: a trailing size-{shape[-1]} axis looks like {kind}; pass (H, W) "
@@ -221,8 +222,8 @@ def _check_batch_shape(shape: tuple[int, ...], name: str) -> None:
         )
     if min(shape[1:]) < MIN_FRAME_SIDE:
         raise InvalidInputError(
-            f"{name} has shape {shape}: read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a "
-            f"depth frame in an (N, H, W) batch is at least {MIN_FRAME_SIDE}x{MIN_FRAME_SIDE}"
+            f"{name} has shape {shape}: too small: read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a "
+            f"depth frame in an (N, H, W) batch is at least {MIN_FRAME_SIDE}x{MIN_FRAME_SIDE} (MIN_FRAME_SIDE)"
         )
 
 

@@ -120,7 +120,7 @@ def test_png_bomb_and_tiff_named_png_are_bad_frames_that_skip_leaves_out(kitti_t
     bad = folder / "0000000002.png"
     if kind == "bomb":
         _bomb(bad)
-        why = "declares 60000x60000 pixels"
+        why = "declares 60000 x 60000"
     else:
         ok, buf = cv2.imencode(".tiff", np.full((375, 1242), 2560, np.uint16))
         bad.write_bytes(buf.tobytes())

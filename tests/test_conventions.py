@@ -125,7 +125,7 @@ def test_check_mask():
         check_mask(np.array([["x", "y"]]), (1, 2))
 
 
-@pytest.mark.parametrize("shape", [(352, 1216, 1), (2, 4, 1), (5, 6, 1)])
+@pytest.mark.parametrize("shape", [(352, 1216, 1), (8, 8, 1), (40, 64, 1)])
 def test_check_depth_refuses_a_trailing_channel_axis(shape):
     # (H, W, 1) would otherwise be scored as H frames of width 1.
     with pytest.raises(ValueError, match=r"trailing size-1 axis looks like a channel axis; pass \(H, W\)"):
@@ -146,10 +146,12 @@ def test_check_depth_refuses_a_colour_image(shape):
         check_depth(np.ones(shape), name="X", allow_nan=True)
 
 
-@pytest.mark.parametrize("shape", [(3, 4, 6), (2, 1, 6), (1, 7, 64), (5, 64, 2), (10, 3, 40)])
+@pytest.mark.parametrize("shape", [(3, 4, 6), (2, 1, 6), (1, 7, 64), (5, 64, 2), (10, 3, 40), (1, 1, 1), (2, 4, 1),
+                                   (5, 6, 1), (1, 352, 3)])
 def test_check_depth_refuses_frames_smaller_than_the_minimum(shape):
+    # A 1x1 frame batched as (1, 1, 1) was refused as "a channel axis": it is too small either way.
     assert MIN_FRAME_SIDE == 8
-    with pytest.raises(ValueError, match=rf"read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a depth "
+    with pytest.raises(ValueError, match=rf"too small: read as {shape[0]} frames of {shape[1]}x{shape[2]} pixels, but a depth "
                                          r"frame in an \(N, H, W\) batch is at least 8x8"):
         check_depth(np.ones(shape))
 

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ..files import open_regular, read_json, write_atomic, write_json
 from .base import DepthDataset, Subset
 from .io import KITTI_DEPTH_SCALE, depth_from_uint16
 from ..exceptions import InvalidInputError, InvalidTypeError, OutOfRangeError, StaleCacheError
@@ -106,6 +107,12 @@ def encode_depth(depth: np.ndarray, name: str = "frame") -> np.ndarray:
             f"{name}: depth {float(d.max()):.2f} m exceeds 255.99 m, the range of the uint16 cache"
         )
     return codes.astype(np.uint16)
+
+
+def _open_memmap(path: Path, mode: str) -> np.memmap:
+    """The cache array ``path`` memory-mapped; a link, FIFO or device in the cache folder is refused unread."""
+    os.close(open_regular(path, "cache file", follow_links=False))
+    return np.lib.format.open_memmap(path, mode=mode)
 
 
 class CachedDataset(DepthDataset):
@@ -203,26 +210,27 @@ class CachedDataset(DepthDataset):
                     f"the cache needs {format_bytes(need)} but {self.cache_dir} has only "
                     f"{format_bytes(free)} free"
                 )
-        # open_memmap extends the file without writing zeros (sparse on Linux): cheap.
-        np.lib.format.open_memmap(frames_path, mode="w+", dtype=np.uint16, shape=self.shape).flush()
-        np.lib.format.open_memmap(filled_path, mode="w+", dtype=np.uint8, shape=(len(self),)).flush()
-        # meta.json last and atomically: its presence means the arrays exist.
-        doc = dict(self.meta, key=self.key, frame_ids=self.frame_ids)
-        tmp = meta_path.with_suffix(".json.tmp")
-        tmp.write_text(json.dumps(doc, indent=1))
-        os.replace(tmp, meta_path)
+        # open_memmap extends the file without writing zeros (sparse on Linux): cheap. Each
+        # file is made under a temporary name and renamed, never written through a link.
+        for path, dtype, shape in ((frames_path, np.uint16, self.shape), (filled_path, np.uint8, (len(self),))):
+            write_atomic(path, lambda tmp, d=dtype, s=shape: np.lib.format.open_memmap(tmp, "w+", d, s).flush(),
+                         "cache file")
+        # meta.json last: its presence means the arrays exist.
+        write_json(meta_path, dict(self.meta, key=self.key, frame_ids=self.frame_ids))
 
     def _stale_reason(self, meta_path: Path) -> str | None:
         """None if the cache on disk matches this dataset, else what differs."""
         try:
-            old = json.loads(meta_path.read_text())
+            old = read_json(meta_path, "cache meta.json", follow_links=False)
         except (OSError, ValueError) as exc:
             return f"unreadable meta.json: {exc}"
+        if not isinstance(old, dict):
+            return "meta.json is not a JSON object"
         if old.get("key") == self.key:
             _, frames_path, filled_path = self._paths
             for path, shape in ((frames_path, self.shape), (filled_path, (len(self),))):
                 try:
-                    arr = np.load(path, mmap_mode="r")
+                    arr = _open_memmap(path, "r")
                 except (OSError, ValueError) as exc:
                     return f"{path.name} is missing or corrupt: {exc}"
                 if arr.shape != tuple(shape):
@@ -247,8 +255,8 @@ class CachedDataset(DepthDataset):
         if self._frames is None or self._filled is None:
             _, frames_path, filled_path = self._paths
             mode = "r+" if os.access(frames_path, os.W_OK) else "r"
-            self._frames = np.load(frames_path, mmap_mode=mode)
-            self._filled = np.load(filled_path, mmap_mode=mode)
+            self._frames = _open_memmap(frames_path, mode)
+            self._filled = _open_memmap(filled_path, mode)
         return self._frames, self._filled
 
     def __getstate__(self) -> dict[str, Any]:

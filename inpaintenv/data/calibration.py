@@ -19,14 +19,17 @@ LiDAR frame (homogeneous) to the rectified image, and the image size.
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import CalibrationError, InvalidInputError
+from ..exceptions import CalibrationError, FileTooLargeError, InvalidInputError, UnsafeFileError
+from ..files import MAX_TEXT_BYTES, check_frame_pixels, open_regular, read_text
 
-__all__ = ["CALIBRATION_LAYOUTS", "Calibration", "CalibrationError", "parse_size", "read_calibration"]
+__all__ = ["CALIBRATION_LAYOUTS", "MAX_CONDITION", "Calibration", "CalibrationError", "check_size", "parse_size",
+           "read_calibration"]
 
 #: What :func:`read_calibration` accepts, for error messages.
 CALIBRATION_LAYOUTS = (
@@ -36,6 +39,8 @@ CALIBRATION_LAYOUTS = (
 )
 _RAW = ("calib_cam_to_cam.txt", "calib_velo_to_cam.txt")
 _K360 = ("perspective.txt", "calib_cam_to_velo.txt")
+#: The largest condition number of a projection's 3 x 3 part accepted (a camera's is of the order of its focal length).
+MAX_CONDITION: float = 1e8
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,17 +71,26 @@ class Calibration:
 
     def __post_init__(self) -> None:
         m = np.asarray(self.matrix, dtype=np.float64)
+        where = f"{self.source}: " if self.source is not None else ""
         if m.shape != (3, 4) or not np.isfinite(m).all():
-            raise CalibrationError(f"a projection matrix is 3 x 4 and finite, got shape {m.shape}")
-        if abs(np.linalg.det(m[:, :3])) < 1e-12:
-            raise CalibrationError(f"{self.source}: the projection matrix is singular (cannot back-project)")
+            raise CalibrationError(f"{where}a projection matrix is 3 x 4 and finite, got shape {m.shape}")
+        with np.errstate(all="ignore"):
+            det, cond = np.linalg.det(m[:, :3]), np.linalg.cond(m[:, :3])
+        if abs(det) < 1e-12:
+            raise CalibrationError(f"{where}the projection matrix is singular (cannot back-project)")
+        if not cond <= MAX_CONDITION:
+            raise CalibrationError(
+                f"{where}the projection matrix is badly conditioned (condition number {cond:.3g}, more than "
+                f"{MAX_CONDITION:.0e}; a camera's is of the order of its focal length in pixels): back-projected "
+                "points would be meaningless"
+            )
         object.__setattr__(self, "matrix", m)
 
     def with_size(self, size: tuple[int, int] | None) -> Calibration:
         """The same projection with the image ``size`` ``(width, height)`` (None keeps this one's)."""
         if size is None:
             return self
-        return Calibration(self.matrix, _check_size(size), self.kind, self.source, self.camera)
+        return Calibration(self.matrix, check_size(size), self.kind, self.source, self.camera)
 
     def image_size(self) -> tuple[int, int]:
         """``(width, height)``; one clear error when the calibration holds none."""
@@ -89,7 +103,7 @@ class Calibration:
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    """``"1226x370"`` as ``(1226, 370)``; one clear error otherwise."""
+    """``"1226x370"`` as ``(1226, 370)``; one clear error otherwise (see :func:`check_size`)."""
     w, sep, h = str(text).lower().partition("x")
     try:
         size = (int(w), int(h)) if sep else None
@@ -97,41 +111,78 @@ def parse_size(text: str) -> tuple[int, int]:
         size = None
     if size is None:
         raise InvalidInputError(f"an image size is WIDTHxHEIGHT in pixels, e.g. 1226x370, got {text!r}")
-    return _check_size(size)
+    return check_size(size)
 
 
-def _check_size(size: tuple[int, int]) -> tuple[int, int]:
+def check_size(size: tuple[int, int], what: str = "image size") -> tuple[int, int]:
+    """``(width, height)`` of a camera image as ints, or one clear error.
+
+    Raises
+    ------
+    InvalidInputError
+        A side below 1 or above 32768 pixels.
+    FileTooLargeError
+        More than :data:`~inpaintenv.files.MAX_FRAME_PIXELS` pixels
+        (:func:`inpaintenv.files.check_frame_pixels`): the projected map is allocated whole.
+    """
     w, h = (int(v) for v in size)
     if w < 1 or h < 1 or w > 1 << 15 or h > 1 << 15:
-        raise InvalidInputError(f"image size {w}x{h} is not a camera image (1 to 32768 pixels a side)")
+        raise InvalidInputError(f"{what} {w}x{h} is not a camera image (1 to 32768 pixels a side)")
+    check_frame_pixels(h, w, f"{what} {w}x{h}")
     return w, h
 
 
-def _read_key_values(path: Path) -> dict[str, np.ndarray]:
-    """``KEY: numbers`` lines of a KITTI calibration file (non-numeric lines, e.g. dates, skipped)."""
+#: A number of a calibration file: decimal, as KITTI writes them (no hex, nan, inf or ``_``).
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+
+#: What a ``KEY: numbers`` line of a calibration file holds: its line number and its numbers,
+#: or the first token that is not a decimal number.
+_Entry = tuple[int, "np.ndarray | str"]
+
+
+def _read_text(path: Path) -> str:
+    """The ASCII text of a calibration file through the safe file layer; one CalibrationError otherwise."""
     try:
-        text = path.read_text(encoding="ascii", errors="strict")
+        return read_text(path, "calibration file", limit=MAX_TEXT_BYTES, encoding="ascii")
     except FileNotFoundError:
         raise CalibrationError(f"calibration file not found: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CalibrationError(f"cannot read calibration {path}: {exc}") from None
-    out: dict[str, np.ndarray] = {}
-    for line in text.splitlines():
+    except FileTooLargeError:
+        raise
+    except (OSError, UnsafeFileError) as exc:
+        raise CalibrationError(str(exc)) from None
+
+
+def _numbers(tokens: list[str]) -> np.ndarray | str:
+    """``tokens`` as float64, or the first one that is not a decimal number."""
+    bad = next((t for t in tokens if not _NUMBER.fullmatch(t)), None)
+    return np.array([float(t) for t in tokens], dtype=np.float64) if bad is None else bad
+
+
+def _read_key_values(path: Path) -> dict[str, list[_Entry]]:
+    """Every ``KEY: values`` line of a KITTI calibration file, by key (line number, numbers or the bad token).
+
+    Lines that are not numbers (``calib_time: 09-Jan-2012 13:57:47``) are kept as such and
+    refused only when their key is read (:func:`_matrix`), so a hex number or a typo in a
+    matrix names its file and line instead of being dropped.
+    """
+    out: dict[str, list[_Entry]] = {}
+    for number, line in enumerate(_read_text(path).splitlines(), start=1):
         key, sep, values = line.partition(":")
-        if not sep:
-            continue
-        try:
-            out[key.strip()] = np.array([float(v) for v in values.split()], dtype=np.float64)
-        except ValueError:
-            continue  # calib_time: 09-Jan-2012 13:57:47
+        if sep:
+            out.setdefault(key.strip(), []).append((number, _numbers(values.split())))
     return out
 
 
-def _matrix(values: dict[str, np.ndarray], key: str, shape: tuple[int, int], path: Path) -> np.ndarray:
-    """``values[key]`` reshaped; one error naming the file and key when absent or of the wrong length."""
+def _matrix(values: dict[str, list[_Entry]], key: str, shape: tuple[int, int], path: Path) -> np.ndarray:
+    """``values[key]`` reshaped; one error naming the file (and line) when absent, repeated, not numbers or of the wrong length."""
     if key not in values:
         raise CalibrationError(f"{path} has no {key}; {CALIBRATION_LAYOUTS}")
-    v = values[key]
+    entries = values[key]
+    if len(entries) > 1:
+        raise CalibrationError(f"{path}: {key} is given on lines {', '.join(str(n) for n, _ in entries)}; give it once")
+    line, v = entries[0]
+    if isinstance(v, str):
+        raise CalibrationError(f"{path} line {line}: {key} holds {v!r}, not a decimal number")
     if v.size != shape[0] * shape[1] or not np.isfinite(v).all():
         raise CalibrationError(f"{path}: {key} holds {v.size} numbers, expected {shape[0] * shape[1]} finite ones")
     return v.reshape(shape)
@@ -144,8 +195,9 @@ def _homogeneous(rt: np.ndarray) -> np.ndarray:
 
 
 def _rect_size(values: dict[str, np.ndarray], camera: int, path: Path) -> tuple[int, int]:
-    s = _matrix(values, f"S_rect_{camera:02d}", (1, 2), path)[0]
-    return _check_size((round(s[0]), round(s[1])))
+    key = f"S_rect_{camera:02d}"
+    s = _matrix(values, key, (1, 2), path)[0]
+    return check_size((round(s[0]), round(s[1])), f"{path}: {key}")
 
 
 def _read_raw(folder: Path, camera: int) -> Calibration:
@@ -169,15 +221,36 @@ def _read_kitti360(folder: Path, camera: int) -> Calibration:
     persp = _read_key_values(persp_path)
     p = _matrix(persp, f"P_rect_{camera:02d}", (3, 4), persp_path)
     r0 = _homogeneous(_matrix(persp, "R_rect_00", (3, 3), persp_path))
-    try:
-        numbers = np.array(c2v_path.read_text(encoding="ascii").split(), dtype=np.float64)
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise CalibrationError(f"cannot read calibration {c2v_path}: {exc}") from None
+    rows = [(n, _numbers(line.split())) for n, line in enumerate(_read_text(c2v_path).splitlines(), start=1)]
+    bad = next(((n, v) for n, v in rows if isinstance(v, str)), None)
+    if bad is not None:
+        raise CalibrationError(f"{c2v_path} line {bad[0]}: {bad[1]!r} is not a decimal number")
+    numbers = np.concatenate([v for _, v in rows] or [np.zeros(0)])
     if numbers.size != 12 or not np.isfinite(numbers).all():
         raise CalibrationError(f"{c2v_path} holds {numbers.size} numbers; T_cam0_to_velo is 12 (a 3 x 4 matrix)")
-    cam_to_velo = _homogeneous(numbers.reshape(3, 4))
-    return Calibration(p @ r0 @ np.linalg.inv(cam_to_velo), _rect_size(persp, camera, persp_path), "kitti360",
-                       folder, camera)
+    try:
+        velo_to_cam = np.linalg.inv(_homogeneous(numbers.reshape(3, 4)))
+    except np.linalg.LinAlgError:
+        raise CalibrationError(f"{c2v_path}: T_cam0_to_velo is singular (not a rigid motion); cannot invert it") \
+            from None
+    with np.errstate(all="ignore"):
+        matrix = p @ r0 @ velo_to_cam
+    return Calibration(matrix, _rect_size(persp, camera, persp_path), "kitti360", folder, camera)
+
+
+def _is_file_like(path: Path) -> bool:
+    """Something other than a folder is at ``path`` (a FIFO named like a calibration is found, then refused when read)."""
+    return path.exists() and not path.is_dir()
+
+
+def _check_regular(path: Path) -> None:
+    """Refuse a calibration path that is a FIFO, device or socket, in one CalibrationError."""
+    try:
+        os.close(open_regular(path, "calibration file"))
+    except FileNotFoundError:
+        raise CalibrationError(f"calibration file not found: {path}") from None
+    except (OSError, UnsafeFileError) as exc:
+        raise CalibrationError(str(exc)) from None
 
 
 def _locate(path: Path) -> tuple[str, Path]:
@@ -186,18 +259,19 @@ def _locate(path: Path) -> tuple[str, Path]:
     Forgiving about where the user points: a file of a raw or KITTI-360 pair means its
     folder, a drive folder means its day folder, a KITTI-360 root means its ``calibration/``.
     """
-    if path.is_file():
+    if not path.is_dir():
+        _check_regular(path)  # a FIFO or device is refused here, never waited on
         if path.name in _RAW:
             return "raw", path.parent
         if path.name in _K360:
             return "kitti360", path.parent
         return "odometry", path
     for folder in (path, path.parent, path / "calibration"):
-        if all((folder / name).is_file() for name in _RAW):
+        if all(_is_file_like(folder / name) for name in _RAW):
             return "raw", folder
-        if all((folder / name).is_file() for name in _K360):
+        if all(_is_file_like(folder / name) for name in _K360):
             return "kitti360", folder
-    if (path / "calib.txt").is_file():
+    if _is_file_like(path / "calib.txt"):
         return "odometry", path / "calib.txt"
     raise CalibrationError(f"{path} is not a calibration: expected {CALIBRATION_LAYOUTS}")
 
@@ -228,7 +302,13 @@ def read_calibration(
     FileNotFoundError
         If nothing is at ``path``.
     CalibrationError
-        If the files are unreadable, lack a matrix, or ``camera`` is not one of the layout's.
+        If the files are unreadable (a FIFO or device is refused at once), lack a matrix,
+        hold a value that is not a decimal number (its file and line named), give a singular
+        or badly conditioned projection (:data:`MAX_CONDITION`), or ``camera`` is not one of
+        the layout's.
+    FileTooLargeError
+        A file larger than ``inpaintenv.files.MAX_TEXT_BYTES``, or an image size beyond
+        ``inpaintenv.files.MAX_FRAME_PIXELS``.
     """
     p = Path(path)
     if not p.exists():

@@ -17,16 +17,16 @@ booleans or numbers.
 
 from __future__ import annotations
 
+import io
 import os
-import zipfile
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from ..conventions import as_depth_array, check_depth
 from ..exceptions import InvalidInputError
-from .io import DepthFormatError, read_depth_png, write_depth_png
+from ..files import write_bytes_atomic
+from .io import DepthFormatError, load_array, read_depth_png, read_png, write_depth_png
 
 __all__ = ["DEPTH_SUFFIXES", "MASK_SUFFIXES", "read_depth_file", "read_mask_file", "write_depth_file"]
 
@@ -36,27 +36,8 @@ DEPTH_SUFFIXES = (".png", ".npy", ".npz")
 MASK_SUFFIXES = (".png", ".npy", ".npz")
 #: The key of the depth array in an ``.npz`` holding several.
 NPZ_KEY = "depth"
-
-
-def _load_array(path: Path, what: str) -> np.ndarray:
-    """The one array of an ``.npy``, or of an ``.npz`` (its only member, else ``depth``/``mask``)."""
-    if not path.is_file():
-        raise FileNotFoundError(f"{what} not found: {path}")
-    try:
-        loaded = np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise DepthFormatError(f"cannot read {path}: not a NumPy {path.suffix} file, or truncated ({exc})") from None
-    if isinstance(loaded, np.ndarray):
-        return loaded
-    with loaded:
-        keys = list(loaded.files)
-        key = keys[0] if len(keys) == 1 else next((k for k in (NPZ_KEY, "mask") if k in keys), None)
-        if key is None:
-            raise DepthFormatError(f"{path} holds the arrays {keys}; name the {what} array {NPZ_KEY!r} or store one")
-        try:
-            return loaded[key]
-        except (ValueError, OSError, zipfile.BadZipFile) as exc:
-            raise DepthFormatError(f"cannot read array {key!r} of {path}: {exc}") from None
+#: The key of the mask array in an ``.npz`` holding several.
+MASK_KEY = "mask"
 
 
 def read_depth_file(path: str | os.PathLike) -> np.ndarray:
@@ -77,6 +58,11 @@ def read_depth_file(path: str | os.PathLike) -> np.ndarray:
     ------
     FileNotFoundError
         If there is no file.
+    UnsafeFileError
+        A FIFO, device or socket (refused at once, never waited on).
+    FileTooLargeError
+        A PNG or array declaring more than ``inpaintenv.files.MAX_FRAME_PIXELS`` values
+        (checked from its header, before anything is decoded or allocated).
     DepthFormatError
         If the file cannot be decoded or is not one 2-D map of metres (the message names
         the file and the problem: an integer array, negative or infinite depth, ...).
@@ -87,7 +73,7 @@ def read_depth_file(path: str | os.PathLike) -> np.ndarray:
         return read_depth_png(path)
     if suffix not in DEPTH_SUFFIXES:
         raise DepthFormatError(f"{path}: not a depth file (expected {', '.join(DEPTH_SUFFIXES)})")
-    arr = _load_array(path, "depth file")
+    arr = load_array(path, "depth file", key=(NPZ_KEY,))
     try:
         as_depth_array(arr, "the array")
         check_depth(arr, name="the array", allow_nan=True, ndim=(2,))
@@ -108,23 +94,23 @@ def read_mask_file(path: str | os.PathLike) -> np.ndarray:
     ------
     FileNotFoundError
         If there is no file.
+    UnsafeFileError, FileTooLargeError
+        As :func:`read_depth_file`.
     DepthFormatError
-        If it cannot be decoded or is not one 2-D mask (e.g. holds NaN).
+        If it cannot be decoded (a PNG by its signature, whatever its name) or is not one
+        2-D mask (e.g. holds NaN).
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in MASK_SUFFIXES:
         raise DepthFormatError(f"{path}: not a mask file (expected {', '.join(MASK_SUFFIXES)})")
     if suffix == ".png":
-        if not path.is_file():
-            raise FileNotFoundError(f"mask not found: {path}")
-        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-        if img is None:
-            raise DepthFormatError(f"cannot decode {path}: not an image, or truncated/corrupt")
+        # Bytes read by Python and decoded in memory, the declared size checked first.
+        img = read_png(path, "mask")
         if img.ndim == 3:
             img = img[..., :3]  # colour channels; alpha says nothing about holes
         return (img != 0).any(axis=-1) if img.ndim == 3 else img != 0
-    arr = _load_array(path, "mask")
+    arr = load_array(path, "mask", key=(MASK_KEY,))
     if arr.ndim != 2 or not (arr.dtype == np.bool_ or np.issubdtype(arr.dtype, np.number)):
         raise DepthFormatError(f"{path}: a mask is one 2-D array of booleans or numbers, got {arr.dtype} "
                                f"of shape {arr.shape}")
@@ -139,7 +125,8 @@ def write_depth_file(path: str | os.PathLike, depth: np.ndarray) -> None:
     Parameters
     ----------
     path : path-like
-        The suffix chooses the format; parent folders are created.
+        The suffix chooses the format; parent folders are created. Written whole or not at
+        all, never through a link (:func:`inpaintenv.files.write_atomic`).
     depth : numpy.ndarray
         ``(H, W)`` floating-point metres, 0 = no measurement (NaN only in an array file).
 
@@ -158,9 +145,9 @@ def write_depth_file(path: str | os.PathLike, depth: np.ndarray) -> None:
     arr = as_depth_array(depth, "depth to write")
     if arr.ndim != 2:
         raise InvalidInputError(f"depth to write must be (H, W), got shape {arr.shape}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("wb") as f:  # a file object: np.save would otherwise append .npy to any other name
-        if suffix == ".npy":
-            np.save(f, arr, allow_pickle=False)
-        else:
-            np.savez_compressed(f, **{NPZ_KEY: arr})
+    buf = io.BytesIO()  # a file object: np.save would otherwise append .npy to any other name
+    if suffix == ".npy":
+        np.save(buf, arr, allow_pickle=False)
+    else:
+        np.savez_compressed(buf, **{NPZ_KEY: arr})
+    write_bytes_atomic(path, buf.getvalue(), "depth file")

@@ -10,9 +10,9 @@ claims to be huge (a "PNG bomb") is refused in one line instead of allocating gi
 
 from __future__ import annotations
 
-import errno
 import os
 import struct
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,8 +21,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..conventions import MAX_FRAME_PIXELS, check_depth
+from ..conventions import check_depth
 from ..exceptions import DepthFormatError, FileTooLargeError, InvalidInputError
+from ..files import MAX_FRAME_PIXELS, check_frame_pixels, open_regular, read_bytes, read_head, write_bytes_atomic
 
 __all__ = [
     "KITTI_DEPTH_SCALE",
@@ -38,9 +39,7 @@ __all__ = [
     "png_header",
     "read_depth_png",
     "read_depth_png_raw",
-    "read_file_bytes",
     "read_png",
-    "write_bytes",
     "write_depth_png",
     "write_png",
 ]
@@ -54,6 +53,12 @@ _HEADER_BYTES = 33
 #: Leading bytes of formats OpenCV would decode although the file is named .png.
 _OTHER_FORMATS = {b"II*\x00": "a TIFF", b"MM\x00*": "a TIFF", b"\xff\xd8\xff": "a JPEG", b"BM": "a BMP",
                   b"GIF8": "a GIF", b"RIFF": "a WebP (RIFF)", b"P5": "a PGM", b"\x93NUMPY": "a NumPy .npy"}
+#: Bytes at the end of a ZIP searched for its end record (the record and the longest comment).
+_EOCD_SEARCH = 22 + 65535
+#: The largest ZIP directory of an ``.npz`` read (a few entries need a few hundred bytes).
+_MAX_ZIP_DIRECTORY = 1 << 20
+#: The largest ``.npy`` (member) read: :data:`MAX_FRAME_PIXELS` values of 16 bytes and a header.
+_MAX_NPY_BYTES = 16 * MAX_FRAME_PIXELS + (1 << 16)
 _COLOUR = {2: "3 channels (RGB)", 4: "2 channels (grey+alpha)", 6: "4 channels (RGBA)"}
 
 
@@ -65,60 +70,6 @@ class PngHeader:
     height: int
     bit_depth: int
     color_type: int  # 0 = greyscale, 2 = RGB, 3 = palette, 4 = grey+alpha, 6 = RGBA
-
-
-def _clear_os_error(exc: OSError, path: Path, what: str) -> OSError:
-    """``exc`` as an error of the same kind whose message names ``path`` and the cause."""
-    if isinstance(exc, FileNotFoundError):
-        return FileNotFoundError(f"{what} not found: {path}")
-    if isinstance(exc, IsADirectoryError):
-        return IsADirectoryError(f"{what} {path} is a folder, not a file")
-    if isinstance(exc, PermissionError):
-        return PermissionError(f"permission denied reading {what} {path}")
-    if exc.errno == errno.ELOOP:
-        return OSError(f"cannot read {what} {path}: a loop of symbolic links")
-    return OSError(f"cannot read {what} {path}: {exc.strerror or exc}")
-
-
-def read_file_bytes(path: str | os.PathLike, what: str = "file", limit: int | None = None) -> bytes:
-    """The bytes of the file ``path``, or one OSError naming the path and the cause.
-
-    Parameters
-    ----------
-    path : path-like
-        The file (any name the OS accepts, including bytes that are not UTF-8).
-    what : str
-        What the file is, for messages (``"depth PNG"``).
-    limit : int, optional
-        Refuse a file larger than this many bytes (checked before reading).
-
-    Raises
-    ------
-    FileNotFoundError
-        Nothing is at ``path`` (or a link points nowhere).
-    IsADirectoryError
-        ``path`` is a folder.
-    PermissionError
-        The file cannot be read for lack of permission.
-    OSError
-        A loop of symbolic links, another read error, or a file larger than ``limit``.
-    """
-    path = Path(path)
-    try:
-        with open(path, "rb") as f:
-            return _read_at_most(f, path, what, limit)
-    except FileTooLargeError:
-        raise
-    except OSError as exc:
-        raise _clear_os_error(exc, path, what) from None
-
-
-def _read_at_most(f: Any, path: Path, what: str, limit: int | None) -> bytes:
-    """The rest of the open file ``f``, refused (OSError) when the file is larger than ``limit`` bytes."""
-    size = os.fstat(f.fileno()).st_size
-    if limit is not None and size > limit:
-        raise FileTooLargeError(f"{what} {path} is {size:,} bytes, more than the {limit:,} it can need; not read")
-    return f.read()
 
 
 def _parse_header(head: bytes, path: Path) -> PngHeader:
@@ -143,14 +94,10 @@ def png_header(path: str | os.PathLike) -> PngHeader:
         If the file is not a PNG (e.g. a TIFF named ``.png``) or is too short to hold
         the header.
     FileNotFoundError, IsADirectoryError, PermissionError, OSError
-        If it cannot be read (as :func:`read_file_bytes`).
+        If it cannot be read (as :func:`inpaintenv.files.read_bytes`).
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as f:
-            head = f.read(_HEADER_BYTES)
-    except OSError as exc:
-        raise _clear_os_error(exc, path, "depth PNG") from None
+    head, _ = read_head(path, _HEADER_BYTES, "depth PNG")
     return _parse_header(head, path)
 
 
@@ -160,7 +107,9 @@ def check_depth_header(path: str | os.PathLike, header: PngHeader) -> None:
     Raises
     ------
     DepthFormatError
-        Naming the file and what it is (bit depth, channels, declared size).
+        Naming the file and what it is (bit depth, channels, an empty image).
+    FileTooLargeError
+        A declared size beyond :data:`MAX_FRAME_PIXELS` (:func:`inpaintenv.files.check_frame_pixels`).
     """
     if header.color_type == 3:
         raise DepthFormatError(
@@ -181,11 +130,7 @@ def _check_declared_size(path: str | os.PathLike, header: PngHeader) -> None:
     """Refuse a PNG declaring an empty image or more than :data:`MAX_FRAME_PIXELS` pixels, before decoding."""
     if header.width == 0 or header.height == 0:
         raise DepthFormatError(f"{path} declares an empty image ({header.width}x{header.height})")
-    if header.width * header.height > MAX_FRAME_PIXELS:
-        raise DepthFormatError(
-            f"{path} declares {header.width}x{header.height} pixels (W x H), more than the "
-            f"{MAX_FRAME_PIXELS:,} a depth frame may have (inpaintenv.conventions.MAX_FRAME_PIXELS); not decoded"
-        )
+    check_frame_pixels(header.height, header.width, str(path))
 
 
 def _max_file_bytes(header: PngHeader) -> int:
@@ -213,10 +158,13 @@ def read_depth_png(path: str | os.PathLike) -> np.ndarray:
     IsADirectoryError, PermissionError, OSError
         If the path is a folder, cannot be read for lack of permission, or another
         read error (each message names the path and the cause).
+    UnsafeFileError
+        A FIFO, device or socket: refused at once, never waited on.
     DepthFormatError
         If the file is not a PNG (checked by its signature, whatever its name), is
-        truncated or corrupt, 8-bit, has more than one channel, or declares more than
-        :data:`MAX_FRAME_PIXELS` pixels.
+        truncated or corrupt, 8-bit, or has more than one channel.
+    FileTooLargeError
+        It declares more than :data:`MAX_FRAME_PIXELS` pixels, or is larger than its frame can need.
     """
     return depth_from_uint16(read_depth_png_raw(path))
 
@@ -239,18 +187,16 @@ def _read_png_file(
 
     The header is checked (``check_header``) before the rest of the file is read, so a
     file declaring a huge frame, or larger than its frame can need (``max_bytes``), is
-    never read whole; read errors name the path and the cause.
+    never read whole; a FIFO or device is refused unread (:func:`inpaintenv.files.open_regular`);
+    read errors name the path and the cause.
     """
-    try:
-        with open(path, "rb") as f:
-            head = f.read(_HEADER_BYTES)
-            header = _parse_header(head, path)
-            check_header(path, header)
-            return header, head + _read_at_most(f, path, what, max_bytes(header))
-    except FileTooLargeError:
-        raise
-    except OSError as exc:
-        raise _clear_os_error(exc, path, what) from None
+    head, _ = read_head(path, _HEADER_BYTES, what)
+    header = _parse_header(head, path)
+    check_header(path, header)
+    data = read_bytes(path, what, limit=max_bytes(header))
+    if _parse_header(data[:_HEADER_BYTES], path) != header:
+        raise DepthFormatError(f"{path} changed while it was read; not decoded")
+    return header, data
 
 
 def decode_depth_png(data: bytes, name: str | os.PathLike, header: PngHeader | None = None) -> np.ndarray:
@@ -297,9 +243,11 @@ def read_png(path: str | os.PathLike, what: str = "PNG") -> np.ndarray:
     Raises
     ------
     DepthFormatError
-        Not a PNG (by its signature), a declared size beyond the limit, or truncated/corrupt.
-    FileNotFoundError, IsADirectoryError, PermissionError, OSError
-        As :func:`read_file_bytes`.
+        Not a PNG (by its signature), or truncated/corrupt.
+    FileTooLargeError
+        A declared size beyond :data:`MAX_FRAME_PIXELS`, or a file larger than its frame can need.
+    FileNotFoundError, IsADirectoryError, PermissionError, UnsafeFileError, OSError
+        As :func:`inpaintenv.files.open_regular`.
     """
     path = Path(path)
     # Any pixel format: at most 8 bytes a pixel (16-bit RGBA) uncompressed, plus filter bytes.
@@ -320,12 +268,15 @@ def _imdecode(data: bytes, name: str | os.PathLike) -> np.ndarray:
     return img
 
 
-def load_array(path: str | os.PathLike, what: str = "array", key: str | None = None) -> np.ndarray:
-    """The array of an ``.npy`` file, or array ``key`` of an ``.npz``, its header checked before loading.
+def load_array(path: str | os.PathLike, what: str = "array", key: str | tuple[str, ...] | None = None) -> np.ndarray:
+    """The array of an ``.npy`` file, or one array of an ``.npz``, its declared size checked before loading.
 
-    The header's shape is checked against :data:`MAX_FRAME_PIXELS` elements before any data
-    is read (a 128-byte file can declare a terabyte), object arrays are refused (they
-    would need pickles), and a file shorter than its header declares is truncated.
+    The header's shape is checked against :data:`MAX_FRAME_PIXELS` values before any data
+    is read (a 128-byte file can declare a terabyte); in an ``.npz`` the ZIP directory is
+    checked too (its size, and each member's uncompressed size), so a small archive that
+    expands to gigabytes is refused unread. Only arrays of numbers are read (no pickles,
+    strings or records), and a file shorter than its header declares is truncated. A FIFO
+    or device is refused at once (:func:`inpaintenv.files.open_regular`).
 
     Parameters
     ----------
@@ -333,44 +284,91 @@ def load_array(path: str | os.PathLike, what: str = "array", key: str | None = N
         An ``.npy`` or ``.npz`` file.
     what : str
         What the array is, for messages.
-    key : str, optional
-        The member of an ``.npz``; its only member when None.
+    key : str or tuple of str, optional
+        The member of an ``.npz``. None: its only member. A tuple: its only member, else the
+        first of these names it holds.
 
     Raises
     ------
+    FileTooLargeError
+        A declared size beyond :data:`MAX_FRAME_PIXELS` values, or a ZIP directory or member
+        larger than such an array can need.
     DepthFormatError
-        Not a NumPy file, a declared size beyond the limit, an object dtype, truncated data,
-        or an ``.npz`` without ``key`` (or with several arrays and no ``key``).
-    FileNotFoundError, IsADirectoryError, PermissionError, OSError
-        As :func:`read_file_bytes`.
+        Not a NumPy file, not an array of numbers, truncated data, or an ``.npz`` without
+        the array asked for (or with several arrays and no ``key``).
+    FileNotFoundError, IsADirectoryError, PermissionError, UnsafeFileError, OSError
+        As :func:`inpaintenv.files.open_regular`, naming the file.
     """
-    import zipfile
-
     path = Path(path)
-    try:
-        with open(path, "rb") as f:
+    with os.fdopen(open_regular(path, what), "rb") as f:
+        try:
             if f.read(4) != b"PK\x03\x04":
                 f.seek(0)
-                return _read_npy(f, str(path))
-            f.seek(0)
-            try:
-                with zipfile.ZipFile(f) as z:
-                    names = [n.removesuffix(".npy") for n in z.namelist()]
-                    if key is None and len(names) != 1:
-                        raise DepthFormatError(f"{path} holds the arrays {names}; say which {what} to read")
-                    member = names[0] if key is None else key
-                    if member not in names:
-                        raise DepthFormatError(f"{path} has no array {member!r} (it holds {names})")
-                    with z.open(member + ".npy") as m:
-                        return _read_npy(m, f"array {member!r} of {path}")
-            except (zipfile.BadZipFile, EOFError) as exc:
-                raise DepthFormatError(f"cannot read {path}: a damaged .npz ({exc})") from None
-    except OSError as exc:
-        raise _clear_os_error(exc, path, what) from None
+                return _read_npy(f, str(path), os.fstat(f.fileno()).st_size)
+            return _read_npz_member(f, path, what, key)
+        except OSError as exc:
+            if isinstance(exc, FileTooLargeError):
+                raise
+            raise OSError(f"cannot read {what} {path}: {exc.strerror or exc}") from None
 
 
-def _read_npy(f: Any, name: str) -> np.ndarray:
-    """The array of the ``.npy`` stream ``f`` (at its start), its header checked first."""
+def _check_zip_directory(f: Any, path: Path) -> None:
+    """Refuse a ZIP whose directory is larger than an ``.npz`` of frames can need, before parsing it.
+
+    :mod:`zipfile` keeps an object per directory entry; a hostile directory of millions of
+    entries would take gigabytes, so its declared size is read from the end record first.
+    """
+    size = os.fstat(f.fileno()).st_size
+    f.seek(max(0, size - _EOCD_SEARCH))
+    tail = f.read()
+    at = tail.rfind(b"PK\x05\x06")
+    if at < 0 or len(tail) - at < 22:
+        raise DepthFormatError(f"cannot read {path}: a damaged .npz (no ZIP directory at its end)")
+    entries, directory = struct.unpack("<HI", tail[at + 10:at + 16])
+    if tail[max(0, at - 20):at].startswith(b"PK\x06\x07") or directory > _MAX_ZIP_DIRECTORY:
+        raise FileTooLargeError(f"{path} declares a ZIP directory of {entries:,} entries ({directory:,} bytes, or "
+                                "ZIP64), more than an .npz of depth maps or masks can need; not read")
+    f.seek(0)
+
+
+def _choose_member(names: list[str], key: str | tuple[str, ...] | None, path: Path, what: str) -> str:
+    """The member of an ``.npz`` holding ``names`` that :func:`load_array` reads for ``key``."""
+    if isinstance(key, str):
+        if key not in names:
+            raise DepthFormatError(f"{path} has no array {key!r} (it holds {names})")
+        return key
+    if len(names) == 1:
+        return names[0]
+    found = next((k for k in key or () if k in names), None)
+    if found is None:
+        hint = f"name the {what} array {key[0]!r} or store one" if key else f"say which {what} to read"
+        raise DepthFormatError(f"{path} holds the arrays {names}; {hint}")
+    return found
+
+
+def _read_npz_member(f: Any, path: Path, what: str, key: str | tuple[str, ...] | None) -> np.ndarray:
+    """Array ``key`` of the ``.npz`` open as ``f``, each member's declared size checked first."""
+    _check_zip_directory(f, path)
+    try:
+        with zipfile.ZipFile(f) as z:
+            infos = z.infolist()
+            for info in infos:
+                if info.file_size > _MAX_NPY_BYTES:
+                    raise FileTooLargeError(
+                        f"member {info.filename!r} of {path} declares {info.file_size:,} bytes uncompressed, more "
+                        f"than an array of {MAX_FRAME_PIXELS:,} values can need "
+                        "(inpaintenv.files.MAX_FRAME_PIXELS); not read")
+            names = [i.filename.removesuffix(".npy") for i in infos]
+            member = _choose_member(names, key, path, what)
+            info = infos[names.index(member)]
+            with z.open(info) as m:
+                return _read_npy(m, f"array {member!r} of {path}", info.file_size)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, NotImplementedError) as exc:
+        raise DepthFormatError(f"cannot read {path}: a damaged .npz ({exc})") from None
+
+
+def _read_npy(f: Any, name: str, size: int) -> np.ndarray:
+    """The array of the ``.npy`` stream ``f`` (at its start, ``size`` bytes long), its header checked first."""
     fmt = np.lib.format
     try:
         version = fmt.read_magic(f)
@@ -386,15 +384,20 @@ def _read_npy(f: Any, name: str) -> np.ndarray:
             from None
     count = int(np.prod(shape, dtype=object))
     if count > MAX_FRAME_PIXELS:
-        raise DepthFormatError(f"{name} declares an array of shape {shape} ({count:,} values), more than the "
-                               f"{MAX_FRAME_PIXELS:,} a frame may have (inpaintenv.conventions.MAX_FRAME_PIXELS); not read")
-    if dtype.hasobject:
-        raise DepthFormatError(f"{name} holds Python objects (dtype {dtype}); a depth file holds numbers")
-    data = f.read(count * dtype.itemsize)
-    if len(data) != count * dtype.itemsize:
-        raise DepthFormatError(f"cannot read {name}: truncated ({len(data)} of {count * dtype.itemsize} data bytes)")
-    arr = np.frombuffer(data, dtype=dtype)
-    return arr.reshape(shape, order="F" if fortran else "C").copy()
+        raise FileTooLargeError(f"{name} declares an array of shape {shape} ({count:,} values), more than the "
+                                f"{MAX_FRAME_PIXELS:,} a frame may have (inpaintenv.files.MAX_FRAME_PIXELS); not read")
+    if dtype.kind not in "biufc" or dtype.fields is not None:
+        raise DepthFormatError(f"{name} holds {dtype} values (not numbers); a depth map or mask holds numbers")
+    nbytes = count * dtype.itemsize
+    if size - f.tell() < nbytes:
+        raise DepthFormatError(f"cannot read {name}: truncated ({max(0, size - f.tell())} of {nbytes} data bytes)")
+    buf = bytearray(nbytes)  # read in place: no second copy of the array
+    view, got = memoryview(buf), 0
+    while got < nbytes and (n := f.readinto(view[got:])):
+        got += n
+    if got != nbytes:
+        raise DepthFormatError(f"cannot read {name}: truncated ({got} of {nbytes} data bytes)")
+    return np.frombuffer(buf, dtype=dtype).reshape(shape, order="F" if fortran else "C")
 
 
 def depth_from_uint16(raw: np.ndarray) -> np.ndarray:
@@ -419,37 +422,14 @@ def encode_png(image: np.ndarray, name: str | os.PathLike = "image") -> bytes:
     return buf.tobytes()
 
 
-def write_bytes(path: str | os.PathLike, data: bytes, what: str = "file") -> None:
-    """Write ``data`` to ``path`` (its folder created), or one OSError naming the file and the cause.
-
-    The message says, e.g., ``cannot write depth PNG out/x.png: No space left on device``;
-    a partly written file is removed.
-
-    Raises
-    ------
-    PermissionError
-        Permission denied (or a read-only file system).
-    OSError
-        Any other failure, e.g. a full disk.
-    """
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "wb") as f:
-            f.write(data)
-    except OSError as exc:
-        if path.is_file() and not isinstance(exc, (FileExistsError, IsADirectoryError)):
-            path.unlink(missing_ok=True)  # a truncated file would read as a corrupt frame later
-        cause = exc.strerror or str(exc)
-        where = "" if exc.filename in (None, str(path)) else f" ({exc.filename})"
-        if isinstance(exc, PermissionError) or exc.errno == errno.EROFS:
-            raise PermissionError(f"cannot write {what} {path}: {cause}{where}") from None
-        raise OSError(f"cannot write {what} {path}: {cause}{where}") from None
-
-
 def write_png(path: str | os.PathLike, image: np.ndarray, what: str = "PNG") -> None:
-    """Encode ``image`` as PNG in memory and write it to ``path`` (see :func:`write_bytes`)."""
-    write_bytes(path, encode_png(image, path), what)
+    """Encode ``image`` as PNG in memory and write it to ``path`` whole or not at all.
+
+    The write goes through :func:`inpaintenv.files.write_bytes_atomic` (a temporary file
+    renamed over ``path``, never through a link); its folder is created. A failure names
+    the file and the cause (``cannot write depth PNG out/x.png: No space left on device``).
+    """
+    write_bytes_atomic(path, encode_png(image, path), what)
 
 
 def write_depth_png(path: str | os.PathLike, depth: np.ndarray) -> None:

@@ -24,7 +24,8 @@ import numpy as np
 
 from .calibration import Calibration
 from .io import KITTI_DEPTH_SCALE
-from ..exceptions import InvalidInputError, ScanFormatError
+from ..exceptions import CalibrationError, InvalidInputError, ScanFormatError
+from ..files import MAX_SCAN_POINTS, read_bytes, write_bytes_atomic
 
 __all__ = [
     "MIN_SCAN_DEPTH", "ScanFormatError", "depth_to_points", "project_points", "project_scan", "read_scan",
@@ -42,7 +43,8 @@ def read_scan(path: str | os.PathLike) -> np.ndarray:
     Parameters
     ----------
     path : path-like
-        A flat file of float32 x, y, z, reflectance, 16 bytes a point.
+        A flat file of float32 x, y, z, reflectance, 16 bytes a point, at most
+        :data:`~inpaintenv.files.MAX_SCAN_POINTS` points (checked from its size before reading).
 
     Returns
     -------
@@ -53,19 +55,27 @@ def read_scan(path: str | os.PathLike) -> np.ndarray:
     ------
     FileNotFoundError
         If there is no file.
+    UnsafeFileError
+        A FIFO, device or socket (refused at once, never waited on).
+    FileTooLargeError
+        More than :data:`~inpaintenv.files.MAX_SCAN_POINTS` points.
     ScanFormatError
-        If the file is empty or its size is not a whole number of points.
+        If the file is empty, its size is not a whole number of points, or a coordinate is
+        NaN or infinite.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"scan not found: {path}")
-    n_bytes = path.stat().st_size
-    if n_bytes == 0 or n_bytes % _POINT_BYTES:
+    data = read_bytes(path, "scan", limit=MAX_SCAN_POINTS * _POINT_BYTES)
+    if not data or len(data) % _POINT_BYTES:
         raise ScanFormatError(
-            f"{path} is not a KITTI LiDAR scan: {n_bytes} bytes is not a whole, non-zero number of points "
+            f"{path} is not a KITTI LiDAR scan: {len(data)} bytes is not a whole, non-zero number of points "
             "(N x 4 float32: x, y, z, reflectance)"
         )
-    return np.fromfile(path, dtype="<f4").reshape(-1, 4)
+    points = np.frombuffer(bytearray(data), dtype="<f4").reshape(-1, 4)
+    bad = np.count_nonzero(~np.isfinite(points[:, :3]).all(axis=1))
+    if bad:
+        raise ScanFormatError(f"{path}: {bad} of its {len(points)} points have a NaN or infinite coordinate; a KITTI "
+                              "scan holds finite x, y, z in metres")
+    return points
 
 
 def _as_points(points: np.ndarray) -> np.ndarray:
@@ -91,10 +101,13 @@ def project_points(points: np.ndarray, calibration: Calibration) -> tuple[np.nda
         ``z <= 0`` (behind the camera).
     """
     xyz = _as_points(points)[:, :3].astype(np.float64)
+    if not np.isfinite(xyz).all():
+        raise InvalidInputError(f"{np.count_nonzero(~np.isfinite(xyz).all(axis=1))} points have a NaN or infinite "
+                                "coordinate; points are finite x, y, z in metres")
     m = calibration.matrix
-    uvw = xyz @ m[:, :3].T + m[:, 3]
-    z = uvw[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(all="ignore"):  # overflow: refused below, by whoever uses the values
+        uvw = xyz @ m[:, :3].T + m[:, 3]
+        z = uvw[:, 2]
         return uvw[:, 0] / z, uvw[:, 1] / z, z
 
 
@@ -121,9 +134,19 @@ def project_scan(
         ``(height, width)`` float32 metres, 0 where no point lands.
     index : numpy.ndarray
         ``(height, width)`` int64, only with ``return_index``.
+
+    Raises
+    ------
+    InvalidInputError
+        A point with a NaN or infinite coordinate.
+    CalibrationError
+        A point in front of the camera projects to an infinite or NaN pixel or depth.
     """
     width, height = calibration.image_size()
     u, v, z = project_points(points, calibration)
+    with np.errstate(invalid="ignore"):
+        front = z > MIN_SCAN_DEPTH
+    _check_finite(np.concatenate([z, u[front], v[front]]), calibration, "projects finite points")
     with np.errstate(invalid="ignore"):
         ur, vr = np.rint(u), np.rint(v)  # the nearest pixel
         keep = (z > MIN_SCAN_DEPTH) & (ur >= 0) & (ur < width) & (vr >= 0) & (vr < height)
@@ -165,6 +188,11 @@ def depth_to_points(depth: np.ndarray, calibration: Calibration, mask: np.ndarra
     numpy.ndarray
         ``(M, 3)`` float64 x, y, z in metres, one row per pixel in row-major order: the
         pixel's centre ``(column, row)`` at its depth, which projects back onto that pixel.
+
+    Raises
+    ------
+    CalibrationError
+        A point would be infinite or NaN (a calibration out of range), naming the calibration.
     """
     d = np.asarray(depth)
     if d.ndim != 2:
@@ -179,8 +207,20 @@ def depth_to_points(depth: np.ndarray, calibration: Calibration, mask: np.ndarra
     rows, cols = np.nonzero(chosen)
     z = d[rows, cols].astype(np.float64)
     a, b = calibration.matrix[:, :3], calibration.matrix[:, 3]
-    rhs = np.stack([cols * z, rows * z, z]) - b[:, None]
-    return np.linalg.solve(a, rhs).T
+    with np.errstate(all="ignore"):
+        rhs = np.stack([cols * z, rows * z, z]) - b[:, None]
+        xyz = np.linalg.solve(a, rhs).T
+    _check_finite(xyz, calibration, "back-projects depth")
+    return xyz
+
+
+def _check_finite(values: np.ndarray, calibration: Calibration, action: str) -> None:
+    """Refuse non-finite results of a calibration: they would be written as points or depth."""
+    if not np.isfinite(values).all():
+        raise CalibrationError(
+            f"calibration {calibration.source or '(given as a matrix)'} {action} to infinite or NaN values (a "
+            "matrix out of range, or values beyond any sensor's); nothing written"
+        )
 
 
 def _with_reflectance(points: np.ndarray) -> np.ndarray:
@@ -191,22 +231,22 @@ def _with_reflectance(points: np.ndarray) -> np.ndarray:
 
 
 def write_points_bin(path: str | os.PathLike, points: np.ndarray) -> None:
-    """Write points as a KITTI ``.bin`` scan (float32 x, y, z, reflectance; reflectance 0 for ``(N, 3)``)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    _with_reflectance(points).tofile(path)
+    """Write points as a KITTI ``.bin`` scan (float32 x, y, z, reflectance; reflectance 0 for ``(N, 3)``).
+
+    Written whole or not at all, never through a link (:func:`inpaintenv.files.write_atomic`).
+    """
+    write_bytes_atomic(path, _with_reflectance(points).tobytes(), "scan")
 
 
 def write_points_ply(path: str | os.PathLike, points: np.ndarray) -> None:
-    """Write points as a binary PLY (float32 x, y, z, intensity), readable by Open3D, CloudCompare, MeshLab."""
+    """Write points as a binary PLY (float32 x, y, z, intensity), readable by Open3D, CloudCompare, MeshLab.
+
+    Written whole or not at all, never through a link (:func:`inpaintenv.files.write_atomic`).
+    """
     pts = _with_reflectance(points)
     header = (
         "ply\nformat binary_little_endian 1.0\ncomment written by inpaintenv\n"
         f"element vertex {len(pts)}\nproperty float x\nproperty float y\nproperty float z\n"
         "property float intensity\nend_header\n"
     )
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("wb") as f:
-        f.write(header.encode("ascii"))
-        f.write(pts.tobytes())
+    write_bytes_atomic(path, header.encode("ascii") + pts.tobytes(), "point cloud")

@@ -22,8 +22,8 @@ from fuzz_settings import fast
 from hypothesis import given
 from hypothesis import strategies as st
 
-from inpaintenv.data import io as depth_io
 from inpaintenv.data.io import MAX_FRAME_PIXELS, DepthFormatError, png_header, read_depth_png, write_depth_png
+from inpaintenv.exceptions import FileTooLargeError
 
 sizes = st.tuples(st.integers(1, 24), st.integers(1, 40))
 
@@ -111,7 +111,7 @@ def test_png_bomb_is_refused_from_its_header_before_decoding(tmp_path, side):
     # 60000^2 gave a raw cv2.error; 30000^2 was decoded at 3.6 GB into an all-zero frame.
     path = tmp_path / "bomb.png"
     path.write_bytes(png_bytes(side, side))
-    with pytest.raises(DepthFormatError, match=rf"bomb.png declares {side}x{side} pixels.*MAX_FRAME_PIXELS"):
+    with pytest.raises(FileTooLargeError, match=rf"bomb.png declares {side} x {side} = .*MAX_FRAME_PIXELS"):
         read_depth_png(path)
 
 
@@ -121,7 +121,7 @@ def test_any_declared_size_beyond_the_limit_is_refused(tmp_path_factory, width, 
     path = tmp_path_factory.mktemp("bomb") / "x.png"
     path.write_bytes(png_bytes(width, height))
     if width * height > MAX_FRAME_PIXELS:
-        with pytest.raises(DepthFormatError, match="declares"):
+        with pytest.raises(FileTooLargeError, match="declares"):
             read_depth_png(path)
     else:  # within the limit: refused as truncated, or exactly the frame the zeros make
         try:
@@ -169,14 +169,14 @@ def test_pixel_format_is_named_from_the_header(tmp_path, color_type, bit_depth, 
 # -- files that cannot be read or written ------------------------------------------------------
 def _deny(monkeypatch, path):
     """Make opening ``path`` fail as for a file without read permission (tests run as root, who may read anything)."""
-    real_open = open
+    real_open = os.open
 
     def fake_open(file, *args, **kwargs):
         if os.fspath(file) == os.fspath(path):
             raise PermissionError(13, "Permission denied", os.fspath(file))
         return real_open(file, *args, **kwargs)
 
-    monkeypatch.setattr(depth_io, "open", fake_open, raising=False)
+    monkeypatch.setattr(os, "open", fake_open)
 
 
 def test_permission_denied_is_said_with_the_path_not_called_corrupt(tmp_path, monkeypatch):
@@ -200,12 +200,32 @@ def test_loop_of_symbolic_links_is_not_called_missing(tmp_path):
     assert not isinstance(err.value, FileNotFoundError)
 
 
-@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux)")
-def test_full_disk_names_the_file_being_written(tmp_path):
+def _full_disk(monkeypatch):
+    """Make every flush to disk fail as on a full disk."""
+    def no_space(fd):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", no_space)
+
+
+def test_full_disk_names_the_file_being_written(tmp_path, monkeypatch):
     path = tmp_path / "depth.png"
-    path.symlink_to("/dev/full")  # every write to it fails with ENOSPC
+    write_depth_png(path, np.ones((8, 12)))
+    _full_disk(monkeypatch)
     with pytest.raises(OSError, match=f"cannot write depth PNG {path}: No space left on device"):
-        write_depth_png(path, np.ones((8, 12)))
+        write_depth_png(path, np.full((8, 12), 2.0))
+    monkeypatch.undo()
+    np.testing.assert_array_equal(read_depth_png(path), 1.0)  # the previous file is intact
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["depth.png"]  # no temporary left
+
+
+def test_a_link_at_the_target_is_replaced_never_written_through(tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("mine")
+    path = tmp_path / "depth.png"
+    path.symlink_to(victim)
+    write_depth_png(path, np.ones((8, 12)))
+    assert victim.read_text() == "mine" and not path.is_symlink()
 
 
 # -- names that are not UTF-8 --------------------------------------------------------------------
@@ -250,11 +270,11 @@ def test_non_utf8_file_drive_root_and_out_names_in_a_subprocess(tmp_path):
 
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux)")
-def test_show_on_a_full_disk_says_so_instead_of_asking_for_a_png_name(tmp_path, capsys):
+def test_show_on_a_full_disk_says_so_instead_of_asking_for_a_png_name(tmp_path, capsys, monkeypatch):
     from inpaintenv.cli import main
 
     out = tmp_path / "panel.png"
-    out.symlink_to("/dev/full")
+    _full_disk(monkeypatch)
     assert main(["show", "--synthetic", "--n-frames", "1", "--frame-shape", "32", "48", "--out", str(out)]) == 1
     err = capsys.readouterr().err
     assert f"cannot write panel {out}: No space left on device" in err and ".png name" not in err
@@ -273,7 +293,7 @@ def test_npy_header_is_checked_before_loading(tmp_path):
 
     bomb = tmp_path / "bomb.npy"
     bomb.write_bytes(_npy_bomb((100000, 100000)))  # 128 bytes declaring 40 GB
-    with pytest.raises(DepthFormatError, match=r"bomb.npy declares an array of shape \(100000, 100000\).*MAX_FRAME_PIXELS"):
+    with pytest.raises(FileTooLargeError, match=r"bomb.npy declares an array of shape \(100000, 100000\).*MAX_FRAME_PIXELS"):
         load_array(bomb)
     short = tmp_path / "short.npy"
     np.save(short, np.ones((4, 6), np.float32))
@@ -282,11 +302,11 @@ def test_npy_header_is_checked_before_loading(tmp_path):
         load_array(short)
     objects = tmp_path / "objects.npy"
     np.save(objects, np.array([1, "a"], dtype=object), allow_pickle=True)
-    with pytest.raises(DepthFormatError, match="holds Python objects"):
+    with pytest.raises(DepthFormatError, match="holds object values"):
         load_array(objects)
     with zipfile.ZipFile(tmp_path / "bomb.npz", "w") as z:
         z.writestr("depth.npy", _npy_bomb((60000, 60000)))
-    with pytest.raises(DepthFormatError, match=r"array 'depth' of .*bomb.npz declares an array of shape \(60000, 60000\)"):
+    with pytest.raises(FileTooLargeError, match=r"array 'depth' of .*bomb.npz declares an array of shape \(60000, 60000\)"):
         load_array(tmp_path / "bomb.npz")
     good = np.arange(12.0).reshape(3, 4)
     np.savez(tmp_path / "two.npz", depth=good, mask=good > 5)
@@ -306,7 +326,7 @@ def test_random_bytes_as_npy_are_refused_in_one_error(tmp_path_factory, data):
     path.write_bytes(b"\x93NUMPY" + data)
     try:
         arr = load_array(path)
-    except DepthFormatError:
+    except (DepthFormatError, FileTooLargeError):
         return
     assert arr.size <= MAX_FRAME_PIXELS
 
@@ -318,7 +338,7 @@ def test_read_png_checks_signature_and_size_but_not_the_pixel_format(tmp_path):
     mask.write_bytes(cv2.imencode(".png", np.full((4, 5, 3), 255, np.uint8))[1].tobytes())
     assert read_png(mask).shape == (4, 5, 3)
     (tmp_path / "bomb.png").write_bytes(png_bytes(60000, 60000, bit_depth=8))
-    with pytest.raises(DepthFormatError, match="declares 60000x60000"):
+    with pytest.raises(FileTooLargeError, match="declares 60000 x 60000"):
         read_png(tmp_path / "bomb.png")
     tiff = tmp_path / "t.png"
     tiff.write_bytes(cv2.imencode(".tiff", np.ones((4, 5), np.uint8))[1].tobytes())
