@@ -1,7 +1,7 @@
 """Which files of a run folder inpaintenv wrote, so that a run overwrites and deletes only those.
 
-``inpaintenv benchmark``, ``score`` and ``evaluate --out`` write into a folder the user
-names. Each file they write is first recorded in the folder's :data:`LEDGER`
+``inpaintenv benchmark``, ``score``, ``evaluate --out`` and ``train --out`` write into a
+folder the user names. Each file they write is first recorded in the folder's :data:`LEDGER`
 (``inpaintenv-files.json``, relative paths); a run replaces or deletes a file only if it
 is recorded there. So:
 
@@ -9,7 +9,8 @@ is recorded there. So:
   ``run.json`` or ``results.json`` of a run from before ledgers existed) is refused with
   one line naming the folder and one of its files (:class:`ForeignFolderError`);
 * in a run folder, a file at a path a run writes (``results.md``, ``rows/*.jsonl``,
-  ``figures/frame_*.png``, ...) that the ledger does not list -- e.g. one the user put
+  ``figures/frame_*.png``, ...; for ``train``: ``loss.png``, ``training_log.json``,
+  ``model/config.json``, ...) that the ledger does not list -- e.g. one the user put
   there -- is refused the same way, before anything is scored;
 * other files of a run folder (notes, a README) are never touched.
 
@@ -22,7 +23,8 @@ from __future__ import annotations
 import fnmatch
 import json
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..files import MAX_JSON_BYTES, TEMP_PREFIX, loads_json, read_bytes, read_json, write_text_atomic
@@ -30,7 +32,8 @@ from .lock import LOCK_FILE
 from ..exceptions import ForeignFolderError, InpaintenvError
 
 __all__ = [
-    "LEDGER", "RUN_FILES", "ForeignFolderError", "adopt", "check_folder", "claim", "owns", "remove", "run_root",
+    "BENCHMARK", "LEDGER", "RUN_FILES", "TRAIN", "TRAIN_FILES", "FolderKind", "ForeignFolderError", "adopt",
+    "check_folder", "claim", "owns", "remove", "run_root",
 ]
 
 #: The record of the files inpaintenv wrote in a run folder (relative POSIX paths).
@@ -43,8 +46,52 @@ RUN_FILES: tuple[str, ...] = (
     "partial-rows.jsonl", "rows/*.jsonl", "figures/*.png", "figures/figures.json",
 )
 
-#: Files whose presence (without a ledger) marks a run folder written before ledgers existed.
-_LEGACY_MARKERS = ("run.json", "results.json")
+#: Paths that ``inpaintenv train`` writes in its ``--out`` (its checkpoints are keyed
+#: folders of their own under ``checkpoints/``).
+TRAIN_FILES: tuple[str, ...] = (
+    "train_args.json", "training_log.json", "loss.png", "model/config.json", "model/model.safetensors",
+)
+
+
+@dataclass(frozen=True)
+class FolderKind:
+    """What a command writes in its folder: the paths (glob patterns) and how to recognise
+    a folder it wrote before ledgers existed."""
+
+    #: Paths, relative to the folder, that the command writes.
+    files: tuple[str, ...]
+    #: Whether a folder without a ledger was written by this command before ledgers existed.
+    legacy: Callable[[Path], bool]
+
+
+def _regular(path: Path) -> bool:
+    return path.is_file() and not path.is_symlink()
+
+
+def _legacy_run(out: Path) -> bool:
+    """A run folder of inpaintenv from before ledgers: its run.json, or a results.json of ours."""
+    if _regular(out / "run.json"):
+        return True
+    try:
+        doc = read_json(out / "results.json", "results", follow_links=False)
+    except (InpaintenvError, OSError):
+        return False
+    return isinstance(doc, dict) and {"meta", "rows"} <= set(doc)
+
+
+def _legacy_train(out: Path) -> bool:
+    """A training folder of inpaintenv from before ledgers: its train_args.json."""
+    try:
+        doc = read_json(out / "train_args.json", "training arguments", follow_links=False)
+    except (InpaintenvError, OSError):
+        return False
+    return isinstance(doc, dict) and "preset" in doc
+
+
+#: The run folders of ``benchmark``, ``score`` and ``evaluate --out``.
+BENCHMARK = FolderKind(RUN_FILES, _legacy_run)
+#: The ``--out`` of ``inpaintenv train``.
+TRAIN = FolderKind(TRAIN_FILES, _legacy_train)
 
 
 def _foreign(out: Path, rel: str, why: str) -> ForeignFolderError:
@@ -68,11 +115,11 @@ def _files(out: Path) -> Iterator[str]:
             yield Path(folder, name).relative_to(out).as_posix()
 
 
-def _run_paths(out: Path) -> Iterator[str]:
-    """Files under ``out`` at one of the :data:`RUN_FILES` paths."""
-    for pattern in RUN_FILES:
+def _run_paths(out: Path, kind: FolderKind) -> Iterator[str]:
+    """Files (links, FIFOs, anything but a folder) under ``out`` at one of ``kind``'s paths."""
+    for pattern in kind.files:
         for path in sorted(out.glob(pattern)):
-            if path.is_file() or path.is_symlink():
+            if path.is_symlink() or not path.is_dir():
                 yield path.relative_to(out).as_posix()
 
 
@@ -99,21 +146,11 @@ def _write(out: Path, files: Iterable[str]) -> None:
     write_text_atomic(out / LEDGER, json.dumps({"written_by": "inpaintenv", "files": sorted(set(files))}, indent=1))
 
 
-def _legacy(out: Path) -> bool:
-    """A run folder of inpaintenv from before ledgers: its run.json, or a results.json of ours."""
-    if (out / "run.json").is_file() and not (out / "run.json").is_symlink():
-        return True
-    try:
-        doc = read_json(out / "results.json", "results", follow_links=False)
-    except (InpaintenvError, OSError):
-        return False
-    return isinstance(doc, dict) and {"meta", "rows"} <= set(doc)
+def check_folder(out: str | os.PathLike, kind: FolderKind = BENCHMARK) -> None:
+    """Refuse ``out`` unless it is missing, empty, or a folder of inpaintenv without foreign files at ``kind``'s paths.
 
-
-def check_folder(out: str | os.PathLike) -> None:
-    """Refuse ``out`` unless it is missing, empty, or a run folder of inpaintenv without foreign run files.
-
-    Reads only; see the module docstring for the rules.
+    Reads only; see the module docstring for the rules. ``kind``: :data:`BENCHMARK`
+    (default) or :data:`TRAIN`.
 
     Raises
     ------
@@ -130,33 +167,33 @@ def check_folder(out: str | os.PathLike) -> None:
         raise NotADirectoryError(f"--out {out} is a file; the run folder must be a folder")
     owned = _read(out)
     if owned is None:
-        if _legacy(out):
+        if kind.legacy(out):
             return  # every file at a run path was written by that run
         first = next((rel for rel in _files(out) if not _exempt(rel)), None)
         if first is not None:
             raise _foreign(out, first, "is neither empty nor a run folder of inpaintenv")
         return
-    stray = next((rel for rel in _run_paths(out) if rel not in owned and not _exempt(rel)), None)
+    stray = next((rel for rel in _run_paths(out, kind) if rel not in owned and not _exempt(rel)), None)
     if stray is not None:
         raise _foreign(out, stray, "holds a file that no inpaintenv run wrote where a run writes its results")
 
 
-def adopt(out: str | os.PathLike) -> None:
+def adopt(out: str | os.PathLike, kind: FolderKind = BENCHMARK) -> None:
     """Check ``out`` (:func:`check_folder`), create it, and make sure it has a ledger.
 
-    A run folder written before ledgers existed is adopted: the files at run paths in it
-    are recorded as its own.
+    A folder written before ledgers existed is adopted: the files at ``kind``'s paths in
+    it are recorded as its own.
     """
     out = Path(out)
-    check_folder(out)
+    check_folder(out, kind)
     out.mkdir(parents=True, exist_ok=True)
     if _read(out) is None:
-        _write(out, list(_run_paths(out)) if _legacy(out) else [])
+        _write(out, list(_run_paths(out, kind)) if kind.legacy(out) else [])
 
 
-def claim(out: str | os.PathLike, *paths: str | os.PathLike) -> None:
+def claim(out: str | os.PathLike, *paths: str | os.PathLike, kind: FolderKind = BENCHMARK) -> None:
     """Record ``paths`` (relative to ``out``, or absolute paths under it) as written by inpaintenv,
-    before they are written.
+    before they are written (``kind``: what writes the folder, see :func:`check_folder`).
 
     Raises
     ------
@@ -164,7 +201,7 @@ def claim(out: str | os.PathLike, *paths: str | os.PathLike) -> None:
         If one of them exists and is not recorded (someone else's file).
     """
     out = Path(out)
-    adopt(out)
+    adopt(out, kind)
     owned = _read(out) or set()
     new = []
     for path in paths:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -13,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..cluster import open_client, parse_scheduler
+from ..files import loads_json
 from ..provenance import environment_info
 from .options import (
     add_common_options,
@@ -21,7 +23,7 @@ from .options import (
     open_source_from_args,
     thread_count,
 )
-from ..exceptions import InvalidInputError
+from ..exceptions import FileTooLargeError, InvalidInputError, JSONFileError, UnsafeFileError
 
 
 def add_train(subparsers: Any) -> None:
@@ -139,8 +141,8 @@ def parse_set_option(item: str) -> tuple[str, Any]:
         raise InvalidInputError(f"--set takes KEY=VALUE with KEY a parameter name (member__param for an ensemble's "
                          f"member), got {item!r}")
     try:
-        value = json.loads(raw)
-    except ValueError:
+        value = loads_json(raw, f"--set {key}")
+    except JSONFileError:
         value = raw
     return key, value
 
@@ -152,11 +154,22 @@ def _keyed(r: dict[str, Any]) -> dict[str, Any]:
 
 
 def _previous_record(out: Path) -> dict[str, Any] | None:
+    """What the previous run in ``out`` recorded; None if nothing readable (a new run).
+
+    Raises
+    ------
+    UnsafeFileError
+        :data:`TRAIN_ARGS_FILE` is a link, FIFO or device (never read through or waited on).
+    """
+    from ..files import read_json
+
     path = out / TRAIN_ARGS_FILE
-    try:
-        previous = json.loads(path.read_text()) if path.is_file() else None
-    except (ValueError, OSError):
+    if not os.path.lexists(path):
         return None
+    try:
+        previous = read_json(path, "training arguments", follow_links=False)
+    except (JSONFileError, FileTooLargeError):
+        return None  # broken, too deep or too large: not a record to resume from
     return previous if isinstance(previous, dict) else None
 
 
@@ -218,10 +231,15 @@ def plot_training(history: dict[str, Any], path: Path, title: str, loss_label: s
     """
     import matplotlib.pyplot as plt
 
+    from ..files import write_atomic
+
     fig = loss_figure(history, title, loss_label)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    try:
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=100, format=Path(path).suffix.lstrip(".") or "png"),
+                     "loss curve")
+    finally:
+        plt.close(fig)
+    return Path(path)
 
 
 def loss_figure(history: dict[str, Any], title: str, loss_label: str = "training loss") -> Any:
@@ -318,11 +336,35 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise InvalidInputError(f"--out {out} is a file; give a folder")
     record = {"preset": args.preset, "overrides": overrides, "source": repr(ds)}
     from ..benchmark.lock import run_lock
+    from ..benchmark.ownership import TRAIN, check_folder
 
+    check_folder(out, TRAIN)  # someone else's folder or file is refused before anything is written
     # One run per folder: two trainings into one --out would write the same checkpoints.
     with run_lock(out, lambda msg: print(msg, file=sys.stderr)):
         args.train_started = time.time()
         return _train_locked(args, ds, out, record, overrides)
+
+
+def _own_folder(out: Path) -> None:
+    """Record every file ``train`` writes in ``out`` (its ledger, :mod:`~inpaintenv.benchmark.ownership`)
+    before anything is written, and clear the temporaries a killed run left.
+
+    Raises
+    ------
+    ForeignFolderError
+        A file at one of those paths that no training wrote (the message names it).
+    UnsafeFileError
+        ``model/`` or ``checkpoints/`` is a symbolic link.
+    """
+    from ..benchmark.ownership import TRAIN, TRAIN_FILES, claim
+    from ..files import remove_stale_temporaries
+
+    claim(out, *TRAIN_FILES, kind=TRAIN)
+    for sub in ("model", "checkpoints"):
+        if (out / sub).is_symlink():
+            raise UnsafeFileError(f"{out / sub} is a symbolic link; train writes in its own --out only")
+    for folder in (out, out / "model"):
+        remove_stale_temporaries(folder)
 
 
 def _train_locked(args: argparse.Namespace, ds: Any, out: Path, record: dict[str, Any],
@@ -331,8 +373,9 @@ def _train_locked(args: argparse.Namespace, ds: Any, out: Path, record: dict[str
     from estimators.learned.presets import preset_checkpoints, train_preset
 
     from ..evaluate import json_safe
-    from ..files import write_atomic, write_text_atomic
+    from ..files import write_text_atomic
 
+    _own_folder(out)
     done = finished_model(out, record)
     if done is not None:
         print(f"the run in {out} already finished with the same preset, overrides and data: model {done}, "
@@ -369,8 +412,7 @@ def _train_locked(args: argparse.Namespace, ds: Any, out: Path, record: dict[str
         "history": history,
     }
     write_text_atomic(out / "training_log.json", json.dumps(json_safe(log), indent=1))
-    write_atomic(out / "loss.png", lambda tmp: plot_training(history, tmp, f"{args.preset} on {ds!r}",
-                                                             getattr(est, "loss_label", "training loss")))
+    plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}", getattr(est, "loss_label", "training loss"))
     # Last: a rerun of this command is a no-op only once the model and its log are written.
     write_text_atomic(out / TRAIN_ARGS_FILE, json.dumps({**record, "finished": True}, indent=1))
     print(f"model: {model_path}")
