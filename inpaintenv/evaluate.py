@@ -1,8 +1,10 @@
 """Score any inpainting method on a fixed, seeded set of (frame, occlusion) pairs.
 
-The path of one frame: ground truth ``gt`` from a data source -> occlusion ``hole`` from
-the protocol's mask for ``(seed, index)`` -> method input ``corrupt(gt, hole)`` (NaN =
-fill, 0 = no measurement) -> reconstruction -> :func:`inpaintenv.metrics.frame_metrics`.
+The path of one frame: ground truth ``gt`` and the measured input from a data source (the
+map itself, or a single LiDAR scan: :mod:`inpaintenv.data.inputs`) -> occlusion ``hole``
+from the protocol's mask for ``(seed, index)`` -> method input
+:func:`~inpaintenv.data.inputs.method_input` (NaN = fill, 0 = no measurement) ->
+reconstruction -> :func:`inpaintenv.metrics.frame_metrics`.
 
 The benchmark knows nothing about any particular method: ``method`` is any callable
 ``depth_with_nan_holes -> depth`` or any object with ``predict`` (a scikit-learn style
@@ -33,6 +35,7 @@ from .conventions import (
     check_seeds,
 )
 from .data.base import DepthDataset, as_dataset
+from .data.inputs import method_input
 from .masks import OcclusionProtocol, get_protocol
 from .method_calls import (  # run_method and the method helpers stay importable here
     MethodOutputError,
@@ -102,24 +105,29 @@ def resolve_source(source: Any = None) -> DepthDataset:
 
 def _load_batch(
     dataset: DepthDataset, idx: list[int], on_bad_frame: str
-) -> tuple[np.ndarray, list[int], list[dict[str, Any]]]:
-    """Ground truth of frames ``idx``: ``(gt, kept indices, skipped-frame records)``."""
+) -> tuple[np.ndarray, np.ndarray, list[int], list[dict[str, Any]]]:
+    """Inputs and ground truth of frames ``idx``: ``(inputs, gt, kept indices, skipped-frame records)``.
+
+    For a map source ``inputs`` is ``gt``.
+    """
     try:
-        return dataset.load_batch(idx), idx, []
+        return (*dataset.load_pairs(idx), idx, [])
     except BAD_FRAME_ERRORS as exc:
         if on_bad_frame == "error":
             raise BadFrameError(f"{exc}; {_SKIP_HINT}") from exc
     # Skip mode: load frame by frame to keep every good frame of the batch.
-    frames, kept, skipped = [], [], []
+    pairs, kept, skipped = [], [], []
     for i in idx:
         try:
-            frames.append(dataset.load_batch([i])[0])
+            pairs.append(dataset.load_pairs([i]))
             kept.append(i)
         except BAD_FRAME_ERRORS as exc:
             skipped.append({"index": i, "frame_id": str(dataset.frame_ids[i]), "drive": str(dataset.groups[i]),
                             "reason": str(exc)})
-    gt = np.stack(frames) if frames else np.empty((0, *dataset.frame_shape), np.float32)
-    return gt, kept, skipped
+    empty = np.empty((0, *dataset.frame_shape), np.float32)
+    gt = np.concatenate([p[1] for p in pairs]) if pairs else empty
+    inputs = gt if dataset.input_kind == "map" else np.concatenate([p[0] for p in pairs]) if pairs else empty
+    return inputs, gt, kept, skipped
 
 
 # ---------------------------------------------------------------------------------------
@@ -155,7 +163,9 @@ def evaluate(
         ``(N, H, W)`` batches of up to ``batch_size`` frames; other callables receive one
         ``(H, W)`` frame per call.
     source : DepthDataset, array-like, DepthInpaintEnv, or None
-        Ground truth. ``None`` is the built-in :class:`SyntheticStreets` default.
+        Ground truth, and the measured input its ``input_kind`` says (the map itself, or
+        a single LiDAR scan: :mod:`inpaintenv.data.inputs`). ``None`` is the built-in
+        :class:`SyntheticStreets` default.
     protocol : str or OcclusionProtocol
         Occlusion protocol, e.g. ``"rect-v1"``.
     seeds : int or sequence of int
@@ -190,9 +200,10 @@ def evaluate(
         progress bar follow the batches as they finish (in any order); the rows are the
         ones of a local run, all but ``ms``. See :mod:`inpaintenv.cluster`.
     unfilled : {"error", "interpolate", "zero"}
-        A reconstruction left at 0 m at a hole pixel with ground truth (unfilled) stops
+        A reconstruction left at 0 m at a hole pixel with ground truth (unfilled; with a
+        scan, at any pixel with ground truth the input did not measure) stops
         the evaluation with :class:`MethodOutputError` counting them ("error", the
-        default; a 0 outside the hole is scored as given); or every 0 is filled first by the KITTI devkit's background interpolation
+        default; a 0 where the input was given is scored as given); or every 0 is filled first by the KITTI devkit's background interpolation
         ("interpolate", :func:`inpaintenv.metrics.interpolate_background`); or is scored
         as 0 m ("zero", how the study scored its hole-only baselines). Recorded in
         ``meta["unfilled"]``.
@@ -215,6 +226,9 @@ def evaluate(
     Returns
     -------
     EvaluationResult
+        Rows and ``meta`` record the source's ``input_kind``. With a scan, the method is
+        given the scan with the hole cut out (NaN wherever it did not measure), and rows
+        score the hole, the unmeasured ground-truth pixels and all of them.
 
     Raises
     ------
@@ -284,6 +298,7 @@ def evaluate(
         "seeds": seed_list,
         "n_frames": total,
         "source": repr(dataset),
+        "input_kind": dataset.input_kind,
         "frame_shape": list(dataset.frame_shape),
         "max_depth": float(max_depth),
         "unfilled": unfilled,
@@ -328,23 +343,23 @@ def _score_locally(
     skipped: list[dict[str, Any]] = []
     shape = tuple(dataset.frame_shape)
     for idx in batches:
-        # Load ground truth once per batch and reuse it for every seed.
-        gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
+        # Load inputs and ground truth once per batch and reuse them for every seed.
+        inputs, gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
         skipped.extend(bad)
         bar.update(len(bad) * len(seeds))
         if not idx:
             continue
         for seed in seeds:
             hole = protocol.masks(shape, seed, idx)
-            x = gt.copy()
-            x[hole] = np.nan
+            x = method_input(inputs, hole, dataset.input_kind)
             if warmup:
                 _warm_up(call, batched, x[0])
                 warmup = False
             pred, ms = _run(call, batched, x, name)
             try:
                 # Frames, masks, output and options were checked where they entered.
-                metrics = _frame_metrics_checked(pred, gt, hole, max_depth=max_depth, unfilled=unfilled)
+                metrics = _frame_metrics_checked(pred, gt, hole, max_depth=max_depth, unfilled=unfilled,
+                                                 inputs=None if inputs is gt else inputs)
             except UnfilledPixelsError as exc:
                 raise MethodOutputError(f"method {name!r}: {exc}") from None
             if interval is not None:
@@ -368,6 +383,7 @@ def _rows(
         row: dict[str, Any] = {
             "method": name,
             "protocol": protocol,
+            "input_kind": dataset.input_kind,
             "seed": seed,
             "index": i,
             "frame_id": str(dataset.frame_ids[i]),

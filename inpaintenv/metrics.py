@@ -1,8 +1,12 @@
-"""Depth-inpainting metrics on valid ground truth: inside the holes and over all pixels.
+"""Depth-inpainting metrics on valid ground truth: in the holes, where the input had no data, and over all pixels.
 
 Only pixels with ground truth (``gt > 0``) count: ``S = gt > 0``; hole metrics use
-``S ∩ H``, global ("all") metrics use ``S``. Per frame we report RMSE and MAE in metres,
-iRMSE and iMAE in 1/km (KITTI devkit), and PSNR = ``20·log10(max_depth / RMSE)`` in dB.
+``S ∩ H``, global ("all") metrics use ``S``, and "unmeasured" metrics ``S ∩ (H ∪ {input
+== 0})``, the pixels a method was asked to fill (for a map input, whose input is the
+ground truth itself, the hole's; for a single scan, every pixel the scan did not measure).
+Per frame we report RMSE and MAE in metres, iRMSE and iMAE in 1/km (KITTI devkit), and
+PSNR = ``20·log10(max_depth / RMSE)`` in dB; the ``kitti_*`` columns are KITTI depth
+completion's own four on all pixels in its units (RMSE and MAE in mm, iRMSE and iMAE in 1/km).
 Aggregation is the mean over frames (the study's convention) or, on request, pooled
 over pixels. A frame whose hole holds no valid ground truth has NaN hole metrics, is
 counted in ``n_skipped_hole`` and enters no mean (neither hole nor all: it tested
@@ -20,35 +24,35 @@ prediction to :data:`MIN_INVERSE_DEPTH` (0.1 m) before inverting, so a predictio
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Mapping
 
 import numpy as np
 
-from .conventions import (
-    DEFAULT_MAX_DEPTH,
-    as_depth_array,
-    check_depth,
-    check_mask,
-    check_max_depth,
-    reconstruction_problem,
-)
+from .conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask, check_max_depth
+from .depth_bins import DEPTH_BIN_EDGES, depth_binned_errors
+from .kitti_devkit import interpolate_background
 from .exceptions import InvalidInputError, UnfilledPixelsError, UnknownNameError
+from .metric_checks import _check_inputs, _check_pred, _checked_scored
 
 __all__ = [
-    "DEPTH_BIN_EDGES", "METRIC_NAMES", "REGIONS", "UNFILLED", "ScoredPixels", "UnfilledPixelsError", "aggregate",
-    "check_unfilled", "depth_binned_errors", "frame_metrics", "interpolate_background",
+    "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "KITTI_METRICS", "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS",
+    "ScoredPixels", "UnfilledPixelsError", "aggregate", "check_unfilled", "depth_binned_errors", "frame_metrics",
+    "interpolate_background",
 ]
 
 REGIONS = ("hole", "all")
 METRIC_NAMES = ("rmse", "mae", "irmse", "imae", "psnr")
+#: Metrics on the ground-truth pixels the input did not measure, and KITTI's own four (mm, 1/km).
+UNMEASURED_METRICS = ("rmse", "mae", "psnr")
+KITTI_METRICS = ("rmse", "mae", "irmse", "imae")
+#: The per-frame columns beyond ``{REGIONS}_{METRIC_NAMES}`` and ``{REGIONS}_count``.
+EXTRA_COLUMNS = (*(f"unmeasured_{m}" for m in UNMEASURED_METRICS), "unmeasured_count",
+                 *(f"kitti_{m}" for m in KITTI_METRICS))
 #: Predictions are clipped to this depth before inversion (iRMSE/iMAE), so an unfilled
 #: pixel (0 m) gives a large but finite error instead of inf.
 MIN_INVERSE_DEPTH = 0.1
 #: RMSE floor for PSNR, so a perfect frame gives a large finite value, not inf.
 MIN_PSNR_RMSE = 1e-6
-#: Default true-depth bins (metres) of :func:`depth_binned_errors`.
-DEPTH_BIN_EDGES = (0.0, 10.0, 20.0, 30.0, 50.0, np.inf)
 #: How a prediction left at 0 m (unfilled) where ground truth exists is scored:
 #: ``"error"`` refuses it in the hole (the default), ``"interpolate"`` fills such pixels first by the
 #: KITTI devkit's background interpolation (:func:`interpolate_background`), ``"zero"``
@@ -63,55 +67,6 @@ def check_unfilled(value: object, name: str = "unfilled") -> str:
     return value
 
 
-def interpolate_background(pred: np.ndarray) -> np.ndarray:
-    """Fill the unfilled (0 m, or NaN) pixels of a prediction as the KITTI devkit does.
-
-    The devkit (``io_depth.h``, ``interpolateBackground``) runs before it scores a
-    prediction. Per row, a run of unfilled pixels between two filled ones takes the
-    *smaller* of the two depths (the nearer surface: the rule comes from the devkit's
-    disparity code, where the smaller value is the background); runs at the row's ends
-    take the nearest filled value. Then, per column, rows still empty (rows without any
-    filled pixel) above the first or below the last filled row take that row's value;
-    empty rows between filled ones, and frames without any filled pixel, stay 0.
-
-    Parameters
-    ----------
-    pred : numpy.ndarray
-        ``(H, W)`` or ``(N, H, W)`` depth in metres; ``> 0`` is filled.
-
-    Returns
-    -------
-    numpy.ndarray
-        float32 copy of ``pred``'s shape.
-    """
-    d = np.array(pred, dtype=np.float32)
-    frames = d.reshape(-1, *d.shape[-2:])
-    h, w = frames.shape[1:]
-    rows = frames.reshape(-1, w)  # a view: filled in place
-    filled = rows > 0  # NaN > 0 is False: NaN counts as unfilled
-    col = np.arange(w)
-    left = np.maximum.accumulate(np.where(filled, col, -1), axis=1)  # last filled at or before
-    right = np.minimum.accumulate(np.where(filled, col, w)[:, ::-1], axis=1)[:, ::-1]  # next at or after
-    r = np.arange(len(rows))[:, None]
-    lv, rv = rows[r, np.clip(left, 0, w - 1)], rows[r, np.clip(right, 0, w - 1)]
-    has_l, has_r = left >= 0, right < w
-    rows[:] = np.where(
-        filled, rows,
-        np.where(has_l & has_r, np.minimum(lv, rv), np.where(has_l, lv, np.where(has_r, rv, 0.0))),
-    )
-    # Columns: after the row pass a row is entirely filled or entirely empty.
-    full = frames[:, :, 0] > 0  # (N, H)
-    has = full.any(axis=1)
-    first = np.argmax(full, axis=1)
-    last = h - 1 - np.argmax(full[:, ::-1], axis=1)
-    n = np.arange(len(frames))
-    y = np.arange(h)[None, :]
-    source = np.where(y < first[:, None], first[:, None], np.where(y > last[:, None], last[:, None], y))
-    source = np.where(has[:, None] & ~full, source, y)  # empty rows inside stay (source = itself)
-    frames[:] = frames[n[:, None], source]
-    return np.nan_to_num(d, nan=0.0)
-
-
 def frame_metrics(
     pred: np.ndarray,
     gt: np.ndarray,
@@ -119,6 +74,7 @@ def frame_metrics(
     *,
     max_depth: float = DEFAULT_MAX_DEPTH,
     unfilled: str = "error",
+    inputs: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Per-frame metrics for one frame or a batch, vectorised.
 
@@ -139,20 +95,32 @@ def frame_metrics(
         refused with :class:`UnfilledPixelsError` (default; outside the hole, where the
         method was given the measurement, it is scored as given), or every such pixel is
         filled first by the KITTI devkit's :func:`interpolate_background`, or scored as
-        0 m (see :data:`UNFILLED`).
+        0 m (see :data:`UNFILLED`). With ``inputs``, "in the hole" reads "unmeasured".
+    inputs : numpy.ndarray, optional
+        The measured input the method was given before the hole was cut (e.g. a single
+        LiDAR scan), of ``gt``'s shape, 0 = not measured; by default ``gt`` itself (a map input).
 
     Returns
     -------
     dict of str to numpy.ndarray
         Keys ``{region}_{metric}`` for region in ``("hole", "all")`` and metric in
         ``("rmse", "mae", "irmse", "imae", "psnr")``, plus ``hole_count`` and
-        ``all_count`` (number of scored pixels). Each value has shape ``(N,)`` (or is a
-        0-d array for a single frame). Hole metrics are NaN where ``hole_count == 0``.
+        ``all_count`` (number of scored pixels); ``unmeasured_rmse``, ``_mae``, ``_psnr``
+        and ``_count`` on ``(gt > 0) & ((inputs == 0) | hole)`` (the hole's pixels for a
+        map input); and ``kitti_rmse``, ``kitti_mae`` (mm), ``kitti_irmse``,
+        ``kitti_imae`` (1/km), the devkit's four on all pixels. Each value has shape ``(N,)``
+        (or is a 0-d array for a single frame). Hole (unmeasured) metrics are NaN where
+        ``hole_count == 0`` (``unmeasured_count == 0``).
     """
     pred_arr, gt, hole = _check_inputs(pred, gt, hole)
     # NaN/inf would pass a plain "<= 0" test and give NaN/inf PSNR in every row.
     max_depth = check_max_depth(max_depth)
-    return ScoredPixels(gt, hole, check_input=False).metrics(pred_arr, max_depth=max_depth, unfilled=unfilled)
+    if inputs is not None:
+        inputs = check_depth(inputs, name="inputs")
+        if inputs.shape != gt.shape:
+            raise InvalidInputError(f"inputs has shape {inputs.shape}, ground truth {gt.shape}")
+    scored = ScoredPixels(gt, hole, inputs=inputs, check_input=False)
+    return scored.metrics(pred_arr, max_depth=max_depth, unfilled=unfilled)
 
 
 class ScoredPixels:
@@ -171,8 +139,11 @@ class ScoredPixels:
         (checked with :func:`~inpaintenv.conventions.check_depth`).
     hole : numpy.ndarray
         Boolean (or 0/1) occlusion mask of the same shape.
+    inputs : numpy.ndarray, optional
+        The measured input before the hole was cut, 0 = not measured (default: ``gt``,
+        a map input); it decides the unmeasured pixels.
     check_input : bool, default True
-        False skips checking ``gt`` and ``hole``, for callers that have just checked
+        False skips checking ``gt``, ``hole`` and ``inputs``, for callers that have just checked
         them (float32 ground truth from :func:`~inpaintenv.conventions.check_depth`, a
         boolean mask of its shape); unchecked input then gives wrong numbers silently.
 
@@ -180,15 +151,19 @@ class ScoredPixels:
     ----------
     shape : tuple of int
         Shape of ``gt``.
-    all_count, hole_count : numpy.ndarray
+    all_count, hole_count, unmeasured_count : numpy.ndarray
         Scored pixels per frame (``(N,)`` int64, or 0-d for one frame): valid ground
-        truth, and valid ground truth inside the hole.
+        truth, valid ground truth inside the hole, and valid ground truth the input did not measure.
     """
 
-    def __init__(self, gt: np.ndarray, hole: np.ndarray, *, check_input: bool = True):
+    def __init__(
+        self, gt: np.ndarray, hole: np.ndarray, *, inputs: np.ndarray | None = None, check_input: bool = True
+    ):
         if check_input:
             gt = check_depth(gt, name="ground truth")
             hole = check_mask(hole, gt.shape)
+            if inputs is not None and check_depth(inputs, name="inputs").shape != gt.shape:
+                raise InvalidInputError(f"inputs has shape {np.shape(inputs)}, ground truth {gt.shape}")
         self.shape: tuple[int, ...] = gt.shape
         self._single = gt.ndim == 2
         flat_gt, flat_hole = gt.reshape(-1), hole.reshape(-1)
@@ -198,18 +173,24 @@ class ScoredPixels:
         self._index = np.flatnonzero(flat_gt > 0)
         self._gt = flat_gt.take(self._index).astype(np.float64)
         self._in_hole = flat_hole.take(self._index)
+        # For a map input every valid pixel outside the hole was given to the method.
+        self._unmeasured = self._in_hole if inputs is None else self._in_hole | (
+            np.asarray(inputs).reshape(-1).take(self._index) == 0)
         # Pixels per frame from where each frame starts in the sorted index (counting
         # along an axis of the full-size mask costs as much as the gather itself).
         n_frames = 1 if self._single else len(gt)
         starts = np.arange(n_frames + 1) * (flat_gt.size // n_frames)
         n_all = np.diff(np.searchsorted(self._index, starts))
         n_hole = np.diff(np.searchsorted(self._index[self._in_hole], starts))
+        n_unmeasured = np.diff(np.searchsorted(self._index[self._unmeasured], starts))
         self.all_count = n_all[0] if self._single else n_all
         self.hole_count = n_hole[0] if self._single else n_hole
+        self.unmeasured_count = n_unmeasured[0] if self._single else n_unmeasured
         # Per region: pixels per frame, their layout for _frame_sums, and the divisor
         # of the means (NaN for a frame without any: its metrics are NaN).
         self._regions = {
-            region: (n, _runs(n), np.where(n > 0, n, np.nan)) for region, n in (("hole", n_hole), ("all", n_all))
+            region: (n, _runs(n), np.where(n > 0, n, np.nan))
+            for region, n in (("hole", n_hole), ("all", n_all), ("unmeasured", n_unmeasured))
         }
 
     def metrics(
@@ -255,10 +236,11 @@ class ScoredPixels:
                 # The devkit fills every 0 of the prediction; only 0-m pixels change, so a
                 # prediction without any at a scored pixel is left as is.
                 p = _checked_scored(interpolate_background(pred_arr).reshape(-1).take(self._index))
-            elif n := int(np.count_nonzero((p == 0) & self._in_hole)):
-                # Outside the hole the method was given the measurement: 0 there is scored as given.
+            elif n := int(np.count_nonzero((p == 0) & self._unmeasured)):
+                # Where the method was given the measurement, 0 is scored as given.
                 raise UnfilledPixelsError(
-                    f"prediction is 0 m (unfilled) at {n} hole pixels with ground truth; fill them, or set unfilled "
+                    f"prediction is 0 m (unfilled) at {n} {'hole' if self._unmeasured is self._in_hole else 'unmeasured'} "
+                    "pixels with ground truth; fill them, or set unfilled "
                     "to 'interpolate' (the KITTI devkit's background interpolation) or 'zero' (score them as 0 m)"
                 )
         # The arithmetic stays in float64 on the compact vector of scored pixels, so
@@ -277,13 +259,28 @@ class ScoredPixels:
             out[f"{region}_imae"] = _frame_sums(np.abs(ie), runs) / denom
             out[f"{region}_psnr"] = 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
             out[f"{region}_count"] = np.asarray(n, dtype=np.int64)
+        out.update(self._unmeasured_metrics(err, max_depth))
+        # KITTI's four are the all-pixel ones in the devkit's units: mm, and 1/km as here.
+        out["kitti_rmse"], out["kitti_mae"] = 1000.0 * out["all_rmse"], 1000.0 * out["all_mae"]
+        out["kitti_irmse"], out["kitti_imae"] = out["all_irmse"].copy(), out["all_imae"].copy()
         if self._single:
             out = {k: v[0] for k, v in out.items()}
         return out
 
 
+    def _unmeasured_metrics(self, err: np.ndarray, max_depth: float) -> dict[str, np.ndarray]:
+        """RMSE, MAE, PSNR and count on the pixels the input did not measure (``err``: all scored pixels)."""
+        n, runs, denom = self._regions["unmeasured"]
+        e = err[self._unmeasured]
+        rmse = np.sqrt(_frame_sums(e * e, runs) / denom)
+        return {"unmeasured_rmse": rmse, "unmeasured_mae": _frame_sums(np.abs(e), runs) / denom,
+                "unmeasured_psnr": 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE)),
+                "unmeasured_count": np.asarray(n, dtype=np.int64)}
+
+
 def _frame_metrics_checked(
-    pred: np.ndarray, gt: np.ndarray, hole: np.ndarray, *, max_depth: float, unfilled: str
+    pred: np.ndarray, gt: np.ndarray, hole: np.ndarray, *, max_depth: float, unfilled: str,
+    inputs: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """:func:`frame_metrics` of inputs validated where they entered: the private fast path.
 
@@ -296,30 +293,8 @@ def _frame_metrics_checked(
     and ``unfilled`` checked. Nothing is checked again; unchecked input gives wrong
     numbers silently. The numbers are :func:`frame_metrics`'s: the same code scores them.
     """
-    scored = ScoredPixels(gt, hole, check_input=False)
+    scored = ScoredPixels(gt, hole, inputs=inputs, check_input=False)
     return scored._metrics(pred, pred.reshape(-1).take(scored._index).astype(np.float64), max_depth, unfilled)
-
-
-def _check_inputs(pred: np.ndarray, gt: np.ndarray, hole: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(pred, gt, hole)`` as arrays after checking ground truth, shapes, dtype and mask."""
-    gt = check_depth(gt, name="ground truth")
-    return _check_pred(pred, gt.shape), gt, check_mask(hole, gt.shape)
-
-
-def _check_pred(pred: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``pred`` as an array after checking its dtype (:func:`~inpaintenv.conventions.as_depth_array`) and shape."""
-    pred_arr = as_depth_array(pred, "prediction")
-    if pred_arr.shape != shape:
-        raise InvalidInputError(f"prediction has shape {pred_arr.shape}, ground truth {shape}")
-    return pred_arr
-
-
-def _checked_scored(scored_pred: np.ndarray) -> np.ndarray:
-    """The prediction at scored pixels as float64, refused as the env refuses an action (``reconstruction_problem``)."""
-    problem = reconstruction_problem(scored_pred)
-    if problem is not None:
-        raise InvalidInputError(f"prediction at pixels with ground truth {problem}")
-    return scored_pred.astype(np.float64)
 
 
 def _runs(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -348,6 +323,7 @@ def aggregate(
     how: str = "mean",
     max_depth: float = DEFAULT_MAX_DEPTH,
     all_frames: str = "scored",
+    task: str = "hole",
 ) -> dict[str, float]:
     """Aggregate per-frame metrics over frames.
 
@@ -365,13 +341,19 @@ def aggregate(
         Frames of the all-pixel means: ``"scored"`` (default), the frames whose hole
         holds ground truth, the very frames of the hole means; ``"every"``, every frame
         with ground truth, as the KITTI devkit averages.
+    task : {"hole", "unmeasured"}
+        Which pixels a frame's task is to fill: those of its hole (default), or, where no
+        hole is cut (``densify-v1``), every pixel the input did not measure. A frame
+        whose task pixels hold no ground truth tested nothing.
 
     Returns
     -------
     dict of str to float
-        ``{region}_{metric}`` plus ``n_frames`` and ``n_skipped_hole`` (frames without
-        valid ground truth in the hole, left out of the hole means and, unless
-        ``all_frames="every"``, of the all-pixel means).
+        ``{region}_{metric}`` (with the ``unmeasured_*`` and ``kitti_*`` columns when
+        given) plus ``n_frames`` and ``n_skipped_hole`` (frames without valid ground
+        truth among their task pixels, left out of the hole and unmeasured means and,
+        unless ``all_frames="every"``, of the all-pixel means). The ``kitti_*`` means are
+        over every frame with ground truth, as the KITTI devkit averages.
 
     Raises
     ------
@@ -385,6 +367,8 @@ def aggregate(
         raise InvalidInputError(f"how must be 'mean' or 'pooled', got {how!r}")
     if all_frames not in ("scored", "every"):
         raise InvalidInputError(f"all_frames must be 'scored' or 'every', got {all_frames!r}")
+    if task not in ("hole", "unmeasured"):
+        raise InvalidInputError(f"task must be 'hole' or 'unmeasured', got {task!r}")
     max_depth = check_max_depth(max_depth)
     if isinstance(per_frame, list):
         if not per_frame:
@@ -393,6 +377,7 @@ def aggregate(
     else:
         cols = {k: np.atleast_1d(np.asarray(v, dtype=np.float64)) for k, v in per_frame.items()}
     missing = [f"{r}_{m}" for r in REGIONS for m in ("rmse", "mae", "count") if f"{r}_{m}" not in cols]
+    missing += ["unmeasured_count"] if task == "unmeasured" and "unmeasured_count" not in cols else []
     if missing:
         raise UnknownNameError(f"per-frame metrics lack {missing}")
     # Columns are matched frame by frame; unequal lengths would fail deep in numpy indexing.
@@ -405,12 +390,17 @@ def aggregate(
     out: dict[str, float] = {"n_frames": n_frames}
     # A frame whose hole holds no ground truth tested nothing: it leaves every mean, not
     # only the hole ones (its all-pixel error would be ~0 and its PSNR huge).
-    scored = cols["hole_count"] > 0
+    scored = cols[f"{task}_count"] > 0
     out["n_skipped_hole"] = int((~scored).sum())
-    for region in REGIONS:
-        count = cols[f"{region}_count"]
-        ok = (count > 0) if region == "all" and all_frames == "every" else scored & (count > 0)
-        for metric in METRIC_NAMES:
+    # (region, its metrics, the column counting its pixels)
+    regions = [(r, METRIC_NAMES, r) for r in REGIONS]
+    regions += [("unmeasured", UNMEASURED_METRICS, "unmeasured")] if "unmeasured_count" in cols else []
+    regions += [("kitti", KITTI_METRICS, "all")]
+    for region, names, counted in regions:
+        count = cols[f"{counted}_count"]
+        every = region == "kitti" or (region == "all" and all_frames == "every")
+        ok = (count > 0) if every else scored & (count > 0)
+        for metric in names:
             key = f"{region}_{metric}"
             if key not in cols:
                 continue
@@ -423,73 +413,8 @@ def aggregate(
                 out[key] = float(np.sqrt((vals**2 * count[ok]).sum() / count[ok].sum()))
             elif metric in ("mae", "imae"):
                 out[key] = float((vals * count[ok]).sum() / count[ok].sum())
-        if how == "pooled" and ok.any():
+        if how == "pooled" and ok.any() and "psnr" in names:
             out[f"{region}_psnr"] = float(
                 20.0 * np.log10(max_depth / max(out[f"{region}_rmse"], MIN_PSNR_RMSE))
             )
     return out
-
-
-def depth_binned_errors(
-    pred: np.ndarray,
-    gt: np.ndarray,
-    hole: np.ndarray,
-    *,
-    edges: tuple[float, ...] = DEPTH_BIN_EDGES,
-) -> list[dict[str, float]]:
-    """Where a method's hole error comes from: pooled errors per true-depth bin.
-
-    RMSE in metres weighs far pixels heavily; this breaks the squared error inside the
-    holes down by the ground-truth depth, pooled over every scored pixel of the batch.
-
-    Parameters
-    ----------
-    pred, gt, hole : numpy.ndarray
-        As for :func:`frame_metrics`, ``(H, W)`` or ``(N, H, W)``.
-    edges : tuple of float
-        Increasing bin edges in metres; bin ``k`` is ``edges[k] <= gt < edges[k+1]``.
-
-    Returns
-    -------
-    list of dict
-        One row per bin: ``lo``, ``hi``, ``pixels`` (count), ``pixel_share`` and
-        ``sse_share`` (of all scored hole pixels / of their summed squared error),
-        ``rmse`` and ``bias`` (mean of prediction − truth, m; NaN for an empty bin).
-
-    Raises
-    ------
-    ValueError
-        No hole pixel with ground truth, or edges that are not increasing.
-
-    Examples
-    --------
-    >>> gt = np.array([[5.0, 60.0]]); hole = np.ones_like(gt, dtype=bool)
-    >>> rows = depth_binned_errors(np.array([[5.0, 40.0]]), gt, hole, edges=(0, 50, np.inf))
-    >>> [(r["pixels"], r["sse_share"], r["bias"]) for r in rows]
-    [(1, 0.0, 0.0), (1, 1.0, -20.0)]
-    """
-    pred_arr, gt, hole = _check_inputs(pred, gt, hole)
-    edges_arr = np.asarray(edges, dtype=np.float64)
-    if edges_arr.ndim != 1 or len(edges_arr) < 2 or not (np.diff(edges_arr) > 0).all():
-        raise InvalidInputError(f"edges must be at least two increasing values, got {edges!r}")
-    scored = hole & (gt > 0)
-    if not scored.any():
-        raise InvalidInputError("no hole pixel has ground truth: nothing to break down")
-    p = _checked_scored(pred_arr[scored])
-    g = gt[scored].astype(np.float64)
-    err = p - g
-    sq = err * err
-    total_sse = sq.sum()
-    rows = []
-    for lo, hi in itertools.pairwise(edges_arr):
-        in_bin = (g >= lo) & (g < hi)
-        n = int(in_bin.sum())
-        rows.append({
-            "lo": float(lo), "hi": float(hi), "pixels": n,
-            "pixel_share": n / len(g),
-            # A perfect prediction has no squared error to share out.
-            "sse_share": float(sq[in_bin].sum() / total_sse) if total_sse > 0 else 0.0,
-            "rmse": float(np.sqrt(sq[in_bin].mean())) if n else float("nan"),
-            "bias": float(err[in_bin].mean()) if n else float("nan"),
-        })
-    return rows

@@ -5,9 +5,9 @@ ground-truth PNG keeps the ids. The run's fingerprint therefore also holds, per 
 a digest of its frames' content as far as it is cheap to know:
 
 * frames read from files (``KittiDepth``, an export's ground truth): each file's path,
-  size and modification time (``os.stat``; no file is read), and for an export's
+  size and modification time (``os.stat``; no file is read; a scan input's file too), and for an export's
   ground truth the sha256 its manifest records;
-* frames held in memory (``ArrayDataset``): the bytes of the arrays;
+* frames held in memory (``ArrayDataset``): the bytes of the arrays (and of its scans);
 * generated frames (``SyntheticStreets``): nothing beyond the source's description,
   which holds every parameter of the generator.
 
@@ -43,13 +43,18 @@ def _frame_facts(dataset: DepthDataset, index: int) -> Iterator[bytes]:
             break
     if isinstance(dataset, ArrayDataset):
         yield hashlib.sha1(np.ascontiguousarray(dataset._frames[index]).tobytes()).digest()
+        if dataset._inputs is not None:
+            yield hashlib.sha1(np.ascontiguousarray(dataset._inputs[index]).tobytes()).digest()
         return
     recorded = getattr(dataset, "_frames", None)
     sha = getattr(recorded[index], "ground_truth_sha256", None) if isinstance(recorded, list) else None
     if isinstance(sha, str):
         yield sha.encode()
-    path = _frame_path(dataset, index)
-    if path is not None:
+    scans = getattr(dataset, "input_paths", None)
+    scan = scans[index] if isinstance(scans, list) and dataset.input_kind == "scan" else None
+    for path in (_frame_path(dataset, index), scan):  # a scan's file too: its changes change the run
+        if path is None:
+            continue
         try:
             st = os.stat(path)
         except OSError:

@@ -34,6 +34,8 @@ def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], 
         "protocols": list(protocols),
         "seeds": list(seeds),
     }
+    if dataset.input_kind != "map":  # a scan run and a map run of one source are different runs
+        key["input_kind"] = dataset.input_kind
     data = data_key(dataset, n_frames)
     if data:  # a generated source has nothing beyond its description
         key["data"] = data
@@ -74,6 +76,7 @@ def write_run_file(
 _SETTINGS = {
     "source": "the data source", "n_frames": "the number of frames", "frames_sha1": "the frames (their ids)",
     "protocols": "the protocols (--protocol)", "seeds": "the seeds (--seed)", "unfilled": "--unfilled",
+    "input_kind": "the input (--input)",
 }
 
 

@@ -7,7 +7,7 @@ from .base import (
 from .cache import CachedDataset, StaleCacheError, estimate_cache_bytes
 from .calibration import Calibration, CalibrationError, read_calibration
 from .depth_files import read_depth_file, read_mask_file, write_depth_file
-from .inputs import INPUT_KINDS
+from .inputs import INPUT_KINDS, method_input
 from .io import DepthFormatError, read_depth_png, write_depth_png
 from .kitti import KITTI_ROOT_ENV, KITTI_URL, KittiDepth, bottom_center_crop, png_header
 from .projection import (
@@ -52,5 +52,6 @@ __all__ = [
     "write_depth_file",
     "write_depth_png",
     "write_points_bin",
+    "method_input",
     "write_points_ply",
 ]

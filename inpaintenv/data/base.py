@@ -174,8 +174,9 @@ class DepthDataset(InputsMixin, Sequence, ABC):
 
     def __repr__(self) -> str:
         n_drives = len(np.unique(self.groups)) if len(self) else 0
+        scan = f", input={self.input_kind!r}" if self.input_kind != "map" else ""
         return (f"{type(self).__name__}({count(len(self), 'frame')}, {count(n_drives, 'drive')}, "
-                f"frame_shape={self.frame_shape})")
+                f"frame_shape={self.frame_shape}{scan})")
 
 
 class Subset(DepthDataset):

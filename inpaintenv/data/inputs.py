@@ -20,7 +20,7 @@ import numpy as np
 from ..conventions import check_depth, check_seeds
 from ..exceptions import InvalidInputError, OutOfRangeError
 
-__all__ = ["INPUT_KINDS", "InputsMixin", "check_input_kind"]
+__all__ = ["INPUT_KINDS", "InputsMixin", "check_input_kind", "method_input"]
 
 #: The input kinds a dataset can have.
 INPUT_KINDS = ("map", "scan")
@@ -37,6 +37,31 @@ def check_input_kind(value: object, name: str = "input") -> str:
     if not isinstance(value, str) or value not in INPUT_KINDS:
         raise InvalidInputError(f"{name} must be 'map' or 'scan', got {value!r}")
     return value
+
+
+def method_input(inputs: np.ndarray, hole: np.ndarray, input_kind: str) -> np.ndarray:
+    """What a method is given: ``inputs`` with the hole cut out, NaN wherever it is to fill.
+
+    Parameters
+    ----------
+    inputs : numpy.ndarray
+        The measured inputs (:meth:`InputsMixin.load_input_batch`), ``(H, W)`` or ``(N, H, W)``.
+    hole : numpy.ndarray
+        Boolean mask of the same shape.
+    input_kind : {"map", "scan"}
+        For ``"map"`` the hole becomes NaN and a 0 (no measurement) elsewhere stays 0, as
+        always; for ``"scan"`` every pixel not measured after the hole was cut is NaN.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32, a new array.
+    """
+    if check_input_kind(input_kind, "input_kind") == "map":
+        x = np.array(inputs, dtype=np.float32)
+        x[hole] = np.nan
+        return x
+    return np.where((inputs > 0) & ~hole, inputs, np.nan).astype(np.float32, copy=False)
 
 
 class InputsMixin:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..conventions import DEFAULT_MAX_DEPTH
 from ..interval_metrics import INTERVAL_COLUMNS
-from ..metrics import METRIC_NAMES, REGIONS, aggregate
+from ..metrics import EXTRA_COLUMNS, METRIC_NAMES, REGIONS, aggregate
 from . import tables
 from ..files import MAX_JSON_BYTES, read_json, read_text, write_bytes_atomic, write_text_atomic
 from ..exceptions import InvalidInputError
@@ -31,20 +31,20 @@ __all__ = [
 ]
 
 
-#: Per-frame metric columns, in report order.
+#: Per-frame metric columns, in report order: hole and all pixels, then the unmeasured pixels and KITTI's four.
 METRIC_COLUMNS: tuple[str, ...] = tuple(
     f"{r}_{m}" for r in REGIONS for m in METRIC_NAMES
-) + tuple(f"{r}_count" for r in REGIONS)
+) + tuple(f"{r}_count" for r in REGIONS) + EXTRA_COLUMNS
 
 
-#: Identifying columns of a per-frame row, in report order.
-ID_COLUMNS: tuple[str, ...] = ("method", "protocol", "seed", "index", "frame_id", "drive")
+#: Identifying columns of a per-frame row, in report order (``input_kind``: ``"map"`` or ``"scan"``).
+ID_COLUMNS: tuple[str, ...] = ("method", "protocol", "input_kind", "seed", "index", "frame_id", "drive")
 
 
 #: All per-frame columns, in report order.
 ROW_COLUMNS: tuple[str, ...] = ID_COLUMNS + ("hole_fraction",) + METRIC_COLUMNS + ("ms",)
-_INT_COLUMNS = ("seed", "index", "hole_count", "all_count")
-_STR_COLUMNS = ("method", "protocol", "frame_id", "drive")
+_INT_COLUMNS = ("seed", "index", "hole_count", "all_count", "unmeasured_count")
+_STR_COLUMNS = ("method", "protocol", "input_kind", "frame_id", "drive")
 
 
 def _mean(values: Iterable[float]) -> float:
@@ -88,8 +88,11 @@ class EvaluationResult:
         max_depth = float(self.meta.get("max_depth", DEFAULT_MAX_DEPTH))
         table = []
         for key, rows in groups.items():
-            metrics = [{c: row[c] for c in METRIC_COLUMNS} for row in rows]
-            agg = aggregate(metrics, how="mean", max_depth=max_depth)
+            # Rows of runs made before the unmeasured and KITTI columns existed lack them.
+            metrics = [{c: row.get(c, math.nan) for c in METRIC_COLUMNS} for row in rows]
+            # A group in which no frame had a hole cut (densify-v1) is scored on its unmeasured pixels.
+            task = "unmeasured" if all(r["hole_fraction"] == 0 for r in rows) else "hole"
+            agg = aggregate(metrics, how="mean", max_depth=max_depth, task=task)
             entry: dict[str, Any] = dict(zip(keys, key))
             entry.update(agg)
             entry["n_frames"] = int(agg["n_frames"])
