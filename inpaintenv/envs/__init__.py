@@ -3,9 +3,9 @@
 Registered on ``import inpaintenv``:
 
 * ``inpaintenv/KittiInpaint-v0`` -- real KITTI depth (kwargs ``root``, ``split``,
-  ``camera``, ``kind``, ``crop``, ``protocol``);
+  ``camera``, ``kind``, ``crop``, ``input``, ``protocol``);
 * ``inpaintenv/SyntheticInpaint-v0`` -- the built-in synthetic streets (kwargs ``n``,
-  ``seed``, ``frame_shape``, ``protocol``);
+  ``seed``, ``frame_shape``, ``input``, ``protocol``);
 * ``inpaintenv/DepthInpaint-v0`` -- any dataset or array (kwarg ``dataset``).
 """
 

@@ -31,15 +31,17 @@ def make_kitti_env(
     max_depth: float = DEFAULT_MAX_DEPTH,
     render_mode: str | None = None,
     unfilled: str = "error",
+    input: Any = _UNSET,
 ) -> DepthInpaintEnv:
     """``inpaintenv/KittiInpaint-v0``: the env on real KITTI depth (:class:`KittiDepth`).
 
-    ``root``, ``split``, ``camera``, ``kind`` and ``crop`` go to ``KittiDepth``; keywords
-    not given keep ``KittiDepth``'s defaults.
+    ``root``, ``split``, ``camera``, ``kind``, ``crop`` and ``input`` (``"scan"``: each
+    frame's single scan is the input) go to ``KittiDepth``; keywords not given keep
+    ``KittiDepth``'s defaults.
     """
     from ..data.kitti import KittiDepth
 
-    dataset = KittiDepth(root, **_given(split=split, camera=camera, kind=kind, crop=crop))
+    dataset = KittiDepth(root, **_given(split=split, camera=camera, kind=kind, crop=crop, input=input))
     return DepthInpaintEnv(dataset, protocol=protocol, max_depth=max_depth, render_mode=render_mode, unfilled=unfilled)
 
 
@@ -51,13 +53,14 @@ def make_synthetic_env(
     max_depth: float = DEFAULT_MAX_DEPTH,
     render_mode: str | None = None,
     unfilled: str = "error",
+    input: Any = _UNSET,
 ) -> DepthInpaintEnv:
     """``inpaintenv/SyntheticInpaint-v0``: the env on the built-in :class:`SyntheticStreets`.
 
-    ``n``, ``seed`` and ``frame_shape`` go to ``SyntheticStreets``; keywords not given
-    keep its defaults.
+    ``n``, ``seed``, ``frame_shape`` and ``input`` (``"scan"``: each frame's simulated
+    scan is the input) go to ``SyntheticStreets``; keywords not given keep its defaults.
     """
     from ..data.synthetic import SyntheticStreets
 
-    dataset = SyntheticStreets(**_given(n=n, seed=seed, frame_shape=frame_shape))
+    dataset = SyntheticStreets(**_given(n=n, seed=seed, frame_shape=frame_shape, input=input))
     return DepthInpaintEnv(dataset, protocol=protocol, max_depth=max_depth, render_mode=render_mode, unfilled=unfilled)

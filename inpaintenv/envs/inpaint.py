@@ -9,7 +9,9 @@ Episode = one frame:
 * ``step(reconstruction)`` scores the ``(H, W)`` reconstruction in metres with the
   metrics of :func:`inpaintenv.metrics.frame_metrics` (through the
   :class:`~inpaintenv.metrics.ScoredPixels` gathered at ``reset``, so a step reads only
-  the action); reward = −hole RMSE, ``terminated=True``.
+  the action); reward = −hole RMSE (−unmeasured RMSE under ``densify-v1``), ``terminated=True``.
+* The input is the dataset's ``input_kind`` (:mod:`inpaintenv.data.inputs`): the frame
+  itself, or a single LiDAR scan of it whose ground truth is only the target.
 
 Decisions (see ``docs/env.md``):
 
@@ -46,6 +48,7 @@ from ..conventions import (
     reconstruction_problem,
 )
 from ..data.base import DepthDataset, as_dataset
+from ..data.inputs import check_input_kind
 from ..masks import OcclusionProtocol, get_protocol
 from ..interval_metrics import check_coverage, interval_from_std, interval_metrics
 from ..metrics import ScoredPixels, check_unfilled
@@ -66,12 +69,15 @@ MASK_SEED_HIGH = 2**31
 
 def draw_scored_hole(
     protocol: OcclusionProtocol, gt: np.ndarray, mask_seed: int, index: int,
-    max_redraws: int = MAX_MASK_REDRAWS,
+    max_redraws: int = MAX_MASK_REDRAWS, inputs: np.ndarray | None = None,
 ) -> tuple[np.ndarray | None, int]:
     """The first mask of ``(protocol, mask_seed, index)`` whose hole holds valid ground truth.
 
     Attempt 0 is ``protocol.mask(gt.shape, mask_seed, index)``; attempt ``k > 0`` draws from
     ``SeedSequence([crc32(name), mask_seed, index, k])``, so redraws are reproducible too.
+    Under a protocol whose task is ``"unmeasured"`` (``densify-v1``) the pixels that must
+    hold ground truth are the hole and every pixel the measured ``inputs`` lack (``inputs``:
+    a scan, 0 = not measured; by default ``gt`` itself).
 
     Returns
     -------
@@ -81,13 +87,15 @@ def draw_scored_hole(
         Number of masks rejected before ``hole``.
     """
     valid = gt > 0
+    # With a scan, a task on the unmeasured pixels also scores the truth the scan lacks.
+    lacking = bool((valid & (inputs == 0)).any()) if protocol.task == "unmeasured" and inputs is not None else False
     for attempt in range(max_redraws + 1):
         if attempt == 0:
             hole = protocol.mask(gt.shape, mask_seed, index)
         else:
             ss = np.random.SeedSequence([zlib.crc32(protocol.name.encode()), mask_seed, index, attempt])
             hole = protocol.sample(gt.shape, np.random.default_rng(ss))
-        if (hole & valid).any():
+        if lacking or (hole & valid).any():
             return hole, attempt
     return None, max_redraws + 1
 
@@ -112,13 +120,18 @@ class DepthInpaintEnv(gym.Env):
     interval_coverage : float
         Nominal coverage (in (0, 1), 0.9 by default) of the interval a ``std`` action
         stands for: ``[depth - z·std, depth + z·std]`` clipped at 0 m, ``z`` its normal quantile.
+    input : {"map", "scan"}, optional
+        The input kind, which the dataset decides (:mod:`inpaintenv.data.inputs`); given,
+        it must be the dataset's (a map source has no scans).
 
     Observation
     -----------
-    ``{"depth": float32 (H, W), "hole": uint8 (H, W)}``: the ground truth with the hole
-    zeroed (so 0 there means "occluded", elsewhere "no measurement"), and the hole mask
-    (1 = fill). Both are ``Box`` spaces with finite bounds ``[0, DEPTH_LIMIT]`` and
-    ``[0, 1]``.
+    ``{"depth": float32 (H, W), "hole": uint8 (H, W), "measured": uint8 (H, W)}``: the
+    input with the hole zeroed (for a map input the ground truth itself, for a scan input
+    the scan; 0 means "occluded" in the hole, elsewhere "no measurement"), the hole mask
+    (1 = occluded), and where the input holds a measurement after the hole was cut
+    (``depth > 0``; every other pixel with ground truth is scored as unmeasured). All are
+    ``Box`` spaces with finite bounds ``[0, DEPTH_LIMIT]`` and ``[0, 1]``.
 
     Action
     ------
@@ -132,11 +145,14 @@ class DepthInpaintEnv(gym.Env):
 
     Reward and info
     ---------------
-    ``step`` returns reward = −hole RMSE (metres), ``terminated=True``,
+    ``step`` returns reward = −hole RMSE (metres; −unmeasured RMSE under a protocol whose
+    ``task`` is ``"unmeasured"``, ``densify-v1``), ``terminated=True``,
     ``truncated=False``, and ``info`` with every metric of
-    :func:`~inpaintenv.metrics.frame_metrics` (``hole_rmse``, ..., ``all_count``) as
-    Python numbers, plus ``frame_id``, ``drive``, ``index``, ``mask_seed``,
-    ``mask_redraws`` and ``hole_fraction``. ``reset`` returns the same episode keys.
+    :func:`~inpaintenv.metrics.frame_metrics` (``hole_rmse``, ..., ``all_count``, the
+    ``unmeasured_*`` and ``kitti_*`` ones) as Python numbers, plus ``frame_id``, ``drive``,
+    ``index``, ``mask_seed``, ``mask_redraws``, ``hole_fraction`` and ``input_kind``; a
+    metric undefined in the episode (the hole's under ``densify-v1``, whose hole is empty:
+    ``hole_count`` is 0) is left out. ``reset`` returns the same episode keys.
     With an interval, ``info`` also has the columns of
     :data:`~inpaintenv.interval_metrics.INTERVAL_COLUMNS` (``hole_coverage``,
     ``hole_interval_width``, ``rmse_keep_80``, ...) as floats; the reward is unchanged.
@@ -152,10 +168,15 @@ class DepthInpaintEnv(gym.Env):
         render_mode: str | None = None,
         unfilled: str = "error",
         interval_coverage: float = 0.9,
+        input: str | None = None,
     ):
         self.dataset: DepthDataset = as_dataset(dataset)
         if len(self.dataset) == 0:
             raise InvalidInputError("the dataset has no frames")
+        if input is not None and check_input_kind(input) != self.dataset.input_kind:
+            raise InvalidInputError(f"input={input!r}, but the dataset's input kind is {self.dataset.input_kind!r}; "
+                                    "open the source with that input (e.g. KittiDepth(..., input='scan'))")
+        self.input_kind = self.dataset.input_kind
         self.protocol = get_protocol(protocol)
         max_depth = check_max_depth(max_depth)
         if max_depth > DEPTH_LIMIT:
@@ -174,6 +195,7 @@ class DepthInpaintEnv(gym.Env):
             {
                 "depth": spaces.Box(0.0, DEPTH_LIMIT, shape=shape, dtype=np.float32),
                 "hole": spaces.Box(0, 1, shape=shape, dtype=np.uint8),
+                "measured": spaces.Box(0, 1, shape=shape, dtype=np.uint8),
             }
         )
         self.action_space = spaces.Box(0.0, DEPTH_LIMIT, shape=shape, dtype=np.float32)
@@ -223,8 +245,8 @@ class DepthInpaintEnv(gym.Env):
         for _ in range(tries):
             i = index if index is not None else int(self.np_random.integers(len(self.dataset)))
             s = mask_seed if mask_seed is not None else int(self.np_random.integers(MASK_SEED_HIGH))
-            gt = self._load(i)
-            hole, redraws = draw_scored_hole(self.protocol, gt, s, i)
+            inputs, gt = self._load(i)
+            hole, redraws = draw_scored_hole(self.protocol, gt, s, i, inputs=None if inputs is gt else inputs)
             if hole is not None:
                 break
         if hole is None and index is not None:
@@ -243,12 +265,12 @@ class DepthInpaintEnv(gym.Env):
         self._gt = np.array(gt, copy=True) if self.render_mode is not None else None
         self._hole, self._pred, self._metrics = hole, None, None
         # Built once per episode: reset hands out a copy, step the original (see step).
-        depth = gt.copy()
+        depth = inputs.copy()
         np.copyto(depth, np.float32(0.0), where=hole)  # cheaper than np.where's select
         self._obs_depth = depth
-        # Ground truth and hole are gathered here, so step reads only the action. Both
-        # were checked above (checked_frame, the protocol's own bool mask).
-        self._scored = ScoredPixels(gt, hole, check_input=False)
+        # Ground truth and hole are gathered here, so step reads only the action. All
+        # were checked above (checked_frame or load_pairs, the protocol's own bool mask).
+        self._scored = ScoredPixels(gt, hole, inputs=None if inputs is gt else inputs, check_input=False)
         self._episode = {
             "frame_id": str(self.dataset.frame_ids[i]),
             "drive": str(self.dataset.groups[i]),
@@ -256,9 +278,10 @@ class DepthInpaintEnv(gym.Env):
             "mask_seed": s,
             "mask_redraws": redraws,
             "hole_fraction": np.count_nonzero(hole) / hole.size,
+            "input_kind": self.input_kind,
         }
         self._done = False
-        return {"depth": depth.copy(), "hole": hole.astype(np.uint8)}, dict(self._episode)
+        return self._observation(depth.copy()), dict(self._episode)
 
     def step(
         self, action: Any
@@ -280,7 +303,8 @@ class DepthInpaintEnv(gym.Env):
         action, bounds = self._split_action(action)
         pred = self._check_action(action)
         m = self._scored.metrics(pred, max_depth=self.max_depth, unfilled=self.unfilled)
-        metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items()}
+        # A metric undefined here (NaN: the hole's under densify-v1, whose hole is empty) is left out.
+        metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items() if not np.isnan(v)}
         if bounds is not None:
             metrics.update(self._interval_info(pred, bounds))
         # Only render() reads the reconstruction later: copy it only then (the caller's
@@ -292,9 +316,9 @@ class DepthInpaintEnv(gym.Env):
         # Every call returns fresh arrays (callers may keep or modify them). The episode
         # is over, so the env's own depth observation is handed over instead of copied;
         # the hole is copied since render() still reads it.
-        obs = {"depth": self._obs_depth, "hole": self._hole.astype(np.uint8)}
+        obs = self._observation(self._obs_depth)
         self._obs_depth = None
-        return obs, -metrics["hole_rmse"], True, False, info
+        return obs, -metrics[f"{self.protocol.task}_rmse"], True, False, info
 
     def render(self) -> np.ndarray | None:
         """The RGB uint8 panel of the current frame (``render_mode="rgb_array"``), else None."""
@@ -304,16 +328,26 @@ class DepthInpaintEnv(gym.Env):
         if self._metrics is not None:
             m = self._metrics
             title = (
-                f"{self._episode['frame_id']}  hole RMSE {m['hole_rmse']:.3f} m  "
-                f"PSNR {m['hole_psnr']:.2f} dB | all RMSE {m['all_rmse']:.3f} m  PSNR {m['all_psnr']:.2f} dB"
+                f"{self._episode['frame_id']}  {self.protocol.task} RMSE {m[self.protocol.task + '_rmse']:.3f} m  "
+                f"PSNR {m[self.protocol.task + '_psnr']:.2f} dB | all RMSE {m['all_rmse']:.3f} m  PSNR {m['all_psnr']:.2f} dB"
             )
         return render_panel(self._gt, self._hole, self._pred, max_depth=self.max_depth, title=title)
 
     # -- helpers ---------------------------------------------------------------------
-    def _load(self, index: int) -> np.ndarray:
-        # The check also refuses depth above DEPTH_LIMIT, the observation space's bound.
+    def _observation(self, depth: np.ndarray) -> dict[str, np.ndarray]:
+        """The observation of ``depth``, the input with the hole zeroed (fresh masks)."""
+        assert self._hole is not None
+        return {"depth": depth, "hole": self._hole.astype(np.uint8), "measured": (depth > 0).view(np.uint8)}
+
+    def _load(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(input, ground truth)`` of frame ``index``; the input *is* the frame for a map source."""
+        # The checks also refuse depth above DEPTH_LIMIT, the observation space's bound.
         # No copy: reset builds its own observation and scored pixels from the frame.
-        return self.dataset.checked_frame(index, f"frame {index}")
+        if self.input_kind == "map":
+            gt = self.dataset.checked_frame(index, f"frame {index}")
+            return gt, gt
+        inputs, gt = self.dataset.load_pairs([index])
+        return inputs[0], gt[0]
 
     def _split_action(self, action: Any) -> tuple[Any, dict[str, Any] | None]:
         """``(reconstruction, interval entries or None)`` of a plain or dict action."""

@@ -43,6 +43,10 @@ class OcclusionProtocol(ABC):
 
     name: str = ""
     description: str = ""
+    #: The pixels a task under the protocol is scored on, and its headline metric
+    #: ``{task}_rmse``: ``"hole"``, or ``"unmeasured"`` (every pixel the input lacks) for
+    #: a protocol that cuts no hole (``densify-v1``).
+    task: str = "hole"
 
     @abstractmethod
     def sample(self, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:

@@ -24,6 +24,7 @@ class DensifyV1(OcclusionProtocol):
     """
 
     name = "densify-v1"
+    task = "unmeasured"
     description = "no hole: fill every pixel the input (a single LiDAR scan) did not measure"
 
     def hole_fraction_range(self) -> tuple[float, float]:

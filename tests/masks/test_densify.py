@@ -15,6 +15,8 @@ def test_registered_and_described():
     assert isinstance(proto, DensifyV1) and "densify-v1" in available_protocols()
     desc = json.loads(json.dumps(proto.describe()))
     assert desc["name"] == "densify-v1" and desc["hole_fraction_range"] == [0.0, 0.0] and desc["description"]
+    # Its headline metric is unmeasured_rmse; every other protocol's is hole_rmse.
+    assert proto.task == "unmeasured" and get_protocol("rect-v1").task == "hole"
 
 
 def test_no_hole_for_any_seed_or_frame():
