@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset, split_by_drive
@@ -31,7 +32,7 @@ from inpaintenv.metrics import aggregate, frame_metrics
 
 from ..base import resolve_seed
 from . import _checkpoint as ckpt
-from ._budget import Budget, StepBar, record_stop
+from ._budget import Budget, record_stop
 from ._checkpoint import cpu_state
 from .losses import inpainting_loss
 from ._random_state import global_rng_state, set_global_rng_state
@@ -265,10 +266,10 @@ class TrainingMixin:
             )
             shard.saved(run_dir, progress["step"])
 
+        bar = tqdm(total=total, initial=progress["step"], disable=not (self.verbose and shard.writes),
+                   desc=type(self).__name__, leave=False)
         running = None
         budget = Budget(getattr(self, "max_minutes", None))
-        bar = StepBar(total, progress["step"], budget, disable=not (self.verbose and shard.writes),
-                      desc=type(self).__name__)
         progress["history"].pop("budget_stop", None)  # a resumed run records its own stop
         try:
             while not progress["finished"]:
