@@ -35,7 +35,7 @@ from ..conventions import check_int, check_seeds
 from ..data.base import Subset
 from ..data.io import KITTI_DEPTH_SCALE, write_depth_png, write_png
 from ..evaluate import resolve_source
-from ..files import remove_stale_temporaries, write_atomic
+from ..files import describe_kind, remove_stale_temporaries, write_atomic
 from ..masks import OcclusionProtocol, get_protocol
 from .layout import (
     DEPTH_ENCODING,
@@ -50,7 +50,7 @@ from .layout import (
 )
 from .manifest import KEY, KIT, MANIFEST_NAME, Frame, Item, Manifest, ManifestError, default_key_path, read_manifest
 from .truth import describe_truth
-from ..exceptions import InvalidInputError, InvalidTypeError
+from ..exceptions import InvalidInputError, InvalidTypeError, UnsafeFileError
 
 __all__ = ["check_one_mask_per_frame", "clean_stale", "export", "protocol_record"]
 
@@ -103,7 +103,12 @@ def _prepare_out(out: Path, overwrite: bool) -> bool:
         raise InvalidInputError(f"--out {out} is a file; give a folder for the export")
     if not out.exists() or not any(out.iterdir()):
         return False
-    if not (out / MANIFEST_NAME).is_file():
+    manifest = out / MANIFEST_NAME
+    if os.path.lexists(manifest) and not stat.S_ISREG(os.lstat(manifest).st_mode):
+        kind = describe_kind(os.lstat(manifest).st_mode)
+        raise UnsafeFileError(f"--out {out}: its {MANIFEST_NAME} is {kind}, not an export's manifest; give a new or "
+                              "empty folder")
+    if not manifest.is_file():
         raise InvalidInputError(f"--out {out} is not empty and holds no export; give a new or empty folder")
     if not overwrite:
         raise InvalidInputError(f"--out {out} holds an earlier export; pass --overwrite (overwrite=True) to replace it")

@@ -267,8 +267,8 @@ class _Reader:
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.fail(where, f"must be an integer, got {value!r}")
         if value < minimum or (upper is not None and value > upper):
-            bound = f"{minimum}..{upper:,}" if upper is not None else f">= {minimum}"
-            raise self.fail(where, f"must be in {bound}, got {value!r}")
+            bound = f"in {minimum}..{upper:,}" if upper is not None else f">= {minimum}"
+            raise self.fail(where, f"must be {bound}, got {value!r}")
         return value
 
     def text(self, value: Any, where: str, check: Callable[[str], bool] | None = None, what: str = "") -> str:

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..data.base import DepthDataset
+from ..data.base import DepthDataset, name_from_path
 from ..data.io import depth_from_uint16
 from ..masks import OcclusionProtocol, get_protocol
 from .intervals import read_interval_files, split_interval_files
@@ -35,7 +35,7 @@ from .layout import (
 from .manifest import Item, Manifest, ManifestError, require_key
 from .truth import verify_frame
 from ..exceptions import InvalidInputError, SubmissionError
-from ..files import loads_json, read_bytes
+from ..files import describe_kind, loads_json, read_bytes
 
 __all__ = ["ON_MISSING", "CheckedPredictions", "SubmissionError", "SubmittedPredictions", "check_predictions",
            "manifest_protocol"]
@@ -221,9 +221,11 @@ def _scan(folder: Path, export: Path, truth: set[tuple[int, int]]) -> tuple[set[
     Links are never followed (a link to a file or a folder, inside or out, is refused:
     ``score`` reads only files that lie in the predictions folder), a hard link to a
     ground-truth file (``truth``: its device and inode) is refused, and an export folder
-    inside ``folder`` is left out.
+    inside ``folder`` is left out. Bytes of a name that are not UTF-8 show as ``\\xNN``
+    (no manifest path has them, so such a file is only ever reported).
     """
-    inside = export.resolve().relative_to(folder.resolve()).as_posix() + "/" if is_inside(export, folder) else None
+    inside = name_from_path(export.resolve().relative_to(folder.resolve()).as_posix()) + "/" \
+        if is_inside(export, folder) else None
     found: set[str] = set()
     refused: dict[str, str] = {}
     for top, dirs, files in os.walk(folder, followlinks=False):
@@ -231,11 +233,11 @@ def _scan(folder: Path, export: Path, truth: set[tuple[int, int]]) -> tuple[set[
         for name in list(dirs):
             if (base / name).is_symlink():
                 dirs.remove(name)
-                rel = (base / name).relative_to(folder).as_posix()
+                rel = name_from_path((base / name).relative_to(folder).as_posix())
                 refused[rel] = f"{rel}/ is a symbolic link"
         for name in files:
             path = base / name
-            rel = path.relative_to(folder).as_posix()
+            rel = name_from_path(path.relative_to(folder).as_posix())
             if inside is not None and rel.startswith(inside):
                 continue
             info = os.lstat(path)
@@ -249,7 +251,7 @@ def _scan(folder: Path, export: Path, truth: set[tuple[int, int]]) -> tuple[set[
                 if stat.S_ISREG(mode):
                     found.add(rel)
                 else:
-                    refused[rel] = f"{rel} is not a regular file"
+                    refused[rel] = f"{rel} is {describe_kind(mode)}, not a regular file"
     return found, refused
 
 

@@ -106,3 +106,20 @@ def test_read_inside_refuses_a_fifo_at_once(tmp_path):
     os.mkfifo(tmp_path / "a.png")
     with pytest.raises(UnsafeFileError, match="FIFO"):
         layout.read_inside(tmp_path, "a.png", 1000)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="FIFOs are POSIX")
+def test_export_names_a_fifo_manifest_in_out(tmp_path, streets):
+    (tmp_path / "x").mkdir()
+    os.mkfifo(tmp_path / "x" / "manifest.json")
+    with pytest.raises(UnsafeFileError, match=r"manifest.json is a FIFO \(named pipe\)"):
+        export(tmp_path / "x", streets, n_frames=2, progress=False, overwrite=True)
+
+
+def test_a_name_that_is_not_utf8_is_shown_escaped(submitted):
+    manifest, predictions = submitted
+    first = predictions / manifest.items[0].input
+    (first.parent / os.fsdecode(b"caf\xe9.png")).write_bytes(first.read_bytes())
+    with pytest.raises(SubmissionError, match=r"caf\\xe9\.png") as caught:
+        score(manifest.path, predictions)
+    str(caught.value).encode("utf-8")  # printable to any UTF-8 stream, no surrogate left

@@ -156,7 +156,7 @@ def test_a_fifo_is_refused_not_waited_on(submitted):
     target = first_prediction(manifest, predictions)
     target.unlink()
     os.mkfifo(target)
-    with pytest.raises(SubmissionError, match="is not a regular file"):
+    with pytest.raises(SubmissionError, match=r"is a FIFO \(named pipe\), not a regular file"):
         score(manifest.path, predictions)
 
 
