@@ -22,11 +22,11 @@ import numpy as np
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
-from inpaintenv.conventions import DEFAULT_MAX_DEPTH, check_depth
+from inpaintenv.conventions import DEFAULT_MAX_DEPTH, check_depth, reconstruction_problem
 from inpaintenv.data.base import DepthDataset, as_dataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
-from inpaintenv.exceptions import InvalidInputError
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
 
 __all__ = [
     "BaseInpainter", "check_inpaint_input", "check_random_state", "iter_scoring_batches", "resolve_seed",
@@ -219,7 +219,10 @@ class BaseInpainter(BaseEstimator):
         check_is_fitted(self)
         x = check_inpaint_input(X)
         batch = x[None] if x.ndim == 2 else x
-        out = np.asarray(self._predict_batch(batch), dtype=np.float32)
+        raw = np.asarray(self._predict_batch(batch))
+        if raw.dtype.kind not in "fiu":  # a complex output would lose its imaginary part in the cast
+            raise InvalidTypeError(f"{type(self).__name__} produced depth of dtype {raw.dtype}; depth is real metres")
+        out = raw.astype(np.float32, copy=False)
         if out.shape != batch.shape:
             raise RuntimeError(
                 f"{type(self).__name__} returned shape {out.shape} for input {batch.shape}"
@@ -258,13 +261,24 @@ class BaseInpainter(BaseEstimator):
 
         Parameters are as in :meth:`score`; ``protocol`` and ``seed`` only apply when
         ``y`` is None.
+
+        Raises
+        ------
+        MethodOutputError
+            A prediction that :func:`inpaintenv.evaluate.evaluate` and the env refuse: a
+            pixel outside ``[0, DEPTH_LIMIT]`` anywhere in the frame, with or without ground truth.
         """
         parts: list[dict[str, np.ndarray]] = []
         for x, gt, hole in iter_scoring_batches(X, y, protocol=protocol, seed=seed):
             # predict fills every pixel by contract, so a 0 m here is the method's estimate
             # (a regression clipped at 0, the study's hole-only fills), scored as 0 m, never
             # "unfilled": model selection must not stop on a poor candidate.
-            parts.append(frame_metrics(self.predict(x), gt, hole, max_depth=max_depth, unfilled="zero"))
+            pred = self.predict(x)
+            # The rule evaluate and the env apply to every reconstruction, at every pixel.
+            problem = reconstruction_problem(pred)
+            if problem is not None:
+                raise MethodOutputError(f"method {type(self).__name__!r}: output {problem}")
+            parts.append(frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled="zero"))
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
     def score(self, X: Any, y: Any = None) -> float:

@@ -381,7 +381,7 @@ def _release_dir() -> Any:
 
 def shipped_releases() -> dict[str, str]:
     """Every complete shipped release (weights and JSON present) and the class its JSON records."""
-    import json
+    from .files import read_json
 
     folder = _release_dir()
     if not folder.is_dir():
@@ -390,9 +390,11 @@ def shipped_releases() -> dict[str, str]:
     for path in sorted(folder.glob("*.json")):
         if path.with_suffix(".safetensors").is_file():
             try:
-                out[path.stem] = str(json.loads(path.read_text(encoding="utf-8")).get("class"))
+                doc = read_json(path, "shipped release")  # regular file, bounded size and nesting
             except (OSError, ValueError):
                 continue  # a broken release is refused with its own error when it is loaded
+            if isinstance(doc, dict):
+                out[path.stem] = str(doc.get("class"))
     return out
 
 
@@ -403,9 +405,11 @@ def register_removed(name: str, message: str) -> None:
 
 
 register_method(
-    "pretrained", _RELEASES_MODULE, "load_release", {},
-    f"the default learned release ({DEFAULT_RELEASE}: the per-pixel mean of a context blend and a per-pixel "
-    "blend of classical fills, one set of candidate fills for both), trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
+    "pretrained", _RELEASES_MODULE, "load_default", {},
+    f"the default: a map with holes gets the learned release {DEFAULT_RELEASE} (the per-pixel mean of a context "
+    "blend and a per-pixel blend of classical fills, trained on 15 KITTI drives, CC BY-NC-SA 3.0), a single LiDAR "
+    "scan gets harmonic (no release beats it on every recording day); decided per frame from its measured density "
+    "or by input='scan'|'map'",
 )
 for _release, _class in shipped_releases().items():
     register_method(_release, _RELEASES_MODULE, "load_release", {"name": _release},

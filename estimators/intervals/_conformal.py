@@ -51,7 +51,6 @@ the drives it is used on. **The base model must never have seen the calibration 
 from __future__ import annotations
 
 import copy
-import json
 import math
 import os
 from collections.abc import Sequence
@@ -69,18 +68,13 @@ from inpaintenv.masks import get_protocol
 
 from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, iter_scoring_batches, training_drives
 from ._bases import CLASSICAL_FILLS, make_base
+from ._calibration_file import FORMAT as _FORMAT
+from ._calibration_file import N_LEVELS, SIGNALS, WEIGHTINGS, read_calibration, write_calibration
 
 __all__ = ["ConformalIntervalInpainter", "SIGNALS", "WEIGHTINGS", "weighted_quantiles"]
 
-#: The signals a scale model may use, in the order of its coefficients.
-SIGNALS: tuple[str, ...] = ("border", "depth", "spread")
-#: Levels at which the sorted normalised residuals are kept (0, 0.0005, ..., 1).
-N_LEVELS = 2001
 #: Offsets (metres) that keep the logs finite where the residual or the spread is 0.
 _RESIDUAL_FLOOR, _SPREAD_FLOOR, _DEPTH_FLOOR = 0.05, 0.1, 1.0
-_FORMAT = "inpaintenv-conformal-intervals-v1"
-#: How the calibration pixels weigh in the quantile (see the module docstring).
-WEIGHTINGS: tuple[str, ...] = ("frame", "pixel")
 
 
 def _features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second: np.ndarray | None) -> np.ndarray:
@@ -428,6 +422,27 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
                 out[k][hole[k]] = self._scale_from(F)
         return out
 
+    def _checked_prediction(self, pred: Any, x: np.ndarray, method: str, X: Any, given: bool = False) -> np.ndarray:
+        """``pred`` as float32 of ``x``'s shape, or one error naming ``method`` and the first bad frame.
+
+        A NaN or inf prediction would give NaN bounds, a complex one would lose its
+        imaginary part in the cast: neither is an interval.
+        """
+        whose = "prediction" if given else f"the prediction of {type(self.estimator).__name__}"
+        arr = np.asarray(pred)
+        if arr.dtype.kind not in "fiu":
+            raise InvalidTypeError(f"{method}: {whose} has dtype {arr.dtype}; it must be real depth in metres")
+        if arr.size != x.size:
+            raise InvalidInputError(f"{whose} has shape {arr.shape}, X {np.shape(X)}: pass predict(X)")
+        with np.errstate(over="ignore"):
+            out = arr.astype(np.float32).reshape(x.shape)
+        finite = np.isfinite(out).reshape(len(out), -1).all(axis=1)
+        if not finite.all():
+            k = int(np.argmin(finite))
+            raise InvalidInputError(f"{method}: {whose} has NaN or inf depth in frame {k} "
+                                    f"({int(np.count_nonzero(~np.isfinite(out[k])))} pixels); no interval around it")
+        return out
+
     def _batch(self, X: Any) -> tuple[np.ndarray, bool]:
         x = check_inpaint_input(X, require_hole=False)
         return (x[None], True) if x.ndim == 2 else (x, False)
@@ -460,7 +475,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         if not return_std:
             return pred
         x, single = self._batch(X)
-        p = np.asarray(pred, dtype=np.float32).reshape(x.shape)
+        p = self._checked_prediction(pred, x, "predict(return_std=True)", X)
         half = self._scale(x, p, np.isnan(x)) * self.quantile_
         # The calibrated coverage, which quantile_ belongs to (a later set_params does not change it).
         std = (half / normal_quantile(self.calibration_["coverage"])).astype(np.float32)
@@ -492,12 +507,9 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         q = self.quantile_at(coverage)
         x, single = self._batch(X)
         if prediction is None:
-            pred = np.asarray(self.estimator.predict(x), dtype=np.float32)
+            pred = self._checked_prediction(self.estimator.predict(x), x, "predict_interval", X)
         else:
-            pred = np.asarray(prediction, dtype=np.float32)
-            if pred.size != x.size:
-                raise InvalidInputError(f"prediction has shape {pred.shape}, X {np.shape(X)}: pass predict(X)")
-            pred = pred.reshape(x.shape)
+            pred = self._checked_prediction(prediction, x, "predict_interval", X, given=True)
         hole = np.isnan(x)
         half = self._scale(x, pred, hole) * q
         # A width below float32's resolution at pred would round to an empty interval.
@@ -544,16 +556,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         -------
         pathlib.Path
         """
-        path = Path(path)
-        text = json.dumps(self.to_dict(base), indent=1)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-        try:
-            tmp.write_text(text)
-            os.replace(tmp, path)
-        finally:
-            tmp.unlink(missing_ok=True)
-        return path
+        return write_calibration(path, self.to_dict(base))
 
     @classmethod
     def load(cls, path: str | os.PathLike, estimator: Any = None) -> ConformalIntervalInpainter:
@@ -574,36 +577,25 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             when ``estimator``'s class differs from the one calibrated.
         """
         path = Path(path)
+        data = read_calibration(path)  # every field checked; one error naming the file and the field
+        if estimator is None:
+            estimator = make_base(data["base"])
+        if type(estimator).__name__ != data["base_class"]:
+            raise InvalidInputError(f"{path}: calibrated for a {data['base_class']}, got a {type(estimator).__name__}")
+        params = data["params"]
+        out = cls(estimator, coverage=params["coverage"], signals=tuple(params["signals"]),
+                  spread_method=params["spread_method"], protocol=params["protocol"], seed=params["seed"],
+                  max_fit_pixels=params["max_fit_pixels"],
+                  # Files written before the frame weighting were calibrated by pixel.
+                  weighting=params.get("weighting", "pixel"))
         try:
-            data = json.loads(path.read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise InvalidInputError(f"{path}: not a readable interval calibration ({exc})") from None
-        if not isinstance(data, dict) or data.get("format") != _FORMAT:
-            raise InvalidInputError(f"{path}: 'format' must be {_FORMAT!r}")
-        try:
-            if estimator is None:
-                estimator = make_base(data["base"])
-            if type(estimator).__name__ != data["base_class"]:
-                raise InvalidInputError(f"{path}: calibrated for a {data['base_class']}, "
-                                        f"got a {type(estimator).__name__}")
-            params = data["params"]
-            out = cls(estimator, coverage=params["coverage"], signals=tuple(params["signals"]),
-                      spread_method=params["spread_method"], protocol=params["protocol"], seed=params["seed"],
-                      max_fit_pixels=params["max_fit_pixels"],
-                      # Files written before the frame weighting were calibrated by pixel.
-                      weighting=params.get("weighting", "pixel"))
             out._check_params()
-            out.coef_ = np.asarray(data["coef"], dtype=np.float64)
-            out.residual_quantiles_ = np.asarray(data["residual_quantiles"], dtype=np.float64)
-            out.quantile_ = float(data["quantile"])
-            out.n_calibration_pixels_ = int(data["n_pixels"])
-            out.calibration_ = dict(data["calibration"])
-            out.calibration_.setdefault("weighting", out.weighting)
-        except (KeyError, TypeError) as exc:
-            raise InvalidInputError(f"{path}: missing or malformed key {exc}") from None
-        if out.coef_.shape != (1 + len(out.signals),) or out.residual_quantiles_.shape != (N_LEVELS,) \
-                or not (np.isfinite(out.coef_).all() and np.isfinite(out.residual_quantiles_).all()):
-            raise InvalidInputError(f"{path}: 'coef' must hold {1 + len(out.signals)} and 'residual_quantiles' "
-                                    f"{N_LEVELS} finite numbers")
+        except (InvalidInputError, InvalidTypeError, KeyError) as exc:
+            raise InvalidInputError(f"{path}: {exc.args[0] if isinstance(exc, KeyError) else exc}") from None
+        out.coef_ = np.asarray(data["coef"], dtype=np.float64)
+        out.residual_quantiles_ = np.asarray(data["residual_quantiles"], dtype=np.float64)
+        out.quantile_ = float(data["quantile"])
+        out.n_calibration_pixels_ = int(data["n_pixels"])
+        out.calibration_ = copy.deepcopy(data["calibration"])
+        out.calibration_.setdefault("weighting", out.weighting)
         return out
-

@@ -44,8 +44,8 @@ from ..candidates import (
 )
 from . import _checkpoint as ckpt
 from ._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
-from ._limits import MAX_LAYERS, MAX_WIDTH, check_parameter_count
-from ._output import floor_holes
+from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
+from ._output import bound_output
 from ._persistence import PersistenceMixin
 from ._training import deterministic_torch, frame_label, torch_threads
 from .nets import pixel_blend
@@ -239,8 +239,8 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         "lr": [Real(0, closed="neither")],
         "protocol": [Check(get_protocol)],  # an unknown name lists the known protocols
         "tta": [Bool()],
-        "num_threads": [Integer(1), None],
-        "predict_threads": [Integer(1), None],
+        "num_threads": [Integer(1, limit=MAX_THREADS), None],
+        "predict_threads": [Integer(1, limit=MAX_THREADS), None],
         "keep_observed": [Bool()],
         "verbose": [Bool()],
     }
@@ -395,7 +395,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         with torch_threads(self.predict_threads), torch.inference_mode():
             for i, frame in enumerate(X):
                 out[i] = self._predict_frame(frame)
-        return floor_holes(out, X)
+        return bound_output(out, X)
 
     def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
         return self._predict_features(frame, self._features(frame))

@@ -8,8 +8,10 @@ A checkpoint is a directory::
     optimizer.safetensors  optional, Adam state tensors (for resuming training)
     training.json          optional, step / epoch / position / history + optimizer groups
 
-Every file is written to a temporary name and moved into place with ``os.replace``;
-the JSON files record the SHA-256 of the tensor files they belong to, so a torn,
+Every file is read and written through :mod:`inpaintenv.files`: reads take regular files
+only (a FIFO is refused at once, never waited on), JSON is bounded in size and nesting,
+tensor files in size, and every write goes to an exclusively created, unpredictably named
+temporary file renamed into place, never through a planted link. The JSON files record the SHA-256 of the tensor files they belong to, so a torn,
 truncated or edited checkpoint fails to load with :class:`CheckpointError` instead of
 producing a silently different model.
 
@@ -31,7 +33,6 @@ class. The shipped releases are such files under flat names in :data:`PRETRAINED
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import re
 import shutil
@@ -47,8 +48,18 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 
 from inpaintenv.exceptions import UnknownNameError
+from inpaintenv.files import (
+    MAX_JSON_BYTES,
+    open_regular,
+    read_bytes,
+    read_json,
+    write_atomic,
+    write_bytes_atomic,
+    write_json,
+)
 
 from ._checkpoint_checks import CheckpointError, build_checked, check_tensors, config_value, load_weights
+from ._limits import MAX_PARAMETERS
 
 __all__ = [
     "FORMAT",
@@ -79,74 +90,82 @@ STATE_FILE = "state.json"
 _RUN_ENTRY = re.compile(r"(ckpt|best)-[A-Za-z0-9_-]+")
 
 
-def _sha256(path: Path) -> str:
+#: Largest tensor file read: a network of ``MAX_PARAMETERS`` float32 weights with Adam's
+#: two moments (an optimizer file), so no file may ask for more memory than a model can use.
+MAX_TENSOR_FILE_BYTES = 3 * 4 * MAX_PARAMETERS + (1 << 20)
+
+
+def _sha256(fd: int) -> str:
+    """The SHA-256 of the open file ``fd``, read from its start in chunks."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
+    os.lseek(fd, 0, os.SEEK_SET)
+    for chunk in iter(lambda: os.read(fd, 1 << 20), b""):
+        h.update(chunk)
     return h.hexdigest()
 
 
-def _atomic_write(path: Path, write: Any) -> None:
-    """Call ``write(tmp_path)`` then move the temp file over ``path`` atomically."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def _write_json(path: Path, obj: dict[str, Any]) -> None:
-    def write(tmp: str) -> None:
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(obj, f, indent=1, allow_nan=True)
-
-    _atomic_write(path, write)
+    write_json(path, obj)
 
 
 def _write_tensors(path: Path, tensors: dict[str, torch.Tensor]) -> str:
     flat = {k: v.detach().to("cpu").contiguous() for k, v in tensors.items()}
-    _atomic_write(path, lambda tmp: save_file(flat, tmp))
-    return _sha256(path)
-
-
-def _read_json(path: Path) -> dict[str, Any]:
+    write_atomic(path, lambda tmp: save_file(flat, str(tmp)), "checkpoint tensors")
+    fd = open_regular(path, "checkpoint tensors")
     try:
-        with open(path, encoding="utf-8") as f:
-            obj = json.load(f)
+        return _sha256(fd)
+    finally:
+        os.close(fd)
+
+
+def _read_json(path: Path, owned: bool = False) -> dict[str, Any]:
+    """A checkpoint's JSON file: a regular file, bounded in size and nesting, holding an object
+    (not read through a link when the folder is the command's own: ``owned``)."""
+    try:
+        obj = read_json(path, "checkpoint file", limit=MAX_JSON_BYTES, follow_links=not owned)
     except FileNotFoundError:
         raise CheckpointError(f"checkpoint file missing: {path}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise CheckpointError(f"checkpoint file {path} is not valid JSON (truncated or corrupt): {e}") from None
+    except (ValueError, OSError) as e:  # a FIFO, a folder, too large, too deep, not JSON: named by the file layer
+        raise CheckpointError(str(e) if str(path) in str(e) else f"{path}: {e}") from None
     if not isinstance(obj, dict):
         raise CheckpointError(f"checkpoint file {path} does not hold a JSON object")
     return obj
 
 
-def _read_tensors(path: Path, sha256: Any, recorded_in: Path) -> dict[str, torch.Tensor]:
+def _read_tensors(path: Path, sha256: Any, recorded_in: Path, owned: bool = False) -> dict[str, torch.Tensor]:
     """The tensors of ``path``, after checking them against the checksum ``recorded_in`` holds."""
-    if not path.is_file():
-        raise CheckpointError(f"checkpoint file missing: {path}")
     if not isinstance(sha256, str):
         # Without a checksum an edited file would load as a silently different model.
         raise CheckpointError(f"{recorded_in} records no SHA-256 of {path.name} (key {_sha_key(path)!r}): "
                               "the file cannot be verified; save the model again")
-    if _sha256(path) != sha256:
-        raise CheckpointError(
-            f"{path} does not match the checksum recorded beside it: the checkpoint is "
-            "truncated, corrupt, or was partly overwritten"
-        )
     try:
-        return load_file(str(path), device="cpu")
+        fd = open_regular(path, "checkpoint tensors", follow_links=not owned)
+    except FileNotFoundError:
+        raise CheckpointError(f"checkpoint file missing: {path}") from None
+    except (ValueError, OSError) as e:
+        raise CheckpointError(str(e)) from None
+    try:
+        opened = os.fstat(fd)
+        if opened.st_size > MAX_TENSOR_FILE_BYTES:
+            raise CheckpointError(f"{path} is {opened.st_size:,} bytes, more than the {MAX_TENSOR_FILE_BYTES:,} a "
+                                  "model this package builds can need; not read")
+        if _sha256(fd) != sha256:
+            raise CheckpointError(
+                f"{path} does not match the checksum recorded beside it: the checkpoint is "
+                "truncated, corrupt, or was partly overwritten"
+            )
+        tensors = load_file(str(path), device="cpu")
+        now = os.stat(path)
     except (SafetensorError, OSError, ValueError) as e:
+        if isinstance(e, CheckpointError):
+            raise
         raise CheckpointError(f"cannot read {path} as safetensors (truncated or corrupt): {e}") from None
+    finally:
+        os.close(fd)
+    if (now.st_dev, now.st_ino, now.st_size, now.st_mtime_ns) != \
+            (opened.st_dev, opened.st_ino, opened.st_size, opened.st_mtime_ns):
+        raise CheckpointError(f"{path} changed while it was read; load it again")
+    return tensors
 
 
 def _sha_key(path: Path) -> str:
@@ -174,9 +193,19 @@ def write_checkpoint(
 
 
 def read_checkpoint(
-    path: str | os.PathLike, *, training: bool = False
+    path: str | os.PathLike, *, training: bool = False, owned: bool = False
 ) -> tuple[dict[str, Any], dict[str, torch.Tensor], dict[str, Any] | None, dict[str, torch.Tensor] | None]:
     """Read a checkpoint directory.
+
+    Parameters
+    ----------
+    path : path-like
+        The checkpoint folder.
+    training : bool
+        Also read the training state and optimizer tensors.
+    owned : bool
+        The folder is one the command writes (a training run resuming): a file there
+        that is a symbolic link is refused, never followed.
 
     Returns
     -------
@@ -191,20 +220,20 @@ def read_checkpoint(
     path = Path(path)
     if not path.is_dir():
         raise CheckpointError(f"no checkpoint directory at {path}")
-    config = _read_json(path / CONFIG_FILE)
+    config = _read_json(path / CONFIG_FILE, owned)
     if config.get("format") != FORMAT:
         raise CheckpointError(f"{path} is not an {FORMAT} checkpoint (format={config.get('format')!r})")
     version = config_value(config, "format_version", int, path / CONFIG_FILE)
     if version > FORMAT_VERSION:
         raise CheckpointError(f"{path} has format version {version}; this version reads <= {FORMAT_VERSION}")
-    weights = _read_tensors(path / MODEL_FILE, config.get("weights_sha256"), path / CONFIG_FILE)
+    weights = _read_tensors(path / MODEL_FILE, config.get("weights_sha256"), path / CONFIG_FILE, owned)
     check_tensors(weights, path / MODEL_FILE)
     if not training:
         return config, weights, None, None
-    state = _read_json(path / TRAINING_FILE)
+    state = _read_json(path / TRAINING_FILE, owned)
     if state.get("weights_sha256") != config.get("weights_sha256"):
         raise CheckpointError(f"{path}: training state and weights come from different saves")
-    optim = _read_tensors(path / OPTIM_FILE, state.get("optimizer_sha256"), path / TRAINING_FILE)
+    optim = _read_tensors(path / OPTIM_FILE, state.get("optimizer_sha256"), path / TRAINING_FILE, owned)
     return config, weights, state, optim
 
 
@@ -234,8 +263,9 @@ def unflatten_optimizer_state(tensors: dict[str, torch.Tensor], meta: dict[str, 
 
 
 # -- training run directories ---------------------------------------------------------
-def read_run_state(run_dir: str | os.PathLike) -> dict[str, Any] | None:
-    """The ``{"last": name, "best": name | None}`` pointers of a run, or None if new.
+def read_run_state(run_dir: str | os.PathLike, *, owned: bool = False) -> dict[str, Any] | None:
+    """The ``{"last": name, "best": name | None}`` pointers of a run, or None if new
+    (``owned``: the run is the command's own, a linked ``state.json`` is refused).
 
     Raises
     ------
@@ -244,9 +274,9 @@ def read_run_state(run_dir: str | os.PathLike) -> dict[str, Any] | None:
         path, ``..``, a separator, a missing ``last``): loading never leaves the run folder.
     """
     path = Path(run_dir) / STATE_FILE
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
         return None
-    state = _read_json(path)
+    state = _read_json(path, owned)
     for key in ("last", "best"):
         value = state.get(key)
         if key == "best" and value is None:
@@ -278,7 +308,7 @@ def write_run_checkpoint(
         The current weights are the new best (``best`` points at the new ``last``).
     """
     run_dir = Path(run_dir)
-    old = read_run_state(run_dir) or {}
+    old = read_run_state(run_dir, owned=True) or {}
     # Fresh names: a referenced checkpoint is never rewritten in place.
     tag = f"{step:08d}-{uuid.uuid4().hex[:8]}"
     last = f"ckpt-{tag}"
@@ -345,7 +375,8 @@ def release_folder(name: Any, directory: Path = PRETRAINED_DIR) -> Iterator[Path
         raise UnknownNameError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
     with tempfile.TemporaryDirectory() as tmp:
         for suffix, target in ((".safetensors", MODEL_FILE), (".json", CONFIG_FILE)):
-            shutil.copyfile(directory / f"{name}{suffix}", Path(tmp) / target)
+            data = read_bytes(directory / f"{name}{suffix}", "shipped release file", limit=MAX_TENSOR_FILE_BYTES)
+            write_bytes_atomic(Path(tmp) / target, data, "release copy")
         yield Path(tmp)
 
 
@@ -403,17 +434,17 @@ def with_overrides(est: Any, name: str, overrides: dict[str, Any]) -> Any:
     Raises
     ------
     ValueError
-        An override of a parameter the weights depend on, or one the estimator does not have.
+        An override of a parameter the weights depend on, one the estimator does not have,
+        or one outside its range (``num_threads=1000``).
     """
     if not overrides:
         return est
     est.set_params(**overrides)
-    check = getattr(est, "_check_model_params", None)
-    if callable(check):
-        check()
-    for member in getattr(est, "estimators_", []):  # an ensemble's fitted members follow member__param
-        if callable(getattr(member, "_check_model_params", None)):
-            member._check_model_params()
+    # Every parameter checked now (a thread count, a negative value), not at the first predict.
+    for model in (est, *getattr(est, "estimators_", [])):  # an ensemble's fitted members follow member__param
+        for name in ("_check_params", "_check_model_params"):
+            if callable(getattr(model, name, None)):
+                getattr(model, name)()
     return est
 
 

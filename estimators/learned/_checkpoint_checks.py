@@ -5,6 +5,10 @@ A checkpoint is data from outside (``--checkpoint`` reaches ``evaluate``, ``benc
 the loaders read, and the estimator it describes must pass its own parameter checks and
 size limits (:mod:`estimators.learned._limits`) before any network is allocated. Each
 failure is one :class:`CheckpointError` naming the file and the key or tensor.
+
+A path read from a checkpoint is never kept: the parameters that name a file or folder
+(:data:`PATH_PARAMS`) are reset to None on load, so a later ``fit`` of a loaded model never
+writes (``checkpoint_dir``) or reads (``warm_start``) where a file handed to the user said.
 """
 
 from __future__ import annotations
@@ -16,7 +20,13 @@ import torch
 # The project's one class for an unreadable checkpoint (a ValueError; one line in the CLI).
 from inpaintenv.exceptions import CheckpointError
 
-__all__ = ["CheckpointError", "build_checked", "check_tensors", "config_value", "load_weights"]
+__all__ = ["PATH_PARAMS", "CheckpointError", "build_checked", "check_tensors", "config_value", "load_weights",
+           "without_paths"]
+
+#: The parameters of the learned estimators that name a file or folder: ``checkpoint_dir``
+#: (where ``fit`` writes its training checkpoints) and ``warm_start`` (a saved model ``fit``
+#: starts from; ``True``, "the previous fit", is no path and is kept).
+PATH_PARAMS: tuple[str, ...] = ("checkpoint_dir", "warm_start")
 
 
 def check_tensors(tensors: dict[str, torch.Tensor], where: Any) -> dict[str, torch.Tensor]:
@@ -66,13 +76,19 @@ def _kind_name(kind: type | tuple[type, ...]) -> str:
     return " or ".join(_KIND_NAMES.get(k, k.__name__) for k in kinds)
 
 
+def without_paths(params: dict[str, Any]) -> dict[str, Any]:
+    """``params`` with every :data:`PATH_PARAMS` entry (other than a bool) set to None."""
+    return {k: None if k in PATH_PARAMS and not isinstance(v, bool) else v for k, v in params.items()}
+
+
 def build_checked(klass: type, params: dict[str, Any], where: Any) -> Any:
     """``klass(**params)`` after its parameter and size checks, or one :class:`CheckpointError`.
 
-    Runs before any network is built, so a tampered size never allocates.
+    Runs before any network is built, so a tampered size never allocates. Paths in
+    ``params`` are dropped (:func:`without_paths`): a loaded model keeps none.
     """
     try:
-        est = klass(**params)
+        est = klass(**without_paths(params))
     except TypeError as e:
         raise CheckpointError(f"{where} has parameters this version does not know: {e}") from None
     try:

@@ -38,7 +38,8 @@ from ..base import BaseInpainter, check_random_state
 from . import _checkpoint as ckpt
 from . import _blend, _context_blend, _neural, _prior  # noqa: F401  (each registers the classes a member may be)
 from ._constraints import Bool, Check, ConstrainedParams, Integer
-from ._output import floor_holes
+from ._limits import MAX_THREADS
+from ._output import bound_output
 from ._persistence import PersistenceMixin
 from ._training import torch_threads
 
@@ -147,9 +148,9 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     #: shared ones applied), the pairs and weights by :meth:`_check_param_relations`.
     _parameter_constraints: dict[str, list[Any]] = {
         "random_state": [Check(check_random_state)],
-        "num_threads": [Integer(1), None],
+        "num_threads": [Integer(1, limit=MAX_THREADS), None],
         "verbose": [Bool(), None],
-        "predict_threads": [Integer(1), None],
+        "predict_threads": [Integer(1, limit=MAX_THREADS), None],
         "keep_observed": [Bool()],
     }
 
@@ -266,7 +267,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         members = self.estimators_
         weights = self._member_weights(len(members))
         if not self.shares_features_:
-            return floor_holes(np.average([np.asarray(m.predict(X), np.float32) for m in members], axis=0,
+            return bound_output(np.average([np.asarray(m.predict(X), np.float32) for m in members], axis=0,
                                           weights=weights).astype(np.float32), X)
         for m in members:
             m._check_params()
@@ -276,7 +277,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
             for i, frame in enumerate(X):
                 feats = members[0]._features(frame)
                 out[i] = np.average([m._predict_features(frame, feats) for m in members], axis=0, weights=weights)
-        return floor_holes(out, X)
+        return bound_output(out, X)
 
     # -- persistence (the hooks of PersistenceMixin) ------------------------------------------
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:

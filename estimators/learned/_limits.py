@@ -13,6 +13,7 @@ member, has width 64, 2 layers, 2 networks and 0.47 M parameters).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from typing import Any
 
@@ -20,7 +21,8 @@ import torch
 
 from inpaintenv.exceptions import InvalidInputError
 
-__all__ = ["MAX_LAYERS", "MAX_MEMBERS", "MAX_PARAMETERS", "MAX_WIDTH", "check_at_most", "check_parameter_count"]
+__all__ = ["MAX_LAYERS", "MAX_MEMBERS", "MAX_PARAMETERS", "MAX_THREADS", "MAX_WIDTH", "check_at_most",
+           "check_parameter_count", "usable_threads"]
 
 #: Most hidden units of a per-pixel MLP layer (and channels of a context level, context features).
 MAX_WIDTH = 4096
@@ -31,6 +33,15 @@ MAX_MEMBERS = 64
 #: Most trainable parameters of one estimator's network(s): 200 M (800 MB as float32), about
 #: twice the largest U-Net that ``MAX_CHANNELS`` lets through.
 MAX_PARAMETERS = 200_000_000
+#: Most threads a ``num_threads`` / ``predict_threads`` parameter may ask for (torch's
+#: OpenMP aborts the process near 1000). Within it, a setting above this machine's cores
+#: uses the cores (:func:`usable_threads`): a model trained on a large machine runs on a small one.
+MAX_THREADS = 512
+
+
+def usable_threads(n: int) -> int:
+    """``n`` threads, at most this machine's cores (``os.cpu_count()``) and at least 1."""
+    return max(1, min(int(n), os.cpu_count() or 1))
 
 
 def check_at_most(name: str, value: Any, limit: int) -> None:

@@ -30,7 +30,7 @@ from ._checkpoint import CLASSES as _CLASSES
 from ._checkpoint import progress_history  # noqa: F401
 from ._checkpoint import cpu_state as _cpu_state  # noqa: F401
 from ._neural_params import MAX_CHANNELS, STUDY_CONSTRAINTS, NeuralParamsMixin  # noqa: F401
-from ._output import floor_holes
+from ._output import bound_output
 from ._persistence import CheckpointMixin
 from ._training import (  # noqa: F401
     Augmentation,
@@ -295,7 +295,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
             if self.channels_last:
                 model = model.to(memory_format=torch.channels_last)
             try:
-                return floor_holes(self._forward(self._compiled(model), X, device), X)
+                return bound_output(self._forward(self._compiled(model), X, device), X)
             finally:
                 self.model_ = model.to("cpu", memory_format=torch.contiguous_format)
 

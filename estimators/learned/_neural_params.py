@@ -22,7 +22,7 @@ from inpaintenv.masks import get_protocol
 from ..base import check_random_state
 from ._checkpoint import cpu_state
 from ._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer, Options, Pair, Real
-from ._limits import check_parameter_count
+from ._limits import MAX_THREADS, check_parameter_count
 from ._training import crop_shape
 from .nets import UNet
 
@@ -69,7 +69,7 @@ class NeuralParamsMixin(ConstrainedParams):
         "amp": [Options(*_AMP_CHOICES)],
         "channels_last": [Bool()],
         "compile": [Bool(), InstanceOf(dict, "a dict of torch.compile arguments"), Options(*_COMPILE_MODES)],
-        "num_threads": [Integer(1), None],
+        "num_threads": [Integer(1, limit=MAX_THREADS), None],
         "num_workers": [Integer(0)],
         "random_state": [Check(check_random_state)],
         "checkpoint_every": [Integer(1), None],

@@ -140,8 +140,6 @@ class CheckpointMixin(PersistenceMixin):
         params = dict(ckpt.config_value(config, "params", dict, where))
         if params.get("crop") is not None:
             params["crop"] = tuple(ckpt.config_value(params, "crop", list, where))
-        if isinstance(params.get("warm_start"), str) and params["warm_start"].startswith("<"):
-            params["warm_start"] = None  # an in-memory estimator cannot be restored; weights are
         fitted = ckpt.config_value(config, "fitted", dict, where, default={})
         n_steps = ckpt.config_value(fitted, "n_steps_", int, where,
                                     default=ckpt.config_value(fitted, "step", int, where, default=0))

@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 import torch
-from tqdm.auto import tqdm
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset, split_by_drive
@@ -32,7 +31,8 @@ from inpaintenv.metrics import aggregate, frame_metrics
 
 from ..base import resolve_seed
 from . import _checkpoint as ckpt
-from ._budget import Budget, record_stop
+from ._budget import Budget, StepBar, record_stop
+from ._limits import usable_threads
 from ._checkpoint import cpu_state
 from .losses import inpainting_loss
 from ._random_state import global_rng_state, set_global_rng_state
@@ -65,11 +65,13 @@ def torch_threads(n: int | None) -> Iterator[int]:
     """Set ``torch.set_num_threads(n)`` for the block and restore it after.
 
     ``None`` keeps the current setting (which under joblib's loky workers already is
-    ``cores // n_jobs``, since loky exports ``OMP_NUM_THREADS`` to its workers).
+    ``cores // n_jobs``, since loky exports ``OMP_NUM_THREADS`` to its workers). More
+    threads than the machine has cores are never started: ``n`` is capped at
+    ``os.cpu_count()`` (:func:`~estimators.learned._limits.usable_threads`).
     """
     before = torch.get_num_threads()
     if n is not None:
-        torch.set_num_threads(int(n))
+        torch.set_num_threads(usable_threads(n))
     try:
         yield torch.get_num_threads()
     finally:
@@ -266,10 +268,10 @@ class TrainingMixin:
             )
             shard.saved(run_dir, progress["step"])
 
-        bar = tqdm(total=total, initial=progress["step"], disable=not (self.verbose and shard.writes),
-                   desc=type(self).__name__, leave=False)
         running = None
         budget = Budget(getattr(self, "max_minutes", None))
+        bar = StepBar(total, progress["step"], budget, disable=not (self.verbose and shard.writes),
+                      desc=type(self).__name__)
         progress["history"].pop("budget_stop", None)  # a resumed run records its own stop
         try:
             while not progress["finished"]:
@@ -414,10 +416,10 @@ class TrainingMixin:
         return backward_step(loss, optimizer, scaler)
 
     def _resume(self, run_dir: Path, model: UNet, optimizer, device) -> tuple[dict, dict | None] | None:
-        state = ckpt.read_run_state(run_dir)
+        state = ckpt.read_run_state(run_dir, owned=True)  # the run folder is this fit's own
         if state is None:
             return None
-        _, weights, progress, optim = ckpt.read_checkpoint(run_dir / state["last"], training=True)
+        _, weights, progress, optim = ckpt.read_checkpoint(run_dir / state["last"], training=True, owned=True)
         model.load_state_dict(weights)
         meta = progress.pop("optimizer")
         optimizer.load_state_dict(ckpt.unflatten_optimizer_state(optim, meta))
@@ -425,7 +427,7 @@ class TrainingMixin:
             progress.pop(k, None)
         best = None
         if state.get("best"):
-            _, best, _, _ = ckpt.read_checkpoint(run_dir / state["best"])
+            _, best, _, _ = ckpt.read_checkpoint(run_dir / state["best"], owned=True)
         return progress, best
 
     def _warm_start_model(self) -> UNet:

@@ -25,13 +25,15 @@ recipes (docs/fill.md):
     inpaintenv fill frames/ --format npy --out filled/
   the same, with a 90 % interval per pixel beside each filled map (<name>_low, <name>_high):
     inpaintenv fill frames/ --format npy --confidence 0.9 --out filled/
-  a LiDAR scan with its calibration, densified, with the filled points back in the LiDAR frame:
+  a LiDAR scan with its calibration, densified within its field of view (--fill-all: the sky too),
+  with the filled points back in the LiDAR frame:
     inpaintenv fill 2011_09_26_drive_0001_sync/velodyne_points/data/ --calib 2011_09_26/ \\
         --missing --points bin --out filled/
 
   Pixels to fill: NaN in arrays, --holes, --box (repeatable) and --missing, together. Measured
-  pixels come out bit-identical. Outputs that exist are skipped (rerun to resume); a bad file is
-  one line and the others are still written; the exit status is 1 if any failed.
+  pixels come out bit-identical. Outputs this command made are skipped (rerun to resume), others
+  refused (--overwrite replaces them); a bad file is one line and the others are still written;
+  the exit status is 1 if any failed.
 """
 
 
@@ -75,7 +77,11 @@ def add_fill(subparsers: Any) -> None:
                         "nonzero = fill)")
     g.add_argument("--box", type=_box, action="append", default=[], metavar="x0,y0,x1,y1",
                    help="a rectangle to fill: columns x0..x1-1, rows y0..y1-1 (repeatable)")
-    g.add_argument("--missing", action="store_true", help="fill every pixel without a measurement (densify)")
+    g.add_argument("--missing", action="store_true",
+                   help="fill the pixels without a measurement (densify) inside the scan's field of view: per column "
+                        "between its topmost and bottommost measured rows, not the sky above")
+    g.add_argument("--fill-all", action="store_true",
+                   help="with --missing: every pixel without a measurement, the sky included")
     s = p.add_argument_group("LiDAR scans (.bin, N x 4 float32)")
     s.add_argument("--calib", metavar="PATH",
                    help="a KITTI raw day folder (calib_cam_to_cam.txt + calib_velo_to_cam.txt), an odometry calib.txt "
@@ -103,7 +109,10 @@ def add_fill(subparsers: Any) -> None:
                         "--confidence")
     o.add_argument("--jobs", type=int, metavar="N", help="parallel frames for the classical methods")
     o.add_argument("--batch-size", type=int, default=4, metavar="N", help="same-sized frames per call (default 4)")
-    o.add_argument("--overwrite", action="store_true", help="redo inputs whose outputs exist (skipped otherwise)")
+    o.add_argument("--overwrite", action="store_true",
+                   help="redo inputs whose outputs exist; otherwise they are skipped when this command made them "
+                        "(same input, method and options: the ledger inpaintenv-fill.jsonl in --out), and refused "
+                        "in one line when not")
     o.add_argument("--on-error", choices=["continue", "stop"], default="continue",
                    help="a bad input is one line and the run goes on (continue, the default), or stops there")
     add_common_options(p)
@@ -123,6 +132,8 @@ def cmd_fill(args: argparse.Namespace) -> int:
     checkpoint = check_checkpoint_folder(args.checkpoint) if args.checkpoint else None
     if args.jobs is not None and args.jobs == 0:
         raise InvalidInputError("--jobs must be a non-zero integer (-1 = every core), got 0")
+    if args.fill_all and not args.missing:
+        raise InvalidInputError("--fill-all widens --missing to every pixel without a measurement; give --missing too")
     if args.calib is None and (args.size or args.camera is not None):
         raise InvalidInputError("--size and --camera describe the camera of --calib; give --calib PATH with them")
 
@@ -134,7 +145,7 @@ def cmd_fill(args: argparse.Namespace) -> int:
         missing=args.missing, calibration=args.calib, size=args.size, camera=args.camera, format=args.format,
         points=args.points, overwrite=args.overwrite, on_error=args.on_error, n_jobs=args.jobs,
         batch_size=args.batch_size, progress=not args.quiet, log=log, confidence=args.confidence,
-        intervals=args.intervals,
+        intervals=args.intervals, fill_all=args.fill_all,
     )
     print(report.summary(), file=sys.stderr)
     return 0 if report.ok else 1

@@ -9,6 +9,7 @@ modules of :mod:`inpaintenv.cli` import this one; it imports none of them.
 from __future__ import annotations
 
 import argparse
+import inspect
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -79,11 +80,24 @@ def check_method_names(names: Sequence[str]) -> list[str]:
         if canonical == "checkpoint":
             raise InvalidInputError("-m checkpoint needs a path: pass --checkpoint NAME=PATH instead "
                              f"({CHECKPOINT_FOLDER})")
-        resolve_class(canonical)
+        _check_custom(name, resolve_class(canonical))
         if canonical in out:
             raise InvalidInputError(f"method {name!r} is given twice (as {canonical!r})")
         out.append(canonical)
     return out
+
+
+def _check_custom(name: str, obj: Any) -> None:
+    """Refuse a ``module:attr`` that cannot be a method: a built-in (C) function such as ``os:system``, or
+    something not callable. A class, a Python function ``depth -> depth`` or an object with ``predict`` passes."""
+    if ":" not in name:
+        return
+    if callable(getattr(obj, "predict", None)) or isinstance(obj, type):
+        return
+    if inspect.isbuiltin(obj) or not callable(obj):
+        what = "a built-in function" if inspect.isbuiltin(obj) else f"a {type(obj).__name__}, not callable"
+        raise InvalidInputError(f"-m {name}: {what}, not a depth method; give a class with predict (an estimator), "
+                                "an object with predict, or a Python function depth -> depth (module:name)")
 
 
 def check_checkpoint_folder(path: str | Path, name: str = "--checkpoint") -> Path:

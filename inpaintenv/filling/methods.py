@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import InvalidInputError
+from ..conventions import DEPTH_LIMIT, as_depth_array, check_depth
+from ..exceptions import InvalidInputError, InvalidTypeError
 from ..method_calls import MethodOutputError, method_name, run_method
 from ..method_intervals import IntervalSource
 
@@ -34,10 +35,33 @@ def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -
     numpy.ndarray
         ``depth``'s dtype and shape: measured pixels outside the fill bit-identical, pixels
         without a measurement outside it still 0, filled pixels positive and finite.
+
+    Raises
+    ------
+    InvalidTypeError
+        ``depth`` is not a floating-point array (integer, boolean, object, strings, None),
+        or ``fill`` is not an array of booleans or numbers.
+    InvalidInputError
+        ``depth`` is not 2-D or holds values no depth map has (negative, infinite, above the
+        PNG limit), or ``fill`` does not have ``depth``'s shape.
     """
-    depth = np.asarray(depth)
-    mask = np.isnan(depth) if fill is None else np.asarray(fill, dtype=bool) | np.isnan(depth)
+    depth = as_depth_array(depth, "depth")
+    check_depth(depth, name="depth", allow_nan=True, ndim=(2,))
+    mask = np.isnan(depth) if fill is None else _check_fill(fill, depth.shape) | np.isnan(depth)
     return fill_batch(*make_method(method, None, None), [depth], [mask])[0]
+
+
+def _check_fill(fill: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """The pixels to fill as booleans (nonzero = fill), or one clear error."""
+    mask = np.asarray(fill)
+    if not (mask.dtype == np.bool_ or np.issubdtype(mask.dtype, np.integer) or np.issubdtype(mask.dtype, np.floating)):
+        raise InvalidTypeError(f"fill (the pixels to fill) must be an array of booleans or numbers (nonzero = fill), "
+                               f"got dtype {mask.dtype}")
+    if mask.shape != shape:
+        raise InvalidInputError(f"fill (the pixels to fill) must have the depth's shape {shape}, got {mask.shape}")
+    if np.issubdtype(mask.dtype, np.floating) and not np.isfinite(mask).all():
+        raise InvalidInputError("fill (the pixels to fill) holds NaN or infinite values; give booleans (True = fill)")
+    return mask.astype(bool, copy=False)
 
 
 def fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np.ndarray], *,
@@ -67,17 +91,27 @@ def fill_batch(method: Any, name: str, depths: list[np.ndarray], fills: list[np.
     for k, p in zip(todo, pred):
         unfilled = np.count_nonzero(fills[k] & (p <= 0))
         if unfilled:
-            raise MethodOutputError(
-                f"method {name!r} left {unfilled} of the {np.count_nonzero(fills[k])} pixels to fill at 0 m "
-                "(no measurement near them?); try another method, e.g. --method scanline")
+            raise MethodOutputError(_unfilled_message(name, unfilled, fills[k], depths[k]))
         np.copyto(out[k], p, where=fills[k], casting="same_kind")
     if bounds is None:
         return out
     lows, highs = [d.copy() for d in out], [d.copy() for d in out]
+    # Capped at the most a depth file holds, in float64: a huge bound would overflow the depth's float32.
+    low, high = (np.minimum(b, DEPTH_LIMIT) for b in bounds)
     for j, k in enumerate(todo):  # measured pixels: low = high = the measurement; unmeasured, unfilled: 0
-        np.copyto(lows[k], bounds[0][j], where=fills[k], casting="same_kind")
-        np.copyto(highs[k], bounds[1][j], where=fills[k], casting="same_kind")
+        np.copyto(lows[k], low[j], where=fills[k], casting="same_kind")
+        np.copyto(highs[k], high[j], where=fills[k], casting="same_kind")
     return [a for triple in zip(out, lows, highs) for a in triple]
+
+
+def _unfilled_message(name: str, unfilled: int, fill: np.ndarray, depth: np.ndarray) -> str:
+    """Why a frame failed with pixels left at 0 m, and what to try: never the method that just failed."""
+    head = f"method {name!r} left {unfilled} of the {np.count_nonzero(fill)} pixels to fill at 0 m"
+    if not np.count_nonzero((depth > 0) & ~fill):
+        return f"{head}: the frame has no measurement outside the pixels to fill, so nothing to fill them from"
+    other = "harmonic" if name.split("+")[0].split("-")[0] == "nearest" else "nearest"
+    return (f"{head} (no measurement near them?); try a method that reaches every pixel from the measurements, "
+            f"e.g. --method {other}")
 
 
 def make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any, str]:

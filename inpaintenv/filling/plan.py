@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..data.depth_files import DEPTH_SUFFIXES
 from ..exceptions import InvalidInputError
+from ..files import describe_kind
 from ..report.progress import count
 
 __all__ = ["FORMATS", "INTERVAL_SUFFIXES", "POINT_FORMATS", "SCAN_SUFFIX", "FillJob", "FillReport", "plan"]
@@ -97,6 +99,20 @@ def _interval_pair(path: Path) -> tuple[Path, Path]:
     return tuple(path.with_name(path.stem + s + path.suffix) for s in INTERVAL_SUFFIXES)  # type: ignore[return-value]
 
 
+def _not_regular(path: Path) -> str | None:
+    """Why ``path`` cannot be read as a file (a FIFO, a device, a broken link), or None for a regular file.
+
+    Checked before anything opens it: opening a FIFO for reading waits for a writer forever.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as exc:
+        return f"{path}: cannot be read ({exc.strerror or exc}{'; a broken link?' if path.is_symlink() else ''})"
+    if stat.S_ISREG(mode):
+        return None
+    return f"{path} is {describe_kind(mode)}, not a regular file; not read"
+
+
 def _found(given: Path, out: Path, out_abs: Path, masks: list[Path]) -> list[tuple[Path, Path]] | None:
     """The files of one INPUT with their relative paths; None if nothing is there."""
     if given.is_dir():
@@ -105,7 +121,7 @@ def _found(given: Path, out: Path, out_abs: Path, masks: list[Path]) -> list[tup
                                     "input folder: give another --out")
         return [(p, p.relative_to(given)) for p in _walk(given)
                 if not masks or not any(_is_under(p.resolve(), m) for m in masks)]
-    if given.is_file():
+    if given.is_file() or os.path.lexists(given):  # a FIFO or device given by name: refused by its kind
         return [(given, Path(given.name))]
     return None
 
@@ -168,6 +184,10 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
                 else:
                     missing.append((path, f"{path}: not a depth file or scan (read are "
                                           f"{', '.join((*DEPTH_SUFFIXES, SCAN_SUFFIX))})"))
+                continue
+            why = _not_regular(path)
+            if why is not None:
+                missing.append((path, why))
                 continue
             extra = POINT_FORMATS[points] if suffix == SCAN_SUFFIX else ()
             outputs = tuple(out / rel.with_suffix(s) for s in (*FORMATS[format], *extra))

@@ -14,7 +14,9 @@ from ..data.calibration import Calibration, read_calibration
 from ..data.depth_files import MASK_SUFFIXES, read_depth_file, read_mask_file
 from ..data.projection import project_scan, read_scan
 from ..exceptions import InvalidInputError
+from .ledger import file_identity
 from .plan import FillJob
+from .view import sensor_view
 
 __all__ = ["NO_HOLES", "Holes", "Item", "Reader", "check_box", "message"]
 
@@ -49,6 +51,7 @@ class Holes:
     holes: Path | None = None
     boxes: tuple[tuple[int, int, int, int], ...] = ()
     missing: bool = False
+    fill_all: bool = False
     _shared: np.ndarray | None = None
 
     def given(self) -> bool:
@@ -63,6 +66,17 @@ class Holes:
             raise InvalidInputError(f"{job.source}: {why} for it in {self.holes} (looked for "
                                     f"{', '.join(str(job.rel.with_suffix(s)) for s in MASK_SUFFIXES)})")
         return found[0]
+
+    def identity(self, job: FillJob) -> dict[str, Any]:
+        """What marks ``job``'s pixels to fill, for the ledger: the mask file's identity, boxes, missing."""
+        out: dict[str, Any] = {"boxes": [list(b) for b in self.boxes], "missing": self.missing,
+                               "fill_all": self.fill_all if self.missing else None, "holes": None}
+        if self.holes is not None:
+            try:
+                out["holes"] = file_identity(self._mask_path(job) if self.holes.is_dir() else self.holes)
+            except InvalidInputError:
+                out["holes"] = file_identity(self.holes)  # no mask for it: its read fails in one line
+        return out
 
     def _mask(self, job: FillJob) -> tuple[np.ndarray, Path]:
         assert self.holes is not None
@@ -88,8 +102,9 @@ class Holes:
                 raise InvalidInputError(f"{job.source}: --box {x0},{y0},{x1},{y1} lies outside its {width}x{height} "
                                         "image")
             fill[y0:y1, x0:x1] = True
-        if self.missing:
-            fill |= depth == 0
+        if self.missing:  # inside the scan's field of view, unless every pixel is asked for
+            unmeasured = depth == 0
+            fill |= unmeasured if self.fill_all else unmeasured & sensor_view(depth)
         if not self.given() and not fill.any():
             raise InvalidInputError(f"{job.source}: {NO_HOLES}")
         return fill
@@ -136,6 +151,16 @@ class Reader:
             raise type(self._calib)(f"{job.source}: {self._calib}")
         assert self._calib is not None
         return self._calib
+
+    def identity(self, job: FillJob) -> dict[str, Any]:
+        """What besides the method makes ``job``'s pixels: its holes and (a scan) the calibration."""
+        out = self.holes.identity(job)
+        if job.is_scan:
+            calib = self._calib if isinstance(self._calib, Calibration) else None
+            out["calibration"] = None if calib is None else {
+                "matrix": np.asarray(calib.matrix, np.float64).tolist(), "size": list(calib.size or ()),
+                "kind": calib.kind, "camera": calib.camera}
+        return out
 
     def prepare(self, job: FillJob) -> Item:
         """Read one input and its mask; errors are kept in the item."""

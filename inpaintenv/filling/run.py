@@ -16,7 +16,10 @@ from ..data.calibration import Calibration
 from ..exceptions import InvalidInputError
 from ..interval_metrics import check_coverage
 from ..method_intervals import IntervalSource
+from ..benchmark.lock import run_lock
+from ..files import remove_stale_temporaries
 from ..report.progress import FrameProgress
+from .ledger import Ledger, file_identity
 from .methods import fill_batch, interval_method, make_method, shipped_interval_name
 from .plan import FillJob, FillReport, plan
 from .read import Holes, Item, Reader, check_box, message
@@ -33,6 +36,8 @@ class _Run:
         self.interval: IntervalSource | None = None
         self.name = ""
         self.reader, self.report, self.log, self.stop = reader, report, log, stop
+        self.ledger: Ledger | None = None
+        self.records: dict[FillJob, dict[str, Any]] = {}
 
     def set_method(self, method: Any, name: str, interval: IntervalSource | None = None) -> None:
         self.method, self.name, self.interval = method, name, interval
@@ -40,9 +45,14 @@ class _Run:
     def write(self, item: Item, arrays: tuple[np.ndarray, ...]) -> None:
         """Write every output of one filled input (in the writer thread)."""
         write_outputs(item, arrays, lambda: self.reader.calibration(item.job))
+        assert self.ledger is not None
+        self.ledger.record(self.records[item.job])
 
     def fail(self, item: Item, line: str) -> None:
-        self.report.failed.append((item.job.source, line))
+        self.fail_job(item.job, line)
+
+    def fail_job(self, job: FillJob, line: str) -> None:
+        self.report.failed.append((job.source, line))
         self.log(line)
 
     def predict(self, batch: list[Item]) -> list[tuple[Item, tuple[np.ndarray, ...] | None]]:
@@ -147,6 +157,56 @@ def _check_options(on_error: str, batch_size: int, confidence: float | None, int
     return None
 
 
+def _recipe(method: Any, checkpoint: Any, confidence: float | None, intervals: Any) -> dict[str, Any]:
+    """What makes the pixels of every output of a run, besides its input and holes (for the ledger)."""
+    if checkpoint is not None:
+        made_by: Any = {"checkpoint": file_identity(checkpoint)}
+    elif isinstance(method, str):
+        from ..registry import canonical_name
+
+        made_by = canonical_name(method)
+    else:
+        from ..benchmark.identity import method_identity
+
+        made_by = method_identity(method)
+    return {"method": made_by, "confidence": confidence,
+            "intervals": file_identity(intervals) if intervals is not None else None}
+
+
+def _todo(jobs: list[FillJob], run: _Run, recipe: dict[str, Any], overwrite: bool) -> list[FillJob]:
+    """The jobs to run (their ledger records kept in ``run``); the others skipped (done) or failed (outputs
+    there that are not theirs)."""
+    assert run.ledger is not None
+    todo, folders = [], set()
+    for job in jobs:
+        record = run.ledger.new_record(job, {**recipe, **run.reader.identity(job)})
+        if not overwrite:
+            why = run.ledger.conflict(job, record)
+            if why is not None:
+                run.fail_job(job, why)
+                continue
+            if all(os.path.lexists(o) for o in job.all_outputs):
+                run.report.skipped.append(job.source)
+                continue
+        todo.append(job)
+        run.records[job] = record
+        folders.update(o.parent for o in job.all_outputs)
+    for folder in folders:  # what a killed run of this --out left half written
+        remove_stale_temporaries(folder)
+    return todo
+
+
+def _method(method: Any, checkpoint: Any, n_jobs: int | None, confidence: float | None,
+            intervals: Any) -> tuple[Any, str, IntervalSource | None]:
+    """The method of a run, its name and (with ``confidence``) its interval source."""
+    if confidence is not None and checkpoint is None and intervals is None:
+        method = shipped_interval_name(method)  # "pretrained" -> "pretrained-intervals": its calibration
+    built, name = make_method(method, checkpoint, n_jobs)
+    if confidence is None:
+        return built, name, None
+    return interval_method(built, name, intervals, confidence)
+
+
 def fill(
     inputs: str | os.PathLike | Sequence[str | os.PathLike], out: str | os.PathLike, *,
     method: Any = "pretrained", checkpoint: str | os.PathLike | None = None,
@@ -155,7 +215,7 @@ def fill(
     camera: int | None = None, format: str = "png", points: str | None = None, overwrite: bool = False,
     on_error: str = "continue", n_jobs: int | None = None, batch_size: int = 4, progress: bool = True,
     log: Callable[[str], None] | None = None, confidence: float | None = None,
-    intervals: str | os.PathLike | None = None,
+    intervals: str | os.PathLike | None = None, fill_all: bool = False,
 ) -> FillReport:
     """Fill depth files and LiDAR scans (files or folders, read recursively) into ``out``.
 
@@ -175,7 +235,9 @@ def fill(
     boxes : sequence of (x0, y0, x1, y1)
         Rectangles to fill, columns ``x0..x1-1``, rows ``y0..y1-1``.
     missing : bool
-        Fill every pixel without a measurement (densify).
+        Fill the pixels without a measurement (densify) inside the scan's field of view: per
+        column between its topmost and bottommost measured rows
+        (:func:`~inpaintenv.filling.view.sensor_view`), not the sky above it.
     calibration : path-like or Calibration, optional
         For scans (see :func:`~inpaintenv.data.calibration.read_calibration`); ``size``
         and ``camera`` are passed to it.
@@ -188,7 +250,9 @@ def fill(
     points : {None, "bin", "ply", "both"}
         For scans, also the original points plus the filled pixels back-projected (reflectance 0).
     overwrite : bool
-        Redo inputs whose outputs exist (they are skipped otherwise).
+        Redo inputs whose outputs exist. Otherwise an input whose outputs all exist, made
+        from it by the same method and options (the ledger of ``out``), is skipped, and one
+        with an output made otherwise (or not by ``fill``) fails in one line saying what differs.
     on_error : {"continue", "stop"}
         A bad input is reported and the run goes on, or stops there.
     n_jobs : int, optional
@@ -208,18 +272,23 @@ def fill(
     intervals : path-like, optional
         With ``confidence``: a calibration saved by
         :meth:`estimators.intervals.ConformalIntervalInpainter.save` to wrap ``method`` in.
+    fill_all : bool
+        With ``missing``: every pixel without a measurement, the sky included.
 
     Returns
     -------
     FillReport
     """
     confidence = _check_options(on_error, batch_size, confidence, intervals)
+    if fill_all and not missing:
+        raise InvalidInputError("fill_all (--fill-all) widens missing (--missing) to every pixel without a "
+                                "measurement; give missing too")
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     if holes is not None and not Path(holes).exists():
         raise FileNotFoundError(f"--holes {holes}: no such mask file or folder")
-    protect = [holes] if holes is not None else []
-    jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points, protect=protect,
+    jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points,
+                                         protect=[holes] if holes is not None else [],
                                          confidence=confidence is not None)
     if points is not None and not any(j.is_scan for j in jobs):
         raise InvalidInputError("points (--points) applies to .bin LiDAR scans, and there are none among the inputs")
@@ -227,20 +296,21 @@ def fill(
     for path, why in missing_inputs:
         report.failed.append((path, why))
         log(why)
-    done = [not overwrite and all(o.exists() for o in j.all_outputs) for j in jobs]
-    todo = [j for j, d in zip(jobs, done) if not d]
-    report.skipped = [j.source for j, d in zip(jobs, done) if d]
-    if not todo or (missing_inputs and on_error == "stop"):
-        return report
-    hole_spec = Holes(Path(holes) if holes is not None else None, tuple(check_box(b) for b in boxes), missing)
+    hole_spec = Holes(Path(holes) if holes is not None else None, tuple(check_box(b) for b in boxes), missing,
+                      fill_all)
     reader = Reader(hole_spec, calibration, size, camera)
-    if any(j.is_scan for j in todo):
+    if any(j.is_scan for j in jobs):
         reader.load_calibration()  # first: a missing --size fails in a second, not after loading a model
     run = _Run(reader, report, log, on_error == "stop")
-    if confidence is not None and checkpoint is None and intervals is None:
-        method = shipped_interval_name(method)  # "pretrained" -> "pretrained-intervals": its calibration
-    run.set_method(*make_method(method, checkpoint, n_jobs))
-    if confidence is not None:
-        run.set_method(*interval_method(run.method, run.name, intervals, confidence))
-    _loop(run, todo, batch_size, progress)
+    if overwrite or not all(os.path.lexists(o) for j in jobs for o in j.all_outputs):
+        # Likely work: the method's errors (a bad name, no interval) come before anything is written to --out.
+        run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals))
+    with run_lock(out, log):  # a second run into the same --out is refused in one line
+        run.ledger = Ledger(out)
+        todo = _todo(jobs, run, _recipe(method, checkpoint, confidence, intervals), overwrite)
+        if not todo or (report.failed and run.stop):
+            return report
+        if run.method is None:  # the outputs were there a moment ago, no longer
+            run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals))
+        _loop(run, todo, batch_size, progress)
     return report

@@ -24,7 +24,9 @@ from inpaintenv.data import (
     read_scan,
     write_depth_png,
 )
+from inpaintenv.benchmark.lock import LOCK_FILE
 from inpaintenv.filling import NO_HOLES, fill
+from inpaintenv.filling.ledger import LEDGER
 from inpaintenv.registry import make_method
 
 
@@ -38,6 +40,11 @@ def box_mask(shape: tuple[int, int], k: int) -> np.ndarray:
     m = np.zeros(shape, bool)
     m[h // 4 + k: h // 2 + k, w // 5 + 2 * k: w // 2 + 2 * k] = True
     return m
+
+
+def names(folder: Path) -> list[str]:
+    """The files of ``folder`` besides the run's own (its ledger and lock)."""
+    return sorted(p.name for p in folder.iterdir() if p.name not in (LEDGER, LOCK_FILE))
 
 
 def hashes(folder: Path) -> dict[str, str]:
@@ -201,7 +208,7 @@ def test_missing_densifies_and_boxes_add_up(tmp_path):
     d = frames(1, (64, 96))[0]
     write_depth_png(tmp_path / "in" / "f.png", d)
     report = fill([tmp_path / "in" / "f.png"], tmp_path / "out", method="scanline", missing=True,
-                  boxes=[(0, 0, 10, 10)], progress=False)
+                  boxes=[(0, 0, 10, 10)], progress=False, fill_all=True)
     assert report.ok
     got = read_depth_png(tmp_path / "out" / "f.png")
     assert (got > 0).all()
@@ -346,7 +353,7 @@ def test_ctrl_c_keeps_complete_files_and_the_rerun_resumes(png_folder, tmp_path,
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"inpaintenv fill: interrupted; the files written so far are kept in {tmp_path / 'out'} (each "
                    "complete); rerun the same command to go on (existing outputs are skipped)"]
-    written = sorted(p for p in (tmp_path / "out").rglob("*") if p.is_file())
+    written = sorted(p for p in (tmp_path / "out").rglob("*") if p.is_file() and p.name not in (LEDGER, LOCK_FILE))
     assert [p.relative_to(tmp_path / "out") for p in written] == [items[0][0]]  # no temporary file left
     monkeypatch.setattr(ScanlineInpainter, "predict", original)
     assert main(args) == 0
@@ -360,7 +367,7 @@ def test_a_mask_inside_the_input_folder_is_not_an_input(tmp_path, capsys):
     rc = main(["fill", str(tmp_path / "in"), "--holes", str(tmp_path / "in" / "mask.png"), "-m", "scanline",
                "--out", str(tmp_path / "out"), "-q"])
     assert rc == 0 and "1 written, 0 skipped, 0 failed" in capsys.readouterr().err
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f.png"]
+    assert names(tmp_path / "out") == ["f.png"]
 
 
 def test_npz_input_and_points_without_scans(tmp_path, capsys):
@@ -369,7 +376,7 @@ def test_npz_input_and_points_without_scans(tmp_path, capsys):
     np.savez(tmp_path / "f.npz", depth=x)
     assert main(["fill", str(tmp_path / "f.npz"), "-m", "scanline", "--format", "both",
                  "--out", str(tmp_path / "out"), "-q"]) == 0
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f.npy", "f.png"]
+    assert names(tmp_path / "out") == ["f.npy", "f.png"]
     assert not np.isnan(np.load(tmp_path / "out" / "f.npy")).any()
     assert main(["fill", str(tmp_path / "f.npz"), "--points", "bin", "--out", str(tmp_path / "o2"), "-q"]) == 1
     assert "applies to .bin LiDAR scans" in capsys.readouterr().err

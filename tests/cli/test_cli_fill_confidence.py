@@ -11,9 +11,12 @@ from estimators import ScanlineInpainter
 from estimators.intervals import ConformalIntervalInpainter
 from inpaintenv.cli import main
 from inpaintenv.conventions import DEPTH_LIMIT
-from inpaintenv.data import SyntheticStreets, read_depth_png, write_depth_png
+from inpaintenv.data import SyntheticStreets, read_depth_file, read_depth_png, write_depth_png
 from inpaintenv.exceptions import InvalidInputError
+from inpaintenv.benchmark.lock import LOCK_FILE
 from inpaintenv.filling import fill
+from inpaintenv.filling.ledger import LEDGER
+from inpaintenv.filling.write import LOW_FLOOR
 
 SHAPE = (64, 96)
 
@@ -48,7 +51,7 @@ def test_interval_files_hold_the_fill_and_equal_predict_interval(calibration, tm
     rc = main(["fill", str(tmp_path / "in"), "--format", "both", "--confidence", "--intervals", str(path),
                "-m", "scanline", "--out", str(tmp_path / "out"), "-q"])
     assert rc == 0
-    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    names = sorted(p.name for p in (tmp_path / "out").iterdir() if p.name not in (LEDGER, LOCK_FILE))
     assert names == ["a.npy", "a.png", "a_high.npy", "a_high.png", "a_low.npy", "a_low.png"]
     filled, low, high = (np.load(tmp_path / "out" / f"a{s}.npy") for s in ("", "_low", "_high"))
     hole = np.isnan(x)
@@ -57,12 +60,14 @@ def test_interval_files_hold_the_fill_and_equal_predict_interval(calibration, tm
     np.testing.assert_array_equal(low[~hole], filled[~hole])  # measured (or unmeasured 0) pixels: no width
     np.testing.assert_array_equal(high[~hole], filled[~hole])
     ref_low, ref_high = wrapper.predict_interval(x)  # the calibrated 0.9 interval of the same prediction
-    np.testing.assert_array_equal(low[hole], ref_low[hole])
-    np.testing.assert_array_equal(high[hole], ref_high[hole])
-    # The PNGs are the same bounds at 1/256 m, still ordered.
+    # A filled pixel's low bound is at least 1/256 m (0 means "no interval"), its high at most the PNG limit.
+    np.testing.assert_array_equal(low[hole], np.clip(ref_low[hole], LOW_FLOOR, DEPTH_LIMIT).astype(low.dtype))
+    np.testing.assert_array_equal(high[hole], np.clip(ref_high[hole], 0, DEPTH_LIMIT).astype(high.dtype))
+    # The PNGs are the same bounds rounded outward to 1/256 m, so still bounds and still ordered.
     p_low, p_fill, p_high = (read_depth_png(tmp_path / "out" / f"a{s}.png") for s in ("_low", "", "_high"))
-    assert (p_low <= p_fill).all() and (p_fill <= p_high).all()
-    assert np.abs(p_high - np.minimum(high, DEPTH_LIMIT))[hole].max() <= 0.5 / 256 + 1e-6
+    assert (p_low <= p_fill).all() and (p_fill <= p_high).all() and (p_low[hole] > 0).all()
+    assert (p_low <= low)[hole].all() and (low - p_low)[hole].max() < 1 / 256
+    assert (p_high >= high)[hole].all() and (p_high - high)[hole].max() < 1 / 256
 
 
 def test_another_coverage_is_nested(calibration, tmp_path):
@@ -139,3 +144,21 @@ def test_scanline_fills_with_its_shipped_interval_without_a_calibration_file(tmp
     np.testing.assert_array_equal(low[hole], ref_low[hole])
     np.testing.assert_array_equal(high[hole], ref_high[hole])
     assert ((high - low)[hole] > 0).all()
+
+
+@pytest.mark.kitti
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["pretrained", "scanline"])
+def test_confidence_on_the_official_scans_writes_every_file_and_reads_back(kitti_root, tmp_path, method):
+    """Lower bounds below 1/256 m failed whole frames (issue 50, item 9): each file is written, and read back."""
+    frames_dir = kitti_root / "depth_selection" / "val_selection_cropped" / "velodyne_raw"
+    inputs = sorted(frames_dir.glob("*.png"))
+    report = fill([frames_dir], tmp_path, method=method, missing=True, confidence=0.9, format="both", progress=False)
+    assert report.ok, report.failed
+    assert len(report.written) == len(inputs) > 0
+    for source in inputs:
+        for suffix in (".png", ".npy"):
+            d, low, high = (read_depth_file(tmp_path / f"{source.stem}{s}{suffix}") for s in ("", "_low", "_high"))
+            filled = d > 0
+            assert ((low > 0) == filled).all() and ((high > 0) == filled).all()  # 0: no interval, nothing else
+            assert (low <= d).all() and (d <= high).all() and (low[filled] >= LOW_FLOOR).all()

@@ -10,7 +10,9 @@ traceback) and that no file appears outside the test's own folders.
 from __future__ import annotations
 
 import json
+import os
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +24,7 @@ from hypothesis import strategies as st
 
 from estimators.learned import MeanEnsembleInpainter
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
+from estimators.learned._checkpoint_checks import PATH_PARAMS
 from estimators.learned import BlendInpainter
 from estimators.learned import load_checkpoint
 from estimators.learned import UNetInpainter
@@ -185,3 +188,157 @@ def test_huge_sizes_of_an_ensemble_member_are_refused(saved, sandbox, member, ke
     folder = _write(sandbox / "ckpt", {**config, "members": members}, weights)
     message = str(_refused(folder, sandbox))
     assert f"member {members[member]['name']!r}" in message and f"{key}={value}" in message
+
+
+# -- issue 50: paths, threads and hostile files in a checkpoint ---------------------------
+def _with_paths(params: dict[str, Any], target: Path, names: tuple[str, ...] = PATH_PARAMS) -> dict[str, Any]:
+    return {**params, **{k: str(target) for k in names if k in params}}
+
+
+def _every_params(est: Any) -> list[tuple[str, dict[str, Any]]]:
+    """The parameters of ``est`` and of each fitted member of an ensemble."""
+    out = [(type(est).__name__, est.get_params(deep=False))]
+    for member in getattr(est, "estimators_", []):
+        out += _every_params(member)
+    return out
+
+
+def test_every_parameter_that_names_a_file_is_listed():
+    import inspect
+
+    from estimators.learned._checkpoint import CLASSES
+
+    assert len(CLASSES) >= 6
+    for name, klass in CLASSES.items():
+        params = inspect.signature(klass.__init__).parameters
+        pathlike = {p for p in params if p == "warm_start" or p.endswith(("_dir", "_path", "_file", "_root"))}
+        assert pathlike <= set(PATH_PARAMS), (name, pathlike - set(PATH_PARAMS))
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_paths_in_a_loaded_checkpoint_are_never_kept(saved, sandbox, family):
+    config, weights = saved[family]
+    config = json.loads(json.dumps(config))
+    elsewhere = sandbox / "elsewhere"
+    config["params"] = _with_paths(config["params"], elsewhere)
+    for member in config.get("members", []):
+        member["config"]["params"] = _with_paths(member["config"]["params"], elsewhere)
+    est = load_checkpoint(_write(sandbox / "ckpt", config, weights))
+    for name, params in _every_params(est):
+        kept = {k: v for k, v in params.items() if k in PATH_PARAMS and v is not None and not isinstance(v, bool)}
+        assert not kept, (name, kept)
+
+
+@pytest.mark.parametrize("family", ["unet", "prior"])
+def test_a_later_fit_of_a_loaded_model_writes_nothing_where_the_file_said(saved, sandbox, family):
+    config, weights = saved[family]
+    elsewhere = sandbox / "elsewhere"
+    assert "checkpoint_dir" in config["params"]
+    config = {**config, "params": _with_paths(config["params"], elsewhere, ("checkpoint_dir",))}
+    est = load_checkpoint(_write(sandbox / "ckpt", config, weights))
+    assert est.checkpoint_dir is None
+    est.set_params(max_steps=1).fit(SyntheticStreets(n=2, frame_shape=(32, 64), frames_per_drive=1))
+    assert not elsewhere.exists()
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_thread_counts_beyond_the_limit_are_one_checkpoint_error(saved, sandbox, family):
+    config, weights = saved[family]
+    folder = _write(sandbox / "ckpt", {**config, "params": {**config["params"], "num_threads": 1000}}, weights)
+    message = str(_refused(folder, sandbox))
+    assert "num_threads=1000" in message and "allowed" in message
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_a_checkpoint_never_starts_more_threads_than_the_machine_has_cores(saved, sandbox, family, monkeypatch):
+    config, weights = saved[family]
+    params = {**config["params"], "num_threads": 300}
+    if "predict_threads" in params:
+        params["predict_threads"] = 300
+    est = load_checkpoint(_write(sandbox / "ckpt", {**config, "params": params}, weights))
+    asked: list[int] = []
+    real = torch.set_num_threads
+    monkeypatch.setattr(torch, "set_num_threads", lambda n: (asked.append(n), real(n))[1])
+    x = SyntheticStreets(n=1, frame_shape=(32, 64), frames_per_drive=1)[0].copy()
+    x[8:20, 10:40] = float("nan")
+    est.predict(x)
+    assert asked and max(asked) <= (os.cpu_count() or 1)
+
+
+def test_deeply_nested_config_is_one_checkpoint_error(saved, sandbox):
+    config, weights = saved["unet"]
+    folder = _write(sandbox / "ckpt", config, weights)
+    (folder / "config.json").write_text("[" * 100_000 + "]" * 100_000)
+    assert "nested" in str(_refused(folder, sandbox))
+    run = sandbox / "run"
+    run.mkdir()
+    (run / "state.json").write_text('{"last": ' * 50_000 + "1" + "}" * 50_000)
+    with pytest.raises(CheckpointError, match="nested"):
+        load_checkpoint(run)
+
+
+def _within(seconds: float, call: Any, fifo: Path) -> BaseException | None:
+    """What ``call()`` raised, asserting it returned within ``seconds`` (a reader left
+    waiting on ``fifo`` is released by opening it for writing, so a hang fails, never blocks)."""
+    outcome: list[BaseException | None] = []
+
+    def run() -> None:
+        try:
+            call()
+            outcome.append(None)
+        except BaseException as exc:  # noqa: BLE001 - handed to the test
+            outcome.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    if thread.is_alive():
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+    assert outcome, f"still waiting on {fifo.name} after {seconds} s"
+    return outcome[0]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+@pytest.mark.parametrize("name", ["config.json", "model.safetensors"])
+def test_a_fifo_in_a_checkpoint_is_refused_at_once(saved, sandbox, name):
+    config, weights = saved["blend"]
+    folder = _write(sandbox / "ckpt", config, weights)
+    (folder / name).unlink()
+    os.mkfifo(folder / name)
+    error = _within(10, lambda: load_checkpoint(folder), folder / name)
+    assert isinstance(error, CheckpointError) and "FIFO" in str(error), error
+
+
+def test_saving_replaces_a_planted_link_and_never_writes_through_it(saved, sandbox):
+    config, weights = saved["blend"]
+    victim = sandbox / "victim.json"
+    victim.write_text("keep me")
+    folder = sandbox / "ckpt"
+    folder.mkdir()
+    for name in ("config.json", "model.safetensors"):
+        (folder / name).symlink_to(victim)
+    _write(folder, config, weights)
+    assert victim.read_text() == "keep me"
+    assert not any(p.is_symlink() for p in folder.iterdir())
+    load_checkpoint(folder)
+
+
+def test_a_resuming_run_never_reads_its_state_through_a_link(sandbox):
+    from estimators.learned._checkpoint import read_run_state
+
+    elsewhere = sandbox / "elsewhere.json"
+    elsewhere.write_text('{"last": "ckpt-1", "best": null}')
+    run = sandbox / "run"
+    run.mkdir()
+    (run / "state.json").symlink_to(elsewhere)
+    assert read_run_state(run) == {"last": "ckpt-1", "best": None}  # a folder handed to load: as given
+    with pytest.raises(CheckpointError, match="symbolic link"):
+        read_run_state(run, owned=True)
+
+
+def test_a_release_override_beyond_the_thread_limit_is_refused_at_load():
+    from estimators.learned.releases import load_release
+    from inpaintenv.exceptions import InvalidInputError
+
+    with pytest.raises(InvalidInputError, match="num_threads=1000"):
+        load_release("kitti-mixed-v1", num_threads=1000)
