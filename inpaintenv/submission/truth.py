@@ -70,7 +70,7 @@ def describe_truth(dataset: DepthDataset) -> tuple[dict[str, Any], list[tuple[st
             for owner, i in leaves:
                 path = owner.paths[i]
                 per_frame.append((owner.split, {
-                    "ground_truth": path.relative_to(owner.root).as_posix(), "ground_truth_sha256": file_sha256(path),
+                    "ground_truth": path.relative_to(owner.root).as_posix(), "ground_truth_sha256": file_sha256(path, "ground-truth file"),
                 }))
             return record, per_frame
     if all(isinstance(o, SyntheticStreets) for o in owners.values()):
@@ -124,9 +124,9 @@ class ManifestFrames(DepthDataset):
         if not is_inside(path, self.root):
             raise ManifestError(f"ground truth {self._frames[index].ground_truth!r} of frame {index} in "
                                 f"{self._manifest} leads outside the KITTI root {self.root}; not read")
-        if not path.is_file():
+        if not os.path.lexists(path):  # anything else there (a FIFO) is named by file_sha256
             raise FileNotFoundError(f"ground truth {path} listed in {self._manifest} is missing")
-        digest = file_sha256(path)
+        digest = file_sha256(path, "ground-truth file")
         if digest != self._frames[index].ground_truth_sha256:
             raise ManifestError(
                 f"ground truth {path} is not the file {self._manifest} was exported from (sha256 "

@@ -123,3 +123,19 @@ def test_a_name_that_is_not_utf8_is_shown_escaped(submitted):
     with pytest.raises(SubmissionError, match=r"caf\\xe9\.png") as caught:
         score(manifest.path, predictions)
     str(caught.value).encode("utf-8")  # printable to any UTF-8 stream, no surrogate left
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="FIFOs are POSIX")
+def test_a_ground_truth_fifo_is_named_not_reported_missing(tmp_path):
+    from inpaintenv.data import KittiDepth
+
+    gt_file = tmp_path / "kitti" / "val" / "2011_09_26_drive_0002_sync" / "proj_depth" / "groundtruth" / "image_02" / \
+        "0000000000.png"
+    write_depth_png(gt_file, np.where(np.random.default_rng(0).random((32, 64)) < 0.5, 12.0, 0.0))
+    m = export(tmp_path / "x", KittiDepth(tmp_path / "kitti", split="val", crop=None), progress=False)
+    for item in m.items:
+        write_depth_png(tmp_path / "p" / item.input, np.where(m.read_hole(item), 10.0, m.read_input(item)))
+    gt_file.unlink()
+    os.mkfifo(gt_file)
+    with pytest.raises(UnsafeFileError, match=r"ground-truth file .* is a FIFO"):
+        score(m.path, tmp_path / "p", kitti_root=tmp_path / "kitti")
