@@ -148,3 +148,18 @@ def test_results_readers_refuse_nested_json_and_fifos(tmp_path):
     os.mkfifo(tmp_path / "results.csv")
     with no_hang(), pytest.raises(UnsafeFileError, match="FIFO"):
         EvaluationResult.from_csv(tmp_path / "results.csv")
+
+
+def test_row_appends_never_follow_a_link(tmp_path):
+    # Item 3, evaluate's partial-rows.jsonl and benchmark's rows/*.jsonl share append_rows.
+    from inpaintenv.benchmark.rows import append_rows, read_rows
+    from inpaintenv.exceptions import UnsafeFileError
+
+    victim = tmp_path / "victim"
+    victim.write_text("mine\n")
+    (tmp_path / "partial-rows.jsonl").symlink_to(victim)
+    with pytest.raises(UnsafeFileError, match="symbolic link"):
+        append_rows(tmp_path / "partial-rows.jsonl", [{"method": "m", "seed": 0, "index": 0}])
+    with pytest.raises(UnsafeFileError, match="symbolic link"):
+        read_rows(tmp_path / "partial-rows.jsonl")
+    assert victim.read_text() == "mine\n"
