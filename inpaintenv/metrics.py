@@ -24,7 +24,7 @@ prediction to :data:`MIN_INVERSE_DEPTH` (0.1 m) before inverting, so a predictio
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -37,7 +37,7 @@ from .metric_checks import _check_inputs, _check_pred, _checked_scored
 __all__ = [
     "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "KITTI_METRICS", "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS",
     "ScoredPixels", "UnfilledPixelsError", "aggregate", "check_unfilled", "depth_binned_errors", "frame_metrics",
-    "interpolate_background",
+    "interpolate_background", "task_of",
 ]
 
 REGIONS = ("hole", "all")
@@ -315,6 +315,15 @@ def _frame_sums(values: np.ndarray, runs: tuple[np.ndarray, np.ndarray]) -> np.n
         # their (meaningless) reduceat entries never appear.
         out[nonempty] = np.add.reduceat(values.astype(np.float64, copy=False), starts)
     return out
+
+
+def task_of(hole_fractions: Iterable[float]) -> str:
+    """:func:`aggregate`'s ``task`` for frames of these hole fractions.
+
+    ``"unmeasured"`` when no frame had a hole cut (``densify-v1``), else ``"hole"``.
+    """
+    fractions = list(hole_fractions)
+    return "unmeasured" if fractions and all(f == 0 for f in fractions) else "hole"
 
 
 def aggregate(

@@ -115,3 +115,18 @@ def test_official_val_selection_scans(kitti_root, protocol):
         # The scan covers about 5 % of the pixels: most ground truth is unmeasured.
         assert row["unmeasured_count"] > 0.5 * row["all_count"]
         assert 0 < row["unmeasured_rmse"] < 20 and row["kitti_rmse"] == pytest.approx(1000 * row["all_rmse"])
+
+
+def test_cli_evaluate_input_scan(tmp_path):
+    from inpaintenv.cli import main
+    from inpaintenv.evaluate import EvaluationResult
+    from inpaintenv.report.tables import summary_table
+
+    args = ["evaluate", "-m", "nearest", "--input", "scan", "--protocol", "densify-v1", "--synthetic",
+            "--n-frames", "2", "--frame-shape", *map(str, SHAPE), "-q", "--out", str(tmp_path / "out")]
+    assert main(args) == 0
+    res = EvaluationResult.from_json(tmp_path / "out" / "results.json")
+    assert res.meta["input_kind"] == "scan" and {r["input_kind"] for r in res.rows} == {"scan"}
+    # Under densify-v1 a frame counts in the table's means by its unmeasured pixels, not its empty hole.
+    entry = summary_table(res)[0]
+    assert entry["n_skipped_hole"] == 0 and entry["all_rmse_n"] == 2 and np.isfinite(entry["all_rmse_low"])

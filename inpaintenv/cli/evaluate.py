@@ -42,6 +42,9 @@ def add_evaluate(subparsers: Any) -> None:
                    help="method name (repeatable); see `inpaintenv info` for the list")
     add_checkpoint_option(p)
     p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
+    p.add_argument("--input", choices=["map", "scan"], default="map",
+                   help="what a method is given: map (the ground truth with the hole cut, the default) or scan "
+                        "(each frame's single LiDAR scan with the hole cut; e.g. with --protocol densify-v1)")
     p.add_argument("--seed", type=int, action="append", metavar="S",
                    help="evaluation seed (repeatable; default 0)")
     p.add_argument("--batch-size", type=int, default=4, help="frames per batch (default 4)")

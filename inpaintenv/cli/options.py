@@ -182,14 +182,14 @@ def open_source_from_args(args: argparse.Namespace) -> Any:
         return select_drives(
             SyntheticStreets(
                 n=args.n_frames or DEFAULT_SYNTHETIC_FRAMES, seed=seed, kind=args.kind,
-                frame_shape=tuple(args.frame_shape),
+                frame_shape=tuple(args.frame_shape), input=getattr(args, "input", "map"),
             ),
             args.drives, args.exclude_drives,
         )
     return open_source(
         root, split=args.split or DEFAULT_SPLIT, kind=args.kind, n_frames=args.n_frames,
         seed=seed, camera=args.camera or DEFAULT_CAMERA, drives=args.drives,
-        exclude_drives=args.exclude_drives,
+        exclude_drives=args.exclude_drives, input=getattr(args, "input", "map"),  # --input where a command has it
     )
 
 

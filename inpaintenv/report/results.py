@@ -20,7 +20,7 @@ import numpy as np
 
 from ..conventions import DEFAULT_MAX_DEPTH
 from ..interval_metrics import INTERVAL_COLUMNS
-from ..metrics import EXTRA_COLUMNS, METRIC_NAMES, REGIONS, aggregate
+from ..metrics import EXTRA_COLUMNS, METRIC_NAMES, REGIONS, aggregate, task_of
 from . import tables
 from ..files import MAX_JSON_BYTES, read_json, read_text, write_bytes_atomic, write_text_atomic
 from ..exceptions import InvalidInputError
@@ -90,9 +90,7 @@ class EvaluationResult:
         for key, rows in groups.items():
             # Rows of runs made before the unmeasured and KITTI columns existed lack them.
             metrics = [{c: row.get(c, math.nan) for c in METRIC_COLUMNS} for row in rows]
-            # A group in which no frame had a hole cut (densify-v1) is scored on its unmeasured pixels.
-            task = "unmeasured" if all(r["hole_fraction"] == 0 for r in rows) else "hole"
-            agg = aggregate(metrics, how="mean", max_depth=max_depth, task=task)
+            agg = aggregate(metrics, how="mean", max_depth=max_depth, task=task_of(r["hole_fraction"] for r in rows))
             entry: dict[str, Any] = dict(zip(keys, key))
             entry.update(agg)
             entry["n_frames"] = int(agg["n_frames"])

@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..files import write_bytes_atomic
+from ..metrics import task_of
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
 __all__ = [
@@ -115,10 +116,11 @@ def summary_table(
             drives = {str(r["drive"]) for r in rows}
             entry["n_drives"] = len(drives)
             entry["trained_on"] = sorted(drives & set(trained.get(entry["method"]) or ()))
+        counted = f"{task_of(r['hole_fraction'] for r in rows)}_count"  # unmeasured_count under densify-v1
         for metric, _, _ in _metrics_of(result.rows):
             # The rule of metrics.aggregate: a frame without hole truth tested nothing.
             vals = np.array(
-                [r.get(metric) if r["hole_count"] and r.get(metric) is not None else np.nan for r in rows], dtype=float
+                [r.get(metric) if r.get(counted) and r.get(metric) is not None else np.nan for r in rows], dtype=float
             )
             _, low, high = bootstrap_mean_ci(vals, confidence=confidence, seed=seed)
             entry[f"{metric}_low"], entry[f"{metric}_high"] = low, high
