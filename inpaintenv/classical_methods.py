@@ -25,6 +25,8 @@ CLASSICAL_METHODS: tuple[tuple[str, str, dict[str, Any], str], ...] = (
     ("bilateral", "IterativeBilateralInpainter", {"fill": "invalid"}, "iterative bilateral, every missing pixel"),
     ("bilateral-hole", "IterativeBilateralInpainter", {"fill": "hole"}, "iterative bilateral as the study ran it"),
     ("ipbasic", "IPBasicInpainter", {}, "IP-Basic-style morphological depth completion"),
+    ("ipbasic-scan", "IPBasicInpainter", {"large_hole_kernel": None},
+     "IP-Basic without the large-hole fill: the strongest classical densifier of a single scan"),
     ("nearest", "NearestInpainter", {}, "nearest measured pixel"),
     ("harmonic", "HarmonicInpainter", {}, "harmonic (Laplace) interpolation"),
     ("harmonic-inverse", "HarmonicInpainter", {"inverse": True}, "harmonic interpolation of inverse depth (exact on planes)"),
