@@ -59,6 +59,8 @@ _EOCD_SEARCH = 22 + 65535
 _MAX_ZIP_DIRECTORY = 1 << 20
 #: The largest ``.npy`` (member) read: :data:`MAX_FRAME_PIXELS` values of 16 bytes and a header.
 _MAX_NPY_BYTES = 16 * MAX_FRAME_PIXELS + (1 << 16)
+#: Bytes read at a time into an array being loaded.
+_READ_CHUNK = 16 << 20
 _COLOUR = {2: "3 channels (RGB)", 4: "2 channels (grey+alpha)", 6: "4 channels (RGBA)"}
 
 
@@ -393,7 +395,7 @@ def _read_npy(f: Any, name: str, size: int) -> np.ndarray:
         raise DepthFormatError(f"cannot read {name}: truncated ({max(0, size - f.tell())} of {nbytes} data bytes)")
     buf = bytearray(nbytes)  # read in place: no second copy of the array
     view, got = memoryview(buf), 0
-    while got < nbytes and (n := f.readinto(view[got:])):
+    while got < nbytes and (n := f.readinto(view[got:got + _READ_CHUNK])):  # chunks: a zip member copies each
         got += n
     if got != nbytes:
         raise DepthFormatError(f"cannot read {name}: truncated ({got} of {nbytes} data bytes)")

@@ -24,8 +24,8 @@ import numpy as np
 
 from .calibration import Calibration
 from .io import KITTI_DEPTH_SCALE
-from ..exceptions import CalibrationError, InvalidInputError, ScanFormatError
-from ..files import MAX_SCAN_POINTS, read_bytes, write_bytes_atomic
+from ..exceptions import CalibrationError, FileTooLargeError, InvalidInputError, ScanFormatError
+from ..files import MAX_SCAN_POINTS, open_regular, write_bytes_atomic
 
 __all__ = [
     "MIN_SCAN_DEPTH", "ScanFormatError", "depth_to_points", "project_points", "project_scan", "read_scan",
@@ -35,6 +35,7 @@ __all__ = [
 #: Points at this depth or nearer (metres) are dropped by the projection, as KITTI's tool drops them.
 MIN_SCAN_DEPTH: float = 0.1
 _POINT_BYTES = 16  # x, y, z, reflectance as float32
+_CHUNK_POINTS = 1 << 20  # points projected at a time (about 100 MB of float64 work arrays)
 
 
 def read_scan(path: str | os.PathLike) -> np.ndarray:
@@ -64,17 +65,36 @@ def read_scan(path: str | os.PathLike) -> np.ndarray:
         NaN or infinite.
     """
     path = Path(path)
-    data = read_bytes(path, "scan", limit=MAX_SCAN_POINTS * _POINT_BYTES)
-    if not data or len(data) % _POINT_BYTES:
-        raise ScanFormatError(
-            f"{path} is not a KITTI LiDAR scan: {len(data)} bytes is not a whole, non-zero number of points "
-            "(N x 4 float32: x, y, z, reflectance)"
-        )
-    points = np.frombuffer(bytearray(data), dtype="<f4").reshape(-1, 4)
+    points = _read_points(path)
     bad = np.count_nonzero(~np.isfinite(points[:, :3]).all(axis=1))
     if bad:
         raise ScanFormatError(f"{path}: {bad} of its {len(points)} points have a NaN or infinite coordinate; a KITTI "
                               "scan holds finite x, y, z in metres")
+    return points
+
+
+def _read_points(path: Path) -> np.ndarray:
+    """The float32 points of the ``.bin`` file ``path``, its size checked first and read in place (no second copy)."""
+    with os.fdopen(open_regular(path, "scan"), "rb") as f:  # a FIFO or device is refused here, never waited on
+        size = os.fstat(f.fileno()).st_size
+        if size > MAX_SCAN_POINTS * _POINT_BYTES:
+            raise FileTooLargeError(
+                f"scan {path} is {size:,} bytes ({size // _POINT_BYTES:,} points), more than the {MAX_SCAN_POINTS:,} "
+                "points a scan may have (inpaintenv.files.MAX_SCAN_POINTS); not read")
+        if size == 0 or size % _POINT_BYTES:
+            raise ScanFormatError(
+                f"{path} is not a KITTI LiDAR scan: {size} bytes is not a whole, non-zero number of points "
+                "(N x 4 float32: x, y, z, reflectance)"
+            )
+        points = np.empty((size // _POINT_BYTES, 4), dtype="<f4")
+        view, got = memoryview(points).cast("B"), 0
+        try:
+            while got < size and (n := f.readinto(view[got:])):
+                got += n
+        except OSError as exc:
+            raise OSError(f"cannot read scan {path}: {exc.strerror or exc}") from None
+    if got != size:
+        raise ScanFormatError(f"{path} changed while it was read ({got} of {size} bytes); not read")
     return points
 
 
@@ -106,7 +126,9 @@ def project_points(points: np.ndarray, calibration: Calibration) -> tuple[np.nda
                                 "coordinate; points are finite x, y, z in metres")
     m = calibration.matrix
     with np.errstate(all="ignore"):  # overflow: refused below, by whoever uses the values
-        uvw = xyz @ m[:, :3].T + m[:, 3]
+        uvw = xyz @ m[:, :3].T
+        del xyz  # a 16 M-point scan: each float64 copy is 384 MB
+        uvw += m[:, 3]
         z = uvw[:, 2]
         return uvw[:, 0] / z, uvw[:, 1] / z, z
 
@@ -143,31 +165,43 @@ def project_scan(
         A point in front of the camera projects to an infinite or NaN pixel or depth.
     """
     width, height = calibration.image_size()
-    u, v, z = project_points(points, calibration)
-    with np.errstate(invalid="ignore"):
-        front = z > MIN_SCAN_DEPTH
-    _check_finite(np.concatenate([z, u[front], v[front]]), calibration, "projects finite points")
-    with np.errstate(invalid="ignore"):
-        ur, vr = np.rint(u), np.rint(v)  # the nearest pixel
-        keep = (z > MIN_SCAN_DEPTH) & (ur >= 0) & (ur < width) & (vr >= 0) & (vr < height)
-    idx = np.flatnonzero(keep)
-    pixel = vr[idx].astype(np.int64) * width + ur[idx].astype(np.int64)
-    # Sort by pixel, then depth: the first point of each pixel is the nearest (ties: the earlier point).
-    order = np.lexsort((z[idx], pixel))
-    pixel, idx = pixel[order], idx[order]
-    first = np.ones(len(pixel), dtype=bool)
-    first[1:] = pixel[1:] != pixel[:-1]
-    pixel, idx = pixel[first], idx[first]
-    depth = np.zeros(height * width, dtype=np.float64)
-    depth[pixel] = z[idx]
+    pts = _as_points(points)
+    # In chunks, keeping the nearest point of each pixel so far: a 16 M-point scan's float64
+    # coordinates and sort keys would otherwise take gigabytes at once.
+    nearest = np.full(height * width, np.inf)
+    index = np.full(height * width, -1, dtype=np.int64)
+    for start in range(0, len(pts), _CHUNK_POINTS):
+        pixel, z, idx = _kept_in_image(pts[start:start + _CHUNK_POINTS], start, calibration, width, height)
+        # Sort by pixel, then depth: the first point of each pixel is the nearest (ties: the earlier point).
+        order = np.lexsort((z, pixel))
+        pixel, z, idx = pixel[order], z[order], idx[order]
+        first = np.ones(len(pixel), dtype=bool)
+        first[1:] = pixel[1:] != pixel[:-1]
+        pixel, z, idx = pixel[first], z[first], idx[first]
+        closer = z < nearest[pixel]  # strictly: on a tie the earlier chunk's point stays
+        nearest[pixel[closer]], index[pixel[closer]] = z[closer], idx[closer]
+    depth = np.where(index >= 0, nearest, 0.0)
     if quantize:
         depth = np.minimum(np.rint(depth * KITTI_DEPTH_SCALE), 65535) / KITTI_DEPTH_SCALE
     depth = depth.astype(np.float32).reshape(height, width)
-    if not return_index:
-        return depth
-    index = np.full(height * width, -1, dtype=np.int64)
-    index[pixel] = idx
-    return depth, index.reshape(height, width)
+    return (depth, index.reshape(height, width)) if return_index else depth
+
+
+def _kept_in_image(
+    points: np.ndarray, start: int, calibration: Calibration, width: int, height: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel (flat), depth and index (from ``start``) of the points that land in the image, in their order."""
+    u, v, z = project_points(points, calibration)
+    with np.errstate(invalid="ignore"):
+        behind = ~(z > MIN_SCAN_DEPTH)
+    for values in (z, u, v):  # u, v only count in front of the camera
+        _check_finite(np.isfinite(values) | (behind if values is not z else False), calibration,
+                      "projects finite points")
+    with np.errstate(invalid="ignore"):
+        ur, vr = np.rint(u), np.rint(v)  # the nearest pixel
+        keep = ~behind & (ur >= 0) & (ur < width) & (vr >= 0) & (vr < height)
+    idx = np.flatnonzero(keep)
+    return vr[idx].astype(np.int64) * width + ur[idx].astype(np.int64), z[idx], idx + start
 
 
 def depth_to_points(depth: np.ndarray, calibration: Calibration, mask: np.ndarray | None = None) -> np.ndarray:
@@ -205,18 +239,20 @@ def depth_to_points(depth: np.ndarray, calibration: Calibration, mask: np.ndarra
             raise InvalidInputError(f"mask has shape {m.shape}, depth {d.shape}")
         chosen &= m
     rows, cols = np.nonzero(chosen)
-    z = d[rows, cols].astype(np.float64)
     a, b = calibration.matrix[:, :3], calibration.matrix[:, 3]
-    with np.errstate(all="ignore"):
-        rhs = np.stack([cols * z, rows * z, z]) - b[:, None]
-        xyz = np.linalg.solve(a, rhs).T
-    _check_finite(xyz, calibration, "back-projects depth")
+    xyz = np.empty((len(rows), 3))
+    for s in range(0, len(rows), _CHUNK_POINTS):  # in chunks: a large frame's work arrays stay small
+        r, c = rows[s:s + _CHUNK_POINTS], cols[s:s + _CHUNK_POINTS]
+        z = d[r, c].astype(np.float64)
+        with np.errstate(all="ignore"):
+            xyz[s:s + len(r)] = np.linalg.solve(a, np.stack([c * z, r * z, z]) - b[:, None]).T
+    _check_finite(np.isfinite(xyz), calibration, "back-projects depth")
     return xyz
 
 
-def _check_finite(values: np.ndarray, calibration: Calibration, action: str) -> None:
-    """Refuse non-finite results of a calibration: they would be written as points or depth."""
-    if not np.isfinite(values).all():
+def _check_finite(finite: np.ndarray, calibration: Calibration, action: str) -> None:
+    """Refuse non-finite results of a calibration (``finite`` False anywhere): they would be written as points or depth."""
+    if not finite.all():
         raise CalibrationError(
             f"calibration {calibration.source or '(given as a matrix)'} {action} to infinite or NaN values (a "
             "matrix out of range, or values beyond any sensor's); nothing written"

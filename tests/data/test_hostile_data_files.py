@@ -146,8 +146,8 @@ def test_the_zip_directory_of_an_npz_is_checked_before_it_is_parsed(tmp_path):
 def test_a_scan_larger_than_the_point_limit_is_refused_from_its_size(tmp_path):
     # A 3.2 GB .bin ended in MemoryError.
     big = _sparse(tmp_path / "big.bin", b"", 3_200_000_000)
-    with pytest.raises(FileTooLargeError, match=rf"scan {big} is 3,200,000,000 bytes, more than the "
-                                                rf"{MAX_SCAN_POINTS * 16:,}"):
+    with pytest.raises(FileTooLargeError, match=rf"scan {big} is 3,200,000,000 bytes \(200,000,000 points\), more "
+                                                rf"than the {MAX_SCAN_POINTS:,} points a scan may have"):
         read_scan(big)
 
 
@@ -287,3 +287,20 @@ def test_mask_pngs_of_any_pixel_format_still_read(tmp_path):
     expected = np.zeros((4, 5), bool)
     expected[1, 2] = True
     np.testing.assert_array_equal(read_mask_file(tmp_path / "m.png"), expected)
+
+
+def test_projection_in_chunks_equals_one_pass(monkeypatch):
+    # Scans and frames are projected in chunks (a 16 M-point scan took 1.8 GB at once); the chunks change nothing.
+    from inpaintenv.data import projection
+
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(5000, 4)).astype(np.float32) * [4, 2, 0.5, 1] + [12, 0, 0, 0]
+    calib = Calibration(np.array([[30.0, -40, 0, 60], [0, 0, -40, 24], [1, 0, 0, 0]]), (120, 48), "odometry")
+    whole = project_scan(points, calib, return_index=True)
+    back = depth_to_points(whole[0], calib)
+    monkeypatch.setattr(projection, "_CHUNK_POINTS", 333)
+    chunked = project_scan(points, calib, return_index=True)
+    assert (whole[0] > 0).sum() > 333  # more than one chunk of pixels too
+    np.testing.assert_array_equal(whole[0], chunked[0])
+    np.testing.assert_array_equal(whole[1], chunked[1])
+    np.testing.assert_array_equal(depth_to_points(whole[0], calib), back)
