@@ -9,7 +9,7 @@ highest ``z``. docs/fill.md quotes it.
 
 Run from the project root::
 
-    python docs/scripts/fill_view.py --kitti-raw-root <kitti-raw> [--method pretrained]
+    python docs/scripts/fill_view.py --kitti-raw-root <kitti-raw> [--method harmonic]
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ def elevation(points: np.ndarray) -> np.ndarray:
 def main(argv: list[str] | None = None) -> list[str]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kitti-raw-root", required=True, type=Path)
-    parser.add_argument("--method", default="pretrained")
+    parser.add_argument("--method", default="harmonic")
     args = parser.parse_args(argv)
     scans, calib_dir = args.kitti_raw_root / SCANS, args.kitti_raw_root / CALIB
     calib = read_calibration(calib_dir)
