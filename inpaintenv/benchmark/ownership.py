@@ -80,11 +80,12 @@ def _legacy_run(out: Path) -> bool:
 
 
 def _legacy_train(out: Path) -> bool:
-    """A training folder of inpaintenv from before ledgers: its train_args.json."""
+    """A training folder of inpaintenv from before ledgers: its train_args.json, or the
+    checkpoints of a training (``checkpoints/*/state.json``) that recorded none."""
     try:
         doc = read_json(out / "train_args.json", "training arguments", follow_links=False)
     except (InpaintenvError, OSError):
-        return False
+        return any(_regular(p) for p in (out / "checkpoints").rglob("state.json"))
     return isinstance(doc, dict) and "preset" in doc
 
 

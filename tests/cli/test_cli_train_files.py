@@ -74,6 +74,14 @@ def test_a_training_folder_from_before_ledgers_is_adopted(capsys, trained):
     assert "loss.png" in json.loads((trained / LEDGER).read_text())["files"]
 
 
+def test_checkpoints_without_a_record_are_a_training_folder(capsys, trained):
+    # A fit(checkpoint_dir=OUT/checkpoints) from Python, or a training from before train_args.json.
+    for name in (LEDGER, "train_args.json", "training_log.json", "loss.png"):
+        (trained / name).unlink()
+    assert main([*SMOKE, "--out", str(trained)]) == 0
+    assert "holds checkpoints of an earlier run" in capsys.readouterr().err
+
+
 def test_nested_train_args_start_a_new_run_without_a_traceback(capsys, trained):
     # Item 13: json.loads raised RecursionError on 200 kB of nesting.
     (trained / "train_args.json").write_text(NESTED)
