@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
+import cv2
 import numpy as np
 
 from inpaintenv.conventions import check_depth
@@ -26,10 +27,12 @@ from inpaintenv.conventions import check_depth
 from ._scan import AxisScan
 from .classical._base import in_inverse_depth
 from .classical.harmonic import harmonic_fill
+from .classical.ipbasic import IPBasicInpainter
+from .classical.nearest import nearest_fill
 from .classical.scanline import scanline_fill
 from inpaintenv.exceptions import InvalidInputError
 
-__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "row_band_quantile"]
+__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "row_band_quantile", "window_extreme"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
@@ -114,6 +117,39 @@ def row_band_quantile(values: np.ndarray, known: np.ndarray, q: float, band: int
     return np.where(known, values, per_row[:, None]).astype(np.float32)
 
 
+#: Side of the windows of the ``window-near`` / ``window-far`` candidates (pixels).
+WINDOW = 15
+
+
+def window_extreme(values: np.ndarray, known: np.ndarray, far: bool, size: int = WINDOW) -> np.ndarray:
+    """The nearest (``far=False``) or farthest measured depth in a ``size``-pixel square window.
+
+    Context for a sparse input such as a single LiDAR scan: the spread between the two tells
+    a learned blend whether a pixel lies on one surface or at a depth edge. Pixels with no
+    measurement in their window take the nearest measurement's depth.
+    """
+    values, known = _check_values_known(values, known)
+    if not known.any():
+        return np.zeros(values.shape, np.float32)
+    kernel = np.ones((int(size), int(size)), np.uint8)
+    if far:
+        out = cv2.dilate(np.where(known, values, 0.0).astype(np.float32), kernel)
+        empty = out <= 0
+    else:
+        # OpenCV pads an erosion with the type's largest value: anything that high is empty.
+        out = cv2.erode(np.where(known, values, np.inf).astype(np.float32), kernel)
+        empty = ~(out < np.finfo(np.float32).max)
+    if empty.any():
+        out = np.where(empty, nearest_fill(values, known), out)
+    return np.where(known, values, out).astype(np.float32)
+
+
+def _ipbasic(values: np.ndarray, known: np.ndarray) -> np.ndarray:
+    # Its morphology prefers the nearer surface: strong on a sparse scan, where the
+    # smooth fills average across depth edges.
+    return IPBasicInpainter()._fill_frame(np.where(known, values, 0.0).astype(np.float32))
+
+
 _FILLS = {
     "scanline": lambda v, k: scanline_fill(v, k),
     "scanline-inverse": lambda v, k: in_inverse_depth(scanline_fill, v, k),
@@ -124,6 +160,11 @@ _FILLS = {
     # Row context: how near / how far the rest of the pixel's rows reach.
     "row-median": lambda v, k: row_band_quantile(v, k, 0.5),
     "row-far": lambda v, k: row_band_quantile(v, k, 0.9),
+    # Fills that suit a sparse scan: morphological, nearest, and the window's extremes.
+    "ipbasic": _ipbasic,
+    "nearest": nearest_fill,
+    "window-near": lambda v, k: window_extreme(v, k, far=False),
+    "window-far": lambda v, k: window_extreme(v, k, far=True),
 }
 #: Every fill :func:`candidate_fills` knows (CANDIDATES is the default subset).
 AVAILABLE_CANDIDATES: tuple[str, ...] = tuple(_FILLS)

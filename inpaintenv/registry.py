@@ -405,9 +405,11 @@ def register_removed(name: str, message: str) -> None:
 
 
 register_method(
-    "pretrained", _RELEASES_MODULE, "load_release", {},
-    f"the default learned release ({DEFAULT_RELEASE}: the per-pixel mean of a context blend and a per-pixel "
-    "blend of classical fills, one set of candidate fills for both), trained on 15 KITTI drives (CC BY-NC-SA 3.0)",
+    "pretrained", _RELEASES_MODULE, "load_default", {},
+    f"the default: a map with holes gets the learned release {DEFAULT_RELEASE} (the per-pixel mean of a context "
+    "blend and a per-pixel blend of classical fills, trained on 15 KITTI drives, CC BY-NC-SA 3.0), a single LiDAR "
+    "scan gets harmonic (no release beats it on every recording day); decided per frame from its measured density "
+    "or by input='scan'|'map'",
 )
 for _release, _class in shipped_releases().items():
     register_method(_release, _RELEASES_MODULE, "load_release", {"name": _release},

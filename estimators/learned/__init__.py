@@ -43,7 +43,8 @@ _EXPORTS: dict[str, str] = {
     "UNetInpainter": "_neural", "AutoencoderInpainter": "_neural", "PriorUNetInpainter": "_prior",
     "BlendInpainter": "_blend", "ContextBlendInpainter": "_context_blend", "MeanEnsembleInpainter": "_ensemble",
     "load": "_load", "load_checkpoint": "_load", "load_release": "releases", "DEFAULT_RELEASE": "releases",
-    "shipped": "releases", "CheckpointError": "_checkpoint",
+    "shipped": "releases", "CheckpointError": "_checkpoint", "load_default": "releases",
+    "InputRoutedInpainter": "_routed",
 }
 
 __all__ = sorted(_EXPORTS)

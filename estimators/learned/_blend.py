@@ -30,6 +30,7 @@ from joblib import Parallel, delayed
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
+from inpaintenv.data.inputs import method_input
 from inpaintenv.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
 from inpaintenv.masks import get_protocol
@@ -48,6 +49,7 @@ from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
 from ._output import bound_output
 from ._persistence import PersistenceMixin
 from ._training import deterministic_torch, frame_label, torch_threads
+from ._training_data import input_frame, scan_input
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
 
@@ -61,20 +63,37 @@ BLEND_CANDIDATES: tuple[str, ...] = (
 
 
 
-def _pixel_samples(
-    gt: np.ndarray, hole: np.ndarray, keep: float, n_pixels: int, names: tuple[str, ...], endpoints: bool,
-    rng: np.random.Generator,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Features and ground truth of up to ``n_pixels`` hole pixels with ground truth."""
-    x = np.where(hole, np.nan, gt).astype(np.float32)
-    if keep < 1.0:
-        # Sparser input than the ground truth it comes from (official KITTI maps are
-        # sparser than rebuilt ones): drop measured pixels outside the hole.
-        x[(gt > 0) & ~hole & (rng.random(gt.shape) >= keep)] = 0.0
-    rows, cols = np.nonzero(hole & (gt > 0))
-    if len(rows) > n_pixels:
-        pick = np.sort(rng.choice(len(rows), n_pixels, replace=False))
+def _pick(mask: np.ndarray, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of up to ``n`` of ``mask``'s pixels, drawn without replacement, in raster order."""
+    rows, cols = np.nonzero(mask)
+    if len(rows) > n:
+        pick = np.sort(rng.choice(len(rows), n, replace=False))
         rows, cols = rows[pick], cols[pick]
+    return rows, cols
+
+
+def _pixel_samples(
+    gt: np.ndarray, source: np.ndarray, hole: np.ndarray, keep: float, n_pixels: int, names: tuple[str, ...],
+    endpoints: bool, scan: bool, rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Features and ground truth of up to ``n_pixels`` pixels to fill that have ground truth.
+
+    ``source`` is the measured input (``gt`` itself for a map; the frame's scan for a scan,
+    whose every unmeasured pixel is to be filled, not only the hole).
+    """
+    if keep < 1.0:
+        # Sparser input than the one given (official KITTI maps are sparser than rebuilt
+        # ones): drop measured pixels outside the hole.
+        source = np.where((source > 0) & ~hole & (rng.random(gt.shape) >= keep), 0.0, source)
+    x = method_input(source, hole, "scan" if scan else "map")
+    target = np.isnan(x) & (gt > 0)
+    if scan and (target & hole).any():
+        # Half in the hole, half among the unmeasured pixels around it: a scan's unmeasured
+        # pixels outnumber a hole's many times, and both tasks are scored.
+        inside, outside = _pick(target & hole, n_pixels - n_pixels // 2, rng), _pick(target & ~hole, n_pixels // 2, rng)
+        rows, cols = np.concatenate([inside[0], outside[0]]), np.concatenate([inside[1], outside[1]])
+    else:
+        rows, cols = _pick(target, n_pixels, rng)
     feats = prior_features(x, names, gaps=True, endpoints=endpoints)[3:]
     return feats[:, rows, cols].T.copy(), gt[rows, cols].astype(np.float32)
 
@@ -301,16 +320,18 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         protocol = get_protocol(self.protocol)
         names, endpoints = tuple(self.candidates), bool(self.endpoints)
         n_pixels = self._pixels_per_sample(len(dataset))
+        scan = scan_input(dataset)
 
         def one_frame(i: int) -> list[tuple[np.ndarray, np.ndarray]]:
             gt = check_depth(dataset[i], name=f"training frame {frame_label(dataset, i)}", ndim=(2,))
             if not (gt > 0).any():
                 return []
+            source = input_frame(dataset, i, gt)
             rng = np.random.default_rng([int(seed), i, 0xB1E9D])
             out = []
             for _ in range(int(self.masks_per_frame)):
                 hole = protocol.sample(gt.shape, rng)
-                out += [_pixel_samples(gt, hole, float(k), n_pixels, names, endpoints, rng)
+                out += [_pixel_samples(gt, source, hole, float(k), n_pixels, names, endpoints, scan, rng)
                         for k in self.keep]
             return out
 

@@ -17,11 +17,13 @@ import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
 
+from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
+from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import OcclusionProtocol
 
 __all__ = ["Augmentation", "OcclusionFrames", "SampleDraw", "crop_shape", "data_fingerprint", "encode_input",
-           "epoch_order", "frame_label", "make_loader", "sample_rng"]
+           "epoch_order", "frame_label", "input_frame", "make_loader", "sample_rng", "scan_input"]
 
 #: Stream id of the epoch order, distinct from any frame index.
 _ORDER_STREAM = 2**31 - 1
@@ -161,6 +163,23 @@ class OcclusionFrames(Dataset):
         if d.factor != 1.0:
             gt = gt * d.factor  # float32 times float32: the same rounding as the device path
         return torch.from_numpy(gt), torch.from_numpy(np.ascontiguousarray(hole))
+
+
+def scan_input(dataset: DepthDataset) -> bool:
+    """Whether ``dataset``'s method input is a separate LiDAR scan (``input_kind == "scan"``)
+    rather than its ground-truth map with holes cut into it."""
+    return getattr(dataset, "input_kind", "map") == "scan"
+
+
+def input_frame(dataset: DepthDataset, index: int, gt: np.ndarray) -> np.ndarray:
+    """The measured input of frame ``index`` (its scan, validated) or, for a map dataset, ``gt``."""
+    if not scan_input(dataset):
+        return gt
+    label = f"training scan {frame_label(dataset, index)}"
+    scan = check_depth(dataset.input_frame(index), name=label, ndim=(2,))
+    if scan.shape != gt.shape:
+        raise InvalidInputError(f"{label} has shape {scan.shape}, its ground truth {gt.shape}")
+    return scan
 
 
 def frame_label(frames: DepthDataset, index: int) -> str:

@@ -16,11 +16,41 @@ from typing import Any
 from . import _checkpoint as ckpt
 from ._load import load
 
-__all__ = ["DEFAULT_RELEASE", "load_release", "shipped"]
+__all__ = ["DEFAULT_RELEASE", "SCAN_DEFAULT", "load_default", "load_release", "shipped"]
 
 #: The release ``-m pretrained`` (alias ``blend-pretrained``) loads: the default learned
 #: method of the benchmark (docs/model_card.md).
 DEFAULT_RELEASE = ckpt.DEFAULT_RELEASE
+
+
+#: What ``pretrained`` fills a single LiDAR scan with: the classical fill no learned release beat
+#: on every left-out recording day (docs/model_cards/kitti-scan-v1.md; harmonic is the strongest
+#: classical fill of a scan on the KITTI slice).
+SCAN_DEFAULT = "harmonic"
+
+
+def load_default(input: str = "auto", **overrides: Any) -> Any:
+    """The default method ``pretrained``: the map release for a map, :data:`SCAN_DEFAULT` for a scan.
+
+    Parameters
+    ----------
+    input : {"auto", "scan", "map"}, default "auto"
+        Every frame's kind, or ``"auto"``: each frame's from its measured density
+        (:class:`~estimators.learned._routed.InputRoutedInpainter`).
+    **overrides
+        Prediction-time parameters of the map release (:func:`load_release`).
+
+    Returns
+    -------
+    InputRoutedInpainter
+        Its ``routed_to_`` names the method that filled each frame of the last ``predict``.
+    """
+    from estimators.classical import HarmonicInpainter
+
+    from ._routed import InputRoutedInpainter
+
+    return InputRoutedInpainter(map_method=load_release(DEFAULT_RELEASE, **overrides), scan_method=HarmonicInpainter(),
+                                input=input, scan_name=SCAN_DEFAULT, map_name=DEFAULT_RELEASE)
 
 
 def shipped() -> dict[str, str]:

@@ -50,7 +50,7 @@ def test_the_package_ships_the_default_and_the_free_form_release():
     from inpaintenv.registry import DEFAULT_RELEASE as registry_default
 
     assert registry_default == DEFAULT_RELEASE
-    assert type(make_method("pretrained")).__name__ == "MeanEnsembleInpainter"
+    assert type(make_method("pretrained").map_method).__name__ == "MeanEnsembleInpainter"
     assert param_values(make_method("blend-pretrained-mixed")) == param_values(load_release("kitti-mixed-v1"))
 
 

@@ -1,0 +1,111 @@
+"""InputRoutedInpainter: one method for both input kinds, each frame filled by the method of its kind.
+
+A single LiDAR scan (KITTI's ``velodyne_raw``) measures about 4-5 % of a frame's pixels; a
+ground-truth map with holes cut into it keeps 12 % or more of the rows it spans. The
+method that fills one well is not the one that fills the other (the map releases were
+never trained on a scan and are worse than ``harmonic`` on one), so ``pretrained`` routes
+each frame by its kind: given as ``input``, or told from its measured density.
+
+>>> from estimators.learned import InputRoutedInpainter                   # doctest: +SKIP
+>>> est = InputRoutedInpainter(map_method=load_release(), scan_method=HarmonicInpainter())
+>>> est.choose(scan_with_nan)                                            # "scan"
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from inpaintenv.exceptions import InvalidInputError
+
+from ..base import BaseInpainter
+
+__all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "InputRoutedInpainter", "measured_density"]
+
+#: Measured share of the rows a frame's measurements span at or below which it is a scan.
+#: On the KITTI slice (scripts: experiments/scan_release.py --density) single scans span
+#: 0.042-0.072 and maps with any protocol's holes 0.12-0.43; synthetic scans 0.04-0.05.
+SCAN_DENSITY = 0.10
+#: What ``input`` may say: decide per frame, or every frame is of one kind.
+INPUT_CHOICES = ("auto", "scan", "map")
+
+
+def measured_density(x: np.ndarray) -> float:
+    """The share of measured (positive) pixels in the rows from the first to the last that has one.
+
+    The rows a sensor reaches, not the whole frame: a frame's sky rows (no LiDAR return, no
+    ground truth) would otherwise make a map with a large hole look as sparse as a scan.
+    0.0 for a frame without any measurement.
+    """
+    measured = np.asarray(x) > 0
+    rows = np.flatnonzero(measured.any(axis=1))
+    if not len(rows):
+        return 0.0
+    return float(measured[rows[0] : rows[-1] + 1].mean())
+
+
+class InputRoutedInpainter(BaseInpainter):
+    """Fill each frame with ``scan_method`` if it is a single LiDAR scan, else ``map_method``.
+
+    Parameters
+    ----------
+    map_method : estimator
+        Fills a ground-truth map with holes (a fitted inpainter).
+    scan_method : estimator
+        Fills a single scan (every unmeasured pixel NaN).
+    input : {"auto", "scan", "map"}, default "auto"
+        ``"auto"``: each frame's kind from its :func:`measured_density` (at most
+        ``threshold``: a scan); otherwise every frame is of that kind.
+    threshold : float, default :data:`SCAN_DENSITY`
+        The density that separates the kinds.
+    scan_name, map_name : str
+        What :attr:`routed_to_` says for each route (e.g. ``"harmonic"``).
+
+    Attributes
+    ----------
+    routed_to_ : list of str
+        After :meth:`predict`: per frame of the last call, the name of the method that filled it.
+    """
+
+    _stateless = True  # its members come fitted; fit trains nothing
+
+    def __init__(self, *, map_method: Any, scan_method: Any, input: str = "auto", threshold: float = SCAN_DENSITY,
+                 scan_name: str = "scan", map_name: str = "map"):
+        self.map_method = map_method
+        self.scan_method = scan_method
+        self.input = input
+        self.threshold = threshold
+        self.scan_name = scan_name
+        self.map_name = map_name
+
+    def _check_params(self) -> None:
+        if self.input not in INPUT_CHOICES:
+            raise InvalidInputError(f"input must be one of {INPUT_CHOICES}, got {self.input!r}")
+        if isinstance(self.threshold, bool) or not isinstance(self.threshold, (int, float)) or not (
+                0.0 < float(self.threshold) < 1.0):
+            raise InvalidInputError(f"threshold must be a share in (0, 1), got {self.threshold!r}")
+
+    def kind(self, x: np.ndarray) -> str:
+        """``"scan"`` or ``"map"``: the kind of one ``(H, W)`` frame (NaN = to fill)."""
+        self._check_params()
+        if self.input != "auto":
+            return self.input
+        return "scan" if measured_density(np.nan_to_num(x, nan=0.0)) <= float(self.threshold) else "map"
+
+    def choose(self, x: np.ndarray) -> str:
+        """The name of the method that fills frame ``x`` (``scan_name`` or ``map_name``)."""
+        return self.scan_name if self.kind(x) == "scan" else self.map_name
+
+    def _fit(self, dataset: Any) -> None:
+        raise InvalidInputError("InputRoutedInpainter trains nothing: fit its map_method and scan_method instead")
+
+    def _predict_batch(self, X: np.ndarray) -> np.ndarray:
+        kinds = [self.kind(frame) for frame in X]
+        out = np.empty(X.shape, np.float32)
+        for kind, method in (("scan", self.scan_method), ("map", self.map_method)):
+            pick = [i for i, k in enumerate(kinds) if k == kind]
+            if pick:
+                out[pick] = method.predict(X[pick])
+        self.routed_to_ = [self.scan_name if k == "scan" else self.map_name for k in kinds]
+        return out
