@@ -130,3 +130,24 @@ def test_cli_evaluate_input_scan(tmp_path):
     # Under densify-v1 a frame counts in the table's means by its unmeasured pixels, not its empty hole.
     entry = summary_table(res)[0]
     assert entry["n_skipped_hole"] == 0 and entry["all_rmse_n"] == 2 and np.isfinite(entry["all_rmse_low"])
+
+
+class BrokenScan(SyntheticStreets):
+    """Scans whose frame 1 cannot be read."""
+
+    def _load_pair(self, index):
+        if index == 1:
+            raise OSError("scan of frame 1 is unreadable")
+        return super()._load_pair(index)
+
+
+def test_an_unreadable_scan_is_skipped_and_the_others_keep_their_own_scans():
+    kw = {"n": 3, "seed": 2, "frame_shape": SHAPE, "frames_per_drive": 2, "input": "scan"}
+    res = evaluate(NearestInpainter(n_jobs=1), BrokenScan(**kw), batch_size=3, on_bad_frame="skip", progress=False)
+    clean = evaluate(NearestInpainter(n_jobs=1), SyntheticStreets(**kw), indices=[0, 2], progress=False)
+    assert [r["index"] for r in res.meta["skipped_frames"]] == [1]
+    assert json.dumps(_without_ms(res.rows)) == json.dumps(_without_ms(clean.rows))
+
+
+def _without_ms(rows):
+    return [{k: v for k, v in r.items() if k != "ms"} for r in rows]
