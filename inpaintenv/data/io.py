@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import struct
 import zipfile
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -365,7 +366,10 @@ def _read_npz_member(f: Any, path: Path, what: str, key: str | tuple[str, ...] |
             info = infos[names.index(member)]
             with z.open(info) as m:
                 return _read_npy(m, f"array {member!r} of {path}", info.file_size)
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, NotImplementedError) as exc:
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, NotImplementedError, zlib.error, struct.error,
+            ValueError) as exc:
+        if isinstance(exc, DepthFormatError):
+            raise
         raise DepthFormatError(f"cannot read {path}: a damaged .npz ({exc})") from None
 
 

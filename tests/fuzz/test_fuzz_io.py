@@ -344,3 +344,30 @@ def test_read_png_checks_signature_and_size_but_not_the_pixel_format(tmp_path):
     tiff.write_bytes(cv2.imencode(".tiff", np.ones((4, 5), np.uint8))[1].tobytes())
     with pytest.raises(DepthFormatError, match="is a TIFF file, not a PNG"):
         read_png(tiff)
+
+
+def _npz_bytes() -> bytes:
+    import io
+
+    buf = io.BytesIO()
+    np.savez_compressed(buf, depth=np.linspace(1, 80, 96, dtype=np.float32).reshape(8, 12))
+    return buf.getvalue()
+
+
+@fast(60)
+@given(flips=st.lists(st.tuples(st.integers(0, 10_000), st.integers(1, 255)), min_size=1, max_size=4),
+       cut=st.one_of(st.none(), st.integers(0, 10_000)))
+def test_damaged_npz_files_are_refused_in_one_error(tmp_path_factory, flips, cut):
+    # Byte flips and truncation anywhere (ZIP headers, the directory, the deflate stream, the .npy header).
+    from inpaintenv.data.io import load_array
+
+    data = bytearray(_npz_bytes())
+    for at, xor in flips:
+        data[at % len(data)] ^= xor
+    path = tmp_path_factory.mktemp("npz") / "x.npz"
+    path.write_bytes(bytes(data if cut is None else data[:cut % len(data)]))
+    try:
+        arr = load_array(path, key=("depth",))
+    except (DepthFormatError, FileTooLargeError):
+        return
+    assert arr.size <= MAX_FRAME_PIXELS
