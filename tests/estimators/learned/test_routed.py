@@ -73,7 +73,7 @@ def test_pretrained_is_never_worse_than_harmonic_on_the_official_scans(kitti_roo
 
     if not (kitti_root / "depth_selection").is_dir():
         pytest.skip("the KITTI slice has no depth_selection/")
-    frames = KittiDepth(kitti_root, split="val_selection", input="scan")
+    frames = KittiDepth(kitti_root, split="val_selection", camera="both", input="scan")
     scans, gt = frames.load_pairs(range(len(frames)))
     x = method_input(scans, np.zeros(scans.shape, bool), "scan")
     est = make_method("pretrained")
