@@ -7,6 +7,7 @@ the frames of a batch in parallel with ``n_jobs``.
 from .bilateral import IterativeBilateralInpainter
 from .harmonic import HarmonicInpainter
 from .ipbasic import IPBasicInpainter
+from .mean import MeanInpainter
 from .nearest import ConstantInpainter, NearestInpainter
 from .opencv import NavierStokesInpainter, TeleaInpainter
 from .scanline import ScanlineInpainter
@@ -16,6 +17,7 @@ __all__ = [
     "HarmonicInpainter",
     "IPBasicInpainter",
     "IterativeBilateralInpainter",
+    "MeanInpainter",
     "NavierStokesInpainter",
     "NearestInpainter",
     "ScanlineInpainter",
