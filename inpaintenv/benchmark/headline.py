@@ -23,12 +23,16 @@ from typing import Any
 import numpy as np
 
 from ..evaluate import EvaluationResult
+from ..metrics import task_of
 from ..report.stats import bootstrap_ratio_ci
 from ..report.tables import TRAINED_MARK, interval_cell, table_notes, trained_note
 from .suites import CLASSICAL, STUDY_CLASSICAL
 from ..exceptions import InvalidInputError
 
-__all__ = ["CLASSICAL_METHODS", "headline_markdown", "headline_title", "learned_vs_classical"]
+__all__ = ["CLASSICAL_METHODS", "headline_keys", "headline_markdown", "headline_title", "learned_vs_classical"]
+
+#: What the ``scored on`` column says of each task.
+_TASK_PIXELS = {"hole": "hole", "unmeasured": "unmeasured pixels"}
 
 #: Methods counted as classical when the run does not say what its methods are
 #: (``meta["kinds"]``); every other method then counts as learned.
@@ -45,11 +49,11 @@ def _undefined(classical: str) -> str:
     return f"{classical} scores 0 m in the holes: a ratio to 0 is undefined"
 
 
-def _per_frame(rows: Iterable[dict[str, Any]], metric: str) -> dict[tuple, float]:
+def _per_frame(rows: Iterable[dict[str, Any]], metric: str, task: str = "hole") -> dict[tuple, float]:
     out = {}
     for r in rows:
         value = r.get(metric)
-        if r["hole_count"] and value is not None and np.isfinite(value):
+        if r.get(f"{task}_count") and value is not None and np.isfinite(value):
             out[(r["seed"], r["index"])] = float(value)
     return out
 
@@ -58,7 +62,7 @@ def learned_vs_classical(
     result: EvaluationResult,
     *,
     classical: Iterable[str] = CLASSICAL_METHODS,
-    keys: Sequence[str] = ("protocol", "drive"),
+    keys: Sequence[str] | None = None,
     confidence: float = 0.95,
     n_resamples: int = 2000,
     seed: int = 0,
@@ -73,16 +77,22 @@ def learned_vs_classical(
     classical : iterable of str
         Names counted as classical when ``result.meta["kinds"]`` does not say what a
         method is (default :data:`CLASSICAL_METHODS`); the rest are learned.
-    keys : sequence of str
-        Row columns that define a comparison group.
+    keys : sequence of str, optional
+        Row columns that define a comparison group (default :func:`headline_keys`: protocol
+        and drive, and the input kind when some row is of a scan).
     confidence, n_resamples, seed
         Paired percentile bootstrap of the hole-RMSE ratio over the frame-masks both
         methods scored.
+
+    Each group is scored on its task's pixels (:func:`inpaintenv.metrics.task_of`): the hole,
+    or under ``densify-v1`` every ground-truth pixel the scan did not measure; the ``hole_*``
+    fields then hold the ``unmeasured_rmse`` figures and ``task`` says which.
 
     Returns
     -------
     list of dict
         One entry per group that has a classical method and another one: the ``keys``,
+        ``task`` (``"hole"`` or ``"unmeasured"``),
         ``learned`` (the best method that is not classical) with ``learned_kind``
         (``"learned"`` or ``"submitted"``) and ``classical`` (method names), their mean ``*_hole_rmse``,
         ``hole_ratio`` with ``hole_ratio_low`` / ``hole_ratio_high`` (NaN from a single
@@ -97,6 +107,7 @@ def learned_vs_classical(
     """
     if not 0.0 < confidence < 1.0:
         raise InvalidInputError(f"confidence must be in (0, 1), got {confidence}")
+    keys = headline_keys(result) if keys is None else tuple(keys)
     kinds = _kinds(result, frozenset(classical))
     trained = result.meta.get("training_drives") or {}
     groups: dict[tuple, dict[str, list[dict[str, Any]]]] = {}
@@ -104,7 +115,8 @@ def learned_vs_classical(
         groups.setdefault(tuple(row[k] for k in keys), {}).setdefault(row["method"], []).append(row)
     out = []
     for group, by_method in groups.items():
-        hole = {m: _per_frame(rows, "hole_rmse") for m, rows in by_method.items()}
+        task = task_of(r.get("hole_fraction", 1.0) for rows in by_method.values() for r in rows)
+        hole = {m: _per_frame(rows, f"{task}_rmse", task) for m, rows in by_method.items()}
         mean = {m: float(np.mean(list(v.values()))) for m, v in hole.items() if v}
         learned = [m for m in mean if kinds.get(m) != "classical"]
         strong = [m for m in mean if kinds.get(m) == "classical"]
@@ -120,10 +132,10 @@ def learned_vs_classical(
             continue
         a = np.array([hole[best_l][k] for k in shared])
         b = np.array([hole[best_c][k] for k in shared])
-        learned_all = _per_frame(by_method[best_l], "all_rmse")
+        learned_all = _per_frame(by_method[best_l], "all_rmse", task)
         all_mean = float(np.mean([learned_all[k] for k in shared if k in learned_all]))
         entry: dict[str, Any] = {
-            **dict(zip(keys, group)),
+            **dict(zip(keys, group)), "task": task,
             "learned": best_l, "learned_kind": kinds.get(best_l, "learned"), "learned_hole_rmse": float(a.mean()),
             "classical": best_c, "classical_hole_rmse": float(b.mean()),
         }
@@ -143,6 +155,12 @@ def learned_vs_classical(
     return out
 
 
+def headline_keys(result: EvaluationResult) -> tuple[str, ...]:
+    """The columns of a headline group: protocol and drive, and first the input kind when a row is of a scan."""
+    scans = any(r.get("input_kind", "map") != "map" for r in result.rows)
+    return ("input_kind", "protocol", "drive") if scans else ("protocol", "drive")
+
+
 def headline_title(rows: list[dict[str, Any]]) -> str:
     """``"Best learned vs strongest classical"``, naming the kinds the table compares
     (``"Best submitted ..."``, ``"Best learned or submitted ..."``)."""
@@ -150,7 +168,7 @@ def headline_title(rows: list[dict[str, Any]]) -> str:
     return f"Best {' or '.join(kinds) or 'learned'} vs strongest classical"
 
 
-def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protocol", "drive")) -> str:
+def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] | None = None) -> str:
     """Markdown table of :func:`learned_vs_classical`, notes underneath (empty string when
     there is nothing to compare).
 
@@ -159,12 +177,18 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
     """
     if not rows:
         return ""
+    if keys is None:
+        keys = [k for k in ("input_kind", "protocol", "drive") if k in rows[0]]
     best = headline_title(rows).split(" vs ")[0].lower()
-    heads = list(keys) + ["frames", "skipped", f"{best} (hole RMSE m)", "strongest classical (hole RMSE m)",
-                          "ratio [95 % CI]", f"{best.removeprefix('best ')} all ÷ classical hole"]
+    # A table holding densify-v1 names the pixels each row is scored on (its hole, or what the scan did not measure).
+    mixed_tasks = any(r.get("task", "hole") != "hole" for r in rows)
+    where = "" if mixed_tasks else "hole "
+    heads = list(keys) + (["scored on"] if mixed_tasks else []) + [
+        "frames", "skipped", f"{best} ({where}RMSE m)", f"strongest classical ({where}RMSE m)", "ratio [95 % CI]",
+        f"{best.removeprefix('best ')} all ÷ classical {where or 'task '}".rstrip()]
     lines = [
         "| " + " | ".join(heads) + " |",
-        "|" + "|".join(["---"] * len(keys) + ["---:"] * 2 + ["---"] * 2 + ["---:"] * 2) + "|",
+        "|" + "|".join(["---"] * (len(keys) + mixed_tasks) + ["---:"] * 2 + ["---"] * 2 + ["---:"] * 2) + "|",
     ]
     ratios = []
     learned_cells = []
@@ -181,7 +205,8 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
         mark = f" {TRAINED_MARK}" if r.get("learned_trained_on") else ""
         kind = f" ({r.get('learned_kind', 'learned')})" if mixed else ""
         learned_cells.append(f"{r['learned']}{kind}{mark} {r['learned_hole_rmse']:.2f}")
-        lines.append("| " + " | ".join([str(r[k]) for k in keys] + [
+        scored = [_TASK_PIXELS[r.get("task", "hole")]] if mixed_tasks else []
+        lines.append("| " + " | ".join([str(r[k]) for k in keys] + scored + [
             str(r["n_frames"]),
             str(r["n_skipped_hole"]),
             learned_cells[-1],
@@ -191,7 +216,8 @@ def headline_markdown(rows: list[dict[str, Any]], keys: Sequence[str] = ("protoc
         ]) + " |")
     notes = table_notes(
         [c for c in ratios if not c.startswith("undefined")], frames="frame-masks both methods scored",
-        values="ratio of the mean hole RMSEs [paired 95 % percentile-bootstrap interval] (2,000 resamples, seed 0)",
+        values=f"ratio of the mean {where or 'task '}RMSEs [paired 95 % percentile-bootstrap interval] "
+               "(2,000 resamples, seed 0)",
     )
     if undefined:
         notes.append(f"¶ {'; '.join(dict.fromkeys(undefined))}.")

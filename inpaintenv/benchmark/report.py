@@ -14,7 +14,15 @@ from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_mark
 from .headline import headline_markdown, headline_title, learned_vs_classical
 from .ownership import claim
 
-__all__ = ["REPORT_METRICS", "summary_table", "to_markdown", "environment_info", "write_report"]
+__all__ = ["REPORT_METRICS", "summary_table", "table_keys", "to_markdown", "environment_info", "write_report"]
+
+
+def table_keys(result: EvaluationResult, drive: bool = False) -> tuple[str, ...]:
+    """The columns of a run's tables: method and protocol (and drive), with the input kind between
+    them when some row is of a single scan (rect-v1 on maps and on scans are different tasks)."""
+    scans = any(r.get("input_kind", "map") != "map" for r in result.rows)
+    keys = ("method", "input_kind", "protocol") if scans else ("method", "protocol")
+    return keys + (("drive",) if drive else ())
 
 
 def write_report(
@@ -47,8 +55,8 @@ def write_report(
         ``by_drive_csv``, ``markdown``).
     """
     out = Path(out_dir)
-    drive_keys = ("method", "protocol", "drive")
-    table = summary_table(result)
+    keys, drive_keys = table_keys(result), table_keys(result, drive=True)
+    table = summary_table(result, keys)
     per_drive = summary_table(result, drive_keys)
     headline = learned_vs_classical(result)
     full_meta = {**result.meta, **(meta or {})}
@@ -69,15 +77,17 @@ def write_report(
     claim(out, *(p.name for p in paths.values()))
     write_text_atomic(paths["json"], json.dumps(json_safe(doc), indent=1))
     result.to_csv(paths["csv"])
-    table_to_csv(table, paths["table_csv"])
+    table_to_csv(table, paths["table_csv"], keys)
     table_to_csv(per_drive, paths["by_drive_csv"], drive_keys)
     md = [
         "# Benchmark results",
         "",
-        (f"Data: {doc['meta'].get('source', '?')}; protocols: {', '.join(doc['meta'].get('protocols', []))}; "
+        (f"Data: {doc['meta'].get('source', '?')}; "
+         f"{'tasks' if 'tasks' in doc['meta'] else 'protocols'}: "
+         f"{', '.join(doc['meta'].get('tasks') or doc['meta'].get('protocols', []))}; "
          f"seeds: {doc['meta'].get('seeds')}."),
         "",
-        to_markdown(table),
+        to_markdown(table, keys),
         "",
     ]
     if doc["skipped_frames"]:
@@ -92,9 +102,9 @@ def write_report(
         md += [
             f"## {headline_title(headline)} (per protocol and drive)",
             "",
-            "Ratio of mean hole RMSE on the frame-masks both methods scored, with a paired "
-            "95 % bootstrap interval; the last column is the first method's all-pixel RMSE "
-            "÷ the classical method's hole RMSE.",
+            "Ratio of mean hole RMSE (under densify-v1: RMSE on the ground-truth pixels the scan did not "
+            "measure) on the frame-masks both methods scored, with a paired 95 % bootstrap interval; the last "
+            "column is the first method's all-pixel RMSE ÷ the classical method's RMSE of the task.",
             "",
             headline_markdown(headline),
             "",

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +21,8 @@ from .datakey import data_key
 from .ownership import claim
 from ..exceptions import InpaintenvError, RunMismatchError, RunStateError
 
-__all__ = ["RunMismatchError", "RunStateError", "differences", "fingerprint", "read_run_file", "write_run_file"]
+__all__ = ["RunMismatchError", "RunStateError", "differences", "fingerprint", "read_run_file", "run_fingerprint",
+           "write_run_file"]
 
 
 def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], seeds: Sequence[int]) -> dict[str, Any]:
@@ -39,6 +40,20 @@ def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], 
     data = data_key(dataset, n_frames)
     if data:  # a generated source has nothing beyond its description
         key["data"] = data
+    return key
+
+
+def run_fingerprint(datasets: Mapping[str, DepthDataset], totals: Mapping[str, int], tasks: Sequence[Any],
+                    seeds: Sequence[int]) -> dict[str, Any]:
+    """What keys a run of tasks (:mod:`.tasks`): the :func:`fingerprint` of its one input kind (a run on
+    maps keeps the key it always had), or, with tasks on both, that of the maps with the scans' under ``"scan"``."""
+    kinds = list(dict.fromkeys(t.input_kind for t in tasks))
+    keys = {k: fingerprint(datasets[k], totals[k], [t.protocol for t in tasks if t.input_kind == k], seeds)
+            for k in kinds}
+    if len(kinds) == 1:
+        return keys[kinds[0]]
+    key = keys["map"]
+    key["scan"] = {k: v for k, v in keys["scan"].items() if k not in ("seeds", "input_kind")}
     return key
 
 
@@ -76,7 +91,7 @@ def write_run_file(
 _SETTINGS = {
     "source": "the data source", "n_frames": "the number of frames", "frames_sha1": "the frames (their ids)",
     "protocols": "the protocols (--protocol)", "seeds": "the seeds (--seed)", "unfilled": "--unfilled",
-    "input_kind": "the input (--input)",
+    "input_kind": "the input (--input)", "scan": "the scan tasks (their source, frames, protocols or data)",
 }
 
 

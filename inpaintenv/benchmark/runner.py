@@ -1,7 +1,8 @@
 """Run a suite of methods over a data source and protocols, resumably.
 
-Per-frame rows are appended to ``<out>/rows/<method>__<protocol>.jsonl`` as soon as a
-batch is scored, so a killed run continues where it stopped: on restart, every
+A run scores tasks (:mod:`.tasks`): a protocol on the ground-truth map, or on single
+LiDAR scans. Per-frame rows are appended to ``<out>/rows/<method>__<protocol>.jsonl``
+(``..__scan.jsonl`` for a scan task) as soon as a batch is scored, so a killed run continues where it stopped: on restart, every
 (seed, frame) already in the file is skipped. ``<out>/run.json`` fingerprints the run
 (source, frames, protocols, seeds) and records what each method is (its identity, see
 :mod:`.identity`); resuming into a folder of a different run, or reusing rows that another
@@ -30,7 +31,6 @@ from ..evaluate import (
     training_drives_of,
 )
 from ..files import remove_stale_temporaries
-from ..masks import get_protocol
 from ..interval_metrics import check_coverage
 from ..metrics import check_unfilled
 from ..report.progress import (
@@ -43,8 +43,9 @@ from .identity import method_identity
 from .lock import run_lock
 from .ownership import adopt, check_folder, claim, remove
 from .rows import append_rows, end_partial_line, read_rows
-from .run_state import RunMismatchError, RunStateError, differences, fingerprint, read_run_file, write_run_file
+from .run_state import RunMismatchError, RunStateError, differences, read_run_file, run_fingerprint, write_run_file
 from .suites import method_kind
+from .tasks import Task, check_tasks, task_datasets
 from ..exceptions import InvalidInputError, InvalidTypeError, UnsafeFileError
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
@@ -61,13 +62,20 @@ def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
 
 
+def _rows_file(name: str, task: Task) -> str:
+    """``<method>__<protocol>.jsonl`` of a map task (as always); a scan task's file ends in ``__scan``."""
+    kind = "" if task.input_kind == "map" else f"__{task.input_kind}"
+    return f"{_slug(name)}__{_slug(task.protocol)}{kind}.jsonl"
+
+
 def _check_run(
-    methods: Any, protocols: Any, seeds: Any, n_frames: Any, batch_size: Any
-) -> tuple[list[str], list[int]]:
-    """Validate the run's arguments; return the protocol names and seeds as lists.
+    methods: Any, protocols: Any, seeds: Any, n_frames: Any, batch_size: Any, input_kind: str = "map",
+) -> tuple[list[Task], list[int]]:
+    """Validate the run's arguments; return the tasks (:mod:`.tasks`) and seeds as lists.
 
     A single protocol name or a single int seed is accepted as a one-element list (as
-    :func:`inpaintenv.evaluate.evaluate` accepts them).
+    :func:`inpaintenv.evaluate.evaluate` accepts them); a plain protocol name is a task on
+    ``input_kind``.
     """
     if not isinstance(methods, Mapping):
         raise InvalidTypeError(f"methods must be a mapping of name -> method, got {type(methods).__name__}")
@@ -76,22 +84,12 @@ def _check_run(
     bad_names = [n for n in methods if not isinstance(n, str) or not n.strip()]
     if bad_names:
         raise InvalidInputError(f"method names must be non-empty strings, got {bad_names!r}")
-
-    if isinstance(protocols, str):
-        protocols = [protocols]
-    if not isinstance(protocols, Sequence):
-        raise InvalidTypeError(f"protocols must be a protocol name or a list of them, got {type(protocols).__name__}")
-    names = [get_protocol(p).name for p in protocols]
-    if not names:
-        raise InvalidInputError("protocols is empty; give at least one occlusion protocol")
-    if len(set(names)) != len(names):
-        raise InvalidInputError(f"protocols must be distinct, got {names}")
-
+    tasks = check_tasks(protocols, input_kind)
     seed_list = check_seeds(seeds, "seeds")
     if n_frames is not None:
         check_int(n_frames, "n_frames", minimum=1)
     check_int(batch_size, "batch_size", minimum=1)
-    return names, seed_list
+    return tasks, seed_list
 
 
 def _check_identity(name: str, out: Path, recorded: str | None, identity: str, has_rows: bool) -> None:
@@ -133,10 +131,14 @@ def run_benchmark(
         needs scoring, or to confirm their identity on resume unless they carry one. A
         method with a ``scored_pairs`` attribute (a set of ``(seed, frame index)``, e.g. a
         submission missing some files) is scored on those pairs only.
-    source : DepthDataset, array or None
-        Ground truth to score on (None: the built-in SyntheticStreets default).
-    protocols : str or sequence of str
-        Occlusion protocols by name, distinct; a single name means that one protocol.
+    source : DepthDataset, array, mapping or None
+        Ground truth to score on (None: the built-in SyntheticStreets default), whose
+        ``input_kind`` says what a method is given; or ``{"map": dataset, "scan": dataset}``
+        for a run with tasks on both inputs.
+    protocols : str, Task or sequence of them
+        The tasks, distinct (:mod:`.tasks`): a protocol name (a task on the source's input
+        kind, or on maps with a mapping), ``"scan:<protocol>"``, or a
+        :class:`~inpaintenv.benchmark.tasks.Task` (which may name the methods it scores).
     seeds : int or sequence of int
         Evaluation seeds: distinct non-negative integers (a single int means one seed).
     n_frames : int, optional
@@ -193,7 +195,10 @@ def run_benchmark(
         On no methods, no frames, or invalid ``protocols``, ``seeds``, ``n_frames`` or
         ``batch_size``.
     """
-    protocols, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size)
+    single = None if isinstance(source, Mapping) else resolve_source(source)
+    tasks, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size,
+                              "map" if single is None else single.input_kind)
+    datasets = task_datasets(source if single is None else single, tasks)
     if on_bad_frame not in ("error", "skip"):
         raise InvalidInputError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
     policies = {
@@ -203,21 +208,22 @@ def run_benchmark(
     }
     if interval_coverage is not None:
         interval_coverage = check_coverage(interval_coverage, "interval_coverage")
-    dataset = resolve_source(source)
-    if len(dataset) == 0:
+    if any(len(ds) == 0 for ds in datasets.values()):
         raise InvalidInputError("the data source has no frames")
     check_folder(out_dir)  # before the lock file is made in someone else's folder
     with run_lock(out_dir, log):
         return _run_locked(
-            methods, dataset, protocols, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
+            methods, datasets, tasks, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
             log or (lambda msg: None), on_bad_frame, client, policies, unfilled, interval_coverage,
         )
 
 
-def _plan_line(methods: Mapping[str, Any], total: int, protocols: list[str], seeds: list[int], n_done: int,
+def _plan_line(methods: Mapping[str, Any], total: int, tasks: list[Task], seeds: list[int], n_done: int,
                n_todo: int) -> str:
+    what = count(len(tasks), "protocol") if all(t.input_kind == "map" for t in tasks) else \
+        f"{count(len(tasks), 'task')} ({', '.join(t.label for t in tasks)})"
     return (f"benchmark: {count(total, 'frame')} × {count(len(methods), 'method')} × "
-            f"{count(len(protocols), 'protocol')} × {count(len(seeds), 'seed')} = "
+            f"{what} × {count(len(seeds), 'seed')} = "
             f"{count(n_done + n_todo, 'frame score')}; {n_done} already done, {n_todo} to score")
 
 
@@ -228,14 +234,14 @@ def _known_cost(rows_by_protocol: Mapping[str, list[dict[str, Any]]]) -> float |
 
 
 def _run_locked(
-    methods: Mapping[str, Any], dataset: DepthDataset, protocols: list[str], seeds: list[int],
+    methods: Mapping[str, Any], datasets: dict[str, DepthDataset], tasks: list[Task], seeds: list[int],
     n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
     say: Callable[[str], None], on_bad_frame: str, client: Any, policies: dict[str, str], unfilled: str | None,
     interval_coverage: float | None = None,
 ) -> EvaluationResult:
     """The run inside the folder's lock: open the run folder, plan, score each method, combine."""
-    total = len(dataset) if n_frames is None else min(len(dataset), int(n_frames))
-    run = _Run(methods, dataset, protocols, seeds, total, out, say, policies,
+    totals = {k: len(ds) if n_frames is None else min(len(ds), int(n_frames)) for k, ds in datasets.items()}
+    run = _Run(methods, datasets, tasks, seeds, totals, out, say, policies,
                {"batch_size": batch_size, "progress": progress, "on_bad_frame": on_bad_frame, "client": client,
                 "intervals": interval_coverage})
     run.open(resume, unfilled)
@@ -255,11 +261,12 @@ class _Run:
     is left to score, and the progress lines; one method per job (:func:`_run_locked`)."""
 
     def __init__(
-        self, methods: Mapping[str, Any], dataset: DepthDataset, protocols: list[str], seeds: list[int],
-        total: int, out: Path, say: Callable[[str], None], policies: dict[str, str], evaluate_kw: dict[str, Any],
+        self, methods: Mapping[str, Any], datasets: dict[str, DepthDataset], tasks: list[Task], seeds: list[int],
+        totals: dict[str, int], out: Path, say: Callable[[str], None], policies: dict[str, str],
+        evaluate_kw: dict[str, Any],
     ) -> None:
-        self.methods, self.dataset, self.protocols, self.seeds = methods, dataset, protocols, seeds
-        self.total, self.out, self.say, self.policies, self.evaluate_kw = total, out, say, policies, evaluate_kw
+        self.methods, self.datasets, self.tasks, self.seeds = methods, datasets, tasks, seeds
+        self.totals, self.out, self.say, self.policies, self.evaluate_kw = totals, out, say, policies, evaluate_kw
         self.rows_dir = out / "rows"
         self.run_file = out / "run.json"
         # name -> identity of the method that wrote its rows (see .identity); a name missing
@@ -282,7 +289,7 @@ class _Run:
         self.rows_dir.mkdir(parents=True, exist_ok=True)
         for folder in (self.out, self.rows_dir, self.out / "figures"):
             remove_stale_temporaries(folder)  # left by a writer killed mid-write
-        self.fingerprint = fingerprint(self.dataset, self.total, self.protocols, self.seeds)
+        self.fingerprint = run_fingerprint(self.datasets, self.totals, self.tasks, self.seeds)
         if unfilled is not None:
             # Only a run-wide choice: a method's own policy is part of what the method is, and
             # a run.json without the key (older runs, default runs) stays resumable.
@@ -316,14 +323,9 @@ class _Run:
     def plan(self) -> None:
         """Rows already on disk, identities known without building anything (a changed method
         is refused before any scoring starts), what is left to score, the plan line."""
-        methods, protocols, seeds, total = self.methods, self.protocols, self.seeds, self.total
-        self.paths = {
-            name: {p: self.rows_dir / f"{_slug(name)}__{_slug(p)}.jsonl" for p in protocols} for name in methods
-        }
-        existing = {
-            name: {p: [r for r in read_rows(path) if r["method"] == name] for p, path in by_protocol.items()}
-            for name, by_protocol in self.paths.items()
-        }
+        methods, tasks, seeds, totals = self.methods, self.tasks, self.seeds, self.totals
+        self.paths = {name: {t: self.rows_dir / _rows_file(name, t) for t in tasks} for name in methods}
+        existing = {name: {t: self._read(name, t) for t in tasks} for name in methods}
         self.done = {
             name: {p: {(r["seed"], r["index"]) for r in rows} for p, rows in by_protocol.items()}
             for name, by_protocol in existing.items()
@@ -342,15 +344,17 @@ class _Run:
 
         # A method with ``scored_pairs`` (a submission missing some files) scores only those (seed, frame) pairs.
         allowed = {name: getattr(m, "scored_pairs", None) for name, m in methods.items()}
+        # A task that does not score a method (Task.methods) has nothing to do for it.
         self.todos = {
-            name: {p: {s: [i for i in range(total) if (s, i) not in self.done[name][p]
-                           and (allowed[name] is None or (s, i) in allowed[name])] for s in seeds} for p in protocols}
+            name: {t: {s: [i for i in range(totals[t.input_kind] if t.scores(name) else 0)
+                           if (s, i) not in self.done[name][t] and (allowed[name] is None or (s, i) in allowed[name])]
+                       for s in seeds} for t in tasks}
             for name in methods
         }
         per_method = {name: sum(len(v) for t in self.todos[name].values() for v in t.values()) for name in methods}
         n_todo_all = sum(per_method.values())
         n_done_all = sum(len(d) for by_protocol in self.done.values() for d in by_protocol.values())
-        self.say(_plan_line(methods, total, protocols, seeds, n_done_all, n_todo_all))
+        self.say(_plan_line(methods, max(totals.values()), tasks, seeds, n_done_all, n_todo_all))
         known = {name: c for name in methods if (c := _known_cost(existing[name])) is not None}
         if n_todo_all and all(name in known for name, k in per_method.items() if k):
             eta = sum(known[name] * k for name, k in per_method.items() if k)
@@ -364,10 +368,10 @@ class _Run:
         """``method`` ready to score (a lazy one built when needed), its identity checked and
         recorded; None when an optional method cannot be built here."""
         todo, done = self.todos[name], self.done[name]
-        n_todo = {p: sum(len(v) for v in todo[p].values()) for p in self.protocols}
-        for p in self.protocols:
-            if n_todo[p]:
-                self.say(f"{name} / {p}: {count(n_todo[p], 'frame')} to score ({len(done[p])} already done)")
+        n_todo = {t: sum(len(v) for v in todo[t].values()) for t in self.tasks}
+        for t in self.tasks:
+            if n_todo[t]:
+                self.say(f"{name} / {t.label}: {count(n_todo[t], 'frame')} to score ({len(done[t])} already done)")
         identity = self.cheap[name]
         recorded = self.identities.get(name)
         # A lazy method is built when frames need scoring, or when its rows carry an
@@ -399,22 +403,30 @@ class _Run:
         return method
 
     def score(self, name: str, method: Any) -> list[EvaluationResult]:
-        """Score what is left of ``name`` under every protocol, appending rows to its files;
-        return all its rows (old and new), one result per protocol."""
+        """Score what is left of ``name`` in every task that scores it, appending rows to its files;
+        return all its rows (old and new), one result per task."""
         if self.reporter is not None:
             self.reporter.begin(name)
         results = []
-        for protocol in self.protocols:
-            path = self.paths[name][protocol]
-            self._score_protocol(name, method, protocol, path)
-            keep = {(s, i) for s in self.seeds for i in range(self.total)}
-            rows = [r for r in read_rows(path) if r["method"] == name and (r["seed"], r["index"]) in keep]
+        for task in self.tasks:
+            if not task.scores(name):
+                continue
+            self._score_task(name, method, task, self.paths[name][task])
+            keep = {(s, i) for s in self.seeds for i in range(self.totals[task.input_kind])}
+            rows = [r for r in self._read(name, task) if (r["seed"], r["index"]) in keep]
             # One row per (seed, frame) even if a crash left a duplicate line behind.
             unique = {(r["seed"], r["index"]): r for r in rows}
             results.append(EvaluationResult(rows=[unique[k] for k in sorted(unique)], meta={"methods": [name]}))
         return results
 
-    def _score_protocol(self, name: str, method: Any, protocol: str, path: Path) -> None:
+    def _read(self, name: str, task: Task) -> list[dict[str, Any]]:
+        """The rows of ``name`` in ``task``'s file (rows made before rows recorded their input are of its kind)."""
+        rows = [r for r in read_rows(self.rows_dir / _rows_file(name, task)) if r["method"] == name]
+        for r in rows:
+            r.setdefault("input_kind", task.input_kind)
+        return [r for r in rows if r["input_kind"] == task.input_kind]
+
+    def _score_task(self, name: str, method: Any, task: Task, path: Path) -> None:
         end_partial_line(path)
         # Claimed at the first scored batch: a run stopped by its first frame (a corrupt
         # PNG) must not leave an empty row file behind.
@@ -429,12 +441,13 @@ class _Run:
             if reporter is not None:
                 reporter.update(len(batch_rows))
 
-        for seed, indices in self.todos[name][protocol].items():
+        for seed, indices in self.todos[name][task].items():
             if not indices:
                 continue
             warmup = name not in self._warmed  # once per method, not per seed or protocol
             self._warmed.add(name)
-            part = evaluate(method, self.dataset, protocol, seeds=[seed], indices=indices, name=name,
+            part = evaluate(method, self.datasets[task.input_kind], task.protocol, seeds=[seed], indices=indices,
+                            name=name,
                             on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)
             self.skipped.append(part.meta.get("skipped_frames") or [])
 
@@ -443,10 +456,14 @@ class _Run:
         methods, trained = self.methods, self.trained
         combined = EvaluationResult.concat(results)
         combined.meta.update(
-            {"source": repr(self.dataset), "protocols": self.protocols, "seeds": self.seeds, "n_frames": self.total,
+            {"source": "; ".join(repr(ds) for ds in self.datasets.values()),
+             "protocols": list(dict.fromkeys(t.protocol for t in self.tasks)), "seeds": self.seeds,
+             "n_frames": max(self.totals.values()),
              "unfilled": {name: self.policies[name] for name in combined.methods},
              "kinds": {name: method_kind(name, methods[name]) for name in combined.methods}}
         )
+        if set(self.datasets) != {"map"}:  # what each row is scored on: "scan:rect-v1" beside "rect-v1"
+            combined.meta["tasks"] = [t.label for t in self.tasks]
         if self.evaluate_kw.get("intervals") is not None:
             combined.meta["interval_coverage"] = self.evaluate_kw["intervals"]
             combined.meta["interval_methods"] = [m for m in combined.methods

@@ -7,16 +7,18 @@ reported and skipped, never silently dropped.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..exceptions import UnknownNameError
+from .tasks import Task
 from ..registry import (
     LEARNED_INSTALL, available_methods, get_spec, interval_base, is_learned, learned_missing, make_method,
     unfilled_policy,
 )
 
-__all__ = ["KINDS", "SUITES", "suite_methods", "LazyMethod", "method_kind", "registry_kind"]
+__all__ = ["KINDS", "SCAN_METHODS", "SUITES", "SUITE_TASKS", "suite_methods", "suite_tasks", "LazyMethod",
+           "method_kind", "registry_kind"]
 
 #: What a method is, as the headline labels it: a classical fill, a learned model of this
 #: package (a shipped release or a checkpoint), or anything else the user submits (their
@@ -31,8 +33,8 @@ _WRAPPERS = "estimators.intervals"
 STUDY_CLASSICAL = ["telea-hole", "ns-hole", "bilateral-hole"]
 #: Every classical method done right (every unmeasured pixel unknown).
 CLASSICAL = [
-    "harmonic", "harmonic-inverse", "ipbasic", "scanline", "scanline-inverse", "scanline-2d", "nearest",
-    "telea", "ns", "bilateral", "constant",
+    "harmonic", "harmonic-inverse", "ipbasic", "ipbasic-scan", "scanline", "scanline-inverse", "scanline-2d",
+    "nearest", "telea", "ns", "bilateral", "constant",
 ]
 #: The learned models shipped with the package (per-pixel blends of classical fills; need torch).
 PRETRAINED = ["pretrained", "blend-pretrained-mixed"]
@@ -43,6 +45,33 @@ SUITES: dict[str, list[str]] = {
     "study": STUDY_CLASSICAL,
     "fast": PRETRAINED + ["harmonic", "harmonic-inverse", "ipbasic", "scanline", "scanline-2d", "constant"],
 }
+
+
+#: The methods a suite scores on single LiDAR scans (those of its members that are here): the
+#: default, the strongest classical densifier of a scan (``ipbasic-scan``), and the classical
+#: fills a scan is usually given to. The rest (the study's hole-only baselines, the slow
+#: OpenCV fills, the map-trained blend) are scored on maps only, which keeps the run short.
+SCAN_METHODS = ("pretrained", "ipbasic-scan", "ipbasic", "harmonic", "nearest", "scanline")
+#: The tasks (:mod:`.tasks`) of the default run: rect-v1 on maps, and densify-v1 and rect-v1 on
+#: scans with :data:`SCAN_METHODS`.
+SCAN_TASKS = (Task("scan", "densify-v1", SCAN_METHODS), Task("scan", "rect-v1", SCAN_METHODS))
+MAP_TASKS = (Task("map", "rect-v1"),)
+#: What each suite scores when no ``--protocol`` or ``--input`` is given.
+SUITE_TASKS: dict[str, tuple[Task, ...]] = {
+    "default": MAP_TASKS + SCAN_TASKS, "classical": MAP_TASKS + SCAN_TASKS, "study": MAP_TASKS, "fast": MAP_TASKS,
+}
+
+
+def suite_tasks(suite: str | None, members: Sequence[str]) -> list[Task]:
+    """The tasks of ``suite`` (rect-v1 on maps for none), each scan task limited to the ``members`` it lists."""
+    tasks = []
+    for task in SUITE_TASKS.get(suite or "", MAP_TASKS):
+        if task.methods is not None:
+            task = Task(task.input_kind, task.protocol, tuple(m for m in task.methods if m in members))
+            if not task.methods:
+                continue
+        tasks.append(task)
+    return tasks
 
 
 class LazyMethod:

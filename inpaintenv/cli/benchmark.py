@@ -35,12 +35,15 @@ def suites_epilog() -> str:
     never hand-kept)."""
     import textwrap
 
-    from ..benchmark.suites import SUITES
+    from ..benchmark.suites import SUITES, suite_tasks
 
-    lines = ["suites:"]
+    lines = ["suites (methods; tasks without --protocol and --input, a scan task with the methods it scores):"]
     for name, members in SUITES.items():
+        tasks = "; ".join(t.label + ("" if t.methods is None else f" ({', '.join(t.methods)})")
+                          for t in suite_tasks(name, members))
         lines += textwrap.wrap(
-            f"{name} ({len(members)}): {', '.join(members)}", width=88, initial_indent="  ", subsequent_indent="      "
+            f"{name} ({len(members)}): {', '.join(members)}; tasks: {tasks}", width=88, initial_indent="  ",
+            subsequent_indent="      ", break_on_hyphens=False,
         )
     return "\n".join(lines)
 
@@ -65,8 +68,13 @@ def add_benchmark(subparsers: Any) -> None:
                    help="method by name (repeatable): alone it replaces the default suite, with --suite it is "
                         "added to that suite")
     add_checkpoint_option(p)
-    p.add_argument("--protocol", action="append", metavar="NAME",
-                   help="occlusion protocol (repeatable; default rect-v1)")
+    p.add_argument("--protocol", "-p", action="append", metavar="NAME",
+                   help="occlusion protocol (repeatable; default: the suite's tasks, see below)")
+    p.add_argument("--input", choices=["map", "scan"],
+                   help="what a method is given under every --protocol: map (the ground truth with the hole cut) or "
+                        "scan (each frame's single LiDAR scan with the hole cut; densify-v1: the scan as it is). "
+                        "Without --protocol and --input a suite scores its tasks: rect-v1 on maps, and for the "
+                        "default and classical suites densify-v1 and rect-v1 on scans with their scan methods")
     p.add_argument("--seed", type=int, action="append", metavar="S", help="evaluation seed (repeatable; default 0)")
     p.add_argument("--holdout", type=float, metavar="FRACTION",
                    help=f"score only a drive-level test split holding this share of the drives "
@@ -104,16 +112,13 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, method_kind
     from ..conventions import check_int, check_seeds
-    from ..masks import get_protocol
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # Every argument is resolved and checked before any frame is scored: a typo in the
     # last option must not cost the hour spent on the first methods.
     check_source_options(args)
     methods = _methods(args)
-    protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
-    if len(set(protocols)) != len(protocols):
-        raise InvalidInputError(f"--protocol values must be distinct, got {protocols}")
+    tasks = _tasks(args, methods)
     seeds = check_seeds(args.seed or [0], "--seed")
     check_int(args.batch_size, "--batch-size", minimum=1)
     check_int(args.figure_frames, "--figure-frames", minimum=0)
@@ -125,7 +130,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InvalidInputError(f"--out {out} is a file; give a folder for the run")
     check_folder(out)  # someone else's folder is refused before anything is built or written
-    dataset, holdout = _dataset(args)
+    datasets, holdout = {}, 0.0
+    for kind in dict.fromkeys(t.input_kind for t in tasks):
+        datasets[kind], holdout = _dataset(argparse.Namespace(**{**vars(args), "input": kind}))
 
     built: dict[str, Any] = {}
 
@@ -150,13 +157,13 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         }
         with open_client(args.scheduler) as client:
             result = run_benchmark(
-                cached, dataset, protocols=protocols, seeds=seeds, out_dir=out,
+                cached, datasets, protocols=tasks, seeds=seeds, out_dir=out,
                 resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
                 on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled,
                 interval_coverage=args.interval_coverage,
             )
         _report(args, result, out, holdout, {n: (lambda n=n: materialise(n, methods[n])) for n in methods},
-                methods, dataset, protocols[0], seeds[0], log)
+                methods, datasets[tasks[0].input_kind], tasks[0].protocol, seeds[0], log)
     return 0
 
 
@@ -186,6 +193,25 @@ def _methods(args: argparse.Namespace) -> dict[str, Any]:
     return methods
 
 
+def _tasks(args: argparse.Namespace, methods: dict[str, Any]) -> list[Any]:
+    """What the run scores (:mod:`~inpaintenv.benchmark.tasks`): every ``--protocol`` (default rect-v1) on
+    ``--input``; with neither, the suite's tasks, whose scan tasks also score the methods added to the suite."""
+    from ..benchmark.suites import SUITES, suite_tasks
+    from ..benchmark.tasks import Task, check_tasks
+    from ..masks import get_protocol
+
+    if args.protocol or args.input:
+        protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
+        if len(set(protocols)) != len(protocols):
+            raise InvalidInputError(f"--protocol values must be distinct, got {protocols}")
+        return check_tasks(protocols, args.input or "map")
+    suite = args.suite or (None if args.method else "default")
+    members = SUITES.get(suite or "", [])
+    added = tuple(n for n in methods if n not in members)
+    return [t if t.methods is None else Task(t.input_kind, t.protocol, t.methods + added)
+            for t in suite_tasks(suite, list(methods))]
+
+
 def _dataset(args: argparse.Namespace) -> tuple[Any, float]:
     """The frames scored and the share of drives held out for them (``--holdout``)."""
     from ..data.synthetic import SyntheticStreets
@@ -209,23 +235,29 @@ def _report(
     headline) and draw the figures of a finished run."""
     from ..benchmark.figures import write_figures
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
-    from ..benchmark.report import summary_table, to_markdown, write_report
+    from ..benchmark.report import summary_table, table_keys, to_markdown, write_report
     from ..evaluate import skipped_markdown
 
     command = "inpaintenv " + " ".join(getattr(args, "argv", []))
     paths = write_report(result, out, meta={"command": command, "holdout": holdout})
-    table = summary_table(result)
-    print(to_markdown(table))
+    keys = table_keys(result)
+    table = summary_table(result, keys)
+    print(to_markdown(table, keys))
     skipped = result.meta.get("skipped_frames") or []
     if skipped:
         print("\n" + skipped_markdown(skipped))
     compared = learned_vs_classical(result)
     if compared:
-        print(f"\n{headline_title(compared)} (hole RMSE ratio, paired 95 % CI):\n" + headline_markdown(compared))
-    if args.figure_frames > 0:
+        what = "hole RMSE" if all(r["task"] == "hole" for r in compared) else "RMSE of the task"
+        print(f"\n{headline_title(compared)} ({what} ratio, paired 95 % CI):\n" + headline_markdown(compared))
+    # The figures draw a map input; a scan task's rows stay in the tables only.
+    on_maps = type(result)(rows=[r for r in result.rows if r.get("input_kind", "map") == "map"], meta=result.meta)
+    if args.figure_frames > 0 and not on_maps.rows:
+        log("no figures: they are drawn for tasks on maps only")
+    elif args.figure_frames > 0:
         fig_dir = out / "figures"
         write_figures(
-            result, factories, dataset, fig_dir,
+            on_maps, factories, dataset, fig_dir,
             panel_methods=list(figure_methods(table, methods)), n_panels=args.figure_frames,
             protocol=protocol, seed=seed, log=log, exclude={r["index"] for r in skipped},
             unfilled=result.meta.get("unfilled", {}),

@@ -30,7 +30,7 @@ from ..metrics import task_of
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
 __all__ = [
-    "FEW_MARK", "INTERVAL_REPORT_METRICS", "REPORT_METRICS", "TRAINED_MARK", "interval_cell", "method_cell", "summary_table", "table_notes",
+    "FEW_MARK", "INTERVAL_REPORT_METRICS", "REPORT_METRICS", "SCAN_REPORT_METRICS", "TRAINED_MARK", "interval_cell", "method_cell", "summary_table", "table_notes",
     "table_to_csv", "to_markdown", "trained_note",
 ]
 
@@ -64,6 +64,16 @@ INTERVAL_REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
     ("rmse_keep_80", "hole RMSE, 80 % most confident (m)", ".2f"),
     ("border_rmse_keep_80", "hole RMSE, 80 % nearest border (m)", ".2f"),
     ("rejection_auc", "rejection AUC", ".3f"),
+)
+#: The columns a table of single-scan inputs adds (rows of ``input_kind`` ``"scan"``): the ground-truth
+#: pixels the input did not measure (densify-v1's task), and KITTI depth completion's own four.
+SCAN_REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
+    ("unmeasured_rmse", "unmeasured RMSE (m)", ".2f"),
+    ("unmeasured_mae", "unmeasured MAE (m)", ".2f"),
+    ("kitti_rmse", "KITTI RMSE (mm)", ".0f"),
+    ("kitti_mae", "KITTI MAE (mm)", ".0f"),
+    ("kitti_irmse", "KITTI iRMSE (1/km)", ".2f"),
+    ("kitti_imae", "KITTI iMAE (1/km)", ".2f"),
 )
 #: Mark of an interval from fewer than FEW_FRAMES frames.
 FEW_MARK = "†"
@@ -112,6 +122,8 @@ def summary_table(
     table = result.group_table(keys)
     for entry in table:
         rows = groups[tuple(entry[k] for k in keys)]
+        if len(kinds := {r.get("input_kind", "map") for r in rows}) == 1:
+            entry.setdefault("input_kind", kinds.pop())  # a table of scans shows their columns (_metrics_of)
         if "method" in keys:
             drives = {str(r["drive"]) for r in rows}
             entry["n_drives"] = len(drives)
@@ -134,8 +146,11 @@ def _has_intervals(entries: Sequence[dict[str, Any]]) -> bool:
 
 
 def _metrics_of(entries: Sequence[dict[str, Any]]) -> tuple[tuple[str, str, str], ...]:
-    """:data:`REPORT_METRICS`, followed by :data:`INTERVAL_REPORT_METRICS` when ``entries`` have intervals."""
-    return REPORT_METRICS + (INTERVAL_REPORT_METRICS if _has_intervals(entries) else ())
+    """:data:`REPORT_METRICS`, then :data:`SCAN_REPORT_METRICS` when some entry is of a scan input, then
+    :data:`INTERVAL_REPORT_METRICS` when ``entries`` have intervals."""
+    scans = any(e.get("input_kind") == "scan" for e in entries)
+    return REPORT_METRICS + (SCAN_REPORT_METRICS if scans else ()) + (
+        INTERVAL_REPORT_METRICS if _has_intervals(entries) else ())
 
 
 def _missing(value: Any) -> bool:
