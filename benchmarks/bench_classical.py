@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-# The methods timed are those of the accuracy table (experiments/baselines_table.py).
+# The methods timed are those of the accuracy table (experiments/classical_baselines.py table).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
-from baselines_table import METHODS, default_root
+from classical_baselines import METHODS, default_root
 
 from estimators.classical import _base
 from inpaintenv.masks import get_protocol

@@ -115,10 +115,9 @@ def _run_suite(methods: dict[str, Any], dataset: Any, args: argparse.Namespace, 
     return wall, cpu, rows
 
 
-def main() -> None:
-    from inpaintenv.benchmark.suites import SUITES, suite_methods
-    from inpaintenv.cluster import open_client
-    from inpaintenv.data import open_source
+def parse_args() -> argparse.Namespace:
+    """The command line (the suites' names are read from the package)."""
+    from inpaintenv.benchmark.suites import SUITES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--kitti-root", default=os.environ.get("INPAINTENV_KITTI_ROOT"),
@@ -139,30 +138,34 @@ def main() -> None:
     parser.add_argument("--malloc-check", action="store_true",
                         help="only time evaluate() per frame with and without Dask's MALLOC_TRIM_THRESHOLD_=65536")
     parser.add_argument("--json", type=Path, help="also write every measurement here")
-    args = parser.parse_args()
+    return parser.parse_args()
 
-    if args.malloc_check:
-        ms = malloc_trim_effect(args.kitti_root, args.frames)
-        print(f"evaluate(constant), {args.frames} frames, ms/frame: MALLOC_TRIM_THRESHOLD_ unset {ms['unset']:.1f}, "
-              f"=65536 (Dask's worker default) {ms['65536']:.1f}: {ms['65536'] / ms['unset']:.2f}x")
-        return
-    _one_thread()
-    dataset = open_source(args.kitti_root, split="train", n_frames=args.frames)
+
+def suite_instances(suite: str) -> dict[str, Any]:
+    """The suite's methods, one thread each; a method that cannot be built is skipped, with a line."""
+    from inpaintenv.benchmark.suites import suite_methods
+
     methods = {}
-    for name, lazy in suite_methods(args.suite, overrides={"n_jobs": 1}, warn=print).items():
+    for name, lazy in suite_methods(suite, overrides={"n_jobs": 1}, warn=print).items():
         try:
             methods[name] = lazy()
         except (ImportError, KeyError, FileNotFoundError) as exc:
             print(f"skipping {name}: {exc}")
-    n_scored = len(dataset) * len(args.seeds)
-    print(f"{dataset!r}: {len(dataset)} frames x {len(args.seeds)} seeds, {args.protocol}, "
-          f"{len(methods)} methods ({args.suite}), batch {args.batch_size}, cpus {os.cpu_count()}, "
-          f"load average at start {os.getloadavg()[0]:.2f}")
+    return methods
+
+
+def measure_configurations(methods: dict[str, Any], dataset: Any, args: argparse.Namespace) -> dict[str, dict]:
+    """Wall and CPU seconds per configuration and method (best round), cluster start and idle cores.
+
+    Raises SystemExit when a cluster's rows differ from the serial run's.
+    """
+    from inpaintenv.cluster import open_client
 
     wall: dict[str, dict[str, float]] = {}
     cpu: dict[str, dict[str, float]] = {}
     startup: dict[str, float] = {}
     idle: dict[str, float] = {}
+
     def keep(config: str, w: dict[str, float], c: dict[str, float]) -> None:
         # Best round per configuration: the load of a shared machine only ever adds time.
         if config not in wall or sum(w.values()) < sum(wall[config].values()):
@@ -187,8 +190,12 @@ def main() -> None:
                     idle[spec] = (_cpu_seconds(client) - c0) / (time.perf_counter() - t0)
                 if _strip(rows) != _strip(reference):
                     raise SystemExit(f"{spec} rows differ from the serial run's")
-    print(f"load average at end {os.getloadavg()[0]:.2f}; every configuration wrote the serial rows (all but ms)\n")
+    return {"wall": wall, "cpu": cpu, "startup": startup, "idle": idle}
 
+
+def print_configurations(measured: dict[str, dict], methods: dict[str, Any], n_scored: int) -> tuple[dict, dict]:
+    """The table of configurations and the per-method CPU table; returns (efficiency, CPU efficiency)."""
+    wall, cpu, startup, idle = measured["wall"], measured["cpu"], measured["startup"], measured["idle"]
     serial_wall, serial_cpu = sum(wall["serial"].values()), sum(cpu["serial"].values())
     print("| configuration | wall s | speed-up | efficiency | CPU s, all processes | CPU efficiency | "
           "idle cluster, cores | cluster start s |")
@@ -210,13 +217,14 @@ def main() -> None:
     print("|---|" + "---:|" * len(wall))
     for name in methods:
         print(f"| {name} | " + " | ".join(f"{1000 * cpu[c][name] / n_scored:.0f}" for c in wall) + " |")
+    return efficiency, cpu_efficiency
 
-    # One core's seconds per scored frame, from the serial run's CPU time (steadier than
-    # wall time on a shared machine); a worker with a core of its own wastes what its
-    # configuration's CPU efficiency says.
-    per_frame = {name: s / n_scored for name, s in cpu["serial"].items()}
-    best = max((c for c in wall if c != "serial"), key=lambda c: int(c.split(":")[1]), default="serial")
-    print(f"\nFull release: {RELEASE_FRAMES:,} frames x {len(methods)} methods x {args.release_protocols} "
+
+def print_release_estimates(per_frame: dict[str, float], configs: list[str], cpu_efficiency: dict[str, float],
+                            n_methods: int, args: argparse.Namespace) -> dict[int, dict]:
+    """The full release's cost on each ``--cluster-workers`` size, ideal and at the largest cluster's efficiency."""
+    best = max((c for c in configs if c != "serial"), key=lambda c: int(c.split(":")[1]), default="serial")
+    print(f"\nFull release: {RELEASE_FRAMES:,} frames x {n_methods} methods x {args.release_protocols} "
           f"protocols x {args.release_seeds} seeds at {1000 * sum(per_frame.values()):.0f} CPU ms per frame for the "
           f"whole suite; wall time with every worker on a core of its own, ideal and at the CPU efficiency of "
           f"{best} ({cpu_efficiency[best]:.2f}):")
@@ -228,13 +236,42 @@ def main() -> None:
         estimates[w] = {"ideal": ideal, "measured_efficiency": measured}
         print(f"  {w:>4} worker cores: {ideal['core_hours']:,.0f} core-hours of scoring, "
               f"{ideal['wall_hours']:,.1f}-{measured['wall_hours']:,.1f} h wall")
+    return estimates
+
+
+def main() -> None:
+    from inpaintenv.data import open_source
+    from inpaintenv.files import write_json
+
+    args = parse_args()
+    if args.malloc_check:
+        ms = malloc_trim_effect(args.kitti_root, args.frames)
+        print(f"evaluate(constant), {args.frames} frames, ms/frame: MALLOC_TRIM_THRESHOLD_ unset {ms['unset']:.1f}, "
+              f"=65536 (Dask's worker default) {ms['65536']:.1f}: {ms['65536'] / ms['unset']:.2f}x")
+        return
+    _one_thread()
+    dataset = open_source(args.kitti_root, split="train", n_frames=args.frames)
+    methods = suite_instances(args.suite)
+    n_scored = len(dataset) * len(args.seeds)
+    print(f"{dataset!r}: {len(dataset)} frames x {len(args.seeds)} seeds, {args.protocol}, "
+          f"{len(methods)} methods ({args.suite}), batch {args.batch_size}, cpus {os.cpu_count()}, "
+          f"load average at start {os.getloadavg()[0]:.2f}")
+    measured = measure_configurations(methods, dataset, args)
+    print(f"load average at end {os.getloadavg()[0]:.2f}; every configuration wrote the serial rows (all but ms)\n")
+    efficiency, cpu_efficiency = print_configurations(measured, methods, n_scored)
+
+    # One core's seconds per scored frame, from the serial run's CPU time (steadier than
+    # wall time on a shared machine); a worker with a core of its own wastes what its
+    # configuration's CPU efficiency says.
+    per_frame = {name: s / n_scored for name, s in measured["cpu"]["serial"].items()}
+    estimates = print_release_estimates(per_frame, list(measured["wall"]), cpu_efficiency, len(methods), args)
     if args.json:
-        args.json.write_text(json.dumps({
+        write_json(args.json, {
             "dataset": repr(dataset), "frames": len(dataset), "seeds": args.seeds, "protocol": args.protocol,
-            "wall_s": wall, "cpu_s": cpu, "startup_s": startup, "efficiency": efficiency,
-            "cpu_efficiency": cpu_efficiency, "idle_cores": idle,
+            "wall_s": measured["wall"], "cpu_s": measured["cpu"], "startup_s": measured["startup"],
+            "efficiency": efficiency, "cpu_efficiency": cpu_efficiency, "idle_cores": measured["idle"],
             "seconds_per_frame": per_frame, "release": {str(k): v for k, v in estimates.items()},
-        }, indent=1))
+        })
 
 
 if __name__ == "__main__":  # LocalCluster worker processes re-import this file

@@ -19,7 +19,7 @@ FLOPs are counted exactly with ``torch.utils.flop_counter.FlopCounterMode`` on t
 device (no arithmetic is run, so any resolution is free to count). The counter counts
 the matrix-multiply-like operators -- here every convolution and its two backward
 products, 2 FLOPs per multiply-add, biases excluded -- and nothing else (GroupNorm,
-ReLU, pooling, interpolation, loss, Adam are uncounted). :func:`unet_conv_flops` gives
+ReLU, pooling, interpolation, loss, Adam are uncounted). ``_unet_flops.unet_conv_flops`` gives
 the same number from the architecture alone.
 
 Fits (ordinary least squares): CPU seconds against GFLOPs (s/GFLOP, R²), against
@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import argparse
 import datetime as _dt
-import json
 import math
 import os
 import platform
@@ -50,11 +49,12 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch.utils.flop_counter import FlopCounterMode
+from _unet_flops import forward_flops, n_params, train_flops, unet_level_flops
 
-from estimators.learned._training import encode_input
+from estimators.learned._training_data import encode_input
 from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
+from inpaintenv.files import read_json, write_json
 from inpaintenv.masks import get_protocol
 
 #: Defaults of the study's estimators (``estimators.learned._neural``): normalisation, loss, Adam.
@@ -67,97 +67,6 @@ WEIGHT_DECAY = 1e-6
 #: KITTI depth completion train split, frames, and the bottom-centre crop every loader uses.
 KITTI_TRAIN_FRAMES = 85_898
 KITTI_CROP = (352, 1216)
-
-
-# -- FLOPs ---------------------------------------------------------------------------
-def count_flops(fn: Callable[[], Any]) -> int:
-    """FLOPs of the matmul-like operators run by ``fn()`` (``FlopCounterMode`` total).
-
-    Parameters
-    ----------
-    fn : callable
-        Runs the computation to count (forward, or forward + backward).
-
-    Returns
-    -------
-    int
-        2 × multiply-adds of every convolution / matrix product, biases excluded.
-    """
-    with FlopCounterMode(display=False) as counter:
-        fn()
-    return int(counter.get_total_flops())
-
-
-def _meta_unet(width: int, depth: int, skip: bool = True) -> UNet:
-    with torch.device("meta"):
-        return UNet(1, width, depth, skip=skip)
-
-
-def forward_flops(width: int, depth: int, height: int, width_px: int, batch: int = 1, skip: bool = True) -> int:
-    """Counted FLOPs of one UNet forward on ``(batch, 1, height, width_px)`` (meta device)."""
-    model = _meta_unet(width, depth, skip)
-    x = torch.empty(batch, 1, height, width_px, device="meta")
-    return count_flops(lambda: model(x))
-
-
-def train_flops(width: int, depth: int, height: int, width_px: int, batch: int = 1, skip: bool = True) -> int:
-    """Counted FLOPs of forward + backward of one UNet training step (meta device).
-
-    The input does not require a gradient (as in training), so the first convolution's
-    input gradient is not computed.
-    """
-    model = _meta_unet(width, depth, skip)
-    x = torch.empty(batch, 1, height, width_px, device="meta")
-    return count_flops(lambda: model(x).sum().backward())
-
-
-def unet_level_flops(
-    width: int, depth: int, height: int, width_px: int, batch: int = 1, in_channels: int = 1,
-    skip: bool = True,
-) -> list[int]:
-    """Forward convolution FLOPs of each resolution level of the UNet (encoder + decoder block).
-
-    ``2 × 9 × c_in × c_out`` per output pixel and 3×3 convolution; the input is padded
-    to a multiple of ``2**depth`` first, as the network does. Finest level first; the
-    1×1 head is not included (see :func:`unet_conv_flops`).
-    """
-    mult = 2**depth
-    h, w = -(-height // mult) * mult, -(-width_px // mult) * mult
-    ch = [width * 2**level for level in range(depth + 1)]
-    levels = []
-    for level in range(depth + 1):
-        pixels = (h >> level) * (w >> level)
-        c_in = in_channels if level == 0 else ch[level - 1]
-        flops = pixels * 18 * (c_in * ch[level] + ch[level] * ch[level])        # encoder
-        if level < depth:
-            c_in = ch[level + 1] + (ch[level] if skip else 0)
-            flops += pixels * 18 * (c_in * ch[level] + ch[level] * ch[level])    # decoder
-        levels.append(batch * flops)
-    return levels
-
-
-def unet_conv_flops(
-    width: int, depth: int, height: int, width_px: int, batch: int = 1, in_channels: int = 1,
-    skip: bool = True,
-) -> int:
-    """Forward convolution FLOPs of :class:`estimators.learned.nets.UNet` from its architecture.
-
-    The levels of :func:`unet_level_flops` plus ``2 × width`` per pixel for the 1×1 head.
-
-    Returns
-    -------
-    int
-        Equal to :func:`forward_flops` (tested).
-    """
-    mult = 2**depth
-    h, w = -(-height // mult) * mult, -(-width_px // mult) * mult
-    head = batch * h * w * 2 * width
-    return sum(unet_level_flops(width, depth, height, width_px, batch, in_channels, skip)) + head
-
-
-def n_params(width: int, depth: int, skip: bool = True) -> int:
-    """Trainable parameters of ``UNet(1, width, depth, skip)``."""
-    return sum(p.numel() for p in _meta_unet(width, depth, skip).parameters())
 
 
 # -- timing --------------------------------------------------------------------------
@@ -373,12 +282,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             p.error(f"--{name.replace('_', '-')} values must be in (0, 1], got {getattr(args, name)}")
 
     if args.from_json:
-        with open(args.from_json) as fh:
-            old = json.load(fh)
+        old = read_json(args.from_json, "--from-json file")
         info, sweeps = old["info"], old["sweeps"]
     else:
         info, sweeps = _run_sweeps(args, argv)
-    base = sweeps["width"][0]
     all_rows = list({(r["width"], r["depth"], r["height"], r["width_px"]): r
                      for rows in sweeps.values() for r in rows}.values())
     fits = _fits(sweeps, all_rows)
@@ -405,6 +312,22 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             r["flops"], train_flops(width, 4, h, w, skip=skip), n_params(width, 4, skip), args.batch,
             args.gpu_peak_tflops, tuple(args.gpu_util), tuple(args.ddp_eff), tuple(args.link_gbps), loader)))
 
+    print_report(info, sweeps, fits, full, rates, kitti, gpu, args)
+    out = {"info": info, "sweeps": sweeps, "fits": fits, "full_frame": full, "kitti": kitti, "gpu": gpu,
+               "assumptions": {"gpu_peak_tflops": args.gpu_peak_tflops, "gpu_util": list(args.gpu_util),
+                                "ddp_eff": list(args.ddp_eff), "link_gbps": list(args.link_gbps),
+                                "load_ms": loader}, "cpu_rates": rates}
+    if args.json:
+        write_json(args.json, out)
+    return out
+
+
+def print_report(info: dict, sweeps: dict[str, list[dict]], fits: dict[str, dict[str, float]], full: dict,
+                 rates: dict[str, tuple[float, float]], kitti: list[dict], gpu: list[dict],
+                 args: argparse.Namespace) -> None:
+    """The sweeps' tables, the fits, the full-frame costs and the full-KITTI projections, as printed."""
+    base = sweeps["width"][0]
+    h, w = KITTI_CROP
     print(f"\n## Width (depth {base['depth']}, {base['height']}×{base['width_px']}, batch {info['batch']})\n")
     print(_table(sweeps["width"], "width", lambda r: str(r["width"])))
     print(f"\n## Resolution (width {sweeps['resolution'][0]['width']})\n")
@@ -434,14 +357,6 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
               f"{g['frames_per_s_8gpu'][0]:,.0f}-{g['frames_per_s_8gpu'][1]:,.0f} frames/s = loader cores "
               + "; ".join(f"{n} {c[0]:.1f}-{c[1]:.1f}" for n, c in g["loader_cores_8gpu"].items()))
 
-    out = {"info": info, "sweeps": sweeps, "fits": fits, "full_frame": full, "kitti": kitti, "gpu": gpu,
-               "assumptions": {"gpu_peak_tflops": args.gpu_peak_tflops, "gpu_util": list(args.gpu_util),
-                                "ddp_eff": list(args.ddp_eff), "link_gbps": list(args.link_gbps),
-                                "load_ms": loader}, "cpu_rates": rates}
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=1)
-    return out
 
 
 def _run_sweeps(args: argparse.Namespace, argv: list[str] | None) -> tuple[dict, dict]:

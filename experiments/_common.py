@@ -1,16 +1,18 @@
-"""What two kept experiment scripts share: the selection frames and the KITTI root from the environment.
+"""What the experiment scripts share: the selection frames, the KITTI root from the environment, subcommands.
 
-``pretrained_selection.py`` and ``selection_scores.py`` train and score on the selection
-frames of ``kitti-mixed-v1`` (drive 9001, frames 56-67, seed 0); ``baselines_table.py`` and
-``tune_classical.py`` read the KITTI root from ``$INPAINTENV_KITTI_ROOT``. Only the package's
-public API is used here.
+``selection_frames.py`` trains and scores on the selection frames of ``kitti-mixed-v1``
+(drive 9001, frames 56-67, seed 0); ``classical_baselines.py`` and ``scan_lodo.py`` read the
+KITTI root from ``$INPAINTENV_KITTI_ROOT``; a script of several commands dispatches them with
+:func:`run_command`. Only the package's public API is used here.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -51,3 +53,35 @@ def default_root() -> Path | None:
     """``$INPAINTENV_KITTI_ROOT`` (None when unset: then ``--root`` is required)."""
     env = os.environ.get("INPAINTENV_KITTI_ROOT")
     return Path(env) if env else None
+
+
+def run_command(script: str, commands: dict[str, Callable[[list[str]], Any]], argv: list[str] | None) -> Any:
+    """Run ``commands[argv[0]]`` on the rest of ``argv`` (``sys.argv[1:]`` when None).
+
+    Parameters
+    ----------
+    script : str
+        The script's file name, for the usage line.
+    commands : dict
+        Command name -> function of the remaining arguments.
+    argv : list of str or None
+        The command line after the script's name.
+
+    Returns
+    -------
+    object
+        What the command returns.
+    """
+    argv = sys.argv[1:] if argv is None else list(argv)
+    usage = f"usage: python experiments/{script} {{{','.join(commands)}}} [options]  (COMMAND --help: its options)"
+    if argv and argv[0] in ("-h", "--help"):
+        print(usage)
+        raise SystemExit(0)
+    if not argv or argv[0] not in commands:
+        raise SystemExit(f"{usage}\n{script}: " + (f"no command {argv[0]!r}" if argv else "no command given"))
+    return commands[argv[0]](argv[1:])
+
+
+def exit_status(result: Any) -> int:
+    """A command's result as the process's exit status: an int as it is, anything else (a table) 0."""
+    return result if isinstance(result, int) and not isinstance(result, bool) else 0

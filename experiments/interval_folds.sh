@@ -11,7 +11,7 @@
 #    2011_09_26 model), calibrated on the fold's held-out drives:
 #    benchmarks/interval_lodo.py, rows in OUT/lodo-learned.json.
 # 3. Writes the shipped calibration, estimators/pretrained/intervals/kitti-ensemble-v1.json:
-#    every drive scored by the fold model trained without its day (experiments/release_intervals.py).
+#    every drive scored by the fold model trained without its day (experiments/interval_calibration.py calibrate).
 # Rerunning skips the trained folds.
 set -euo pipefail
 ROOT=${1:?usage: bash experiments/interval_folds.sh <KITTI root> [OUT]}
@@ -44,6 +44,6 @@ python "$HERE/benchmarks/interval_lodo.py" --kitti-root "$ROOT" --spread-method 
   --checkpoint day-2011_09_30="$OUT/train-day-2011_09_30/model" \
   --checkpoint day-2011_10_03="$OUT/train-day-2011_10_03/model" \
   --checkpoint drive-0001="$OUT/train-day-2011_09_26/model" --json "$OUT/lodo-learned.json"
-python "$HERE/experiments/release_intervals.py" --kitti-root "$ROOT" \
+python "$HERE/experiments/interval_calibration.py" calibrate --kitti-root "$ROOT" \
   --fold 2011_09_26="$OUT/train-day-2011_09_26/model" --fold 2011_09_30="$OUT/train-day-2011_09_30/model" \
   --fold 2011_10_03="$OUT/train-day-2011_10_03/model"

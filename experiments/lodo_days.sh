@@ -17,7 +17,7 @@
 # All of a fold's models are scored in one benchmark run, so they share the classical rows.
 # Each benchmark prints the study-style table and the headline "learned / strongest
 # classical" with its paired 95 % interval; rows land in OUT/bench-<fold>/results.json
-# (experiments/pooled_headline.py pools a fold's drives). Rerunning resumes.
+# (experiments/fold_ensemble.py pooled pools a fold's drives). Rerunning resumes.
 # TRAIN_FLAGS adds options to every `inpaintenv train` (e.g. "--threads 1 --jobs 1" beside
 # other work); BENCH_FLAGS to every `inpaintenv benchmark` (e.g. "-m kitti-mixed-v1").
 # TRAIN_JOBS=N trains the folds' models N at a time (separate processes) before any benchmark

@@ -29,7 +29,7 @@ land in ``OUT/outer-<fold>.json`` (``--by-drive`` prints their ratios per drive)
 Each candidate's ratio to the strongest classical method (``-m``) is pooled over the fold's
 inner splits (every held-out frame-mask counts once, paired 95 % interval); the lowest ratio
 is the fold's choice. The fold's report is then the chosen candidate's score on the outer
-held-out frames, which ``lodo_days.sh`` and ``mean_of_models.py`` measure (``--outer``
+held-out frames, which ``lodo_days.sh`` and ``fold_ensemble.py mean`` measure (``--outer``
 prints it for the mean candidates).
 
 Models land in ``OUT/train-without-<left-out>-<preset>/model``; one training set shared by
@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import json
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -62,6 +61,7 @@ from estimators.learned import load_checkpoint
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
+from inpaintenv.files import read_json, write_json
 from inpaintenv.registry import make_method
 from inpaintenv.report.results import EvaluationResult, parse_row
 
@@ -189,7 +189,8 @@ def train_command(root: str, preset: str, exclude: list[str], out: Path, flags: 
             "--exclude-drives", *exclude, "--out", str(out), "--quiet", *flags]
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """The command line (see the module docstring)."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--kitti-root", required=True)
     p.add_argument("--out", required=True, help="folder of the inner models and results")
@@ -215,6 +216,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--outer", action="store_true",
                    help="also score the mean candidates on each fold's reported frames (its --link fold models)")
     p.add_argument("--by-drive", action="store_true", help="with --outer: each mean candidate's ratio per drive")
+    return p
+
+
+def parse_args(p: argparse.ArgumentParser, argv: list[str] | None) -> argparse.Namespace:
+    """The checked options, with ``shares``, ``gates``, ``candidates`` and ``presets`` added."""
     args = p.parse_args(argv)
     if args.by_drive and not args.outer:
         p.error("--by-drive reads the reported rows: give --outer too")
@@ -224,121 +230,142 @@ def main(argv: list[str] | None = None) -> int:
     if not args.method or unknown:
         p.error("-m takes one or more classical methods" + (f"; not classical: {', '.join(unknown)}" if unknown else ""))
     try:
-        shares = [parse_mix(text, args.method) for text in args.share]
-        gates = [parse_mix(text, args.method, gated=True) for text in args.gate]
+        args.shares = [parse_mix(text, args.method) for text in args.share]
+        args.gates = [parse_mix(text, args.method, gated=True) for text in args.gate]
     except ValueError as err:
         p.error(str(err))
-    candidates = (CANDIDATES + tuple(f"mean-w{w:g}" for w in args.weight)
-                  + tuple(f"mean+{m}-s{s:g}" for m, s in shares)
-                  + tuple(f"mean+{m}-s{s:g}-if-farther-{t:g}" for m, s, t in gates))
-    presets = args.presets.split(",")
-    if len(presets) != 2:
-        p.error(f"--presets takes two recipes, got {args.presets!r}")
-    out = Path(args.out)
-    drives = sorted({str(g) for g in KittiDepth(args.kitti_root, split="train").groups})
-    folds = [f for f in outer_folds(drives) if not args.fold or f["name"] in args.fold]
-    if not folds:
-        p.error(f"no such fold: {args.fold}")
+    args.candidates = (CANDIDATES + tuple(f"mean-w{w:g}" for w in args.weight)
+                       + tuple(f"mean+{m}-s{s:g}" for m, s in args.shares)
+                       + tuple(f"mean+{m}-s{s:g}-if-farther-{t:g}" for m, s, t in args.gates))
+    args.presets = args.presets.split(",")
+    if len(args.presets) != 2:
+        p.error(f"--presets takes two recipes, got {','.join(args.presets)!r}")
+    args.seeds = args.seed or [0, 1]
+    return args
 
-    def model_dir(exclude: list[str], preset: str) -> Path:
-        tag = training_tag(exclude, drives)
-        own = out / f"train-without-{tag}-{preset}" / "model"
+
+class NestedChoice:
+    """One run over the outer folds: where each training set's models are, and how candidates score."""
+
+    def __init__(self, args: argparse.Namespace, drives: list[str]) -> None:
+        self.args, self.drives, self.out = args, drives, Path(args.out)
+
+    def model_dir(self, exclude: list[str], preset: str) -> Path:
+        """The model of ``preset`` trained without ``exclude``: this run's own, or a linked lodo_days.sh fold's."""
+        tag = training_tag(exclude, self.drives)
+        own = self.out / f"train-without-{tag}-{preset}" / "model"
         lodo = lodo_folder(tag)
-        for linked in args.link:
+        for linked in self.args.link:
             candidate = Path(linked) / f"train-{lodo}-{preset}" / "model"
             if lodo and not (own / "config.json").is_file() and (candidate / "config.json").is_file():
                 return candidate
         return own
 
-    needed = {(str(model_dir(s["exclude"], pr)), pr): s["exclude"] for f in folds for s in f["inner"] for pr in presets}
-    missing = [(Path(d), pr, ex) for (d, pr), ex in needed.items() if not (Path(d) / "config.json").is_file()]
-    if missing and not args.train:
-        print("missing inner models (rerun with --train):\n  " + "\n  ".join(str(d) for d, _, _ in missing),
-              file=sys.stderr)
-        return 1
-    if missing:
-        commands = [train_command(args.kitti_root, pr, ex, d.parent, args.train_flags.split()) for d, pr, ex in missing]
-        with ThreadPoolExecutor(max(1, args.jobs)) as pool:
-            codes = list(pool.map(lambda c: subprocess.run(c, check=False).returncode, commands))
-        failed = [" ".join(c) for c, rc in zip(commands, codes) if rc]
-        if failed:
-            print("training failed:\n  " + "\n  ".join(failed), file=sys.stderr)
+    def train_missing(self, folds: list[dict[str, Any]]) -> int:
+        """Train the inner models that are missing (with ``--train``); 1 with a message if any is left."""
+        args = self.args
+        needed = {(str(self.model_dir(s["exclude"], pr)), pr): s["exclude"]
+                  for f in folds for s in f["inner"] for pr in args.presets}
+        missing = [(Path(d), pr, ex) for (d, pr), ex in needed.items() if not (Path(d) / "config.json").is_file()]
+        if missing and not args.train:
+            print("missing inner models (rerun with --train):\n  " + "\n  ".join(str(d) for d, _, _ in missing),
+                  file=sys.stderr)
             return 1
+        if missing:
+            commands = [train_command(args.kitti_root, pr, ex, d.parent, args.train_flags.split())
+                        for d, pr, ex in missing]
+            with ThreadPoolExecutor(max(1, args.jobs)) as pool:
+                codes = list(pool.map(lambda c: subprocess.run(c, check=False).returncode, commands))
+            failed = [" ".join(c) for c, rc in zip(commands, codes) if rc]
+            if failed:
+                print("training failed:\n  " + "\n  ".join(failed), file=sys.stderr)
+                return 1
+        return 0
 
-    seeds = args.seed or [0, 1]
-
-    def scored(exclude: list[str], frames: KittiDepth, wanted: set[str]) -> list[dict]:
+    def scored(self, exclude: list[str], frames: KittiDepth, wanted: set[str]) -> list[dict]:
         """Rows of the candidates in ``wanted`` (and classical methods) built from the models of ``exclude``."""
-        first = load_checkpoint(model_dir(exclude, presets[0]))
-        in_mean = load_checkpoint(model_dir(exclude, presets[1]))
+        args = self.args
+        first = load_checkpoint(self.model_dir(exclude, args.presets[0]))
+        in_mean = load_checkpoint(self.model_dir(exclude, args.presets[1]))
         in_mean.set_params(tta=args.second_tta == "true")
         mean = Memo(mean_of(first, in_mean))
         methods: dict[str, Any] = {"first": first, "mean": mean}
         if "second" in wanted:  # the second model on its own, with its mirrored pass as saved
-            methods["second"] = load_checkpoint(model_dir(exclude, presets[1]))
+            methods["second"] = load_checkpoint(self.model_dir(exclude, args.presets[1]))
         for w in args.weight:
             methods[f"mean-w{w:g}"] = mean_of(first, in_mean).set_params(weights=[w, 1 - w])
         classical = {m: Memo(make_method(m)) for m in args.method}
         methods.update(classical)
-        for m, share in shares:
+        for m, share in args.shares:
             methods[f"mean+{m}-s{share:g}"] = Mix(mean, classical[m], share)
-        for m, share, threshold in gates:
+        for m, share, threshold in args.gates:
             methods[f"mean+{m}-s{share:g}-if-farther-{threshold:g}"] = Mix(mean, classical[m], share, threshold)
         rows = []
         for name in [m for m in methods if m in wanted]:
-            rows += evaluate(methods[name], frames, args.protocol, seeds, name=name, progress=False).rows
+            rows += evaluate(methods[name], frames, args.protocol, args.seeds, name=name, progress=False).rows
         return rows
 
-    def pooled(rows: list[dict], cand: str, by_drive: bool = False) -> Any:
+    def pooled(self, rows: list[dict], cand: str, by_drive: bool = False) -> Any:
         """``cand``'s hole-RMSE ratio to the strongest of the classical methods over ``rows``
         (with ``by_drive``: one entry per drive)."""
-        keep = set(args.method) | {cand}
+        keep = set(self.args.method) | {cand}
         entries = learned_vs_classical(EvaluationResult(rows=[r for r in rows if r["method"] in keep]),
                                        keys=("protocol", "drive") if by_drive else ("protocol",))
         return entries if by_drive else entries[0]
 
-    def outer_ratios(fold: dict[str, Any], cands: tuple[str, ...], choice: str) -> dict[str, float]:
+    def outer_ratios(self, fold: dict[str, Any], choice: str) -> dict[str, float]:
+        """The mean candidates on the fold's reported frames (its lodo_days.sh models), printed."""
+        args = self.args
         camera = "both" if fold["name"] == "drive-0001" else "image_02"
         frames = KittiDepth(args.kitti_root, split="train", drives=fold["held"], camera=camera)
-        means = [c for c in cands if c.startswith("mean")]
-        rows = scored(fold["held"], frames, set(means) | set(args.method))
-        out.mkdir(parents=True, exist_ok=True)
-        EvaluationResult(rows=rows).to_json(out / f"outer-{fold['name']}.json")  # per-drive reading
+        means = [c for c in args.candidates if c.startswith("mean")]
+        rows = self.scored(fold["held"], frames, set(means) | set(args.method))
+        self.out.mkdir(parents=True, exist_ok=True)
+        EvaluationResult(rows=rows).to_json(self.out / f"outer-{fold['name']}.json")  # per-drive reading
         print(f"\nreported frames of fold {fold['name']} (its lodo_days.sh models):\n")
         if choice not in means:  # a single model: its reported ratio is lodo_days.sh's benchmark
             print(f"(chosen: {choice}, a single model; its reported ratio is lodo_days.sh's)\n")
         print("| candidate | ratio [paired 95 %] | frame-masks |\n|---|---:|---:|")
         ratios = {}
         for cand in means:
-            e = pooled(rows, cand)
+            e = self.pooled(rows, cand)
             ratios[cand] = e["hole_ratio"]
             print(f"| {cand}{' (chosen)' if cand == choice else ''} | {e['hole_ratio']:.3f} "
                   f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
         if args.by_drive:
             print("\n| drive | " + " | ".join(means) + " |\n|---|" + "---:|" * len(means))
-            per_drive = {c: {e["drive"]: e["hole_ratio"] for e in pooled(rows, c, by_drive=True)} for c in means}
+            per_drive = {c: {e["drive"]: e["hole_ratio"] for e in self.pooled(rows, c, by_drive=True)} for c in means}
             for drive in sorted({r["drive"] for r in rows}):
                 print(f"| {drive} | " + " | ".join(f"{per_drive[c][drive]:.3f}" for c in means) + " |")
         return ratios
 
-    summary = []
-    for fold in folds:
-        saved = out / f"inner-{fold['name']}.json"
+    def inner_rows(self, fold: dict[str, Any]) -> list[dict]:
+        """Every candidate's rows on the fold's inner splits: those saved by an earlier run, and the rest."""
+        args = self.args
+        saved = self.out / f"inner-{fold['name']}.json"
         rows: list[dict] = []
         if saved.is_file():  # a rerun scores only the candidates (or seeds) not yet there
             # parse_row would read the split's day as a number (float accepts 2011_09_30)
-            rows = [{**parse_row(r), "split": r["split"]} for r in json.loads(saved.read_text())["rows"]
-                    if int(r["seed"]) in seeds]
+            rows = [{**parse_row(r), "split": r["split"]} for r in read_json(saved, "inner rows")["rows"]
+                    if int(r["seed"]) in args.seeds]
         for n, split in enumerate(fold["inner"]):
             done = {r["method"] for r in rows if r["split"] == split["day"]}
-            wanted = (set(candidates) | set(args.method)) - done
+            wanted = (set(args.candidates) | set(args.method)) - done
             if not wanted:
                 continue
             frames = KittiDepth(args.kitti_root, split="train", drives=split["score"], camera="image_02")
-            for r in scored(split["exclude"], frames, wanted):
+            for r in self.scored(split["exclude"], frames, wanted):
                 # frame-masks of different splits must not pair with each other
                 rows.append({**r, "index": n * 1_000_000 + int(r["index"]), "split": split["day"]})
-        entries = {cand: pooled(rows, cand) for cand in candidates}
+        self.out.mkdir(parents=True, exist_ok=True)
+        EvaluationResult(rows=rows).to_json(saved)
+        return rows
+
+    def choose(self, fold: dict[str, Any]) -> dict[str, Any]:
+        """The fold's choice among the candidates on its inner splits, printed; with ``--outer``, its report."""
+        candidates = self.args.candidates
+        rows = self.inner_rows(fold)
+        entries = {cand: self.pooled(rows, cand) for cand in candidates}
         choice = min(candidates, key=lambda c: entries[c]["hole_ratio"])
         print(f"\n## fold {fold['name']}: inner splits leave out {', '.join(s['day'] for s in fold['inner'])}\n")
         print("| candidate | hole RMSE | strongest classical | ratio [paired 95 %] | frame-masks |")
@@ -348,15 +375,25 @@ def main(argv: list[str] | None = None) -> int:
             print(f"| {cand}{' (chosen)' if cand == choice else ''} | {e['learned_hole_rmse']:.2f} m "
                   f"| {e['classical']} {e['classical_hole_rmse']:.2f} m | {e['hole_ratio']:.3f} "
                   f"[{e['hole_ratio_low']:.2f}, {e['hole_ratio_high']:.2f}] | {e['hole_ratio_n']} |", flush=True)
-        summary.append({"fold": fold["name"], "choice": choice, "inner": [s["day"] for s in fold["inner"]],
-                        "ratios": {c: entries[c]["hole_ratio"] for c in candidates}})
-        out.mkdir(parents=True, exist_ok=True)
-        EvaluationResult(rows=rows).to_json(saved)
-        if args.outer:
-            summary[-1]["outer"] = outer_ratios(fold, candidates, choice)
+        summary = {"fold": fold["name"], "choice": choice, "inner": [s["day"] for s in fold["inner"]],
+                   "ratios": {c: entries[c]["hole_ratio"] for c in candidates}}
+        if self.args.outer:
+            summary["outer"] = self.outer_ratios(fold, choice)
+        return summary
 
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "choices.json").write_text(json.dumps(summary, indent=1))
+
+def main(argv: list[str] | None = None) -> int:
+    p = build_parser()
+    args = parse_args(p, argv)
+    drives = sorted({str(g) for g in KittiDepth(args.kitti_root, split="train").groups})
+    folds = [f for f in outer_folds(drives) if not args.fold or f["name"] in args.fold]
+    if not folds:
+        p.error(f"no such fold: {args.fold}")
+    run = NestedChoice(args, drives)
+    if run.train_missing(folds):
+        return 1
+    summary = [run.choose(fold) for fold in folds]
+    write_json(run.out / "choices.json", summary)
     print("\nchoices: " + ", ".join(f"{s['fold']} {s['choice']}" for s in summary))
     return 0
 

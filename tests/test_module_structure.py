@@ -12,11 +12,14 @@ An edge goes to the deepest project module the statement names (``from pkg impor
 the implicit import of a parent package by its submodules is not an edge (Python resolves
 it first).
 
-Size: no module over :data:`MAX_LINES` lines and no function whose code (its lines
-without the docstring: a numpydoc docstring documents, it does not make a function do
-more) is over :data:`MAX_FUNCTION_LINES` lines, unless a comment beside it says why:
-``# long module: <reason>`` in a module's first lines, ``# long function: <reason>`` on
-the line above the ``def`` (or its decorators).
+Size, in the packages and in ``benchmarks/`` and ``experiments/`` (:data:`SIZED`): no
+module over :data:`MAX_LINES` lines, with no way to opt out, and no function whose code
+(its lines without the docstring: a numpydoc docstring documents, it does not make a
+function do more) is over :data:`MAX_FUNCTION_LINES` lines, unless a comment on the line
+above the ``def`` (or its decorators) says why: ``# long function: <reason>``.
+
+Layout: the top of ``inpaintenv/`` holds at most :data:`MAX_LOOSE_MODULES` modules; the
+rest live in packages named after their job.
 """
 
 from __future__ import annotations
@@ -28,8 +31,14 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("inpaintenv", "estimators")
+#: Folders whose modules the size limits cover: the packages and the scripts beside them.
+SIZED = (*PACKAGES, "benchmarks", "experiments")
 MAX_LINES = 500
 MAX_FUNCTION_LINES = 100
+MAX_LOOSE_MODULES = 6
+#: The comment that once let a module exceed MAX_LINES; spelled in two parts so that this
+#: file does not hold it.
+OPT_OUT = "# long " + "module:"
 
 
 def project_modules() -> dict[str, Path]:
@@ -189,13 +198,25 @@ def _has_reason(lines: list[str], line: int, marker: str) -> bool:
 
 
 def long_modules(paths: list[Path]) -> dict[str, int]:
-    """Modules over MAX_LINES lines without ``# long module: <reason>`` in their first 30 lines."""
+    """Modules over MAX_LINES lines, whatever their comments say."""
     out = {}
     for p in paths:
-        lines = p.read_text().splitlines()
-        if len(lines) > MAX_LINES and not any(line.startswith("# long module:") for line in lines[:30]):
-            out[str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p)] = len(lines)
+        n = len(p.read_text().splitlines())
+        if n > MAX_LINES:
+            out[str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p)] = n
     return out
+
+
+def opt_outs(paths: list[Path]) -> list[str]:
+    """``path:line`` of every line of ``paths`` that starts with the retired module opt-out."""
+    return [f"{p.relative_to(ROOT) if p.is_relative_to(ROOT) else p}:{i}"
+            for p in paths for i, line in enumerate(p.read_text().splitlines(), 1)
+            if line.lstrip().startswith(OPT_OUT)]
+
+
+def loose_modules(package: Path) -> list[str]:
+    """Modules directly in ``package`` (not in a subpackage), ``__init__.py`` aside."""
+    return sorted(p.name for p in package.glob("*.py") if p.name != "__init__.py")
 
 
 def long_functions(path: Path) -> dict[str, int]:
@@ -216,20 +237,35 @@ def long_functions(path: Path) -> dict[str, int]:
     return out
 
 
-@pytest.mark.parametrize("package", PACKAGES)
-def test_no_module_over_500_lines(package):
-    long = long_modules(sorted((ROOT / package).rglob("*.py")))
-    assert not long, f"modules over {MAX_LINES} lines (split them by job, or say why: '# long module: ...'): {long}"
+def _py(folder: str) -> list[Path]:
+    return sorted((ROOT / folder).rglob("*.py"))
 
 
-@pytest.mark.parametrize("package", PACKAGES)
-def test_no_function_over_100_lines(package):
-    long = {k: v for p in sorted((ROOT / package).rglob("*.py")) for k, v in long_functions(p).items()}
+#: estimators/intervals/_conformal.py (601 lines) is being split by another change of issue 51.
+_PENDING_SPLIT = pytest.mark.xfail(strict=True, reason="issue 51: estimators/intervals/_conformal.py not yet split")
+
+
+@pytest.mark.parametrize("folder", [f if f != "estimators" else pytest.param(f, marks=_PENDING_SPLIT)
+                                    for f in SIZED])
+def test_no_module_over_500_lines(folder):
+    long = long_modules(_py(folder))
+    assert not long, f"modules over {MAX_LINES} lines (split them by job): {long}"
+
+
+@pytest.mark.xfail(strict=True, reason="issue 51: estimators/intervals/_conformal.py keeps its opt-out until it is split")
+def test_no_module_opts_out_of_the_size_limit():
+    found = opt_outs([p for folder in (*SIZED, "tests") for p in _py(folder)])
+    assert not found, f"module opt-outs ({OPT_OUT!r}) are retired; split the module instead: {found}"
+
+
+@pytest.mark.parametrize("folder", SIZED)
+def test_no_function_over_100_lines(folder):
+    long = {k: v for p in _py(folder) for k, v in long_functions(p).items()}
     assert not long, (f"functions of over {MAX_FUNCTION_LINES} lines of code (split them by job, or say why on the "
                       f"line above the def: '# long function: ...'): {long}")
 
 
-def test_size_checks_see_long_code_and_accept_written_reasons(tmp_path):
+def test_size_checks_see_long_code_and_accept_written_reasons_for_functions_only(tmp_path):
     body = "".join(f"    x{i} = {i}\n" for i in range(MAX_FUNCTION_LINES + 1))
     doc = '    """' + "doc\n" * 200 + '    """\n'
     (tmp_path / "m.py").write_text(f"def long():\n{body}\n\ndef documented():\n{doc}    return 1\n\n"
@@ -237,8 +273,30 @@ def test_size_checks_see_long_code_and_accept_written_reasons(tmp_path):
                                    f"@staticmethod\ndef explained():\n{body}")
     assert list(long_functions(tmp_path / "m.py")) == ["m.py:long (line 1)"]
     (tmp_path / "big.py").write_text("x = 1\n" * (MAX_LINES + 1))
-    (tmp_path / "ok.py").write_text("# long module: generated table\n" + "x = 1\n" * (MAX_LINES + 1))
-    assert list(long_modules([tmp_path / "big.py", tmp_path / "ok.py"])) == [str(tmp_path / "big.py")]
+    (tmp_path / "excused.py").write_text(f"{OPT_OUT} generated table\n" + "x = 1\n" * (MAX_LINES + 1))
+    (tmp_path / "ok.py").write_text("x = 1\n" * MAX_LINES)
+    paths = [tmp_path / "big.py", tmp_path / "excused.py", tmp_path / "ok.py"]
+    assert list(long_modules(paths)) == [str(tmp_path / "big.py"), str(tmp_path / "excused.py")]
+    assert opt_outs(paths) == [f"{tmp_path / 'excused.py'}:1"]
+
+
+def test_loose_modules_counts_modules_not_packages_nor_init(tmp_path):
+    (tmp_path / "__init__.py").write_text("")
+    (tmp_path / "a.py").write_text("")
+    (tmp_path / "_b.py").write_text("")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "__init__.py").write_text("")
+    (tmp_path / "sub" / "c.py").write_text("")
+    (tmp_path / "notes.md").write_text("")
+    assert loose_modules(tmp_path) == ["_b.py", "a.py"]
+
+
+@pytest.mark.xfail(strict=True, reason="issue 51: inpaintenv/ root not yet grouped into packages")
+def test_inpaintenv_root_shows_its_rooms():
+    loose = loose_modules(ROOT / "inpaintenv")
+    assert len(loose) <= MAX_LOOSE_MODULES, (
+        f"{len(loose)} modules loose at the top of inpaintenv/ (at most {MAX_LOOSE_MODULES}; group them into "
+        f"packages by job): {loose}")
 
 
 def test_test_modules_have_distinct_names():

@@ -1,11 +1,13 @@
 """Fixtures of the benchmark-script tests.
 
-A script of benchmarks/ loaded as a module (the folder is not a package).
+A script of benchmarks/ loaded as a module (the folder is not a package), or one of the
+helper modules (``_*.py``) the scripts share.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -21,7 +23,11 @@ def load_benchmark():
     def load(name: str) -> ModuleType:
         spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
         module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        sys.path.insert(0, str(BENCHMARKS))  # a script imports its helper modules, as when run from there
+        try:
+            spec.loader.exec_module(module)
+        finally:
+            sys.path.remove(str(BENCHMARKS))
         return module
 
     return load

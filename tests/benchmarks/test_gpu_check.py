@@ -79,7 +79,7 @@ def test_quick_run_json_has_the_keys_of_a_gpu_run(quick_run, load_benchmark):
     assert tests["error"] is None and tests["failures"] == []
     # The counted FLOPs are the architecture's (benchmarks/scaling_training.py's formula): the
     # backward costs two forwards less the first convolution's input gradient (batch 2, 1 channel).
-    flops = 3 * load_benchmark("scaling_training").unet_conv_flops(16, 4, 32, 96, batch=2) - 2 * 18 * 16 * 32 * 96
+    flops = 3 * load_benchmark("_unet_flops").unet_conv_flops(16, 4, 32, 96, batch=2) - 2 * 18 * 16 * 32 * 96
     # Each batch in fp32 and bf16 with the loader's workers, then bf16 without workers (fit's default).
     assert [(r["batch"], r["precision"], r["workers"]) for r in summary["training"]] == [
         (2, "fp32", 1), (2, "bf16", 1), (2, "bf16", 0)]
@@ -123,7 +123,7 @@ def test_training_rows(gc):
     assert gc.training_rows([2], 0) == [(2, False, 0), (2, True, 0)]  # no second row without workers
 
 
-def test_junit_counts(gc, tmp_path):
+def test_junit_counts(load_benchmark, tmp_path):
     xml = tmp_path / "r.xml"
     xml.write_text(
         '<testsuites><testsuite name="pytest">'
@@ -133,8 +133,8 @@ def test_junit_counts(gc, tmp_path):
         '<testcase classname="a" name="later"><skipped message="z"/></testcase>'
         "</testsuite></testsuites>"
     )
-    assert gc._junit_counts(xml) == {"passed": 2, "failed": 1, "errors": 1, "skipped": 1,
-                                     "failures": ["a::bad", "a::broken"]}
+    assert load_benchmark("_gpu_check_machine")._junit_counts(xml) == {
+        "passed": 2, "failed": 1, "errors": 1, "skipped": 1, "failures": ["a::bad", "a::broken"]}
 
 
 @pytest.mark.parametrize("argv", [["--steps", "0"], ["--batches", "0"], ["--warmup", "0"], ["--max-seconds", "0"]])

@@ -12,6 +12,8 @@ EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 SCRIPTS = sorted(p for p in EXPERIMENTS.iterdir() if p.suffix in (".py", ".sh") and p.name != "_common.py")
 #: The one shared module of the scripts (a script never imports another script).
 SHARED = "_common"
+#: Scripts at most: one per job (jobs on the same models or frames are commands of one script).
+MAX_SCRIPTS = 8
 
 
 def named_in_readme() -> set[str]:
@@ -37,6 +39,11 @@ def offending_imports(path: Path) -> list[str]:
     return [m for m in imported_modules(path)
             if m in siblings
             or (m != SHARED and any(part.startswith("_") and part != "__future__" for part in m.split(".")))]
+
+
+def test_at_most_eight_scripts():
+    assert len(SCRIPTS) <= MAX_SCRIPTS, (f"{len(SCRIPTS)} scripts in experiments/ (at most {MAX_SCRIPTS}: merge those "
+                                         f"that do one job behind commands): {[p.name for p in SCRIPTS]}")
 
 
 def test_readme_maps_every_script_and_names_only_scripts_that_exist():

@@ -1,4 +1,4 @@
-"""experiments/mean_of_models.py: two learned models and their per-pixel mean on the same frames."""
+"""experiments/fold_ensemble.py mean: two learned models and their per-pixel mean on the same frames."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ class _Constant:
 
 
 def test_mean_is_the_per_pixel_average_of_the_members(load_experiment):
-    script = load_experiment("mean_of_models")
+    script = load_experiment("fold_ensemble")
     depth = np.full((2, 4, 5), np.nan, np.float32)
     depth[:, 0] = 7.0
     mean = script.MeanOfModels([_Constant(2.0), _Constant(6.0)]).predict(depth)
@@ -26,8 +26,8 @@ def test_mean_is_the_per_pixel_average_of_the_members(load_experiment):
 
 
 def test_scores_both_models_and_their_mean_on_one_day(tiny_kitti, capsys, load_experiment):
-    script = load_experiment("mean_of_models")
-    entries = script.main(["--kitti-root", str(tiny_kitti), "--day", "2011_09_26", "pretrained", "kitti-mixed-v1",
+    script = load_experiment("fold_ensemble")
+    entries = script.main(["mean", "--kitti-root", str(tiny_kitti), "--day", "2011_09_26", "pretrained", "kitti-mixed-v1",
                            "-m", "harmonic", "-m", "scanline", "--seed", "0"])
     assert [e["learned"] for e in entries] == ["pretrained", "kitti-mixed-v1", "mean"]
     assert all(e["hole_ratio_n"] == 3 for e in entries)  # the day's three one-frame drives
@@ -36,7 +36,7 @@ def test_scores_both_models_and_their_mean_on_one_day(tiny_kitti, capsys, load_e
     for bad in (["pretrained", "kitti-mixed-v1"], ["pretrained", "kitti-mixed-v1", "-m", "pretrained"],
                 ["pretrained", "kitti-mixed-v1", "-m", "harmonic", "--day", "1999_01_01"]):
         with pytest.raises(SystemExit):
-            script.main(["--kitti-root", str(tiny_kitti), *bad])
+            script.main(["mean", "--kitti-root", str(tiny_kitti), *bad])
 
 
 def _default_members() -> list:
@@ -52,7 +52,7 @@ def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
     from inpaintenv.data import SyntheticStreets
     from inpaintenv.masks import get_protocol
 
-    script = load_experiment("mean_of_models")
+    script = load_experiment("fold_ensemble")
     gt = SyntheticStreets(n=1, frame_shape=(96, 320))[0]
     x = corrupt(gt, get_protocol("rect-v1").mask(gt.shape, seed=0, index=0))
     models = _default_members()
@@ -68,14 +68,14 @@ def test_shared_features_give_the_mean_of_the_two_predictions(load_experiment):
 
 
 def test_second_model_parameters_are_checked(tiny_kitti, tmp_path, load_experiment):
-    script = load_experiment("mean_of_models")
+    script = load_experiment("fold_ensemble")
     context, blend = _default_members()
     folders = [str(context.save(tmp_path / "context")), str(blend.save(tmp_path / "blend"))]
     base = ["--kitti-root", str(tiny_kitti), "--drive", "2011_09_26_drive_9001_sync", *folders,
             "-m", "scanline", "--seed", "0", "--shared-features"]
-    entries = script.main([*base, "--set-second", "tta=false"])
+    entries = script.main(["mean", *base, "--set-second", "tta=false"])
     assert entries[0]["learned"] == "context" and entries[1]["learned"] == "blend (tta=false)"
     assert entries[2]["learned"] == "mean"
     for bad in ("tta", "tta=notjson", "no_such_param=1"):
         with pytest.raises(SystemExit):
-            script.main([*base, "--set-second", bad])
+            script.main(["mean", *base, "--set-second", bad])

@@ -1,4 +1,4 @@
-"""experiments/interval_signals.py: each fold model ranks its left-out day by every variant's scale."""
+"""experiments/interval_calibration.py signals: each fold model ranks its left-out day by every variant's scale."""
 
 from __future__ import annotations
 
@@ -58,8 +58,8 @@ def test_every_variant_on_every_fold(load_experiment, two_days, tmp_path, monkey
     import estimators.learned
 
     monkeypatch.setattr(estimators.learned, "load", lambda path: FoldEnsemble([]))
-    module = load_experiment("interval_signals")
-    cuts = module.main([*fold_args(two_days), "--json", str(tmp_path / "cuts.json")])
+    module = load_experiment("interval_calibration")
+    cuts = module.main(["signals", *fold_args(two_days), "--json", str(tmp_path / "cuts.json")])
     assert set(cuts) == set(module.VARIANTS)
     assert all(set(row) == set(DAYS) and all(-1 < v < 1 for v in row.values()) for row in cuts.values())
     assert json.loads((tmp_path / "cuts.json").read_text()) == cuts
@@ -71,13 +71,13 @@ def test_a_model_without_members_skips_their_variants(load_experiment, two_days,
     import estimators.learned
 
     monkeypatch.setattr(estimators.learned, "load", lambda path: FoldEnsemble([], members=False))
-    module = load_experiment("interval_signals")
-    cuts = module.main(fold_args(two_days))
+    module = load_experiment("interval_calibration")
+    cuts = module.main(["signals", *fold_args(two_days)])
     assert set(cuts) == {name for name, (signals, _) in module.VARIANTS.items() if "members" not in signals}
 
 
 def test_the_cut_ranks_by_the_score(load_experiment):
-    module = load_experiment("interval_signals")
+    module = load_experiment("interval_calibration")
     error = np.array([0.1, 0.2, 0.3, 0.4, 5.0])
     frame = {"error": error, "depth": np.log(np.array([1.0, 2.0, 3.0, 4.0, 50.0]))}
     # Ranked by depth, the one large error is the 20 % dropped.
@@ -92,4 +92,4 @@ def test_a_fold_without_unseen_drives_is_refused(load_experiment, two_days, monk
     every = [f"{day}_drive_{n}_sync" for day, numbers in DAYS.items() for n in numbers]
     monkeypatch.setattr(estimators.learned, "load", lambda path: FoldEnsemble(every))
     with pytest.raises(SystemExit, match="never saw"):
-        load_experiment("interval_signals").main(fold_args(two_days))
+        load_experiment("interval_calibration").main(["signals", *fold_args(two_days)])

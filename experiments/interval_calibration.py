@@ -1,4 +1,105 @@
-"""Which per-pixel signals rank a fold model's errors: the probe behind the shipped interval signals.
+"""The per-pixel intervals of a release from its leave-one-day-out fold models: the shipped
+calibration, and the signals tried for it.
+
+* ``calibrate``: write the interval calibration shipped with a release (or a
+  classical fill) (formerly ``release_intervals.py``).
+* ``signals``: which per-pixel signals rank a fold model's errors (formerly ``interval_signals.py``).
+
+``python experiments/interval_calibration.py COMMAND --help`` prints a command's options.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from _common import exit_status, run_command
+
+
+CALIBRATE_DOC = """The interval calibration shipped with a release: out-of-fold residuals of its leave-one-day-out fold models.
+
+The release saw every drive of the slice, so no drive can calibrate it directly. Its three
+fold models (the release's recipe, each trained without one recording day and a few
+calibration drives: docs/model_card.md, "Per-pixel intervals") can: every drive is scored by
+the fold model trained without that drive's whole day, and
+``ConformalIntervalInpainter.fit_out_of_fold`` fits the scale and the quantiles on those
+pooled residuals, then wraps the release. The result is written to
+``estimators/pretrained/intervals/<release>.json`` (``--out`` to write elsewhere).
+
+    python experiments/interval_calibration.py calibrate --kitti-root <KITTI root>         --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
+
+A release that was trained on a few drives only (``kitti-mixed-v1``: frames of one drive) needs
+no fold models: without ``--fold`` it is calibrated directly on every drive its
+``training_drives_`` does not name, with its own masks protocol (``--protocol``)::
+
+    python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release kitti-mixed-v1 --protocol mixed-v1
+
+A classical fill (``--release scanline``) saw no drive: it is calibrated the same way, on every
+drive, and ships as ``<name>-intervals``::
+
+    python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release scanline --spread-method nearest
+"""
+
+
+def calibrate_command(argv: list[str] | None = None) -> Path:
+    parser = argparse.ArgumentParser(prog="interval_calibration.py calibrate", description=CALIBRATE_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--kitti-root", required=True)
+    parser.add_argument("--release", default="kitti-ensemble-v1", help="a shipped release or a classical fill")
+    parser.add_argument("--fold", action="append", default=[], metavar="DAY=MODEL",
+                        help="a fold model trained without every drive of recording day DAY (repeatable)")
+    parser.add_argument("--frames-per-drive", type=int, default=12, help="0 = every frame")
+    parser.add_argument("--spread-method", default="scanline")
+    parser.add_argument("--coverage", type=float, default=0.9)
+    parser.add_argument("--protocol", default="rect-v1", help="masks protocol the calibration frames are occluded with")
+    parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
+    args = parser.parse_args(argv)
+
+    from estimators.intervals import ConformalIntervalInpainter
+    from estimators.learned import load
+    from inpaintenv.data import KittiDepth, spaced_per_drive
+    from inpaintenv.registry import make_method
+
+    dataset = KittiDepth(args.kitti_root, split="train")
+    drives = sorted({str(g) for g in dataset.groups})
+    folds = []
+    for entry in args.fold:
+        day, _, path = entry.partition("=")
+        model = load(path)
+        mine = [d for d in drives if d.startswith(day)]
+        if not mine:
+            raise SystemExit(f"--fold {entry}: no drive of day {day!r} in {args.kitti_root}")
+        folds.append((model, spaced_per_drive(dataset, args.frames_per_drive, mine)))
+        print(f"{day}: {len(mine)} drives scored by {path}", flush=True)
+    release = make_method(args.release)
+    start = time.perf_counter()
+    wrapper = ConformalIntervalInpainter(release, coverage=args.coverage, spread_method=args.spread_method,
+                                         protocol=args.protocol)
+    if folds:
+        left = sorted(set(drives) - {str(g) for _, ds in folds for g in ds.groups})
+        if left:
+            raise SystemExit(f"no fold scores drives {left}: give a --fold for their day")
+        wrapper.fit_out_of_fold(folds)
+    else:
+        unseen = sorted(set(drives) - set(getattr(release, "training_drives_", None) or ()))
+        if not unseen:
+            raise SystemExit(f"{args.release} saw every drive of {args.kitti_root}: give its fold models (--fold)")
+        wrapper.fit(spaced_per_drive(dataset, args.frames_per_drive, unseen))
+    out = Path(args.out) if args.out else (Path(__file__).resolve().parents[1] / "estimators" / "pretrained"
+                                           / "intervals" / f"{args.release}.json")
+    wrapper.save(out, base=args.release)
+    cal = wrapper.calibration_
+    print(f"{out}: {len(cal['drives'])} drives, {cal['n_frames']} frames, {cal['n_pixels']} pixels, "
+          f"q = {wrapper.quantile_:.3f} at {cal['coverage']}, coef {np.round(wrapper.coef_, 3).tolist()} "
+          f"({time.perf_counter() - start:.0f} s)")
+    return out
+
+
+SIGNALS_DOC = """Which per-pixel signals rank a fold model's errors: the probe behind the shipped interval signals.
 
 For each ``--fold DAY=MODEL`` (a fold model of ``interval_folds.sh``, trained without DAY and
 a few calibration drives), the model fills two sets of frames, each occluded as
@@ -17,21 +118,13 @@ fill), ``shipped, squared error`` (the same signals fitted to the squared error 
 GLM with log link: the ranking the RMSE cut rewards) and ``boosted trees`` (scikit-learn's
 ``HistGradientBoostingRegressor`` on every signal, log error).
 
-    python experiments/interval_signals.py --kitti-root <KITTI root> \\
+    python experiments/interval_calibration.py signals --kitti-root <KITTI root> \\
         --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
 """
 
-from __future__ import annotations
-
-import argparse
-import json
-import math
-import time
-from typing import Any
-
-import numpy as np
 
 CANDIDATES = ("scanline", "scanline-inverse", "vertical", "vertical-inverse", "harmonic-inverse")
+
 #: Variant name -> (signals, how the scale is fitted).
 VARIANTS: dict[str, tuple[tuple[str, ...], str]] = {
     "shipped": (("border", "depth", "spread"), "log"),
@@ -42,7 +135,6 @@ VARIANTS: dict[str, tuple[tuple[str, ...], str]] = {
     "shipped, squared error": (("border", "depth", "spread"), "squared"),
     "boosted trees": (("border", "depth", "spread", "members", "candidates", "gradient"), "trees"),
 }
-
 
 def frame_signals(x: np.ndarray, pred: np.ndarray, hole: np.ndarray, scored: np.ndarray, second: np.ndarray,
                   members: np.ndarray | None) -> dict[str, np.ndarray]:
@@ -60,7 +152,6 @@ def frame_signals(x: np.ndarray, pred: np.ndarray, hole: np.ndarray, scored: np.
         m = members[:, scored].astype(np.float64)
         out["members"] = np.log((np.abs(m[0] - m[1]) if len(m) == 2 else np.std(m, axis=0)) + 0.1)
     return out
-
 
 def collect(model: Any, dataset: Any) -> list[dict[str, np.ndarray]]:
     """Per frame with scored hole pixels: ``error`` and every signal of those pixels."""
@@ -83,7 +174,6 @@ def collect(model: Any, dataset: Any) -> list[dict[str, np.ndarray]]:
                 frames.append(row)
     return frames
 
-
 def fit_scale(frames: list[dict[str, np.ndarray]], signals: tuple[str, ...], how: str, seed: int = 0):
     """A function of one frame's signals returning a score that orders its pixels (larger = less confident)."""
     X = np.column_stack([np.concatenate([f[s] for f in frames]) for s in signals])
@@ -104,7 +194,6 @@ def fit_scale(frames: list[dict[str, np.ndarray]], signals: tuple[str, ...], how
     trees = HistGradientBoostingRegressor(max_iter=200, random_state=seed).fit(X, np.log(r + 0.05))
     return trees.predict
 
-
 def keep_80_cut(frames: list[dict[str, np.ndarray]], signals: tuple[str, ...], score: Any) -> float:
     """Mean over frames of ``1 - RMSE(most confident 80 %) / RMSE(all)`` of the hole."""
     cuts = []
@@ -117,9 +206,8 @@ def keep_80_cut(frames: list[dict[str, np.ndarray]], signals: tuple[str, ...], s
         cuts.append(1.0 - math.sqrt(float(np.mean(e[kept] ** 2))) / full)
     return float(np.mean(cuts))
 
-
-def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def signals_command(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
+    parser = argparse.ArgumentParser(prog="interval_calibration.py signals", description=SIGNALS_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kitti-root", required=True)
     parser.add_argument("--fold", action="append", default=[], required=True, metavar="DAY=MODEL",
                         help="a fold model trained without recording day DAY and its calibration drives")
@@ -129,6 +217,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
 
     from estimators.learned import load
     from inpaintenv.data import KittiDepth, spaced_per_drive
+    from inpaintenv.files import write_json
 
     dataset = KittiDepth(args.kitti_root, split="train")
     drives = sorted({str(g) for g in dataset.groups})
@@ -158,10 +247,17 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
             print(f"| {name} | " + " | ".join(f"{row[d]:.1%}" for d in days) + " |")
     cuts = {name: row for name, row in cuts.items() if row}
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(cuts, fh, indent=1)
+        write_json(args.json, cuts)
     return cuts
 
 
+COMMANDS = {"calibrate": calibrate_command, "signals": signals_command}
+
+
+def main(argv: list[str] | None = None) -> Any:
+    """Run the command named by ``argv[0]`` (see the module docstring)."""
+    return run_command("interval_calibration.py", COMMANDS, argv)
+
+
 if __name__ == "__main__":
-    main()
+    sys.exit(exit_status(main()))

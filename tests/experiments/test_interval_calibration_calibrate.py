@@ -1,4 +1,4 @@
-"""experiments/release_intervals.py: the shipped calibration from fold models, each drive scored by its day's fold."""
+"""experiments/interval_calibration.py calibrate: the shipped calibration from fold models, each drive scored by its day's fold."""
 
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def test_every_drive_is_calibrated_by_the_fold_model_without_its_day(load_experi
     models = {f"m-{day}": FoldFill([d for d in every if not d.startswith(day)]) for day in DAYS}
     monkeypatch.setattr(estimators.learned, "load", lambda path: models[str(path)])
     monkeypatch.setattr(estimators.learned.releases, "load_release", lambda name: FoldFill(every))
-    out = load_experiment("release_intervals").main([
+    out = load_experiment("interval_calibration").main(["calibrate", 
         "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",
         *[a for day in DAYS for a in ("--fold", f"{day}=m-{day}")]])
     cal = json.loads(out.read_text())["calibration"]
@@ -63,7 +63,7 @@ def test_a_day_without_a_fold_is_refused(load_experiment, two_days, tmp_path, mo
 
     monkeypatch.setattr(estimators.learned, "load", lambda path: FoldFill([]))
     with pytest.raises(SystemExit, match="no fold scores drives"):
-        load_experiment("release_intervals").main([
+        load_experiment("interval_calibration").main(["calibrate", 
             "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--fold", "2011_09_26=m"])
 
 
@@ -73,7 +73,7 @@ def test_without_folds_a_release_is_calibrated_on_the_drives_it_never_saw(load_e
 
     monkeypatch.setattr(estimators.learned.releases, "load_release",
                         lambda name: FoldFill(["2011_09_26_drive_9001_sync"]))
-    out = load_experiment("release_intervals").main([
+    out = load_experiment("interval_calibration").main(["calibrate", 
         "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",
         "--protocol", "mixed-v1"])
     data = json.loads(out.read_text())
@@ -82,7 +82,7 @@ def test_without_folds_a_release_is_calibrated_on_the_drives_it_never_saw(load_e
 
 
 def test_a_classical_fill_is_calibrated_on_every_drive(load_experiment, two_days, tmp_path):
-    out = load_experiment("release_intervals").main([
+    out = load_experiment("interval_calibration").main(["calibrate", 
         "--kitti-root", str(two_days), "--release", "scanline", "--out", str(tmp_path / "cal.json"),
         "--spread-method", "nearest", "--frames-per-drive", "1"])
     data = json.loads(out.read_text())

@@ -1,29 +1,18 @@
-"""experiments/selection_scores.py on the real selection frames (cheap methods only)."""
+"""experiments/selection_frames.py score on the real selection frames (cheap methods only)."""
 
 from __future__ import annotations
-
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-_DIR = Path(__file__).resolve().parents[2] / "experiments"
-
 
 @pytest.fixture(scope="module")
-def sel_module():
-    sys.path.insert(0, str(_DIR))  # the script imports its sibling pretrained_selection
-    try:
-        import selection_scores
-
-        yield selection_scores
-    finally:
-        sys.path.remove(str(_DIR))
+def sel_module(load_experiment):
+    return load_experiment("selection_frames")
 
 
 def test_scores_classical_methods_per_protocol(sel_module, kitti_root, capsys):
-    rows = sel_module.main(["--kitti-root", str(kitti_root), "-m", "constant", "-m", "scanline",
+    rows = sel_module.main(["score", "--kitti-root", str(kitti_root), "-m", "constant", "-m", "scanline",
                             "--protocol", "rect-v1", "--protocol", "ego-occlusion-v1"])
     assert [r["name"] for r in rows] == ["constant", "scanline"]
     for row in rows:

@@ -1,4 +1,4 @@
-"""experiments/join_models.py: saved models joined into one ensemble checkpoint."""
+"""experiments/fold_ensemble.py join: saved models joined into one ensemble checkpoint."""
 
 from __future__ import annotations
 
@@ -12,14 +12,14 @@ def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_exper
     from estimators.learned import load_checkpoint
     from inpaintenv.data import SyntheticStreets
 
-    script = load_experiment("join_models")
+    script = load_experiment("fold_ensemble")
     frames = SyntheticStreets(n=3, frame_shape=(48, 128))
     small = {"width": 4, "layers": 1, "epochs": 1, "masks_per_frame": 1, "pixels_per_frame": 100,
              "batch_pixels": 64, "num_threads": 1}
     a = BlendInpainter(**small).fit(frames).save(tmp_path / "a")
     b = BlendInpainter(**small, random_state=1).fit(frames).save(tmp_path / "b")
     out = tmp_path / "joined"
-    assert script.main([f"first={a}", f"second={b}", "--out", str(out), "--set", "second__tta=false"]) == 0
+    assert script.main(["join", f"first={a}", f"second={b}", "--out", str(out), "--set", "second__tta=false"]) == 0
     joined = load_checkpoint(out)
     assert isinstance(joined, MeanEnsembleInpainter) and joined.named_estimators_["second"].tta is False
     x = frames[0].copy()
@@ -31,4 +31,4 @@ def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_exper
                 [f"first={a}", f"second={b}", "--set", "nope__tta=false", "--out", str(tmp_path / "z")],
                 [f"{a}", f"second={b}", "--out", str(tmp_path / "w")]):
         with pytest.raises(SystemExit):
-            script.main(bad)
+            script.main(["join", *bad])
