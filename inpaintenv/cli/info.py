@@ -8,10 +8,11 @@ import json
 from typing import Any
 
 from ..data.base import as_dataset
+from ..data.inputs import INPUT_KINDS
 from .options import add_common_options, add_source_options, open_source_from_args
 from ..exceptions import InvalidInputError
 
-__all__ = ["add_info", "cmd_info", "describe_source"]
+__all__ = ["add_info", "cmd_info", "describe_source", "input_kinds", "protocol_inputs"]
 
 
 def add_info(subparsers: Any) -> None:
@@ -30,14 +31,35 @@ def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
     return dict(as_dataset(ds).summary(n_sample=n_sample))
 
 
+#: What each input kind gives a method, for ``inpaintenv info``.
+_INPUT_KINDS = {
+    "map": "the ground-truth map with the protocol's hole cut, the default",
+    "scan": "the frame's single LiDAR scan with the hole cut (--input scan; KITTI's velodyne_raw, simulated for "
+            "the synthetic streets)",
+}
+
+
+def input_kinds() -> dict[str, str]:
+    """Each input kind (:data:`~inpaintenv.data.inputs.INPUT_KINDS`) and what a method is then given."""
+    return {k: _INPUT_KINDS[k] for k in INPUT_KINDS}
+
+
+def protocol_inputs() -> dict[str, list[str]]:
+    """Each protocol and the input kinds it applies to (``densify-v1``, which cuts no hole, to scans only)."""
+    from ..masks import available_protocols, get_protocol
+
+    return {p: ["scan"] if get_protocol(p).task == "unmeasured" else list(INPUT_KINDS) for p in available_protocols()}
+
+
 def cmd_info(args: argparse.Namespace) -> int:
-    from ..masks import available_protocols
     from ..registry import available_aliases, available_methods
 
     ds = open_source_from_args(args)
     info = describe_source(ds, args.sample)
     info["frames_used"] = len(ds)
     if args.json:
+        info["input_kinds"] = input_kinds()
+        info["protocols"] = protocol_inputs()
         info["methods"] = available_methods()
         info["aliases"] = available_aliases()
         print(json.dumps(info, indent=1))
@@ -48,7 +70,9 @@ def cmd_info(args: argparse.Namespace) -> int:
         elif isinstance(value, dict):
             value = ", ".join(f"{k}: {v}" for k, v in value.items())
         print(f"{key:>16}: {value}")
-    print(f"{'protocols':>16}: {', '.join(available_protocols())}")
+    print(f"{'input kinds':>16}: " + "; ".join(f"{k} ({what})" for k, what in input_kinds().items()))
+    print(f"{'protocols':>16}: " + ", ".join(
+        p if kinds == list(INPUT_KINDS) else f"{p} ({' and '.join(kinds)} only)" for p, kinds in protocol_inputs().items()))
     print(f"{'methods':>16}: {', '.join(available_methods())}")
     print(f"{'aliases':>16}: {', '.join(f'{a} -> {t}' for a, t in available_aliases().items())}")
     return 0

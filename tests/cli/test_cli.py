@@ -135,3 +135,14 @@ def test_cli_on_real_kitti(kitti_root, kitti_layout, tmp_path, capsys):
     assert main(["show", "-m", "nearest", "--kitti-root", root, "--split", "val",
                  "--out", str(tmp_path / "k.png")]) == 0
     assert cv2.imread(str(tmp_path / "k.png")).shape[1] == 1216
+
+
+def test_info_lists_the_input_kinds_and_scan_only_protocols(capsys):
+    assert main(["info", *TINY]) == 0
+    text = capsys.readouterr().out
+    assert "input kinds: map (" in text and "; scan (" in text
+    assert "densify-v1 (scan only)" in text and "rect-v1" in text and "rect-v1 (" not in text
+    assert main(["info", "--json", *TINY]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert set(info["input_kinds"]) == {"map", "scan"}
+    assert info["protocols"]["densify-v1"] == ["scan"] and info["protocols"]["rect-v1"] == ["map", "scan"]
