@@ -23,7 +23,7 @@ from .options import (
     open_source_from_args,
     thread_count,
 )
-from ..exceptions import FileTooLargeError, InvalidInputError, JSONFileError, UnsafeFileError
+from ..exceptions import FileTooLargeError, InpaintenvError, InvalidInputError, JSONFileError, UnsafeFileError
 
 
 def add_train(subparsers: Any) -> None:
@@ -58,9 +58,47 @@ def add_train(subparsers: Any) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute the blend presets' training features on a Dask cluster: tcp://HOST:PORT of a "
                         'running scheduler, or local:N worker processes here (needs pip install "inpaintenv[dask]")')
+    p.add_argument("--input", choices=["map", "scan"], default="map",
+                   help="what the model learns to fill: map (the ground truth with holes cut, the default) or scan "
+                        "(each frame's single LiDAR scan, with or without holes; blend presets only, e.g. blend-kitti)")
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_train, on_interrupt=_train_interrupted)
+
+
+#: Estimators whose ``fit`` takes a dataset of scans (``input_kind == "scan"``): the input is the scan.
+SCAN_FITTERS = ("BlendInpainter",)
+
+
+def check_scan_training(preset: str, overrides: dict[str, Any]) -> None:
+    """Refuse ``--input scan`` for a preset whose estimator's ``fit`` does not read a scan dataset.
+
+    Raises
+    ------
+    InvalidInputError
+        One line naming the preset, its estimator and the presets that can.
+    """
+    from estimators.learned.presets import available_presets, make_preset
+
+    try:
+        est: Any = make_preset(preset, **overrides)
+    except (InpaintenvError, ValueError, KeyError):  # a multi-stage preset trains several estimators
+        est = None
+    if type(est).__name__ in SCAN_FITTERS:
+        return
+    able = [n for n in available_presets() if _single_stage_class(n) in SCAN_FITTERS]
+    what = f"a {type(est).__name__}" if est is not None else "several stages"
+    raise InvalidInputError(f"--input scan: preset {preset} trains {what}, whose fit does not learn from a scan yet; "
+                            f"train {' or '.join(able) or 'a blend preset'} on scans, or leave --input out")
+
+
+def _single_stage_class(name: str) -> str:
+    from estimators.learned.presets import make_preset
+
+    try:
+        return type(make_preset(name)).__name__
+    except (InpaintenvError, ValueError, KeyError):
+        return ""
 
 
 def _joblib_on(client: Any) -> Any:
@@ -330,7 +368,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     # Every parameter is checked before anything is written: a refused --max-steps must not
     # leave a train_args.json behind that the next run compares itself with.
     check_preset(args.preset, **overrides)
-    ds = open_source_from_args(args)
+    if args.input == "scan":
+        check_scan_training(args.preset, overrides)
+    ds = open_source_from_args(args)  # with --input scan, each frame's scan paired with its ground truth
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InvalidInputError(f"--out {out} is a file; give a folder")

@@ -339,3 +339,19 @@ def test_stopping_before_max_steps_says_why(tmp_path, capsys):
     assert log["n_steps"] < 40
     err = capsys.readouterr().err
     assert f"training stopped after {log['n_steps']} of max_steps=40 steps: its 1 epoch ended first" in err
+
+
+def test_train_input_scan_opens_scans_or_names_the_limitation(tmp_path, capsys, monkeypatch):
+    import inpaintenv.cli.train as train_cli
+
+    seen = {}
+    monkeypatch.setattr(train_cli, "_train_locked", lambda args, ds, out, record, overrides: seen.update(
+        ds=ds, record=record) or 0)
+    data = ["--n-frames", "8", "--frame-shape", "64", "192", "--quiet"]
+    assert main(["train", "--preset", "blend-kitti", "--input", "scan", "--out", str(tmp_path / "b"), *data]) == 0
+    assert seen["ds"].input_kind == "scan" and "input='scan'" in seen["record"]["source"]
+    # A preset whose estimator does not learn from a scan is refused in one line naming it.
+    assert main(["train", "--preset", "smoke", "--input", "scan", "--out", str(tmp_path / "s"), *data]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "--input scan: preset smoke trains a PriorUNetInpainter" in err and "blend-kitti" in err
+    assert len(err.splitlines()) == 1 and not (tmp_path / "s").exists()
