@@ -11,7 +11,9 @@ from ..provenance import environment_info
 from ..evaluate import EvaluationResult, json_safe, skipped_markdown
 from ..files import write_text_atomic
 from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
-from .headline import headline_markdown, headline_title, learned_vs_classical
+from .headline import (
+    every_method_markdown, every_method_vs_strongest, headline_markdown, headline_title, learned_vs_classical,
+)
 from .ownership import claim
 
 __all__ = ["REPORT_METRICS", "summary_table", "table_keys", "to_markdown", "environment_info", "write_report"]
@@ -59,6 +61,7 @@ def write_report(
     table = summary_table(result, keys)
     per_drive = summary_table(result, drive_keys)
     headline = learned_vs_classical(result)
+    every = every_method_vs_strongest(result)
     full_meta = {**result.meta, **(meta or {})}
     doc = {
         "meta": {k: v for k, v in full_meta.items() if k != "skipped_frames"},
@@ -67,6 +70,7 @@ def write_report(
         "table": table,
         "by_drive": per_drive,
         "headline": headline,
+        "vs_strongest_classical": every,
         "rows": result.rows,
     }
     paths = {
@@ -109,5 +113,7 @@ def write_report(
             headline_markdown(headline),
             "",
         ]
+    if every:
+        md += ["## Every method vs the strongest classical (all drives pooled)", "", every_method_markdown(every), ""]
     write_text_atomic(paths["markdown"], "\n".join(md))
     return paths

@@ -156,3 +156,18 @@ def test_command_scores_the_suite_tasks_and_input_scan(tmp_path, capsys, monkeyp
     assert "Best" not in capsys.readouterr().out  # no learned method: no headline
     assert main(["benchmark", "-m", "harmonic", "-p", "densify-v1", "--out", str(tmp_path / "x"), *common]) == 1
     assert "--input scan" in capsys.readouterr().err
+
+
+def test_every_method_is_compared_with_the_strongest_classical(sources, tmp_path):
+    from inpaintenv.benchmark.headline import every_method_markdown, every_method_vs_strongest
+
+    res = run(sources, tmp_path)
+    entries = every_method_vs_strongest(res)
+    dense = {e["method"]: e for e in entries if e["protocol"] == "densify-v1"}
+    assert dense["mean"]["ratio"] == pytest.approx(1.0) and dense["mean"]["classical"] == "mean"
+    rows = {m: [r["unmeasured_rmse"] for r in res.rows if r["protocol"] == "densify-v1" and r["method"] == m]
+            for m in ("far", "mean")}
+    assert dense["far"]["ratio"] == pytest.approx(np.mean(rows["far"]) / np.mean(rows["mean"]))
+    assert dense["far"]["ratio_low"] <= dense["far"]["ratio"] <= dense["far"]["ratio_high"]
+    assert "| scan | densify-v1 | far |" in every_method_markdown(entries)
+    assert "Every method vs the strongest classical" in write_report(res, tmp_path)["markdown"].read_text()
