@@ -22,7 +22,6 @@ method, is what is measured. Single process; frames at KITTI's 352x1216 crop.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import subprocess
 import time
@@ -32,6 +31,7 @@ import numpy as np
 
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.evaluate import evaluate
+from inpaintenv.files import write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> dict:
     for label, (wall, cpu) in (("built-in data", builtin), ("in-memory frames", memory)):
         print(f"  {label:17s} {1000 * wall / n:7.2f} ms/pair wall  {1000 * cpu / n:7.2f} ms/pair CPU")
     if args.json:
-        Path(args.json).write_text(json.dumps(out, indent=1))
+        write_json(args.json, out)
     return out
 
 

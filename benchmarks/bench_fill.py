@@ -24,16 +24,16 @@ Examples::
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from inpaintenv.data import KittiDepth, SyntheticStreets, write_depth_png
+from inpaintenv.data.io import write_png
+from inpaintenv.files import write_json
 from inpaintenv.filling import fill
 from inpaintenv.masks import get_protocol
 from inpaintenv.registry import make_method
@@ -54,7 +54,7 @@ def write_folder(folder: Path, frames: int, kitti_root: str | None) -> tuple[lis
         hole = proto.mask(gt.shape, 0, i)
         write_depth_png(folder / "depth" / f"{i:04d}.png", gt)
         (folder / "masks").mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(folder / "masks" / f"{i:04d}.png"), hole.astype(np.uint8) * 255)
+        write_png(folder / "masks" / f"{i:04d}.png", hole.astype(np.uint8) * 255, "mask PNG")
         depths.append(read_depth_png(folder / "depth" / f"{i:04d}.png"))
         masks.append(hole)
     return depths, masks
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> dict:
                   f"{cpu_ms[0]:.1f}, serial {cpu_ms[1]:.1f}, fill {cpu_ms[2]:.1f}")
     out = {"frame": list(depths[0].shape), "batch_size": args.batch_size, "rows": rows}
     if args.json:
-        Path(args.json).write_text(json.dumps(out, indent=1))
+        write_json(args.json, out)
     return out
 
 

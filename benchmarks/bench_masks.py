@@ -15,7 +15,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
@@ -26,6 +25,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from inpaintenv.files import write_json
 from inpaintenv.masks import available_protocols, get_protocol  # noqa: E402
 
 
@@ -84,8 +84,7 @@ def main() -> None:
         print(line, flush=True)
         results.append(row)
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(results, f, indent=2)
+        write_json(args.json, results, indent=2)
         print(f"wrote {args.json}")
 
 

@@ -69,7 +69,6 @@ Examples
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import shlex
 import sys
@@ -120,7 +119,7 @@ def make_folds(drives: list[str]) -> list[Fold]:
 
 def write_synthetic_kitti(root: Path, shape: tuple[int, int] = (352, 1216)) -> Path:
     """A tiny tree in KITTI's depth-completion layout: one drive a day and drive 0001, two frames each."""
-    import cv2
+    from inpaintenv.data.io import write_depth_png
 
     rng = np.random.default_rng(0)
     rows = np.linspace(5.0, 60.0, shape[0])[:, None] + np.linspace(0.0, 4.0, shape[1])[None, :]
@@ -132,7 +131,7 @@ def write_synthetic_kitti(root: Path, shape: tuple[int, int] = (352, 1216)) -> P
             folder.mkdir(parents=True, exist_ok=True)
             for frame in range(2):
                 depth = (rows + k + frame) * (rng.random(shape) < 0.3)
-                cv2.imwrite(str(folder / f"{frame + 5:010d}.png"), np.round(depth * 256).astype(np.uint16))
+                write_depth_png(folder / f"{frame + 5:010d}.png", depth)
     return root
 
 
@@ -165,7 +164,8 @@ def train_fold(fold: Fold, root: Path, out: Path, stage_minutes: float, deadline
         previous = est
     record["device_name"] = torch.cuda.get_device_name() if record["device"].startswith("cuda") else "cpu"
     previous.save(out / fold.name / "unet-tv")
-    (out / fold.name / "fold.json").write_text(json.dumps(record, indent=1))
+    from inpaintenv.files import write_json
+    write_json(out / fold.name / "fold.json", record)
     return record
 
 
@@ -191,13 +191,14 @@ def scored_folds(root: Path, out: Path) -> list[Fold]:
         If a left-out drive of ``root`` is one the fold trained on, or ``out`` holds no fold.
     """
     from inpaintenv.data import KittiDepth
+    from inpaintenv.files import read_json
 
     folds = []
     for fold in make_folds([str(g) for g in KittiDepth(root, split="train", camera="both").groups]):
         path = out / fold.name / "fold.json"
         if not path.is_file():
             continue
-        trained = set(json.loads(path.read_text())["train_drives"])
+        trained = set(read_json(path, "fold record")["train_drives"])
         if trained & set(fold.held):
             raise ValueError(f"{path}: fold {fold.name} trained on {sorted(trained & set(fold.held))}, "
                              f"which {root} leaves out")
@@ -258,7 +259,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _write_commands(folds: list[Fold], out: Path, score_root: str) -> None:
     commands = score_commands(folds, out, score_root)
-    (out / "score_folds.sh").write_text("#!/usr/bin/env bash\nset -euo pipefail\n" + "\n".join(commands) + "\n")
+    from inpaintenv.files import write_text_atomic
+    write_text_atomic(out / "score_folds.sh", "#!/usr/bin/env bash\nset -euo pipefail\n" + "\n".join(commands) + "\n")
     print(f"\nscore on the CPU ({out / 'score_folds.sh'}):")
     print("\n".join(commands))
 

@@ -25,11 +25,11 @@ the model must have been trained with a calibration day left out as well.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from typing import Any
 
 import numpy as np
+
 
 OFFICIAL = "2011_09_26_drive_0001_sync"
 COLUMNS = ("hole_coverage", "hole_interval_width", "hole_rmse", "rmse_keep_90", "rmse_keep_80", "rmse_keep_50",
@@ -127,8 +127,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
           "kept ÷ hole RMSE):\n| fold | keep 90 % | keep 80 % | keep 50 % | all | AUC |\n|---|---:|---:|---:|---:|---:|")
     print("\n".join(curves))
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
+        from inpaintenv.files import write_json
+        write_json(args.json, rows)
     return rows
 
 

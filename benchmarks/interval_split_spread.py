@@ -24,7 +24,6 @@ Each drive's frames are occluded as a dataset of their own (masks 0, 1, ... of
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from typing import Any
 
@@ -130,8 +129,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     summary["seconds"] = time.perf_counter() - start
     print(f"\n({summary['seconds']:.0f} s)")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(summary, fh, indent=1)
+        from inpaintenv.files import write_json
+        write_json(args.json, summary)
     return summary
 
 

@@ -26,7 +26,6 @@ fits ``seconds = a + b * frames`` and ``ms/frame = c + d * megapixels`` by least
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import tempfile
@@ -52,6 +51,7 @@ try:  # absent in trees before the cache existed (for before/after runs of this 
     from inpaintenv.data.cache import CachedDataset
 except ImportError:
     CachedDataset = None
+from inpaintenv.files import write_json
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import frame_metrics
 
@@ -176,10 +176,10 @@ def main() -> None:
     for name, cpu, wall in rows:
         print(f"| {name} | {cpu:.2f} | {wall:.2f} |")
     if args.json:
-        args.json.write_text(json.dumps({
+        write_json(args.json, {
             "source": source, "frames": n, "shape": list(SHAPE), "repeats": args.repeats,
             "stages": [{"stage": s, "cpu_ms_per_frame": c, "wall_ms_per_frame": w} for s, c, w in rows],
-        }, indent=1))
+        })
 
 
 def fit_line(x: list[float], y: list[float]) -> tuple[float, float, float]:
@@ -277,7 +277,7 @@ def scaling(args: argparse.Namespace) -> None:
         report.setdefault("parallel", {})[key] = {"n_jobs_1": one, "threading_2": walls[0], "loky_2": walls[1]}
         print(f"| {type(make_method(key)).__name__} | {one:.2f} | {walls[0]:.2f} | {walls[1]:.2f} | {one / min(walls):.2f}x |")
     if args.json:
-        args.json.write_text(json.dumps(report, indent=1))
+        write_json(args.json, report)
 
 
 if __name__ == "__main__":
