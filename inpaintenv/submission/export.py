@@ -279,6 +279,9 @@ def export(
         KITTI's encoding).
     """
     dataset = resolve_source(source)
+    if dataset.input_kind != "map":  # its inputs would be the ground truth with the hole cut, not the scans
+        raise InvalidInputError(f"export writes map inputs (the ground truth with the hole cut); a source of input kind "
+                                f"{dataset.input_kind!r} cannot be exported yet: score it with evaluate or benchmark")
     proto = get_protocol(protocol)
     seed_list = check_seeds(seeds, "seeds")
     if not isinstance(trusted, bool):
