@@ -17,18 +17,26 @@ from inpaintenv.classical_methods import CLASSICAL_METHODS
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
 from ._base import ClassicalInpainter
+from .bilateral import IterativeBilateralInpainter
+from .harmonic import HarmonicInpainter
+from .ipbasic import IPBasicInpainter
+from .nearest import ConstantInpainter, NearestInpainter
+from .opencv import NavierStokesInpainter, TeleaInpainter
+from .scanline import ScanlineInpainter
 
 __all__ = ["MeanInpainter"]
 
-_BY_NAME = {name: (cls, kwargs) for name, cls, kwargs, _ in CLASSICAL_METHODS}
+_CLASSES = {cls.__name__: cls for cls in (
+    ConstantInpainter, HarmonicInpainter, IPBasicInpainter, IterativeBilateralInpainter, NavierStokesInpainter,
+    NearestInpainter, ScanlineInpainter, TeleaInpainter)}
+#: The single classical fills by registered name (a mean of means is not one).
+_BY_NAME = {name: (cls, kwargs) for name, cls, kwargs, _ in CLASSICAL_METHODS if cls in _CLASSES}
 
 
 def _classical(name: str) -> ClassicalInpainter:
     """The classical fill registered as ``name`` (inpaintenv.classical_methods)."""
-    from .. import classical  # this package, imported by name: it imports this module
-
     cls, kwargs = _BY_NAME[name]
-    return getattr(classical, cls)(**kwargs)
+    return _CLASSES[cls](**kwargs)
 
 
 class MeanInpainter(ClassicalInpainter):
