@@ -449,7 +449,11 @@ for _release in shipped_interval_calibrations():
                     + ("docs/model_card.md" if _release in PRETRAINED_RELEASES else "docs/estimators.md")
                     + ", 'Per-pixel intervals'); predicts as " + _release)
 if DEFAULT_RELEASE in shipped_interval_calibrations():
-    register_alias("pretrained-intervals", f"{DEFAULT_RELEASE}-intervals")
+    # Routed like 'pretrained': a scan's interval is asked of the scan route (which has none yet,
+    # so it is refused), never answered by the map release's fill and interval.
+    register_method("pretrained-intervals", _INTERVALS_MODULE, "default_intervals", {"name": DEFAULT_RELEASE},
+                    f"pretrained with its 90 % per-pixel intervals: a map's from {DEFAULT_RELEASE}'s shipped "
+                    "calibration (docs/model_card.md, 'Per-pixel intervals'); a single scan has none yet")
 register_method(
     "intervals", _INTERVALS_MODULE, "load_intervals", {},
     "a saved interval calibration around its base: make_method('intervals', path=..., estimator=...)",

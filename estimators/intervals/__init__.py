@@ -6,7 +6,7 @@ loads a shipped release in its shipped calibration (``estimators/pretrained/inte
 """
 
 from ._conformal import SIGNALS, WEIGHTINGS, ConformalIntervalInpainter, weighted_quantiles
-from ._releases import load_intervals, release_intervals, shipped_intervals
+from ._releases import default_intervals, load_intervals, release_intervals, shipped_intervals
 
-__all__ = ["SIGNALS", "WEIGHTINGS", "ConformalIntervalInpainter", "load_intervals", "release_intervals", "shipped_intervals",
+__all__ = ["SIGNALS", "WEIGHTINGS", "ConformalIntervalInpainter", "default_intervals", "load_intervals", "release_intervals", "shipped_intervals",
            "weighted_quantiles"]

@@ -10,7 +10,7 @@ from inpaintenv.exceptions import InvalidInputError
 
 from ._conformal import ConformalIntervalInpainter
 
-__all__ = ["load_intervals", "release_intervals", "shipped_intervals"]
+__all__ = ["default_intervals", "load_intervals", "release_intervals", "shipped_intervals"]
 
 
 def _intervals_dir() -> Path:
@@ -83,3 +83,25 @@ def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalI
         The base; rebuilt from the file's ``base`` by default.
     """
     return ConformalIntervalInpainter.load(path, estimator=estimator)
+
+
+def default_intervals(name: str | None = None, input: str = "auto") -> Any:
+    """``pretrained-intervals``: routed like ``pretrained`` (:func:`estimators.learned.releases.load_default`),
+    its map route in the default release's shipped calibration.
+
+    A scan route ships no calibration yet, so asking it for a scan's interval is one error
+    naming it, never the map release's fill and interval on a scan.
+
+    Parameters
+    ----------
+    name : str, optional
+        The map release (the default release by default).
+    input : {"auto", "scan", "map"}
+        As for :func:`~estimators.learned.releases.load_default`.
+    """
+    from ..learned.releases import DEFAULT_RELEASE, load_default
+
+    routed = load_default(input=input)
+    routed.map_method = release_intervals(name or DEFAULT_RELEASE)
+    routed.map_name = name or DEFAULT_RELEASE
+    return routed

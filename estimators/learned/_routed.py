@@ -13,6 +13,7 @@ each frame by its kind: given as ``input``, or told from its measured density.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import numpy as np
@@ -109,3 +110,40 @@ class InputRoutedInpainter(BaseInpainter):
                 out[pick] = method.predict(X[pick])
         self.routed_to_ = [self.scan_name if k == "scan" else self.map_name for k in kinds]
         return out
+
+    def predict_interval(self, X: Any, coverage: float = 0.9,
+                         prediction: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Per-pixel ``(low, high)`` of nominal ``coverage``, each frame from the interval of its route.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(H, W)`` or ``(N, H, W)`` metres, NaN = fill.
+        coverage : float
+            Nominal coverage in (0, 1).
+        prediction : numpy.ndarray, optional
+            This estimator's prediction of ``X``, handed on to a route that takes it.
+
+        Raises
+        ------
+        InvalidInputError
+            If a frame's route has no calibrated interval: it is named, rather than a
+            frame being filled by the other route's method.
+        """
+        x = np.asarray(X, dtype=np.float32)
+        batch = x if x.ndim == 3 else x[None]
+        kinds = [self.kind(frame) for frame in batch]
+        low, high = np.empty(batch.shape, np.float32), np.empty(batch.shape, np.float32)
+        for kind, method, name in (("scan", self.scan_method, self.scan_name), ("map", self.map_method, self.map_name)):
+            pick = [i for i, k in enumerate(kinds) if k == kind]
+            if not pick:
+                continue
+            if not hasattr(method, "predict_interval"):
+                raise InvalidInputError(
+                    f"no calibrated interval for a single {kind} yet: its route {name} ships none; drop the interval "
+                    f"(fill without --confidence), or give one (--intervals CAL.json, or -m <method>-intervals)")
+            given = {}
+            if prediction is not None and "prediction" in inspect.signature(method.predict_interval).parameters:
+                given["prediction"] = (prediction if prediction.ndim == 3 else prediction[None])[pick]
+            low[pick], high[pick] = method.predict_interval(batch[pick], coverage=coverage, **given)
+        return (low, high) if x.ndim == 3 else (low[0], high[0])

@@ -148,7 +148,7 @@ def test_scanline_fills_with_its_shipped_interval_without_a_calibration_file(tmp
 
 @pytest.mark.kitti
 @pytest.mark.slow
-@pytest.mark.parametrize("method", ["pretrained", "scanline"])
+@pytest.mark.parametrize("method", ["kitti-ensemble-v1", "scanline"])
 def test_confidence_on_the_official_scans_writes_every_file_and_reads_back(kitti_root, tmp_path, method):
     """Lower bounds below 1/256 m failed whole frames (issue 50, item 9): each file is written, and read back."""
     frames_dir = kitti_root / "depth_selection" / "val_selection_cropped" / "velodyne_raw"
@@ -162,3 +162,17 @@ def test_confidence_on_the_official_scans_writes_every_file_and_reads_back(kitti
             filled = d > 0
             assert ((low > 0) == filled).all() and ((high > 0) == filled).all()  # 0: no interval, nothing else
             assert (low <= d).all() and (d <= high).all() and (low[filled] >= LOW_FLOOR).all()
+
+
+@pytest.mark.kitti
+def test_the_default_asks_a_scans_interval_of_its_scan_route_never_of_the_map_release(kitti_root, tmp_path):
+    """pretrained fills a scan with its scan route; --confidence must not swap in the map release's
+    fill and interval (it did: up to 25 m apart); while the scan route ships no calibration, each
+    scan is one line naming that."""
+    frames_dir = kitti_root / "depth_selection" / "val_selection_cropped" / "velodyne_raw"
+    source = sorted(frames_dir.glob("*.png"))[0]
+    lines = []
+    report = fill([source], tmp_path, method="pretrained", missing=True, confidence=0.9, progress=False,
+                  log=lines.append)
+    assert not report.written and len(report.failed) == 1
+    assert "no calibrated interval for a single scan" in report.failed[0][1] and len(lines) == 1

@@ -15,7 +15,7 @@ from inpaintenv.cli import main
 from inpaintenv.data import SyntheticStreets, write_depth_png
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import get_protocol
-from inpaintenv.registry import available_aliases, canonical_name, make_method
+from inpaintenv.registry import make_method
 from release_checks import check_shipped_interval
 
 
@@ -33,9 +33,12 @@ def holed() -> np.ndarray:
 
 def test_the_default_release_ships_a_calibration_registered_as_pretrained_intervals(wrapped):
     assert DEFAULT_RELEASE in shipped_intervals()
-    assert canonical_name("pretrained-intervals") == available_aliases()["pretrained-intervals"]
-    assert type(make_method("pretrained-intervals")) is ConformalIntervalInpainter
+    assert type(make_method(f"{DEFAULT_RELEASE}-intervals")) is ConformalIntervalInpainter
     assert type(wrapped.estimator) is type(load_release())
+    # pretrained-intervals routes like pretrained: a map's interval is this calibration's.
+    routed = make_method("pretrained-intervals")
+    assert type(routed.map_method) is ConformalIntervalInpainter
+    assert routed.map_method.calibration_ == wrapped.calibration_
 
 
 def test_its_calibration_is_out_of_fold_on_drives_each_fold_model_never_saw(wrapped):

@@ -116,3 +116,33 @@ def test_pretrained_is_never_worse_than_the_classical_fills_on_the_official_scan
             assert (ours <= frame_rmse(HarmonicInpainter().predict(x)) + 1e-6).all()
         for name in rivals:
             assert ours.mean() <= frame_rmse(make_method(name).predict(x)).mean() + 1e-6, (set_name, name)
+
+
+class _WithInterval(NearestInpainter):
+    """A map route that gives an interval: its prediction +- 1 m."""
+
+    def predict_interval(self, X, coverage=0.9, prediction=None):
+        pred = self.predict(X) if prediction is None else prediction
+        return pred - 1.0, pred + 1.0
+
+
+def test_an_interval_is_asked_of_each_frames_route_and_a_route_without_one_is_named():
+    est = InputRoutedInpainter(map_method=_WithInterval(), scan_method=HarmonicInpainter(),
+                               scan_name="harmonic", map_name="nearest")
+    maps, scans = _inputs("map", "rect-v1", 2), _inputs("scan", "densify-v1", 1)
+    low, high = est.predict_interval(maps, coverage=0.9)
+    pred = NearestInpainter().predict(maps)
+    np.testing.assert_allclose(low, pred - 1.0)
+    np.testing.assert_allclose(high, pred + 1.0)
+    with pytest.raises(InpaintenvError, match="no calibrated interval for a single scan yet: its route harmonic"):
+        est.predict_interval(np.concatenate([maps, scans]), coverage=0.9)
+
+
+def test_pretrained_intervals_routes_like_pretrained():
+    pytest.importorskip("torch")
+    from inpaintenv.registry import is_learned, make_method
+
+    est = make_method("pretrained-intervals")
+    assert is_learned("pretrained-intervals")
+    assert est.choose(_inputs("scan", "densify-v1", 1)[0]) == est.scan_name
+    assert hasattr(est.map_method, "predict_interval")
