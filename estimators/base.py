@@ -24,6 +24,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from inpaintenv.conventions import DEFAULT_MAX_DEPTH, check_depth, reconstruction_problem
 from inpaintenv.data.base import DepthDataset, as_dataset
+from inpaintenv.data.inputs import method_input
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
@@ -101,11 +102,15 @@ def iter_scoring_batches(
     X: Any, y: Any = None, *, protocol: str = SCORE_PROTOCOL, seed: int = SCORE_SEED,
     chunk: int = SCORE_CHUNK,
 ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Yield ``(corrupted, ground_truth, hole)`` batches for scoring.
+    """Yield ``(corrupted, ground_truth, scored)`` batches for scoring.
 
-    With ``y``, ``X`` is the corrupted input and ``y`` the ground truth. Without ``y``,
-    ``X`` is ground truth and frame ``i`` is corrupted with ``protocol``'s mask for
-    ``(seed, i)``.
+    With ``y``, ``X`` is the corrupted input and ``y`` the ground truth, and every NaN
+    pixel of ``X`` is scored. Without ``y``, ``X`` is a dataset and frame ``i``'s hole is
+    ``protocol``'s mask for ``(seed, i)``, cut out of the dataset's measured input
+    (:func:`inpaintenv.data.method_input`): for a map the input is the ground truth and
+    the hole is scored; for a single scan (``input_kind == "scan"``) every pixel left to
+    fill is scored (the unmeasured pixels, the hole included), as ``evaluate``'s
+    ``unmeasured`` set.
     """
     if y is not None:
         x = check_inpaint_input(X)
@@ -118,13 +123,13 @@ def iter_scoring_batches(
         return
     dataset = as_dataset(X)
     proto = get_protocol(protocol)
+    kind = getattr(dataset, "input_kind", "map")
     for start in range(0, len(dataset), chunk):
         idx = range(start, min(start + chunk, len(dataset)))
-        gt = dataset.load_batch(idx)
+        inputs, gt = dataset.load_pairs(idx)
         hole = proto.masks(dataset.frame_shape, seed, idx)
-        x = gt.copy()
-        x[hole] = np.nan
-        yield x, gt, hole
+        x = method_input(inputs, hole, kind)
+        yield x, gt, (np.isnan(x) if kind == "scan" else hole)
 
 
 #: Drive ids that :class:`~inpaintenv.data.ArrayDataset` makes up for frames without one.

@@ -390,3 +390,17 @@ def test_an_exact_base_still_gets_a_non_empty_interval():
     x[10:30, 10:40] = np.nan
     low, high = wrapper.predict_interval(x)
     assert wrapper.quantile_ == 1e-6 and ((high - low)[np.isnan(x)] > 0).all()
+
+
+def test_calibrating_on_scans_calibrates_the_scan_task():
+    """A dataset of single scans calibrates on every pixel its input leaves to fill (unmeasured
+    and hole), as predict_interval widens them, not on the map task's hole cut into the truth."""
+    from estimators import HarmonicInpainter
+    from inpaintenv.data import SyntheticStreets
+
+    frames = SyntheticStreets(n=3, seed=2, frame_shape=(48, 128), input="scan")
+    wrapped = ConformalIntervalInpainter(HarmonicInpainter(), spread_method="nearest").fit(frames, groups=["a", "a", "b"])
+    scored = sum(int(((gt > 0) & s).sum()) for _, gt, s in iter_scoring_batches(frames))
+    assert wrapped.calibration_["n_pixels"] == scored
+    maps = SyntheticStreets(n=3, seed=2, frame_shape=(48, 128))
+    assert scored > sum(int(((gt > 0) & h).sum()) for _, gt, h in iter_scoring_batches(maps))
