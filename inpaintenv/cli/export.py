@@ -25,7 +25,8 @@ def add_export(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "export", help="write the occluded inputs as PNG files for a method run elsewhere",
         description=(
-            "Write, for every frame, the occluded input as a KITTI 16-bit depth PNG (0 = hole or no "
+            "Write, for every frame, the occluded input (the ground truth with the hole cut, or with --input scan "
+            "the frame's single LiDAR scan with the hole cut) as a KITTI 16-bit depth PNG (0 = hole or no "
             "measurement) and the hole mask as an 8-bit PNG, in KITTI's folder layout, plus manifest.json: the kit "
             "for the submitter, which holds no ground truth. The score key (<out>.key.json beside --out by default) "
             "names the ground truth; keep it, and score the predictions with `inpaintenv score --manifest <key>`. "
@@ -33,7 +34,11 @@ def add_export(subparsers: Any) -> None:
             "<name>_high.png or as <name>_std.png (same encoding; all predictions or none); score reads them."
         ),
     )
-    p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
+    p.add_argument("--protocol", default="rect-v1",
+                   help="occlusion protocol (default rect-v1; densify-v1, no hole, with --input scan)")
+    p.add_argument("--input", choices=["map", "scan"], default="map",
+                   help="what is exported as the input: map (the ground truth with the hole cut, the default) or "
+                        "scan (each frame's single LiDAR scan with the hole cut; the ground truth stays the target)")
     p.add_argument("--seed", type=int, action="append", metavar="S",
                    help="evaluation seed (default 0; repeatable only with --trusted: each input would show the other "
                         "seeds' holes as measured depth)")
@@ -78,9 +83,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     manifest = export(out, dataset, args.protocol, seeds, overwrite=args.overwrite, progress=not args.quiet,
                       trusted=args.trusted, key=args.key)
     n_frames = len(manifest.frames)
+    scans = ", inputs: scans" if manifest.input_kind == "scan" else ""
     print(f"exported {len(manifest.items)} input{'s' * (len(manifest.items) != 1)} ({n_frames} "
           f"frame{'s' * (n_frames != 1)} × {len(seeds)} seed{'s' * (len(seeds) != 1)}, protocol "
-          f"{manifest.protocol_name}) to {out}")
+          f"{manifest.protocol_name}{scans}) to {out}")
     if args.trusted and len(seeds) > 1:
         print("--trusted: each input shows the other seeds' holes; do not give this export to a submitter")
     print(f"each prediction goes to <predictions>/<input's path>, e.g. {manifest.items[0].input}")

@@ -80,7 +80,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..benchmark.lock import run_lock
     from ..benchmark.ownership import check_folder
-    from ..benchmark.report import summary_table, to_markdown, write_report
+    from ..benchmark.report import summary_table, table_keys, to_markdown, write_report
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, build_method
     from ..conventions import check_int
@@ -130,12 +130,16 @@ def cmd_score(args: argparse.Namespace) -> int:
         command = "inpaintenv " + " ".join(getattr(args, "argv", []))
         paths = write_report(report, out, meta={
             "command": command, "submission": submission_meta(args.name, manifest, args.predictions, checked)})
-        table = summary_table(report)
-        print(to_markdown(table))
+        keys = table_keys(report)  # an export of scans: the input kind beside the protocol
+        table = summary_table(report, keys)
+        print(to_markdown(table, keys))
         compared = learned_vs_classical(report)
         if compared:
-            print(f"\n{headline_title(compared)} (hole RMSE ratio, paired 95 % CI):\n" + headline_markdown(compared))
-        if args.figure_frames > 0:
+            what = "hole RMSE" if all(r["task"] == "hole" for r in compared) else "RMSE of the task"
+            print(f"\n{headline_title(compared)} ({what} ratio, paired 95 % CI):\n" + headline_markdown(compared))
+        if args.figure_frames > 0 and manifest.input_kind != "map":
+            log("no figures: they are drawn for exports of maps only (the panels show a map input)")
+        elif args.figure_frames > 0:
             # Panels only of frames the submission has a prediction for under the first seed.
             absent = {i for i in range(len(dataset)) if (seeds[0], i) not in checked.method.scored_pairs}
             fig_dir = out / "figures"

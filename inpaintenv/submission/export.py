@@ -1,9 +1,11 @@
 """Export the occluded inputs of a benchmark as files any program can read.
 
 For every frame: the input a method gets in :func:`inpaintenv.evaluate.evaluate` (the
-ground truth with the protocol's hole) as a KITTI 16-bit depth PNG, with 0 = hole or no
-measurement, and the hole mask as an 8-bit PNG; the kit's ``manifest.json``; and, outside
-the export folder, the score key (:mod:`.manifest`). Ground truth is never exported.
+ground truth with the protocol's hole, or for a source of scans the frame's single LiDAR
+scan with the hole cut out: ``where(hole, 0, scan)``) as a KITTI 16-bit depth PNG, with
+0 = hole or no measurement, and the hole mask as an 8-bit PNG; the kit's
+``manifest.json``; and, outside the export folder, the score key (:mod:`.manifest`).
+Ground truth is never exported.
 
 A submission export draws **one mask per frame** (one seed): with several seeds, each
 input would show the other seeds' holes as measured depth, so the maximum over a frame's
@@ -201,6 +203,34 @@ def _install(tmp: Path, out: Path, replace: bool) -> None:
         tmp.rename(out)
 
 
+def _check_task(proto: OcclusionProtocol, input_kind: str) -> None:
+    """Refuse a protocol that poses no task on this input (``densify-v1`` on maps: nothing is unmeasured)."""
+    if input_kind == "map" and proto.task == "unmeasured":
+        raise InvalidInputError(f"{proto.name} fills what a single scan did not measure: a map input has nothing to "
+                                "fill; export a source of scans (--input scan, input='scan')")
+
+
+def _load_frame(dataset: Any, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(input, ground truth)`` of frame ``i``; the input, which is written, must survive KITTI's encoding."""
+    inputs, gt = dataset.load_pairs([i])
+    scan = dataset.input_kind == "scan"
+    tiny = (inputs[0] > 0) & (inputs[0] < 0.5 / KITTI_DEPTH_SCALE)
+    if tiny.any():
+        raise InvalidInputError(f"{'the scan of ' if scan else ''}frame {i} ({dataset.frame_ids[i]}) has depth below "
+                                "1/512 m, which KITTI's 16-bit encoding stores as 0 (no measurement)")
+    return inputs[0], gt[0]
+
+
+def _frame_record(dataset: Any, i: int, fields: dict[str, Any], inputs: np.ndarray, gt: np.ndarray) -> Frame:
+    """The score key's :class:`Frame` of frame ``i``: ``fields`` of :func:`describe_truth`, and the sha256 of
+    generated frames (and scans), which only loading them gives."""
+    if "ground_truth_sha256" not in fields:
+        fields = {**fields, "ground_truth_sha256": array_sha256(gt)}
+    if dataset.input_kind == "scan" and "scan_sha256" not in fields:
+        fields = {**fields, "scan_sha256": array_sha256(inputs)}
+    return Frame(index=i, frame_id=str(dataset.frame_ids[i]), drive=str(dataset.groups[i]), **fields)
+
+
 def _prepare_key(key: Path, out: Path, overwrite: bool) -> None:
     """Check that the score key may be written at ``key``: outside the export, and replacing only a key."""
     if is_inside(key, out):
@@ -247,7 +277,9 @@ def export(
         Ground truth, as for :func:`~inpaintenv.evaluate.evaluate` (None: the built-in
         SyntheticStreets default). KITTI frames are recorded by file, SyntheticStreets
         by its parameters; any other dataset by the sha256 of each frame (``score`` then
-        needs it passed in). Only the score key records them.
+        needs it passed in). Only the score key records them. A source of input kind
+        ``"scan"`` exports each frame's scan with the hole cut out as its input, and the
+        key records the scans beside the ground truth in the same way.
     protocol : str or OcclusionProtocol
     seeds : int or sequence of int
         Evaluation seeds, distinct non-negative integers; one unless ``trusted``.
@@ -275,14 +307,12 @@ def export(
     ------
     ValueError
         On a bad ``out`` or key path, seeds (several without ``trusted``), protocol or
-        source; ground truth below 1/512 m (it would read as 0 = no measurement in
-        KITTI's encoding).
+        source (``densify-v1`` on maps); an input (the ground truth, or the scan) below
+        1/512 m (it would read as 0 = no measurement in KITTI's encoding).
     """
     dataset = resolve_source(source)
-    if dataset.input_kind != "map":  # its inputs would be the ground truth with the hole cut, not the scans
-        raise InvalidInputError(f"export writes map inputs (the ground truth with the hole cut); a source of input kind "
-                                f"{dataset.input_kind!r} cannot be exported yet: score it with evaluate or benchmark")
     proto = get_protocol(protocol)
+    _check_task(proto, dataset.input_kind)
     seed_list = check_seeds(seeds, "seeds")
     if not isinstance(trusted, bool):
         raise InvalidTypeError(f"trusted must be True or False, got {trusted!r}")
@@ -315,19 +345,13 @@ def export(
         frames: list[Frame] = []
         by_seed: dict[int, list[Item]] = {s: [] for s in seed_list}
         for i in range(total):
-            gt = dataset.load_batch([i])[0]
-            tiny = (gt > 0) & (gt < 0.5 / KITTI_DEPTH_SCALE)
-            if tiny.any():
-                raise InvalidInputError(f"frame {i} ({dataset.frame_ids[i]}) has depth below 1/512 m, which KITTI's "
-                                 "16-bit encoding stores as 0 (no measurement)")
+            inputs, gt = _load_frame(dataset, i)
             split, fields = per_frame[i]
-            if "ground_truth_sha256" not in fields:
-                fields = {**fields, "ground_truth_sha256": array_sha256(gt)}
-            frames.append(Frame(index=i, frame_id=str(dataset.frame_ids[i]), drive=str(dataset.groups[i]), **fields))
+            frames.append(_frame_record(dataset, i, fields, inputs, gt))
             for seed in seed_list:
                 hole = proto.mask(shape, seed, i)
                 input_rel, hole_rel = relative_paths(proto.name, seed, split, parts[i])
-                write_depth_png(tmp / input_rel, np.where(hole, np.float32(0), gt))
+                write_depth_png(tmp / input_rel, np.where(hole, np.float32(0), inputs))
                 (tmp / hole_rel).parent.mkdir(parents=True, exist_ok=True)
                 write_png(tmp / hole_rel, hole.astype(np.uint8) * np.uint8(HOLE_VALUE), "hole mask")
                 by_seed[seed].append(Item(
@@ -339,7 +363,9 @@ def export(
             path=key_path, protocol=protocol_record(proto), seeds=seed_list, frame_shape=shape,  # type: ignore[arg-type]
             ground_truth=truth, frames=frames, items=[it for s in seed_list for it in by_seed[s]],
             inpaintenv_version=__version__,
-            extra={"encoding": {"input": DEPTH_ENCODING, "hole": HOLE_ENCODING}},
+            extra={"encoding": {"input": DEPTH_ENCODING, "hole": HOLE_ENCODING},
+                   # Only an export of scans says so: a map export keeps the bytes it always had.
+                   **({"input_kind": "scan"} if dataset.input_kind == "scan" else {})},
             role=KEY, kit=Path(os.path.relpath(os.path.abspath(given), key_path.parent)).as_posix(), trusted=trusted,
         )
         manifest.kit_manifest().write(tmp / MANIFEST_NAME)

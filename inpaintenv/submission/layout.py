@@ -99,8 +99,9 @@ def hole_bits_sha256(hole: np.ndarray) -> str:
 def input_key(x: np.ndarray) -> str:
     """sha256 of one corrupted input as :func:`inpaintenv.evaluate.evaluate` builds it.
 
-    ``x`` is the float32 ``(H, W)`` ground truth with NaN in the hole. ``score`` finds the
-    prediction of an input by this key, so the frame and seed need not be passed along.
+    ``x`` is the float32 ``(H, W)`` method input (:func:`inpaintenv.data.method_input`: the
+    ground truth with NaN in the hole, or a scan with NaN wherever it is to fill). ``score``
+    finds the prediction of an input by this key, so the frame and seed need not be passed along.
     """
     return array_sha256(np.asarray(x, dtype=np.float32))
 

@@ -73,6 +73,11 @@ class Frame:
         The ground-truth file relative to the KITTI root (KITTI sources, score key only).
     position : int or None
         Position in the generated source (SyntheticStreets, score key only).
+    scan_sha256 : str or None
+        Of an export of scans: sha256 of the scan file (KITTI) or of the float32 scan
+        (other sources); in the score key only.
+    scan : str or None
+        Of a KITTI export of scans: the scan file relative to the KITTI root (score key only).
     """
 
     index: int
@@ -81,6 +86,8 @@ class Frame:
     ground_truth_sha256: str | None = None
     ground_truth: str | None = None
     position: int | None = None
+    scan_sha256: str | None = None
+    scan: str | None = None
 
 
 @dataclass(frozen=True)
@@ -115,7 +122,8 @@ class Manifest:
     ground_truth : dict
         How the frames were read (score key only; ``{}`` in a kit): ``type`` (``kitti``,
         ``synthetic`` or ``custom``) and what rebuilds them (crop and kind; the
-        generator's parameters; a description).
+        generator's parameters; a description); ``"input": "scan"`` when the inputs are
+        the frames' scans (:attr:`input_kind`).
     frames : list of Frame
     items : list of Item
         Seed-major: every frame of the first seed, then the next seed.
@@ -148,6 +156,11 @@ class Manifest:
         if self.role == KEY and self.kit is not None:
             return Path(os.path.normpath(self.path.parent / self.kit))
         return self.path.parent
+
+    @property
+    def input_kind(self) -> str:
+        """``"scan"`` if the inputs are the frames' single LiDAR scans, else ``"map"`` (the ground truth)."""
+        return str(self.extra.get("input_kind", "map"))
 
     @property
     def protocol_name(self) -> str:
@@ -323,16 +336,27 @@ class _Reader:
             if truth["type"] == "kitti" and truth.get("crop") is not None and \
                     self.shape(truth["crop"], "ground_truth.crop") != shape:
                 raise self.fail("ground_truth.crop", f"{truth['crop']} differs from frame_shape {list(shape)}")
-        frames = self.frames(self.get("frames"), role, truth)
+        scans = self.input_kind(role, truth)
+        frames = self.frames(self.get("frames"), role, truth, scans)
         items = self.items(self.get("items"), name, seeds, len(frames))
         version = self.text(self.get("inpaintenv_version"), "inpaintenv_version")
         known = {"format", "format_version", "role", "inpaintenv_version", "protocol", "seeds", "frame_shape",
-                 "trusted", "kit", "ground_truth", "frames", "items"}
+                 "trusted", "kit", "ground_truth", "frames", "items"}  # input_kind stays in extra (both roles)
         return Manifest(path=self.path, protocol=dict(protocol), seeds=seeds, frame_shape=shape, ground_truth=truth,
                         frames=frames, items=items, inpaintenv_version=version,
                         extra={k: v for k, v in doc.items() if k not in known}, role=role, kit=kit, trusted=trusted)
 
-    def frames(self, raw: Any, role: str, truth: dict[str, Any]) -> list[Frame]:
+    def input_kind(self, role: str, truth: dict[str, Any]) -> bool:
+        """Whether the inputs are scans: the document's ``input_kind`` (absent: maps), which a key's
+        ``ground_truth.input`` must repeat (it says how to rebuild them)."""
+        kind = self.doc.get("input_kind", "map")
+        if kind not in ("map", "scan"):
+            raise self.fail("input_kind", f"must be \"map\" or \"scan\", got {str(kind)[:80]!r}")
+        if role == KEY and truth.get("input", "map") != kind:
+            raise self.fail("ground_truth.input", f"must be the input_kind {kind!r}, got {str(truth.get('input'))[:80]!r}")
+        return kind == "scan"
+
+    def frames(self, raw: Any, role: str, truth: dict[str, Any], scans: bool = False) -> list[Frame]:
         if not isinstance(raw, list) or not raw:
             raise self.fail("frames", "must be a non-empty list")
         kind = truth.get("type")
@@ -341,7 +365,8 @@ class _Reader:
             where = f"frames[{k}]"
             if not isinstance(f, dict):
                 raise self.fail(where, "must be an object")
-            extra = set(f) - {"index", "frame_id", "drive", "ground_truth_sha256", "ground_truth", "position"}
+            extra = set(f) - {"index", "frame_id", "drive", "ground_truth_sha256", "ground_truth", "position",
+                              *(("scan_sha256", "scan") if scans and role == KEY else ())}
             if extra:
                 raise self.fail(where, f"has unknown fields {sorted(extra)[:3]}")
             index = self.integer(self.get("index", f, f"{where}."), f"{where}.index")
@@ -358,10 +383,23 @@ class _Reader:
                 elif kind == "synthetic":
                     position = self.integer(self.get("position", f, f"{where}."), f"{where}.position")
                 frame = replace(frame, ground_truth_sha256=gt_sha, ground_truth=gt, position=position)
+                if scans:
+                    frame = self.scan_fields(frame, f, where, kind == "kitti")
             elif {"ground_truth", "ground_truth_sha256", "position"} & set(f):
                 raise self.fail(where, "names ground truth, which a submission kit's manifest never holds")
             frames.append(frame)
         return frames
+
+    def scan_fields(self, frame: Frame, f: dict[str, Any], where: str, kitti: bool) -> Frame:
+        """``frame`` with its scan's sha256 and (KITTI) file, as a score key of scans lists them."""
+        scan_sha = self.digest(self.get("scan_sha256", f, f"{where}."), f"{where}.scan_sha256")
+        scan = None
+        if kitti:
+            scan = self.text(self.get("scan", f, f"{where}."), f"{where}.scan", is_safe_relative,
+                             "a path relative to the KITTI root, without '..'")
+        elif "scan" in f:
+            raise self.fail(f"{where}.scan", "names a file, which only a KITTI export does")
+        return replace(frame, scan_sha256=scan_sha, scan=scan)
 
     def items(self, raw: Any, protocol: str, seeds: list[int], n_frames: int) -> list[Item]:
         if not isinstance(raw, list):

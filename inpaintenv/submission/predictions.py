@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..data.base import DepthDataset, name_from_path
+from ..data.inputs import method_input
 from ..data.io import depth_from_uint16
 from ..masks import OcclusionProtocol, get_protocol
 from .intervals import read_interval_files, split_interval_files
@@ -261,18 +262,27 @@ def _binding(raw: np.ndarray, expected: np.ndarray) -> int:
     return int(np.count_nonzero(raw[measured] != expected[measured]))
 
 
-def input_raw(gt: np.ndarray, hole: np.ndarray) -> np.ndarray:
-    """The uint16 values of the exported input of ``gt`` with ``hole`` (as ``write_depth_png`` rounds them)."""
-    return np.rint(np.where(hole, 0.0, np.asarray(gt, dtype=np.float64)) * 256).astype(np.uint16)
+def input_raw(inputs: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """The uint16 values of the exported input: ``inputs`` (the ground truth, or the scan) with
+    ``hole`` cut out, as ``write_depth_png`` rounds them."""
+    return np.rint(np.where(hole, 0.0, np.asarray(inputs, dtype=np.float64)) * 256).astype(np.uint16)
 
 
-def _whose(raw: np.ndarray, gt: np.ndarray, item: Item, others: list[Item], proto: OcclusionProtocol,
+def _whose(raw: np.ndarray, inputs: np.ndarray, item: Item, others: list[Item], proto: OcclusionProtocol,
            shape: tuple[int, int]) -> str:
     """Which other input of the same frame a prediction that does not keep its own input's pixels keeps, if any."""
     for other in others:
-        if other is not item and _binding(raw, input_raw(gt, proto.mask(shape, other.seed, other.index))) == 0:
+        if other is not item and _binding(raw, input_raw(inputs, proto.mask(shape, other.seed, other.index))) == 0:
             return f"; it is the prediction of {other.input} (seed {other.seed})"
     return ""
+
+
+def _unfilled_pixels(raw: np.ndarray, x: np.ndarray, hole: np.ndarray, gt: np.ndarray, input_kind: str) -> int:
+    """Pixels to fill that ``raw`` leaves at 0: a map's hole; a scan's unmeasured pixels with ground
+    truth, the pixels ``evaluate`` refuses at 0 m (a densifier may leave the sky, where no truth is, empty)."""
+    if input_kind == "map":
+        return int(np.count_nonzero(raw[hole] == 0))
+    return int(np.count_nonzero((raw == 0) & np.isnan(x) & (gt > 0)))
 
 
 def _problems(manifest: Manifest, folder: Path, n_expected: int, missing: list[str], unexpected: list[str],
@@ -294,8 +304,10 @@ def _problems(manifest: Manifest, folder: Path, n_expected: int, missing: list[s
     if bad:
         parts.append(f"{_count(len(bad), 'prediction')} unusable: {_listing(bad)}")
     if unfilled:
-        parts.append(f"{_count(len(unfilled), 'prediction')} with hole pixels left at 0 (unfilled): "
-                     f"{_listing(unfilled)}; fill every hole pixel, or pass --allow-unfilled to score 0 as 0 m")
+        what, fill = ("hole pixels", "hole pixel") if manifest.input_kind == "map" else \
+            ("unmeasured pixels with ground truth", "pixel the input did not measure")
+        parts.append(f"{_count(len(unfilled), 'prediction')} with {what} left at 0 (unfilled): "
+                     f"{_listing(unfilled)}; fill every {fill}, or pass --allow-unfilled to score 0 as 0 m")
     return "; ".join(parts)
 
 
@@ -376,9 +388,10 @@ def check_predictions(
     intervals: dict[str, list[tuple[str, str]]] = {}
     pairs: set[tuple[int, int]] = set()
     digests: list[tuple[str, str]] = []
+    kind = dataset.input_kind
     for frame in manifest.frames:
-        gt = dataset.load_batch([frame.index])[0]
-        verify_frame(manifest, frame, gt)
+        inputs, gt = (a[0] for a in dataset.load_pairs([frame.index]))
+        verify_frame(manifest, frame, gt, inputs)
         for item in by_frame.get(frame.index, []):
             hole = proto.mask(shape, item.seed, item.index)
             if hole_bits_sha256(hole) != item.hole_bits_sha256:
@@ -399,19 +412,18 @@ def check_predictions(
             if isinstance(raw, str):
                 bad.append(raw)
                 continue
-            changed = _binding(raw, input_raw(gt, hole))
+            changed = _binding(raw, input_raw(inputs, hole))
             if changed:
                 # Binds each file to its input: a prediction saved under another input's name is caught here.
                 bad.append(f"{item.input} does not keep {changed} of its input's measured pixels (a prediction keeps "
-                           f"them as they are){_whose(raw, gt, item, by_frame[frame.index], proto, shape)}")
+                           f"them as they are){_whose(raw, inputs, item, by_frame[frame.index], proto, shape)}")
                 continue
-            zeros = int(np.count_nonzero(raw[hole] == 0))
+            x = method_input(inputs, hole, kind)  # the input evaluate() builds for this (frame, seed)
+            zeros = _unfilled_pixels(raw, x, hole, gt, kind)
             if zeros and not allow_unfilled:
                 unfilled.append(f"{item.input} ({zeros} px)")
             entries = read_interval_files(folder, item.input, interval_kind, shape, raw, hole, refused, bad)
             digest = hashlib.sha256(data).hexdigest()
-            x = gt.copy()
-            x[hole] = np.nan  # the input evaluate() builds for this (frame, seed)
             key = input_key(x)
             if key in files and files[key][1] != digest:
                 # Two (frame, seed) pairs with one input: evaluate() cannot tell them apart.

@@ -9,9 +9,13 @@
 * Any other dataset (Python only) is recorded by the sha256 of each float32 frame;
   ``score`` then needs the same dataset passed in.
 
-All of it goes into the score key only, never into the kit. A KITTI file must resolve
-inside the root it is read from: a key naming one elsewhere is refused before the file
-is touched, so not even its hash is printed.
+An export of scans (input kind ``"scan"``) records each frame's scan the same way beside
+its ground truth: the scan file and its sha256 (KITTI), or the generator's parameters with
+``"input": "scan"`` and the sha256 of the float32 scan (other sources).
+
+All of it goes into the score key only, never into the kit. A KITTI file, ground truth
+or scan, must resolve inside the root it is read from: a key naming one elsewhere is
+refused before the file is touched, so not even its hash is printed.
 """
 
 from __future__ import annotations
@@ -48,8 +52,24 @@ def _leaves(ds: DepthDataset) -> list[tuple[DepthDataset, int]]:
 
 
 def _synthetic_params(ds: SyntheticStreets) -> dict[str, Any]:
-    return {"n": ds.n, "seed": ds.seed, "kind": ds.kind, "frame_shape": list(ds.frame_shape),
-            "frames_per_drive": ds.frames_per_drive}
+    params = {"n": ds.n, "seed": ds.seed, "kind": ds.kind, "frame_shape": list(ds.frame_shape),
+              "frames_per_drive": ds.frames_per_drive}
+    return {**params, "input": "scan"} if ds.input_kind == "scan" else params  # a map key keeps its bytes
+
+
+def _input_record(dataset: DepthDataset) -> dict[str, Any]:
+    """``{"input": "scan"}`` for a source of scans (what the key's ``ground_truth`` adds), else nothing."""
+    return {"input": "scan"} if dataset.input_kind == "scan" else {}
+
+
+def _kitti_fields(owner: KittiDepth, i: int) -> dict[str, Any]:
+    """The score key's record of KITTI frame ``i`` of ``owner``: its ground-truth file (and scan file) and sha256."""
+    fields = {"ground_truth": owner.paths[i].relative_to(owner.root).as_posix(),
+              "ground_truth_sha256": file_sha256(owner.paths[i], "ground-truth file")}
+    if owner.input_kind == "scan":
+        scan = owner.input_paths[i]
+        fields.update(scan=scan.relative_to(owner.root).as_posix(), scan_sha256=file_sha256(scan, "scan file"))
+    return fields
 
 
 def describe_truth(dataset: DepthDataset) -> tuple[dict[str, Any], list[tuple[str, dict[str, Any]]]]:
@@ -65,21 +85,16 @@ def describe_truth(dataset: DepthDataset) -> tuple[dict[str, Any], list[tuple[st
         if len(crops) == 1 and len(kinds) == 1:
             crop = crops.pop()
             record = {"type": "kitti", "kind": kinds.pop(), "crop": None if crop is None else list(crop),
-                      "hash": "sha256 of the ground-truth PNG file"}
-            per_frame = []
-            for owner, i in leaves:
-                path = owner.paths[i]
-                per_frame.append((owner.split, {
-                    "ground_truth": path.relative_to(owner.root).as_posix(), "ground_truth_sha256": file_sha256(path, "ground-truth file"),
-                }))
-            return record, per_frame
+                      "hash": "sha256 of the ground-truth PNG file", **_input_record(dataset)}
+            return record, [(owner.split, _kitti_fields(owner, i)) for owner, i in leaves]
     if all(isinstance(o, SyntheticStreets) for o in owners.values()):
         params = {repr(_synthetic_params(o)) for o in owners.values()}
         if len(params) == 1:
             owner = next(iter(owners.values()))
             record = {"type": "synthetic", **_synthetic_params(owner), "hash": ARRAY_HASH}
             return record, [("synthetic", {"position": i}) for _, i in leaves]
-    return {"type": "custom", "description": repr(dataset), "hash": ARRAY_HASH}, [("custom", {}) for _ in leaves]
+    record = {"type": "custom", "description": repr(dataset), "hash": ARRAY_HASH, **_input_record(dataset)}
+    return record, [("custom", {}) for _ in leaves]
 
 
 class ManifestFrames(DepthDataset):
@@ -108,6 +123,7 @@ class ManifestFrames(DepthDataset):
         crop = manifest.ground_truth.get("crop")
         self.crop = None if crop is None else (int(crop[0]), int(crop[1]))
         self.frame_shape = tuple(manifest.frame_shape)  # type: ignore[assignment]
+        self.input_kind = manifest.input_kind
         self.groups = np.asarray([f.drive for f in manifest.frames])
         self.frame_ids = [f.frame_id for f in manifest.frames]
         self._frames = list(manifest.frames)
@@ -118,19 +134,30 @@ class ManifestFrames(DepthDataset):
         return self.root / str(self._frames[index].ground_truth)
 
     def _load(self, index: int) -> np.ndarray:
-        path = self.path(index)
+        frame = self._frames[index]
+        return self._read_listed(index, str(frame.ground_truth), str(frame.ground_truth_sha256), "ground truth")
+
+    def _load_input(self, index: int) -> np.ndarray:
+        if self.input_kind == "map":
+            return self._load(index)
+        frame = self._frames[index]
+        return self._read_listed(index, str(frame.scan), str(frame.scan_sha256), "scan")
+
+    def _read_listed(self, index: int, rel: str, expected: str, what: str) -> np.ndarray:
+        """The file ``rel`` the key lists for frame ``index``, checked against its sha256, cropped as exported."""
+        path = self.root / rel
         # Checked before the file is touched: a key naming a file outside the root (through
         # "..", an absolute path or a link) must not learn anything about it, not even its hash.
         if not is_inside(path, self.root):
-            raise ManifestError(f"ground truth {self._frames[index].ground_truth!r} of frame {index} in "
-                                f"{self._manifest} leads outside the KITTI root {self.root}; not read")
+            raise ManifestError(f"{what} {rel!r} of frame {index} in {self._manifest} leads outside the KITTI root "
+                                f"{self.root}; not read")
         if not os.path.lexists(path):  # anything else there (a FIFO) is named by file_sha256
-            raise FileNotFoundError(f"ground truth {path} listed in {self._manifest} is missing")
-        digest = file_sha256(path, "ground-truth file")
-        if digest != self._frames[index].ground_truth_sha256:
+            raise FileNotFoundError(f"{what} {path} listed in {self._manifest} is missing")
+        digest = file_sha256(path, "ground-truth file" if what == "ground truth" else f"{what} file")
+        if digest != expected:
             raise ManifestError(
-                f"ground truth {path} is not the file {self._manifest} was exported from (sha256 "
-                f"{digest[:12]}…, the manifest says {self._frames[index].ground_truth_sha256[:12]}…)"
+                f"{what} {path} is not the file {self._manifest} was exported from (sha256 "
+                f"{digest[:12]}…, the manifest says {expected[:12]}…)"
             )
         raw = read_depth_png_raw(path)
         if self.crop is not None:
@@ -166,6 +193,9 @@ def open_truth(manifest: Manifest, kitti_root: str | os.PathLike | None = None,
         source = as_dataset(source)
         if len(source) != len(manifest.frames):
             raise ManifestError(f"source has {len(source)} frames, {manifest.path} lists {len(manifest.frames)}")
+        if source.input_kind != manifest.input_kind:
+            raise ManifestError(f"source has input kind {source.input_kind!r}, {manifest.path} was exported from "
+                                f"inputs of kind {manifest.input_kind!r}")
         return source
     if kind == "kitti":
         if kitti_root is None:
@@ -203,29 +233,36 @@ def _synthetic_streets(manifest: Manifest) -> SyntheticStreets:
         raise fail("frame_shape", f"must be the manifest's frame_shape {list(manifest.frame_shape)}")
     if not isinstance(gt.get("kind"), str):
         raise fail("kind", "must be a string")
+    if gt.get("input", "map") != manifest.input_kind:  # read_manifest checked it; a Manifest built in Python may not be
+        raise fail("input", f"must be the manifest's input kind {manifest.input_kind!r}")
     if any(f.position is None or f.position >= n for f in manifest.frames):
         raise ManifestError(f"{manifest.path}: a frame's position lies outside the generator's {n} frames")
     try:
-        return SyntheticStreets(n=n, seed=seed, kind=gt["kind"], frame_shape=tuple(shape), frames_per_drive=per_drive)
+        return SyntheticStreets(n=n, seed=seed, kind=gt["kind"], frame_shape=tuple(shape), frames_per_drive=per_drive,
+                                input=manifest.input_kind)
     except ValueError as exc:
         raise ManifestError(f"{manifest.path}: ground_truth is not a generator of this inpaintenv ({exc})") from None
 
 
-def verify_frame(manifest: Manifest, frame: Frame, gt: np.ndarray) -> None:
-    """Check a loaded frame of a generated or custom source against its recorded sha256.
+def verify_frame(manifest: Manifest, frame: Frame, gt: np.ndarray, scan: np.ndarray | None = None) -> None:
+    """Check a loaded frame (and, of an export of scans, its scan) of a generated or custom
+    source against its recorded sha256.
 
     KITTI files are checked where they are read (:class:`ManifestFrames`).
 
     Raises
     ------
     ManifestError
-        Naming the frame, if it differs from the one exported.
+        Naming the frame, if it or its scan differs from the one exported.
     """
     if manifest.ground_truth.get("type") == "kitti":
         return
-    digest = array_sha256(np.asarray(gt, dtype=np.float32))
-    if digest != frame.ground_truth_sha256:
-        raise ManifestError(
-            f"ground truth of frame {frame.index} ({frame.frame_id}) differs from the one {manifest.path} "
-            "was exported from: score with the data (and inpaintenv version) of the export"
-        )
+    checks = [("ground truth", gt, frame.ground_truth_sha256)]
+    if manifest.input_kind == "scan":
+        checks.append(("scan", scan, frame.scan_sha256))
+    for what, array, recorded in checks:
+        if array is None or array_sha256(np.asarray(array, dtype=np.float32)) != recorded:
+            raise ManifestError(
+                f"{what} of frame {frame.index} ({frame.frame_id}) differs from the one {manifest.path} "
+                "was exported from: score with the data (and inpaintenv version) of the export"
+            )

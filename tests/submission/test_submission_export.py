@@ -112,11 +112,3 @@ def test_custom_dataset_is_scored_against_the_dataset_passed_in(tmp_path, street
     with pytest.raises(ManifestError, match="frame 0 .* differs"):
         score(m.path, tmp_path / "p", source=other)
 
-
-def test_a_scan_source_is_refused_not_exported_as_its_ground_truth(tmp_path):
-    from inpaintenv.data import SyntheticStreets
-    from inpaintenv.exceptions import InvalidInputError
-
-    with pytest.raises(InvalidInputError, match="input kind 'scan' cannot be exported yet"):
-        export(tmp_path / "x", SyntheticStreets(n=2, frame_shape=(32, 48), input="scan"), progress=False)
-    assert not (tmp_path / "x").exists()
