@@ -241,18 +241,12 @@ def _py(folder: str) -> list[Path]:
     return sorted((ROOT / folder).rglob("*.py"))
 
 
-#: estimators/intervals/_conformal.py (601 lines) is being split by another change of issue 51.
-_PENDING_SPLIT = pytest.mark.xfail(strict=True, reason="issue 51: estimators/intervals/_conformal.py not yet split")
-
-
-@pytest.mark.parametrize("folder", [f if f != "estimators" else pytest.param(f, marks=_PENDING_SPLIT)
-                                    for f in SIZED])
+@pytest.mark.parametrize("folder", SIZED)
 def test_no_module_over_500_lines(folder):
     long = long_modules(_py(folder))
     assert not long, f"modules over {MAX_LINES} lines (split them by job): {long}"
 
 
-@pytest.mark.xfail(strict=True, reason="issue 51: estimators/intervals/_conformal.py keeps its opt-out until it is split")
 def test_no_module_opts_out_of_the_size_limit():
     found = opt_outs([p for folder in (*SIZED, "tests") for p in _py(folder)])
     assert not found, f"module opt-outs ({OPT_OUT!r}) are retired; split the module instead: {found}"

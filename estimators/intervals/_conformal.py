@@ -1,4 +1,3 @@
-# long module: one class, whose calibration, prediction and persistence share its fitted attributes
 """Per-pixel intervals for any fitted inpainter: drive-grouped split conformal prediction.
 
 :class:`ConformalIntervalInpainter` wraps a fitted inpainter (classical or learned) the
@@ -46,11 +45,15 @@ it holds on new drives only when the calibration drives are as new to the base m
 the drives it is used on. **The base model must never have seen the calibration drives**:
 ``fit`` takes whole drives (``groups``) and refuses drives the base records in
 ``training_drives_``.
+
+On a dataset of single scans (``input_kind == "scan"``) the scored pixels are every pixel
+the scan, with the protocol's hole cut out, leaves to fill: the pixels ``predict_interval``
+widens. The maths is in ``._calibration``, the file's reading and writing in
+``._persistence`` and ``._calibration_file``.
 """
 
 from __future__ import annotations
 
-import copy
 import math
 import os
 from collections.abc import Sequence
@@ -63,45 +66,17 @@ from sklearn.utils.validation import check_is_fitted
 
 from inpaintenv.data.base import DepthDataset, Subset, as_dataset
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
-from inpaintenv.interval_metrics import border_distance, check_coverage, normal_quantile
+from inpaintenv.interval_metrics import check_coverage, normal_quantile
 from inpaintenv.masks import get_protocol
 
-from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, iter_scoring_batches, training_drives
+from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, training_drives
 from ._bases import CLASSICAL_FILLS, make_base
-from ._calibration_file import FORMAT as _FORMAT
-from ._calibration_file import N_LEVELS, SIGNALS, WEIGHTINGS, read_calibration, write_calibration
+from ._calibration import (exact_quantile, features, fit_scale, residual_quantiles, scale_from, scored_residuals,
+                           weighted_quantiles)
+from ._calibration_file import N_LEVELS, SIGNALS, WEIGHTINGS, write_calibration
+from ._persistence import calibration_dict, wrapper_from_file
 
 __all__ = ["ConformalIntervalInpainter", "SIGNALS", "WEIGHTINGS", "weighted_quantiles"]
-
-#: Offsets (metres) that keep the logs finite where the residual or the spread is 0.
-_RESIDUAL_FLOOR, _SPREAD_FLOOR, _DEPTH_FLOOR = 0.05, 0.1, 1.0
-
-
-def _features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second: np.ndarray | None) -> np.ndarray:
-    """``(n_hole_pixels, 1 + len(signals))`` design matrix of the hole pixels (intercept first)."""
-    cols = [np.ones(int(hole.sum()))]
-    for s in signals:
-        if s == "border":
-            cols.append(np.log1p(border_distance(hole)[hole].astype(np.float64)))
-        elif s == "depth":
-            cols.append(np.log(np.maximum(pred[hole].astype(np.float64), _DEPTH_FLOOR)))
-        else:  # spread
-            cols.append(np.log(np.abs(pred[hole].astype(np.float64) - second[hole]) + _SPREAD_FLOOR))
-    return np.stack(cols, axis=1)
-
-
-def weighted_quantiles(values: np.ndarray, weights: np.ndarray, levels: Sequence[float]) -> np.ndarray:
-    """The smallest ``v`` of ``values`` whose weighted share at or below it reaches each level.
-
-    With equal weights this is ``np.quantile(values, levels, method="inverted_cdf")``.
-    """
-    order = np.argsort(values)  # ties need no stable order: tied values are the same value
-    cdf = np.cumsum(weights[order], dtype=np.float64)
-    cdf /= cdf[-1]
-    # A level hit up to rounding must not step to the next value.
-    idx = np.searchsorted(cdf, np.asarray(levels, dtype=np.float64) - 1e-12, side="left")
-    return values[order[np.minimum(idx, len(order) - 1)]]
-
 
 class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     """Per-pixel intervals around a fitted inpainter, calibrated on drives it never saw.
@@ -302,24 +277,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
 
     def _residuals(self, model: Any, dataset: DepthDataset, signals: tuple[str, ...],
                    second: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The signals (design matrix), absolute residuals and frame number of ``model``'s every scored hole pixel."""
-        feats, resid, frame = [], [], []
-        start = 0
-        for x, gt, hole in iter_scoring_batches(dataset, protocol=self.protocol, seed=int(self.seed)):
-            pred = np.asarray(model.predict(x), dtype=np.float32)
-            other = np.asarray(second.predict(x), dtype=np.float64) if second is not None else None
-            for k in range(len(x)):
-                scored = hole[k] & (gt[k] > 0)
-                if not scored.any():
-                    continue
-                f = _features(signals, pred[k], hole[k], None if other is None else other[k])
-                feats.append(f[scored[hole[k]]])
-                resid.append(np.abs(gt[k][scored].astype(np.float64) - pred[k][scored]))
-                frame.append(np.full(resid[-1].size, start + k, dtype=np.int64))
-            start += len(x)
-        if not resid:
-            raise InvalidInputError("no calibration frame has ground truth inside its holes; nothing to calibrate on")
-        return np.concatenate(feats), np.concatenate(resid), np.concatenate(frame)
+        """The signals (design matrix), absolute residuals and frame number of ``model``'s every scored pixel."""
+        return scored_residuals(model, dataset, signals, second, self.protocol, int(self.seed))
 
     def _calibrate(self, F: np.ndarray, r: np.ndarray, frame: np.ndarray, dataset: DepthDataset | None,
                    drives: list[str], signals: tuple[str, ...], n_frames: int | None = None) -> ConformalIntervalInpainter:
@@ -328,19 +287,11 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             raise InvalidInputError(f"spread is the same at every calibration pixel: spread_method="
                                     f"{self.spread_method!r} fills as the base does; choose another (e.g. 'nearest') "
                                     "or leave 'spread' out of signals")
-        self.coef_ = self._fit_scale(F, r)
+        self.coef_ = fit_scale(F, r, int(self.seed), self.max_fit_pixels)
         normed = r / self._scale_from(F)
         self.n_calibration_pixels_ = int(r.size)
-        levels = np.linspace(0.0, 1.0, N_LEVELS)
-        if self.weighting == "pixel":
-            ordered = np.sort(normed)  # one sort for both: np.quantile(..., method="higher") reads these indices
-            self.residual_quantiles_ = ordered[np.ceil(levels * (ordered.size - 1)).astype(np.int64)]
-            self.quantile_ = self._exact_quantile(ordered, float(self.coverage))
-        else:
-            self._check_enough_pixels(normed.size, float(self.coverage))  # refused as the pixel weighting is
-            per_frame = np.bincount(frame)  # frame numbers are small non-negative integers
-            found = weighted_quantiles(normed, 1.0 / per_frame[frame], np.append(levels, float(self.coverage)))
-            self.residual_quantiles_, self.quantile_ = found[:-1], max(float(found[-1]), 1e-6)
+        self.residual_quantiles_, self.quantile_ = residual_quantiles(normed, frame, self.weighting,
+                                                                      float(self.coverage))
         self.calibration_ = {
             "drives": drives, "n_frames": len(dataset) if dataset is not None else int(n_frames or 0),
             "n_pixels": int(r.size), "coverage": float(self.coverage),
@@ -365,29 +316,12 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
                                     "drives the base never saw) or a dataset whose frames carry them (KittiDepth)")
         return dataset
 
-    def _fit_scale(self, F: np.ndarray, r: np.ndarray) -> np.ndarray:
-        rng = np.random.default_rng(int(self.seed))
-        take = rng.choice(len(r), self.max_fit_pixels, replace=False) if len(r) > self.max_fit_pixels else slice(None)
-        coef, *_ = np.linalg.lstsq(F[take], np.log(r[take] + _RESIDUAL_FLOOR), rcond=None)
-        return coef
+    #: The split-conformal quantile of sorted normalised residuals at a coverage.
+    _exact_quantile = staticmethod(exact_quantile)
 
     def _scale_from(self, F: np.ndarray) -> np.ndarray:
-        # Clipped so that one extreme signal never gives a zero or an overflowing width.
-        return np.exp(np.clip(F @ self.coef_, -12.0, 8.0))
-
-    @staticmethod
-    def _check_enough_pixels(n: int, coverage: float) -> int:
-        """The rank ``ceil((n + 1) c)`` of the split-conformal quantile; refused when it exceeds ``n``."""
-        k = math.ceil((n + 1) * coverage)
-        if k > n:
-            raise InvalidInputError(f"{n} calibration pixels are too few for a {coverage:g} interval (needs "
-                                    f"{math.ceil(coverage / (1 - coverage))})")
-        return k
-
-    @classmethod
-    def _exact_quantile(cls, sorted_normed: np.ndarray, coverage: float) -> float:
-        k = cls._check_enough_pixels(sorted_normed.size, coverage)
-        return max(float(sorted_normed[k - 1]), 1e-6)
+        """The calibrated scale (metres) of each row of the design matrix ``F``."""
+        return scale_from(self.coef_, F)
 
     def quantile_at(self, coverage: float | None = None) -> float:
         """The conformal quantile ``q`` of ``coverage`` (the calibrated one by default).
@@ -418,7 +352,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         out = np.zeros(pred.shape, dtype=np.float64)
         for k in range(len(pred)):
             if hole[k].any():
-                F = _features(signals, pred[k], hole[k], None if other is None else other[k])
+                F = features(signals, pred[k], hole[k], None if other is None else other[k])
                 out[k][hole[k]] = self._scale_from(F)
         return out
 
@@ -522,23 +456,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     # -- persistence -------------------------------------------------------------
     def to_dict(self, base: str | None = None) -> dict[str, Any]:
         """The calibration as plain JSON types (see :meth:`save`)."""
-        check_is_fitted(self)
-        cal = self.calibration_
-        if cal["spread_method"] is not None and cal["spread_method"] != self.spread_method:
-            raise InvalidInputError(f"spread_method was set to {self.spread_method!r} after calibrating with "
-                                    f"{cal['spread_method']!r}: fit again")
-        return {
-            "format": _FORMAT, "base": base if base is not None else self.calibration_["base"],
-            "base_class": type(self.estimator).__name__,
-            # What was calibrated, not parameters set since.
-            "params": {"coverage": cal["coverage"], "signals": cal["signals"], "spread_method": self.spread_method,
-                       "protocol": cal["protocol"], "seed": cal["seed"], "max_fit_pixels": int(self.max_fit_pixels),
-                       "weighting": cal.get("weighting", "pixel")},
-            "coef": [float(c) for c in self.coef_], "quantile": self.quantile_,
-            "n_pixels": self.n_calibration_pixels_,
-            "residual_quantiles": [float(v) for v in self.residual_quantiles_],
-            "calibration": copy.deepcopy(self.calibration_),  # a caller editing the dict leaves the wrapper as is
-        }
+        return calibration_dict(self, base)
 
     def save(self, path: str | os.PathLike, base: str | None = None) -> Path:
         """Write the calibration (never the base model) as a small JSON file.
@@ -576,26 +494,4 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             Naming the file and the key, for a file that is not such a calibration, or
             when ``estimator``'s class differs from the one calibrated.
         """
-        path = Path(path)
-        data = read_calibration(path)  # every field checked; one error naming the file and the field
-        if estimator is None:
-            estimator = make_base(data["base"])
-        if type(estimator).__name__ != data["base_class"]:
-            raise InvalidInputError(f"{path}: calibrated for a {data['base_class']}, got a {type(estimator).__name__}")
-        params = data["params"]
-        out = cls(estimator, coverage=params["coverage"], signals=tuple(params["signals"]),
-                  spread_method=params["spread_method"], protocol=params["protocol"], seed=params["seed"],
-                  max_fit_pixels=params["max_fit_pixels"],
-                  # Files written before the frame weighting were calibrated by pixel.
-                  weighting=params.get("weighting", "pixel"))
-        try:
-            out._check_params()
-        except (InvalidInputError, InvalidTypeError, KeyError) as exc:
-            raise InvalidInputError(f"{path}: {exc.args[0] if isinstance(exc, KeyError) else exc}") from None
-        out.coef_ = np.asarray(data["coef"], dtype=np.float64)
-        out.residual_quantiles_ = np.asarray(data["residual_quantiles"], dtype=np.float64)
-        out.quantile_ = float(data["quantile"])
-        out.n_calibration_pixels_ = int(data["n_pixels"])
-        out.calibration_ = copy.deepcopy(data["calibration"])
-        out.calibration_.setdefault("weighting", out.weighting)
-        return out
+        return wrapper_from_file(cls, path, estimator)
