@@ -6,11 +6,11 @@ Parsing only: :func:`inpaintenv.filling.fill` does the work.
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
-from ..exceptions import InvalidInputError
+from ..exceptions import InpaintenvError, InvalidInputError
 from ..registry import DEFAULT_RELEASE, shipped_interval_calibrations
+from .messages import print_line
 from .method_options import check_checkpoint_folder, check_method_names
 from .options import add_common_options
 
@@ -53,8 +53,8 @@ def _size(text: str) -> tuple[int, int]:
 
     try:
         return parse_size(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    except (ValueError, InpaintenvError) as exc:  # a bad size, or more pixels than a frame may have
+        raise argparse.ArgumentTypeError(str(exc).removesuffix("; not read")) from None
 
 
 def add_fill(subparsers: Any) -> None:
@@ -138,7 +138,7 @@ def cmd_fill(args: argparse.Namespace) -> int:
         raise InvalidInputError("--size and --camera describe the camera of --calib; give --calib PATH with them")
 
     def log(line: str) -> None:
-        print(f"inpaintenv fill: {line}", file=sys.stderr, flush=True)
+        print_line(f"inpaintenv fill: {line}")
 
     report = fill(
         args.inputs, args.out, method=method, checkpoint=checkpoint, holes=args.holes, boxes=args.box,
@@ -147,5 +147,5 @@ def cmd_fill(args: argparse.Namespace) -> int:
         batch_size=args.batch_size, progress=not args.quiet, log=log, confidence=args.confidence,
         intervals=args.intervals, fill_all=args.fill_all,
     )
-    print(report.summary(), file=sys.stderr)
+    print_line(report.summary())
     return 0 if report.ok else 1

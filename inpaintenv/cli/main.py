@@ -30,6 +30,7 @@ from .evaluate import add_evaluate
 from .export import add_export
 from .fill import add_fill
 from .info import add_info
+from .messages import print_line
 from .score import add_score
 from .show import add_show
 from .train import add_train
@@ -89,13 +90,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if os.environ.get("INPAINTENV_TRACEBACK"):
             raise
         note = args.on_interrupt(args) if getattr(args, "on_interrupt", None) else "nothing was written"
-        print(f"inpaintenv {args.command}: interrupted; {note}", file=sys.stderr)
+        print_line(f"inpaintenv {args.command}: interrupted; {note}")
         return INTERRUPTED
     except Exception as exc:
         if os.environ.get("INPAINTENV_TRACEBACK") or not is_user_error(exc):
             raise
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-        print(f"inpaintenv {args.command}: error: {msg}", file=sys.stderr)
+        print_line(f"inpaintenv {args.command}: error: {msg}")
         return 1
 
 

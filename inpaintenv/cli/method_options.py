@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import argparse
 import inspect
+import os
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -17,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from ..registry import canonical_name, resolve_class
-from ..exceptions import InvalidInputError
+from ..exceptions import InvalidInputError, UnsafeFileError
+from ..files import describe_kind
 
 __all__ = [
     "BAD_FRAME_CHOICES", "CHECKPOINT_FOLDER", "UNFILLED_CHOICES", "add_bad_frame_option", "add_checkpoint_option",
@@ -117,10 +120,22 @@ def check_checkpoint_folder(path: str | Path, name: str = "--checkpoint") -> Pat
     if not p.is_dir():
         hint = f" (pass its folder {p.parent})" if p.name in ("model.safetensors", "config.json") else ""
         raise InvalidInputError(f"{name}: {p} is a file, not a checkpoint folder{hint}; {CHECKPOINT_FOLDER}")
+    for member in ("model.safetensors", "config.json", "state.json"):
+        _check_member(p / member, name)
     has_model = (p / "model.safetensors").is_file() and (p / "config.json").is_file()
     if not has_model and not (p / "state.json").is_file():
         raise InvalidInputError(f"{name}: {p} is not a checkpoint folder; {CHECKPOINT_FOLDER}")
     return p
+
+
+def _check_member(path: Path, name: str) -> None:
+    """Refuse a file of a checkpoint folder that is there but not a regular file (a FIFO, a device)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return  # missing (or a broken link): the folder's own check names what is missing
+    if not stat.S_ISREG(mode):
+        raise UnsafeFileError(f"{name}: {path} is {describe_kind(mode)}, not a regular file; {CHECKPOINT_FOLDER}")
 
 
 def parse_checkpoints(specs: Sequence[str], taken: Sequence[str] = ()) -> dict[str, Path]:

@@ -53,7 +53,38 @@ def _temporary(folder: Path, suffix: str) -> Path:
     return folder / name
 
 
-def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: str = "") -> Path:
+def _owned_folder(folder: Path, within: Path, what: str) -> None:
+    """Create ``folder`` (inside ``within``) one level at a time; refuse a link or a file on the way.
+
+    Each component between ``within`` and ``folder`` is checked with ``os.lstat``: a
+    symbolic link there (to a folder elsewhere) would take ``what`` out of ``within``.
+    """
+    folder, within = Path(os.path.abspath(folder)), Path(os.path.abspath(within))
+    try:
+        parts = folder.relative_to(within).parts
+    except ValueError:
+        raise ValueError(f"{what}: {folder} is not inside {within}") from None
+    within.mkdir(parents=True, exist_ok=True)
+    current = within
+    for part in parts:
+        current = current / part
+        try:
+            mode = os.lstat(current).st_mode
+        except FileNotFoundError:
+            try:
+                os.mkdir(current)
+            except FileExistsError:  # made meanwhile: checked below like any other
+                pass
+            mode = os.lstat(current).st_mode
+        if stat.S_ISLNK(mode):
+            raise UnsafeFileError(f"cannot write {what}: {current} is a symbolic link inside {within}, the folder "
+                                  "this command owns; nothing is written through a link")
+        if not stat.S_ISDIR(mode):
+            raise NotADirectoryError(errno.ENOTDIR, f"{current} is {describe_kind(mode)}, not a folder")
+
+
+def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: str = "", *,
+                 within: str | os.PathLike | None = None) -> Path:
     """Call ``write(tmp)`` on a fresh temporary file beside ``path``, fsync it, rename it to ``path``.
 
     Parameters
@@ -67,6 +98,10 @@ def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: st
         matplotlib does, choose the same).
     what : str
         What the file is, for messages.
+    within : path-like, optional
+        The folder the command owns (e.g. ``--out``), which ``path`` lies in: no folder
+        between it and ``path`` may be a symbolic link (one planted there would take the
+        file elsewhere); missing folders are created without following one.
 
     Returns
     -------
@@ -75,11 +110,17 @@ def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: st
 
     Raises
     ------
+    UnsafeFileError
+        A folder between ``within`` and ``path`` is a symbolic link; nothing is written.
     OSError
         The cause (e.g. no space left on device) with ``path`` named; ``path`` is unchanged.
+    ValueError
+        ``path`` does not lie inside ``within``.
     """
     path = Path(path)
     try:
+        if within is not None:
+            _owned_folder(path.parent, Path(within), f"{what + ' ' if what else ''}{path}")
         path.parent.mkdir(parents=True, exist_ok=True)
         if path.is_dir() and not path.is_symlink():
             raise IsADirectoryError(errno.EISDIR, "it is a folder")
@@ -102,14 +143,16 @@ def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: st
     return path
 
 
-def write_bytes_atomic(path: str | os.PathLike, data: bytes, what: str = "") -> Path:
+def write_bytes_atomic(path: str | os.PathLike, data: bytes, what: str = "", *,
+                       within: str | os.PathLike | None = None) -> Path:
     """Write ``data`` to ``path`` whole or not at all (see :func:`write_atomic`)."""
-    return write_atomic(path, lambda tmp: tmp.write_bytes(data), what)
+    return write_atomic(path, lambda tmp: tmp.write_bytes(data), what, within=within)
 
 
-def write_text_atomic(path: str | os.PathLike, text: str, what: str = "") -> Path:
+def write_text_atomic(path: str | os.PathLike, text: str, what: str = "", *,
+                      within: str | os.PathLike | None = None) -> Path:
     """Write ``text`` (UTF-8) to ``path`` whole or not at all (see :func:`write_atomic`)."""
-    return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"), what)
+    return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"), what, within=within)
 
 
 def _open_owned(path: Path, flags: int, what: str) -> int:
@@ -178,11 +221,37 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_temporaries(folder: str | os.PathLike) -> list[Path]:
+def _through_link(folder: Path, within: Path) -> bool:
+    """Whether a component of ``folder`` below ``within`` is a symbolic link (or ``folder`` is not inside it)."""
+    folder, within = Path(os.path.abspath(folder)), Path(os.path.abspath(within))
+    try:
+        parts = folder.relative_to(within).parts
+    except ValueError:
+        return True
+    current = within
+    for part in parts:
+        current = current / part
+        try:
+            if stat.S_ISLNK(os.lstat(current).st_mode):
+                return True
+        except OSError:
+            return False  # missing: nothing to remove there
+    return False
+
+
+def remove_stale_temporaries(folder: str | os.PathLike, within: str | os.PathLike | None = None) -> list[Path]:
     """Remove the temporary files of :func:`write_atomic` in ``folder`` whose writer is no longer running.
 
     Only regular files named ``.inpaintenv-tmp-<pid>-...`` of a process that has ended
     are removed (a kill -9 mid-write leaves one); nothing else is touched.
+
+    Parameters
+    ----------
+    folder : path-like
+        The folder to clear.
+    within : path-like, optional
+        The folder the command owns: nothing is removed when ``folder`` is reached from
+        it through a symbolic link (or lies outside it).
 
     Returns
     -------
@@ -190,6 +259,8 @@ def remove_stale_temporaries(folder: str | os.PathLike) -> list[Path]:
         The files removed.
     """
     removed: list[Path] = []
+    if within is not None and _through_link(Path(folder), Path(within)):
+        return removed
     try:
         entries = list(os.scandir(folder))
     except OSError:

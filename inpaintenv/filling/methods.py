@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -11,6 +10,7 @@ import numpy as np
 
 from ..conventions import DEPTH_LIMIT, as_depth_array, check_depth
 from ..exceptions import InvalidInputError, InvalidTypeError
+from ..files import open_regular
 from ..method_calls import MethodOutputError, method_name, run_method
 from ..method_intervals import IntervalSource
 
@@ -166,8 +166,7 @@ def interval_method(method: Any, name: str, intervals: str | os.PathLike | None,
     from ..registry import make_method as make
 
     if intervals is not None:
-        if not Path(intervals).is_file():
-            raise FileNotFoundError(f"--intervals {intervals}: no such calibration file")
+        os.close(open_regular(intervals, "--intervals calibration file"))  # a FIFO is named, never waited on
         method = make("intervals", path=intervals, estimator=method)
         name = f"{name}+intervals"
     source = interval_source(method, coverage, name)

@@ -52,6 +52,11 @@ class FillJob:
         return (*self.outputs, *(p for pair in self.intervals for p in pair))
 
     @property
+    def out(self) -> Path:
+        """The output folder the job writes into (each output is ``out / rel`` with its suffix)."""
+        return self.outputs[0].parents[len(self.rel.parts) - 1]
+
+    @property
     def is_scan(self) -> bool:
         """Whether the input is a LiDAR scan (``.bin``)."""
         return self.source.suffix.lower() == SCAN_SUFFIX

@@ -177,7 +177,7 @@ def _todo(jobs: list[FillJob], run: _Run, recipe: dict[str, Any], overwrite: boo
     """The jobs to run (their ledger records kept in ``run``); the others skipped (done) or failed (outputs
     there that are not theirs)."""
     assert run.ledger is not None
-    todo, folders = [], set()
+    todo, folders = [], {}
     for job in jobs:
         record = run.ledger.new_record(job, {**recipe, **run.reader.identity(job)})
         if not overwrite:
@@ -190,9 +190,9 @@ def _todo(jobs: list[FillJob], run: _Run, recipe: dict[str, Any], overwrite: boo
                 continue
         todo.append(job)
         run.records[job] = record
-        folders.update(o.parent for o in job.all_outputs)
-    for folder in folders:  # what a killed run of this --out left half written
-        remove_stale_temporaries(folder)
+        folders.update((o.parent, job.out) for o in job.all_outputs)
+    for folder, out in folders.items():  # what a killed run of this --out left half written
+        remove_stale_temporaries(folder, within=out)
     return todo
 
 

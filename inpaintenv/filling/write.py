@@ -2,11 +2,12 @@
 
 Every file goes through :func:`inpaintenv.files.write_atomic` (an exclusive, unpredictable
 temporary name in the target's folder, renamed over the target; never written through a
-link). The interval files follow one encoding in both formats (docs/fill.md): at a filled
-pixel ``low`` is at least :data:`LOW_FLOOR` and ``high`` at most the PNG limit, so 0 always
-means "no interval here" (a pixel neither measured nor filled), as 0 means "no measurement"
-in the depth file; a PNG rounds ``low`` down and ``high`` up to its 1/256 m grid, so each
-stays a bound of the depth stored beside it.
+link, nor into a folder of ``--out`` that is one: ``within=``). The interval files follow
+one encoding in both formats (docs/fill.md): at a filled pixel ``low`` is at least
+:data:`LOW_FLOOR` and ``high`` at most the PNG limit, so 0 always means "no interval here"
+(a pixel neither measured nor filled), as 0 means "no measurement" in the depth file; a
+PNG rounds ``low`` down and ``high`` up to its 1/256 m grid, so each stays a bound of the
+depth stored beside it.
 """
 
 from __future__ import annotations
@@ -81,14 +82,17 @@ def write_outputs(item: Item, arrays: tuple[np.ndarray, ...], calibration: Calla
     for pair in item.job.intervals:
         png = pair[0].suffix.lower() == ".png"
         for path, bound in zip(pair, interval_bounds(arrays[1], arrays[2], item.fill, png)):
-            write_atomic(path, lambda tmp, data=bound: write_depth_file(tmp, data), "interval file")
+            write_atomic(path, lambda tmp, data=bound: write_depth_file(tmp, data), "interval file",
+                         within=item.job.out)
     for path in item.job.outputs:
         suffix = path.suffix.lower()
         if suffix in (".png", ".npy"):
             data = _depth_data(filled, item.fill, suffix == ".png")
-            write_atomic(path, lambda tmp, data=data: write_depth_file(tmp, data), "filled depth file")
+            write_atomic(path, lambda tmp, data=data: write_depth_file(tmp, data), "filled depth file",
+                         within=item.job.out)
         else:
             new = depth_to_points(filled, calibration(), mask=item.fill)
             pts = np.vstack([item.points, np.hstack([new, np.zeros((len(new), 1))]).astype(np.float32)])
             writer = write_points_bin if suffix == ".bin" else write_points_ply
-            write_atomic(path, lambda tmp, pts=pts, writer=writer: writer(tmp, pts), "point file")
+            write_atomic(path, lambda tmp, pts=pts, writer=writer: writer(tmp, pts), "point file",
+                         within=item.job.out)

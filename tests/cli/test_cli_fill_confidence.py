@@ -106,7 +106,7 @@ def test_an_estimator_with_its_own_interval_and_resume(calibration, tmp_path):
     (["--confidence", "-m", "harmonic"], "method 'harmonic' has none: give --intervals CAL.json"),
     (["--intervals", "CAL", "-m", "scanline"], "give --confidence too"),
     (["--confidence", "1.5", "--intervals", "CAL", "-m", "scanline"], "confidence"),
-    (["--confidence", "--intervals", "NOFILE", "-m", "scanline"], "no such calibration file"),
+    (["--confidence", "--intervals", "NOFILE", "-m", "scanline"], "calibration file not found"),
     (["--confidence", "--intervals", "CAL", "-m", "harmonic"], "calibrated for a ScanlineInpainter"),
 ])
 def test_bad_confidence_options_are_one_line(calibration, tmp_path, capsys, args, message):

@@ -236,3 +236,54 @@ def test_outputs_of_another_method_or_input_are_refused_naming_what_differs(tmp_
     assert run(str(tmp_path / "a.npy"), "-m", "scanline", "--out", out) == 1  # the boxes are part of what made it
     assert 'with boxes [[0, 0, 4, 4]] (now [])' in capsys.readouterr().err
     assert (tmp_path / "out" / LEDGER).is_file()
+
+
+def test_a_folder_of_out_that_links_elsewhere_is_refused_in_one_line_and_the_run_goes_on(tmp_path, capsys):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    for sub in ("sub", "ok"):
+        (tmp_path / "in" / sub).mkdir(parents=True)
+        np.save(tmp_path / "in" / sub / "a.npy", holed())
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "sub").symlink_to(elsewhere, target_is_directory=True)
+    assert run(str(tmp_path / "in"), "-m", "scanline", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and f"{tmp_path / 'out' / 'sub'} is a symbolic link" in err[0], err
+    assert err[1] == "fill: 1 written, 0 skipped, 1 failed"
+    assert list(elsewhere.iterdir()) == [] and (tmp_path / "out" / "ok" / "a.png").is_file()
+
+
+def test_size_past_the_frame_limit_is_a_usage_error_naming_the_limit(tmp_path, capsys):
+    from inpaintenv.files import MAX_FRAME_PIXELS
+
+    with pytest.raises(SystemExit) as info:
+        run(str(tmp_path / "s.bin"), "--calib", str(tmp_path), "--size", "32768x32768", "--out", str(tmp_path / "o"))
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and f"{MAX_FRAME_PIXELS:,}" in err and "Traceback" not in err
+
+
+def test_a_checkpoint_folder_with_a_fifo_config_names_the_fifo(tmp_path, capsys):
+    (tmp_path / "model").mkdir()
+    (tmp_path / "model" / "model.safetensors").write_bytes(b"")
+    os.mkfifo(tmp_path / "model" / "config.json")
+    np.save(tmp_path / "a.npy", holed())
+    assert run(str(tmp_path / "a.npy"), "--checkpoint", str(tmp_path / "model"), "--out", str(tmp_path / "o")) == 1
+    err = capsys.readouterr().err
+    assert "config.json is a FIFO (named pipe), not a regular file" in err and len(err.strip().splitlines()) == 1
+
+
+def test_messages_naming_a_file_that_is_not_utf8_print_on_a_strict_stream(tmp_path):
+    bad = os.fsencode(tmp_path) + b"/caf\xe9.png"
+    with open(bad, "wb") as f:
+        f.write(b"not a png")
+    # A strict ASCII stderr, as an embedding program or a capture sets it (Python's own escapes for stderr).
+    script = ("import io, sys; from inpaintenv.cli import main; "
+              "sys.stderr = io.TextIOWrapper(sys.stderr.buffer, encoding='ascii', errors='strict'); "
+              "sys.exit(main(sys.argv[1:]))")
+    args = [os.fsdecode(bad), "-m", "scanline", "-q", "--out", str(tmp_path / "out")]
+    for more in ([], ["--holes", os.fsdecode(os.fsencode(tmp_path) + b"/mask\xe9.png")]):
+        done = subprocess.run([sys.executable, "-c", script, "fill", *args, *more], capture_output=True,
+                              env={**os.environ, "PYTHONIOENCODING": "ascii"}, timeout=120)
+        err = done.stderr.decode("ascii")
+        assert done.returncode == 1 and "Traceback" not in err, err
+        assert "\\udce9.png" in err.splitlines()[0], err

@@ -115,6 +115,33 @@ def test_stale_temporaries_of_a_dead_writer_are_removed_and_nothing_else(tmp_pat
     assert live.exists() and mine.exists()
 
 
+def test_a_folder_link_inside_the_owned_folder_is_never_written_through(tmp_path):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    out = tmp_path / "out"
+    (out / "a").mkdir(parents=True)
+    (out / "a" / "sub").symlink_to(elsewhere, target_is_directory=True)
+    with pytest.raises(UnsafeFileError, match=r"out/a/sub is a symbolic link"):
+        files.write_bytes_atomic(out / "a" / "sub" / "deep" / "x.png", b"1", "depth file", within=out)
+    assert list(elsewhere.iterdir()) == []  # nothing made there, not even a folder
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    stale = elsewhere / f"{files.TEMP_PREFIX}{int(dead.stdout)}-abcd.png"
+    stale.write_bytes(b"not ours to remove")
+    assert files.remove_stale_temporaries(out / "a" / "sub", within=out) == []
+    # Missing folders are made inside; a folder given as the owned root itself may be a link (the user's choice).
+    files.write_bytes_atomic(out / "b" / "c" / "x.png", b"2", within=out)
+    assert (out / "b" / "c" / "x.png").read_bytes() == b"2"
+    (tmp_path / "link_out").symlink_to(out, target_is_directory=True)
+    files.write_bytes_atomic(tmp_path / "link_out" / "y.png", b"3", within=tmp_path / "link_out")
+    assert (out / "y.png").read_bytes() == b"3"
+    (out / "file").write_bytes(b"")
+    with pytest.raises(NotADirectoryError, match="not a folder"):
+        files.write_bytes_atomic(out / "file" / "z.png", b"4", within=out)
+    with pytest.raises(ValueError, match="not inside"):
+        files.write_bytes_atomic(tmp_path / "z.png", b"5", within=out)
+    assert stale.exists()
+
+
 def test_frame_size_limit_is_one_place():
     from inpaintenv import conventions
 

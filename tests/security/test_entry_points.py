@@ -413,16 +413,7 @@ CASES: list[Case] = [
 
 #: Cases that still fail, with why and whose fix they wait for: each runs as xfail(strict=True),
 #: so the day it passes the test says to take it out of this set.
-KNOWN_OPEN: dict[str, str] = {
-    "cli:fill:out-folder-link-out": "fill writes through a link to a folder inside --out (out/sub -> a folder "
-                                    "outside): the output lands outside --out, exit 0 (inpaintenv/filling)",
-    "cli:fill:intervals-fifo": "a FIFO given as --intervals is 'no such calibration file' (Path.is_file() in "
-                               "inpaintenv/filling/methods.py; issue 50 item 21)",
-    "cli:fill:checkpoint-config-fifo": "a model folder whose config.json is a FIFO is 'not a checkpoint folder' "
-                                       "(is_file() in inpaintenv/cli/method_options.py; issue 50 item 21)",
-    "cli:fill:size-huge": "--size 32768x32768: its argparse type raises FileTooLargeError, which argparse does not "
-                          "turn into a usage error, before main's handler: a traceback (inpaintenv/cli/fill.py)",
-}
+KNOWN_OPEN: dict[str, str] = {}
 
 
 def _params() -> list[Any]:
