@@ -37,6 +37,7 @@ __all__ = [
     "depth_from_uint16",
     "encode_png",
     "load_array",
+    "parse_png_header",
     "png_header",
     "read_depth_png",
     "read_depth_png_raw",
@@ -75,8 +76,8 @@ class PngHeader:
     color_type: int  # 0 = greyscale, 2 = RGB, 3 = palette, 4 = grey+alpha, 6 = RGBA
 
 
-def _parse_header(head: bytes, path: Path) -> PngHeader:
-    """The IHDR fields of the first :data:`_HEADER_BYTES` bytes of a file, or a DepthFormatError."""
+def parse_png_header(head: bytes, path: str | os.PathLike) -> PngHeader:
+    """The IHDR fields of the first :data:`_HEADER_BYTES` bytes of a file (``path`` names it), or a DepthFormatError."""
     if head[:8] != _PNG_SIGNATURE:
         other = next((name for magic, name in _OTHER_FORMATS.items() if head.startswith(magic)), None)
         if other is not None:
@@ -101,7 +102,7 @@ def png_header(path: str | os.PathLike) -> PngHeader:
     """
     path = Path(path)
     head, _ = read_head(path, _HEADER_BYTES, "depth PNG")
-    return _parse_header(head, path)
+    return parse_png_header(head, path)
 
 
 def check_depth_header(path: str | os.PathLike, header: PngHeader) -> None:
@@ -194,10 +195,10 @@ def _read_png_file(
     read errors name the path and the cause.
     """
     head, _ = read_head(path, _HEADER_BYTES, what)
-    header = _parse_header(head, path)
+    header = parse_png_header(head, path)
     check_header(path, header)
     data = read_bytes(path, what, limit=max_bytes(header))
-    if _parse_header(data[:_HEADER_BYTES], path) != header:
+    if parse_png_header(data[:_HEADER_BYTES], path) != header:
         raise DepthFormatError(f"{path} changed while it was read; not decoded")
     return header, data
 
@@ -214,7 +215,7 @@ def decode_depth_png(data: bytes, name: str | os.PathLike, header: PngHeader | N
         As :func:`read_depth_png`, naming ``name``.
     """
     if header is None:
-        header = _parse_header(data[:_HEADER_BYTES], Path(name))
+        header = parse_png_header(data[:_HEADER_BYTES], Path(name))
         check_depth_header(name, header)
     raw = _imdecode(data, name)
     if raw.ndim != 2:

@@ -17,14 +17,14 @@ import hashlib
 import os
 import re
 import stat
-import struct
 from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ..exceptions import FileTooLargeError, UnsafeFileError
+from ..data.io import parse_png_header
+from ..exceptions import DepthFormatError, FileTooLargeError, UnsafeFileError
 from ..files import MAX_FRAME_PIXELS, open_regular, read_bytes  # a manifest may declare no larger frame than a depth PNG may
 
 __all__ = [
@@ -43,7 +43,6 @@ DEPTH_ENCODING = "16-bit single-channel PNG, metres = value / 256, 0 = hole or n
 HOLE_ENCODING = f"8-bit single-channel PNG, {HOLE_VALUE} = hole (pixels to fill), 0 = not"
 
 _SAFE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def _slug(text: str) -> str:
@@ -162,16 +161,19 @@ def read_inside(folder: Path, rel: str, limit: int) -> bytes:
         raise UnsafeFileError(f"{rel} lies outside {folder} through a linked folder (only files inside it are read)")
     try:  # no link followed, no FIFO waited on, the size checked before anything is read
         return read_bytes(path, "prediction", limit=limit, follow_links=False)
-    except FileTooLargeError as exc:
-        raise UnsafeFileError(str(exc)) from None
+    except FileTooLargeError:
+        size = os.lstat(path).st_size
+        raise UnsafeFileError(f"prediction {path} is {size:,} bytes, more than the {limit:,} a 16-bit PNG of the frame "
+                              "can need; not read") from None
 
 
 def png_declared_size(data: bytes) -> tuple[int, int] | None:
     """``(height, width)`` a PNG's header declares, or None if ``data`` does not begin with a PNG header."""
-    if len(data) < 24 or data[:8] != _PNG_SIGNATURE or data[12:16] != b"IHDR":
+    try:
+        header = parse_png_header(data[:64], "prediction")
+    except DepthFormatError:
         return None
-    width, height = struct.unpack(">II", data[16:24])
-    return height, width
+    return header.height, header.width
 
 
 def decode_prediction(data: bytes, name: str, shape: tuple[int, int]) -> np.ndarray | str:

@@ -116,7 +116,7 @@ def spoil(kind, predictions, manifest, size):
     if kind == "fifo":
         target.unlink()
         os.mkfifo(target)
-        return "is not a regular file"
+        return "not a regular file"
     raise AssertionError(kind)
 
 
