@@ -98,6 +98,11 @@ def add_fill(subparsers: Any) -> None:
     which.add_argument("--method", "-m", default="pretrained", metavar="NAME",
                        help="method name (default pretrained); see `inpaintenv info` for the list")
     which.add_argument("--checkpoint", metavar="PATH", help="a saved model's folder instead of --method")
+    o.add_argument("--input", choices=["auto", "scan", "map"],
+                   help="what the inputs are, for a method that fills each kind its own way (pretrained: a single "
+                        "LiDAR scan with harmonic-ipbasic, a map with holes with the map release): auto (its "
+                        "default) tells each input's kind from its measured density; the output line says which "
+                        "method filled what")
     c = p.add_argument_group("per-pixel confidence")
     c.add_argument("--confidence", type=float, nargs="?", const=0.9, metavar="COVERAGE",
                    help="also write an interval of this nominal coverage beside each depth file, <name>_low and "
@@ -145,7 +150,7 @@ def cmd_fill(args: argparse.Namespace) -> int:
         missing=args.missing, calibration=args.calib, size=args.size, camera=args.camera, format=args.format,
         points=args.points, overwrite=args.overwrite, on_error=args.on_error, n_jobs=args.jobs,
         batch_size=args.batch_size, progress=not args.quiet, log=log, confidence=args.confidence,
-        intervals=args.intervals, fill_all=args.fill_all,
+        intervals=args.intervals, fill_all=args.fill_all, input=args.input,
     )
     print_line(report.summary())
     return 0 if report.ok else 1

@@ -9,12 +9,18 @@ from typing import Any
 import numpy as np
 
 from ..conventions import DEPTH_LIMIT, as_depth_array, check_depth
+from ..data.inputs import INPUT_KINDS
 from ..exceptions import InvalidInputError, InvalidTypeError
 from ..files import open_regular
 from ..method_calls import MethodOutputError, method_name, run_method
 from ..method_intervals import IntervalSource
 
-__all__ = ["fill_batch", "fill_depth", "interval_method", "make_method", "shipped_interval_name"]
+__all__ = [
+    "INPUT_CHOICES", "fill_batch", "fill_depth", "interval_method", "make_method", "router", "shipped_interval_name",
+]
+
+#: Values of ``input``: each frame's kind told from its measured density, or every frame of one kind.
+INPUT_CHOICES = ("auto", *INPUT_KINDS)
 
 
 def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -> np.ndarray:
@@ -114,8 +120,12 @@ def _unfilled_message(name: str, unfilled: int, fill: np.ndarray, depth: np.ndar
             f"e.g. --method {other}")
 
 
-def make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any, str]:
-    """The method of a run and its name: a registry name, a checkpoint folder, or an estimator as given."""
+def make_method(method: Any, checkpoint: Any, n_jobs: int | None, input: str | None = None) -> tuple[Any, str]:
+    """The method of a run and its name: a registry name, a checkpoint folder, or an estimator as given.
+
+    ``input`` (``"auto"``, ``"scan"``, ``"map"``) is set as the ``input`` parameter of a method
+    that routes by input kind (``pretrained``); any other method refuses it.
+    """
     from ..registry import canonical_name
     from ..registry import make_method as make
 
@@ -130,7 +140,32 @@ def make_method(method: Any, checkpoint: Any, n_jobs: int | None) -> tuple[Any, 
             raise InvalidInputError(f"--jobs applies to methods that take n_jobs (the classical ones); "
                                     f"{method_name(method)} does not")
         method.set_params(n_jobs=n_jobs)
+    if input is not None:
+        _set_input(method, name, input)
     return method, name
+
+
+def _set_input(method: Any, name: str, input: str) -> None:
+    """Set ``input`` on ``method`` (or the estimator an interval wrapper holds), or refuse in one line."""
+    if input not in INPUT_CHOICES:
+        raise InvalidInputError(f"input (--input) must be one of {', '.join(INPUT_CHOICES)}, got {input!r}")
+    for target in (method, getattr(method, "estimator", None)):
+        params = target.get_params(deep=False) if hasattr(target, "get_params") else {}
+        if "input" in params:
+            target.set_params(input=input)
+            return
+    raise InvalidInputError(f"--input applies to a method that fills each input kind its own way (pretrained); "
+                            f"{name} fills every input alike: leave --input out")
+
+
+def router(method: Any) -> Any:
+    """The estimator that routes each frame by its input kind (has ``routed_to_`` after a predict): ``method``
+    itself, or the estimator an interval wrapper holds; None for any other method."""
+    for target in (method, getattr(method, "estimator", None)):
+        if target is not None and hasattr(target, "scan_name") and hasattr(target, "map_name") \
+                and callable(getattr(target, "choose", None)):
+            return target
+    return None
 
 
 def shipped_interval_name(method: Any) -> Any:

@@ -64,12 +64,19 @@ class FillJob:
 
 @dataclass
 class FillReport:
-    """What a :func:`~inpaintenv.filling.fill` run did: inputs written, skipped (outputs existed) and failed (with why)."""
+    """What a :func:`~inpaintenv.filling.fill` run did: inputs written, skipped (outputs existed) and failed (with why).
+
+    ``routes`` counts, for a method that fills each input kind its own way (``pretrained``),
+    the inputs written per ``(kind, method that filled it)``, e.g. ``("scan", "harmonic-ipbasic")``;
+    ``method`` is the run's method name.
+    """
 
     written: list[Path] = field(default_factory=list)
     skipped: list[Path] = field(default_factory=list)
     failed: list[tuple[Path, str]] = field(default_factory=list)
     ignored: list[Path] = field(default_factory=list)
+    routes: dict[tuple[str, str], int] = field(default_factory=dict)
+    method: str = ""
 
     @property
     def ok(self) -> bool:
@@ -77,9 +84,13 @@ class FillReport:
         return not self.failed
 
     def summary(self) -> str:
-        """``fill: 12 written, 3 skipped (outputs exist; overwrite to redo), 1 failed``."""
+        """``fill: 12 written, 3 skipped (outputs exist; overwrite to redo), 1 failed``, then what filled what
+        (``; pretrained filled 12 as scans with harmonic-ipbasic``) for a method routed by input kind."""
         skipped = f"{len(self.skipped)} skipped" + (" (outputs exist; --overwrite to redo them)" if self.skipped else "")
         line = f"fill: {len(self.written)} written, {skipped}, {len(self.failed)} failed"
+        if self.routes:  # which method filled which kind of input: a scan and a map are filled differently
+            routes = ", ".join(f"{n} as {kind}s with {name}" for (kind, name), n in self.routes.items())
+            line += f"; {self.method} filled {routes}"
         if self.ignored:
             line += (f"; {count(len(self.ignored), 'file')} of other kinds left alone (e.g. {self.ignored[0]}); "
                      f"read are {', '.join((*DEPTH_SUFFIXES, SCAN_SUFFIX))}")

@@ -119,6 +119,7 @@ class Item:
     fill: np.ndarray | None = None
     points: np.ndarray | None = None
     error: str | None = None
+    route: tuple[str, str] | None = None  # (input kind, method) for a method routed by input kind
 
 
 class Reader:

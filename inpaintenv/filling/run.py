@@ -20,7 +20,7 @@ from ..benchmark.lock import run_lock
 from ..files import remove_stale_temporaries
 from ..report.progress import FrameProgress
 from .ledger import Ledger, file_identity
-from .methods import fill_batch, interval_method, make_method, shipped_interval_name
+from .methods import INPUT_CHOICES, fill_batch, interval_method, make_method, router, shipped_interval_name
 from .plan import FillJob, FillReport, plan
 from .read import Holes, Item, Reader, check_box, message
 from .write import write_outputs
@@ -41,6 +41,7 @@ class _Run:
 
     def set_method(self, method: Any, name: str, interval: IntervalSource | None = None) -> None:
         self.method, self.name, self.interval = method, name, interval
+        self.report.method = name
 
     def write(self, item: Item, arrays: tuple[np.ndarray, ...]) -> None:
         """Write every output of one filled input (in the writer thread)."""
@@ -58,11 +59,15 @@ class _Run:
     def predict(self, batch: list[Item]) -> list[tuple[Item, tuple[np.ndarray, ...] | None]]:
         """Fill a batch of same-sized items: per item the filled map (then, with an interval, its low and
         high); a batch that fails is retried frame by frame to name the bad one."""
+        routed = router(self.method)
+        before = getattr(routed, "routed_to_", None)
         try:
             # In place: the arrays are this run's own, and a batch retried frame by frame sets its fill
             # pixels to NaN again, so what a failed batch wrote there is never read.
             out = fill_batch(self.method, self.name, [i.depth for i in batch], [i.fill for i in batch],
                              copy=False, interval=self.interval)
+            if routed is not None:
+                _note_routes(batch, routed, before)
             step = 1 if self.interval is None else 3
             return [(item, tuple(out[step * k:step * (k + 1)])) for k, item in enumerate(batch)]
         except Exception as exc:  # noqa: BLE001
@@ -72,6 +77,17 @@ class _Run:
                 return [pair for item in batch for pair in self.predict([item])]
             batch[0].error = message(batch[0].job, exc)
             return [(batch[0], None)]
+
+
+def _note_routes(batch: list[Item], routed: Any, before: Any) -> None:
+    """Each item's ``(kind, method)`` from the router's ``routed_to_`` of the call that just filled ``batch``
+    (``before``: its value until then; a batch with nothing to fill made no call)."""
+    names = getattr(routed, "routed_to_", None)
+    filled = [item for item in batch if item.fill is not None and item.fill.any()]
+    if names is None or names is before or len(names) != len(filled):
+        return
+    for item, name in zip(filled, names):
+        item.route = ("scan" if name == routed.scan_name else "map", str(name))
 
 
 def _batches(items: Iterator[Item], size: int) -> Iterator[list[Item]]:
@@ -121,6 +137,8 @@ def _loop(run: _Run, todo: list[FillJob], batch_size: int, progress: bool) -> No
             try:
                 future.result()
                 report.written.append(item.job.source)
+                if item.route is not None:
+                    report.routes[item.route] = report.routes.get(item.route, 0) + 1
             except Exception as exc:  # noqa: BLE001 - e.g. a full disk: one line, the next file may fit
                 if os.environ.get("INPAINTENV_TRACEBACK"):
                     raise
@@ -157,7 +175,8 @@ def _check_options(on_error: str, batch_size: int, confidence: float | None, int
     return None
 
 
-def _recipe(method: Any, checkpoint: Any, confidence: float | None, intervals: Any) -> dict[str, Any]:
+def _recipe(method: Any, checkpoint: Any, confidence: float | None, intervals: Any,
+            input: str | None) -> dict[str, Any]:
     """What makes the pixels of every output of a run, besides its input and holes (for the ledger)."""
     if checkpoint is not None:
         made_by: Any = {"checkpoint": file_identity(checkpoint)}
@@ -170,7 +189,8 @@ def _recipe(method: Any, checkpoint: Any, confidence: float | None, intervals: A
 
         made_by = method_identity(method)
     return {"method": made_by, "confidence": confidence,
-            "intervals": file_identity(intervals) if intervals is not None else None}
+            "intervals": file_identity(intervals) if intervals is not None else None,
+            **({"input": input} if input not in (None, "auto") else {})}
 
 
 def _todo(jobs: list[FillJob], run: _Run, recipe: dict[str, Any], overwrite: bool) -> list[FillJob]:
@@ -197,11 +217,11 @@ def _todo(jobs: list[FillJob], run: _Run, recipe: dict[str, Any], overwrite: boo
 
 
 def _method(method: Any, checkpoint: Any, n_jobs: int | None, confidence: float | None,
-            intervals: Any) -> tuple[Any, str, IntervalSource | None]:
+            intervals: Any, input: str | None) -> tuple[Any, str, IntervalSource | None]:
     """The method of a run, its name and (with ``confidence``) its interval source."""
     if confidence is not None and checkpoint is None and intervals is None:
         method = shipped_interval_name(method)  # "pretrained" -> "pretrained-intervals": its calibration
-    built, name = make_method(method, checkpoint, n_jobs)
+    built, name = make_method(method, checkpoint, n_jobs, input)
     if confidence is None:
         return built, name, None
     return interval_method(built, name, intervals, confidence)
@@ -215,7 +235,7 @@ def fill(
     camera: int | None = None, format: str = "png", points: str | None = None, overwrite: bool = False,
     on_error: str = "continue", n_jobs: int | None = None, batch_size: int = 4, progress: bool = True,
     log: Callable[[str], None] | None = None, confidence: float | None = None,
-    intervals: str | os.PathLike | None = None, fill_all: bool = False,
+    intervals: str | os.PathLike | None = None, fill_all: bool = False, input: str | None = None,
 ) -> FillReport:
     """Fill depth files and LiDAR scans (files or folders, read recursively) into ``out``.
 
@@ -274,6 +294,11 @@ def fill(
         :meth:`estimators.intervals.ConformalIntervalInpainter.save` to wrap ``method`` in.
     fill_all : bool
         With ``missing``: every pixel without a measurement, the sky included.
+    input : {None, "auto", "scan", "map"}
+        For a method that fills each input kind its own way (``pretrained``: a single LiDAR
+        scan with ``harmonic-ipbasic``, a map with the map release): every input is of this
+        kind, or (``"auto"``, the method's default) each input's kind is told from its measured
+        density. Other methods refuse it. ``FillReport.routes`` says which method filled what.
 
     Returns
     -------
@@ -283,6 +308,8 @@ def fill(
     if fill_all and not missing:
         raise InvalidInputError("fill_all (--fill-all) widens missing (--missing) to every pixel without a "
                                 "measurement; give missing too")
+    if input is not None and input not in INPUT_CHOICES:
+        raise InvalidInputError(f"input (--input) must be one of {', '.join(INPUT_CHOICES)}, got {input!r}")
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     if holes is not None and not Path(holes).exists():
@@ -304,13 +331,13 @@ def fill(
     run = _Run(reader, report, log, on_error == "stop")
     if overwrite or not all(os.path.lexists(o) for j in jobs for o in j.all_outputs):
         # Likely work: the method's errors (a bad name, no interval) come before anything is written to --out.
-        run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals))
+        run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals, input))
     with run_lock(out, log):  # a second run into the same --out is refused in one line
         run.ledger = Ledger(out)
-        todo = _todo(jobs, run, _recipe(method, checkpoint, confidence, intervals), overwrite)
+        todo = _todo(jobs, run, _recipe(method, checkpoint, confidence, intervals, input), overwrite)
         if not todo or (report.failed and run.stop):
             return report
         if run.method is None:  # the outputs were there a moment ago, no longer
-            run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals))
+            run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals, input))
         _loop(run, todo, batch_size, progress)
     return report
