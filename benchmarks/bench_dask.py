@@ -68,7 +68,7 @@ def malloc_trim_effect(kitti_root: str | None, frames: int, repeats: int = 3) ->
 
     code = (
         "import time; from inpaintenv.data import open_source; from inpaintenv.evaluate import evaluate; "
-        "from inpaintenv.registry import make_method; "
+        "from inpaintenv.methods.registry import make_method; "
         f"ds = open_source({kitti_root!r}, split='train', n_frames={frames}); m = make_method('constant'); "
         "evaluate(m, ds, n_frames=1, progress=False); best = float('inf')\n"
         f"for _ in range({repeats}):\n"

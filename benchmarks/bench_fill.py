@@ -36,7 +36,7 @@ from inpaintenv.data.io import write_png
 from inpaintenv.files import write_json
 from inpaintenv.filling import fill
 from inpaintenv.masks import get_protocol
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 
 
 def write_folder(folder: Path, frames: int, kitti_root: str | None) -> tuple[list[np.ndarray], list[np.ndarray]]:

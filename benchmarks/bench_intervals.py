@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
 
     from estimators.intervals import ConformalIntervalInpainter
     from inpaintenv.data import SyntheticStreets
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     base = make_method(args.method)
     cal = SyntheticStreets(n=4, seed=0)

@@ -88,7 +88,7 @@ from inpaintenv.data import SyntheticStreets
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.files import write_json
 from inpaintenv.masks import get_protocol
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 
 PRESET = "study-unet-tv"
 

@@ -20,6 +20,17 @@ in the fold FOLD (``day-2011_09_26``, ..., ``drive-0001``): the only honest way 
 calibrate a learned model, whose calibration drives it must never have seen. It is then
 calibrated on the fold's left-in drives the model's ``training_drives_`` does not name, so
 the model must have been trained with a calibration day left out as well.
+
+``--input scan`` checks a fill of a single LiDAR scan (``--method harmonic-ipbasic``, the scan
+default) on the rebuilt drives' scans: calibrated with ``--protocol`` (``densify-v1`` by default)
+on the other days' rebuilt drives (never on drive 0001, val or val_selection, the official
+frames), then scored on the left-out day under each ``--score-protocol`` (default ``densify-v1``
+and ``rect-v1``: its rectangles cut out of the scan). The scored pixels are every pixel the
+scan leaves to fill (the unmeasured ones, the hole included), so the columns named ``hole``
+are on those pixels. The official frames are scored as a check: drive 0001's and
+val_selection's scans, with the interval calibrated on every rebuilt drive.
+
+    python benchmarks/interval_lodo.py --kitti-root /path/to/kitti --input scan --method harmonic-ipbasic --spread-method harmonic --frames-per-drive 0
 """
 
 from __future__ import annotations
@@ -52,7 +63,39 @@ def standard_error(values: list[float]) -> float:
     return float(v.std(ddof=1) / np.sqrt(v.size)) if v.size > 1 else float("nan")
 
 
-def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> dict[str, Any]:
+def scan_rows(wrapper: Any, test: Any, protocol: str, coverage: float) -> list[dict[str, float]]:
+    """Per frame of a scan dataset: the interval columns and the RMSE on every pixel the scan leaves to fill.
+
+    ``evaluate``'s interval columns read the protocol's hole only (empty under densify-v1);
+    here the scored set is :func:`estimators.base.iter_scoring_batches`' (every NaN pixel
+    of the input), the pixels the interval is calibrated and asked for.
+    """
+    from estimators.base import iter_scoring_batches
+    from inpaintenv.interval_metrics import interval_metrics
+
+    rows = []
+    for x, gt, scored in iter_scoring_batches(test, protocol=protocol, seed=0):
+        pred = np.asarray(wrapper.predict(x), dtype=np.float32)
+        low, high = wrapper.predict_interval(x, coverage, prediction=pred)
+        cols = interval_metrics(pred, gt, scored, low, high)
+        for k in range(len(x)):
+            m = scored[k] & (gt[k] > 0)
+            rmse = float(np.sqrt(np.mean((pred[k][m].astype(np.float64) - gt[k][m]) ** 2))) if m.any() else np.nan
+            rows.append({**{c: float(v[k]) for c, v in cols.items()}, "hole_rmse": rmse})
+    return rows
+
+
+def summary(rows: list[dict[str, float]]) -> dict[str, float]:
+    """The mean over frames of each column, and the standard errors of coverage and cut."""
+    row = {c: float(np.nanmean([r[c] for r in rows])) for c in COLUMNS}
+    row.update({f"{c}_se": standard_error([r[c] for r in rows]) for c in ("hole_coverage", "rmse_cut_80")})
+    # Per frame, then the mean: the same reading as rmse_cut_80 (the benchmark's per-frame column).
+    row["border_cut_80"] = float(np.nanmean([1 - r["border_rmse_keep_80"] / r["hole_rmse"] for r in rows]))
+    return row
+
+
+def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> list[dict[str, Any]]:
+    """Calibrate around ``base`` on ``cal``; one row per scored protocol on ``test``."""
     from estimators.intervals import ConformalIntervalInpainter
     from inpaintenv.evaluate import evaluate
 
@@ -60,15 +103,44 @@ def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> dict[s
     wrapper = ConformalIntervalInpainter(base, coverage=args.coverage, signals=tuple(args.signals),
                                          spread_method=args.spread_method, protocol=args.protocol,
                                          weighting=args.weighting).fit(cal)
-    result = evaluate(wrapper, test, protocol=args.protocol, intervals=args.coverage, progress=False,
-                      name="conformal")
-    row = {c: float(np.nanmean([r[c] for r in result.rows])) for c in COLUMNS}
-    row.update({f"{c}_se": standard_error([r[c] for r in result.rows]) for c in ("hole_coverage", "rmse_cut_80")})
-    # Per frame, then the mean: the same reading as rmse_cut_80 (the benchmark's per-frame column).
-    row["border_cut_80"] = float(np.nanmean([1 - r["border_rmse_keep_80"] / r["hole_rmse"] for r in result.rows]))
-    row.update(n_frames=len(test), n_cal_pixels=wrapper.calibration_["n_pixels"],
-               n_cal_drives=len(wrapper.calibration_["drives"]), seconds=time.perf_counter() - start)
-    return row
+    out = []
+    for protocol in args.score_protocol:
+        if args.input == "scan":
+            rows = scan_rows(wrapper, test, protocol, args.coverage)
+        else:
+            rows = evaluate(wrapper, test, protocol=protocol, intervals=args.coverage, progress=False,
+                            name="conformal").rows
+        row = summary(rows)
+        row.update(protocol=protocol, n_frames=len(test), n_cal_pixels=wrapper.calibration_["n_pixels"],
+                   n_cal_drives=len(wrapper.calibration_["drives"]), seconds=time.perf_counter() - start)
+        out.append(row)
+    return out
+
+
+def scan_folds(dataset: Any, root: str) -> list[tuple[str, list[str], Any, list[str]]]:
+    """``(name, calibration drives, scored source, scored drives)`` on scans: each day of the
+    rebuilt drives left out, then the official frames (drive 0001, val_selection), only scored,
+    with every rebuilt drive calibrating."""
+    from inpaintenv.data import KittiDepth
+
+    drives = sorted({str(g) for g in dataset.groups})
+    rebuilt = [d for d in drives if d != OFFICIAL]
+    out = [(name, cal, dataset, test) for name, cal, test in folds(rebuilt)]
+    if OFFICIAL in drives:
+        out.append(("drive-0001", rebuilt, dataset, [OFFICIAL]))
+    try:
+        selection = KittiDepth(root, split="val_selection", camera="both", input="scan")
+    except (FileNotFoundError, ValueError):
+        return out  # a copy of KITTI without depth_selection/
+    out.append(("val_selection", rebuilt, selection, sorted({str(g) for g in selection.groups})))
+    return out
+
+
+def print_row(row: dict[str, Any]) -> None:
+    print(f"| {row['fold']} | {row['protocol']} | {row['n_frames']} | {row['n_cal_drives']} / {row['n_cal_pixels']} | "
+          f"{row['hole_coverage']:.3f} ± {row['hole_coverage_se']:.3f} | {row['hole_interval_width']:.2f} | "
+          f"{row['hole_rmse']:.2f} | {row['rmse_keep_80']:.2f} ({row['rmse_cut_80']:.1%} ± {row['rmse_cut_80_se']:.1%}) | "
+          f"{row['border_rmse_keep_80']:.2f} ({row['border_cut_80']:.0%}) |", flush=True)
 
 
 def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
@@ -80,7 +152,12 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--spread-method", default="harmonic")
     parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"])
     parser.add_argument("--coverage", type=float, default=0.9)
-    parser.add_argument("--protocol", default="rect-v1", help="masks protocol of calibration and scoring")
+    parser.add_argument("--protocol", help="masks protocol of the calibration (default rect-v1 on maps, densify-v1 "
+                        "on scans)")
+    parser.add_argument("--score-protocol", action="append", default=[],
+                        help="a protocol scored (repeatable; default --protocol on maps, densify-v1 and rect-v1 on scans)")
+    parser.add_argument("--input", choices=("map", "scan"), default="map",
+                        help="the input the method fills: a map with holes, or a single scan (rebuilt drives' scans)")
     parser.add_argument("--weighting", default="frame", choices=("frame", "pixel"),
                         help="how calibration pixels weigh in the quantile (ConformalIntervalInpainter)")
     parser.add_argument("--frames-per-drive", type=int, default=6, help="0 = every frame")
@@ -90,14 +167,20 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.registry import make_method
 
-    dataset = KittiDepth(args.kitti_root, split="train")
-    drives = sorted({str(g) for g in dataset.groups})
+    args.protocol = args.protocol or ("densify-v1" if args.input == "scan" else "rect-v1")
+    args.score_protocol = args.score_protocol or (["densify-v1", "rect-v1"] if args.input == "scan"
+                                                  else [args.protocol])
+    dataset = KittiDepth(args.kitti_root, split="train", input=args.input)
+    if args.input == "scan":
+        sets = scan_folds(dataset, args.kitti_root)
+    else:
+        sets = [(name, cal, dataset, test) for name, cal, test in folds(sorted({str(g) for g in dataset.groups}))]
     checkpoints = dict(c.split("=", 1) for c in args.checkpoint)
     rows = []
-    print("| fold | frames | cal. drives / pixels | coverage ± se | mean width (m) | hole RMSE | keep-80 % RMSE "
-          "(cut ± se) | border keep-80 % (cut) |\n|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| fold | protocol | frames | cal. drives / pixels | coverage ± se | mean width (m) | RMSE | keep-80 % RMSE "
+          "(cut ± se) | border keep-80 % (cut) |\n|---|---|---:|---:|---:|---:|---:|---:|---:|")
     curves = []
-    for name, cal_drives, test_drives in folds(drives):
+    for name, cal_drives, source, test_drives in sets:
         if name in checkpoints:
             from estimators.learned import load  # a saved fold model (torch, the [learned] extra)
 
@@ -113,18 +196,15 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
                              "drives left out too (--exclude-drives)")
         if not test_drives:
             continue
-        row = run_fold(base, spaced_per_drive(dataset, args.frames_per_drive, cal_drives),
-                       spaced_per_drive(dataset, args.frames_per_drive, test_drives), args)
-        row["fold"] = name
-        rows.append(row)
-        print(f"| {name} | {row['n_frames']} | {row['n_cal_drives']} / {row['n_cal_pixels']} | "
-              f"{row['hole_coverage']:.3f} ± {row['hole_coverage_se']:.3f} | {row['hole_interval_width']:.2f} | "
-              f"{row['hole_rmse']:.2f} | {row['rmse_keep_80']:.2f} ({row['rmse_cut_80']:.1%} ± {row['rmse_cut_80_se']:.1%}) | "
-              f"{row['border_rmse_keep_80']:.2f} ({row['border_cut_80']:.0%}) |", flush=True)
-        curves.append(f"| {name} | {row['rmse_keep_90']:.2f} | {row['rmse_keep_80']:.2f} | {row['rmse_keep_50']:.2f} | "
-                      f"{row['hole_rmse']:.2f} | {row['rejection_auc']:.3f} |")
-    print("\nError-rejection curve (hole RMSE when the most confident share is kept; AUC: mean over 5 %, ..., 100 % "
-          "kept ÷ hole RMSE):\n| fold | keep 90 % | keep 80 % | keep 50 % | all | AUC |\n|---|---:|---:|---:|---:|---:|")
+        for row in run_fold(base, spaced_per_drive(dataset, args.frames_per_drive, cal_drives),
+                            spaced_per_drive(source, args.frames_per_drive, test_drives), args):
+            row["fold"] = name
+            rows.append(row)
+            print_row(row)
+            curves.append(f"| {name} | {row['protocol']} | {row['rmse_keep_90']:.2f} | {row['rmse_keep_80']:.2f} | "
+                          f"{row['rmse_keep_50']:.2f} | {row['hole_rmse']:.2f} | {row['rejection_auc']:.3f} |")
+    print("\nError-rejection curve (RMSE when the most confident share is kept; AUC: mean over 5 %, ..., 100 % "
+          "kept ÷ RMSE):\n| fold | protocol | keep 90 % | keep 80 % | keep 50 % | all | AUC |\n|---|---|---:|---:|---:|---:|---:|")
     print("\n".join(curves))
     if args.json:
         from inpaintenv.files import write_json

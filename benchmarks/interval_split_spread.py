@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     from estimators.intervals import WEIGHTINGS, ConformalIntervalInpainter
     from inpaintenv.data import KittiDepth
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     start = time.perf_counter()
     dataset = KittiDepth(args.kitti_root, split="train")

@@ -44,7 +44,7 @@ from inpaintenv.data import read_depth_png
 from inpaintenv.data.kitti import bottom_center_crop
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.metrics import interpolate_background
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 from inpaintenv.report.stats import FEW_FRAMES, bootstrap_ratio_ci
 
 #: The slice's drive of official maps with scans.

@@ -67,7 +67,7 @@ def __getattr__(name: str):
     if name in _NEURAL:
         import importlib
 
-        from inpaintenv.registry import require_learned
+        from inpaintenv.methods.registry import require_learned
 
         require_learned(f"estimators.{name} (a learned model)")
         return getattr(importlib.import_module(f".{_NEURAL[name]}", __name__), name)

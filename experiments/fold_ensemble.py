@@ -26,7 +26,7 @@ from estimators.learned import load_checkpoint
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 from inpaintenv.report.results import EvaluationResult
 
 

@@ -43,7 +43,18 @@ A classical fill (``--release scanline``) saw no drive: it is calibrated the sam
 drive, and ships as ``<name>-intervals``::
 
     python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release scanline --spread-method nearest
+
+``--input scan`` calibrates a fill of a single LiDAR scan on the scans of the rebuilt drives
+(each frame's ``velodyne_raw`` paired with its ground truth; protocol ``densify-v1`` by default:
+every pixel the scan did not measure is scored). Drive 2011_09_26_drive_0001 (official maps), val
+and val_selection are never calibrated on: they are the official frames reported. The scan
+default (``SCAN_DEFAULT``) ships this way::
+
+    python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --input scan --release harmonic-ipbasic --spread-method harmonic --frames-per-drive 0
 """
+
+#: Drive of official maps: reported, never calibrated on, when calibrating on scans.
+OFFICIAL_DRIVE = "2011_09_26_drive_0001_sync"
 
 
 def calibrate_command(argv: list[str] | None = None) -> Path:
@@ -55,17 +66,21 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     parser.add_argument("--frames-per-drive", type=int, default=12, help="0 = every frame")
     parser.add_argument("--spread-method", default="scanline")
     parser.add_argument("--coverage", type=float, default=0.9)
-    parser.add_argument("--protocol", default="rect-v1", help="masks protocol the calibration frames are occluded with")
+    parser.add_argument("--protocol", help="masks protocol the calibration frames are occluded with (default "
+                        "rect-v1 on maps, densify-v1 on scans)")
+    parser.add_argument("--input", choices=("map", "scan"), default="map",
+                        help="the input the release fills: a map with holes, or a single scan (the rebuilt drives' scans)")
     parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
     args = parser.parse_args(argv)
+    args.protocol = args.protocol or ("densify-v1" if args.input == "scan" else "rect-v1")
 
     from estimators.intervals import ConformalIntervalInpainter
     from estimators.learned import load
     from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.registry import make_method
 
-    dataset = KittiDepth(args.kitti_root, split="train")
-    drives = sorted({str(g) for g in dataset.groups})
+    dataset = KittiDepth(args.kitti_root, split="train", input=args.input)
+    drives = sorted({str(g) for g in dataset.groups} - ({OFFICIAL_DRIVE} if args.input == "scan" else set()))
     folds = []
     for entry in args.fold:
         day, _, path = entry.partition("=")

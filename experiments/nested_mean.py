@@ -62,7 +62,7 @@ from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classica
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
 from inpaintenv.files import read_json, write_json
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 from inpaintenv.report.results import EvaluationResult, parse_row
 
 OFFICIAL = "2011_09_26_drive_0001_sync"

@@ -26,7 +26,7 @@ from inpaintenv.data import KittiDepth
 from inpaintenv.data.base import ConcatDataset, Subset, spaced_per_drive
 from inpaintenv.data.inputs import method_input
 from inpaintenv.masks import get_protocol
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 
 from _common import default_root
 

@@ -27,7 +27,7 @@ from estimators.learned.presets import make_preset
 from estimators.learned.releases import load_release, shipped
 from inpaintenv.data import ArrayDataset, ConcatDataset, SyntheticStreets
 from inpaintenv.data.kitti import KittiDepth
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 
 
 TRAIN_DOC = """Train a variant of the shipped model's recipe and score it on the selection frames.

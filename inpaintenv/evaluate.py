@@ -37,17 +37,10 @@ from .conventions import (
 from .data.base import DepthDataset, as_dataset
 from .data.inputs import method_input
 from .masks import OcclusionProtocol, get_protocol
-from .method_calls import (  # run_method and the method helpers stay importable here
-    MethodOutputError,
-    _as_predictor,
-    _run,
-    _warm_up,
-    method_name,
-    run_method,
-)
-from .interval_metrics import INTERVAL_COLUMNS, check_coverage, interval_metrics
-from .method_intervals import IntervalSource, interval_source
-from .metrics import UnfilledPixelsError, _frame_metrics_checked, check_unfilled
+from .methods.calls import _as_predictor, _run, _warm_up, method_name
+from .methods.intervals import IntervalSource, interval_source
+from .metrics import INTERVAL_COLUMNS, UnfilledPixelsError, check_coverage, check_unfilled, interval_metrics
+from .metrics._depth import _frame_metrics_checked
 
 # The result type and its row format live in results.py; these names stay importable here.
 from .report.results import (  # noqa: F401
@@ -60,11 +53,11 @@ from .report.results import (  # noqa: F401
     parse_row,
     skipped_markdown,
 )
-from .exceptions import BadFrameError, InvalidInputError
+from .exceptions import BadFrameError, InvalidInputError, MethodOutputError
 
 __all__ = [
-    "BAD_FRAME_ERRORS", "BadFrameError", "EvaluationResult", "MethodOutputError", "evaluate", "json_safe",
-    "merge_skipped", "method_name", "parse_row", "resolve_source", "run_method", "skipped_markdown",
+    "BAD_FRAME_ERRORS", "BadFrameError", "EvaluationResult", "evaluate", "json_safe",
+    "merge_skipped", "parse_row", "resolve_source", "skipped_markdown",
     "training_drives_of",
 ]
 
@@ -217,8 +210,8 @@ def evaluate(
         Also score the method's per-pixel interval of this nominal coverage (in (0, 1),
         e.g. 0.9), when it gives one: ``predict_interval(X, coverage=intervals) -> (low,
         high)``, or ``predict(X, return_std=True) -> (pred, std)`` (see
-        :mod:`inpaintenv.method_intervals`). Its rows then gain the columns of
-        :data:`inpaintenv.interval_metrics.INTERVAL_COLUMNS` (coverage, width, the
+        :mod:`inpaintenv.methods.intervals`). Its rows then gain the columns of
+        :data:`inpaintenv.metrics.INTERVAL_COLUMNS` (coverage, width, the
         error-rejection curve and the border-distance baseline); a method without an
         interval gets the rows of a run without ``intervals``. Recorded in
         ``meta["interval_coverage"]`` (and ``meta["interval_methods"]``, the methods that gave one).

@@ -41,7 +41,7 @@ def check_beats_every_classical_method(release: Any, name: str, held_out: Any, s
     scores it (the study's hole-only fills: 0 m as 0 m)."""
     from inpaintenv.benchmark.suites import CLASSICAL, STUDY_CLASSICAL
     from inpaintenv.evaluate import evaluate
-    from inpaintenv.registry import make_method, unfilled_policy
+    from inpaintenv.methods.registry import make_method, unfilled_policy
 
     def mean_hole_rmse(method: Any, unfilled: str = "error") -> float:
         rows = evaluate(method, held_out, "rect-v1", seeds, progress=False, unfilled=unfilled).rows
@@ -55,7 +55,7 @@ def check_beats_every_classical_method(release: Any, name: str, held_out: Any, s
 
 def class_in_fresh_process(method: str) -> str:
     """The class name a fresh interpreter (as the CLI is) builds for registry name ``method``."""
-    code = f"from inpaintenv.registry import make_method; print(type(make_method({method!r})).__name__)"
+    code = f"from inpaintenv.methods.registry import make_method; print(type(make_method({method!r})).__name__)"
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
 
 

@@ -33,7 +33,8 @@ from inpaintenv.cluster import (
 )
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.data.io import write_depth_png
-from inpaintenv.evaluate import MethodOutputError, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.exceptions import MethodOutputError
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -122,7 +123,7 @@ def test_run_benchmark_on_cluster_writes_the_serial_row_files(client, streets, t
 @pytest.mark.slow
 def test_torch_method_on_workers_gives_the_serial_rows(client):
     pytest.importorskip("torch")
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     method = make_method("pretrained")  # a learned model: torch on the workers
     source = SyntheticStreets(n=4, frame_shape=(96, 320))

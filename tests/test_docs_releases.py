@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from inpaintenv.registry import (
+from inpaintenv.methods.registry import (
     PRETRAINED_RELEASES,
     REMOVED_RELEASES,
     available_aliases,

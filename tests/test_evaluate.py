@@ -8,13 +8,10 @@ import numpy as np
 import pytest
 
 from inpaintenv.data import ArrayDataset, DepthDataset
-from inpaintenv.evaluate import (
-    EvaluationResult,
-    MethodOutputError,
-    evaluate,
-    method_name,
-)
+from inpaintenv.evaluate import EvaluationResult, evaluate
+from inpaintenv.exceptions import MethodOutputError
 from inpaintenv.masks import get_protocol
+from inpaintenv.methods.calls import method_name
 from inpaintenv.metrics import frame_metrics
 
 
@@ -431,7 +428,7 @@ def test_env_serves_the_pairs_evaluate_scores(gt_ds):
 
 
 def test_run_method_validates_and_times():
-    from inpaintenv.evaluate import run_method
+    from inpaintenv.methods.calls import run_method
 
     x = np.full((2, 8, 10), 5.0, np.float32)
     x[:, 2:4, 3:6] = np.nan

@@ -193,7 +193,7 @@ def _raise_in(module_name: str, exc: BaseException) -> BaseException:
 
 @pytest.mark.parametrize("module", [
     "estimators.learned._checkpoint", "estimators.learned.presets", "estimators.learned",
-    "inpaintenv.registry", "estimators.classical.telea", "torch.nn.functional",
+    "inpaintenv.methods.registry", "estimators.classical.telea", "torch.nn.functional",
 ])
 @pytest.mark.parametrize("exc", [ValueError("bad"), TypeError("bad"), KeyError("bad"), ImportError("bad")])
 def test_a_plain_builtin_error_is_a_bug_whatever_module_raised_it(module, exc):
@@ -239,7 +239,7 @@ def test_learned_and_registry_raise_ours():
     from estimators.learned import UNetInpainter
     from estimators.learned._checkpoint import release_folder
     from estimators.learned.presets import describe_preset, release_recipe
-    from inpaintenv import registry
+    from inpaintenv.methods import registry
 
     for call in (lambda: describe_preset("nope"), lambda: release_recipe("nope"),
                  lambda: release_folder("nope").__enter__(), lambda: registry.make_method("nope")):

@@ -103,7 +103,7 @@ SLOW = textwrap.dedent("""
     import signal, sys, time
     import numpy as np
     from inpaintenv.cli import main
-    from inpaintenv.registry import register_method
+    from inpaintenv.methods.registry import register_method
 
     class Slow:
         def predict(self, X):

@@ -63,7 +63,7 @@ def test_packages_and_env_work_without_torch(tmp_path):
         import gymnasium as gym
         import numpy as np
         import inpaintenv, estimators, estimators.classical
-        from inpaintenv.registry import make_method
+        from inpaintenv.methods.registry import make_method
 
         env = gym.make("inpaintenv/SyntheticInpaint-v0", n=2, seed=0, frame_shape=(48, 64))
         obs, info = env.reset(seed=0)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from inpaintenv.classical_methods import CLASSICAL_METHODS
+from inpaintenv.methods.classical import CLASSICAL_METHODS
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
 from ._base import ClassicalInpainter
@@ -34,7 +34,7 @@ _BY_NAME = {name: (cls, kwargs) for name, cls, kwargs, _ in CLASSICAL_METHODS if
 
 
 def _classical(name: str) -> ClassicalInpainter:
-    """The classical fill registered as ``name`` (inpaintenv.classical_methods)."""
+    """The classical fill registered as ``name`` (inpaintenv.methods.classical)."""
     cls, kwargs = _BY_NAME[name]
     return _CLASSES[cls](**kwargs)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from inpaintenv.classical_methods import CLASSICAL_METHODS
+from inpaintenv.methods.classical import CLASSICAL_METHODS
 from inpaintenv.exceptions import InvalidInputError
 
 __all__ = ["CLASSICAL_FILLS", "make_base"]

@@ -15,7 +15,7 @@ import numpy as np
 
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.exceptions import InvalidInputError
-from inpaintenv.interval_metrics import border_distance
+from inpaintenv.metrics import border_distance
 
 from ..base import iter_scoring_batches
 from ._calibration_file import N_LEVELS

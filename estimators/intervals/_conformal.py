@@ -299,6 +299,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             "signals": list(signals), "spread_method": self.spread_method if "spread" in signals else None,
             "weighting": self.weighting,
         }
+        if getattr(dataset, "input_kind", "map") == "scan":  # maps' records stay as they were
+            self.calibration_["input_kind"] = "scan"
         return self
 
     @staticmethod

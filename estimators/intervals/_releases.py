@@ -87,10 +87,13 @@ def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalI
 
 def default_intervals(name: str | None = None, input: str = "auto") -> Any:
     """``pretrained-intervals``: routed like ``pretrained`` (:func:`estimators.learned.releases.load_default`),
-    its map route in the default release's shipped calibration.
+    each route in its own shipped calibration.
 
-    A scan route ships no calibration yet, so asking it for a scan's interval is one error
-    naming it, never the map release's fill and interval on a scan.
+    A map's interval is the map release's calibration; a single scan's is the calibration
+    shipped for the scan route's method by its name (``<SCAN_DEFAULT>.json``, calibrated on
+    scans), wrapped around the route's own method, so its fill is ``pretrained``'s bit for
+    bit. A scan route without a shipped calibration gives no interval: asking it for a scan's
+    is one error naming it, never the map release's fill and interval on a scan.
 
     Parameters
     ----------
@@ -99,9 +102,12 @@ def default_intervals(name: str | None = None, input: str = "auto") -> Any:
     input : {"auto", "scan", "map"}
         As for :func:`~estimators.learned.releases.load_default`.
     """
-    from ..learned.releases import DEFAULT_RELEASE, load_default
+    from ..learned.releases import DEFAULT_RELEASE, SCAN_DEFAULT, load_default
 
     routed = load_default(input=input)
     routed.map_method = release_intervals(name or DEFAULT_RELEASE)
     routed.map_name = name or DEFAULT_RELEASE
+    if routed.scan_name == SCAN_DEFAULT and SCAN_DEFAULT in shipped_intervals():
+        routed.scan_method = ConformalIntervalInpainter.load(_intervals_dir() / f"{SCAN_DEFAULT}.json",
+                                                             estimator=routed.scan_method)
     return routed

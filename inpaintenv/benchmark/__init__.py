@@ -1,7 +1,7 @@
 """Benchmark suites, the resumable runner, reports and figures.
 
 This subpackage (with :mod:`inpaintenv.cli`) is the only part of ``inpaintenv`` that
-knows methods by name; it builds them through :mod:`inpaintenv.registry`.
+knows methods by name; it builds them through :mod:`inpaintenv.methods.registry`.
 """
 
 from ..report.stats import bootstrap_mean_ci, bootstrap_ratio_ci

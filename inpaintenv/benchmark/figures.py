@@ -24,8 +24,9 @@ import inpaintenv
 
 from ..conventions import corrupt
 from ..data.base import DepthDataset
-from ..evaluate import EvaluationResult, run_method
+from ..evaluate import EvaluationResult
 from ..masks import get_protocol
+from ..methods.calls import run_method
 from ..metrics import frame_metrics, interpolate_background
 from ..report import style
 from ..exceptions import FileTooLargeError, JSONFileError

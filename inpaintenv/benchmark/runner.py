@@ -31,7 +31,7 @@ from ..evaluate import (
     training_drives_of,
 )
 from ..files import remove_stale_temporaries
-from ..interval_metrics import check_coverage
+from ..metrics import check_coverage
 from ..metrics import check_unfilled
 from ..report.progress import (
     ProgressReporter,

@@ -1,6 +1,6 @@
 """Named suites of methods for ``inpaintenv benchmark``.
 
-A suite is a list of names from :mod:`inpaintenv.registry`; names whose module cannot
+A suite is a list of names from :mod:`inpaintenv.methods.registry`; names whose module cannot
 be imported (e.g. no torch for the neural ones) or whose weights are not shipped are
 reported and skipped, never silently dropped.
 """
@@ -12,7 +12,7 @@ from typing import Any
 
 from ..exceptions import UnknownNameError
 from .tasks import Task
-from ..registry import (
+from ..methods.registry import (
     LEARNED_INSTALL, available_methods, get_spec, interval_base, is_learned, learned_missing, make_method,
     unfilled_policy,
 )
@@ -86,7 +86,7 @@ class LazyMethod:
     when None, the runner builds the method to learn its identity if a resume needs it.
 
     ``unfilled`` is how the runner scores the method's 0 m pixels where ground truth
-    exists unless the run sets one policy for all (:func:`~inpaintenv.registry.unfilled_policy`).
+    exists unless the run sets one policy for all (:func:`~inpaintenv.methods.registry.unfilled_policy`).
 
     ``kind`` (one of :data:`KINDS`, or None: decided by :func:`method_kind`) is what the
     headline calls the method.

@@ -9,7 +9,7 @@ from typing import Any
 
 from ..cluster import add_scheduler_option, open_client, parse_scheduler
 from ..exceptions import InvalidInputError
-from ..interval_metrics import check_coverage
+from ..metrics import check_coverage
 from .method_options import (
     add_bad_frame_option,
     add_checkpoint_option,
@@ -175,7 +175,7 @@ def _methods(args: argparse.Namespace) -> dict[str, Any]:
     """The run's methods by name, unbuilt: the ``--suite`` (``default`` when neither it nor ``-m``
     is given), then the ``-m`` names, then the ``--checkpoint`` models."""
     from ..benchmark.suites import LazyMethod, build_method, registry_kind, suite_methods
-    from ..registry import unfilled_policy
+    from ..methods.registry import unfilled_policy
 
     overrides = {} if args.n_jobs is None else {"n_jobs": args.n_jobs}
     suite = args.suite or (None if args.method else "default")

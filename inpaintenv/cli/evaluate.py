@@ -81,8 +81,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from ..benchmark.lock import run_lock
     from ..benchmark.ownership import check_folder
     from ..masks import get_protocol
-    from ..interval_metrics import check_coverage
-    from ..registry import make_method, unfilled_policy
+    from ..metrics import check_coverage
+    from ..methods.registry import make_method, unfilled_policy
 
     # Check the options and build every method first, so a typo fails before any long run.
     check_source_options(args)

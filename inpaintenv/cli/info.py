@@ -52,7 +52,7 @@ def protocol_inputs() -> dict[str, list[str]]:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from ..registry import available_aliases, available_methods
+    from ..methods.registry import available_aliases, available_methods
 
     ds = open_source_from_args(args)
     info = describe_source(ds, args.sample)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..registry import canonical_name, resolve_class
+from ..methods.registry import canonical_name, resolve_class
 from ..exceptions import InvalidInputError, UnsafeFileError
 from ..files import describe_kind
 
@@ -170,7 +170,7 @@ def checkpoint_methods(specs: list[str], taken: list[str]) -> dict[str, Any]:
     """``--checkpoint NAME=PATH`` values as lazily loaded methods of a benchmark run."""
     from ..benchmark.identity import files_identity
     from ..benchmark.suites import LazyMethod
-    from ..registry import make_method
+    from ..methods.registry import make_method
 
     # Hash the files now (cheap) so a resume can tell checkpoints apart unloaded.
     return {

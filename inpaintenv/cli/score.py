@@ -84,8 +84,8 @@ def cmd_score(args: argparse.Namespace) -> int:
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, build_method
     from ..conventions import check_int
-    from ..interval_metrics import check_coverage
-    from ..registry import unfilled_policy
+    from ..metrics import check_coverage
+    from ..methods.registry import unfilled_policy
     from ..submission.score import (
         check_run_folder,
         prepare,

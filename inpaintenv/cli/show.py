@@ -50,10 +50,10 @@ def cmd_show(args: argparse.Namespace) -> int:
 
     from ..conventions import corrupt
     from ..envs.render import render_panel
-    from ..evaluate import run_method
+    from ..methods.calls import run_method
     from ..masks import get_protocol
     from ..metrics import frame_metrics, interpolate_background
-    from ..registry import make_method, unfilled_policy
+    from ..methods.registry import make_method, unfilled_policy
 
     out = Path(args.out)
     # The panel is a PNG whatever the name: the suffix keeps names honest.

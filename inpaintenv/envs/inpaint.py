@@ -50,7 +50,7 @@ from ..conventions import (
 from ..data.base import DepthDataset, as_dataset
 from ..data.inputs import check_input_kind
 from ..masks import OcclusionProtocol, get_protocol
-from ..interval_metrics import check_coverage, interval_from_std, interval_metrics
+from ..metrics import check_coverage, interval_from_std, interval_metrics
 from ..metrics import ScoredPixels, check_unfilled
 from .render import render_panel
 from ..exceptions import InvalidInputError, StateError
@@ -154,7 +154,7 @@ class DepthInpaintEnv(gym.Env):
     metric undefined in the episode (the hole's under ``densify-v1``, whose hole is empty:
     ``hole_count`` is 0) is left out. ``reset`` returns the same episode keys.
     With an interval, ``info`` also has the columns of
-    :data:`~inpaintenv.interval_metrics.INTERVAL_COLUMNS` (``hole_coverage``,
+    :data:`~inpaintenv.metrics.INTERVAL_COLUMNS` (``hole_coverage``,
     ``hole_interval_width``, ``rmse_keep_80``, ...) as floats; the reward is unchanged.
     """
 

@@ -10,10 +10,10 @@ import numpy as np
 
 from ..conventions import DEPTH_LIMIT, as_depth_array, check_depth
 from ..data.inputs import INPUT_KINDS
-from ..exceptions import InvalidInputError, InvalidTypeError
+from ..exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
 from ..files import open_regular
-from ..method_calls import MethodOutputError, method_name, run_method
-from ..method_intervals import IntervalSource
+from ..methods.calls import method_name, run_method
+from ..methods.intervals import IntervalSource
 
 __all__ = [
     "INPUT_CHOICES", "fill_batch", "fill_depth", "interval_method", "make_method", "router", "shipped_interval_name",
@@ -126,8 +126,8 @@ def make_method(method: Any, checkpoint: Any, n_jobs: int | None, input: str | N
     ``input`` (``"auto"``, ``"scan"``, ``"map"``) is set as the ``input`` parameter of a method
     that routes by input kind (``pretrained``); any other method refuses it.
     """
-    from ..registry import canonical_name
-    from ..registry import make_method as make
+    from ..methods.registry import canonical_name
+    from ..methods.registry import make_method as make
 
     name = str(method) if isinstance(method, str) else method_name(method)
     if checkpoint is not None:
@@ -170,7 +170,7 @@ def router(method: Any) -> Any:
 
 def shipped_interval_name(method: Any) -> Any:
     """``<name>-intervals`` for a registry name whose release ships an interval calibration; else ``method``."""
-    from ..registry import DEFAULT_RELEASE, available_aliases, available_methods, canonical_name, get_spec
+    from ..methods.registry import DEFAULT_RELEASE, available_aliases, available_methods, canonical_name, get_spec
 
     if isinstance(method, str) and not method.count(":"):
         canon = canonical_name(method)
@@ -196,9 +196,9 @@ def interval_method(method: Any, name: str, intervals: str | os.PathLike | None,
     InvalidInputError
         If the method has no interval and no calibration is given.
     """
-    from ..method_intervals import interval_source
-    from ..registry import available_methods
-    from ..registry import make_method as make
+    from ..methods.intervals import interval_source
+    from ..methods.registry import available_methods
+    from ..methods.registry import make_method as make
 
     if intervals is not None:
         os.close(open_regular(intervals, "--intervals calibration file"))  # a FIFO is named, never waited on

@@ -14,8 +14,8 @@ import numpy as np
 
 from ..data.calibration import Calibration
 from ..exceptions import InvalidInputError
-from ..interval_metrics import check_coverage
-from ..method_intervals import IntervalSource
+from ..metrics import check_coverage
+from ..methods.intervals import IntervalSource
 from ..benchmark.lock import run_lock
 from ..files import remove_stale_temporaries
 from ..report.progress import FrameProgress
@@ -181,7 +181,7 @@ def _recipe(method: Any, checkpoint: Any, confidence: float | None, intervals: A
     if checkpoint is not None:
         made_by: Any = {"checkpoint": file_identity(checkpoint)}
     elif isinstance(method, str):
-        from ..registry import canonical_name
+        from ..methods.registry import canonical_name
 
         made_by = canonical_name(method)
     else:

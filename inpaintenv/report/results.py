@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..conventions import DEFAULT_MAX_DEPTH
-from ..interval_metrics import INTERVAL_COLUMNS
+from ..metrics import INTERVAL_COLUMNS
 from ..metrics import EXTRA_COLUMNS, METRIC_NAMES, REGIONS, aggregate, task_of
 from . import tables
 from ..files import MAX_JSON_BYTES, read_json, read_text, write_bytes_atomic, write_text_atomic
@@ -79,7 +79,7 @@ class EvaluationResult:
         Each output row holds the key values, :func:`inpaintenv.metrics.aggregate`'s
         result (``{region}_{metric}``, ``n_frames``, ``n_skipped_hole``), the mean
         ``hole_fraction`` and ``ms_per_frame``, and the mean of each interval column
-        (:data:`~inpaintenv.interval_metrics.INTERVAL_COLUMNS`) some row of the group has.
+        (:data:`~inpaintenv.metrics.INTERVAL_COLUMNS`) some row of the group has.
         Groups keep the order of first appearance.
         """
         groups: dict[tuple, list[dict[str, Any]]] = {}
@@ -229,7 +229,7 @@ class EvaluationResult:
 
 
 def _interval_columns(rows: Sequence[dict[str, Any]]) -> list[str]:
-    """The interval columns (in :data:`~inpaintenv.interval_metrics.INTERVAL_COLUMNS` order) some row has."""
+    """The interval columns (in :data:`~inpaintenv.metrics.INTERVAL_COLUMNS` order) some row has."""
     present = {c for row in rows for c in INTERVAL_COLUMNS if c in row}
     return [c for c in INTERVAL_COLUMNS if c in present]
 

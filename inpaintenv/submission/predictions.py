@@ -133,7 +133,7 @@ class SubmittedPredictions:
         return self._predict_interval if self.interval_kind else None
 
     def _predict_interval(self, x: np.ndarray, coverage: float = 0.9) -> tuple[np.ndarray, np.ndarray]:
-        from ..interval_metrics import interval_from_std  # lazy: only scoring with intervals needs it
+        from ..metrics import interval_from_std  # lazy: only scoring with intervals needs it
 
         x = np.asarray(x, dtype=np.float32)
         low, high = np.empty(x.shape, np.float64), np.empty(x.shape, np.float64)

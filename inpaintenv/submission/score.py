@@ -17,7 +17,7 @@ from typing import Any
 from ..data.base import DepthDataset
 from ..data.kitti import KITTI_ROOT_ENV
 from ..evaluate import EvaluationResult, evaluate
-from ..interval_metrics import check_coverage
+from ..metrics import check_coverage
 from .layout import is_inside
 from .manifest import Manifest, read_manifest, require_key
 from .predictions import CheckedPredictions, check_predictions

@@ -12,7 +12,7 @@ from inpaintenv.benchmark import RunMismatchError, run_benchmark, write_report
 from inpaintenv.benchmark import figures
 from inpaintenv.cli import main
 from inpaintenv.data import ArrayDataset
-from inpaintenv.interval_metrics import border_distance
+from inpaintenv.metrics import border_distance
 from inpaintenv.report import style
 
 

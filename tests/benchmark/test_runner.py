@@ -252,7 +252,7 @@ def holes_at_zero(x: np.ndarray) -> np.ndarray:
 
 def test_unfilled_pixels_follow_the_run_or_the_method_policy(dataset, tmp_path):
     from inpaintenv.benchmark import LazyMethod
-    from inpaintenv.evaluate import MethodOutputError
+    from inpaintenv.exceptions import MethodOutputError
 
     kw = {"protocols": "rect-v1", "seeds": 0, "progress": False}
     # Issue 24: refused by default, with the count, naming the method.

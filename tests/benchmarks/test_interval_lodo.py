@@ -47,7 +47,7 @@ def test_folds_rows_and_curve(load_benchmark, two_days, tmp_path, capsys):
     assert json.loads((tmp_path / "rows.json").read_text()) == rows
     assert all(r["hole_coverage_se"] >= 0 and np.isfinite(r["rmse_cut_80_se"]) for r in rows)
     out = capsys.readouterr().out
-    assert "| fold | keep 90 % | keep 80 % | keep 50 % | all | AUC |" in out and "| day-2011_09_30 |" in out
+    assert "| fold | protocol | keep 90 % | keep 80 % | keep 50 % | all | AUC |" in out and "| day-2011_09_30 | rect-v1 |" in out
 
 
 def test_weighting_reaches_the_wrapper(load_benchmark, two_days):
@@ -75,3 +75,31 @@ def test_drives_the_base_saw_are_neither_calibrated_nor_scored(load_benchmark, t
     by_fold = {r["fold"]: r for r in rows}
     assert by_fold["day-2011_09_26"]["n_frames"] == 2      # 9002 only: 9001 was the base's
     assert by_fold["day-2011_09_30"]["n_cal_drives"] == 1  # calibrated on 9002 only
+
+
+@pytest.fixture
+def scans(tmp_path):
+    """Two days of drives, plus official drive 0001, each frame with a ground truth and a sparser scan."""
+    rng = np.random.default_rng(1)
+    for drive in [*DRIVES, "2011_09_26_drive_0001_sync"]:
+        for f in range(2):
+            truth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
+            scan = np.where(rng.random((375, 1242)) < 0.15, truth, 0.0)
+            for kind, depth in (("groundtruth", truth), ("velodyne_raw", scan)):
+                folder = tmp_path / "train" / drive / "proj_depth" / kind / "image_02"
+                folder.mkdir(parents=True, exist_ok=True)
+                write_depth_png(folder / f"{f:010d}.png", depth.astype(np.float32))
+    return tmp_path
+
+
+def test_on_scans_each_day_and_the_official_drive_are_scored_under_densify_and_rect(load_benchmark, scans):
+    rows = load_benchmark("interval_lodo").main(["--kitti-root", str(scans), "--input", "scan", "--method", "nearest",
+                                                 "--spread-method", "harmonic", "--frames-per-drive", "0"])
+    assert [(r["fold"], r["protocol"]) for r in rows] == [
+        (fold, p) for fold in ("day-2011_09_26", "day-2011_09_30", "drive-0001") for p in ("densify-v1", "rect-v1")]
+    by = {(r["fold"], r["protocol"]): r for r in rows}
+    # Drive 0001 (official) never calibrates: the day folds calibrate on the other day's two rebuilt drives.
+    assert all(r["n_cal_drives"] == 2 for r in rows if r["fold"] != "drive-0001")
+    assert by[("drive-0001", "densify-v1")]["n_cal_drives"] == 4
+    # Every pixel the scan leaves to fill is scored: densify has no hole yet a coverage.
+    assert all(0 < r["hole_coverage"] <= 1 and np.isfinite(r["hole_rmse"]) for r in rows)

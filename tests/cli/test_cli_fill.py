@@ -27,7 +27,7 @@ from inpaintenv.data import (
 from inpaintenv.benchmark.lock import LOCK_FILE
 from inpaintenv.filling import NO_HOLES, fill
 from inpaintenv.filling.ledger import LEDGER
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 
 
 def frames(n: int, shape: tuple[int, int], seed: int = 0) -> list[np.ndarray]:

@@ -167,12 +167,18 @@ def test_confidence_on_the_official_scans_writes_every_file_and_reads_back(kitti
 @pytest.mark.kitti
 def test_the_default_asks_a_scans_interval_of_its_scan_route_never_of_the_map_release(kitti_root, tmp_path):
     """pretrained fills a scan with its scan route; --confidence must not swap in the map release's
-    fill and interval (it did: up to 25 m apart); while the scan route ships no calibration, each
-    scan is one line naming that."""
+    fill and interval (it did: up to 25 m apart). The scan route ships its calibration (on scans):
+    on the official scans every file is written and the depth is the plain fill's, bit for bit."""
     frames_dir = kitti_root / "depth_selection" / "val_selection_cropped" / "velodyne_raw"
-    source = sorted(frames_dir.glob("*.png"))[0]
-    lines = []
-    report = fill([source], tmp_path, method="pretrained", missing=True, confidence=0.9, progress=False,
-                  log=lines.append)
-    assert not report.written and len(report.failed) == 1
-    assert "no calibrated interval for a single scan" in report.failed[0][1] and len(lines) == 1
+    inputs = sorted(frames_dir.glob("*.png"))
+    report = fill([frames_dir], tmp_path / "ci", method="pretrained", missing=True, confidence=0.9, progress=False)
+    plain = fill([frames_dir], tmp_path / "plain", method="pretrained", missing=True, progress=False)
+    assert report.ok and plain.ok, (report.failed, plain.failed)
+    assert len(report.written) == len(inputs) > 0
+    for source in inputs:
+        scan = read_depth_png(source)
+        d, low, high = (read_depth_file(tmp_path / "ci" / f"{source.stem}{s}.png") for s in ("", "_low", "_high"))
+        np.testing.assert_array_equal(d, read_depth_file(tmp_path / "plain" / f"{source.stem}.png"))
+        filled = (d > 0) & (scan == 0)
+        assert filled.any() and (low <= d).all() and (d <= high).all()
+        assert ((high - low)[filled] > 0).all() and (low[filled] >= LOW_FLOOR).all()

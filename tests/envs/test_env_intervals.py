@@ -11,7 +11,7 @@ from gymnasium.utils.env_checker import check_env
 
 from inpaintenv.envs import DepthInpaintEnv
 from inpaintenv.evaluate import evaluate
-from inpaintenv.interval_metrics import INTERVAL_COLUMNS
+from inpaintenv.metrics import INTERVAL_COLUMNS
 
 
 def _episode(env, seed=0):

@@ -18,7 +18,7 @@ import pytest
 
 import inpaintenv  # noqa: F401  (registers the env ids)
 import inpaintenv.envs.inpaint as inpaint_module
-import inpaintenv.metrics as metrics_module
+import inpaintenv.metrics._depth as metrics_module  # where frame_metrics is looked up
 from inpaintenv.data import ArrayDataset
 from inpaintenv.envs import DepthInpaintEnv
 from inpaintenv.metrics import ScoredPixels, frame_metrics

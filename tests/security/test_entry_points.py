@@ -239,7 +239,7 @@ def _gym(root: Path) -> None:
 def _evaluate(root: Path) -> None:
     from inpaintenv.data import KittiDepth
     from inpaintenv.evaluate import evaluate
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     evaluate(make_method("scanline"), KittiDepth(root), progress=False)
 

@@ -12,7 +12,7 @@ import pytest
 
 from inpaintenv.data import write_depth_png
 from inpaintenv.exceptions import SubmissionError
-from inpaintenv.interval_metrics import INTERVAL_COLUMNS
+from inpaintenv.metrics import INTERVAL_COLUMNS
 from inpaintenv.submission import export, score
 from inpaintenv.submission.intervals import sidecar
 

@@ -20,7 +20,7 @@ from estimators.learned import load_checkpoint
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 
 BLEND = dict(width=8, layers=1, epochs=1, masks_per_frame=1, pixels_per_frame=200, batch_pixels=64, num_threads=1,
              tta=False)

@@ -102,3 +102,37 @@ def test_fill_confidence_finds_a_release_calibration_under_its_other_names(tmp_p
 def test_a_release_without_a_calibration_is_named():
     with pytest.raises(InvalidInputError, match="has no shipped interval calibration"):
         release_intervals("no-such-release")
+
+
+def _scans() -> np.ndarray:
+    from inpaintenv.data import method_input
+
+    inputs, _ = SyntheticStreets(n=2, frame_shape=(64, 192), seed=2, input="scan").load_pairs([0, 1])
+    return method_input(inputs, np.zeros(inputs.shape, bool), "scan")
+
+
+def test_pretrained_intervals_gives_a_scan_the_interval_of_its_scan_route_by_name():
+    """The scan route's calibration is the one shipped for SCAN_DEFAULT, around the route's own
+    method: its fill is pretrained's bit for bit."""
+    from estimators.learned.releases import SCAN_DEFAULT
+
+    if SCAN_DEFAULT not in shipped_intervals():
+        pytest.skip(f"{SCAN_DEFAULT} ships no calibration")
+    routed, x = make_method("pretrained-intervals"), _scans()
+    assert routed.scan_method.calibration_ == release_intervals(SCAN_DEFAULT).calibration_
+    pred = make_method("pretrained").predict(x)
+    np.testing.assert_array_equal(routed.predict(x), pred)
+    assert routed.routed_to_ == [SCAN_DEFAULT] * len(x)
+    check_shipped_interval(routed.scan_method, x, pred)
+
+
+def test_a_scan_default_without_a_calibration_gets_no_interval(monkeypatch):
+    """Looked up by name: a scan default that ships none is refused, never given another's calibration."""
+    import estimators.learned.releases
+
+    from inpaintenv.exceptions import InpaintenvError
+
+    monkeypatch.setattr(estimators.learned.releases, "SCAN_DEFAULT", "no-such-scan-release")
+    routed = make_method("pretrained-intervals")
+    with pytest.raises(InpaintenvError, match="no calibrated interval for a single scan"):
+        routed.predict_interval(_scans())

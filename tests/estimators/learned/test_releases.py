@@ -23,7 +23,7 @@ from estimators.learned import load
 from estimators.learned.presets import PRESET_ALIASES, PRESETS, make_preset
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.masks import get_protocol
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 
 RELEASES = sorted(shipped())
 #: Parameters a release records that belong to the run that made it, not to its recipe.
@@ -47,7 +47,7 @@ def _frame(shape=(64, 192)) -> tuple[np.ndarray, np.ndarray]:
 
 def test_the_package_ships_the_default_and_the_free_form_release():
     assert RELEASES == ["kitti-ensemble-v1", "kitti-mixed-v1"] and DEFAULT_RELEASE == "kitti-ensemble-v1"
-    from inpaintenv.registry import DEFAULT_RELEASE as registry_default
+    from inpaintenv.methods.registry import DEFAULT_RELEASE as registry_default
 
     assert registry_default == DEFAULT_RELEASE
     assert type(make_method("pretrained").map_method).__name__ == "MeanEnsembleInpainter"

@@ -56,7 +56,7 @@ def test_bad_parameters_are_one_clear_error(bad):
 def test_pretrained_fills_a_scan_with_the_scan_default_and_a_map_with_the_release():
     pytest.importorskip("torch")
     from estimators.learned.releases import DEFAULT_RELEASE, SCAN_DEFAULT
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     est = make_method("pretrained")
     assert est.choose(_inputs("scan", "densify-v1", 1)[0]) == SCAN_DEFAULT
@@ -66,7 +66,7 @@ def test_pretrained_fills_a_scan_with_the_scan_default_and_a_map_with_the_releas
 def test_the_scan_route_is_the_registered_scan_default():
     pytest.importorskip("torch")
     from estimators.learned.releases import SCAN_DEFAULT
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     est = make_method("pretrained")
     assert type(est.scan_method) is type(make_method(SCAN_DEFAULT))
@@ -95,8 +95,8 @@ def test_pretrained_is_never_worse_than_the_classical_fills_on_the_official_scan
     scan; no frame of val_selection worse than harmonic; on each set, the mean RMSE over frames on
     the ground-truth pixels the scan did not measure no worse than any classical fill's."""
     pytest.importorskip("torch")
-    from inpaintenv.classical_methods import CLASSICAL_METHODS
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.classical import CLASSICAL_METHODS
+    from inpaintenv.methods.registry import make_method
 
     rivals = [name for name, _, kwargs, _ in CLASSICAL_METHODS
               if kwargs.get("fill", "invalid") == "invalid" and name not in ("constant", "harmonic-ipbasic")]
@@ -140,7 +140,7 @@ def test_an_interval_is_asked_of_each_frames_route_and_a_route_without_one_is_na
 
 def test_pretrained_intervals_routes_like_pretrained():
     pytest.importorskip("torch")
-    from inpaintenv.registry import is_learned, make_method
+    from inpaintenv.methods.registry import is_learned, make_method
 
     est = make_method("pretrained-intervals")
     assert is_learned("pretrained-intervals")

@@ -6,8 +6,8 @@ import itertools
 
 import numpy as np
 
-from .exceptions import InvalidInputError
-from .metric_checks import _check_inputs, _checked_scored
+from ..exceptions import InvalidInputError
+from ._checks import _check_inputs, _checked_scored
 
 __all__ = ["DEPTH_BIN_EDGES", "depth_binned_errors"]
 

@@ -9,10 +9,10 @@ from typing import Any
 
 import numpy as np
 
-from .conventions import as_depth_array, in_depth_range, reconstruction_problem
-from .exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
+from ..conventions import as_depth_array, in_depth_range, reconstruction_problem
+from ..exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
 
-__all__ = ["MethodOutputError", "method_name", "run_method"]
+__all__ = ["method_name", "run_method"]
 
 
 def method_name(method: Any) -> str:

@@ -28,16 +28,14 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from .conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask, check_max_depth
-from .depth_bins import DEPTH_BIN_EDGES, depth_binned_errors
-from .kitti_devkit import interpolate_background
-from .exceptions import InvalidInputError, UnfilledPixelsError, UnknownNameError
-from .metric_checks import _check_inputs, _check_pred, _checked_scored
+from ..conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask, check_max_depth
+from ..exceptions import InvalidInputError, UnfilledPixelsError, UnknownNameError
+from ._checks import _check_inputs, _check_pred, _checked_scored
+from ._devkit import interpolate_background
 
 __all__ = [
-    "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "KITTI_METRICS", "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS",
-    "ScoredPixels", "UnfilledPixelsError", "aggregate", "check_unfilled", "depth_binned_errors", "frame_metrics",
-    "interpolate_background", "task_of",
+    "EXTRA_COLUMNS", "KITTI_METRICS", "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS",
+    "ScoredPixels", "UnfilledPixelsError", "aggregate", "check_unfilled", "frame_metrics", "task_of",
 ]
 
 REGIONS = ("hole", "all")

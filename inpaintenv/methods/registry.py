@@ -9,7 +9,7 @@ The learned methods (modules under ``estimators.learned``) need the ``[learned]`
 (torch, safetensors); without it, naming one raises :class:`MissingExtraError`, one line
 saying what to install (:data:`LEARNED_INSTALL`).
 
->>> from inpaintenv.registry import available_methods, make_method
+>>> from inpaintenv.methods.registry import available_methods, make_method
 >>> "telea-hole" in available_methods()
 True
 >>> make_method("telea-hole")                           # doctest: +SKIP
@@ -26,8 +26,8 @@ import sys
 from dataclasses import dataclass, field
 from typing import Any
 
-from .classical_methods import CLASSICAL_METHODS, CLASSICAL_MODULE
-from .exceptions import InvalidInputError, InvalidTypeError, MissingDependencyError, UnknownNameError
+from ..exceptions import InvalidInputError, InvalidTypeError, MissingDependencyError, UnknownNameError
+from .classical import CLASSICAL_METHODS, CLASSICAL_MODULE
 
 __all__ = [
     "LEARNED_DEPENDENCIES",
@@ -356,7 +356,7 @@ def make_method(name: str, **overrides: Any) -> Any:
         raise InvalidTypeError(f"method {name!r} ({spec.module}.{spec.cls}) rejected parameters {kwargs}: {exc}") from exc
 
 
-# The classical baselines (inpaintenv.classical_methods holds their table).
+# The classical baselines (inpaintenv.methods.classical holds their table).
 for _name, _cls, _kw, _desc in CLASSICAL_METHODS:
     register_method(_name, CLASSICAL_MODULE, _cls, _kw, _desc, unfilled="zero" if _kw.get("fill") == "hole" else "error")
 
@@ -376,12 +376,12 @@ def _release_dir() -> Any:
     in an installed wheel alike), so no import is needed to find it."""
     from pathlib import Path
 
-    return Path(__file__).resolve().parents[1] / "estimators/pretrained"
+    return Path(__file__).resolve().parents[2] / "estimators/pretrained"
 
 
 def shipped_releases() -> dict[str, str]:
     """Every complete shipped release (weights and JSON present) and the class its JSON records."""
-    from .files import read_json
+    from ..files import read_json
 
     folder = _release_dir()
     if not folder.is_dir():

@@ -1,4 +1,4 @@
-"""Interval metrics (inpaintenv.interval_metrics) against a plain loop recomputation."""
+"""Interval metrics (inpaintenv.metrics) against a plain loop recomputation."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
-from inpaintenv.interval_metrics import (
+from inpaintenv.metrics import (
     INTERVAL_COLUMNS,
     KEEP_GRID,
     border_distance,

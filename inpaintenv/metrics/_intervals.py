@@ -53,8 +53,8 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .conventions import as_depth_array, check_depth, check_mask
-from .exceptions import InvalidInputError, InvalidTypeError
+from ..conventions import as_depth_array, check_depth, check_mask
+from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = [
     "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "border_distance", "check_coverage", "check_interval",

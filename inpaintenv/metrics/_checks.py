@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .conventions import as_depth_array, check_depth, check_mask, reconstruction_problem
-from .exceptions import InvalidInputError
+from ..conventions import as_depth_array, check_depth, check_mask, reconstruction_problem
+from ..exceptions import InvalidInputError
 
 __all__: list[str] = []
 

@@ -9,7 +9,7 @@ import pytest
 
 from param_values import param_values
 
-from inpaintenv.registry import available_methods, get_spec, make_method, register_method
+from inpaintenv.methods.registry import available_methods, get_spec, make_method, register_method
 
 EXPECTED = [
     "telea", "telea-hole", "ns", "ns-hole", "bilateral", "bilateral-hole", "ipbasic",
@@ -68,8 +68,8 @@ def test_every_shipped_release_has_its_own_method_name():
     from estimators.learned._checkpoint import PRETRAINED_DIR
     from estimators.learned.releases import DEFAULT_RELEASE
 
-    from inpaintenv.registry import DEFAULT_RELEASE as REGISTRY_DEFAULT
-    from inpaintenv.registry import PRETRAINED_RELEASES
+    from inpaintenv.methods.registry import DEFAULT_RELEASE as REGISTRY_DEFAULT
+    from inpaintenv.methods.registry import PRETRAINED_RELEASES
 
     shipped = {p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file()}
     assert set(PRETRAINED_RELEASES) == shipped == {"kitti-ensemble-v1", "kitti-mixed-v1"}
@@ -83,7 +83,7 @@ def test_every_shipped_release_has_its_own_method_name():
 
 def test_a_release_added_to_the_folder_is_registered(tmp_path, monkeypatch):
     """No hand-kept list: the registry reads the release folder."""
-    from inpaintenv import registry
+    from inpaintenv.methods import registry
 
     for name in ("kitti-mixed-v1", "kitti-new-v9"):
         (tmp_path / f"{name}.json").write_text(json.dumps({"class": "PriorUNetInpainter"}))
@@ -94,7 +94,7 @@ def test_a_release_added_to_the_folder_is_registered(tmp_path, monkeypatch):
 
 
 def test_aliases_resolve_to_the_canonical_name():
-    from inpaintenv.registry import available_aliases, canonical_name, register_alias
+    from inpaintenv.methods.registry import available_aliases, canonical_name, register_alias
 
     assert available_aliases()["blend-pretrained"] == "pretrained"
     assert "pretrained" in available_methods() and "blend-pretrained-mixed" in available_methods()

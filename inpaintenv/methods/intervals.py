@@ -10,7 +10,7 @@ The protocol, scikit-learn's way, tried in this order:
 2. ``method.predict(X, return_std=True) -> (pred, std)`` (as ``GaussianProcessRegressor``
    and ``BayesianRidge`` return it), when ``predict`` takes a ``return_std`` argument:
    this one call is timed and gives both; the interval is the normal one of
-   :func:`inpaintenv.interval_metrics.interval_from_std`.
+   :func:`inpaintenv.metrics.interval_from_std`.
 
 A method with neither gives no interval: its rows simply lack the interval columns.
 """
@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from .exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
-from .interval_metrics import check_interval, interval_from_std
+from ..exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
+from ..metrics import check_interval, interval_from_std
 
 __all__ = ["IntervalSource", "interval_source"]
 

@@ -1,0 +1,43 @@
+"""Scoring: depth errors per frame and their aggregates, where the error comes from, and intervals.
+
+Depth metrics (hole / unmeasured / all RMSE, MAE, iRMSE, iMAE, PSNR, KITTI's own four) are
+described in ``_depth``; per-pixel intervals (coverage, width, rejection curves) in
+``_intervals``. Every name has one public path: ``inpaintenv.metrics.<name>``.
+"""
+
+from ._depth import (
+    EXTRA_COLUMNS,
+    KITTI_METRICS,
+    METRIC_NAMES,
+    REGIONS,
+    UNFILLED,
+    UNMEASURED_METRICS,
+    ScoredPixels,
+    UnfilledPixelsError,
+    aggregate,
+    check_unfilled,
+    frame_metrics,
+    task_of,
+)
+from ._depth_bins import DEPTH_BIN_EDGES, depth_binned_errors
+from ._devkit import interpolate_background
+from ._intervals import (
+    INTERVAL_COLUMNS,
+    KEEP_FRACTIONS,
+    KEEP_GRID,
+    border_distance,
+    check_coverage,
+    check_interval,
+    interval_from_std,
+    interval_metrics,
+    normal_quantile,
+    rejection_curve,
+)
+
+__all__ = [
+    "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "KITTI_METRICS",
+    "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS", "ScoredPixels", "UnfilledPixelsError",
+    "aggregate", "border_distance", "check_coverage", "check_interval", "check_unfilled", "depth_binned_errors",
+    "frame_metrics", "interpolate_background", "interval_from_std", "interval_metrics", "normal_quantile",
+    "rejection_curve", "task_of",
+]
