@@ -71,7 +71,7 @@ def scan_rows(wrapper: Any, test: Any, protocol: str, coverage: float) -> list[d
     of the input), the pixels the interval is calibrated and asked for.
     """
     from estimators.base import iter_scoring_batches
-    from inpaintenv.interval_metrics import interval_metrics
+    from inpaintenv.metrics import interval_metrics
 
     rows = []
     for x, gt, scored in iter_scoring_batches(test, protocol=protocol, seed=0):
@@ -165,7 +165,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     args = parser.parse_args(argv)
 
     from inpaintenv.data import KittiDepth, spaced_per_drive
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     args.protocol = args.protocol or ("densify-v1" if args.input == "scan" else "rect-v1")
     args.score_protocol = args.score_protocol or (["densify-v1", "rect-v1"] if args.input == "scan"

@@ -77,7 +77,7 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     from estimators.intervals import ConformalIntervalInpainter
     from estimators.learned import load
     from inpaintenv.data import KittiDepth, spaced_per_drive
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     dataset = KittiDepth(args.kitti_root, split="train", input=args.input)
     drives = sorted({str(g) for g in dataset.groups} - ({OFFICIAL_DRIVE} if args.input == "scan" else set()))
@@ -155,7 +155,7 @@ def frame_signals(x: np.ndarray, pred: np.ndarray, hole: np.ndarray, scored: np.
                   members: np.ndarray | None) -> dict[str, np.ndarray]:
     """Every signal of the scored pixels of one frame (each already on a log scale)."""
     from estimators.candidates import candidate_fills
-    from inpaintenv.interval_metrics import border_distance
+    from inpaintenv.metrics import border_distance
 
     p = pred[scored].astype(np.float64)
     gy, gx = np.gradient(pred.astype(np.float64))
@@ -171,7 +171,7 @@ def frame_signals(x: np.ndarray, pred: np.ndarray, hole: np.ndarray, scored: np.
 def collect(model: Any, dataset: Any) -> list[dict[str, np.ndarray]]:
     """Per frame with scored hole pixels: ``error`` and every signal of those pixels."""
     from estimators.base import iter_scoring_batches
-    from inpaintenv.registry import make_method
+    from inpaintenv.methods.registry import make_method
 
     scanline = make_method("scanline")
     frames = []

@@ -12,7 +12,7 @@ signals of the pixel, fitted by least squares of ``log(|residual| + 0.05 m)`` on
 
 ``"border"``
     ``log(1 + d)``, ``d`` the distance in pixels to the hole's border
-    (:func:`inpaintenv.interval_metrics.border_distance`): the middle of a large hole errs more.
+    (:func:`inpaintenv.metrics.border_distance`): the middle of a large hole errs more.
 ``"depth"``
     ``log(max(pred, 1 m))``: far pixels err more.
 ``"spread"``
@@ -66,7 +66,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from inpaintenv.data.base import DepthDataset, Subset, as_dataset
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
-from inpaintenv.interval_metrics import check_coverage, normal_quantile
+from inpaintenv.metrics import check_coverage, normal_quantile
 from inpaintenv.masks import get_protocol
 
 from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, training_drives
@@ -401,7 +401,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             float32 metres, ``scale · q_c / z_c``: the conformal half-width at the
             calibrated coverage ``c`` (``calibration_["coverage"]``) divided by the normal quantile ``z_c`` (1.645 for
             0.9), so that ``pred ± z_c · std`` is the calibrated interval (what
-            :func:`inpaintenv.interval_metrics.interval_from_std` builds). It is a
+            :func:`inpaintenv.metrics.interval_from_std` builds). It is a
             "normal-equivalent" std: the residuals are not assumed normal, and
             ``pred ± z · std`` at another coverage is *not* calibrated (use
             :meth:`predict_interval`). 0 outside the hole (NaN pixels of ``X``).

@@ -67,9 +67,9 @@ def test_standard_error_is_numpys(load_benchmark):
 
 
 def test_drives_the_base_saw_are_neither_calibrated_nor_scored(load_benchmark, two_days, monkeypatch):
-    import inpaintenv.registry
+    import inpaintenv.methods.registry
 
-    monkeypatch.setattr(inpaintenv.registry, "make_method", lambda name: SawOneDrive())
+    monkeypatch.setattr(inpaintenv.methods.registry, "make_method", lambda name: SawOneDrive())
     rows = load_benchmark("interval_lodo").main(["--kitti-root", str(two_days), "--method", "saw-one-drive",
                                                  "--signals", "border", "--frames-per-drive", "0"])
     by_fold = {r["fold"]: r for r in rows}

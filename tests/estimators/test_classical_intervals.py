@@ -13,7 +13,7 @@ from estimators.intervals._releases import _intervals_dir
 from inpaintenv.benchmark.suites import method_kind, registry_kind
 from inpaintenv.data import SyntheticStreets, method_input
 from inpaintenv.masks import get_protocol
-from inpaintenv.registry import available_methods, is_learned, make_method
+from inpaintenv.methods.registry import available_methods, is_learned, make_method
 from release_checks import check_shipped_interval
 
 SHIPPED = [name for name in shipped_intervals() if name in CLASSICAL_FILLS]

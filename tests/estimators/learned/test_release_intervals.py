@@ -15,7 +15,7 @@ from inpaintenv.cli import main
 from inpaintenv.data import SyntheticStreets, write_depth_png
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import get_protocol
-from inpaintenv.registry import make_method
+from inpaintenv.methods.registry import make_method
 from release_checks import check_shipped_interval
 
 
