@@ -31,10 +31,10 @@ from joblib import Parallel, delayed
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.data.inputs import method_input
-from inpaintenv.provenance import environment_info
+from inpaintenv.report.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
 from inpaintenv.masks import get_protocol
-from inpaintenv.report.progress import FrameProgress
+from inpaintenv.progress import FrameProgress
 
 from ..base import BaseInpainter, resolve_seed
 from ..candidates import (

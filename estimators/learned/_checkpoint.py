@@ -343,7 +343,7 @@ def shipped(directory: Path = PRETRAINED_DIR) -> dict[str, str]:
 
 def provenance(est: Any) -> dict[str, Any]:
     """What a saved model records about its training data and machine: ``training_drives``
-    (None when unknown) and ``environment`` (:func:`inpaintenv.provenance.environment_info`
+    (None when unknown) and ``environment`` (:func:`inpaintenv.report.provenance.environment_info`
     at fit time; omitted when the model was not fitted in this version)."""
     out: dict[str, Any] = {"training_drives": getattr(est, "training_drives_", None)}
     if getattr(est, "fit_environment_", None) is not None:

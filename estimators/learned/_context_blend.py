@@ -29,7 +29,7 @@ from torch import nn
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
-from inpaintenv.provenance import environment_info
+from inpaintenv.report.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
 from inpaintenv.masks import get_protocol
 

@@ -31,7 +31,7 @@ import torch
 from sklearn.base import clone
 
 from inpaintenv.data.base import DepthDataset
-from inpaintenv.provenance import environment_info
+from inpaintenv.report.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError
 
 from ..base import BaseInpainter, check_random_state

@@ -24,7 +24,7 @@ import torch
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset, split_by_drive
-from inpaintenv.provenance import environment_info
+from inpaintenv.report.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, TrainingDivergedError
 from inpaintenv.masks import OcclusionProtocol, get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics

@@ -31,7 +31,7 @@ from ..metrics import frame_metrics, interpolate_background
 from ..report import style
 from ..exceptions import FileTooLargeError, JSONFileError
 from ..files import read_json, write_atomic, write_text_atomic
-from ..report.progress import count
+from ..progress import count
 from . import ownership
 
 __all__ = [

@@ -10,7 +10,7 @@ model made under the same name, is an error.
 
 A run holds the folder's lock (:mod:`.lock`) from start to end, so two runs never write
 the same rows. Progress goes to tqdm bars on a terminal and, in a log, to a line every
-:data:`PROGRESS_INTERVAL` seconds (:class:`~inpaintenv.report.progress.ProgressReporter`).
+:data:`PROGRESS_INTERVAL` seconds (:class:`~inpaintenv.progress.ProgressReporter`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from ..evaluate import (
 from ..files import remove_stale_temporaries
 from ..metrics import check_coverage
 from ..metrics import check_unfilled
-from ..report.progress import (
+from ..progress import (
     ProgressReporter,
     count,
     format_duration,

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..cluster import open_client, parse_scheduler
 from ..files import loads_json
-from ..provenance import environment_info
+from ..report.provenance import environment_info
 from .options import (
     add_common_options,
     add_source_options,
@@ -67,7 +67,7 @@ def add_train(subparsers: Any) -> None:
 
 
 #: Estimators whose ``fit`` takes a dataset of scans (``input_kind == "scan"``): the input is the scan.
-SCAN_FITTERS = ("BlendInpainter",)
+SCAN_FITTERS = ("BlendInpainter", "ScanBlendInpainter")
 
 
 def check_scan_training(preset: str, overrides: dict[str, Any]) -> None:
@@ -142,7 +142,7 @@ def _stop_reason(est: Any) -> str | None:
 @contextlib.contextmanager
 def _plain_progress(quiet: bool) -> Any:
     """Progress bars as plain lines while stderr is a log file (as the benchmark writes there)."""
-    from ..report.progress import PlainLines, stderr_is_terminal
+    from ..progress import PlainLines, stderr_is_terminal
 
     if quiet or stderr_is_terminal():
         yield

@@ -15,7 +15,7 @@ from ..conventions import (
     check_seeds,
     is_real_number,
 )
-from ..report.progress import count
+from ..progress import count
 from ..exceptions import InvalidInputError, InvalidTypeError, OutOfRangeError
 from .inputs import InputsMixin, check_input_kind
 

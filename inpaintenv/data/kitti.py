@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..report.progress import count
+from ..progress import count
 from .base import DepthDataset, name_from_path
 from .io import (
     DepthFormatError,

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..data.depth_files import DEPTH_SUFFIXES
 from ..exceptions import InvalidInputError
 from ..files import describe_kind
-from ..report.progress import count
+from ..progress import count
 
 __all__ = ["FORMATS", "INTERVAL_SUFFIXES", "POINT_FORMATS", "SCAN_SUFFIX", "FillJob", "FillReport", "plan"]
 

@@ -18,7 +18,7 @@ from ..metrics import check_coverage
 from ..methods.intervals import IntervalSource
 from ..benchmark.lock import run_lock
 from ..files import remove_stale_temporaries
-from ..report.progress import FrameProgress
+from ..progress import FrameProgress
 from .ledger import Ledger, file_identity
 from .methods import INPUT_CHOICES, fill_batch, interval_method, make_method, router, shipped_interval_name
 from .plan import FillJob, FillReport, plan

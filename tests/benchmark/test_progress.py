@@ -9,7 +9,7 @@ import pytest
 from inpaintenv.benchmark import runner
 from inpaintenv.benchmark.suites import SUITES
 from inpaintenv.cli import build_parser, main
-from inpaintenv.report.progress import ProgressReporter, format_duration
+from inpaintenv.progress import ProgressReporter, format_duration
 
 pytest.importorskip("estimators.classical")
 
@@ -75,7 +75,7 @@ def test_format_duration():
 def test_wording_of_counts_and_short_durations():
     # "1 frames", "1 drives" and "about 0 s" were printed.
     from inpaintenv.data import SyntheticStreets
-    from inpaintenv.report.progress import ProgressReporter, count, format_duration
+    from inpaintenv.progress import ProgressReporter, count, format_duration
 
     assert (count(1, "frame"), count(0, "frame"), count(2, "drive")) == ("1 frame", "0 frames", "2 drives")
     assert format_duration(0.2) == "under 1 s" and format_duration(0.6) == "1 s"
@@ -90,7 +90,7 @@ def test_wording_of_counts_and_short_durations():
 
 
 def test_frame_progress_outside_a_terminal():
-    from inpaintenv.report.progress import FrameProgress
+    from inpaintenv.progress import FrameProgress
 
     lines: list[str] = []
     clock = iter([0.0, 0.0, 0.0, 2.0, 4.0, 12.0, 12.0]).__next__
