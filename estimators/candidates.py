@@ -150,6 +150,12 @@ def _ipbasic(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     return IPBasicInpainter()._fill_frame(np.where(known, values, 0.0).astype(np.float32))
 
 
+def _ipbasic_scan(values: np.ndarray, known: np.ndarray) -> np.ndarray:
+    # The registry's ipbasic-scan: no large-hole extrapolation, the strongest classical fill
+    # of a single scan's holes.
+    return IPBasicInpainter(large_hole_kernel=None)._fill_frame(np.where(known, values, 0.0).astype(np.float32))
+
+
 _FILLS = {
     "scanline": lambda v, k: scanline_fill(v, k),
     "scanline-inverse": lambda v, k: in_inverse_depth(scanline_fill, v, k),
@@ -162,6 +168,7 @@ _FILLS = {
     "row-far": lambda v, k: row_band_quantile(v, k, 0.9),
     # Fills that suit a sparse scan: morphological, nearest, and the window's extremes.
     "ipbasic": _ipbasic,
+    "ipbasic-scan": _ipbasic_scan,
     "nearest": nearest_fill,
     "window-near": lambda v, k: window_extreme(v, k, far=False),
     "window-far": lambda v, k: window_extreme(v, k, far=True),

@@ -13,6 +13,8 @@ name                   what it is
 ``PriorUNetInpainter``  networks over classical candidate fills (release ``kitti-mixed-v1``)
 ``BlendInpainter``     the per-pixel blend trained on pooled pixels
 ``ContextBlendInpainter``  the blend plus a low-resolution scene context
+``ScanBlendInpainter``  a single scan: a classical mean near its measurements, the blend
+                       far from them (release ``kitti-scan-v1``)
 ``MeanEnsembleInpainter``  the per-pixel mean of several learned inpainters (release
                        ``kitti-ensemble-v1``, the default)
 ``load``               any saved model, its class read from its ``config.json``
@@ -26,7 +28,7 @@ Every class saves and loads through one mixin (``_persistence``: ``save``, ``loa
 multi-process training is ``torchrun -m estimators.learned.distributed``.
 
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
--> ``_neural_params`` -> ``_neural`` -> ``_prior`` / ``_blend`` -> ``_context_blend`` ->
+-> ``_neural_params`` -> ``_neural`` -> ``_prior`` / ``_blend`` -> ``_context_blend``, ``_scan_blend`` ->
 ``_ensemble`` -> ``_load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
 fills come from :mod:`estimators.candidates` (no torch). No module here imports this package
 face or ``estimators``' face; this face imports a module only when one of its names is
@@ -44,7 +46,7 @@ _EXPORTS: dict[str, str] = {
     "BlendInpainter": "_blend", "ContextBlendInpainter": "_context_blend", "MeanEnsembleInpainter": "_ensemble",
     "load": "_load", "load_checkpoint": "_load", "load_release": "releases", "DEFAULT_RELEASE": "releases",
     "shipped": "releases", "CheckpointError": "_checkpoint", "load_default": "releases",
-    "InputRoutedInpainter": "_routed",
+    "InputRoutedInpainter": "_routed", "ScanBlendInpainter": "_scan_blend",
 }
 
 __all__ = sorted(_EXPORTS)

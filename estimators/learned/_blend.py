@@ -45,6 +45,7 @@ from ..candidates import (
 )
 from . import _checkpoint as ckpt
 from ._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
+from ._far import far_pixels
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
 from ._output import bound_output
 from ._persistence import PersistenceMixin
@@ -74,12 +75,13 @@ def _pick(mask: np.ndarray, n: int, rng: np.random.Generator) -> tuple[np.ndarra
 
 def _pixel_samples(
     gt: np.ndarray, source: np.ndarray, hole: np.ndarray, keep: float, n_pixels: int, names: tuple[str, ...],
-    endpoints: bool, scan: bool, rng: np.random.Generator,
+    endpoints: bool, scan: bool, rng: np.random.Generator, min_distance: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Features and ground truth of up to ``n_pixels`` pixels to fill that have ground truth.
 
     ``source`` is the measured input (``gt`` itself for a map; the frame's scan for a scan,
-    whose every unmeasured pixel is to be filled, not only the hole).
+    whose every unmeasured pixel is to be filled, not only the hole). ``min_distance``: only
+    pixels farther than that from any measurement (:func:`~._far.far_pixels`).
     """
     if keep < 1.0:
         # Sparser input than the one given (official KITTI maps are sparser than rebuilt
@@ -87,6 +89,8 @@ def _pixel_samples(
         source = np.where((source > 0) & ~hole & (rng.random(gt.shape) >= keep), 0.0, source)
     x = method_input(source, hole, "scan" if scan else "map")
     target = np.isnan(x) & (gt > 0)
+    if min_distance is not None:
+        target &= far_pixels(x, min_distance)
     if scan and (target & hole).any():
         # Half in the hole, half among the unmeasured pixels around it: a scan's unmeasured
         # pixels outnumber a hole's many times, and both tasks are scored.
@@ -331,8 +335,8 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
             out = []
             for _ in range(int(self.masks_per_frame)):
                 hole = protocol.sample(gt.shape, rng)
-                out += [_pixel_samples(gt, source, hole, float(k), n_pixels, names, endpoints, scan, rng)
-                        for k in self.keep]
+                out += [_pixel_samples(gt, source, hole, float(k), n_pixels, names, endpoints, scan, rng,
+                                       self._min_distance()) for k in self.keep]
             return out
 
         jobs = self._map_frames(one_frame, len(dataset), "training features")
@@ -341,6 +345,10 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         if not parts:
             return np.zeros((0, 0), np.float32), np.zeros(0, np.float32)
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    def _min_distance(self) -> float | None:
+        """Train only on pixels farther than this from any measurement (None: every pixel to fill)."""
+        return None
 
     def _map_frames(self, one_frame: Any, n_frames: int, what: str) -> list:
         """``[one_frame(i) for i in range(n_frames)]``, ``n_jobs`` frames at a time (joblib

@@ -12,7 +12,7 @@ import os
 from typing import Any
 
 from . import _checkpoint as ckpt
-from . import _blend, _context_blend, _ensemble, _neural, _prior  # noqa: F401  (each registers its classes)
+from . import _blend, _context_blend, _ensemble, _neural, _prior, _scan_blend  # noqa: F401  (each registers its classes)
 
 __all__ = ["load", "load_checkpoint"]
 
