@@ -75,6 +75,7 @@ def _member(release: str, member: str, **changes: Any) -> dict[str, Any]:
 
 
 _ENSEMBLE, _MIXED = release_recipe("kitti-ensemble-v1"), release_recipe("kitti-mixed-v1")
+_SCAN = release_recipe("kitti-scan-v1")
 #: The context member of kitti-ensemble-v1 (two context blends, each on its own draw of samples).
 _CONTEXT = _member("kitti-ensemble-v1", "context")
 #: The per-pixel blend member of kitti-ensemble-v1, trained alone: with its mirrored pass.
@@ -102,6 +103,12 @@ RELEASE_PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
         *_MIXED,
         "the shipped free-form release (its JSON's recipe): scale-free per-pixel blend of six classical fills "
         "trained on mixed-v1 (each frame's hole from one of the four protocols), 900 steps",
+    ),
+    "kitti-scan-v1": (
+        *_SCAN,
+        "the shipped scan release (its JSON's recipe; train with --input scan): a single LiDAR scan filled by the "
+        "mean of harmonic and ipbasic-scan within 16 px of a measurement, by a learned blend of five classical "
+        "fills beyond (ScanBlendInpainter)",
     ),
 }
 

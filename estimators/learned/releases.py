@@ -23,15 +23,15 @@ __all__ = ["DEFAULT_RELEASE", "SCAN_DEFAULT", "load_default", "load_release", "s
 DEFAULT_RELEASE = ckpt.DEFAULT_RELEASE
 
 
-#: What ``pretrained`` fills a single LiDAR scan with: the per-pixel mean of ``harmonic`` and
-#: ``ipbasic-scan``, better than each classical fill alone on every set of the KITTI slice (both
-#: official drives and the rebuilt days; docs/baselines.md), where no learned model trained here
-#: beat the strongest classical fill on every left-out day.
-SCAN_DEFAULT = "harmonic-ipbasic"
+#: What ``pretrained`` fills a single LiDAR scan with: the scan release, the classical mean
+#: ``harmonic-ipbasic`` near the scan's measurements and a learned blend far from them (in a hole);
+#: on both official sets with a scan it is no worse than every classical fill on densify and
+#: better in rect-v1's holes (docs/model_cards/kitti-scan-v1.md).
+SCAN_DEFAULT = "kitti-scan-v1"
 
 
 def load_default(input: str = "auto", **overrides: Any) -> Any:
-    """The default method ``pretrained``: the map release for a map, :data:`SCAN_DEFAULT` for a scan.
+    """The default method ``pretrained``: the map release for a map, the scan release :data:`SCAN_DEFAULT` for a scan.
 
     Parameters
     ----------
@@ -46,12 +46,11 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
     InputRoutedInpainter
         Its ``routed_to_`` names the method that filled each frame of the last ``predict``.
     """
-    from estimators.classical import MeanInpainter
-
     from ._routed import InputRoutedInpainter
 
-    return InputRoutedInpainter(map_method=load_release(DEFAULT_RELEASE, **overrides), scan_method=MeanInpainter(),
-                                input=input, scan_name=SCAN_DEFAULT, map_name=DEFAULT_RELEASE)
+    return InputRoutedInpainter(map_method=load_release(DEFAULT_RELEASE, **overrides),
+                                scan_method=load_release(SCAN_DEFAULT), input=input, scan_name=SCAN_DEFAULT,
+                                map_name=DEFAULT_RELEASE)
 
 
 def shipped() -> dict[str, str]:

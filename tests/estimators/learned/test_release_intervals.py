@@ -84,8 +84,14 @@ def test_every_shipped_release_calibration_never_saw_its_calibration_drives(name
         assert all(not set(f["drives"]) & set(f["training_drives"]) for f in cal["out_of_fold"])
     else:  # calibrated directly: the release never saw a calibration drive
         assert cal["drives"] and not set(cal["drives"]) & set(wrapped.estimator.training_drives_)
-    x = np.asarray(SyntheticStreets(n=1, frame_shape=(96, 320), seed=4)[0], dtype=np.float32)
-    x[get_protocol(cal["protocol"]).mask(x.shape, seed=0, index=0)] = np.nan
+    if get_protocol(cal["protocol"]).task == "unmeasured":  # densify-v1: calibrated on scans, no hole
+        from inpaintenv.data import method_input
+
+        scan = SyntheticStreets(n=1, frame_shape=(96, 320), seed=4, input="scan").load_input_batch([0])[0]
+        x = method_input(scan, get_protocol(cal["protocol"]).mask(scan.shape, seed=0, index=0), "scan")
+    else:
+        x = np.asarray(SyntheticStreets(n=1, frame_shape=(96, 320), seed=4)[0], dtype=np.float32)
+        x[get_protocol(cal["protocol"]).mask(x.shape, seed=0, index=0)] = np.nan
     check_shipped_interval(wrapped, x, load_release(name).predict(x))
 
 
@@ -132,7 +138,12 @@ def test_a_scan_default_without_a_calibration_gets_no_interval(monkeypatch):
 
     from inpaintenv.exceptions import InpaintenvError
 
-    monkeypatch.setattr(estimators.learned.releases, "SCAN_DEFAULT", "no-such-scan-release")
+    import estimators.intervals._releases as shipped_calibrations
+
+    every = shipped_calibrations.shipped_intervals
+    scan_default = estimators.learned.releases.SCAN_DEFAULT
+    monkeypatch.setattr(shipped_calibrations, "shipped_intervals",
+                        lambda: [k for k in every() if k != scan_default])
     routed = make_method("pretrained-intervals")
     with pytest.raises(InpaintenvError, match="no calibrated interval for a single scan"):
         routed.predict_interval(_scans())

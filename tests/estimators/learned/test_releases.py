@@ -45,8 +45,9 @@ def _frame(shape=(64, 192)) -> tuple[np.ndarray, np.ndarray]:
     return np.where(hole, np.nan, gt).astype(np.float32), hole
 
 
-def test_the_package_ships_the_default_and_the_free_form_release():
-    assert RELEASES == ["kitti-ensemble-v1", "kitti-mixed-v1"] and DEFAULT_RELEASE == "kitti-ensemble-v1"
+def test_the_package_ships_the_default_the_free_form_and_the_scan_release():
+    assert RELEASES == ["kitti-ensemble-v1", "kitti-mixed-v1", "kitti-scan-v1"] and DEFAULT_RELEASE == "kitti-ensemble-v1"
+    assert type(load_release("kitti-scan-v1")).__name__ == "ScanBlendInpainter"
     from inpaintenv.methods.registry import DEFAULT_RELEASE as registry_default
 
     assert registry_default == DEFAULT_RELEASE
@@ -145,7 +146,7 @@ def test_a_class_loads_only_its_own_releases():
 
 
 def test_unknown_release_lists_the_shipped_ones():
-    with pytest.raises(KeyError, match="kitti-ensemble-v1.*kitti-mixed-v1"):
+    with pytest.raises(KeyError, match="kitti-ensemble-v1.*kitti-mixed-v1.*kitti-scan-v1"):
         load_release("kitti-rect-v4")
 
 
