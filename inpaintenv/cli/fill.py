@@ -100,7 +100,7 @@ def add_fill(subparsers: Any) -> None:
     which.add_argument("--checkpoint", metavar="PATH", help="a saved model's folder instead of --method")
     o.add_argument("--input", choices=["auto", "scan", "map"],
                    help="what the inputs are, for a method that fills each kind its own way (pretrained: a single "
-                        "LiDAR scan with harmonic-ipbasic, a map with holes with the map release): auto (its "
+                        "LiDAR scan with kitti-scan-v1, a map with holes with the map release): auto (its "
                         "default) tells each input's kind from its measured density; the output line says which "
                         "method filled what")
     c = p.add_argument_group("per-pixel confidence")

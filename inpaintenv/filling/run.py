@@ -296,7 +296,7 @@ def fill(
         With ``missing``: every pixel without a measurement, the sky included.
     input : {None, "auto", "scan", "map"}
         For a method that fills each input kind its own way (``pretrained``: a single LiDAR
-        scan with ``harmonic-ipbasic``, a map with the map release): every input is of this
+        scan with the scan release ``kitti-scan-v1``, a map with the map release): every input is of this
         kind, or (``"auto"``, the method's default) each input's kind is told from its measured
         density. Other methods refuse it. ``FillReport.routes`` says which method filled what.
 
