@@ -13,7 +13,6 @@ scored, a fold's drives pooled.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,7 @@ from estimators.learned import load_checkpoint
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
+from inpaintenv.files import loads_json
 from inpaintenv.methods.registry import make_method
 from inpaintenv.report.results import EvaluationResult
 
@@ -69,7 +69,7 @@ def join_command(argv: list[str] | None = None) -> int:
             key, sep, value = item.partition("=")
             if not sep:
                 p.error(f"--set takes KEY=VALUE, got {item!r}")
-            est.set_params(**{key: json.loads(value)})
+            est.set_params(**{key: loads_json(value, f"--set {key}")})
     except (ValueError, TypeError) as exc:
         p.error(str(exc))
     print(f"joined {', '.join(n for n, _ in members)} -> {est.save(args.out)}")
@@ -166,7 +166,7 @@ def mean_command(argv: list[str] | None = None) -> list[dict]:
     for item in args.set_second:
         key, sep, value = item.partition("=")
         try:
-            b.set_params(**{key: json.loads(value)})
+            b.set_params(**{key: loads_json(value, f"--set {key}")})
         except (ValueError, TypeError) as exc:  # no "=", bad JSON, or not a parameter of the model
             p.error(f"--set-second {item!r}: {exc}" if sep else f"--set-second takes KEY=VALUE, got {item!r}")
         name_b += f" ({key}={value})"
