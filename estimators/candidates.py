@@ -147,13 +147,15 @@ def window_extreme(values: np.ndarray, known: np.ndarray, far: bool, size: int =
 def _ipbasic(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     # Its morphology prefers the nearer surface: strong on a sparse scan, where the
     # smooth fills average across depth edges.
-    return IPBasicInpainter()._fill_frame(np.where(known, values, 0.0).astype(np.float32))
+    filled = IPBasicInpainter()._fill_frame(np.where(known, values, 0.0).astype(np.float32))
+    return np.where(known, values, filled).astype(np.float32)  # its median blur moves measured pixels
 
 
 def _ipbasic_scan(values: np.ndarray, known: np.ndarray) -> np.ndarray:
     # The registry's ipbasic-scan: no large-hole extrapolation, the strongest classical fill
     # of a single scan's holes.
-    return IPBasicInpainter(large_hole_kernel=None)._fill_frame(np.where(known, values, 0.0).astype(np.float32))
+    filled = IPBasicInpainter(large_hole_kernel=None)._fill_frame(np.where(known, values, 0.0).astype(np.float32))
+    return np.where(known, values, filled).astype(np.float32)
 
 
 _FILLS = {
