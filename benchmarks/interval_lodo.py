@@ -25,9 +25,10 @@ the model must have been trained with a calibration day left out as well.
 default) on the rebuilt drives' scans: calibrated with ``--protocol`` (``densify-v1`` by default)
 on the other days' rebuilt drives (never on drive 0001, val or val_selection, the official
 frames), then scored on the left-out day under each ``--score-protocol`` (default ``densify-v1``
-and ``rect-v1``: its rectangles cut out of the scan). The scored pixels are every pixel the
-scan leaves to fill (the unmeasured ones, the hole included), so the columns named ``hole``
-are on those pixels. The official frames are scored as a check: drive 0001's and
+and ``rect-v1``: its rectangles cut out of the scan, ``--seed`` repeatable). The scored pixels
+are each task's, as ``evaluate --interval-coverage`` scores them: every pixel the scan did not
+measure (densify-v1), the hole (rect-v1); the columns named ``hole`` are on those pixels.
+``--protocol densify-v1+rect-v1`` calibrates on both tasks pooled. The official frames are scored as a check: drive 0001's and
 val_selection's scans, with the interval calibrated on every rebuilt drive.
 
     python benchmarks/interval_lodo.py --kitti-root /path/to/kitti --input scan --method harmonic-ipbasic --spread-method harmonic --frames-per-drive 0
@@ -63,26 +64,19 @@ def standard_error(values: list[float]) -> float:
     return float(v.std(ddof=1) / np.sqrt(v.size)) if v.size > 1 else float("nan")
 
 
-def scan_rows(wrapper: Any, test: Any, protocol: str, coverage: float) -> list[dict[str, float]]:
-    """Per frame of a scan dataset: the interval columns and the RMSE on every pixel the scan leaves to fill.
+def scan_rows(wrapper: Any, test: Any, protocol: str, coverage: float, seeds: list[int]) -> list[dict[str, float]]:
+    """Per (seed, frame) of a scan dataset: ``evaluate``'s interval columns and the RMSE of the task.
 
-    ``evaluate``'s interval columns read the protocol's hole only (empty under densify-v1);
-    here the scored set is :func:`estimators.base.iter_scoring_batches`' (every NaN pixel
-    of the input), the pixels the interval is calibrated and asked for.
+    The task's pixels, as the benchmark scores them: under densify-v1 every pixel the scan did
+    not measure (``unmeasured_rmse``), under a hole protocol the hole cut out of the scan.
     """
-    from estimators.base import iter_scoring_batches
-    from inpaintenv.metrics import interval_metrics
+    from inpaintenv.evaluate import evaluate
+    from inpaintenv.masks import get_protocol
 
-    rows = []
-    for x, gt, scored in iter_scoring_batches(test, protocol=protocol, seed=0):
-        pred = np.asarray(wrapper.predict(x), dtype=np.float32)
-        low, high = wrapper.predict_interval(x, coverage, prediction=pred)
-        cols = interval_metrics(pred, gt, scored, low, high)
-        for k in range(len(x)):
-            m = scored[k] & (gt[k] > 0)
-            rmse = float(np.sqrt(np.mean((pred[k][m].astype(np.float64) - gt[k][m]) ** 2))) if m.any() else np.nan
-            rows.append({**{c: float(v[k]) for c, v in cols.items()}, "hole_rmse": rmse})
-    return rows
+    task = get_protocol(protocol).task
+    rows = evaluate(wrapper, test, protocol=protocol, seeds=seeds, intervals=coverage, progress=False,
+                    name="conformal").rows
+    return [{**r, "hole_rmse": r[f"{task}_rmse"]} for r in rows]
 
 
 def summary(rows: list[dict[str, float]]) -> dict[str, float]:
@@ -106,7 +100,8 @@ def run_fold(base: Any, cal: Any, test: Any, args: argparse.Namespace) -> list[d
     out = []
     for protocol in args.score_protocol:
         if args.input == "scan":
-            rows = scan_rows(wrapper, test, protocol, args.coverage)
+            rows = scan_rows(wrapper, test, protocol, args.coverage,
+                             args.seed if protocol != "densify-v1" else [0])
         else:
             rows = evaluate(wrapper, test, protocol=protocol, intervals=args.coverage, progress=False,
                             name="conformal").rows
@@ -158,6 +153,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
                         help="a protocol scored (repeatable; default --protocol on maps, densify-v1 and rect-v1 on scans)")
     parser.add_argument("--input", choices=("map", "scan"), default="map",
                         help="the input the method fills: a map with holes, or a single scan (rebuilt drives' scans)")
+    parser.add_argument("--seed", type=int, action="append", default=None,
+                        help="rect-v1 seed scored on scans (repeatable; default 0)")
     parser.add_argument("--weighting", default="frame", choices=("frame", "pixel"),
                         help="how calibration pixels weigh in the quantile (ConformalIntervalInpainter)")
     parser.add_argument("--frames-per-drive", type=int, default=6, help="0 = every frame")
@@ -168,6 +165,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     from inpaintenv.methods.registry import make_method
 
     args.protocol = args.protocol or ("densify-v1" if args.input == "scan" else "rect-v1")
+    args.seed = args.seed or [0]
     args.score_protocol = args.score_protocol or (["densify-v1", "rect-v1"] if args.input == "scan"
                                                   else [args.protocol])
     dataset = KittiDepth(args.kitti_root, split="train", input=args.input)

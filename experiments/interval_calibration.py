@@ -4,6 +4,7 @@ calibration, and the signals tried for it.
 * ``calibrate``: write the interval calibration shipped with a release (or a
   classical fill) (formerly ``release_intervals.py``).
 * ``signals``: which per-pixel signals rank a fold model's errors (formerly ``interval_signals.py``).
+* ``lodo``: which calibration protocol serves both scan tasks, one recording day left out.
 
 ``python experiments/interval_calibration.py COMMAND --help`` prints a command's options.
 """
@@ -51,6 +52,10 @@ and val_selection are never calibrated on: they are the official frames reported
 default (``SCAN_DEFAULT``) ships this way::
 
     python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --input scan --release harmonic-ipbasic --spread-method harmonic --frames-per-drive 0
+
+``--protocol densify-v1+rect-v1`` pools both scan tasks (each task's pixels: the unmeasured ones,
+the hole cut out of the scan), and ``--signals border depth spread far`` covers the pixels far
+from any measurement and the near ones alike: how ``kitti-scan-v1`` ships (``lodo`` chose it).
 """
 
 #: Drive of official maps: reported, never calibrated on, when calibrating on scans.
@@ -70,6 +75,8 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
                         "rect-v1 on maps, densify-v1 on scans)")
     parser.add_argument("--input", choices=("map", "scan"), default="map",
                         help="the input the release fills: a map with holes, or a single scan (the rebuilt drives' scans)")
+    parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"],
+                        help="scale signals (\"far\" too: SIGNALS of estimators.intervals)")
     parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
     args = parser.parse_args(argv)
     args.protocol = args.protocol or ("densify-v1" if args.input == "scan" else "rect-v1")
@@ -93,7 +100,7 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     release = make_method(args.release)
     start = time.perf_counter()
     wrapper = ConformalIntervalInpainter(release, coverage=args.coverage, spread_method=args.spread_method,
-                                         protocol=args.protocol)
+                                         protocol=args.protocol, signals=tuple(args.signals))
     if folds:
         left = sorted(set(drives) - {str(g) for _, ds in folds for g in ds.groups})
         if left:
@@ -266,7 +273,116 @@ def signals_command(argv: list[str] | None = None) -> dict[str, dict[str, float]
     return cuts
 
 
-COMMANDS = {"calibrate": calibrate_command, "signals": signals_command}
+LODO_DOC = """Which calibration protocol serves both scan tasks: leave one recording day out with fold models.
+
+A fold model per recording day (``--fold DAY=MODEL``, trained without DAY: ``scan_lodo.py lodo
+--save-folds``) fills its own day's rebuilt drives (``--frames-per-drive`` evenly spaced frames,
+drive 0001 never) under ``densify-v1`` and ``rect-v1`` (``--seeds``), once; every variant is then
+calibrated as ``calibrate --fold`` calibrates (out of fold, frame weighting), on the other two
+days' residuals only (rect-v1 seed 0), and scored on the left-out day's. Scored pixels are each
+task's, as ``evaluate --interval-coverage`` scores them: every pixel the scan did not measure
+(densify-v1), the hole cut out of the scan (rect-v1, each (seed, frame) a unit). Printed per
+variant, left-out day and task: mean over units of the coverage, of the mean width, and of
+``rmse_cut_80`` (the share of RMSE cut by keeping the narrowest 80 %, the benchmark's ranking).
+
+    python experiments/interval_calibration.py lodo --kitti-root <KITTI root> --spread-method harmonic \\
+        --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
+"""
+
+#: The scan tasks scored, and the calibrations compared: (protocol, signals).
+SCAN_TASKS = ("densify-v1", "rect-v1")
+SHIPPED_SIGNALS = ("border", "depth", "spread")
+LODO_SIGNALS = SHIPPED_SIGNALS + ("far",)
+CALIBRATIONS = (("densify-v1", SHIPPED_SIGNALS), ("rect-v1", SHIPPED_SIGNALS),
+                ("densify-v1+rect-v1", SHIPPED_SIGNALS), ("densify-v1+rect-v1", LODO_SIGNALS))
+
+
+def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...]) -> dict[tuple[str, int], tuple]:
+    """``(task, seed) -> (design matrix, residuals, frame)`` of ``model`` on ``frames`` (scans)."""
+    from estimators.intervals._calibration import scored_residuals
+
+    out = {("densify-v1", 0): scored_residuals(model, frames, LODO_SIGNALS, spread, "densify-v1", 0)}
+    for seed in seeds:
+        out[("rect-v1", seed)] = scored_residuals(model, frames, LODO_SIGNALS, spread, "rect-v1", seed)
+    return out
+
+
+def pooled(parts: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts' rows stacked, frame numbers kept distinct across parts."""
+    frames, offset = [], 0
+    for _, _, fr in parts:
+        frames.append(fr + offset)
+        offset += int(fr.max()) + 1
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]), np.concatenate(frames)
+
+
+def interval_scores(coef: np.ndarray, q: float, F: np.ndarray, r: np.ndarray, frame: np.ndarray) -> dict[str, float]:
+    """Mean over units of coverage, width (low clipped at 0 m) and RMSE cut by the narrowest 80 %."""
+    from estimators.intervals._calibration import scale_from
+    from inpaintenv.metrics import rejection_curve
+
+    half = q * scale_from(coef, F)
+    width = half + np.minimum(half, np.exp(F[:, 2]))  # column 2 is log(max(pred, 1 m)): low clipped at 0
+    units, unit = np.unique(frame, return_inverse=True)
+    n = np.bincount(unit).astype(np.float64)
+    sq = r ** 2
+    curve = rejection_curve(sq, np.round(width, 3), unit, len(units), (0.8, 1.0))
+    return {"coverage": float(np.mean(np.bincount(unit, r <= half) / n)),
+            "width": float(np.mean(np.bincount(unit, width) / n)),
+            "cut_80": float(np.nanmean(1.0 - curve[:, 0] / curve[:, 1]))}
+
+
+def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(prog="interval_calibration.py lodo", description=LODO_DOC,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--kitti-root", required=True)
+    parser.add_argument("--fold", action="append", default=[], required=True, metavar="DAY=MODEL")
+    parser.add_argument("--frames-per-drive", type=int, default=8, help="0 = every frame")
+    parser.add_argument("--seeds", default="0,1,2", help="rect-v1 seeds scored, comma-separated")
+    parser.add_argument("--spread-method", default="harmonic")
+    parser.add_argument("--coverage", type=float, default=0.9)
+    parser.add_argument("--json", help="also write the rows here")
+    args = parser.parse_args(argv)
+
+    from estimators.intervals._calibration import balanced_scale, residual_quantiles, scale_from
+    from estimators.learned import load
+    from inpaintenv.data import KittiDepth, spaced_per_drive
+    from inpaintenv.methods.registry import make_method
+
+    dataset = KittiDepth(args.kitti_root, split="train", input="scan")
+    drives = sorted({str(g) for g in dataset.groups} - {OFFICIAL_DRIVE})
+    seeds = tuple(int(s) for s in args.seeds.split(","))
+    spread = make_method(args.spread_method)
+    days: dict[str, dict] = {}
+    for entry in args.fold:
+        day, _, path = entry.partition("=")
+        start = time.perf_counter()
+        frames = spaced_per_drive(dataset, args.frames_per_drive, [d for d in drives if d.startswith(day)])
+        days[day] = day_residuals(load(path), frames, spread, seeds)
+        print(f"{day}: {len(frames)} frames ({time.perf_counter() - start:.0f} s)", flush=True)
+    rows = []
+    print("| calibrated on | left-out day | task | coverage | mean width (m) | keep-80 % cut |\n|---|---|---|---:|---:|---:|")
+    for protocol, signals in CALIBRATIONS:
+        variant = protocol + ("" if signals == SHIPPED_SIGNALS else " (+far)")
+        cols = [0] + [1 + LODO_SIGNALS.index(name) for name in signals]
+        for day in days:
+            cal = pooled([days[d][(t, 0)] for d in days if d != day for t in protocol.split("+")])
+            coef = np.zeros(1 + len(LODO_SIGNALS))  # the signals left out weigh 0
+            coef[cols] = balanced_scale(cal[0][:, cols], cal[1], cal[2], signals, 0, 200_000, "frame", args.coverage)
+            _, q = residual_quantiles(cal[1] / scale_from(coef, cal[0]), cal[2], "frame", args.coverage)
+            for task in SCAN_TASKS:
+                test = pooled([v for (t, _), v in days[day].items() if t == task])
+                row = {"calibration": variant, "day": day, "task": task, **interval_scores(coef, q, *test)}
+                rows.append(row)
+                print(f"| {variant} | {day} | {task} | {row['coverage']:.3f} | {row['width']:.2f} | "
+                      f"{row['cut_80']:.1%} |", flush=True)
+    if args.json:
+        from inpaintenv.files import write_json
+        write_json(args.json, rows)
+    return {"rows": rows}
+
+
+COMMANDS = {"calibrate": calibrate_command, "signals": signals_command, "lodo": lodo_command}
 
 
 def main(argv: list[str] | None = None) -> Any:

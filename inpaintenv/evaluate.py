@@ -212,8 +212,9 @@ def evaluate(
         high)``, or ``predict(X, return_std=True) -> (pred, std)`` (see
         :mod:`inpaintenv.methods.intervals`). Its rows then gain the columns of
         :data:`inpaintenv.metrics.INTERVAL_COLUMNS` (coverage, width, the
-        error-rejection curve and the border-distance baseline); a method without an
-        interval gets the rows of a run without ``intervals``. Recorded in
+        error-rejection curve and the border-distance baseline), on the task's pixels:
+        the hole, or under ``densify-v1`` every pixel the input did not measure; a method
+        without an interval gets the rows of a run without ``intervals``. Recorded in
         ``meta["interval_coverage"]`` (and ``meta["interval_methods"]``, the methods that gave one).
 
     Returns
@@ -328,7 +329,8 @@ def _score_locally(
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Rows and skipped frames of ``batches``, scored in this process (checked arguments).
 
-    ``interval`` (from ``intervals``, the coverage asked) adds the interval columns.
+    ``interval`` (from ``intervals``, the coverage asked) adds the interval columns, scored on
+    the protocol's task pixels (the hole, or under densify-v1 every pixel the input lacks).
     """
     if interval is not None:
         call = interval.wrap(call)
@@ -356,8 +358,10 @@ def _score_locally(
             except UnfilledPixelsError as exc:
                 raise MethodOutputError(f"method {name!r}: {exc}") from None
             if interval is not None:
-                low, high = interval.bounds(x, pred, hole)
-                metrics.update(interval_metrics(pred, gt, hole, low, high))
+                # The task's pixels, as the headline's: densify-v1's are every pixel the input lacks.
+                scored = np.isnan(x) if protocol.task == "unmeasured" else hole
+                low, high = interval.bounds(x, pred, scored)
+                metrics.update(interval_metrics(pred, gt, scored, low, high))
             batch_rows = _rows(name, protocol.name, seed, idx, dataset, hole.mean(axis=(1, 2)), metrics, ms)
             rows.extend(batch_rows)
             if on_batch is not None:

@@ -151,3 +151,32 @@ def test_an_unreadable_scan_is_skipped_and_the_others_keep_their_own_scans():
 
 def _without_ms(rows):
     return [{k: v for k, v in r.items() if k != "ms"} for r in rows]
+
+
+class BandFill:
+    """Nearest fill with a fixed +-1 m interval at every pixel to fill."""
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        return NearestInpainter(n_jobs=1).predict(x)
+
+    def predict_interval(self, x: np.ndarray, coverage: float = 0.9) -> tuple[np.ndarray, np.ndarray]:
+        pred = self.predict(x)
+        return np.maximum(pred - 1.0, 0.0), pred + 1.0
+
+
+@pytest.mark.parametrize("protocol", ["densify-v1", "rect-v1"])
+def test_interval_columns_score_the_task_pixels(scans, protocol):
+    from inpaintenv.metrics import interval_metrics
+
+    res = evaluate(BandFill(), scans, protocol=protocol, seeds=[0], batch_size=4, progress=False, intervals=0.9)
+    inputs, gt = scans.load_pairs(range(len(scans)))
+    hole = get_protocol(protocol).masks(SHAPE, 0, range(len(scans)))
+    x = method_input(inputs, hole, "scan")
+    pred = BandFill().predict(x)
+    # densify-v1 cuts no hole: its task is every pixel the scan did not measure.
+    scored = np.isnan(x) if protocol == "densify-v1" else hole
+    want = interval_metrics(pred, gt, scored, *BandFill().predict_interval(x))
+    for k, row in enumerate(res.rows):
+        for key in ("hole_coverage", "hole_interval_width", "rmse_keep_80", "border_rmse_keep_80"):
+            np.testing.assert_equal(row[key], want[key][k])
+    assert np.isfinite([r["hole_coverage"] for r in res.rows]).any()

@@ -8,31 +8,42 @@ The scored pixels' signals and residuals, the log-linear scale fitted on them, a
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
 
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.exceptions import InvalidInputError
+from inpaintenv.data.inputs import method_input
+from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import border_distance
 
-from ..base import iter_scoring_batches
+from ..base import SCORE_CHUNK
 from ._calibration_file import N_LEVELS
 
-__all__ = ["check_enough_pixels", "exact_quantile", "features", "fit_scale", "residual_quantiles", "scale_from",
+__all__ = ["balanced_scale", "calibration_protocols", "check_enough_pixels", "exact_quantile", "features", "fit_scale", "residual_quantiles", "scale_from",
            "scored_residuals", "weighted_quantiles"]
 
 #: Offsets (metres) that keep the logs finite where the residual or the spread is 0.
 RESIDUAL_FLOOR, SPREAD_FLOOR, DEPTH_FLOOR = 0.05, 0.1, 1.0
+#: Border distance (px) beyond which the ``"far"`` signal grows: kitti-scan-v1's near_distance.
+FAR_DISTANCE = 16.0
 
 
 def features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second: np.ndarray | None) -> np.ndarray:
-    """``(n_hole_pixels, 1 + len(signals))`` design matrix of the hole pixels (intercept first)."""
+    """``(n_hole_pixels, 1 + len(signals))`` design matrix of the hole pixels (intercept first).
+
+    ``"far"`` is 1 where the border distance exceeds :data:`FAR_DISTANCE` px (a hole, not the gaps
+    between a scan's lines), else 0: its coefficient is set by :func:`balanced_scale`.
+    """
     cols = [np.ones(int(hole.sum()))]
+    near = np.log1p(border_distance(hole)[hole].astype(np.float64)) if {"border", "far"} & set(signals) else None
     for s in signals:
         if s == "border":
-            cols.append(np.log1p(border_distance(hole)[hole].astype(np.float64)))
+            cols.append(near)
+        elif s == "far":
+            cols.append((near > math.log1p(FAR_DISTANCE)).astype(np.float64))
         elif s == "depth":
             cols.append(np.log(np.maximum(pred[hole].astype(np.float64), DEPTH_FLOOR)))
         else:  # spread
@@ -53,27 +64,52 @@ def weighted_quantiles(values: np.ndarray, weights: np.ndarray, levels: Sequence
     return values[order[np.minimum(idx, len(order) - 1)]]
 
 
+def calibration_protocols(protocol: Any) -> list[Any]:
+    """The masks protocols named by ``protocol``: one name, or several joined by ``+`` (pooled)."""
+    if not isinstance(protocol, str) or not protocol:
+        raise InvalidInputError(f"protocol must be a protocol name or names joined by '+', got {protocol!r}")
+    return [get_protocol(name) for name in protocol.split("+")]
+
+
+def _task_batches(dataset: DepthDataset, protocol: Any, seed: int) -> Iterator[tuple[np.ndarray, ...]]:
+    """``(input, ground truth, pixels to fill, pixels scored)`` batches of ``dataset`` under ``protocol``.
+
+    Scored are the protocol's task pixels, as ``evaluate`` scores them: every pixel the input
+    lacks under ``densify-v1`` (task ``unmeasured``), else the hole (on a map, the same set).
+    """
+    kind = getattr(dataset, "input_kind", "map")
+    for start in range(0, len(dataset), SCORE_CHUNK):
+        idx = range(start, min(start + SCORE_CHUNK, len(dataset)))
+        inputs, gt = dataset.load_pairs(idx)
+        hole = protocol.masks(dataset.frame_shape, seed, idx)
+        x = method_input(inputs, hole, kind)
+        fill = np.isnan(x)
+        yield x, gt, fill, (fill if protocol.task == "unmeasured" else hole & fill)
+
+
 def scored_residuals(model: Any, dataset: DepthDataset, signals: tuple[str, ...], second: Any, protocol: str,
                      seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The signals (design matrix), absolute residuals and frame number of ``model``'s every scored pixel.
 
-    The scored pixels are :func:`estimators.base.iter_scoring_batches`': the hole of a map,
-    every pixel a single scan leaves to fill.
+    The scored pixels are each protocol's task pixels (:func:`_task_batches`); the signals are
+    those of every pixel to fill, as ``predict_interval`` sees them. Under pooled protocols
+    (``"densify-v1+rect-v1"``) each (protocol, frame) is a frame of its own.
     """
     feats, resid, frame = [], [], []
     start = 0
-    for x, gt, hole in iter_scoring_batches(dataset, protocol=protocol, seed=seed):
-        pred = np.asarray(model.predict(x), dtype=np.float32)
-        other = np.asarray(second.predict(x), dtype=np.float64) if second is not None else None
-        for k in range(len(x)):
-            scored = hole[k] & (gt[k] > 0)
-            if not scored.any():
-                continue
-            f = features(signals, pred[k], hole[k], None if other is None else other[k])
-            feats.append(f[scored[hole[k]]])
-            resid.append(np.abs(gt[k][scored].astype(np.float64) - pred[k][scored]))
-            frame.append(np.full(resid[-1].size, start + k, dtype=np.int64))
-        start += len(x)
+    for proto in calibration_protocols(protocol):
+        for x, gt, fill, task in _task_batches(dataset, proto, seed):
+            pred = np.asarray(model.predict(x), dtype=np.float32)
+            other = np.asarray(second.predict(x), dtype=np.float64) if second is not None else None
+            for k in range(len(x)):
+                scored = task[k] & (gt[k] > 0)
+                if not scored.any():
+                    continue
+                f = features(signals, pred[k], fill[k], None if other is None else other[k])
+                feats.append(f[scored[fill[k]]])
+                resid.append(np.abs(gt[k][scored].astype(np.float64) - pred[k][scored]))
+                frame.append(np.full(resid[-1].size, start + k, dtype=np.int64))
+            start += len(x)
     if not resid:
         raise InvalidInputError("no calibration frame has ground truth inside its holes; nothing to calibrate on")
     return np.concatenate(feats), np.concatenate(resid), np.concatenate(frame)
@@ -84,6 +120,25 @@ def fit_scale(F: np.ndarray, r: np.ndarray, seed: int, max_fit_pixels: int) -> n
     rng = np.random.default_rng(int(seed))
     take = rng.choice(len(r), max_fit_pixels, replace=False) if len(r) > max_fit_pixels else slice(None)
     coef, *_ = np.linalg.lstsq(F[take], np.log(r[take] + RESIDUAL_FLOOR), rcond=None)
+    return coef
+
+
+def balanced_scale(F: np.ndarray, r: np.ndarray, frame: np.ndarray, signals: Sequence[str], seed: int,
+                   max_fit_pixels: int, weighting: str, coverage: float) -> np.ndarray:
+    """:func:`fit_scale`, then with ``"far"`` its coefficient moved so that the far and the near
+    pixels' normalised residuals have the same quantile at ``coverage``: each group is then
+    covered alike (Mondrian conformal over the two groups), whatever share of the calibration it is.
+    """
+    coef = fit_scale(F, r, seed, max_fit_pixels)
+    if "far" not in signals:
+        return coef
+    j = 1 + list(signals).index("far")
+    normed = r / scale_from(coef, F)
+    far = F[:, j] > 0
+    if far.any() and not far.all():
+        q_far = residual_quantiles(normed[far], frame[far], weighting, coverage)[1]
+        q_near = residual_quantiles(normed[~far], frame[~far], weighting, coverage)[1]
+        coef[j] += math.log(q_far / q_near)
     return coef
 
 

@@ -41,12 +41,14 @@ import numpy as np
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.files import read_json, write_json
 
-__all__ = ["FORMAT", "MAX_ABS_COEF", "MAX_CALIBRATION_BYTES", "N_LEVELS", "SIGNALS", "WEIGHTINGS",
+__all__ = ["DEFAULT_SIGNALS", "FORMAT", "MAX_ABS_COEF", "MAX_CALIBRATION_BYTES", "N_LEVELS", "SIGNALS", "WEIGHTINGS",
            "read_calibration", "write_calibration"]
 
 FORMAT = "inpaintenv-conformal-intervals-v1"
-#: The signals a scale model may use, in the order of its coefficients.
-SIGNALS: tuple[str, ...] = ("border", "depth", "spread")
+#: The signals a scale model may use (``"far"``: ``estimators.intervals._calibration.features``).
+SIGNALS: tuple[str, ...] = ("border", "depth", "spread", "far")
+#: The signals a wrapper uses unless told otherwise.
+DEFAULT_SIGNALS: tuple[str, ...] = ("border", "depth", "spread")
 #: How the calibration pixels weigh in the quantile.
 WEIGHTINGS: tuple[str, ...] = ("frame", "pixel")
 #: Levels at which the sorted normalised residuals are kept (0, 0.0005, ..., 1).

@@ -46,9 +46,9 @@ the drives it is used on. **The base model must never have seen the calibration 
 ``fit`` takes whole drives (``groups``) and refuses drives the base records in
 ``training_drives_``.
 
-On a dataset of single scans (``input_kind == "scan"``) the scored pixels are every pixel
-the scan, with the protocol's hole cut out, leaves to fill: the pixels ``predict_interval``
-widens. The maths is in ``._calibration``, the file's reading and writing in
+On a dataset of single scans (``input_kind == "scan"``) the scored pixels are the protocol's
+task, as the benchmark scores it: under ``densify-v1`` every pixel the scan did not measure,
+under a hole protocol the hole cut out of the scan; ``"densify-v1+rect-v1"`` pools both. The maths is in ``._calibration``, the file's reading and writing in
 ``._persistence`` and ``._calibration_file``.
 """
 
@@ -67,13 +67,12 @@ from sklearn.utils.validation import check_is_fitted
 from inpaintenv.data.base import DepthDataset, Subset, as_dataset
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.metrics import check_coverage, normal_quantile
-from inpaintenv.masks import get_protocol
 
 from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, training_drives
 from ._bases import CLASSICAL_FILLS, make_base
-from ._calibration import (exact_quantile, features, fit_scale, residual_quantiles, scale_from, scored_residuals,
-                           weighted_quantiles)
-from ._calibration_file import N_LEVELS, SIGNALS, WEIGHTINGS, write_calibration
+from ._calibration import (balanced_scale, calibration_protocols, exact_quantile, features, residual_quantiles,
+                           scale_from, scored_residuals, weighted_quantiles)
+from ._calibration_file import DEFAULT_SIGNALS, N_LEVELS, SIGNALS, WEIGHTINGS, write_calibration
 from ._persistence import calibration_dict, wrapper_from_file
 
 __all__ = ["ConformalIntervalInpainter", "SIGNALS", "WEIGHTINGS", "weighted_quantiles"]
@@ -89,7 +88,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     coverage : float, default=0.9
         Nominal coverage in (0, 1) of ``predict_interval`` without an argument and the
         coverage ``std`` refers to (see :meth:`predict`).
-    signals : tuple of {"border", "depth", "spread"}, default=("border", "depth", "spread")
+    signals : tuple of names in SIGNALS ("far" too), default=("border", "depth", "spread")
         The scale signals (see the module docstring); an empty tuple gives a constant
         width (plain split conformal).
     spread_method : str, default="scanline"
@@ -97,7 +96,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         must fill differently from ``estimator`` (refused at ``fit`` when the spread is 0
         at every calibration pixel).
     protocol : str, default="rect-v1"
-        Masks protocol occluding the calibration frames.
+        Masks protocol occluding the calibration frames; ``"densify-v1+rect-v1"`` pools several.
     seed : int, default=0
         Protocol seed (frame ``i`` of the calibration set gets mask ``i``).
     max_fit_pixels : int, default=200000
@@ -130,7 +129,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     """
 
     def __init__(
-        self, estimator: Any, coverage: float = 0.9, signals: tuple[str, ...] = SIGNALS,
+        self, estimator: Any, coverage: float = 0.9, signals: tuple[str, ...] = DEFAULT_SIGNALS,
         spread_method: str = "scanline", protocol: str = SCORE_PROTOCOL, seed: int = SCORE_SEED,
         max_fit_pixels: int = 200_000, weighting: str = "frame",
     ) -> None:
@@ -157,7 +156,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             raise InvalidTypeError(f"spread_method must be a registered method name, got {self.spread_method!r}")
         if self.weighting not in WEIGHTINGS:
             raise InvalidInputError(f"weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
-        get_protocol(self.protocol)
+        calibration_protocols(self.protocol)
         for name in ("seed", "max_fit_pixels"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "seed" else 10):
@@ -287,7 +286,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             raise InvalidInputError(f"spread is the same at every calibration pixel: spread_method="
                                     f"{self.spread_method!r} fills as the base does; choose another (e.g. 'nearest') "
                                     "or leave 'spread' out of signals")
-        self.coef_ = fit_scale(F, r, int(self.seed), self.max_fit_pixels)
+        self.coef_ = balanced_scale(F, r, frame, signals, int(self.seed), self.max_fit_pixels, self.weighting,
+                                    float(self.coverage))
         normed = r / self._scale_from(F)
         self.n_calibration_pixels_ = int(r.size)
         self.residual_quantiles_, self.quantile_ = residual_quantiles(normed, frame, self.weighting,

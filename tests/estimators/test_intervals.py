@@ -392,15 +392,54 @@ def test_an_exact_base_still_gets_a_non_empty_interval():
     assert wrapper.quantile_ == 1e-6 and ((high - low)[np.isnan(x)] > 0).all()
 
 
-def test_calibrating_on_scans_calibrates_the_scan_task():
-    """A dataset of single scans calibrates on every pixel its input leaves to fill (unmeasured
-    and hole), as predict_interval widens them, not on the map task's hole cut into the truth."""
-    from estimators import HarmonicInpainter
-    from inpaintenv.data import SyntheticStreets
+def test_calibrating_on_scans_calibrates_each_protocols_task():
+    """On single scans each protocol calibrates on its task's pixels, as evaluate scores them:
+    densify-v1 every pixel the scan did not measure, rect-v1 the hole cut out of the scan; the
+    pooled "densify-v1+rect-v1" both, each (protocol, frame) a frame of its own."""
+    from estimators.classical import HarmonicInpainter
+    from inpaintenv.data import SyntheticStreets, method_input
+    from inpaintenv.exceptions import UnknownNameError
+    from inpaintenv.masks import get_protocol
 
     frames = SyntheticStreets(n=3, seed=2, frame_shape=(48, 128), input="scan")
-    wrapped = ConformalIntervalInpainter(HarmonicInpainter(), spread_method="nearest").fit(frames, groups=["a", "a", "b"])
-    scored = sum(int(((gt > 0) & s).sum()) for _, gt, s in iter_scoring_batches(frames))
-    assert wrapped.calibration_["n_pixels"] == scored
-    maps = SyntheticStreets(n=3, seed=2, frame_shape=(48, 128))
-    assert scored > sum(int(((gt > 0) & h).sum()) for _, gt, h in iter_scoring_batches(maps))
+    scans, gt = frames.load_pairs(range(3))
+    hole = get_protocol("rect-v1").masks((48, 128), 0, range(3))
+    want = {"densify-v1": int(((gt > 0) & (scans == 0)).sum()),
+            "rect-v1": int(((gt > 0) & hole & np.isnan(method_input(scans, hole, "scan"))).sum())}
+    want["densify-v1+rect-v1"] = want["densify-v1"] + want["rect-v1"]
+    for protocol, n in want.items():
+        wrapped = ConformalIntervalInpainter(HarmonicInpainter(), spread_method="nearest",
+                                             protocol=protocol).fit(frames, groups=["a", "a", "b"])
+        assert wrapped.calibration_["n_pixels"] == n, protocol
+    assert 0 < want["rect-v1"] < want["densify-v1"]
+    with pytest.raises(UnknownNameError, match="nope"):
+        ConformalIntervalInpainter(HarmonicInpainter(), protocol="densify-v1+nope").fit(frames, groups=["a", "a", "b"])
+
+def test_the_far_signal_covers_far_and_near_pixels_alike(tmp_path):
+    """"far" is 1 beyond FAR_DISTANCE px of a measurement, else 0; its coefficient is set so that
+    the far and the near calibration pixels are each covered at the coverage (frame-weighted),
+    and a wrapper calibrated with it saves and loads with it."""
+    from estimators.classical import HarmonicInpainter
+    from estimators.intervals._calibration import FAR_DISTANCE, features, residual_quantiles, scored_residuals
+    from estimators.classical import NearestInpainter
+    from inpaintenv.data import SyntheticStreets
+    from inpaintenv.metrics import border_distance
+
+    hole = np.zeros((80, 80), bool)
+    hole[5:75, 5:75] = True
+    F = features(("border", "far"), np.full(hole.shape, 10.0), hole, None)
+    np.testing.assert_array_equal(F[:, 2], border_distance(hole)[hole] > FAR_DISTANCE)
+    frames = SyntheticStreets(n=4, seed=2, frame_shape=(64, 192), input="scan")
+    signals = ("border", "depth", "spread", "far")
+    wrapped = ConformalIntervalInpainter(HarmonicInpainter(), spread_method="nearest", protocol="densify-v1+rect-v1",
+                                         signals=signals).fit(frames, groups=["a", "a", "b", "b"])
+    F, r, frame = scored_residuals(HarmonicInpainter(), frames, signals, NearestInpainter(), "densify-v1+rect-v1", 0)
+    normed = r / np.exp(F @ wrapped.coef_)
+    far = F[:, 4] > 0
+    assert far.any() and not far.all()
+    q_far, q_near = (residual_quantiles(normed[m], frame[m], "frame", 0.9)[1] for m in (far, ~far))
+    assert q_far == pytest.approx(q_near, rel=1e-6)
+    back = ConformalIntervalInpainter.load(wrapped.save(tmp_path / "cal.json", base="harmonic"))
+    x = frames.load_pairs([0])[0]
+    x = np.where(x > 0, x, np.nan)
+    np.testing.assert_array_equal(back.predict_interval(x)[1], wrapped.predict_interval(x)[1])

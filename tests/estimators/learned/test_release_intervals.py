@@ -9,6 +9,7 @@ import pytest
 
 from estimators.intervals import ConformalIntervalInpainter, release_intervals, shipped_intervals
 from estimators.intervals._bases import CLASSICAL_FILLS
+from estimators.intervals._calibration import calibration_protocols
 from estimators.intervals._releases import _intervals_dir
 from estimators.learned import DEFAULT_RELEASE, load_release
 from inpaintenv.cli import main
@@ -84,14 +85,15 @@ def test_every_shipped_release_calibration_never_saw_its_calibration_drives(name
         assert all(not set(f["drives"]) & set(f["training_drives"]) for f in cal["out_of_fold"])
     else:  # calibrated directly: the release never saw a calibration drive
         assert cal["drives"] and not set(cal["drives"]) & set(wrapped.estimator.training_drives_)
-    if get_protocol(cal["protocol"]).task == "unmeasured":  # densify-v1: calibrated on scans, no hole
+    protocols = calibration_protocols(cal["protocol"])  # "densify-v1+rect-v1" pools two
+    if any(p.task == "unmeasured" for p in protocols):  # densify-v1: calibrated on scans
         from inpaintenv.data import method_input
 
         scan = SyntheticStreets(n=1, frame_shape=(96, 320), seed=4, input="scan").load_input_batch([0])[0]
-        x = method_input(scan, get_protocol(cal["protocol"]).mask(scan.shape, seed=0, index=0), "scan")
+        x = method_input(scan, protocols[-1].mask(scan.shape, seed=0, index=0), "scan")
     else:
         x = np.asarray(SyntheticStreets(n=1, frame_shape=(96, 320), seed=4)[0], dtype=np.float32)
-        x[get_protocol(cal["protocol"]).mask(x.shape, seed=0, index=0)] = np.nan
+        x[protocols[-1].mask(x.shape, seed=0, index=0)] = np.nan
     check_shipped_interval(wrapped, x, load_release(name).predict(x))
 
 

@@ -1,0 +1,69 @@
+"""experiments/interval_calibration.py lodo: each calibration protocol, one recording day left out, scored as evaluate scores it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from inpaintenv.data.io import write_depth_png
+
+DAYS = ("2011_09_26", "2011_09_30", "2011_10_03")
+
+
+class FoldFill:
+    """A fitted stand-in of a fold model: fills every NaN with 10 m, records the drives it saw."""
+
+    def __init__(self, seen: list[str]) -> None:
+        self.training_drives_ = seen
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return True
+
+    def predict(self, X):
+        x = np.asarray(X, dtype=np.float32)
+        return np.where(np.isnan(x), np.float32(10.0), x)
+
+
+@pytest.fixture
+def three_days(tmp_path):
+    """One drive a day, two frames each, each with a ground truth and a sparser scan."""
+    rng = np.random.default_rng(3)
+    for day in DAYS:
+        base = tmp_path / "train" / f"{day}_drive_9001_sync" / "proj_depth"
+        for f in range(2):
+            truth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
+            scan = np.where(rng.random((375, 1242)) < 0.15, truth, 0.0)
+            for kind, depth in (("groundtruth", truth), ("velodyne_raw", scan)):
+                (base / kind / "image_02").mkdir(parents=True, exist_ok=True)
+                write_depth_png(base / kind / "image_02" / f"{f:010d}.png", depth.astype(np.float32))
+    return tmp_path
+
+
+def test_each_row_is_the_wrapper_calibrated_out_of_fold_and_scored_by_evaluate(load_experiment, three_days,
+                                                                              monkeypatch):
+    import estimators.learned
+    from estimators.intervals import ConformalIntervalInpainter
+    from inpaintenv.data import KittiDepth, spaced_per_drive
+    from inpaintenv.evaluate import evaluate
+
+    drives = {day: f"{day}_drive_9001_sync" for day in DAYS}
+    models = {f"m-{day}": FoldFill([d for k, d in drives.items() if k != day]) for day in DAYS}
+    monkeypatch.setattr(estimators.learned, "load", lambda path: models[str(path)])
+    out = load_experiment("interval_calibration").main([
+        "lodo", "--kitti-root", str(three_days), "--frames-per-drive", "0", "--seeds", "0,1",
+        *[a for day in DAYS for a in ("--fold", f"{day}=m-{day}")]])
+    rows = {(r["calibration"], r["day"], r["task"]): r for r in out["rows"]}
+    assert len(rows) == 4 * len(DAYS) * 2
+    data = KittiDepth(str(three_days), split="train", input="scan")
+    frames = {day: spaced_per_drive(data, 0, [drives[day]]) for day in DAYS}
+    left = DAYS[1]
+    for variant, signals in (("densify-v1", ("border", "depth", "spread")),
+                             ("densify-v1+rect-v1 (+far)", ("border", "depth", "spread", "far"))):
+        wrapper = ConformalIntervalInpainter(models[f"m-{left}"], spread_method="harmonic", signals=signals,
+                                             protocol=variant.split()[0])
+        wrapper.fit_out_of_fold([(models[f"m-{d}"], frames[d]) for d in DAYS if d != left])
+        for task, seeds in (("densify-v1", [0]), ("rect-v1", [0, 1])):
+            scored = evaluate(wrapper, frames[left], protocol=task, seeds=seeds, intervals=0.9, progress=False).rows
+            row = rows[(variant, left, task)]
+            assert row["coverage"] == pytest.approx(np.mean([r["hole_coverage"] for r in scored]), abs=1e-3)
+            assert row["width"] == pytest.approx(np.mean([r["hole_interval_width"] for r in scored]), rel=1e-3)
