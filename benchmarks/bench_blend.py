@@ -29,8 +29,8 @@ import time
 import numpy as np
 
 from estimators.classical import HarmonicInpainter
-from estimators.learned import load_checkpoint
-from estimators.learned.releases import DEFAULT_RELEASE, load_release
+from estimators.learned import load, load_release
+from inpaintenv.methods.learned import DEFAULT_RELEASE
 from estimators.candidates import prior_features
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.masks import get_protocol
@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> dict:
         frames = list(SyntheticStreets(n=args.frames, seed=0).load_batch(range(args.frames)))
     protocol = get_protocol("rect-v1")
     inputs = [np.where(protocol.mask(f.shape, 0, i), np.nan, f).astype(np.float32) for i, f in enumerate(frames)]
-    est = load_checkpoint(args.model) if args.model else load_release(args.name)
+    est = load(args.model) if args.model else load_release(args.name)
     if args.threads is not None:
         est.set_params(predict_threads=args.threads)
     harmonic = HarmonicInpainter()

@@ -1,4 +1,4 @@
-"""Prediction speed of the shipped learned model (``PriorUNetInpainter.pretrained``).
+"""Prediction speed of the shipped learned model (``estimators.learned.load_release``).
 
 Times ``predict`` on one KITTI-sized frame with a ``rect-v1`` hole and splits it into
 its two parts: the classical candidate fills (NumPy/OpenCV, ``prior_features``) and the
@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 import estimators.learned.nets.pixel_blend as pixel_blend
-from estimators.learned import PriorUNetInpainter
+from estimators.learned import load_release
 
 #: The shipped release of this class.
 DEFAULT_PRETRAINED = "kitti-mixed-v1"
@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> dict:
     gt = KittiDepth(args.kitti_root)[0] if args.kitti_root else SyntheticStreets(n=1, seed=0)[0]
     hole = get_protocol("rect-v1").masks(gt.shape, 0, [0])[0]
     x = np.where(hole, np.nan, gt).astype(np.float32)
-    est = PriorUNetInpainter.pretrained(args.name, num_threads=args.threads)
+    est = load_release(args.name, num_threads=args.threads)
 
     features_ms = _median_ms(lambda: est._features(x[None]), args.repeat)
     results = {"name": args.name, "frame": list(gt.shape), "threads": args.threads,

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from estimators.learned import load_checkpoint
+from estimators.learned import load
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.masks import get_protocol
@@ -38,7 +38,7 @@ def main(argv: list[str] | None = None) -> dict:
     gt = ds.load_batch(range(n))
     hole = get_protocol("rect-v1").masks(gt.shape[1:], 0, range(n))
     x = np.where(hole, np.nan, gt).astype(np.float32)
-    est = load_checkpoint(args.checkpoint).set_params(num_threads=args.threads, keep_observed=False)
+    est = load(args.checkpoint).set_params(num_threads=args.threads, keep_observed=False)
     t = time.perf_counter()
     eager = est.predict(x)
     eager_s = time.perf_counter() - t

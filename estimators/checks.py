@@ -341,7 +341,7 @@ def check_inpainter(estimator: Any, X: Any = None) -> dict[str, str]:
     estimator : inpainter
         A scikit-learn style inpainter (``fit`` on ground truth, ``predict`` on NaN-holed
         depth). A learned estimator that is already fitted (e.g.
-        ``estimators.load_release()``) is checked as it is, without refitting.
+        ``estimators.learned.load_release()``) is checked as it is, without refitting.
     X : array-like, optional
         Ground truth ``(N, H, W)`` in metres (N >= 2) to check on, e.g. frames of the
         size a pretrained model expects; by default small synthetic frames.

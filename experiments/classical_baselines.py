@@ -20,7 +20,7 @@ import numpy as np
 from _common import TUNING_DRIVE, default_root, exit_status, run_command
 from sklearn.model_selection import ParameterGrid
 
-from estimators import (
+from estimators.classical import (
     ConstantInpainter,
     HarmonicInpainter,
     IPBasicInpainter,

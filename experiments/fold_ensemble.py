@@ -20,8 +20,7 @@ from typing import Any
 import numpy as np
 from _common import exit_status, run_command
 
-from estimators import MeanEnsembleInpainter
-from estimators.learned import load_checkpoint
+from estimators.learned import MeanEnsembleInpainter, load
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
@@ -60,7 +59,7 @@ def join_command(argv: list[str] | None = None) -> int:
         if not sep or not name or not folder:
             p.error(f"a member is NAME=FOLDER, got {item!r}")
         try:
-            members.append((name, load_checkpoint(folder)))
+            members.append((name, load(folder)))
         except (ValueError, OSError) as exc:  # not a model folder, or an unreadable one
             p.error(f"member {name}: {exc}")
     try:
@@ -97,7 +96,7 @@ Examples
 
 ``--shared-features`` computes the candidate features once for both models (blend estimators
 that read the same candidates), as the ensemble release of the two does
-(``estimators.MeanEnsembleInpainter``); the ms/frame column
+(``estimators.learned.MeanEnsembleInpainter``); the ms/frame column
 comes from the same run (one untimed warm-up call per method).
 """
 
@@ -123,7 +122,7 @@ def load_method(spec: str) -> tuple[str, Any]:
 
 def shared_feature_mean(models: list[Any]) -> MeanEnsembleInpainter:
     """The mean of blend estimators that read the same candidate features, computed once per
-    frame for all of them: the product's :class:`~estimators.MeanEnsembleInpainter`
+    frame for all of them: the product's :class:`~estimators.learned.MeanEnsembleInpainter`
     of the fitted models (what an ensemble release of them costs)."""
     others = [type(m).__name__ for m in models if not hasattr(m, "_predict_features")]
     if others:

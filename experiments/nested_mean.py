@@ -56,8 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from estimators import MeanEnsembleInpainter
-from estimators.learned import load_checkpoint
+from estimators.learned import MeanEnsembleInpainter, load
 from inpaintenv.benchmark.headline import CLASSICAL_METHODS, learned_vs_classical
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.evaluate import evaluate
@@ -285,13 +284,13 @@ class NestedChoice:
     def scored(self, exclude: list[str], frames: KittiDepth, wanted: set[str]) -> list[dict]:
         """Rows of the candidates in ``wanted`` (and classical methods) built from the models of ``exclude``."""
         args = self.args
-        first = load_checkpoint(self.model_dir(exclude, args.presets[0]))
-        in_mean = load_checkpoint(self.model_dir(exclude, args.presets[1]))
+        first = load(self.model_dir(exclude, args.presets[0]))
+        in_mean = load(self.model_dir(exclude, args.presets[1]))
         in_mean.set_params(tta=args.second_tta == "true")
         mean = Memo(mean_of(first, in_mean))
         methods: dict[str, Any] = {"first": first, "mean": mean}
         if "second" in wanted:  # the second model on its own, with its mirrored pass as saved
-            methods["second"] = load_checkpoint(self.model_dir(exclude, args.presets[1]))
+            methods["second"] = load(self.model_dir(exclude, args.presets[1]))
         for w in args.weight:
             methods[f"mean-w{w:g}"] = mean_of(first, in_mean).set_params(weights=[w, 1 - w])
         classical = {m: Memo(make_method(m)) for m in args.method}

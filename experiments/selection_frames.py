@@ -22,9 +22,10 @@ from typing import Any
 import numpy as np
 from _common import N_TRAIN, SELECTION_DRIVE, exit_status, run_command, sel_scores
 
-from estimators.learned import load_checkpoint
+from estimators.learned import load
 from estimators.learned.presets import make_preset
-from estimators.learned.releases import load_release, shipped
+from estimators.learned import load_release
+from inpaintenv.methods.learned import shipped
 from inpaintenv.data import ArrayDataset, ConcatDataset, SyntheticStreets
 from inpaintenv.data.kitti import KittiDepth
 from inpaintenv.methods.registry import make_method
@@ -97,7 +98,7 @@ Examples
     python experiments/selection_frames.py score --kitti-root <KITTI root> -m harmonic -m harmonic-inverse
     python experiments/selection_frames.py score --kitti-root <KITTI root> kitti-rect-v3+kitti-mixed-v1 --protocol rect-v1
 
-A model is a shipped release of any family (see ``estimators.learned.releases.shipped``) or
+A model is a shipped release of any family (see ``inpaintenv.methods.learned.shipped``) or
 a directory written by ``est.save`` or ``inpaintenv train``; ``a+b`` averages models' predictions.
 """
 
@@ -113,7 +114,7 @@ def batch_predictor(label: str, kind: str) -> Callable[[np.ndarray], np.ndarray]
         members = [batch_predictor(part, kind) for part in label.split("+")]
         return lambda x: np.mean([predict(x) for predict in members], axis=0)
     if kind == "model":  # any shipped release by name, or any saved model folder
-        est = load_release(label) if label in shipped() else load_checkpoint(label)
+        est = load_release(label) if label in shipped() else load(label)
         return est.set_params(num_threads=1).predict
     if kind != "method":
         raise ValueError(f"kind must be 'model' or 'method', got {kind!r}")

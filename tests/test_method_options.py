@@ -90,10 +90,13 @@ def test_evaluate_takes_checkpoint_name_path(tmp_path, capsys):
     assert "| mine | rect-v1 |" in out and "| constant | rect-v1 |" in out
 
 
-def test_check_helpers():
-    assert check_method_names(["blend-pretrained", "scanline"]) == ["pretrained", "scanline"]
+def test_check_helpers(monkeypatch):
+    from inpaintenv.methods import registry
+
+    monkeypatch.setitem(registry._ALIASES, "my-default", "pretrained")
+    assert check_method_names(["my-default", "scanline"]) == ["pretrained", "scanline"]
     with pytest.raises(ValueError, match="given twice"):
-        check_method_names(["blend-pretrained", "pretrained"])
+        check_method_names(["my-default", "pretrained"])
     with pytest.raises(ValueError, match="NAME=PATH"):
         parse_checkpoints(["mine"])
 

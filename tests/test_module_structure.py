@@ -166,8 +166,8 @@ def test_graph_sees_static_imports_and_import_module_literals():
     typed = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .evaluate import X\nimport os")
     assert {type(n).__name__ for n in ast.walk(typed) if id(n) in _type_checking_only(typed)} >= {"ImportFrom"}
     # Typing-only imports are edges, and so are the module names a computed import_module reads.
-    assert "estimators.learned._neural" in graph["estimators"]  # lazy exports: {"UNetInpainter": "learned._neural"}
-    assert "estimators.learned.releases" in graph["inpaintenv.methods.registry"]  # MethodSpec("estimators.learned.releases", ...)
+    assert "estimators.learned._neural" in graph["estimators.learned"]  # lazy exports: {"UNetInpainter": "_neural"}
+    assert "estimators.learned" in graph["inpaintenv.methods.registry"]  # MethodSpec("estimators.learned", ...)
 
 
 def test_typing_only_imports_are_edges(tmp_path):
@@ -193,9 +193,8 @@ def test_no_import_circles():
 
 #: The layers that know methods by name (ARCHITECTURE.md): the only importers of the registry.
 REGISTRY_USERS = ("inpaintenv.benchmark", "inpaintenv.cli", "inpaintenv.filling")
-#: Importers of the registry outside those layers, each waiting for its fix (issue 51:
-#: ``estimators/__init__.py``'s lazy exports call ``require_learned``).
-REGISTRY_KNOWN_OPEN = {"estimators"}
+#: Importers of the registry outside those layers, each waiting for its fix (none open).
+REGISTRY_KNOWN_OPEN: set[str] = set()
 
 
 def test_only_the_layers_that_list_methods_import_the_registry():

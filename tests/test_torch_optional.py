@@ -99,7 +99,7 @@ def test_default_suite_scores_classical_and_says_learned_left_out(tmp_path):
 @pytest.mark.parametrize("argv", [
     ["benchmark", *SYNTHETIC, "--out", "run", "-m", "pretrained"],
     ["benchmark", *SYNTHETIC, "--out", "run", "--suite", "study", "-m", "kitti-mixed-v1"],
-    ["evaluate", *SYNTHETIC[:6], "--out", "run", "-m", "blend-pretrained"],
+    ["evaluate", *SYNTHETIC[:6], "--out", "run", "-m", "blend-pretrained-mixed"],
     ["fill", "frame.npy", "--out", "run", "-m", "pretrained"],
     ["fill", "frame.npy", "--out", "run", "--confidence"],
     ["benchmark", *SYNTHETIC, "--out", "run", "-m", "pretrained-intervals", "--interval-coverage", "0.9"],
@@ -152,7 +152,7 @@ def test_learned_class_from_estimators_names_the_extra(tmp_path):
     proc = _python("""
         import estimators
         try:
-            from estimators import UNetInpainter
+            from estimators.learned import UNetInpainter
         except ImportError as exc:
             from inpaintenv.exceptions import MissingDependencyError
             assert isinstance(exc, MissingDependencyError), type(exc)  # one line in the CLI, never a traceback

@@ -21,7 +21,7 @@ import time
 import numpy as np
 from sklearn.model_selection import GridSearchCV, GroupKFold
 
-from estimators import UNetInpainter
+from estimators.learned import UNetInpainter
 from inpaintenv.data import SyntheticStreets
 
 

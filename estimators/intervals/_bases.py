@@ -23,8 +23,9 @@ def make_base(name: str) -> Any:
 
         cls, kwargs = CLASSICAL_FILLS[name]
         return getattr(classical, cls)(**kwargs)
-    from ..learned import load
-    from ..learned.releases import DEFAULT_RELEASE, load_release, shipped
+    from inpaintenv.methods.learned import DEFAULT_RELEASE, shipped
+
+    from ..learned import load, load_release
 
     if name == "pretrained" or name in shipped():
         return load_release(DEFAULT_RELEASE if name == "pretrained" else name)

@@ -122,7 +122,7 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
     Examples
     --------
     >>> from inpaintenv.data import KittiDepth                      # doctest: +SKIP
-    >>> from estimators import ScanlineInpainter                     # doctest: +SKIP
+    >>> from estimators.classical import ScanlineInpainter           # doctest: +SKIP
     >>> cal = KittiDepth(split="train", drives=["2011_09_30_drive_9018_sync"])  # doctest: +SKIP
     >>> wrapped = ConformalIntervalInpainter(ScanlineInpainter(), spread_method="nearest").fit(cal)  # doctest: +SKIP
     >>> low, high = wrapped.predict_interval(x)                     # doctest: +SKIP

@@ -34,7 +34,7 @@ def release_intervals(name: str | None = None, **overrides: Any) -> ConformalInt
         fill that ships a calibration (``shipped_intervals()`` lists them all).
     **overrides
         Prediction-time parameters of the release (see
-        :func:`estimators.learned.releases.load_release`) or parameters of the classical fill
+        :func:`estimators.learned.load_release`) or parameters of the classical fill
         (``n_jobs``, ...).
 
     Returns
@@ -53,7 +53,7 @@ def release_intervals(name: str | None = None, **overrides: Any) -> ConformalInt
     from ._bases import CLASSICAL_FILLS, make_base
 
     if name is None:
-        from estimators.learned.releases import DEFAULT_RELEASE
+        from inpaintenv.methods.learned import DEFAULT_RELEASE
 
         name = DEFAULT_RELEASE
     path = _intervals_dir() / f"{name}.json" if isinstance(name, str) else None
@@ -66,7 +66,7 @@ def release_intervals(name: str | None = None, **overrides: Any) -> ConformalInt
         if overrides:
             base.set_params(**overrides)
     else:
-        from estimators.learned.releases import load_release
+        from estimators.learned import load_release
 
         base = load_release(name, **overrides)
     return ConformalIntervalInpainter.load(path, estimator=base)
@@ -86,7 +86,7 @@ def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalI
 
 
 def default_intervals(name: str | None = None, input: str = "auto") -> Any:
-    """``pretrained-intervals``: routed like ``pretrained`` (:func:`estimators.learned.releases.load_default`),
+    """``pretrained-intervals``: routed like ``pretrained`` (:func:`estimators.learned.load_default`),
     each route in its own shipped calibration.
 
     A map's interval is the map release's calibration; a single scan's is the calibration
@@ -100,9 +100,11 @@ def default_intervals(name: str | None = None, input: str = "auto") -> Any:
     name : str, optional
         The map release (the default release by default).
     input : {"auto", "scan", "map"}
-        As for :func:`~estimators.learned.releases.load_default`.
+        As for :func:`~estimators.learned.load_default`.
     """
-    from ..learned.releases import DEFAULT_RELEASE, SCAN_DEFAULT, load_default
+    from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT
+
+    from ..learned import load_default
 
     routed = load_default(input=input)
     routed.map_method = release_intervals(name or DEFAULT_RELEASE)

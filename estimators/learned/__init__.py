@@ -2,7 +2,7 @@
 
 >>> from estimators.learned import load                                  # doctest: +SKIP
 >>> from estimators.learned import MeanEnsembleInpainter, load_release
->>> est = load_release()                      # the default release, DEFAULT_RELEASE
+>>> est = load_release()                      # the default map release
 >>> est.save("my-model"); same = load("my-model")
 
 =====================  ===============================================================
@@ -18,18 +18,20 @@ name                   what it is
 ``MeanEnsembleInpainter``  the per-pixel mean of several learned inpainters (release
                        ``kitti-ensemble-v1``, the default)
 ``load``               any saved model, its class read from its ``config.json``
-``load_release``       a shipped release by name; ``DEFAULT_RELEASE``, ``shipped``
-``CheckpointError``    a checkpoint that cannot be read
+``load_release``       a shipped release by name (the list and the defaults:
+                       :mod:`inpaintenv.methods.learned`, torch-free)
+``load_default``       the default method ``pretrained``, routed by input kind
+``InputRoutedInpainter``  a map to one method, a single scan to another
 =====================  ===============================================================
 
 Every class saves and loads through one mixin (``_persistence``: ``save``, ``load``,
-``pretrained``, per-class ``_config`` / ``_from_config`` hooks) over one file format
-(``_checkpoint``). The training recipes are in :mod:`estimators.learned.presets`;
+per-class ``_config`` / ``_from_config`` hooks, registration by class name) over one file
+format (``_checkpoint``). The training recipes are in :mod:`estimators.learned.presets`;
 multi-process training is ``torchrun -m estimators.learned.distributed``.
 
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
 -> ``_neural_params`` -> ``_neural`` -> ``_prior`` / ``_blend`` -> ``_context_blend``, ``_scan_blend`` ->
-``_ensemble`` -> ``_load`` -> ``releases``, ``presets`` -> ``distributed``. Classical candidate
+``_ensemble`` -> ``_load`` -> ``_releases``, ``presets`` -> ``distributed``. Classical candidate
 fills come from :mod:`estimators.candidates` (no torch). No module here imports this package
 face or ``estimators``' face; this face imports a module only when one of its names is
 first used, so importing one family does not load the others.
@@ -40,13 +42,14 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from inpaintenv.methods.learned import require_learned
+
 #: Public name -> the private module of this package that defines it.
 _EXPORTS: dict[str, str] = {
     "UNetInpainter": "_neural", "AutoencoderInpainter": "_neural", "PriorUNetInpainter": "_prior",
     "BlendInpainter": "_blend", "ContextBlendInpainter": "_context_blend", "MeanEnsembleInpainter": "_ensemble",
-    "load": "_load", "load_checkpoint": "_load", "load_release": "releases", "DEFAULT_RELEASE": "releases",
-    "shipped": "releases", "CheckpointError": "_checkpoint", "load_default": "releases",
     "InputRoutedInpainter": "_routed", "ScanBlendInpainter": "_scan_blend",
+    "load": "_load", "load_release": "_releases", "load_default": "_releases"
 }
 
 __all__ = sorted(_EXPORTS)
@@ -54,6 +57,8 @@ __all__ = sorted(_EXPORTS)
 
 def __getattr__(name: str) -> Any:
     if name in _EXPORTS:
+        # One line naming the extra to install, not torch's ImportError from deep in a module.
+        require_learned(f"estimators.learned.{name} (a learned model)")
         value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
         globals()[name] = value
         return value

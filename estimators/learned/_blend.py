@@ -467,4 +467,3 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
 
 
 # estimators.learned.load finds classes by the name a checkpoint records.
-ckpt.CLASSES.setdefault("BlendInpainter", BlendInpainter)

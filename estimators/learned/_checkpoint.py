@@ -27,7 +27,8 @@ point or not finite, and config entries of the wrong type, each with one
 
 :mod:`~estimators.learned._persistence` gives every learned estimator ``save`` / ``load``
 on top of these files; :data:`CLASSES` maps the class name a checkpoint records to its
-class. The shipped releases are such files under flat names in :data:`PRETRAINED_DIR`.
+class. The shipped releases are such files under flat names in
+:data:`~inpaintenv.methods.learned.RELEASE_DIR`.
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 
 from inpaintenv.exceptions import UnknownNameError
+from inpaintenv.methods.learned import RELEASE_DIR, shipped
 from inpaintenv.files import (
     MAX_JSON_BYTES,
     open_regular,
@@ -74,7 +76,6 @@ __all__ = [
     "read_model",
     "read_run_state",
     "release_folder",
-    "shipped",
     "unflatten_optimizer_state",
     "write_checkpoint",
     "write_run_checkpoint",
@@ -326,21 +327,6 @@ def write_run_checkpoint(
             shutil.rmtree(child, ignore_errors=True)
 
 
-#: Folder of the shipped releases: ``NAME.safetensors`` + ``NAME.json`` (a checkpoint's
-#: two files under flat names).
-PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "pretrained"
-#: The release ``-m pretrained`` loads: the default learned method (docs/model_card.md).
-DEFAULT_RELEASE = "kitti-ensemble-v1"
-
-
-def shipped(directory: Path = PRETRAINED_DIR) -> dict[str, str]:
-    """Every complete release in ``directory`` (both files present) and the class its JSON records."""
-    if not directory.is_dir():
-        return {}
-    return {p.stem: str(_read_json(p).get("class")) for p in sorted(directory.glob("*.json"))
-            if p.with_suffix(".safetensors").is_file()}
-
-
 def provenance(est: Any) -> dict[str, Any]:
     """What a saved model records about its training data and machine: ``training_drives``
     (None when unknown) and ``environment`` (:func:`inpaintenv.report.provenance.environment_info`
@@ -359,7 +345,7 @@ def restore_provenance(est: Any, config: dict[str, Any]) -> None:
 
 
 @contextmanager
-def release_folder(name: Any, directory: Path = PRETRAINED_DIR) -> Iterator[Path]:
+def release_folder(name: Any, directory: Path = RELEASE_DIR) -> Iterator[Path]:
     """A temporary checkpoint folder holding release ``name``'s two files, as shipped.
 
     The shipped pair is a checkpoint's files under flat names; copied (they are small)

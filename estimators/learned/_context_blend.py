@@ -35,7 +35,6 @@ from inpaintenv.masks import get_protocol
 
 from ..base import resolve_seed
 from ..candidates import prior_features
-from . import _checkpoint as ckpt
 from ._blend import BLEND_CANDIDATES, BlendInpainter
 from ._constraints import Integer, Options, Real, Sequence
 from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH
@@ -402,4 +401,3 @@ class ContextBlendInpainter(BlendInpainter):
 
 
 # estimators.learned.load finds classes by the name a checkpoint records.
-ckpt.CLASSES.setdefault("ContextBlendInpainter", ContextBlendInpainter)

@@ -371,4 +371,3 @@ def _share_features(members: list[Any]) -> bool:
 
 
 # estimators.learned.load finds classes by the name a checkpoint records.
-ckpt.CLASSES.setdefault("MeanEnsembleInpainter", MeanEnsembleInpainter)

@@ -26,7 +26,6 @@ from ..base import BaseInpainter
 # _cpu_state, progress_history, MAX_CHANNELS, _copy_encoder and _fitted_summary lived here
 # before the split; code written then imports them from this module.
 from . import _checkpoint as ckpt
-from ._checkpoint import CLASSES as _CLASSES
 from ._checkpoint import progress_history  # noqa: F401
 from ._checkpoint import cpu_state as _cpu_state  # noqa: F401
 from ._neural_params import MAX_CHANNELS, STUDY_CONSTRAINTS, NeuralParamsMixin  # noqa: F401
@@ -341,4 +340,3 @@ class AutoencoderInpainter(_StudyInpainter):
 
 # The classes a checkpoint may name; each learned family registers its own on import
 # (estimators.learned.load imports them all before it looks one up).
-_CLASSES.update({"UNetInpainter": UNetInpainter, "AutoencoderInpainter": AutoencoderInpainter})

@@ -1,4 +1,4 @@
-"""``save`` / ``load`` / ``pretrained`` of every learned estimator: one mixin, per-class config hooks.
+"""``save`` / ``load`` of every learned estimator and its registration: one mixin, per-class config hooks.
 
 Like segmentation_models_pytorch's hub mixin, a saved model is a folder whose
 ``config.json`` records its class (see :mod:`~estimators.learned._checkpoint` for the
@@ -13,7 +13,10 @@ files). Each family says only what is its own:
 
 The mixin adds the class name and the provenance (training drives, machine) to the
 config, writes and reads the files, dispatches a load on the recorded class, and marks
-the result fitted. An ensemble nests its members' configs (see
+the result fitted. Every public class of :mod:`estimators.learned` that derives from it is
+registered by its name (:data:`~estimators.learned._checkpoint.CLASSES`) when it is defined
+(``__init_subclass__``): the one registration, so a checkpoint naming it can be loaded.
+:func:`estimators.learned.load` is :meth:`PersistenceMixin.load` (any registered class). An ensemble nests its members' configs (see
 :class:`~estimators.learned.MeanEnsembleInpainter`).
 """
 
@@ -32,7 +35,15 @@ __all__ = ["CheckpointMixin", "PersistenceMixin"]
 
 
 class PersistenceMixin:
-    """``save``, ``load``, ``from_config`` and ``pretrained`` on top of two per-class hooks."""
+    """``save``, ``load`` and ``from_config`` on top of two per-class hooks."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # The package's own public classes only: a subclass defined elsewhere (a test's, a user's)
+        # never takes over the name a shipped checkpoint records.
+        if cls.__module__.startswith("estimators.learned.") and not cls.__name__.startswith("_") \
+                and cls.__module__ != __name__:
+            ckpt.CLASSES[cls.__name__] = cls
 
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
         raise NotImplementedError(f"{type(self).__name__} defines no _config(): it cannot be saved")
@@ -92,31 +103,6 @@ class PersistenceMixin:
         if not issubclass(klass, cls):
             raise ckpt.CheckpointError(f"{where} holds a {klass.__name__!r}, not a {cls.__name__}")
         return ckpt.from_checked(klass, config, weights, where)
-
-    @classmethod
-    def pretrained(cls, name: str, **overrides: Any) -> Any:
-        """Load the shipped release ``name`` (see :func:`estimators.learned.load_release`),
-        which must be of this class.
-
-        Parameters
-        ----------
-        name : str
-            Release name (``estimators/pretrained/NAME.{safetensors,json}``).
-        **overrides
-            Prediction-time parameters (e.g. ``tta``, ``predict_threads``).
-
-        Raises
-        ------
-        KeyError
-            No release of that name is shipped.
-        CheckpointError
-            The release is of another class.
-        ValueError
-            An override of a parameter the weights depend on.
-        """
-        with ckpt.release_folder(name) as folder:
-            est = cls.load(folder)
-        return ckpt.with_overrides(est, name, overrides)
 
 
 class CheckpointMixin(PersistenceMixin):

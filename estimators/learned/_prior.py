@@ -1,7 +1,7 @@
 """A learned inpainter built on classical priors: per-pixel blend of candidate fills + residual.
 
->>> from estimators.learned import PriorUNetInpainter                  # doctest: +SKIP
->>> est = PriorUNetInpainter.pretrained("kitti-mixed-v1")            # shipped weights
+>>> from estimators.learned import load_release                        # doctest: +SKIP
+>>> est = load_release("kitti-mixed-v1")                              # shipped weights
 >>> est.predict(corrupted)                                           # metres
 
 The network (:class:`estimators.learned.nets.prior_unet.PriorUNet`) sees the corrupted depth,
@@ -31,7 +31,6 @@ from ..candidates import (
     prior_features,
 )
 from . import _checkpoint as ckpt
-from . import _neural as neural
 from ._constraints import Bool, Check, Integer, Options
 from ._limits import MAX_LAYERS, MAX_WIDTH
 from ._neural import _NeuralInpainter
@@ -378,4 +377,3 @@ class PriorUNetInpainter(_NeuralInpainter):
 
 
 # The shared loader (estimators.learned.load) finds classes by name in this table.
-neural._CLASSES.setdefault("PriorUNetInpainter", PriorUNetInpainter)

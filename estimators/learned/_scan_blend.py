@@ -10,7 +10,7 @@ nearest measurement: up to ``near_distance`` pixels it takes the mean of the ``n
 candidates, beyond it the blend, which is trained on those far pixels only. The network
 runs on the far pixels only, which keeps ``predict`` near the cost of its candidates.
 
->>> from estimators.learned.releases import load_release                 # doctest: +SKIP
+>>> from estimators.learned import load_release                          # doctest: +SKIP
 >>> est = load_release("kitti-scan-v1")
 >>> est.predict(scan_with_nan)                                          # metres
 """
@@ -24,7 +24,6 @@ import torch
 
 from inpaintenv.exceptions import InvalidInputError
 
-from . import _checkpoint as ckpt
 from ._blend import BlendInpainter
 from ._constraints import Check, Real
 from ._far import far_pixels
@@ -182,4 +181,3 @@ class ScanBlendInpainter(BlendInpainter):
 
 
 # estimators.learned.load finds classes by the name a checkpoint records.
-ckpt.CLASSES.setdefault("ScanBlendInpainter", ScanBlendInpainter)

@@ -246,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     train_distributed(est, dataset)
     if int(os.environ.get("RANK", "0")) == 0:
         path = est.save(args.out / "model")
-        print(f"saved {path} (load with estimators.learned.load_checkpoint)", flush=True)
+        print(f"saved {path} (load with estimators.learned.load)", flush=True)
     return 0
 
 

@@ -22,6 +22,7 @@ import time
 from typing import Any
 
 from inpaintenv.exceptions import InvalidInputError, UnknownNameError
+from inpaintenv.methods.learned import RELEASE_DIR, shipped
 
 from . import _checkpoint as ckpt
 from . import _load  # noqa: F401  (imports every learned family: each registers its classes)
@@ -60,10 +61,10 @@ def release_recipe(name: str) -> tuple[type, dict[str, Any]]:
     KeyError
         No release of that name is shipped.
     """
-    releases = ckpt.shipped()
+    releases = shipped()
     if name not in releases:
         raise UnknownNameError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
-    path = ckpt.PRETRAINED_DIR / f"{name}.json"
+    path = RELEASE_DIR / f"{name}.json"
     return _recipe(ckpt._read_json(path), str(path))
 
 

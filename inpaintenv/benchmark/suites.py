@@ -12,9 +12,9 @@ from typing import Any
 
 from ..exceptions import UnknownNameError
 from .tasks import Task
+from ..methods.learned import LEARNED_INSTALL, learned_missing
 from ..methods.registry import (
-    LEARNED_INSTALL, available_methods, get_spec, interval_base, is_learned, learned_missing, make_method,
-    unfilled_policy,
+    available_methods, get_spec, interval_base, is_learned, make_method, unfilled_policy,
 )
 
 __all__ = ["KINDS", "SCAN_METHODS", "SUITES", "SUITE_TASKS", "suite_methods", "suite_tasks", "LazyMethod",

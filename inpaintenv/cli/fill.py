@@ -9,7 +9,8 @@ import argparse
 from typing import Any
 
 from ..exceptions import InpaintenvError, InvalidInputError
-from ..methods.registry import DEFAULT_RELEASE, shipped_interval_calibrations
+from ..methods.learned import DEFAULT_RELEASE
+from ..methods.registry import shipped_interval_calibrations
 from .messages import print_line
 from .method_options import check_checkpoint_folder, check_method_names
 from .options import add_common_options

@@ -328,7 +328,7 @@ def _plain(value: Any) -> bool:
 def cmd_train(args: argparse.Namespace) -> int:
     """Run ``inpaintenv train``: check the arguments, fit the preset (on ``--scheduler``'s
     workers where given), write the model, ``training_log.json`` and ``loss.png``; returns 0."""
-    from ..methods.registry import require_learned
+    from ..methods.learned import require_learned
 
     require_learned("training a learned model")  # one line naming the extra, not torch's ImportError
     from estimators.learned.presets import (

@@ -170,7 +170,8 @@ def router(method: Any) -> Any:
 
 def shipped_interval_name(method: Any) -> Any:
     """``<name>-intervals`` for a registry name whose release ships an interval calibration; else ``method``."""
-    from ..methods.registry import DEFAULT_RELEASE, available_aliases, available_methods, canonical_name, get_spec
+    from ..methods.learned import DEFAULT_RELEASE
+    from ..methods.registry import available_aliases, available_methods, canonical_name, get_spec
 
     if isinstance(method, str) and not method.count(":"):
         canon = canonical_name(method)

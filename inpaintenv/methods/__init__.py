@@ -6,6 +6,9 @@
 - :mod:`inpaintenv.methods.classical`: the table of classical fills by name, a data
   module that ``estimators`` may read without loading the registry (which names
   ``estimators``' modules).
+- :mod:`inpaintenv.methods.learned`: the shipped learned releases, the defaults
+  (``DEFAULT_RELEASE``, ``SCAN_DEFAULT``) and the ``[learned]`` extra's check, a torch-free
+  data module that the registry and ``estimators.learned`` both read (one definition each).
 - :mod:`inpaintenv.methods.calls`: call a method as :func:`inpaintenv.evaluate.evaluate`
   does (its name, output checks, ms per frame).
 - :mod:`inpaintenv.methods.intervals`: ask a method for its per-pixel interval.

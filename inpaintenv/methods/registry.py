@@ -6,8 +6,9 @@ imported only when :func:`make_method` builds it, so ``import inpaintenv`` never
 ``estimators``.
 
 The learned methods (modules under ``estimators.learned``) need the ``[learned]`` extra
-(torch, safetensors); without it, naming one raises :class:`MissingExtraError`, one line
-saying what to install (:data:`LEARNED_INSTALL`).
+(torch, safetensors); without it, naming one raises
+:class:`~inpaintenv.methods.learned.MissingExtraError`, one line saying what to install. The
+shipped releases and the default are read from :mod:`inpaintenv.methods.learned`.
 
 >>> from inpaintenv.methods.registry import available_methods, make_method
 >>> "telea-hole" in available_methods()
@@ -20,7 +21,6 @@ from __future__ import annotations
 
 import difflib
 import importlib
-import importlib.util
 import os
 import sys
 from dataclasses import dataclass, field
@@ -28,29 +28,24 @@ from typing import Any
 
 from ..exceptions import InvalidInputError, InvalidTypeError, MissingDependencyError, UnknownNameError
 from .classical import CLASSICAL_METHODS, CLASSICAL_MODULE
+from .learned import (
+    DEFAULT_RELEASE, LEARNED_DEPENDENCIES, RELEASE_DIR, SCAN_DEFAULT, learned_missing, missing_extra_error, shipped,
+)
 
 __all__ = [
-    "LEARNED_DEPENDENCIES",
-    "LEARNED_INSTALL",
-    "DEFAULT_RELEASE",
     "PRETRAINED_RELEASES",
     "REMOVED_RELEASES",
     "MethodSpec",
-    "MissingExtraError",
     "available_aliases",
     "available_methods",
     "canonical_name",
     "get_spec",
     "interval_base",
     "is_learned",
-    "learned_missing",
     "make_method",
-    "missing_extra_error",
     "register_alias",
     "register_method",
     "register_removed",
-    "require_learned",
-    "shipped_releases",
     "resolve_class",
     "unfilled_policy",
 ]
@@ -87,21 +82,6 @@ class MethodSpec:
 
 _LEARNED = "estimators.learned"
 
-#: The modules the ``[learned]`` extra brings (import names).
-LEARNED_DEPENDENCIES: tuple[str, ...] = ("torch", "safetensors")
-#: What to install for the learned methods; the CPU build first keeps pip from pulling
-#: several GB of CUDA packages on a machine without a GPU.
-LEARNED_INSTALL = (
-    'pip install "inpaintenv[learned]" (on a CPU-only Linux machine, first '
-    "pip install torch --index-url https://download.pytorch.org/whl/cpu)"
-)
-
-
-class MissingExtraError(MissingDependencyError):
-    """A learned method was named, but the ``[learned]`` extra (torch, safetensors) is not installed.
-
-    An ``ImportError`` (and an :class:`~inpaintenv.exceptions.InpaintenvError`: the CLI prints it as one line).
-    """
 _METHODS: dict[str, MethodSpec] = {}
 #: alias -> canonical name (old names kept working after a method was renamed).
 _ALIASES: dict[str, str] = {}
@@ -207,22 +187,6 @@ def unfilled_policy(name: str) -> str:
     return get_spec(name).unfilled
 
 
-def learned_missing() -> list[str]:
-    """The modules of the ``[learned]`` extra that cannot be found here (empty when installed).
-
-    Found without importing them (torch takes seconds to import).
-    """
-    missing = []
-    for module in LEARNED_DEPENDENCIES:
-        try:
-            found = importlib.util.find_spec(module) is not None
-        except (ImportError, ValueError):
-            found = False
-        if not found:
-            missing.append(module)
-    return missing
-
-
 def interval_base(name: str) -> str | None:
     """The registered method that method ``name``'s shipped interval calibration wraps
     (``"kitti-ensemble-v1"`` for ``pretrained-intervals``); None for any other method."""
@@ -240,25 +204,7 @@ def is_learned(name: str) -> bool:
     return module == _LEARNED or module.startswith(_LEARNED + ".")
 
 
-def missing_extra_error(what: str, missing: list[str]) -> MissingExtraError:
-    """The one-line error for ``what`` (e.g. ``"method 'pretrained' (a learned model)"``), which
-    needs the ``missing`` modules of the ``[learned]`` extra."""
-    return MissingExtraError(f"{what} needs {' and '.join(missing)}, not installed here: {LEARNED_INSTALL}")
-
-
-def require_learned(what: str) -> None:
-    """Raise :class:`MissingExtraError` about ``what`` unless the ``[learned]`` extra is installed.
-
-    Raises
-    ------
-    MissingExtraError
-        If torch or safetensors cannot be found.
-    """
-    if missing := learned_missing():
-        raise missing_extra_error(what, missing)
-
-
-def _missing_extra(name: str, missing: list[str]) -> MissingExtraError:
+def _missing_extra(name: str, missing: list[str]) -> MissingDependencyError:
     what = "a saved learned model" if canonical_name(name) == "checkpoint" else "a learned model"
     return missing_extra_error(f"method {name!r} ({what})", missing)
 
@@ -362,40 +308,12 @@ for _name, _cls, _kw, _desc in CLASSICAL_METHODS:
 
 # The shipped learned releases (need the [learned] extra), each registered under its own
 # name from its own JSON in estimators/pretrained/ (found without importing estimators).
-# One factory loads any of them: estimators.learned.releases.load_release.
-_RELEASES_MODULE = "estimators.learned.releases"
-#: The release ``pretrained`` loads (estimators.learned.releases.DEFAULT_RELEASE; checked by tests).
-DEFAULT_RELEASE = "kitti-ensemble-v1"
+# One factory loads any of them: estimators.learned.load_release (the release folder, the
+# default and the list of releases: inpaintenv.methods.learned, the one torch-free copy).
+_RELEASES_MODULE = "estimators.learned"
 #: The releases that left the package (the git tag releases-0.1 holds their weights and cards).
 REMOVED_RELEASES = ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3", "kitti-rect-v4",
                      "kitti-context-v1", "kitti-context-v2", "kitti-context-v3")
-
-
-def _release_dir() -> Any:
-    """``estimators/pretrained``: ``estimators`` lies beside this package (in the repository and
-    in an installed wheel alike), so no import is needed to find it."""
-    from pathlib import Path
-
-    return Path(__file__).resolve().parents[2] / "estimators/pretrained"
-
-
-def shipped_releases() -> dict[str, str]:
-    """Every complete shipped release (weights and JSON present) and the class its JSON records."""
-    from ..files import read_json
-
-    folder = _release_dir()
-    if not folder.is_dir():
-        return {}
-    out = {}
-    for path in sorted(folder.glob("*.json")):
-        if path.with_suffix(".safetensors").is_file():
-            try:
-                doc = read_json(path, "shipped release")  # regular file, bounded size and nesting
-            except (OSError, ValueError):
-                continue  # a broken release is refused with its own error when it is loaded
-            if isinstance(doc, dict):
-                out[path.stem] = str(doc.get("class"))
-    return out
 
 
 def register_removed(name: str, message: str) -> None:
@@ -408,23 +326,23 @@ register_method(
     "pretrained", _RELEASES_MODULE, "load_default", {},
     f"the default: a map with holes gets the learned release {DEFAULT_RELEASE} (the per-pixel mean of a context "
     "blend and a per-pixel blend of classical fills, trained on 15 KITTI drives, CC BY-NC-SA 3.0), a single LiDAR "
-    "scan gets harmonic (no release beats it on every recording day); decided per frame from its measured density "
-    "or by input='scan'|'map'",
+    f"scan gets the scan release {SCAN_DEFAULT}; decided per frame from its measured density or by "
+    "input='scan'|'map'",
 )
-for _release, _class in shipped_releases().items():
+for _release, _class in shipped().items():
     register_method(_release, _RELEASES_MODULE, "load_release", {"name": _release},
                     f"the shipped release {_release} ({_class}; docs/model_cards/{_release}.md; CC BY-NC-SA 3.0)")
-PRETRAINED_RELEASES: tuple[str, ...] = tuple(shipped_releases())
-# The default is a mean of two learned blends of classical fills: "blend" names it.
-register_alias("blend-pretrained", "pretrained")
+PRETRAINED_RELEASES: tuple[str, ...] = tuple(shipped())
 if "kitti-mixed-v1" in _METHODS:
     register_method("blend-pretrained-mixed", _RELEASES_MODULE, "load_release", {"name": "kitti-mixed-v1"},
                     "kitti-mixed-v1: the per-pixel learned blend trained on all four occlusion protocols "
                     "(mixed-v1; CC BY-NC-SA 3.0)")
-# Names that loaded something else than they said (no U-Net in either), and the releases that
+# Names that loaded something else than they said, and the releases that
 # left the package (their weights and cards are in git under the tag releases-0.1).
 register_removed("unet-pretrained", "method 'unet-pretrained' was removed: it loaded an ensemble of learned "
                  "blends, not a U-Net; use 'pretrained'")
+register_removed("blend-pretrained", "method 'blend-pretrained' was removed: it loaded the input-routed default, "
+                 "not a blend; use 'pretrained'")
 register_removed("unet-pretrained-mixed", "method 'unet-pretrained-mixed' was removed: it loaded a learned blend, "
                  "not a U-Net; use 'blend-pretrained-mixed'")
 for _release in REMOVED_RELEASES:
@@ -439,7 +357,7 @@ _INTERVALS_MODULE = "estimators.intervals"
 
 def shipped_interval_calibrations() -> tuple[str, ...]:
     """The registered methods shipped with an interval calibration (found without importing estimators)."""
-    folder = _release_dir() / "intervals"
+    folder = RELEASE_DIR / "intervals"
     return tuple(sorted(p.stem for p in folder.glob("*.json") if p.stem in _METHODS)) if folder.is_dir() else ()
 
 

@@ -60,7 +60,7 @@ def test_rerun_with_another_checkpoint_under_the_same_name_is_refused(tmp_path, 
     torch = pytest.importorskip("torch")
     import numpy as np
 
-    from estimators.learned import UNetInpainter, load_checkpoint
+    from estimators.learned import UNetInpainter, load
     from inpaintenv.data import ArrayDataset
 
     rows = np.linspace(30.0, 5.0, 24, dtype=np.float32)[:, None]
@@ -68,7 +68,7 @@ def test_rerun_with_another_checkpoint_under_the_same_name_is_refused(tmp_path, 
     model = UNetInpainter(width=4, depth=2, batch_size=2, epochs=1, random_state=0, num_threads=1)
     model.fit(ArrayDataset(frames, groups=["a", "a", "b", "b"]))
     ck_a = model.save(tmp_path / "ckA")
-    other = load_checkpoint(ck_a)
+    other = load(ck_a)
     with torch.no_grad():
         for p in other.model_.parameters():
             p.mul_(1.01)  # another model of the same class and parameters

@@ -29,7 +29,7 @@ def five_drives(tmp_path_factory):
 
 
 def test_a_split_scores_as_the_benchmark_does(load_benchmark, five_drives):
-    from estimators import ScanlineInpainter
+    from estimators.classical import ScanlineInpainter
     from estimators.intervals import ConformalIntervalInpainter
     from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.evaluate import evaluate

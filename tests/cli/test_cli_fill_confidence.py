@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimators import ScanlineInpainter
+from estimators.classical import ScanlineInpainter
 from estimators.intervals import ConformalIntervalInpainter
 from inpaintenv.cli import main
 from inpaintenv.conventions import DEPTH_LIMIT
@@ -170,7 +170,7 @@ def test_the_default_asks_a_scans_interval_of_its_scan_route_never_of_the_map_re
     fill and interval (it did: up to 25 m apart). Where the scan route ships its calibration (on
     scans), every file of the official scans is written and the depth is the plain fill's, bit for bit."""
     from estimators.intervals import shipped_intervals
-    from estimators.learned.releases import SCAN_DEFAULT
+    from inpaintenv.methods.learned import SCAN_DEFAULT
 
     frames_dir = kitti_root / "depth_selection" / "val_selection_cropped" / "velodyne_raw"
     inputs = sorted(frames_dir.glob("*.png"))

@@ -10,7 +10,7 @@ import pytest
 
 from estimators.classical import HarmonicInpainter, ScanlineInpainter
 from estimators.learned import InputRoutedInpainter
-from estimators.learned.releases import DEFAULT_RELEASE, SCAN_DEFAULT
+from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT
 from inpaintenv.cli import main
 from inpaintenv.data import SyntheticStreets, write_depth_png
 from inpaintenv.exceptions import InvalidInputError

@@ -102,7 +102,7 @@ def test_train_ensemble_preset_logs_both_members_and_is_scored(tmp_path, capsys,
 def test_default_preset_trains_the_default_release_recipe_and_is_scored(tmp_path, capsys, small_ensemble_preset):
     """With no --preset, train runs ensemble-kitti (the recipe of the default release) and
     the benchmark scores the model by --checkpoint."""
-    from estimators.learned.releases import DEFAULT_RELEASE
+    from inpaintenv.methods.learned import DEFAULT_RELEASE
 
     out = tmp_path / "run"
     source = ["--n-frames", "6", "--frame-shape", "64", "192"]

@@ -6,20 +6,22 @@ net trained for one epoch). Ids in the test report are the instances' reprs.
 
 from __future__ import annotations
 
-from estimators import (  # lazy: imports torch here
-    AutoencoderInpainter,
-    BlendInpainter,
+from estimators.classical import (
     ConstantInpainter,
-    ContextBlendInpainter,
     HarmonicInpainter,
     IPBasicInpainter,
     IterativeBilateralInpainter,
-    MeanEnsembleInpainter,
     NavierStokesInpainter,
     NearestInpainter,
-    PriorUNetInpainter,
     ScanlineInpainter,
     TeleaInpainter,
+)
+from estimators.learned import (  # imports torch here
+    AutoencoderInpainter,
+    BlendInpainter,
+    ContextBlendInpainter,
+    MeanEnsembleInpainter,
+    PriorUNetInpainter,
     UNetInpainter,
 )
 

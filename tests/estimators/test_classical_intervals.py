@@ -66,7 +66,7 @@ def test_its_calibration_drives_are_drives_of_the_slice(kitti_root):
 
 
 def test_the_scan_default_ships_one_calibrated_on_scans_never_on_the_official_frames():
-    from estimators.learned.releases import SCAN_DEFAULT
+    from inpaintenv.methods.learned import SCAN_DEFAULT
 
     if SCAN_DEFAULT not in SHIPPED:
         pytest.skip(f"the scan default {SCAN_DEFAULT} ships no classical calibration")
@@ -80,7 +80,7 @@ def test_its_interval_covers_about_its_coverage_on_the_official_scans(kitti_root
     """val_selection's scans were never calibrated on: the 90 % interval of the scan default
     holds about 90 % of the unmeasured ground-truth pixels there (frames alike)."""
     from estimators.base import iter_scoring_batches
-    from estimators.learned.releases import SCAN_DEFAULT
+    from inpaintenv.methods.learned import SCAN_DEFAULT
     from inpaintenv.data import KittiDepth
 
     if SCAN_DEFAULT not in SHIPPED or not (kitti_root / "depth_selection").is_dir():

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimators import ScanlineInpainter
+from estimators.classical import ScanlineInpainter
 from estimators.base import iter_scoring_batches
 from estimators.intervals import ConformalIntervalInpainter
 from estimators.intervals._calibration_file import N_LEVELS

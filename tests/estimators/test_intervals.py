@@ -9,7 +9,7 @@ import pytest
 from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV
 
-from estimators import ScanlineInpainter
+from estimators.classical import ScanlineInpainter
 from estimators.base import iter_scoring_batches
 from estimators.intervals import ConformalIntervalInpainter
 from inpaintenv.data import ArrayDataset

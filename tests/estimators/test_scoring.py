@@ -8,15 +8,8 @@ import numpy as np
 import pytest
 from sklearn.model_selection import GridSearchCV, GroupKFold, cross_validate
 
-from estimators import (
-    ConstantInpainter,
-    ScanlineInpainter,
-    all_rmse_scorer,
-    hole_mae_scorer,
-    hole_psnr_scorer,
-    hole_rmse_scorer,
-    make_inpaint_scorer,
-)
+from estimators import all_rmse_scorer, hole_mae_scorer, hole_psnr_scorer, hole_rmse_scorer, make_inpaint_scorer
+from estimators.classical import ConstantInpainter, ScanlineInpainter
 from inpaintenv.data import ArrayDataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate

@@ -9,7 +9,7 @@ import pytest
 def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_experiment):
     from estimators.learned import MeanEnsembleInpainter
     from estimators.learned import BlendInpainter
-    from estimators.learned import load_checkpoint
+    from estimators.learned import load
     from inpaintenv.data import SyntheticStreets
 
     script = load_experiment("fold_ensemble")
@@ -20,11 +20,11 @@ def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_exper
     b = BlendInpainter(**small, random_state=1).fit(frames).save(tmp_path / "b")
     out = tmp_path / "joined"
     assert script.main(["join", f"first={a}", f"second={b}", "--out", str(out), "--set", "second__tta=false"]) == 0
-    joined = load_checkpoint(out)
+    joined = load(out)
     assert isinstance(joined, MeanEnsembleInpainter) and joined.named_estimators_["second"].tta is False
     x = frames[0].copy()
     x[10:30, 40:90] = np.nan
-    members = [load_checkpoint(a).predict(x), load_checkpoint(b).set_params(tta=False).predict(x)]
+    members = [load(a).predict(x), load(b).set_params(tta=False).predict(x)]
     np.testing.assert_allclose(joined.predict(x)[np.isnan(x)], np.mean(members, axis=0)[np.isnan(x)], rtol=1e-6)
     for bad in ([f"first={a}", "--out", str(tmp_path / "x")],  # one member
                 [f"first={a}", f"second={tmp_path / 'nothing'}", "--out", str(tmp_path / "y")],

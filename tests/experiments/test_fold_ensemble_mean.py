@@ -41,7 +41,7 @@ def test_scores_both_models_and_their_mean_on_one_day(tiny_kitti, capsys, load_e
 
 def _default_members() -> list:
     """The two blend models of the shipped default (they read the same candidate features)."""
-    from estimators.learned.releases import load_release
+    from estimators.learned import load_release
 
     members = load_release("kitti-ensemble-v1").named_estimators_
     return [members["context"], members["blend"]]

@@ -42,13 +42,12 @@ def two_days(tmp_path):
 def test_every_drive_is_calibrated_by_the_fold_model_without_its_day(load_experiment, two_days, tmp_path,
                                                                       monkeypatch, capsys):
     import estimators.learned
-    import estimators.learned.releases
 
     drives = {day: [f"{day}_drive_{n}_sync" for n in numbers] for day, numbers in DAYS.items()}
     every = sorted(d for ds in drives.values() for d in ds)
     models = {f"m-{day}": FoldFill([d for d in every if not d.startswith(day)]) for day in DAYS}
     monkeypatch.setattr(estimators.learned, "load", lambda path: models[str(path)])
-    monkeypatch.setattr(estimators.learned.releases, "load_release", lambda name: FoldFill(every))
+    monkeypatch.setattr(estimators.learned, "load_release", lambda name: FoldFill(every))
     out = load_experiment("interval_calibration").main(["calibrate", 
         "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",
         *[a for day in DAYS for a in ("--fold", f"{day}=m-{day}")]])
@@ -69,9 +68,9 @@ def test_a_day_without_a_fold_is_refused(load_experiment, two_days, tmp_path, mo
 
 def test_without_folds_a_release_is_calibrated_on_the_drives_it_never_saw(load_experiment, two_days, tmp_path,
                                                                            monkeypatch):
-    import estimators.learned.releases
+    import estimators.learned
 
-    monkeypatch.setattr(estimators.learned.releases, "load_release",
+    monkeypatch.setattr(estimators.learned, "load_release",
                         lambda name: FoldFill(["2011_09_26_drive_9001_sync"]))
     out = load_experiment("interval_calibration").main(["calibrate", 
         "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",

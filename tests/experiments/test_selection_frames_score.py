@@ -34,7 +34,7 @@ def test_plus_averages_models(sel_module, monkeypatch):
 
     monkeypatch.setattr(sel_module, "shipped", lambda: {"a": "BlendInpainter"})
     monkeypatch.setattr(sel_module, "load_release", fake_load)
-    monkeypatch.setattr(sel_module, "load_checkpoint", lambda path: fake_load(f"folder {path}"))
+    monkeypatch.setattr(sel_module, "load", lambda path: fake_load(f"folder {path}"))
     predict = sel_module.batch_predictor("a+b", "model")
     assert calls == ["a", "folder b"]  # a release by name, anything else a saved model folder
     np.testing.assert_array_equal(predict(np.zeros((1, 2, 2))), np.full((1, 2, 2), 1.5))

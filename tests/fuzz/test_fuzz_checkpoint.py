@@ -1,4 +1,4 @@
-"""load_checkpoint on tampered checkpoints: one CheckpointError, and no file written anywhere.
+"""load on tampered checkpoints: one CheckpointError, and no file written anywhere.
 
 Each property edits a valid saved checkpoint the way an attacker or a broken disk could --
 member names that are paths, NaN/inf or non-float weights, a missing checksum, config
@@ -26,7 +26,7 @@ from estimators.learned import MeanEnsembleInpainter
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
 from estimators.learned._checkpoint_checks import PATH_PARAMS
 from estimators.learned import BlendInpainter
-from estimators.learned import load_checkpoint
+from estimators.learned import load
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import SyntheticStreets
@@ -74,7 +74,7 @@ def _refused(folder: Path, sandbox: Path, *also_absent: Path) -> CheckpointError
     """Load ``folder``: assert one CheckpointError and that nothing was written."""
     before = _files(sandbox)
     with pytest.raises(CheckpointError) as info:
-        load_checkpoint(folder)
+        load(folder)
     assert _files(sandbox) == before
     assert not any(p.exists() for p in also_absent)
     assert "\n" not in str(info.value)  # one line
@@ -223,7 +223,7 @@ def test_paths_in_a_loaded_checkpoint_are_never_kept(saved, sandbox, family):
     config["params"] = _with_paths(config["params"], elsewhere)
     for member in config.get("members", []):
         member["config"]["params"] = _with_paths(member["config"]["params"], elsewhere)
-    est = load_checkpoint(_write(sandbox / "ckpt", config, weights))
+    est = load(_write(sandbox / "ckpt", config, weights))
     for name, params in _every_params(est):
         kept = {k: v for k, v in params.items() if k in PATH_PARAMS and v is not None and not isinstance(v, bool)}
         assert not kept, (name, kept)
@@ -235,7 +235,7 @@ def test_a_later_fit_of_a_loaded_model_writes_nothing_where_the_file_said(saved,
     elsewhere = sandbox / "elsewhere"
     assert "checkpoint_dir" in config["params"]
     config = {**config, "params": _with_paths(config["params"], elsewhere, ("checkpoint_dir",))}
-    est = load_checkpoint(_write(sandbox / "ckpt", config, weights))
+    est = load(_write(sandbox / "ckpt", config, weights))
     assert est.checkpoint_dir is None
     est.set_params(max_steps=1).fit(SyntheticStreets(n=2, frame_shape=(32, 64), frames_per_drive=1))
     assert not elsewhere.exists()
@@ -255,7 +255,7 @@ def test_a_checkpoint_never_starts_more_threads_than_the_machine_has_cores(saved
     params = {**config["params"], "num_threads": 300}
     if "predict_threads" in params:
         params["predict_threads"] = 300
-    est = load_checkpoint(_write(sandbox / "ckpt", {**config, "params": params}, weights))
+    est = load(_write(sandbox / "ckpt", {**config, "params": params}, weights))
     asked: list[int] = []
     real = torch.set_num_threads
     monkeypatch.setattr(torch, "set_num_threads", lambda n: (asked.append(n), real(n))[1])
@@ -274,7 +274,7 @@ def test_deeply_nested_config_is_one_checkpoint_error(saved, sandbox):
     run.mkdir()
     (run / "state.json").write_text('{"last": ' * 50_000 + "1" + "}" * 50_000)
     with pytest.raises(CheckpointError, match="nested"):
-        load_checkpoint(run)
+        load(run)
 
 
 def _within(seconds: float, call: Any, fifo: Path) -> BaseException | None:
@@ -305,7 +305,7 @@ def test_a_fifo_in_a_checkpoint_is_refused_at_once(saved, sandbox, name):
     folder = _write(sandbox / "ckpt", config, weights)
     (folder / name).unlink()
     os.mkfifo(folder / name)
-    error = _within(10, lambda: load_checkpoint(folder), folder / name)
+    error = _within(10, lambda: load(folder), folder / name)
     assert isinstance(error, CheckpointError) and "FIFO" in str(error), error
 
 
@@ -320,7 +320,7 @@ def test_saving_replaces_a_planted_link_and_never_writes_through_it(saved, sandb
     _write(folder, config, weights)
     assert victim.read_text() == "keep me"
     assert not any(p.is_symlink() for p in folder.iterdir())
-    load_checkpoint(folder)
+    load(folder)
 
 
 def test_a_resuming_run_never_reads_its_state_through_a_link(sandbox):
@@ -337,7 +337,7 @@ def test_a_resuming_run_never_reads_its_state_through_a_link(sandbox):
 
 
 def test_a_release_override_beyond_the_thread_limit_is_refused_at_load():
-    from estimators.learned.releases import load_release
+    from estimators.learned import load_release
     from inpaintenv.exceptions import InvalidInputError
 
     with pytest.raises(InvalidInputError, match="num_threads=1000"):

@@ -34,7 +34,7 @@ from estimators.learned._sampling import TrainingBatches
 from estimators.learned._training import Augmentation, OcclusionFrames, epoch_order, make_loader
 from estimators.learned.losses import inpainting_loss
 from estimators.learned.nets import UNet
-from estimators.learned import UNetInpainter, load_checkpoint
+from estimators.learned import UNetInpainter, load
 from inpaintenv.data import ArrayDataset
 from inpaintenv.masks import get_protocol
 
@@ -167,7 +167,7 @@ def test_torchrun_one_process_command_line(gpu_device, tmp_path):
     done = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=200)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
     assert "[rank 0/1] done: 1 steps" in done.stdout
-    model = load_checkpoint(tmp_path / "out" / "model")
+    model = load(tmp_path / "out" / "model")
     assert model.n_steps_ == 1
 
 
@@ -210,7 +210,7 @@ def test_checkpoint_resume_on_the_device(gpu_device, tmp_path):
     _assert_same_losses(resumed.history_["step_loss"], full.history_["step_loss"], _exact(gpu_device))
     _assert_same_weights(resumed, full, _exact(gpu_device))
     # The run directory loads on the CPU and predicts as the fitted model does.
-    loaded = load_checkpoint(resumed.run_dir_)
+    loaded = load(resumed.run_dir_)
     x = _frames(1)
     x[:, 10:30, 20:60] = np.nan
     np.testing.assert_allclose(loaded.predict(x), resumed.set_params(device="cpu").predict(x), rtol=0, atol=1e-4)

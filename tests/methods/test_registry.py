@@ -65,10 +65,8 @@ def test_overrides_and_bad_override():
 def test_every_shipped_release_has_its_own_method_name():
     """Each release in estimators/pretrained is a method, registered from its own JSON."""
     pytest.importorskip("torch")
-    from estimators.learned._checkpoint import PRETRAINED_DIR
-    from estimators.learned.releases import DEFAULT_RELEASE
-
-    from inpaintenv.methods.registry import DEFAULT_RELEASE as REGISTRY_DEFAULT
+    from inpaintenv.methods.learned import DEFAULT_RELEASE
+    from inpaintenv.methods.learned import RELEASE_DIR as PRETRAINED_DIR
     from inpaintenv.methods.registry import PRETRAINED_RELEASES
 
     shipped = {p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file()}
@@ -76,31 +74,34 @@ def test_every_shipped_release_has_its_own_method_name():
     for name in PRETRAINED_RELEASES:  # each loads as the class its JSON names, through the one factory
         assert get_spec(name).cls == "load_release" and get_spec(name).kwargs == {"name": name}
         assert type(make_method(name)).__name__ == json.loads((PRETRAINED_DIR / f"{name}.json").read_text())["class"]
-    assert REGISTRY_DEFAULT == DEFAULT_RELEASE == "kitti-ensemble-v1"
-    for name in ("pretrained", "blend-pretrained"):  # a map goes to the default release
-        assert param_values(make_method(DEFAULT_RELEASE)) == param_values(make_method(name).map_method)
+    assert DEFAULT_RELEASE == "kitti-ensemble-v1"  # a map goes to the default release
+    assert param_values(make_method(DEFAULT_RELEASE)) == param_values(make_method("pretrained").map_method)
 
 
-def test_a_release_added_to_the_folder_is_registered(tmp_path, monkeypatch):
-    """No hand-kept list: the registry reads the release folder."""
-    from inpaintenv.methods import registry
+def test_a_release_added_to_the_folder_is_listed(tmp_path):
+    """No hand-kept list: the registry and the loader read the release folder (one function)."""
+    from inpaintenv.methods.learned import shipped
 
     for name in ("kitti-mixed-v1", "kitti-new-v9"):
         (tmp_path / f"{name}.json").write_text(json.dumps({"class": "PriorUNetInpainter"}))
         (tmp_path / f"{name}.safetensors").write_bytes(b"")
     (tmp_path / "half-v1.json").write_text("{}")  # no weights beside it: not a release
-    monkeypatch.setattr(registry, "_release_dir", lambda: tmp_path)
-    assert registry.shipped_releases() == {"kitti-mixed-v1": "PriorUNetInpainter", "kitti-new-v9": "PriorUNetInpainter"}
+    (tmp_path / "broken-v1.json").write_text("{")  # listed: loading it names the problem
+    (tmp_path / "broken-v1.safetensors").write_bytes(b"")
+    assert shipped(tmp_path) == {"broken-v1": "?", "kitti-mixed-v1": "PriorUNetInpainter",
+                                 "kitti-new-v9": "PriorUNetInpainter"}
 
 
-def test_aliases_resolve_to_the_canonical_name():
+def test_aliases_resolve_to_the_canonical_name(monkeypatch):
+    from inpaintenv.methods import registry
     from inpaintenv.methods.registry import available_aliases, canonical_name, register_alias
 
-    assert available_aliases()["blend-pretrained"] == "pretrained"
+    monkeypatch.setitem(registry._ALIASES, "my-default", "pretrained")
+    assert available_aliases()["my-default"] == "pretrained"
     assert "pretrained" in available_methods() and "blend-pretrained-mixed" in available_methods()
-    assert get_spec("blend-pretrained") is get_spec("pretrained")
+    assert get_spec("my-default") is get_spec("pretrained")
     assert get_spec("blend-pretrained-mixed").kwargs == {"name": "kitti-mixed-v1"}
-    assert canonical_name("blend-pretrained") == "pretrained" and canonical_name("telea") == "telea"
+    assert canonical_name("my-default") == "pretrained" and canonical_name("telea") == "telea"
     with pytest.raises(ValueError, match="already"):
         register_alias("telea", "ns")
     with pytest.raises(KeyError, match="no method"):
@@ -108,6 +109,7 @@ def test_aliases_resolve_to_the_canonical_name():
 
 
 @pytest.mark.parametrize(("name", "instead"), [("unet-pretrained", "'pretrained'"),
+                                               ("blend-pretrained", "not a blend; use 'pretrained'"),
                                                ("unet-pretrained-mixed", "'blend-pretrained-mixed'"),
                                                ("kitti-rect-v4", "releases-0.1"),
                                                ("kitti-context-v3", "releases-0.1")])
@@ -129,12 +131,15 @@ def test_suites_use_canonical_names():
     assert "pretrained" in SUITES["default"] and "blend-pretrained" not in SUITES["default"]
 
 
-def test_info_lists_aliases(capsys):
+def test_info_lists_aliases(capsys, monkeypatch):
     from inpaintenv.cli import main
+    from inpaintenv.methods import registry
+
+    monkeypatch.setitem(registry._ALIASES, "my-default", "pretrained")
 
     assert main(["info", "--n-frames", "2", "--frame-shape", "32", "96", "--sample", "1"]) == 0
     out = capsys.readouterr().out
-    assert "blend-pretrained -> pretrained" in out
+    assert "my-default -> pretrained" in out
 
 
 _USER_MODULE = '''

@@ -504,8 +504,7 @@ def test_every_entry_point_is_in_the_table():
     commands = next(a for a in parser._actions if a.dest == "command").choices
     missing = {f"cli:{name}" for name in commands} - entries
     assert not missing, f"CLI subcommands with no hostile-file case: {sorted(missing)}"
-    loaders = {f"py:{name}" for name in learned.__all__ if name.startswith("load")} - {"py:load_checkpoint"}
+    loaders = {f"py:{name}" for name in learned.__all__ if name.startswith("load")}
     assert loaders <= entries, f"checkpoint loaders with no case: {sorted(loaders - entries)}"
-    assert learned.load_checkpoint is learned.load  # the former name: the same function, the same cases
     assert {"py:gym", "py:evaluate", "py:fill", "py:fill_depth", "py:ConformalIntervalInpainter.load"} <= entries
     assert len(ENV_IDS) == 3, f"a new env id: give its data source a case in the table ({sorted(ENV_IDS)})"

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from estimators import (
+from estimators.classical import (
     ConstantInpainter,
     HarmonicInpainter,
     IPBasicInpainter,

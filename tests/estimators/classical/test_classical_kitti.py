@@ -6,12 +6,7 @@ import numpy as np
 import pytest
 from sklearn.model_selection import GridSearchCV, GroupKFold
 
-from estimators import (
-    ConstantInpainter,
-    HarmonicInpainter,
-    ScanlineInpainter,
-    TeleaInpainter,
-)
+from estimators.classical import ConstantInpainter, HarmonicInpainter, ScanlineInpainter, TeleaInpainter
 from inpaintenv.metrics import aggregate
 
 pytestmark = pytest.mark.kitti

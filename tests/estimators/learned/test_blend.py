@@ -9,7 +9,7 @@ import pytest
 import torch
 from streets import streets as _streets
 
-from estimators.learned import BlendInpainter
+from estimators.learned import BlendInpainter, load_release
 from estimators.learned._checkpoint import CheckpointError
 from estimators.candidates import prior_features
 from inpaintenv.data import ArrayDataset
@@ -145,7 +145,7 @@ def test_no_ground_truth_in_any_hole_is_a_clear_error():
 
 def test_unknown_release_lists_the_shipped_ones():
     with pytest.raises(KeyError, match="no shipped release 'nope'; shipped: .*kitti-ensemble-v1"):
-        BlendInpainter.pretrained("nope")
+        load_release("nope")
 
 
 def test_verbose_fit_shows_one_progress_display_of_the_features(capsys):

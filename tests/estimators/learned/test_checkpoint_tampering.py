@@ -16,7 +16,7 @@ from estimators.learned import _limits
 from estimators.learned._checkpoint import CheckpointError, read_checkpoint, write_checkpoint
 from estimators.learned import BlendInpainter
 from estimators.learned import ContextBlendInpainter
-from estimators.learned import load_checkpoint
+from estimators.learned import load, load_release
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import ArrayDataset
@@ -83,7 +83,7 @@ def test_member_names_that_are_paths_are_refused_and_nothing_is_written(saved, t
                       config=lambda c: {**c, "members": [{**c["members"][0], "name": name}, c["members"][1]]})
     before = _files_under(tmp_path)
     with pytest.raises(CheckpointError, match=r"'members'\[0\] has name .*letters, digits and single underscores"):
-        load_checkpoint(folder)
+        load(folder)
     assert not target.exists() and not target.parent.exists() if kind == "absolute" else not target.exists()
     assert _files_under(tmp_path) == before  # nothing written anywhere under the test's folder
 
@@ -95,7 +95,7 @@ def test_an_ensemble_loads_without_writing_any_file(saved, tmp_path, monkeypatch
     writes = []
     monkeypatch.setattr("estimators.learned._checkpoint.write_checkpoint",
                         lambda *a, **k: writes.append(a) or pytest.fail("load wrote a checkpoint"))
-    assert isinstance(load_checkpoint(saved["ensemble"]), MeanEnsembleInpainter)
+    assert isinstance(load(saved["ensemble"]), MeanEnsembleInpainter)
     assert writes == [] and list(temp_root.iterdir()) == []
 
 
@@ -109,7 +109,7 @@ def test_a_run_folder_pointer_outside_the_folder_is_refused(saved, tmp_path, las
         UNetInpainter.load(run)
     (run / "state.json").write_text(json.dumps({"last": "ckpt-00000001-abc", "best": "/etc"}))
     with pytest.raises(CheckpointError, match=r"'best' must name a checkpoint folder of this run .*got '/etc'"):
-        load_checkpoint(run)
+        load(run)
 
 
 def test_a_resume_from_a_tampered_run_folder_is_refused(data, tmp_path):
@@ -142,7 +142,7 @@ def _set_first(weights, value):
 def test_bad_weights_are_refused_naming_the_file_and_tensor(saved, tmp_path, family, bad, message):
     folder = _rewrite(saved[family], tmp_path / family, weights=bad)
     with pytest.raises(CheckpointError, match=message):
-        load_checkpoint(folder)
+        load(folder)
 
 
 @pytest.mark.parametrize("family", ["blend", "ensemble", "unet"])
@@ -155,7 +155,7 @@ def test_weights_without_a_recorded_checksum_are_refused(saved, tmp_path, family
     _edit_json(folder, lambda c: {k: v for k, v in c.items() if k != "weights_sha256"})
     with pytest.raises(CheckpointError, match=r"config.json records no SHA-256 of model.safetensors "
                                               r"\(key 'weights_sha256'\): the file cannot be verified"):
-        load_checkpoint(folder)
+        load(folder)
 
 
 # -- item 10 and the unclear messages: config entries of the wrong type -----------------------
@@ -183,7 +183,7 @@ def test_weights_without_a_recorded_checksum_are_refused(saved, tmp_path, family
 def test_config_entries_of_the_wrong_type_are_one_checkpoint_error(saved, tmp_path, family, edit, message):
     folder = _rewrite(saved[family], tmp_path / family, config=edit)
     with pytest.raises(CheckpointError, match=message):
-        load_checkpoint(folder)
+        load(folder)
 
 
 def test_a_checkpoint_without_params_is_named_through_the_registry(saved, tmp_path):
@@ -215,7 +215,7 @@ def test_a_run_folder_without_last_names_the_key(tmp_path):
 def test_huge_sizes_in_a_checkpoint_are_refused_before_allocating(saved, tmp_path, family, edit, message):
     folder = _rewrite(saved[family], tmp_path / family, config=edit)
     with pytest.raises(CheckpointError, match=message):
-        load_checkpoint(folder)
+        load(folder)
 
 
 @pytest.mark.parametrize("est, message", [
@@ -231,17 +231,17 @@ def test_huge_sizes_as_parameters_are_refused_at_fit(data, est, message):
 
 
 def test_the_limits_are_far_above_the_shipped_releases():
-    est = MeanEnsembleInpainter.pretrained("kitti-ensemble-v1")
+    est = load_release("kitti-ensemble-v1")
     for member in est.estimators_:
         n = sum(p.numel() for p in member.model_.parameters())
         assert n < _limits.MAX_PARAMETERS / 100
 
 
 def test_members_of_every_family_are_rebuilt_in_memory_as_they_were_saved(saved, tmp_path):
-    members = [("prior", load_checkpoint(saved["prior"])), ("unet", load_checkpoint(saved["unet"])),
-               ("blend", load_checkpoint(saved["blend"]))]
+    members = [("prior", load(saved["prior"])), ("unet", load(saved["unet"])),
+               ("blend", load(saved["blend"]))]
     ensemble = MeanEnsembleInpainter.from_fitted(members)
-    loaded = load_checkpoint(ensemble.save(tmp_path / "ens"))
+    loaded = load(ensemble.save(tmp_path / "ens"))
     assert loaded.named_estimators_["prior"].candidates == members[0][1].candidates
     assert isinstance(loaded.named_estimators_["prior"].candidates, tuple)
     x = _streets(1, seed=3)[0]

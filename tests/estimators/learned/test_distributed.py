@@ -27,7 +27,7 @@ from torch.nn.parallel import DistributedDataParallel
 
 from estimators.learned.distributed import rank_order, train_distributed
 from estimators.learned import distributed
-from estimators.learned import UNetInpainter, load_checkpoint
+from estimators.learned import UNetInpainter, load
 from inpaintenv.data import ArrayDataset
 
 WORLD = 2
@@ -94,7 +94,7 @@ def test_two_gloo_processes_match_one_process(tmp_path):
     assert not (tmp_path / "writes-rank1.txt").exists()
     (run,) = (tmp_path / "ckpt").iterdir()
     assert run.name.startswith("ddp2-UNetInpainter-")
-    model = load_checkpoint(run)
+    model = load(run)
     x = _frames()[:1].copy()
     x[:, 10:20, 10:40] = np.nan
     # Weights agree to rounding, amplified a little by Adam (it divides each gradient by

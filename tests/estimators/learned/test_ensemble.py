@@ -18,7 +18,7 @@ from estimators.learned._checkpoint import (
 )
 from estimators.learned import BlendInpainter
 from estimators.learned import ContextBlendInpainter
-from estimators.learned import load_checkpoint
+from estimators.learned import load
 from inpaintenv.data import ArrayDataset
 
 CONTEXT = dict(n_context=2, context_widths=(4, 8), width=8, layers=1, epochs=1, masks_per_frame=1, keep=(1.0,),
@@ -120,7 +120,7 @@ def test_save_load_round_trip_in_one_checkpoint(fitted, tmp_path):
     config, weights, _, _ = read_checkpoint(folder)
     assert [m["name"] for m in config["members"]] == ["context", "blend"]
     assert {k.split(".")[0] for k in weights} == {"context", "blend"}
-    loaded = load_checkpoint(folder)
+    loaded = load(folder)
     assert isinstance(loaded, MeanEnsembleInpainter) and loaded.shares_features_
     x = _corrupt(_streets(1, seed=4)[0])
     np.testing.assert_array_equal(loaded.predict(x), fitted.predict(x))
@@ -140,7 +140,7 @@ def test_corrupt_or_foreign_checkpoints_are_refused(fitted, tmp_path):
     raw = (folder / "model.safetensors").read_bytes()
     (folder / "model.safetensors").write_bytes(raw[:-10])
     with pytest.raises(CheckpointError, match="checksum"):
-        load_checkpoint(folder)
+        load(folder)
     with pytest.raises(ValueError, match="not fitted"):
         MeanEnsembleInpainter(_members()).save(tmp_path / "nothing")
 
@@ -148,11 +148,11 @@ def test_corrupt_or_foreign_checkpoints_are_refused(fitted, tmp_path):
 def test_from_fitted_joins_saved_models(fitted, tmp_path):
     a = fitted.named_estimators_["context"].save(tmp_path / "a")
     b = fitted.named_estimators_["blend"].save(tmp_path / "b")
-    joined = MeanEnsembleInpainter.from_fitted([("context", load_checkpoint(a)), ("blend", load_checkpoint(b))])
+    joined = MeanEnsembleInpainter.from_fitted([("context", load(a)), ("blend", load(b))])
     x = _corrupt(_streets(1, seed=6)[0])
     np.testing.assert_array_equal(joined.predict(x), fitted.predict(x))
     with pytest.raises(ValueError, match=r"members not fitted: \['blend'\]"):
-        MeanEnsembleInpainter.from_fitted([("context", load_checkpoint(a)), ("blend", BlendInpainter())])
+        MeanEnsembleInpainter.from_fitted([("context", load(a)), ("blend", BlendInpainter())])
 
 
 def test_the_preset_holds_the_two_shipped_recipes():
@@ -194,7 +194,7 @@ def test_weighted_mean_as_in_voting_regressor(fitted, tmp_path):
     # equal weights are the plain mean; one member alone is that member
     np.testing.assert_allclose(weighted.set_params(weights=[1, 1]).predict(x), fitted.predict(x), rtol=1e-6)
     np.testing.assert_allclose(weighted.set_params(weights=[0, 2]).predict(x)[hole], members[1][hole], rtol=1e-6)
-    loaded = load_checkpoint(weighted.set_params(weights=(3, 1)).save(tmp_path / "weighted"))
+    loaded = load(weighted.set_params(weights=(3, 1)).save(tmp_path / "weighted"))
     assert loaded.weights == [3.0, 1.0]
     np.testing.assert_array_equal(loaded.predict(x), pred)
 

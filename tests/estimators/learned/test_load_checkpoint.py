@@ -1,6 +1,6 @@
-"""load_checkpoint finds every neural class by the name its checkpoint records (issue 18).
+"""load finds every neural class by the name its checkpoint records (issue 18).
 
-load_checkpoint once imported the prior family inside itself (an import circle, prior
+load once imported the prior family inside itself (an import circle, prior
 subclasses neural); it now lives above every learned family, so a fresh process loads a
 PriorUNetInpainter checkpoint through the public estimators.learned with nothing imported
 beforehand.
@@ -29,9 +29,9 @@ def test_a_fresh_process_loads_a_prior_checkpoint_through_estimators_learned(tmp
     np.save(tmp_path / "want.npy", est.predict(x))
     code = (
         "import sys, numpy as np\n"
-        "from estimators.learned import load_checkpoint\n"
+        "from estimators.learned import load\n"
         "assert 'estimators.learned._prior' in sys.modules  # loading registered every family\n"
-        f"est = load_checkpoint({str(path)!r})\n"
+        f"est = load({str(path)!r})\n"
         "print(type(est).__name__)\n"
         f"np.testing.assert_array_equal(est.predict(np.load({str(tmp_path / 'x.npy')!r})), "
         f"np.load({str(tmp_path / 'want.npy')!r}))\n"

@@ -13,7 +13,8 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from estimators.learned._output import MIN_HOLE_DEPTH
-from estimators.learned import AutoencoderInpainter, CheckpointError, UNetInpainter
+from estimators.learned import AutoencoderInpainter, UNetInpainter
+from inpaintenv.exceptions import CheckpointError
 from inpaintenv.data import ArrayDataset
 from inpaintenv.data.base import DepthDataset, split_by_drive
 from training_helpers import interrupt_after
@@ -456,7 +457,7 @@ def test_validation_frames_are_validated(frames):
 def test_import_estimators_does_not_import_torch():
     code = (
         "import estimators, sys; assert 'torch' not in sys.modules; "
-        "estimators.UNetInpainter; assert 'torch' in sys.modules"
+        "estimators.learned.UNetInpainter; assert 'torch' in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
 

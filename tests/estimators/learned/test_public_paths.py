@@ -1,4 +1,6 @@
-"""One public path per class (issue 41 item 1): estimators.learned exports every learned name."""
+"""One public path per name: a learned class at estimators.learned, a classical one at
+estimators.classical, the interval wrapper at estimators.intervals; estimators' face keeps
+only its own API (the base class, the scorers, the subpackages)."""
 
 from __future__ import annotations
 
@@ -9,14 +11,20 @@ import inspect
 import pytest
 
 import estimators
+import estimators.classical
+import estimators.intervals
 
 learned = pytest.importorskip("estimators.learned")
 
 #: The modules that are gone: re-export shims and the names that collided.
 _REMOVED = [f"estimators.{name}" for name in ("neural", "blend", "prior", "presets", "context_blend", "ensemble",
-                                               "distributed", "priors")] + ["inpaintenv.environment"]
+                                               "distributed", "priors")] + ["inpaintenv.environment",
+                                                                            "estimators.learned.releases"]
 #: The implementation modules of estimators.learned, now private (their classes are exported by the package).
-_PRIVATE = ("neural", "blend", "prior", "context_blend", "ensemble")
+_PRIVATE = ("neural", "blend", "prior", "context_blend", "ensemble", "releases", "routed", "scan_blend")
+#: What estimators' face is: its own base class and scorers, and the subpackages of the methods.
+_OWN = {"BaseInpainter", "all_rmse_scorer", "hole_mae_scorer", "hole_psnr_scorer", "hole_rmse_scorer",
+        "make_inpaint_scorer", "classical", "intervals", "learned"}
 
 
 @pytest.mark.parametrize("module", _REMOVED)
@@ -31,18 +39,28 @@ def test_an_implementation_module_has_only_its_private_path(name):
 
 
 @pytest.mark.parametrize("name", sorted(learned.__all__))
-def test_every_learned_name_is_exported_from_estimators_learned(name):
+def test_a_learned_name_has_one_public_path(name):
     value = getattr(learned, name)
-    if inspect.isclass(value) and name.endswith("Inpainter"):
-        # The class says where it lives, a private module (no rewritten __module__): estimators.learned is its path,
-        # and estimators' lazy face is the same object.
-        assert value.__module__.startswith("estimators.learned._")
-        assert importlib.import_module(value.__module__).__dict__[name] is value
-        assert getattr(estimators, name) is value
+    # The object says where it lives, a private module (no rewritten __module__): estimators.learned is its path.
+    assert value.__module__.startswith("estimators.learned._")
+    assert importlib.import_module(value.__module__).__dict__[name] is value
+    assert not hasattr(estimators, name), f"estimators.{name}: a second public path"
+
+
+@pytest.mark.parametrize("name", sorted(estimators.classical.__all__) + sorted(estimators.intervals.__all__))
+def test_a_classical_or_interval_name_has_one_public_path(name):
+    assert not hasattr(estimators, name), f"estimators.{name}: a second public path"
+
+
+def test_the_face_holds_only_its_own_api():
+    assert set(estimators.__all__) == _OWN
+    methods = {n for n, v in vars(estimators).items() if inspect.isclass(v) and n.endswith("Inpainter")}
+    assert methods == {"BaseInpainter"}
+    with pytest.raises(AttributeError, match="estimators.learned"):
+        estimators.UNetInpainter  # noqa: B018
 
 
 def test_load_is_a_function_of_estimators_learned_not_a_module():
     assert inspect.isfunction(learned.load)
-    assert learned.load is estimators.load
-    assert "load" in learned.__all__
+    assert "load" in learned.__all__ and not hasattr(estimators, "load")
     assert importlib.util.find_spec("estimators.learned.load") is None

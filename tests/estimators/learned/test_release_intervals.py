@@ -11,7 +11,8 @@ from estimators.intervals import ConformalIntervalInpainter, release_intervals, 
 from estimators.intervals._bases import CLASSICAL_FILLS
 from estimators.intervals._calibration import calibration_protocols
 from estimators.intervals._releases import _intervals_dir
-from estimators.learned import DEFAULT_RELEASE, load_release
+from estimators.learned import load_release
+from inpaintenv.methods.learned import DEFAULT_RELEASE
 from inpaintenv.cli import main
 from inpaintenv.data import SyntheticStreets, write_depth_png
 from inpaintenv.exceptions import InvalidInputError
@@ -122,7 +123,7 @@ def _scans() -> np.ndarray:
 def test_pretrained_intervals_gives_a_scan_the_interval_of_its_scan_route_by_name():
     """The scan route's calibration is the one shipped for SCAN_DEFAULT, around the route's own
     method: its fill is pretrained's bit for bit."""
-    from estimators.learned.releases import SCAN_DEFAULT
+    from inpaintenv.methods.learned import SCAN_DEFAULT
 
     if SCAN_DEFAULT not in shipped_intervals():
         pytest.skip(f"{SCAN_DEFAULT} ships no calibration")
@@ -136,14 +137,13 @@ def test_pretrained_intervals_gives_a_scan_the_interval_of_its_scan_route_by_nam
 
 def test_a_scan_default_without_a_calibration_gets_no_interval(monkeypatch):
     """Looked up by name: a scan default that ships none is refused, never given another's calibration."""
-    import estimators.learned.releases
-
     from inpaintenv.exceptions import InpaintenvError
+    from inpaintenv.methods.learned import SCAN_DEFAULT
 
     import estimators.intervals._releases as shipped_calibrations
 
     every = shipped_calibrations.shipped_intervals
-    scan_default = estimators.learned.releases.SCAN_DEFAULT
+    scan_default = SCAN_DEFAULT
     monkeypatch.setattr(shipped_calibrations, "shipped_intervals",
                         lambda: [k for k in every() if k != scan_default])
     routed = make_method("pretrained-intervals")

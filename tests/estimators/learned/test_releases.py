@@ -5,7 +5,10 @@ classical methods on real frames it never saw (with the KITTI slice)."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,12 +20,12 @@ from release_checks import (
     class_in_fresh_process,
 )
 
-from estimators.learned import DEFAULT_RELEASE, CheckpointError, PriorUNetInpainter, load_release, shipped
-from estimators.learned._checkpoint import PRETRAINED_DIR
-from estimators.learned import load
+from estimators.learned import PriorUNetInpainter, load, load_release
 from estimators.learned.presets import PRESET_ALIASES, PRESETS, make_preset
 from inpaintenv.data import SyntheticStreets
+from inpaintenv.exceptions import CheckpointError
 from inpaintenv.masks import get_protocol
+from inpaintenv.methods.learned import DEFAULT_RELEASE, RELEASE_DIR, shipped
 from inpaintenv.methods.registry import make_method
 
 RELEASES = sorted(shipped())
@@ -31,7 +34,7 @@ RUN_PARAMS = ("verbose",)
 
 
 def _config(name: str) -> dict:
-    return json.loads((PRETRAINED_DIR / f"{name}.json").read_text())
+    return json.loads((RELEASE_DIR / f"{name}.json").read_text())
 
 
 @pytest.fixture(scope="module", params=RELEASES)
@@ -48,26 +51,32 @@ def _frame(shape=(64, 192)) -> tuple[np.ndarray, np.ndarray]:
 def test_the_package_ships_the_default_the_free_form_and_the_scan_release():
     assert RELEASES == ["kitti-ensemble-v1", "kitti-mixed-v1", "kitti-scan-v1"] and DEFAULT_RELEASE == "kitti-ensemble-v1"
     assert type(load_release("kitti-scan-v1")).__name__ == "ScanBlendInpainter"
-    from inpaintenv.methods.registry import DEFAULT_RELEASE as registry_default
-
-    assert registry_default == DEFAULT_RELEASE
     assert type(make_method("pretrained").map_method).__name__ == "MeanEnsembleInpainter"
     assert param_values(make_method("blend-pretrained-mixed")) == param_values(load_release("kitti-mixed-v1"))
 
 
 def test_the_shipped_files_fit_a_small_wheel():
     """The wheel stays under 4 MB: the release files are most of it (2.3 MB with both releases)."""
-    size = sum(p.stat().st_size for p in PRETRAINED_DIR.iterdir())
+    size = sum(p.stat().st_size for p in RELEASE_DIR.iterdir())
     assert size < 3_000_000, f"estimators/pretrained holds {size:,} bytes"
 
 
 def test_one_load_function_and_one_default():
+    """``load(path)`` and ``load_release(name)``, each at estimators.learned only; the default release
+    and the list of releases defined once, in the torch-free module the registry reads too."""
     import estimators
-    from estimators.learned import load_checkpoint, releases
-    from estimators.learned._checkpoint import DEFAULT_RELEASE as file_default
+    import estimators.learned as learned
+    from estimators.learned._persistence import PersistenceMixin
 
-    assert estimators.load is load is load_checkpoint and estimators.load_release is load_release
-    assert releases.DEFAULT_RELEASE == file_default == DEFAULT_RELEASE
+    assert not hasattr(learned, "load_checkpoint") and not hasattr(PersistenceMixin, "pretrained")
+    assert not hasattr(estimators, "load") and not hasattr(estimators, "load_release")
+    assert importlib.util.find_spec("estimators.learned.releases") is None
+    root = Path(estimators.__file__).parents[1]
+    sources = {p: p.read_text() for pkg in ("estimators", "inpaintenv") for p in (root / pkg).rglob("*.py")}
+    defines = lambda pattern: sorted(str(p.relative_to(root)) for p, s in sources.items()  # noqa: E731
+                                     if re.search(pattern, s, re.M))
+    assert defines(r"^DEFAULT_RELEASE\b.*=") == ["inpaintenv/methods/learned.py"]
+    assert defines(r"^def (shipped|shipped_releases)\(") == ["inpaintenv/methods/learned.py"]
 
 
 def test_an_ensemble_nests_its_members_configs(tmp_path):
@@ -139,10 +148,12 @@ def test_saved_and_loaded_back_predicts_the_same(release, tmp_path):
     np.testing.assert_array_equal(again.predict(x), est.predict(x))
 
 
-def test_a_class_loads_only_its_own_releases():
+def test_a_class_loads_only_its_own_checkpoints(tmp_path):
+    folder = load_release(DEFAULT_RELEASE).save(tmp_path / "ensemble")
     with pytest.raises(CheckpointError, match="MeanEnsembleInpainter.*not a PriorUNetInpainter"):
-        PriorUNetInpainter.pretrained(DEFAULT_RELEASE)
-    assert isinstance(PriorUNetInpainter.pretrained("kitti-mixed-v1"), PriorUNetInpainter)
+        PriorUNetInpainter.load(folder)
+    assert isinstance(PriorUNetInpainter.load(load_release("kitti-mixed-v1").save(tmp_path / "mixed")),
+                      PriorUNetInpainter)
 
 
 def test_unknown_release_lists_the_shipped_ones():

@@ -55,7 +55,7 @@ def test_bad_parameters_are_one_clear_error(bad):
 
 def test_pretrained_fills_a_scan_with_the_scan_default_and_a_map_with_the_release():
     pytest.importorskip("torch")
-    from estimators.learned.releases import DEFAULT_RELEASE, SCAN_DEFAULT
+    from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT
     from inpaintenv.methods.registry import make_method
 
     est = make_method("pretrained")
@@ -65,7 +65,7 @@ def test_pretrained_fills_a_scan_with_the_scan_default_and_a_map_with_the_releas
 
 def test_the_scan_route_is_the_registered_scan_default():
     pytest.importorskip("torch")
-    from estimators.learned.releases import SCAN_DEFAULT
+    from inpaintenv.methods.learned import SCAN_DEFAULT
     from inpaintenv.methods.registry import make_method
 
     est = make_method("pretrained")

@@ -26,7 +26,8 @@ import numpy as np
 import pytest
 
 from estimators.learned import _neural as neural
-from estimators.learned import CheckpointError, UNetInpainter
+from estimators.learned import UNetInpainter
+from inpaintenv.exceptions import CheckpointError
 
 # 6 frames in batches of 2: 3 steps per epoch, so max_steps=8 stops mid-epoch 2.
 PARAMS = {"width": 4, "depth": 2, "crop": (32, 64), "batch_size": 2, "epochs": 3, "max_steps": 8,

@@ -1,10 +1,13 @@
-"""The shipped learned releases by name, whatever their class, and the default one.
+"""``load_release`` and ``load_default``: the shipped learned releases by name, whatever their class.
 
 A release is a checkpoint's two files under flat names in ``estimators/pretrained/``
 (``NAME.safetensors``, ``NAME.json``); its JSON records the class, the parameters it was
-trained with (its recipe: :func:`recipe`) and the drives it saw.
+trained with (its recipe: :func:`~estimators.learned.presets.recipe`) and the drives it saw.
+The folder, the list of releases and the defaults are read from the torch-free
+:mod:`inpaintenv.methods.learned` (``RELEASE_DIR``, ``shipped``, ``DEFAULT_RELEASE``,
+``SCAN_DEFAULT``), which the method registry reads too.
 
->>> from estimators.learned.releases import DEFAULT_RELEASE, load_release      # doctest: +SKIP
+>>> from estimators.learned import load_release                          # doctest: +SKIP
 >>> est = load_release()                                                 # the default
 >>> est = load_release("kitti-mixed-v1")                                 # any release by name
 """
@@ -13,25 +16,16 @@ from __future__ import annotations
 
 from typing import Any
 
+from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT
+
 from . import _checkpoint as ckpt
 from ._load import load
 
-__all__ = ["DEFAULT_RELEASE", "SCAN_DEFAULT", "load_default", "load_release", "shipped"]
-
-#: The release ``-m pretrained`` (alias ``blend-pretrained``) loads: the default learned
-#: method of the benchmark (docs/model_card.md).
-DEFAULT_RELEASE = ckpt.DEFAULT_RELEASE
-
-
-#: What ``pretrained`` fills a single LiDAR scan with: the scan release, the classical mean
-#: ``harmonic-ipbasic`` near the scan's measurements and a learned blend far from them (in a hole);
-#: on both official sets with a scan it is no worse than every classical fill on densify and
-#: better in rect-v1's holes (docs/model_cards/kitti-scan-v1.md).
-SCAN_DEFAULT = "kitti-scan-v1"
+__all__ = ["load_default", "load_release"]
 
 
 def load_default(input: str = "auto", **overrides: Any) -> Any:
-    """The default method ``pretrained``: the map release for a map, the scan release :data:`SCAN_DEFAULT` for a scan.
+    """The default method ``pretrained``: the map release for a map, the scan release :data:`~inpaintenv.methods.learned.SCAN_DEFAULT` for a scan.
 
     Parameters
     ----------
@@ -53,18 +47,13 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
                                 map_name=DEFAULT_RELEASE)
 
 
-def shipped() -> dict[str, str]:
-    """Every complete shipped release and the class it records."""
-    return ckpt.shipped()
-
-
 def load_release(name: str = DEFAULT_RELEASE, **overrides: Any) -> Any:
-    """Load a shipped release by name (default :data:`DEFAULT_RELEASE`).
+    """Load a shipped release by name (default :data:`~inpaintenv.methods.learned.DEFAULT_RELEASE`).
 
     Parameters
     ----------
     name : str
-        Release name (see :func:`shipped`).
+        Release name (see :func:`inpaintenv.methods.learned.shipped`).
     **overrides
         Prediction-time parameters (e.g. ``tta``, ``predict_threads``; an ensemble member's
         as ``blend__tta``).
