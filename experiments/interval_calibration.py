@@ -299,7 +299,7 @@ CALIBRATIONS = (("densify-v1", SHIPPED_SIGNALS), ("rect-v1", SHIPPED_SIGNALS),
 
 def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...]) -> dict[tuple[str, int], tuple]:
     """``(task, seed) -> (design matrix, residuals, frame)`` of ``model`` on ``frames`` (scans)."""
-    from estimators.intervals._calibration import scored_residuals
+    from estimators.intervals import scored_residuals
 
     out = {("densify-v1", 0): scored_residuals(model, frames, LODO_SIGNALS, spread, "densify-v1", 0)}
     for seed in seeds:
@@ -318,7 +318,7 @@ def pooled(parts: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def interval_scores(coef: np.ndarray, q: float, F: np.ndarray, r: np.ndarray, frame: np.ndarray) -> dict[str, float]:
     """Mean over units of coverage, width (low clipped at 0 m) and RMSE cut by the narrowest 80 %."""
-    from estimators.intervals._calibration import scale_from
+    from estimators.intervals import scale_from
     from inpaintenv.metrics import rejection_curve
 
     half = q * scale_from(coef, F)
@@ -344,7 +344,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
 
-    from estimators.intervals._calibration import balanced_scale, residual_quantiles, scale_from
+    from estimators.intervals import balanced_scale, residual_quantiles, scale_from
     from estimators.learned import load
     from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.methods.registry import make_method

@@ -3,10 +3,15 @@
 :class:`ConformalIntervalInpainter` wraps a fitted inpainter (its module docstring,
 ``estimators.intervals._conformal``, says how it calibrates); :func:`release_intervals`
 loads a shipped release in its shipped calibration (``estimators/pretrained/intervals/``).
+The calibration maths (``scored_residuals``, ``scale_from``, ``balanced_scale``,
+``residual_quantiles``) are public for studies of other calibrations
+(``experiments/interval_calibration.py lodo``).
 """
 
+from ._calibration import balanced_scale, residual_quantiles, scale_from, scored_residuals
 from ._conformal import SIGNALS, WEIGHTINGS, ConformalIntervalInpainter, weighted_quantiles
 from ._releases import default_intervals, load_intervals, release_intervals, shipped_intervals
 
-__all__ = ["SIGNALS", "WEIGHTINGS", "ConformalIntervalInpainter", "default_intervals", "load_intervals", "release_intervals", "shipped_intervals",
+__all__ = ["SIGNALS", "WEIGHTINGS", "ConformalIntervalInpainter", "balanced_scale", "default_intervals", "load_intervals",
+           "release_intervals", "residual_quantiles", "scale_from", "scored_residuals", "shipped_intervals",
            "weighted_quantiles"]
