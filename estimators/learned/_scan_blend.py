@@ -28,7 +28,7 @@ from ._blend import BlendInpainter
 from ._constraints import Check, Real
 from ._far import far_pixels
 from .nets import pixel_blend
-from ..candidates import ROW_BAND, check_candidates, prior_features
+from ..candidates import check_candidates
 
 __all__ = ["NEAR_FILLS", "SCAN_CANDIDATES", "ScanBlendInpainter"]
 
@@ -39,39 +39,6 @@ __all__ = ["NEAR_FILLS", "SCAN_CANDIDATES", "ScanBlendInpainter"]
 SCAN_CANDIDATES: tuple[str, ...] = ("harmonic", "ipbasic-scan", "nearest", "row-median", "row-far")
 #: The candidates whose mean fills the pixels near a measurement: ``harmonic-ipbasic``.
 NEAR_FILLS: tuple[str, ...] = ("harmonic", "ipbasic-scan")
-
-#: The row-context candidates (:func:`estimators.candidates.row_band_quantile`) and their quantile.
-ROW_QUANTILES: dict[str, float] = {"row-median": 0.5, "row-far": 0.9}
-
-
-def row_band_quantiles(values: np.ndarray, known: np.ndarray, qs: list[float], band: int = ROW_BAND) -> list[np.ndarray]:
-    """:func:`~estimators.candidates.row_band_quantile` for several quantiles, equal to it, from one sort.
-
-    A scan measures a few percent of a band's pixels: each row's measurements are sorted
-    first and only they (at most the row's largest count) enter the band's sort, 10-20x
-    fewer values than the band's pixels (26 -> ~3 ms a quantile on a 352x1216 scan).
-    """
-    height, width = values.shape
-    if not known.any():
-        return [np.zeros((height, width), np.float32) for _ in qs]
-    keyed = np.sort(np.where(known, values, np.inf).astype(np.float32), axis=1)
-    keyed = keyed[:, : max(int(known.sum(axis=1).max()), 1)]
-    padded = np.pad(keyed, ((band, band), (0, 0)), constant_values=np.inf)
-    bands = np.lib.stride_tricks.sliding_window_view(padded, (2 * band + 1, keyed.shape[1]))[:, 0]
-    ordered = np.sort(bands.reshape(height, -1), axis=1)
-    count = np.count_nonzero(np.isfinite(ordered), axis=1)
-    has, rows = count > 0, np.arange(height)
-    out = []
-    for q in qs:
-        pos = q * np.maximum(count - 1, 0)
-        lo = np.floor(pos).astype(np.int64)
-        hi = np.minimum(lo + 1, np.maximum(count - 1, 0))
-        frac = (pos - lo).astype(np.float32)
-        per_row = np.where(has, ordered[rows, lo] * (1 - frac) + np.where(frac > 0, ordered[rows, hi], 0) * frac, 0)
-        per_row = np.interp(rows, rows[has], per_row[has]).astype(np.float32)
-        out.append(np.where(known, values, per_row[:, None]).astype(np.float32))
-    return out
-
 
 class ScanBlendInpainter(BlendInpainter):
     """A classical mean near a scan's measurements, a learned blend of classical fills far from them.
@@ -156,19 +123,6 @@ class ScanBlendInpainter(BlendInpainter):
 
     def _min_distance(self) -> float | None:
         return float(self.near_distance)
-
-    def _features(self, frame: np.ndarray) -> np.ndarray:
-        """:func:`~estimators.candidates.prior_features` of the frame, the row-context fills from one sort."""
-        names = tuple(self.candidates)
-        rows = [n for n in names if n in ROW_QUANTILES]
-        if not rows:
-            return super()._features(frame)
-        feats = prior_features(frame, tuple(n for n in names if n not in ROW_QUANTILES), gaps=True,
-                               endpoints=bool(self.endpoints))
-        context = dict(zip(rows, row_band_quantiles(feats[0], feats[2] > 0.5, [ROW_QUANTILES[n] for n in rows])))
-        others = iter(feats[3:])
-        candidates = [context[n] if n in context else next(others) for n in names]
-        return np.concatenate([feats[:3], np.stack(candidates), np.stack(list(others))]).astype(np.float32)
 
     def _predict_features(self, frame: np.ndarray, feats: np.ndarray) -> np.ndarray:
         far = far_pixels(frame, float(self.near_distance))

@@ -74,7 +74,7 @@ def test_saved_and_loaded_back_predicts_the_same(fitted, scans, tmp_path):
 @pytest.mark.parametrize("density", [0.0, 0.002, 0.05, 0.6])
 def test_row_context_from_one_sort_equals_the_candidates(density):
     from estimators.candidates import row_band_quantile
-    from estimators.learned._scan_blend import ROW_QUANTILES, row_band_quantiles
+    from estimators.candidates import ROW_QUANTILES, row_band_quantiles
 
     rng = np.random.default_rng(4)
     values = rng.uniform(1, 80, (40, 90)).astype(np.float32)
