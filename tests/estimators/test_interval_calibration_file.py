@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import threading
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ from estimators.intervals import ConformalIntervalInpainter
 from estimators.intervals._calibration_file import N_LEVELS
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
+from fifo_checks import returns_within
 from streets import streets
 
 H, W = 64, 96
@@ -135,32 +135,11 @@ def test_deeply_nested_json_is_one_line(tmp_path):
     assert "nested" in str(info.value) and "\n" not in str(info.value)
 
 
-def _returns_within(seconds: float, call, fifo: Path) -> BaseException | None:
-    """What ``call()`` raised, asserting it returned within ``seconds``; a reader still waiting
-    on ``fifo`` is then released (a writer opens and closes it), so a hang fails the test."""
-    outcome: list[BaseException | None] = []
-
-    def run():
-        try:
-            call()
-            outcome.append(None)
-        except BaseException as exc:  # noqa: BLE001 - handed to the test
-            outcome.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    thread.join(seconds)
-    if thread.is_alive():
-        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-    assert outcome, f"still waiting on the FIFO after {seconds} s"
-    return outcome[0]
-
-
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 def test_a_fifo_is_refused_at_once(tmp_path):
     fifo = tmp_path / "cal.json"
     os.mkfifo(fifo)
-    error = _returns_within(10, lambda: _load(fifo), fifo)
+    error = returns_within(10, lambda: _load(fifo), fifo)
     assert isinstance(error, InvalidInputError) and "FIFO" in str(error), error
 
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-import threading
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +29,8 @@ from estimators.learned import load
 from estimators.learned import UNetInpainter
 from estimators.learned import PriorUNetInpainter
 from inpaintenv.data import SyntheticStreets
+
+from fifo_checks import returns_within
 
 FAMILIES = ("blend", "ensemble", "unet", "prior")
 
@@ -277,27 +278,6 @@ def test_deeply_nested_config_is_one_checkpoint_error(saved, sandbox):
         load(run)
 
 
-def _within(seconds: float, call: Any, fifo: Path) -> BaseException | None:
-    """What ``call()`` raised, asserting it returned within ``seconds`` (a reader left
-    waiting on ``fifo`` is released by opening it for writing, so a hang fails, never blocks)."""
-    outcome: list[BaseException | None] = []
-
-    def run() -> None:
-        try:
-            call()
-            outcome.append(None)
-        except BaseException as exc:  # noqa: BLE001 - handed to the test
-            outcome.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    thread.join(seconds)
-    if thread.is_alive():
-        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-    assert outcome, f"still waiting on {fifo.name} after {seconds} s"
-    return outcome[0]
-
-
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 @pytest.mark.parametrize("name", ["config.json", "model.safetensors"])
 def test_a_fifo_in_a_checkpoint_is_refused_at_once(saved, sandbox, name):
@@ -305,7 +285,7 @@ def test_a_fifo_in_a_checkpoint_is_refused_at_once(saved, sandbox, name):
     folder = _write(sandbox / "ckpt", config, weights)
     (folder / name).unlink()
     os.mkfifo(folder / name)
-    error = _within(10, lambda: load(folder), folder / name)
+    error = returns_within(10, lambda: load(folder), folder / name)
     assert isinstance(error, CheckpointError) and "FIFO" in str(error), error
 
 
