@@ -9,21 +9,10 @@ import pytest
 
 from inpaintenv.data.io import write_depth_png
 
+from stand_ins import FoldTen
+
 DRIVES = ["2011_09_26_drive_9001_sync", "2011_09_26_drive_9002_sync", "2011_09_30_drive_9018_sync",
           "2011_09_30_drive_9020_sync"]
-
-
-class SawOneDrive:
-    """scanline-like stand-in trained on drive 9001: fills every NaN with 10 m."""
-
-    training_drives_ = [DRIVES[0]]
-
-    def __sklearn_is_fitted__(self) -> bool:
-        return True
-
-    def predict(self, X):
-        x = np.asarray(X, dtype=np.float32)
-        return np.where(np.isnan(x), np.float32(10.0), x)
 
 
 @pytest.fixture
@@ -69,7 +58,7 @@ def test_standard_error_is_numpys(load_benchmark):
 def test_drives_the_base_saw_are_neither_calibrated_nor_scored(load_benchmark, two_days, monkeypatch):
     import inpaintenv.methods.registry
 
-    monkeypatch.setattr(inpaintenv.methods.registry, "make_method", lambda name: SawOneDrive())
+    monkeypatch.setattr(inpaintenv.methods.registry, "make_method", lambda name: FoldTen([DRIVES[0]]))
     rows = load_benchmark("interval_lodo").main(["--kitti-root", str(two_days), "--method", "saw-one-drive",
                                                  "--signals", "border", "--frames-per-drive", "0"])
     by_fold = {r["fold"]: r for r in rows}

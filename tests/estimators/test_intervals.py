@@ -16,20 +16,10 @@ from inpaintenv.data import ArrayDataset
 from inpaintenv.evaluate import evaluate
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
+from stand_ins import FillTen, FoldTen
 from streets import streets
 
 H, W = 64, 96
-
-
-class FillTen:
-    """A fitted base filling every NaN with 10 m (measured pixels kept): residuals are the truth's noise."""
-
-    def __sklearn_is_fitted__(self) -> bool:
-        return True
-
-    def predict(self, X):
-        x = np.asarray(X, dtype=np.float32)
-        return np.where(np.isnan(x), np.float32(10.0), x)
 
 
 def iid_frames(n: int, seed: int) -> np.ndarray:
@@ -304,13 +294,6 @@ def test_calibrated_on_one_day_scored_on_another_real_kitti(kitti_root):
     assert wrapper.calibration_["n_frames"] == 12 and wrapper.calibration_["n_pixels"] > 100_000
     rows = evaluate(wrapper, test, intervals=0.9, progress=False).rows
     assert all(0.5 < r["hole_coverage"] <= 1 and r["rmse_keep_80"] < r["hole_rmse"] for r in rows)
-
-
-class FoldTen(FillTen):
-    """A fold model of FillTen's recipe that records the drives it was trained on."""
-
-    def __init__(self, seen: list[str]) -> None:
-        self.training_drives_ = seen
 
 
 def test_out_of_fold_calibration_of_one_fold_equals_fit_on_its_drives():

@@ -9,21 +9,9 @@ import pytest
 
 from inpaintenv.data.io import write_depth_png
 
+from stand_ins import FoldTen
+
 DAYS = {"2011_09_26": ("9001", "9002"), "2011_09_30": ("9018",)}
-
-
-class FoldFill:
-    """A fitted stand-in of the release's class: fills every NaN with 10 m, records the drives it saw."""
-
-    def __init__(self, seen: list[str]) -> None:
-        self.training_drives_ = seen
-
-    def __sklearn_is_fitted__(self) -> bool:
-        return True
-
-    def predict(self, X):
-        x = np.asarray(X, dtype=np.float32)
-        return np.where(np.isnan(x), np.float32(10.0), x)
 
 
 @pytest.fixture
@@ -45,9 +33,9 @@ def test_every_drive_is_calibrated_by_the_fold_model_without_its_day(load_experi
 
     drives = {day: [f"{day}_drive_{n}_sync" for n in numbers] for day, numbers in DAYS.items()}
     every = sorted(d for ds in drives.values() for d in ds)
-    models = {f"m-{day}": FoldFill([d for d in every if not d.startswith(day)]) for day in DAYS}
+    models = {f"m-{day}": FoldTen([d for d in every if not d.startswith(day)]) for day in DAYS}
     monkeypatch.setattr(estimators.learned, "load", lambda path: models[str(path)])
-    monkeypatch.setattr(estimators.learned, "load_release", lambda name: FoldFill(every))
+    monkeypatch.setattr(estimators.learned, "load_release", lambda name: FoldTen(every))
     out = load_experiment("interval_calibration").main(["calibrate", 
         "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",
         *[a for day in DAYS for a in ("--fold", f"{day}=m-{day}")]])
@@ -60,7 +48,7 @@ def test_every_drive_is_calibrated_by_the_fold_model_without_its_day(load_experi
 def test_a_day_without_a_fold_is_refused(load_experiment, two_days, tmp_path, monkeypatch):
     import estimators.learned
 
-    monkeypatch.setattr(estimators.learned, "load", lambda path: FoldFill([]))
+    monkeypatch.setattr(estimators.learned, "load", lambda path: FoldTen([]))
     with pytest.raises(SystemExit, match="no fold scores drives"):
         load_experiment("interval_calibration").main(["calibrate", 
             "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--fold", "2011_09_26=m"])
@@ -71,7 +59,7 @@ def test_without_folds_a_release_is_calibrated_on_the_drives_it_never_saw(load_e
     import estimators.learned
 
     monkeypatch.setattr(estimators.learned, "load_release",
-                        lambda name: FoldFill(["2011_09_26_drive_9001_sync"]))
+                        lambda name: FoldTen(["2011_09_26_drive_9001_sync"]))
     out = load_experiment("interval_calibration").main(["calibrate", 
         "--kitti-root", str(two_days), "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest",
         "--protocol", "mixed-v1"])

@@ -7,21 +7,9 @@ import pytest
 
 from inpaintenv.data.io import write_depth_png
 
+from stand_ins import FoldTen
+
 DAYS = ("2011_09_26", "2011_09_30", "2011_10_03")
-
-
-class FoldFill:
-    """A fitted stand-in of a fold model: fills every NaN with 10 m, records the drives it saw."""
-
-    def __init__(self, seen: list[str]) -> None:
-        self.training_drives_ = seen
-
-    def __sklearn_is_fitted__(self) -> bool:
-        return True
-
-    def predict(self, X):
-        x = np.asarray(X, dtype=np.float32)
-        return np.where(np.isnan(x), np.float32(10.0), x)
 
 
 @pytest.fixture
@@ -47,7 +35,7 @@ def test_each_row_is_the_wrapper_calibrated_out_of_fold_and_scored_by_evaluate(l
     from inpaintenv.evaluate import evaluate
 
     drives = {day: f"{day}_drive_9001_sync" for day in DAYS}
-    models = {f"m-{day}": FoldFill([d for k, d in drives.items() if k != day]) for day in DAYS}
+    models = {f"m-{day}": FoldTen([d for k, d in drives.items() if k != day]) for day in DAYS}
     monkeypatch.setattr(estimators.learned, "load", lambda path: models[str(path)])
     out = load_experiment("interval_calibration").main([
         "lodo", "--kitti-root", str(three_days), "--frames-per-drive", "0", "--seeds", "0,1",
