@@ -58,6 +58,19 @@ def _per_frame(rows: Iterable[dict[str, Any]], metric: str, task: str = "hole") 
     return out
 
 
+def _task_groups(
+    result: EvaluationResult, keys: Sequence[str],
+) -> Iterable[tuple[tuple, dict[str, list[dict[str, Any]]], str, dict[str, dict[tuple, float]]]]:
+    """Per group of ``keys``: its rows by method, its task (``metrics.task_of``) and each
+    method's per-frame RMSE of that task."""
+    groups: dict[tuple, dict[str, list[dict[str, Any]]]] = {}
+    for row in result.rows:
+        groups.setdefault(tuple(row[k] for k in keys), {}).setdefault(row["method"], []).append(row)
+    for group, by_method in groups.items():
+        task = task_of(r.get("hole_fraction", 1.0) for rows in by_method.values() for r in rows)
+        yield group, by_method, task, {m: _per_frame(rows, f"{task}_rmse", task) for m, rows in by_method.items()}
+
+
 def learned_vs_classical(
     result: EvaluationResult,
     *,
@@ -110,13 +123,8 @@ def learned_vs_classical(
     keys = headline_keys(result) if keys is None else tuple(keys)
     kinds = _kinds(result, frozenset(classical))
     trained = result.meta.get("training_drives") or {}
-    groups: dict[tuple, dict[str, list[dict[str, Any]]]] = {}
-    for row in result.rows:
-        groups.setdefault(tuple(row[k] for k in keys), {}).setdefault(row["method"], []).append(row)
     out = []
-    for group, by_method in groups.items():
-        task = task_of(r.get("hole_fraction", 1.0) for rows in by_method.values() for r in rows)
-        hole = {m: _per_frame(rows, f"{task}_rmse", task) for m, rows in by_method.items()}
+    for group, by_method, task, hole in _task_groups(result, keys):
         mean = {m: float(np.mean(list(v.values()))) for m, v in hole.items() if v}
         learned = [m for m in mean if kinds.get(m) != "classical"]
         strong = [m for m in mean if kinds.get(m) == "classical"]
@@ -241,13 +249,8 @@ def every_method_vs_strongest(
     """
     keys = tuple(k for k in headline_keys(result) if k != "drive") if keys is None else tuple(keys)
     kinds = _kinds(result, frozenset(classical))
-    groups: dict[tuple, dict[str, list[dict[str, Any]]]] = {}
-    for row in result.rows:
-        groups.setdefault(tuple(row[k] for k in keys), {}).setdefault(row["method"], []).append(row)
     out = []
-    for group, by_method in groups.items():
-        task = task_of(r.get("hole_fraction", 1.0) for rows in by_method.values() for r in rows)
-        values = {m: _per_frame(rows, f"{task}_rmse", task) for m, rows in by_method.items()}
+    for group, by_method, task, values in _task_groups(result, keys):
         strong = [m for m, v in values.items() if v and kinds.get(m) == "classical"]
         if not strong:
             continue
