@@ -44,7 +44,7 @@ from ..candidates import (
     prior_features,
 )
 from . import _checkpoint as ckpt
-from ._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
+from .._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
 from ._far import far_pixels
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
 from ._output import bound_output

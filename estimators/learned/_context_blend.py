@@ -36,7 +36,7 @@ from inpaintenv.masks import get_protocol
 from ..base import resolve_seed
 from ..candidates import prior_features
 from ._blend import BLEND_CANDIDATES, BlendInpainter
-from ._constraints import Integer, Options, Real, Sequence
+from .._constraints import Integer, Options, Real, Sequence
 from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH
 from ._training import deterministic_torch, frame_label, torch_threads
 from .nets.context_blend import ContextBlendEnsemble, ContextBlendNet, context_grid, frame_reference

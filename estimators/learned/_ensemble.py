@@ -37,7 +37,7 @@ from inpaintenv.exceptions import InvalidInputError
 from ..base import BaseInpainter, check_random_state
 from . import _checkpoint as ckpt
 from . import _blend, _context_blend, _neural, _prior  # noqa: F401  (each registers the classes a member may be)
-from ._constraints import Bool, Check, ConstrainedParams, Integer
+from .._constraints import Bool, Check, ConstrainedParams, Integer
 from ._limits import MAX_THREADS
 from ._output import bound_output
 from ._persistence import PersistenceMixin

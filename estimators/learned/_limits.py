@@ -21,7 +21,7 @@ import torch
 
 from inpaintenv.exceptions import InvalidInputError
 
-__all__ = ["MAX_LAYERS", "MAX_MEMBERS", "MAX_PARAMETERS", "MAX_THREADS", "MAX_WIDTH", "check_at_most",
+__all__ = ["MAX_LAYERS", "MAX_MEMBERS", "MAX_PARAMETERS", "MAX_THREADS", "MAX_WIDTH",
            "check_parameter_count", "usable_threads"]
 
 #: Most hidden units of a per-pixel MLP layer (and channels of a context level, context features).
@@ -42,13 +42,6 @@ MAX_THREADS = 512
 def usable_threads(n: int) -> int:
     """``n`` threads, at most this machine's cores (``os.cpu_count()``) and at least 1."""
     return max(1, min(int(n), os.cpu_count() or 1))
-
-
-def check_at_most(name: str, value: Any, limit: int) -> None:
-    """Raise one ``ValueError`` if the (already type-checked) integer ``value`` exceeds ``limit``."""
-    if value > limit:
-        raise InvalidInputError(f"{name}={value!r} is more than the {limit} allowed "
-                                "(estimators.learned._limits); lower it")
 
 
 def check_parameter_count(build: Callable[[], torch.nn.Module], what: str) -> int:

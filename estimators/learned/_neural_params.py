@@ -21,7 +21,7 @@ from inpaintenv.masks import get_protocol
 
 from ..base import check_random_state
 from ._checkpoint import cpu_state
-from ._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer, Options, Pair, Real
+from .._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer, Options, Pair, Real
 from ._limits import MAX_THREADS, check_parameter_count
 from ._training import crop_shape
 from .nets import UNet

@@ -31,7 +31,7 @@ from ..candidates import (
     prior_features,
 )
 from . import _checkpoint as ckpt
-from ._constraints import Bool, Check, Integer, Options
+from .._constraints import Bool, Check, Integer, Options
 from ._limits import MAX_LAYERS, MAX_WIDTH
 from ._neural import _NeuralInpainter
 from ._training import backward_step

@@ -25,7 +25,7 @@ import torch
 from inpaintenv.exceptions import InvalidInputError
 
 from ._blend import BlendInpainter
-from ._constraints import Check, Real
+from .._constraints import Check, Real
 from ._far import far_pixels
 from .nets import pixel_blend
 from ..candidates import check_candidates

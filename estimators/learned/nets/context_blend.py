@@ -18,7 +18,7 @@ Everything is relative to the frame's median log-depth, so the model is scale-fr
 the blend: a frame twice as deep gets a prediction twice as deep.
 
 Sizes are taken as given (positive integers): the estimators check their parameters
-(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
+(:mod:`estimators._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ Only pixels asked for are computed, so training on hole pixels and predicting on
 unknown pixels costs time in proportion to those pixels alone.
 
 Sizes are taken as given (positive integers): the estimators check their parameters
-(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
+(:mod:`estimators._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ Working at 1/f resolution is what makes training affordable on 2 CPU cores; the
 full-resolution candidates keep the detail.
 
 Sizes are taken as given (positive integers): the estimators check their parameters
-(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
+(:mod:`estimators._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations

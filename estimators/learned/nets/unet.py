@@ -11,7 +11,7 @@ A :class:`ConvBlock` is ``(3×3 conv -> GroupNorm -> ReLU) × 2``. Inputs of any
 work: :class:`UNet` pads the bottom/right edge to a multiple of ``2**d`` and crops back.
 
 Sizes are taken as given (positive integers): the estimators check their parameters
-(:mod:`estimators.learned._constraints`) and the size limits before they build a network.
+(:mod:`estimators._constraints`) and the size limits before they build a network.
 """
 
 from __future__ import annotations

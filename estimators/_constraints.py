@@ -1,4 +1,4 @@
-"""Parameter constraints of the learned estimators, declared once per class.
+"""Parameter constraints of the estimators, declared once per class (classical, interval and learned).
 
 Each class lists its parameters in ``_parameter_constraints`` (as scikit-learn's estimators
 do): for each name, the constraints one of which the value must meet (``None`` in the list
@@ -9,7 +9,7 @@ the parameter, what it accepts and the value given.
 
 A local equivalent of ``sklearn.utils._param_validation`` (private there): the errors are
 inpaintenv's (``except ValueError`` / ``except TypeError`` still work), a size above the
-limits of :mod:`estimators.learned._limits` reads as those limits do, and NumPy scalars
+limits of :mod:`estimators.learned._limits` (or a constraint's own ``limit``) reads as those limits do, and NumPy scalars
 and ``numpy.bool_`` are accepted where their Python counterparts are.
 """
 
@@ -23,12 +23,18 @@ import numpy as np
 
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
-from ._limits import check_at_most
 
 __all__ = [
     "Bool", "Check", "ConstrainedParams", "Constraint", "InstanceOf", "Integer", "Options", "Pair", "Real",
-    "Sequence", "validate_params",
+    "Sequence", "check_at_most", "validate_params",
 ]
+
+
+def check_at_most(name: str, value: Any, limit: int) -> None:
+    """Raise one ``ValueError`` if the (already type-checked) integer ``value`` exceeds ``limit``."""
+    if value > limit:
+        raise InvalidInputError(f"{name}={value!r} is more than the {limit} allowed "
+                                "(estimators.learned._limits); lower it")
 
 
 class Constraint:

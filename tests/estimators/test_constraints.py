@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimators.learned._constraints import Bool, Integer, Options, Real, Sequence, validate_params
+from estimators._constraints import Bool, Integer, Options, Real, Sequence, validate_params
 from estimators.learned import BlendInpainter
 from estimators.learned import ContextBlendInpainter
 from estimators.learned import MeanEnsembleInpainter
