@@ -59,20 +59,21 @@ def _is_number(value: Any) -> bool:
 
 
 class Integer(Constraint):
-    """An integer (not a bool) ``>= low``; above ``limit`` it is the size limit's error."""
+    """An integer (not a bool) ``>= low`` (and ``<= high``, a hard bound such as OpenCV's);
+    above ``limit`` it is the size limit's error."""
 
-    def __init__(self, low: int, limit: int | None = None):
-        self.low, self.limit = low, limit
+    def __init__(self, low: int, limit: int | None = None, *, high: int | None = None):
+        self.low, self.limit, self.high = low, limit, high
 
     def is_satisfied_by(self, value: Any) -> bool:
-        return _is_int(value) and value >= self.low
+        return _is_int(value) and value >= self.low and (self.high is None or value <= self.high)
 
     def check_limits(self, name: str, value: Any) -> None:
         if self.limit is not None:
             check_at_most(name, value, self.limit)
 
     def __str__(self) -> str:
-        return f"an integer >= {self.low}"
+        return f"an integer >= {self.low}" if self.high is None else f"an integer in [{self.low}, {self.high}]"
 
 
 class Real(Constraint):
@@ -112,7 +113,7 @@ class Bool(Constraint):
 
 
 class Options(Constraint):
-    """One of the listed values (``1`` is not ``True`` here)."""
+    """One of the listed values (``1`` is not ``True`` here; a ``numpy.str_`` is a string)."""
 
     def __init__(self, *values: Any):
         self.values = values
@@ -120,12 +121,17 @@ class Options(Constraint):
     def is_satisfied_by(self, value: Any) -> bool:
         flag = isinstance(value, (bool, np.bool_))
         return any(
-            isinstance(v, bool) == flag and (isinstance(v, bool) or type(v) is type(value)) and v == value
+            isinstance(v, bool) == flag and (isinstance(v, bool) or _same_kind(v, value)) and v == value
             for v in self.values
         )
 
     def __str__(self) -> str:
         return f"one of {self.values}"
+
+
+def _same_kind(option: Any, value: Any) -> bool:
+    """``value`` has ``option``'s type (any ``str`` subclass for a string option)."""
+    return type(option) is type(value) or (isinstance(option, str) and isinstance(value, str))
 
 
 class InstanceOf(Constraint):

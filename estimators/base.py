@@ -30,8 +30,8 @@ from inpaintenv.metrics import aggregate, frame_metrics
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
 
 __all__ = [
-    "BaseInpainter", "check_inpaint_input", "check_random_state", "iter_scoring_batches", "resolve_seed",
-    "training_drives",
+    "BaseInpainter", "check_inpaint_input", "check_n_jobs", "check_random_state", "iter_scoring_batches",
+    "resolve_seed", "training_drives",
 ]
 
 #: Protocol and seed that ``score(X)`` uses to corrupt ground truth when no ``y`` is given.
@@ -79,6 +79,18 @@ def check_random_state(value: Any, name: str = "random_state") -> None:
         raise InvalidInputError(
             f"{name} must be None, a non-negative int, a numpy RandomState or a numpy Generator, got {value!r}"
         )
+
+
+def check_n_jobs(value: Any, name: str = "n_jobs") -> None:
+    """Raise a clear ValueError unless ``value`` is a valid ``n_jobs`` (joblib's meaning).
+
+    Accepted: None (one job) or a non-zero integer (``-1`` = all cores, ``-2`` = all but
+    one, ...); a bool is no integer here.
+    """
+    if value is not None and (
+        isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value == 0
+    ):
+        raise InvalidInputError(f"{name} must be None or a non-zero integer (-1 = all cores), got {value!r}")
 
 
 def resolve_seed(value: Any, name: str = "random_state") -> int:
@@ -241,15 +253,8 @@ class BaseInpainter(BaseEstimator):
         return out[0] if x.ndim == 2 else out
 
     def _check_n_jobs(self) -> None:
-        """Raise a clear error unless ``n_jobs`` is None or a non-zero integer (joblib's meaning)."""
-        n_jobs = self.n_jobs
-        if n_jobs is not None and (
-            isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0
-        ):
-            raise InvalidInputError(
-                f"{type(self).__name__}: n_jobs must be None or a non-zero integer "
-                f"(-1 = all cores), got {n_jobs!r}"
-            )
+        """Raise a clear error unless ``n_jobs`` is None or a non-zero integer (:func:`check_n_jobs`)."""
+        check_n_jobs(self.n_jobs)
 
     @abstractmethod
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Shared behaviour of the classical inpainters: parameter checks and parallel frames.
+"""Shared behaviour of the classical inpainters: the shared parameters and parallel frames.
 
 A classical method only implements :meth:`ClassicalInpainter._fill_frame` for one
 ``(H, W)`` frame; this module runs it over a batch (in parallel with joblib when
@@ -7,10 +7,9 @@ A classical method only implements :meth:`ClassicalInpainter._fill_frame` for on
 
 from __future__ import annotations
 
-import numbers
 import threading
 from abc import abstractmethod
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
@@ -18,8 +17,8 @@ import cv2
 import numpy as np
 from joblib import Parallel, delayed, effective_n_jobs
 
-from ..base import BaseInpainter
-from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
+from .._constraints import Bool, Check, ConstrainedParams, Constraint
+from ..base import BaseInpainter, check_n_jobs
 
 __all__ = ["FILL_MODES", "ClassicalInpainter", "in_inverse_depth", "unknown_mask"]
 
@@ -90,49 +89,22 @@ def unknown_mask(x: np.ndarray, fill: str = "invalid") -> np.ndarray:
     return ~(x > 0)  # NaN > 0 is False, so NaN counts as unknown
 
 
-class ClassicalInpainter(BaseInpainter):
+class ClassicalInpainter(ConstrainedParams, BaseInpainter):
     """Base of the classical (non-learned, stateless) inpainters.
 
-    Subclasses store their keyword-only parameters, list the checks in
-    :meth:`_check_params` and implement :meth:`_fill_frame`. They predict without
-    ``fit``; ``fit`` only validates parameters and one frame.
+    Subclasses store their keyword-only parameters, declare them in
+    ``_parameter_constraints`` (``{**ClassicalInpainter._parameter_constraints, ...}``,
+    checked by :class:`~estimators._constraints.ConstrainedParams` in ``fit`` and
+    ``predict``) and implement :meth:`_fill_frame`. They predict without ``fit``; ``fit``
+    only validates parameters and one frame.
     """
 
     _stateless = True
 
-    # -- parameter validation (in fit/predict, never in __init__) ------------------
-    def _check_params(self) -> None:
-        """Raise a clear error on an invalid parameter; extend in subclasses."""
-        self._check_bool("keep_observed")
-        self._check_n_jobs()
-
-    def _check_bool(self, name: str) -> None:
-        value = getattr(self, name)
-        if not isinstance(value, (bool, np.bool_)):
-            raise InvalidTypeError(f"{type(self).__name__}: {name} must be True or False, got {value!r}")
-
-    def _check_int(self, name: str, low: int, high: int | None = None, *, odd: bool = False) -> None:
-        value = getattr(self, name)
-        ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
-        ok = ok and value >= low and (high is None or value <= high) and (not odd or value % 2 == 1)
-        if not ok:
-            bound = f">= {low}" if high is None else f"in [{low}, {high}]"
-            kind = "an odd integer" if odd else "an integer"
-            raise InvalidInputError(f"{type(self).__name__}: {name} must be {kind} {bound}, got {value!r}")
-
-    def _check_positive(self, name: str) -> None:
-        value = getattr(self, name)
-        ok = isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
-        if not (ok and np.isfinite(value) and value > 0):
-            raise InvalidInputError(f"{type(self).__name__}: {name} must be a positive number, got {value!r}")
-
-    def _check_option(self, name: str, options: Sequence[Any]) -> None:
-        value = getattr(self, name)
-        if not isinstance(value, str) or value not in options:
-            raise InvalidInputError(
-                f"{type(self).__name__}: {name} must be one of {', '.join(map(repr, options))}, "
-                f"got {value!r}"
-            )
+    _parameter_constraints: dict[str, list[Constraint | None]] = {
+        "keep_observed": [Bool()],
+        "n_jobs": [Check(check_n_jobs), None],  # joblib's meaning: -1 = all cores, 0 refused
+    }
 
     # -- the work ------------------------------------------------------------------
     def _fit(self, dataset: Any) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .._constraints import Integer, Options, Real
 from ._base import FILL_MODES, ClassicalInpainter, unknown_mask
 from .nearest import nearest_fill
 
@@ -52,13 +53,14 @@ class IterativeBilateralInpainter(ClassicalInpainter):
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        self._check_int("iterations", 1)
-        self._check_int("d", 1, 31)
-        self._check_positive("sigma_color")
-        self._check_positive("sigma_space")
-        self._check_option("fill", FILL_MODES)
+    _parameter_constraints = {
+        **ClassicalInpainter._parameter_constraints,
+        "iterations": [Integer(1)],
+        "d": [Integer(1, high=31)],  # OpenCV's bilateralFilter takes 1 to 31
+        "sigma_color": [Real(0, closed="neither")],
+        "sigma_space": [Real(0, closed="neither")],
+        "fill": [Options(*FILL_MODES)],
+    }
 
     def _fill_frame(self, x: np.ndarray) -> np.ndarray:
         unknown = unknown_mask(x, self.fill)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .._constraints import Bool, Integer
 from ._base import ClassicalInpainter, in_inverse_depth, unknown_mask
 from .nearest import nearest_fill
 
@@ -103,10 +104,11 @@ class HarmonicInpainter(ClassicalInpainter):
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        self._check_int("iterations", 1)
-        self._check_bool("inverse")
+    _parameter_constraints = {
+        **ClassicalInpainter._parameter_constraints,
+        "iterations": [Integer(1)],
+        "inverse": [Bool()],
+    }
 
     def _fill_frame(self, x: np.ndarray) -> np.ndarray:
         known = ~unknown_mask(x)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .._constraints import Bool, Integer, Options, Real
 from ._base import ClassicalInpainter
 from .harmonic import harmonic_fill
 from .nearest import nearest_fill
@@ -102,16 +103,21 @@ class IPBasicInpainter(ClassicalInpainter):
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        self._check_positive("max_depth")
-        if self.max_depth <= 0.1:
-            raise InvalidInputError(f"IPBasicInpainter: max_depth must exceed 0.1 m, got {self.max_depth!r}")
-        if self.large_hole_kernel is not None:
-            self._check_int("large_hole_kernel", 1, odd=True)
-        self._check_bool("extrapolate")
-        self._check_option("blur", BLURS)
-        self._check_option("fallback", FALLBACKS)
+    _parameter_constraints = {
+        **ClassicalInpainter._parameter_constraints,
+        # Inverted depth is floored at 0.1 m (0 means empty): max_depth must exceed it.
+        "max_depth": [Real(0.1, closed="neither")],
+        "large_hole_kernel": [Integer(1), None],
+        "extrapolate": [Bool()],
+        "blur": [Options(*BLURS)],
+        "fallback": [Options(*FALLBACKS)],
+    }
+
+    def _check_param_relations(self) -> None:
+        # The window is centred on its pixel: an even size has no centre.
+        kernel = self.large_hole_kernel
+        if kernel is not None and kernel % 2 == 0:
+            raise InvalidInputError(f"large_hole_kernel must be an odd integer >= 1 or None, got {kernel!r}")
 
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         self._check_params()

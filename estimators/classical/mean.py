@@ -16,6 +16,7 @@ import numpy as np
 from inpaintenv.methods.classical import CLASSICAL_METHODS
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
+from .._constraints import Check
 from ._base import ClassicalInpainter
 from .bilateral import IterativeBilateralInpainter
 from .harmonic import HarmonicInpainter
@@ -37,6 +38,36 @@ def _classical(name: str) -> ClassicalInpainter:
     """The classical fill registered as ``name`` (inpaintenv.methods.classical)."""
     cls, kwargs = _BY_NAME[name]
     return _CLASSES[cls](**kwargs)
+
+
+def _member(i: int, method: Any) -> ClassicalInpainter:
+    """Item ``i`` of ``methods`` as a fill whose parameters are checked."""
+    if isinstance(method, str):
+        if method not in _BY_NAME:
+            raise InvalidInputError(f"methods[{i}]: {method!r} is not a classical method; "
+                                    f"known: {', '.join(sorted(_BY_NAME))}")
+        return _classical(method)
+    if not isinstance(method, ClassicalInpainter) or isinstance(method, MeanInpainter):
+        raise InvalidTypeError(f"methods[{i}] must be a classical method's name or instance, got {method!r}")
+    try:
+        method._check_params()
+    except (InvalidInputError, InvalidTypeError) as err:
+        kind = InvalidTypeError if isinstance(err, TypeError) else InvalidInputError
+        raise kind(f"methods[{i}] ({type(method).__name__}): {err}") from err
+    return method
+
+
+def _member_fills(methods: Any) -> list[ClassicalInpainter]:
+    """The fills ``methods`` names (a :class:`MeanInpainter` parameter), checked.
+
+    Raises
+    ------
+    InvalidInputError, InvalidTypeError
+        One error naming ``methods`` (and the item at fault).
+    """
+    if isinstance(methods, (str, bytes)) or not isinstance(methods, Sequence) or len(methods) < 2:
+        raise InvalidInputError(f"methods must list at least two classical fills, got {methods!r}")
+    return [_member(i, m) for i, m in enumerate(methods)]
 
 
 class MeanInpainter(ClassicalInpainter):
@@ -67,33 +98,13 @@ class MeanInpainter(ClassicalInpainter):
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        self._fills()
-
-    def _fills(self) -> list[ClassicalInpainter]:
-        """The fills ``methods`` names, checked."""
-        methods = self.methods
-        if isinstance(methods, (str, bytes)) or not isinstance(methods, Sequence) or len(methods) < 2:
-            raise InvalidInputError(f"MeanInpainter: methods must list at least two classical fills, got {methods!r}")
-        fills = []
-        for m in methods:
-            if isinstance(m, str):
-                if m not in _BY_NAME:
-                    raise InvalidInputError(f"MeanInpainter: {m!r} is not a classical method; "
-                                            f"known: {', '.join(sorted(_BY_NAME))}")
-                fills.append(_classical(m))
-            elif isinstance(m, ClassicalInpainter) and not isinstance(m, MeanInpainter):
-                fills.append(m)
-            else:
-                raise InvalidTypeError(f"MeanInpainter: each method is a classical method's name or instance, "
-                                       f"got {m!r}")
-        for fill in fills:
-            fill._check_params()
-        return fills
+    _parameter_constraints = {
+        **ClassicalInpainter._parameter_constraints,
+        "methods": [Check(_member_fills)],
+    }
 
     def _fill_frame(self, x: np.ndarray) -> np.ndarray:
-        fills = self._fills()
+        fills = _member_fills(self.methods)
         total = np.zeros(x.shape, dtype=np.float64)
         for fill in fills:
             total += fill._fill_frame(x)

@@ -7,6 +7,7 @@ import numpy as np
 
 from inpaintenv.conventions import MIN_DEPTH
 
+from .._constraints import Integer, Options
 from ._base import FILL_MODES, ClassicalInpainter, unknown_mask
 from .nearest import nearest_fill
 
@@ -30,10 +31,11 @@ class _OpenCVInpainter(ClassicalInpainter):
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        self._check_int("radius", 1)
-        self._check_option("fill", FILL_MODES)
+    _parameter_constraints = {
+        **ClassicalInpainter._parameter_constraints,
+        "radius": [Integer(1)],
+        "fill": [Options(*FILL_MODES)],
+    }
 
     def _fill_frame(self, x: np.ndarray) -> np.ndarray:
         unknown = unknown_mask(x, self.fill)

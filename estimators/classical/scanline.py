@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._constraints import Bool
 from ._base import ClassicalInpainter, in_inverse_depth, unknown_mask
 
 __all__ = ["ScanlineInpainter", "scanline_fill"]
@@ -120,10 +121,11 @@ class ScanlineInpainter(ClassicalInpainter):
         self.keep_observed = keep_observed
         self.n_jobs = n_jobs
 
-    def _check_params(self) -> None:
-        super()._check_params()
-        self._check_bool("inverse")
-        self._check_bool("vertical")
+    _parameter_constraints = {
+        **ClassicalInpainter._parameter_constraints,
+        "inverse": [Bool()],
+        "vertical": [Bool()],
+    }
 
     def _fill_frame(self, x: np.ndarray) -> np.ndarray:
         known = ~unknown_mask(x)

@@ -51,6 +51,14 @@ def test_one_line_names_parameter_range_and_value(bad, error, message):
     assert str(info.value).startswith(message) and "\n" not in str(info.value)
 
 
+def test_an_upper_bound_and_numpy_strings():
+    # OpenCV-style hard bounds read as a range; a numpy.str_ (read from an array) is a string.
+    table = {"d": [Integer(1, high=31)], "mode": [Options("a", "b")]}
+    validate_params(_Params(d=np.int64(31), mode=np.str_("b")), table)
+    with pytest.raises(InvalidInputError, match=r"^d must be an integer in \[1, 31\], got 32$"):
+        validate_params(_Params(d=32, mode="a"), table)
+
+
 def test_numpy_scalars_pass_as_their_python_kind():
     validate_params(_Params(**{**GOOD, "n": np.int64(3), "lr": np.float32(0.1), "flag": np.bool_(False),
                                "frac": np.float64(1.0)}), TABLE)

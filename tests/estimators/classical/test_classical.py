@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import cv2
 import numpy as np
 import pytest
@@ -39,6 +41,7 @@ def _holed(depth: np.ndarray, top: int, left: int, h: int, w: int) -> np.ndarray
         (IterativeBilateralInpainter(), "d", 40),
         (IterativeBilateralInpainter(), "sigma_color", -1.0),
         (IterativeBilateralInpainter(), "sigma_space", float("nan")),
+        (IterativeBilateralInpainter(), "sigma_color", Fraction(1, 2)),  # not a float: named, not numpy's TypeError
         (IPBasicInpainter(), "max_depth", 0.05),
         (IPBasicInpainter(), "large_hole_kernel", 30),
         (IPBasicInpainter(), "blur", "median"),
@@ -60,6 +63,18 @@ def test_invalid_parameter_raises_naming_it(estimator, param, bad):
         est.predict(x)
     with pytest.raises((ValueError, TypeError), match=param):
         est.fit(np.full((1, 8, 8), 5.0, np.float32))
+
+
+@pytest.mark.parametrize("estimator", [
+    TeleaInpainter(radius=np.int64(3), fill=np.str_("hole"), n_jobs=np.int32(-1)),
+    IterativeBilateralInpainter(d=np.int64(31), sigma_color=np.float32(1.5), sigma_space=4, iterations=1),
+    IPBasicInpainter(max_depth=np.float64(80.0), large_hole_kernel=np.int64(15), blur=np.str_("none"),
+                     keep_observed=np.bool_(False)),
+    HarmonicInpainter(iterations=np.int64(2), inverse=np.bool_(True)),
+])
+def test_numpy_scalars_are_accepted_as_their_python_kind(estimator):
+    x = _holed(np.full((8, 8), 5.0), 2, 2, 3, 3)
+    assert np.isfinite(estimator.predict(x)).all()
 
 
 @pytest.mark.parametrize("cls", [TeleaInpainter, NavierStokesInpainter, IterativeBilateralInpainter])

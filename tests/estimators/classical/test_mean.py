@@ -53,6 +53,8 @@ def test_on_synthetic_scans_it_beats_its_worse_member(scans):
     (("harmonic", "nope"), InvalidInputError, "'nope' is not a classical method"),
     (("harmonic", 3), InvalidTypeError, "name or instance"),
     (("harmonic", MeanInpainter()), InvalidTypeError, "name or instance"),
+    (("harmonic", HarmonicInpainter(iterations=0)), InvalidInputError,
+     r"^methods\[1\] \(HarmonicInpainter\): iterations must be an integer >= 1, got 0$"),
 ])
 def test_bad_methods_are_one_clear_error(scans, methods, error, match):
     with pytest.raises(error, match=match):
