@@ -32,7 +32,8 @@ from estimators.classical import (
 )
 from inpaintenv.data.base import DepthDataset, Subset
 from inpaintenv.data.kitti import KittiDepth
-from inpaintenv.evaluate import EvaluationResult, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.report.results import EvaluationResult
 from inpaintenv.metrics import aggregate
 
 

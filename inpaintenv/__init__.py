@@ -10,8 +10,8 @@ from ._version import __version__
 from .conventions import DEFAULT_MAX_DEPTH, corrupt
 from .envs import DepthInpaintEnv
 from .envs import register_envs as _register_envs
-from .evaluate import EvaluationResult, evaluate
+from .evaluate import evaluate
 
-__all__ = ["DEFAULT_MAX_DEPTH", "DepthInpaintEnv", "EvaluationResult", "corrupt", "evaluate", "__version__"]
+__all__ = ["DEFAULT_MAX_DEPTH", "DepthInpaintEnv", "corrupt", "evaluate", "__version__"]
 
 _register_envs()

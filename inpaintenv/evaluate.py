@@ -39,27 +39,12 @@ from .data.inputs import method_input
 from .masks import OcclusionProtocol, get_protocol
 from .methods.calls import _as_predictor, _run, _warm_up, method_name
 from .methods.intervals import IntervalSource, interval_source
-from .metrics import INTERVAL_COLUMNS, UnfilledPixelsError, check_coverage, check_unfilled, interval_metrics
+from .exceptions import BadFrameError, InvalidInputError, MethodOutputError, UnfilledPixelsError
+from .metrics import INTERVAL_COLUMNS, Coverage, as_coverage, check_unfilled, interval_metrics
 from .metrics._depth import _frame_metrics_checked
+from .report.results import METRIC_COLUMNS, EvaluationResult
 
-# The result type and its row format live in results.py; these names stay importable here.
-from .report.results import (  # noqa: F401
-    ID_COLUMNS,
-    METRIC_COLUMNS,
-    ROW_COLUMNS,
-    EvaluationResult,
-    json_safe,
-    merge_skipped,
-    parse_row,
-    skipped_markdown,
-)
-from .exceptions import BadFrameError, InvalidInputError, MethodOutputError
-
-__all__ = [
-    "BAD_FRAME_ERRORS", "BadFrameError", "EvaluationResult", "evaluate", "json_safe",
-    "merge_skipped", "parse_row", "resolve_source", "skipped_markdown",
-    "training_drives_of",
-]
+__all__ = ["BAD_FRAME_ERRORS", "check_on_bad_frame", "evaluate", "resolve_source", "training_drives_of"]
 
 
 #: What loading an unreadable frame raises: a corrupt, truncated, 8-bit or vanished PNG
@@ -248,8 +233,7 @@ def evaluate(
         ``n_frames`` or ``batch_size`` below 1; a NaN/inf/non-positive ``max_depth``;
         ground truth that breaks the depth convention (the message names the frame).
     """
-    call, batched = _as_predictor(method)
-    label = name or method_name(method)
+    _as_predictor(method)  # a method that cannot be called is refused before any frame is opened
     dataset = resolve_source(source)
     proto = get_protocol(protocol)
     # Integers only, never coerced: int("12") loops, 0.5 -> 0 and repeats would all
@@ -258,11 +242,34 @@ def evaluate(
     batch_size = check_int(batch_size, "batch_size", minimum=1)
     max_depth = check_max_depth(max_depth)
     total, frame_list = _frames_to_score(dataset, n_frames, indices)
-    if on_bad_frame not in ("error", "skip"):
-        raise InvalidInputError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
+    check_on_bad_frame(on_bad_frame)
     check_unfilled(unfilled)
-    if intervals is not None:
-        intervals = check_coverage(intervals, "intervals")
+    return _evaluate_checked(
+        method, dataset, proto, seed_list, frame_list, total=total, batch_size=batch_size, max_depth=max_depth,
+        progress=progress, name=name, on_batch=on_batch, on_bad_frame=on_bad_frame, client=client,
+        unfilled=unfilled, warmup=warmup, intervals=None if intervals is None else as_coverage(intervals, "intervals"),
+    )
+
+
+def check_on_bad_frame(value: object) -> str:
+    """``value`` if it is ``"error"`` or ``"skip"`` (what an unreadable frame does), else a ValueError."""
+    if value not in ("error", "skip"):
+        raise InvalidInputError(f"on_bad_frame must be 'error' or 'skip', got {value!r}")
+    return str(value)
+
+
+def _evaluate_checked(
+    method: Any, dataset: DepthDataset, proto: OcclusionProtocol, seed_list: list[int], frame_list: list[int], *,
+    total: int, batch_size: int, max_depth: float, progress: bool, name: str | None,
+    on_batch: Callable[[list[dict[str, Any]]], None] | None, on_bad_frame: str, client: Any, unfilled: str,
+    warmup: bool, intervals: Coverage | None,
+) -> EvaluationResult:
+    """:func:`evaluate` on arguments its callers already checked (the benchmark runner, a worker's shard).
+
+    ``frame_list`` are distinct positions below ``total`` (the frames in play, ``len(dataset)`` at most).
+    """
+    call, batched = _as_predictor(method)
+    label = name or method_name(method)
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
@@ -299,7 +306,7 @@ def evaluate(
         "inpaintenv_version": __version__,
     }
     if intervals is not None:
-        meta["interval_coverage"] = intervals
+        meta["interval_coverage"] = float(intervals)
         meta["interval_methods"] = [label] if any("hole_coverage" in r for r in rows) else []
     drives = training_drives_of(method)
     if drives is not None:
@@ -325,7 +332,7 @@ def _score_locally(
     call: Callable, batched: bool, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None,
     batches: list[list[int]], *, dataset: DepthDataset, protocol: OcclusionProtocol, seeds: list[int],
     max_depth: float, name: str, on_bad_frame: str, unfilled: str, warmup: bool = False,
-    interval: IntervalSource | None = None, intervals: float | None = None,
+    interval: IntervalSource | None = None, intervals: Coverage | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Rows and skipped frames of ``batches``, scored in this process (checked arguments).
 
@@ -432,13 +439,11 @@ def _score_on_cluster(
 
 def _score_shard(
     indices: list[int], *, method: Any, dataset: DepthDataset, protocol: OcclusionProtocol,
-    seeds: list[int], max_depth: float, name: str, on_bad_frame: str, unfilled: str, intervals: float | None = None,
+    seeds: list[int], max_depth: float, name: str, on_bad_frame: str, unfilled: str, intervals: Coverage | None = None,
 ) -> EvaluationResult:
-    """One batch of a distributed :func:`evaluate`, run on a Dask worker."""
-    return evaluate(
-        method, dataset, protocol, seeds, indices=indices, batch_size=len(indices),
-        max_depth=max_depth, progress=False, name=name, on_bad_frame=on_bad_frame, unfilled=unfilled,
-        intervals=intervals,
+    """One batch of a distributed :func:`evaluate`, run on a Dask worker (arguments checked by the caller)."""
+    return _evaluate_checked(
+        method, dataset, protocol, seeds, indices, total=len(dataset), batch_size=len(indices), max_depth=max_depth,
+        progress=False, name=name, on_batch=None, on_bad_frame=on_bad_frame, client=None, unfilled=unfilled,
+        warmup=False, intervals=intervals,
     )
-
-

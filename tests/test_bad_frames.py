@@ -86,7 +86,9 @@ def test_evaluate_8_bit_png_error_and_skip(kitti_tree, tmp_path, capsys):
 
 def test_evaluate_api_on_bad_frame(kitti_tree):
     from inpaintenv.data import KittiDepth
-    from inpaintenv.evaluate import BadFrameError, EvaluationResult, evaluate
+    from inpaintenv.exceptions import BadFrameError
+    from inpaintenv.evaluate import evaluate
+    from inpaintenv.report.results import EvaluationResult
 
     root, folder = kitti_tree
     truncate(folder / "0000000003.png")

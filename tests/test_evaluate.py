@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from inpaintenv.data import ArrayDataset, DepthDataset
-from inpaintenv.evaluate import EvaluationResult, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.report.results import EvaluationResult
 from inpaintenv.exceptions import MethodOutputError
 from inpaintenv.masks import get_protocol
 from inpaintenv.methods.calls import method_name

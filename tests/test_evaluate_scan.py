@@ -75,7 +75,7 @@ def test_a_map_source_scores_as_before_and_says_so():
 
 
 def test_rows_survive_a_json_round_trip(scans, tmp_path):
-    from inpaintenv.evaluate import EvaluationResult
+    from inpaintenv.report.results import EvaluationResult
 
     res = evaluate(NearestInpainter(n_jobs=1), scans, protocol="densify-v1", n_frames=2, progress=False)
     back = EvaluationResult.from_json(res.to_json(tmp_path / "results.json"))
@@ -119,7 +119,7 @@ def test_official_val_selection_scans(kitti_root, protocol):
 
 def test_cli_evaluate_input_scan(tmp_path):
     from inpaintenv.cli import main
-    from inpaintenv.evaluate import EvaluationResult
+    from inpaintenv.report.results import EvaluationResult
     from inpaintenv.report.tables import summary_table
 
     args = ["evaluate", "-m", "nearest", "--input", "scan", "--protocol", "densify-v1", "--synthetic",

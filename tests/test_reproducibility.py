@@ -21,7 +21,8 @@ from joblib import Parallel, delayed, parallel_config
 from estimators.classical import IPBasicInpainter, NearestInpainter, TeleaInpainter
 from estimators.classical._base import ClassicalInpainter
 from inpaintenv.data import SyntheticStreets
-from inpaintenv.evaluate import EvaluationResult, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.report.results import EvaluationResult
 from inpaintenv.masks import available_protocols, get_protocol
 
 MASK_SHAPE = (64, 160)

@@ -24,7 +24,7 @@ import inpaintenv
 
 from ..conventions import corrupt
 from ..data.base import DepthDataset
-from ..evaluate import EvaluationResult
+from ..report.results import EvaluationResult
 from ..masks import get_protocol
 from ..methods.calls import run_method
 from ..metrics import frame_metrics, interpolate_background

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..evaluate import EvaluationResult
+from ..report.results import EvaluationResult
 from ..metrics import task_of
 from ..report.stats import bootstrap_ratio_ci
 from ..report.tables import TRAINED_MARK, interval_cell, table_notes, trained_note

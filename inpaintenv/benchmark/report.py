@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..report.provenance import environment_info
-from ..evaluate import EvaluationResult, json_safe, skipped_markdown
+from ..report.results import EvaluationResult, json_safe, skipped_markdown
 from ..files import write_text_atomic
 from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
 from .headline import (

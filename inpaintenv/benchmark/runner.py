@@ -21,18 +21,12 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..conventions import check_int, check_seeds
+from ..conventions import DEFAULT_MAX_DEPTH, check_int, check_seeds
 from ..data.base import DepthDataset
-from ..evaluate import (
-    EvaluationResult,
-    evaluate,
-    merge_skipped,
-    resolve_source,
-    training_drives_of,
-)
+from ..evaluate import _evaluate_checked, check_on_bad_frame, resolve_source, training_drives_of
 from ..files import remove_stale_temporaries
-from ..metrics import check_coverage
-from ..metrics import check_unfilled
+from ..masks import get_protocol
+from ..metrics import as_coverage, check_unfilled
 from ..progress import (
     ProgressReporter,
     count,
@@ -47,6 +41,7 @@ from .run_state import RunMismatchError, RunStateError, differences, read_run_fi
 from .suites import method_kind
 from .tasks import Task, check_tasks, task_datasets
 from ..exceptions import InvalidInputError, InvalidTypeError, UnsafeFileError
+from ..report.results import EvaluationResult, merge_skipped
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
@@ -199,15 +194,14 @@ def run_benchmark(
     tasks, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size,
                               "map" if single is None else single.input_kind)
     datasets = task_datasets(source if single is None else single, tasks)
-    if on_bad_frame not in ("error", "skip"):
-        raise InvalidInputError(f"on_bad_frame must be 'error' or 'skip', got {on_bad_frame!r}")
+    check_on_bad_frame(on_bad_frame)
     policies = {
         name: check_unfilled(unfilled if unfilled is not None else getattr(m, "unfilled", "error"),
                              "unfilled" if unfilled is not None else f"the unfilled policy of {name!r}")
         for name, m in methods.items()
     }
     if interval_coverage is not None:
-        interval_coverage = check_coverage(interval_coverage, "interval_coverage")
+        interval_coverage = as_coverage(interval_coverage, "interval_coverage")
     if any(len(ds) == 0 for ds in datasets.values()):
         raise InvalidInputError("the data source has no frames")
     check_folder(out_dir)  # before the lock file is made in someone else's folder
@@ -267,6 +261,7 @@ class _Run:
     ) -> None:
         self.methods, self.datasets, self.tasks, self.seeds = methods, datasets, tasks, seeds
         self.totals, self.out, self.say, self.policies, self.evaluate_kw = totals, out, say, policies, evaluate_kw
+        self.protocols = {t: get_protocol(t.protocol) for t in tasks}  # names checked by check_tasks
         self.rows_dir = out / "rows"
         self.run_file = out / "run.json"
         # name -> identity of the method that wrote its rows (see .identity); a name missing
@@ -296,7 +291,7 @@ class _Run:
             self.fingerprint["unfilled"] = unfilled
         if self.evaluate_kw.get("intervals") is not None:
             # Rows with interval columns and rows without must never be mixed in one run.
-            self.fingerprint["interval_coverage"] = self.evaluate_kw["intervals"]
+            self.fingerprint["interval_coverage"] = float(self.evaluate_kw["intervals"])
         if resume and self.run_file.exists():
             previous = read_run_file(self.run_file)
             recorded = previous.pop("methods", None)
@@ -446,9 +441,10 @@ class _Run:
                 continue
             warmup = name not in self._warmed  # once per method, not per seed or protocol
             self._warmed.add(name)
-            part = evaluate(method, self.datasets[task.input_kind], task.protocol, seeds=[seed], indices=indices,
-                            name=name,
-                            on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)
+            # Every argument was checked once, by run_benchmark: the frames are positions it planned.
+            part = _evaluate_checked(method, self.datasets[task.input_kind], self.protocols[task], [seed], indices,
+                                     total=self.totals[task.input_kind], max_depth=DEFAULT_MAX_DEPTH, name=name,
+                                     on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)
             self.skipped.append(part.meta.get("skipped_frames") or [])
 
     def combine(self, results: list[EvaluationResult]) -> EvaluationResult:
@@ -465,7 +461,7 @@ class _Run:
         if set(self.datasets) != {"map"}:  # what each row is scored on: "scan:rect-v1" beside "rect-v1"
             combined.meta["tasks"] = [t.label for t in self.tasks]
         if self.evaluate_kw.get("intervals") is not None:
-            combined.meta["interval_coverage"] = self.evaluate_kw["intervals"]
+            combined.meta["interval_coverage"] = float(self.evaluate_kw["intervals"])
             combined.meta["interval_methods"] = [m for m in combined.methods
                                                  if any("hole_coverage" in r for r in combined.rows if r["method"] == m)]
         combined.meta.pop("training_drives", None)

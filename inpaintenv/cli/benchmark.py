@@ -122,8 +122,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     seeds = check_seeds(args.seed or [0], "--seed")
     check_int(args.batch_size, "--batch-size", minimum=1)
     check_int(args.figure_frames, "--figure-frames", minimum=0)
-    if args.interval_coverage is not None:
-        check_coverage(args.interval_coverage, "--interval-coverage")
+    # Checked once, here: the run takes the checked value as it is.
+    coverage = None if args.interval_coverage is None else check_coverage(args.interval_coverage, "--interval-coverage")
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
     out = Path(args.out)
@@ -160,7 +160,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                 cached, datasets, protocols=tasks, seeds=seeds, out_dir=out,
                 resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
                 on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled,
-                interval_coverage=args.interval_coverage,
+                interval_coverage=coverage,
             )
         _report(args, result, out, holdout, {n: (lambda n=n: materialise(n, methods[n])) for n in methods},
                 methods, datasets[tasks[0].input_kind], tasks[0].protocol, seeds[0], log)
@@ -236,7 +236,7 @@ def _report(
     from ..benchmark.figures import write_figures
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..benchmark.report import summary_table, table_keys, to_markdown, write_report
-    from ..evaluate import skipped_markdown
+    from ..report.results import skipped_markdown
 
     command = "inpaintenv " + " ".join(getattr(args, "argv", []))
     paths = write_report(result, out, meta={"command": command, "holdout": holdout})

@@ -93,8 +93,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if not names and not checkpoints:
         raise InvalidInputError("give at least one --method NAME or --checkpoint NAME=PATH")
     get_protocol(args.protocol)
-    if args.interval_coverage is not None:
-        check_coverage(args.interval_coverage, "--interval-coverage")
+    if args.interval_coverage is not None:  # checked once, here: evaluate takes the checked value as it is
+        args.interval_coverage = check_coverage(args.interval_coverage, "--interval-coverage")
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
     out = Path(args.out) if args.out else None
@@ -113,7 +113,8 @@ def _score(args: argparse.Namespace, methods: list[tuple[str, Any, str]], ds: An
            out: Path | None) -> int:
     """Score ``methods``, print the table and, with ``--out`` (whose lock is held), write the files."""
     from ..benchmark.ownership import adopt, claim, remove
-    from ..evaluate import EvaluationResult, evaluate, skipped_markdown
+    from ..evaluate import evaluate
+    from ..report.results import EvaluationResult, skipped_markdown
     from ..benchmark.rows import append_rows
     from ..files import remove_stale_temporaries, write_text_atomic
     from ..report.tables import summary_table, table_to_csv

@@ -98,7 +98,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     # the run folder is touched: a bad submission leaves nothing half-written.
     check_int(args.batch_size, "--batch-size", minimum=1)
     check_int(args.figure_frames, "--figure-frames", minimum=0)
-    check_coverage(args.interval_coverage, "--interval-coverage")
+    coverage = check_coverage(args.interval_coverage, "--interval-coverage")  # once, here: the run takes it as it is
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InvalidInputError(f"--out {out} is a file; give a folder for the run")
@@ -124,7 +124,7 @@ def cmd_score(args: argparse.Namespace) -> int:
             run_methods, dataset, protocols=[protocol], seeds=seeds, out_dir=out, resume=not args.no_resume,
             batch_size=args.batch_size, progress=not args.quiet, log=log,
             # Only a folder with interval files asks for intervals: one without keeps the run it always had.
-            interval_coverage=args.interval_coverage if checked.method.interval_kind is not None else None,
+            interval_coverage=coverage if checked.method.interval_kind is not None else None,
         )
         report = without_ms(result, args.name)  # the rows keep the time spent reading the files
         command = "inpaintenv " + " ".join(getattr(args, "argv", []))

@@ -412,7 +412,7 @@ def _train_locked(args: argparse.Namespace, ds: Any, out: Path, record: dict[str
     """The training itself, holding the lock of ``out``: resume note, fit, model, log and curves."""
     from estimators.learned.presets import preset_checkpoints, train_preset
 
-    from ..evaluate import json_safe
+    from ..report.results import json_safe
     from ..files import write_text_atomic
 
     _own_folder(out)

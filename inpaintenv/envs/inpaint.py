@@ -50,7 +50,7 @@ from ..conventions import (
 from ..data.base import DepthDataset, as_dataset
 from ..data.inputs import check_input_kind
 from ..masks import OcclusionProtocol, get_protocol
-from ..metrics import check_coverage, interval_from_std, interval_metrics
+from ..metrics import as_coverage, interval_from_std, interval_metrics
 from ..metrics import ScoredPixels, check_unfilled
 from .render import render_panel
 from ..exceptions import InvalidInputError, StateError
@@ -188,7 +188,7 @@ class DepthInpaintEnv(gym.Env):
             )
         self.render_mode = render_mode
         self.unfilled = check_unfilled(unfilled)
-        self.interval_coverage = check_coverage(interval_coverage, "interval_coverage")
+        self.interval_coverage = as_coverage(interval_coverage, "interval_coverage")
         shape = tuple(int(s) for s in self.dataset.frame_shape)
         self.frame_shape: tuple[int, int] = shape  # type: ignore[assignment]
         self.observation_space = spaces.Dict(

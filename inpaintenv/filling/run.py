@@ -14,7 +14,7 @@ import numpy as np
 
 from ..data.calibration import Calibration
 from ..exceptions import InvalidInputError
-from ..metrics import check_coverage
+from ..metrics import as_coverage
 from ..methods.intervals import IntervalSource
 from ..benchmark.lock import run_lock
 from ..files import remove_stale_temporaries
@@ -169,7 +169,7 @@ def _check_options(on_error: str, batch_size: int, confidence: float | None, int
     if batch_size < 1:
         raise InvalidInputError(f"batch_size must be >= 1, got {batch_size}")
     if confidence is not None:
-        return check_coverage(confidence, "confidence")
+        return as_coverage(confidence, "confidence")
     if intervals is not None:
         raise InvalidInputError("--intervals is the calibration of --confidence's interval: give --confidence too")
     return None

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
-from ..metrics import check_interval, interval_from_std
+from ..metrics import Coverage, check_interval, interval_from_std
 
 __all__ = ["IntervalSource", "interval_source"]
 
@@ -37,13 +37,13 @@ def _takes(function: Callable, argument: str) -> bool:
 
 
 class IntervalSource:
-    """How one method gives its interval, for one evaluation at ``coverage``.
+    """How one method gives its interval, for one evaluation at ``coverage`` (checked where it entered).
 
     ``wrap(call)`` gives the prediction call to time (it keeps ``std`` aside for a
     ``return_std`` method); ``bounds(x, pred, hole)`` gives the checked ``(low, high)``.
     """
 
-    def __init__(self, method: Any, coverage: float, name: str, kind: str) -> None:
+    def __init__(self, method: Any, coverage: Coverage, name: str, kind: str) -> None:
         self.method, self.coverage, self.name, self.kind = method, coverage, name, kind
         self._std: Any = None
 
@@ -86,7 +86,7 @@ class IntervalSource:
             raise MethodOutputError(f"method {self.name!r}: {exc}") from None
 
 
-def interval_source(method: Any, coverage: float | None, name: str) -> IntervalSource | None:
+def interval_source(method: Any, coverage: Coverage | None, name: str) -> IntervalSource | None:
     """The :class:`IntervalSource` of ``method`` at ``coverage``; None without one (or without ``coverage``)."""
     if coverage is None:
         return None

@@ -13,7 +13,6 @@ from ._depth import (
     UNFILLED,
     UNMEASURED_METRICS,
     ScoredPixels,
-    UnfilledPixelsError,
     aggregate,
     check_unfilled,
     frame_metrics,
@@ -25,6 +24,8 @@ from ._intervals import (
     INTERVAL_COLUMNS,
     KEEP_FRACTIONS,
     KEEP_GRID,
+    Coverage,
+    as_coverage,
     border_distance,
     check_coverage,
     check_interval,
@@ -36,8 +37,8 @@ from ._intervals import (
 
 __all__ = [
     "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "KITTI_METRICS",
-    "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS", "ScoredPixels", "UnfilledPixelsError",
-    "aggregate", "border_distance", "check_coverage", "check_interval", "check_unfilled", "depth_binned_errors",
+    "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS", "Coverage", "ScoredPixels", "aggregate",
+    "as_coverage", "border_distance", "check_coverage", "check_interval", "check_unfilled", "depth_binned_errors",
     "frame_metrics", "interpolate_background", "interval_from_std", "interval_metrics", "normal_quantile",
     "rejection_curve", "task_of",
 ]

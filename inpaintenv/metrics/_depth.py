@@ -35,7 +35,7 @@ from ._devkit import interpolate_background
 
 __all__ = [
     "EXTRA_COLUMNS", "KITTI_METRICS", "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS",
-    "ScoredPixels", "UnfilledPixelsError", "aggregate", "check_unfilled", "frame_metrics", "task_of",
+    "ScoredPixels", "aggregate", "check_unfilled", "frame_metrics", "task_of",
 ]
 
 REGIONS = ("hole", "all")

@@ -57,7 +57,8 @@ from ..conventions import as_depth_array, check_depth, check_mask
 from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = [
-    "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "border_distance", "check_coverage", "check_interval",
+    "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "Coverage", "as_coverage", "border_distance", "check_coverage",
+    "check_interval",
     "interval_from_std", "interval_metrics", "normal_quantile", "rejection_curve",
 ]
 
@@ -73,19 +74,39 @@ INTERVAL_COLUMNS: tuple[str, ...] = (
 )
 
 
-def check_coverage(value: object, name: str = "coverage") -> float:
-    """``value`` as a float strictly between 0 and 1 (the nominal coverage of an interval)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InvalidTypeError(f"{name} must be a number in (0, 1), got {value!r}")
-    v = float(value)
-    if not 0.0 < v < 1.0:
-        raise InvalidInputError(f"{name} must be in (0, 1) (e.g. 0.9 for a 90 % interval), got {value!r}")
-    return v
+class Coverage(float):
+    """A nominal interval coverage already checked: a float strictly between 0 and 1.
+
+    Made by :func:`check_coverage` where a coverage enters (a command's option, a public
+    function's argument); every function it is passed on to takes it as it is
+    (:func:`as_coverage`), so one value is checked once however deep it travels.
+    Building one checks it too: no ``Coverage`` outside (0, 1) exists.
+    """
+
+    __slots__ = ()
+
+    def __new__(cls, value: object, name: str = "coverage") -> Coverage:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise InvalidTypeError(f"{name} must be a number in (0, 1), got {value!r}")
+        v = float(value)
+        if not 0.0 < v < 1.0:
+            raise InvalidInputError(f"{name} must be in (0, 1) (e.g. 0.9 for a 90 % interval), got {value!r}")
+        return super().__new__(cls, v)
+
+
+def check_coverage(value: object, name: str = "coverage") -> Coverage:
+    """``value`` as a :class:`Coverage`: a float strictly between 0 and 1 (the nominal coverage of an interval)."""
+    return Coverage(value, name)
+
+
+def as_coverage(value: object, name: str = "coverage") -> Coverage:
+    """``value`` itself when it is a :class:`Coverage` (checked where it entered), else :func:`check_coverage` of it."""
+    return value if isinstance(value, Coverage) else check_coverage(value, name)
 
 
 def normal_quantile(coverage: float) -> float:
     """``z`` with ``P(|Z| <= z) = coverage`` for a standard normal ``Z`` (1.645 for 0.9)."""
-    return NormalDist().inv_cdf((1.0 + check_coverage(coverage)) / 2.0)
+    return NormalDist().inv_cdf((1.0 + as_coverage(coverage)) / 2.0)
 
 
 def interval_from_std(pred: np.ndarray, std: np.ndarray, coverage: float = 0.9) -> tuple[np.ndarray, np.ndarray]:
@@ -104,6 +125,7 @@ def interval_from_std(pred: np.ndarray, std: np.ndarray, coverage: float = 0.9) 
     low, high : numpy.ndarray
         float64 arrays of ``pred``'s shape.
     """
+    coverage = as_coverage(coverage)
     p = as_depth_array(pred, "prediction").astype(np.float64)
     s = as_depth_array(std, "std").astype(np.float64)
     if s.shape != p.shape:

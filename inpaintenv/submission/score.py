@@ -16,8 +16,9 @@ from typing import Any
 
 from ..data.base import DepthDataset
 from ..data.kitti import KITTI_ROOT_ENV
-from ..evaluate import EvaluationResult, evaluate
-from ..metrics import check_coverage
+from ..evaluate import evaluate
+from ..report.results import EvaluationResult
+from ..metrics import as_coverage
 from .layout import is_inside
 from .manifest import Manifest, read_manifest, require_key
 from .predictions import CheckedPredictions, check_predictions
@@ -186,7 +187,7 @@ def score(
     if checked.missing or checked.unexpected:
         say(f"{name}: {checked.left_out()} (on_missing='skip')")
     method = checked.method
-    check_coverage(interval_coverage, "interval_coverage")
+    interval_coverage = as_coverage(interval_coverage, "interval_coverage")
     # Asked only when the folder has interval files: a folder without keeps the rows and run it always had.
     coverage = interval_coverage if method.interval_kind is not None else None
     if out_dir is None:

@@ -10,7 +10,7 @@ import pytest
 
 from inpaintenv.benchmark import headline_markdown, learned_vs_classical, run_benchmark, write_report
 from inpaintenv.data import ArrayDataset
-from inpaintenv.evaluate import EvaluationResult
+from inpaintenv.report.results import EvaluationResult
 
 
 def _rows(method, drive, holes, alls=None, protocol="rect-v1", seed=0, counts=None):

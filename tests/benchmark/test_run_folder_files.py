@@ -139,7 +139,7 @@ def test_stale_temporaries_of_a_killed_writer_are_removed_at_start(capsys, run):
 
 
 def test_results_readers_refuse_nested_json_and_fifos(tmp_path):
-    from inpaintenv.evaluate import EvaluationResult
+    from inpaintenv.report.results import EvaluationResult
     from inpaintenv.exceptions import JSONFileError, UnsafeFileError
 
     (tmp_path / "results.json").write_text(NESTED)

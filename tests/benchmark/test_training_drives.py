@@ -21,7 +21,8 @@ from inpaintenv.benchmark import (
     write_report,
 )
 from inpaintenv.data import ArrayDataset
-from inpaintenv.evaluate import EvaluationResult, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.report.results import EvaluationResult
 from inpaintenv.report.tables import (
     TRAINED_MARK,
     summary_table,

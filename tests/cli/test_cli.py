@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from inpaintenv.cli import SUBCOMMANDS, build_parser, main
-from inpaintenv.evaluate import EvaluationResult
+from inpaintenv.report.results import EvaluationResult
 
 TINY = ["--n-frames", "3", "--frame-shape", "48", "120"]
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from inpaintenv.exceptions import UnfilledPixelsError
 from inpaintenv.metrics import (
     ScoredPixels,
-    UnfilledPixelsError,
     aggregate,
     depth_binned_errors,
     frame_metrics,

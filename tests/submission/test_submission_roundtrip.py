@@ -16,7 +16,8 @@ import pytest
 
 from inpaintenv.data import open_source
 from inpaintenv.envs import DepthInpaintEnv
-from inpaintenv.evaluate import ID_COLUMNS, METRIC_COLUMNS, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.report.results import ID_COLUMNS, METRIC_COLUMNS
 from inpaintenv.submission import export, score
 
 COMPARED = tuple(c for c in ID_COLUMNS if c != "method") + ("hole_fraction",) + METRIC_COLUMNS

@@ -15,7 +15,8 @@ import pytest
 
 from inpaintenv.cli import main
 from inpaintenv.data import KittiDepth, SyntheticStreets, write_depth_png
-from inpaintenv.evaluate import ID_COLUMNS, METRIC_COLUMNS, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.report.results import ID_COLUMNS, METRIC_COLUMNS
 from inpaintenv.exceptions import InvalidInputError, UnsafeFileError
 from inpaintenv.submission import ManifestError, SubmissionError, export, read_manifest, score
 

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from inpaintenv.cli import main
-from inpaintenv.evaluate import METRIC_COLUMNS, evaluate
+from inpaintenv.evaluate import evaluate
+from inpaintenv.report.results import METRIC_COLUMNS
 from inpaintenv.submission import read_manifest
 from inpaintenv.submission.truth import open_truth
 

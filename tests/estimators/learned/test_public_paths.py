@@ -1,12 +1,14 @@
 """One public path per name: a learned class at estimators.learned, a classical one at
 estimators.classical, the interval wrapper at estimators.intervals; estimators' face keeps
-only its own API (the base class, the scorers, the subpackages)."""
+only its own API (the base class, the scorers, the subpackages). inpaintenv's errors live at
+inpaintenv.exceptions and the result type with its row format at inpaintenv.report.results, only."""
 
 from __future__ import annotations
 
 import importlib
 import importlib.util
 import inspect
+import pkgutil
 
 import pytest
 
@@ -64,3 +66,38 @@ def test_load_is_a_function_of_estimators_learned_not_a_module():
     assert inspect.isfunction(learned.load)
     assert "load" in learned.__all__ and not hasattr(estimators, "load")
     assert importlib.util.find_spec("estimators.learned.load") is None
+
+
+#: inpaintenv names and their one public path: their home module, the only one whose ``__all__`` lists them.
+_INPAINTENV_HOMES = {
+    "UnfilledPixelsError": "inpaintenv.exceptions", "BadFrameError": "inpaintenv.exceptions",
+    **{name: "inpaintenv.report.results" for name in ("EvaluationResult", "ID_COLUMNS", "METRIC_COLUMNS", "ROW_COLUMNS",
+                                                       "json_safe", "merge_skipped", "parse_row", "skipped_markdown")},
+}
+#: The paths these names left: not offered there any more, not even as a stray attribute of a package's face.
+_LEFT = {"inpaintenv.metrics": {"UnfilledPixelsError"}, "inpaintenv": {"EvaluationResult"},
+         "inpaintenv.evaluate": {"ID_COLUMNS", "ROW_COLUMNS", "json_safe", "merge_skipped", "parse_row",
+                                 "skipped_markdown"}}
+
+
+def _public_inpaintenv_modules() -> list[str]:
+    """Every public module of inpaintenv (no part of its name private), imported."""
+    import inpaintenv
+
+    names = ["inpaintenv"] + [info.name for info in pkgutil.walk_packages(inpaintenv.__path__, "inpaintenv.")
+                              if not any(part.startswith("_") for part in info.name.split("."))]
+    for name in names:
+        importlib.import_module(name)
+    return names
+
+
+@pytest.mark.parametrize("name", sorted(_INPAINTENV_HOMES))
+def test_an_inpaintenv_name_has_one_public_path(name):
+    listed = [m for m in _public_inpaintenv_modules() if name in getattr(importlib.import_module(m), "__all__", ())]
+    assert listed == [_INPAINTENV_HOMES[name]]
+
+
+@pytest.mark.parametrize(("module", "name"), sorted((m, n) for m, names in _LEFT.items() for n in names))
+def test_an_old_inpaintenv_path_is_gone(module, name):
+    with pytest.raises(ImportError):
+        exec(f"from {module} import {name}", {})
