@@ -78,9 +78,7 @@ def main(argv: list[str] | None = None) -> dict:
     model = est._build_model(0).to(device)
     if args.channels_last:
         model = model.to(memory_format=torch.channels_last)
-    opt = torch.optim.Adam(model.parameters(), lr=est.lr, weight_decay=est.weight_decay)
-    autocast, needs_scaler = est._autocast(device)
-    scaler = torch.amp.GradScaler("cuda") if needs_scaler else None
+    optimisation = est._prepare_training(model, device)  # Adam, schedule and precision as fit builds them
     gt_t, hole_t = torch.from_numpy(gt), torch.from_numpy(hole)
     if device.type == "cuda":
         gt_t, hole_t = gt_t.pin_memory(), hole_t.pin_memory()
@@ -91,7 +89,7 @@ def main(argv: list[str] | None = None) -> dict:
     for i in range(args.steps + 1):
         _sync(device)
         t0 = time.perf_counter()
-        est._train_step(step_model, opt, scaler, autocast, gt_t, hole_t, device)
+        est._train_step(step_model, optimisation, gt_t, hole_t, device)
         _sync(device)
         if i:
             train_times.append(time.perf_counter() - t0)

@@ -32,7 +32,7 @@ from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.data.inputs import method_input
 from inpaintenv.report.provenance import environment_info
-from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
+from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import get_protocol
 from inpaintenv.progress import FrameProgress
 
@@ -49,6 +49,7 @@ from ._far import far_pixels
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
 from ._output import bound_output
 from ._persistence import PersistenceMixin
+from ._loop import OneCycle, Optimisation, fit_loop, new_progress, seeded
 from ._training import deterministic_torch, frame_label, torch_threads
 from ._training_data import input_frame, scan_input
 from .nets import pixel_blend
@@ -380,41 +381,30 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         return per
 
     def _fit_pixels(self, x: np.ndarray, y: np.ndarray, seed: int) -> tuple[PixelBlendNet, dict[str, list[float]]]:
-        """Train a fresh network on pixel features ``x`` (``(P, C)``) and depths ``y`` (metres)."""
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            net = self._build_model()
+        """Train a fresh network on pixel features ``x`` (``(P, C)``) and depths ``y`` (metres)
+        through :func:`~._loop.fit_loop`: each epoch a fresh order of the pixels, ``batch_pixels`` a step."""
+        net = seeded(self._build_model, seed)
         rng = np.random.default_rng([seed, 0x5EED])
         batch = int(self.batch_pixels)
         per_epoch = max(1, len(y) // batch)
-        optimizer = torch.optim.Adam(net.parameters(), lr=float(self.lr))
-        schedule = torch.optim.lr_scheduler.OneCycleLR(
-            optimizer, max_lr=float(self.lr), total_steps=per_epoch * int(self.epochs), pct_start=0.05
-        )
+        optimisation = Optimisation(net, self.lr, schedule=OneCycle(self.lr, per_epoch * int(self.epochs)))
         xt, yt = torch.from_numpy(np.ascontiguousarray(x, np.float32)), torch.from_numpy(y)
         mirrored = net.mirror_order()
-        history: dict[str, list[float]] = {"epoch_loss": []}
+
+        def epoch_batches(epoch: int, done: int) -> Any:
+            return torch.from_numpy(rng.permutation(len(y))[: per_epoch * batch]).split(batch)
+
+        def step(idx: torch.Tensor) -> float:
+            xb = xt[idx]
+            if rng.random() < 0.5:  # flip augmentation: the mirrored frame's pixels
+                xb = xb[:, mirrored]
+            return optimisation.update(lambda: (net.blend(xb) - yt[idx]).square().mean())
+
         net.train()
-        for epoch in range(int(self.epochs)):
-            order = torch.from_numpy(rng.permutation(len(y))[: per_epoch * batch])
-            losses = []
-            for idx in order.split(batch):
-                xb = xt[idx]
-                if rng.random() < 0.5:  # flip augmentation: the mirrored frame's pixels
-                    xb = xb[:, mirrored]
-                loss = (net.blend(xb) - yt[idx]).square().mean()
-                if not torch.isfinite(loss):
-                    raise TrainingDivergedError(f"training loss became {loss.item()} in epoch {epoch}; lower lr")
-                optimizer.zero_grad(set_to_none=True)
-                loss.backward()
-                optimizer.step()
-                schedule.step()
-                losses.append(float(loss.detach()))
-            history["epoch_loss"].append(float(np.mean(losses)))
-            if self.verbose:
-                print(f"epoch {epoch + 1}/{self.epochs}: loss {history['epoch_loss'][-1]:.3f} m²", flush=True)
+        progress = fit_loop(new_progress(), epoch_batches, step, epochs=int(self.epochs), steps_per_epoch=per_epoch,
+                            desc=type(self).__name__, verbose=bool(self.verbose))
         net.eval()
-        return net, history
+        return net, {"epoch_loss": progress["history"]["epoch_loss"]}
 
     # -- prediction ------------------------------------------------------------------------
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:

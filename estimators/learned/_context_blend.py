@@ -30,7 +30,7 @@ from torch import nn
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
 from inpaintenv.report.provenance import environment_info
-from inpaintenv.exceptions import InvalidInputError, TrainingDivergedError
+from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import get_protocol
 
 from ..base import resolve_seed
@@ -38,6 +38,7 @@ from ..candidates import prior_features
 from ._blend import BLEND_CANDIDATES, BlendInpainter
 from .._constraints import Integer, Options, Real, Sequence
 from ._limits import MAX_LAYERS, MAX_MEMBERS, MAX_WIDTH
+from ._loop import OneCycle, Optimisation, fit_loop, new_progress, seeded
 from ._training import deterministic_torch, frame_label, torch_threads
 from .nets.context_blend import ContextBlendEnsemble, ContextBlendNet, context_grid, frame_reference
 from .nets.pixel_blend import CHUNK
@@ -306,10 +307,8 @@ class ContextBlendInpainter(BlendInpainter):
         return ContextBlendEnsemble([net for net, _ in trained]).eval(), history
 
     def _train_network(self, samples: list[dict], groups: list[str], seed: int) -> tuple[ContextBlendNet, dict]:
-        """Train one fresh network on the samples, drives weighted by ``balance``."""
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            net = self._build_net()
+        """Train one fresh network on the samples through :func:`~._loop.fit_loop`, drives weighted by ``balance``."""
+        net = seeded(self._build_net, seed)
         rng = np.random.default_rng([seed, 0x5EED])
         counts: dict[str, int] = {}
         for g in groups:
@@ -318,33 +317,22 @@ class ContextBlendInpainter(BlendInpainter):
         weights /= weights.sum()
         batch = min(int(self.batch_frames), len(samples))
         per_epoch = max(1, len(samples) // batch)
-        total = per_epoch * int(self.epochs)
-        optimizer = torch.optim.Adam(net.parameters(), lr=float(self.lr))
-        schedule = torch.optim.lr_scheduler.OneCycleLR(optimizer, max_lr=float(self.lr), total_steps=total,
-                                                       pct_start=0.05)
+        optimisation = Optimisation(net, self.lr, schedule=OneCycle(self.lr, per_epoch * int(self.epochs)))
         mirrored = net.mirror_order()
-        history: dict[str, list[float]] = {"epoch_loss": []}
-        net.train()
-        losses: list[float] = []
-        for step in range(total):
-            picks = rng.choice(len(samples), batch, replace=False, p=weights)
+
+        def epoch_batches(epoch: int, done: int) -> Any:
+            for _ in range(per_epoch):
+                yield rng.choice(len(samples), batch, replace=False, p=weights)
+
+        def step(picks: np.ndarray) -> float:
             flip = bool(rng.random() < 0.5)  # mirror augmentation: the mirrored frame's samples
-            loss = self._batch_loss(net, [samples[k] for k in picks], rng, flip, mirrored)
-            if not torch.isfinite(loss):
-                raise TrainingDivergedError(f"training loss became {loss.item()} at step {step}; lower lr")
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            optimizer.step()
-            schedule.step()
-            losses.append(float(loss.detach()))
-            if (step + 1) % per_epoch == 0:
-                history["epoch_loss"].append(float(np.mean(losses)))
-                losses = []
-                if self.verbose:
-                    print(f"epoch {len(history['epoch_loss'])}/{self.epochs}: loss "
-                          f"{history['epoch_loss'][-1]:.3f} m²", flush=True)
+            return optimisation.update(lambda: self._batch_loss(net, [samples[k] for k in picks], rng, flip, mirrored))
+
+        net.train()
+        progress = fit_loop(new_progress(), epoch_batches, step, epochs=int(self.epochs), steps_per_epoch=per_epoch,
+                            desc=type(self).__name__, verbose=bool(self.verbose))
         net.eval()
-        return net, history
+        return net, {"epoch_loss": progress["history"]["epoch_loss"]}
 
     def _batch_loss(self, net: ContextBlendNet, batch: list[dict], rng: np.random.Generator, flip: bool,
                     mirrored: list[int]) -> torch.Tensor:

@@ -23,22 +23,11 @@ import torch
 
 from ..base import BaseInpainter
 
-# _cpu_state, progress_history, MAX_CHANNELS, _copy_encoder and _fitted_summary lived here
-# before the split; code written then imports them from this module.
 from . import _checkpoint as ckpt
-from ._checkpoint import progress_history  # noqa: F401
-from ._checkpoint import cpu_state as _cpu_state  # noqa: F401
-from ._neural_params import MAX_CHANNELS, STUDY_CONSTRAINTS, NeuralParamsMixin  # noqa: F401
+from ._neural_params import STUDY_CONSTRAINTS, NeuralParamsMixin
 from ._output import bound_output
 from ._persistence import CheckpointMixin
-from ._training import (  # noqa: F401
-    Augmentation,
-    TrainingMixin,
-    _copy_encoder,
-    _fitted_summary,
-    encode_input,
-    torch_threads,
-)
+from ._training import Augmentation, TrainingMixin, encode_input, torch_threads
 from .nets import UNet
 
 __all__ = ["AutoencoderInpainter", "CheckpointError", "UNetInpainter"]

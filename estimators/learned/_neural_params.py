@@ -23,6 +23,7 @@ from ..base import check_random_state
 from ._checkpoint import cpu_state
 from .._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer, Options, Pair, Real
 from ._limits import MAX_THREADS, check_parameter_count
+from ._loop import seeded
 from ._training import crop_shape
 from .nets import UNet
 
@@ -207,9 +208,7 @@ class NeuralParamsMixin(ConstrainedParams):
 
     def _build_model(self, seed: int) -> UNet:
         # Seed the initial weights without touching the caller's global torch RNG.
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            return UNet(self.in_channels, int(self.width), int(self.depth), skip=self._skip)
+        return seeded(lambda: UNet(self.in_channels, int(self.width), int(self.depth), skip=self._skip), seed)
 
     # -- JSON form (run-directory hash, checkpoint config) ---------------------------
     def _config_params(self) -> dict[str, Any]:

@@ -34,7 +34,7 @@ from . import _checkpoint as ckpt
 from .._constraints import Bool, Check, Integer, Options
 from ._limits import MAX_LAYERS, MAX_WIDTH
 from ._neural import _NeuralInpainter
-from ._training import backward_step
+from ._loop import Constant, Cosine, Optimisation, Schedule, seeded
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
 from .nets.prior_unet import PriorUNet
@@ -232,13 +232,11 @@ class PriorUNetInpainter(_NeuralInpainter):
         return self.arch == "pixel" and bool(self.endpoints)
 
     def _build_model(self, seed: int) -> PriorUNet | PixelBlendNet:
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            if self.arch == "pixel":
-                return PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width), int(self.levels),
-                                     n_endpoints=len(ENDPOINT_CHANNELS) if self._endpoints else 0,
-                                     relative=bool(self.relative))
-            return PriorUNet(len(self.candidates), int(self.width), int(self.levels), int(self.factor))
+        if self.arch == "pixel":
+            return seeded(lambda: PixelBlendNet(len(self.candidates), len(GAP_CHANNELS), int(self.width),
+                                                int(self.levels), n_endpoints=len(ENDPOINT_CHANNELS) if self._endpoints
+                                                else 0, relative=bool(self.relative)), seed)
+        return seeded(lambda: PriorUNet(len(self.candidates), int(self.width), int(self.levels), int(self.factor)), seed)
 
     def _config_params(self) -> dict[str, Any]:
         params = super()._config_params()
@@ -290,26 +288,17 @@ class PriorUNetInpainter(_NeuralInpainter):
         except (TypeError, ValueError, KeyError) as e:
             raise ckpt.CheckpointError(f"the training checkpoint's random state does not fit this run: {e}") from None
 
-    def _set_lr(self, optimizer) -> None:
-        """Cosine decay of the learning rate over ``max_steps`` (5 % linear warm-up).
-
-        The step is read from Adam's own state, so a resumed run continues the schedule.
-        """
+    def _schedule(self) -> Schedule:
+        """Cosine decay of the learning rate over ``max_steps`` (5 % linear warm-up); constant without ``max_steps``."""
         total = self.max_steps * self._updates_per_step if self.max_steps else None
-        if not total:
-            return
-        state = optimizer.state.get(optimizer.param_groups[0]["params"][0], {})
-        step = float(state.get("step", 0))
-        warm = max(1.0, 0.05 * total)
-        scale = (step + 1) / warm if step < warm else 0.5 * (1 + np.cos(np.pi * min(1.0, (step - warm) / max(1.0, total - warm))))
-        for group in optimizer.param_groups:
-            group["lr"] = self.lr * max(scale, 0.01)
+        return Cosine(self.lr, total) if total else Constant()
 
     @property
     def _updates_per_step(self) -> int:
         return int(self.pixel_batches) if self.arch == "pixel" else 1
 
-    def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
+    def _train_step(self, model: torch.nn.Module, optimisation: Optimisation, gt: torch.Tensor, hole: torch.Tensor,
+                    device: torch.device) -> float:
         corrupted = torch.where(hole, torch.nan, gt).numpy()
         x = self._features(corrupted)
         if self.flip and self._flip_rng.random() < 0.5:
@@ -321,24 +310,25 @@ class PriorUNetInpainter(_NeuralInpainter):
         if not mask.any():  # no ground truth in any hole of this batch: nothing to learn
             return 0.0
         if self.arch == "unet":
-            return self._update(model, optimizer, scaler, autocast, lambda: model(x)[mask], gt[mask])
+            return self._update(optimisation, lambda: model(x)[mask], gt[mask])
         # Per-pixel model: gather the hole pixels once, then several updates on shuffles.
         pixels, target = x[:, 3:].permute(0, 2, 3, 1)[mask], gt[mask]
         order = torch.from_numpy(self._flip_rng.permutation(len(target))).to(device)
         losses = [
-            self._update(model, optimizer, scaler, autocast, lambda idx=idx: model.blend(pixels[idx]), target[idx])
+            self._update(optimisation, lambda idx=idx: model.blend(pixels[idx]), target[idx])
             for idx in order.tensor_split(min(self._updates_per_step, len(order)))
         ]
         return float(np.mean(losses))
 
-    def _update(self, model, optimizer, scaler, autocast, predict, target: torch.Tensor) -> float:
-        """One optimiser step on the L2 loss (metres) between ``predict()`` and ``target``."""
-        self._set_lr(optimizer)
-        optimizer.zero_grad(set_to_none=True)
-        with autocast:
-            pred = predict()
-        # L2 in metres on the hole: the benchmark's metric is hole RMSE.
-        return backward_step((pred.float() - target).square().mean(), optimizer, scaler)
+    def _update(self, optimisation: Optimisation, predict: Any, target: torch.Tensor) -> float:
+        """One optimiser update on the L2 loss (metres) between ``predict()`` and ``target``."""
+        def loss() -> torch.Tensor:
+            with optimisation.autocast:
+                pred = predict()
+            # L2 in metres on the hole: the benchmark's metric is hole RMSE.
+            return (pred.float() - target).square().mean()
+
+        return optimisation.update(loss)
 
     # -- prediction ----------------------------------------------------------------------
     def _forward(self, model: PriorUNet | PixelBlendNet, X: np.ndarray, device: torch.device) -> np.ndarray:

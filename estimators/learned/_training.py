@@ -25,13 +25,12 @@ import torch
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset, split_by_drive
 from inpaintenv.report.provenance import environment_info
-from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, TrainingDivergedError
-from inpaintenv.masks import OcclusionProtocol, get_protocol
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
+from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
 from ..base import resolve_seed
-from . import _checkpoint as ckpt
-from ._budget import Budget, StepBar, record_stop
+from ._loop import Constant, Optimisation, RunFolder, Schedule, Shard, fit_loop, new_progress
 from ._limits import usable_threads
 from ._checkpoint import cpu_state
 from .losses import inpainting_loss
@@ -45,7 +44,6 @@ from .nets import UNet
 
 __all__ = [
     "OcclusionFrames",
-    "Shard",
     "TrainingMixin",
     "crop_shape",
     "data_fingerprint",
@@ -100,82 +98,11 @@ def deterministic_torch(enabled: bool = True) -> Iterator[None]:
         torch.use_deterministic_algorithms(before, warn_only=warn_before)
 
 
-class Shard:
-    """How one process takes part in a training run: here, alone (the whole batch).
-
-    The loop of :class:`TrainingMixin` asks it for the frames to visit, the batch to load,
-    the loss to log and the model to step; ``estimators.learned.distributed`` passes a
-    subclass that splits each global batch over the processes of a job and wraps the
-    model in ``DistributedDataParallel`` (as torchvision's reference scripts swap the
-    sampler and wrap the model around one loop).
-    """
-
-    #: This process writes the checkpoints and shows the progress bar.
-    writes: bool = True
-    #: Prefix of the run folder's name: a run's progress is only resumed by the same split.
-    run_prefix: str = ""
-    #: Extra entries of the checkpoint's config.
-    config: dict[str, Any] = {}
-
-    def check_data(self, n_frames: int, batch_size: int) -> None:
-        """Raise ValueError if ``n_frames`` training frames cannot be split as this shard needs."""
-
-    def batches_per_epoch(self, n_frames: int, batch_size: int) -> int:
-        """Optimiser steps in one full epoch."""
-        return math.ceil(n_frames / batch_size)
-
-    def local_batch(self, batch_size: int) -> int:
-        """Frames this process loads per step."""
-        return batch_size
-
-    def order(self, order: np.ndarray, batch_size: int) -> np.ndarray:
-        """The frames this process visits, in step order, out of an epoch's ``order``."""
-        return order
-
-    def wrap(self, model: torch.nn.Module, device: torch.device) -> torch.nn.Module:
-        """The module the training steps call (its parameters are ``model``'s)."""
-        return model
-
-    def mean_loss(self, loss: float, device: torch.device) -> float:
-        """The loss of the whole step (the mean over the processes)."""
-        return loss
-
-    def saved(self, run_dir: Path, step: int) -> None:
-        """Called after each checkpoint this process wrote."""
-
-    def done(self, progress: dict[str, Any]) -> None:
-        """Called once the last step is taken."""
-
-    def agree_stop(self, stop: bool, device: torch.device) -> bool:
-        """Whether the run stops on its time budget now (all processes of a job must agree)."""
-        return stop
-
-
 #: Parameters that change nothing about the trained weights: left out of the run-directory
 #: hash so that e.g. changing ``verbose`` still resumes the same run (and a run stopped by
 #: its ``max_minutes`` continues when fit is called again).
 _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "checkpoint_every", "keep_observed",
                     "max_minutes", "sample_device")
-
-
-def backward_step(loss: torch.Tensor, optimizer: torch.optim.Optimizer, scaler: Any) -> float:
-    """Back-propagate ``loss`` and step ``optimizer`` (through the AMP ``scaler`` if any).
-
-    Raises
-    ------
-    FloatingPointError
-        If the loss is NaN or infinite (the step is not taken).
-    """
-    if not torch.isfinite(loss):
-        raise TrainingDivergedError(f"training loss became {loss.item()} at step; lower lr or disable amp")
-    if scaler is not None:
-        scaler.scale(loss).backward()
-        scaler.step(optimizer)
-        scaler.update()
-    else:
-        loss.backward()
-        optimizer.step()
-    return float(loss.detach())
 
 
 class TrainingMixin:
@@ -216,7 +143,7 @@ class TrainingMixin:
         self.model_params_ = self._model_params()
 
     def _train(self, dataset: DepthDataset, seed: int, device: torch.device, shard: Shard | None = None) -> None:
-        """Fit ``self.model_`` step by step, resuming from and writing checkpoints in the run folder.
+        """Fit ``self.model_`` through :func:`~._loop.fit_loop`, resuming from and writing checkpoints in the run folder.
 
         ``shard`` splits each global batch over the processes of a distributed job
         (``estimators.learned.distributed``); None trains in this process alone.
@@ -229,74 +156,74 @@ class TrainingMixin:
         shard.check_data(len(train_ds), self.batch_size)
         protocol = get_protocol(self.protocol)
         model = self._initial_model(seed)
-        optimizer, autocast, scaler = self._prepare_training(model, device)
-
-        n_batches = shard.batches_per_epoch(len(train_ds), self.batch_size)
-        total = self.epochs * n_batches if self.max_steps is None else min(self.max_steps, self.epochs * n_batches)
-        progress: dict[str, Any] = {
-            "epoch": 0, "batch": 0, "step": 0, "finished": False,
-            "history": {"step_loss": [], "epoch_loss": [], "val_hole_rmse": [], "best_epoch": None},
-        }
-        best_state: dict[str, torch.Tensor] | None = None
-        run_dir = self._run_dir(dataset, seed)
-        if run_dir is not None:
-            run_dir = run_dir.with_name(shard.run_prefix + run_dir.name)
-        self.run_dir_ = run_dir
-        config = {"class": type(self).__name__, "params": self._config_params(), "seed": seed,
-                  "torch_threads": torch.get_num_threads(), **shard.config}
-        if run_dir is not None:
-            resumed = self._resume(run_dir, model, optimizer, device)
+        optimisation = self._prepare_training(model, device)
+        progress = new_progress(val_hole_rmse=[], best_epoch=None)
+        best: dict[str, Any] = {"state": None}
+        folder = self._run_folder(dataset, seed, shard)
+        if folder is not None:
+            resumed = folder.resume(model, optimisation.optimizer)
             if resumed is not None:
-                progress, best_state = resumed
+                progress, best["state"] = resumed
                 self._set_rng_state(progress.pop("rng", None))
                 set_global_rng_state(progress.pop("global_rng", None))
         # Wrapped after the resume: DDP broadcasts the (resumed) weights of rank 0.
         step_model = self._compiled(shard.wrap(model, device))
         data = OcclusionFrames(train_ds, protocol, self.crop, seed, self._augmentation())
-        batches = TrainingBatches(data, shard.local_batch(self.batch_size), self.num_workers, device,
-                                  self._sample_on_device(device))
+        local = shard.local_batch(self.batch_size)
+        batches = TrainingBatches(data, local, self.num_workers, device, self._sample_on_device(device))
+
+        def epoch_batches(epoch: int, done: int) -> Iterator[tuple[torch.Tensor, torch.Tensor]]:
+            step_model.train()
+            yield from batches.epoch(epoch, shard.order(epoch_order(len(data), seed, epoch), self.batch_size)[done * local:])
+
+        def end_epoch(progress: dict[str, Any]) -> bool:
+            if val_ds is None:
+                return False
+            hist = progress["history"]
+            rmse = self._validation_rmse(model, val_ds, protocol, seed, device)
+            hist["val_hole_rmse"].append(rmse)
+            prev = [v for v in hist["val_hole_rmse"][:-1] if not math.isnan(v)]
+            model.train()
+            if math.isnan(rmse) or (prev and rmse >= min(prev)):
+                return False
+            hist["best_epoch"] = progress["epoch"]
+            best["state"] = cpu_state(model, clone=True)
+            return True
 
         def save(*, new_best: bool = False) -> None:
-            if run_dir is None or not shard.writes:
-                return
-            tensors, meta = ckpt.flatten_optimizer_state(optimizer.state_dict())
-            rngs = {"rng": self._rng_state(), "global_rng": global_rng_state()}
-            ckpt.write_run_checkpoint(
-                run_dir, progress["step"], {**config, "fitted": _fitted_summary(progress)},
-                cpu_state(model), {**progress, "optimizer": meta, **rngs}, tensors,
-                best_is_current=new_best,
-            )
-            shard.saved(run_dir, progress["step"])
+            if folder is not None:
+                rngs = {"rng": self._rng_state(), "global_rng": global_rng_state()}
+                folder.save(progress, model, optimisation.optimizer, rngs, new_best=new_best)
 
-        running = None
-        budget = Budget(getattr(self, "max_minutes", None))
-        bar = StepBar(total, progress["step"], budget, disable=not (self.verbose and shard.writes),
-                      desc=type(self).__name__)
-        progress["history"].pop("budget_stop", None)  # a resumed run records its own stop
         try:
-            while not progress["finished"]:
-                stopped, running = self._train_epoch(
-                    model, step_model, optimizer, scaler, autocast, batches, progress, seed, device, bar, running, save,
-                    shard, budget,
-                )
-                if stopped == "budget":
-                    # Mid-epoch, as a checkpoint_every save: fit again resumes from this step.
-                    record_stop(progress, budget, type(self).__name__, self.verbose and shard.writes)
-                    save()
-                    break
-                best_state, new_best = self._end_epoch(model, progress, val_ds, protocol, seed, device, best_state)
-                progress["finished"] = stopped == "steps" or progress["epoch"] >= self.epochs or n_batches == 0
-                save(new_best=new_best)
+            fit_loop(
+                progress, epoch_batches,
+                lambda batch: self._train_step(step_model, optimisation, *batch, device),
+                epochs=self.epochs, steps_per_epoch=shard.batches_per_epoch(len(train_ds), self.batch_size),
+                max_steps=self.max_steps, desc=type(self).__name__, verbose=bool(self.verbose),
+                max_minutes=getattr(self, "max_minutes", None), shard=shard, device=device, end_epoch=end_epoch,
+                save=save, checkpoint_every=self.checkpoint_every,
+            )
         finally:
-            bar.close()
             batches.close()
-        shard.done(progress)
 
-        if best_state is not None:
-            model.load_state_dict(best_state)
+        if best["state"] is not None:
+            model.load_state_dict(best["state"])
         self.model_ = model.to("cpu", memory_format=torch.contiguous_format).eval()
         self.history_ = progress["history"]
         self.n_steps_ = progress["step"]
+
+    def _run_folder(self, dataset: DepthDataset, seed: int, shard: Shard) -> RunFolder | None:
+        """The run folder of this fit (None without ``checkpoint_dir``), named for its shard's split."""
+        run_dir = self._run_dir(dataset, seed)
+        if run_dir is not None:
+            run_dir = run_dir.with_name(shard.run_prefix + run_dir.name)
+        self.run_dir_ = run_dir
+        if run_dir is None:
+            return None
+        config = {"class": type(self).__name__, "params": self._config_params(), "seed": seed,
+                  "torch_threads": torch.get_num_threads(), **shard.config}
+        return RunFolder(run_dir, config, shard)
 
     def _rng_state(self) -> dict[str, Any] | None:
         """As JSON, the state of a random stream that advances step by step (the PriorUNet's
@@ -330,75 +257,26 @@ class TrainingMixin:
             _copy_encoder(self._warm_start_model(), model)
         return model
 
-    def _train_epoch(
-        self, model: torch.nn.Module, step_model: torch.nn.Module, optimizer: Any, scaler: Any, autocast: Any,
-        batches: TrainingBatches,
-        progress: dict[str, Any], seed: int, device: torch.device, bar: Any, running: float | None, save: Any,
-        shard: Shard, budget: Budget | None = None,
-    ) -> tuple[str | None, float | None]:
-        """The optimiser steps of the current epoch from where ``progress`` stands; returns
-        what stopped it early (``"steps"``: ``max_steps``; ``"budget"``: ``max_minutes``,
-        checked after every step; None: the epoch ended) and the running loss on the bar."""
-        epoch = progress["epoch"]
-        batch = shard.local_batch(self.batch_size)
-        order = shard.order(epoch_order(len(batches.data), seed, epoch), self.batch_size)[progress["batch"] * batch:]
-        step_model.train()
-        for gt, hole in batches.epoch(epoch, order):
-            loss = shard.mean_loss(self._train_step(step_model, optimizer, scaler, autocast, gt, hole, device), device)
-            progress["history"]["step_loss"].append(loss)
-            progress["step"] += 1
-            progress["batch"] += 1
-            running = loss if running is None else 0.9 * running + 0.1 * loss
-            bar.update(1)
-            bar.set_postfix(loss=f"{running:.4f}", epoch=epoch)
-            if self.max_steps is not None and progress["step"] >= self.max_steps:
-                return "steps", running
-            if budget is not None and budget.minutes is not None and shard.agree_stop(budget.spent(), device):
-                return "budget", running
-            if self.checkpoint_every and progress["step"] % self.checkpoint_every == 0:
-                save()
-        return None, running
-
-    def _end_epoch(
-        self, model: torch.nn.Module, progress: dict[str, Any], val_ds: DepthDataset | None,
-        protocol: OcclusionProtocol, seed: int, device: torch.device, best_state: dict[str, torch.Tensor] | None,
-    ) -> tuple[dict[str, torch.Tensor] | None, bool]:
-        """Close an epoch (or a run stopped by ``max_steps`` mid-epoch): its mean loss, the
-        validation RMSE and the best weights so far; returns them and whether they are new."""
-        hist = progress["history"]
-        start = sum(1 for _ in hist["epoch_loss"])
-        done_steps = hist["step_loss"][progress.get("epoch_start_step", 0):]
-        hist["epoch_loss"].append(float(np.mean(done_steps)) if done_steps else float("nan"))
-        new_best = False
-        if val_ds is not None:
-            rmse = self._validation_rmse(model, val_ds, protocol, seed, device)
-            hist["val_hole_rmse"].append(rmse)
-            prev = [v for v in hist["val_hole_rmse"][:-1] if not math.isnan(v)]
-            if not math.isnan(rmse) and (not prev or rmse < min(prev)):
-                hist["best_epoch"] = start
-                best_state = cpu_state(model, clone=True)
-                new_best = True
-            model.train()
-        progress["epoch"] += 1
-        progress["batch"] = 0
-        progress["epoch_start_step"] = progress["step"]
-        return best_state, new_best
-
-    def _prepare_training(self, model: torch.nn.Module, device: torch.device) -> tuple[Any, Any, Any]:
-        """Move ``model`` to ``device`` (channels-last if asked) and build the Adam optimizer,
-        the autocast context and the CUDA gradient scaler (None when not needed).
+    def _prepare_training(self, model: torch.nn.Module, device: torch.device) -> Optimisation:
+        """Move ``model`` to ``device`` (channels-last if asked) and build its :class:`~._loop.Optimisation`:
+        Adam, the schedule (:meth:`_schedule`), the autocast context and the CUDA gradient scaler.
 
         Shared by :meth:`_train` and ``estimators.learned.distributed`` so both train alike.
         """
         model.to(device)
         if self.channels_last:
             model.to(memory_format=torch.channels_last)
-        optimizer = torch.optim.Adam(model.parameters(), lr=self.lr, weight_decay=self.weight_decay)
         autocast, needs_scaler = self._autocast(device)
         scaler = torch.amp.GradScaler("cuda") if needs_scaler else None
-        return optimizer, autocast, scaler
+        return Optimisation(model, self.lr, self.weight_decay, self._schedule(), autocast, scaler)
 
-    def _train_step(self, model, optimizer, scaler, autocast, gt, hole, device) -> float:
+    def _schedule(self) -> Schedule:
+        """The learning rate per update (constant: the study's recipe)."""
+        return Constant()
+
+    def _train_step(self, model: torch.nn.Module, optimisation: Optimisation, gt: torch.Tensor, hole: torch.Tensor,
+                    device: torch.device) -> float:
+        """One step on a batch of frames ``gt`` with holes ``hole``: one update of the study's loss."""
         gt = gt.to(device, non_blocking=True)
         hole = hole.to(device, non_blocking=True)
         target = gt / self.max_depth
@@ -407,28 +285,15 @@ class TrainingMixin:
         x = encode_input(observed, hole, scale, self.input_mask)
         if self.channels_last:
             x = x.contiguous(memory_format=torch.channels_last)
-        optimizer.zero_grad(set_to_none=True)
-        with autocast:
-            pred = model(x)[:, 0]
-        # The loss always compares depths divided by max_depth, whatever the input scale.
-        pred = pred.float() * (scale / self.max_depth)
-        loss = inpainting_loss(pred, target, gt > 0, hole, self.hole_weight, self.tv_weight)
-        return backward_step(loss, optimizer, scaler)
 
-    def _resume(self, run_dir: Path, model: UNet, optimizer, device) -> tuple[dict, dict | None] | None:
-        state = ckpt.read_run_state(run_dir, owned=True)  # the run folder is this fit's own
-        if state is None:
-            return None
-        _, weights, progress, optim = ckpt.read_checkpoint(run_dir / state["last"], training=True, owned=True)
-        model.load_state_dict(weights)
-        meta = progress.pop("optimizer")
-        optimizer.load_state_dict(ckpt.unflatten_optimizer_state(optim, meta))
-        for k in ("optimizer_sha256", "weights_sha256"):
-            progress.pop(k, None)
-        best = None
-        if state.get("best"):
-            _, best, _, _ = ckpt.read_checkpoint(run_dir / state["best"], owned=True)
-        return progress, best
+        def loss() -> torch.Tensor:
+            with optimisation.autocast:
+                pred = model(x)[:, 0]
+            # The loss always compares depths divided by max_depth, whatever the input scale.
+            pred = pred.float() * (scale / self.max_depth)
+            return inpainting_loss(pred, target, gt > 0, hole, self.hole_weight, self.tv_weight)
+
+        return optimisation.update(loss)
 
     def _warm_start_model(self) -> UNet:
         ws = self.warm_start
@@ -462,10 +327,6 @@ class TrainingMixin:
             parts.append(frame_metrics(pred, gt, hole, max_depth=self.max_depth, unfilled="zero"))
         table = aggregate({k: np.concatenate([np.atleast_1d(p[k]) for p in parts]) for k in parts[0]})
         return float(table["hole_rmse"])
-
-
-def _fitted_summary(progress: dict[str, Any]) -> dict[str, Any]:
-    return {"n_steps_": progress["step"], "history_": progress["history"]}
 
 
 def _copy_encoder(source: UNet, target: UNet) -> None:

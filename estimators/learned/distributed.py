@@ -52,7 +52,7 @@ from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, StateErro
 from ..base import resolve_seed
 from . import _checkpoint as ckpt  # noqa: F401  (tests watch its writes)
 from ._neural import AutoencoderInpainter, UNetInpainter, _NeuralInpainter
-from ._training import Shard
+from ._loop import Shard
 
 __all__ = ["DistributedShard", "main", "rank_order", "train_distributed"]
 

@@ -130,9 +130,9 @@ def test_crop_trains_on_crops(dataset, monkeypatch):
 
     orig = neural._NeuralInpainter._train_step
 
-    def spy(self, model, opt, scaler, autocast, gt, hole, device):
+    def spy(self, model, optimisation, gt, hole, device):
         seen.append(tuple(gt.shape))
-        return orig(self, model, opt, scaler, autocast, gt, hole, device)
+        return orig(self, model, optimisation, gt, hole, device)
 
     monkeypatch.setattr(neural._NeuralInpainter, "_train_step", spy)
     tiny(crop=(16, 1000), max_steps=1).fit(dataset)
