@@ -34,7 +34,8 @@ def drive_residuals(wrapper: Any, dataset: Any, drives: list[str], frames_per_dr
     """``{drive: (F, r, frame)}``: the wrapper's signals, absolute residuals and frame numbers per drive."""
     from inpaintenv.data import spaced_per_drive
 
-    signals = wrapper._check_params()
+    wrapper._check_params()
+    signals = tuple(wrapper.signals)
     second = wrapper._second_fill(wrapper.spread_method) if "spread" in signals else None
     out = {}
     for drive in drives:

@@ -63,7 +63,12 @@ def test_packages_and_env_work_without_torch(tmp_path):
         import gymnasium as gym
         import numpy as np
         import inpaintenv, estimators, estimators.classical
+        from estimators._persistence import SaveLoadMixin  # the one save/load pair, the learned one's base too
+        from estimators.intervals import ConformalIntervalInpainter, release_intervals
         from inpaintenv.methods.registry import make_method
+
+        saved = release_intervals("scanline").save("cal.json", base="scanline")
+        assert ConformalIntervalInpainter.load(saved).calibration_ == release_intervals("scanline").calibration_
 
         env = gym.make("inpaintenv/SyntheticInpaint-v0", n=2, seed=0, frame_shape=(48, 64))
         obs, info = env.reset(seed=0)

@@ -55,9 +55,7 @@ under a hole protocol the hole cut out of the scan; ``"densify-v1+rect-v1"`` poo
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -68,16 +66,32 @@ from inpaintenv.data.base import DepthDataset, Subset, as_dataset
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.metrics import check_coverage, normal_quantile
 
+from .._constraints import Check, ConstrainedParams, InstanceOf, Integer, Options
 from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, training_drives
 from ._bases import CLASSICAL_FILLS, make_base
 from ._calibration import (balanced_scale, calibration_protocols, exact_quantile, features, residual_quantiles,
                            scale_from, scored_residuals, weighted_quantiles)
-from ._calibration_file import DEFAULT_SIGNALS, N_LEVELS, SIGNALS, WEIGHTINGS, write_calibration
-from ._persistence import calibration_dict, wrapper_from_file
+from ._calibration_file import DEFAULT_SIGNALS, N_LEVELS, SIGNALS, WEIGHTINGS
+from ._persistence import CalibrationFileMixin
 
 __all__ = ["ConformalIntervalInpainter", "SIGNALS", "WEIGHTINGS", "weighted_quantiles"]
 
-class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
+
+def _check_signals(value: Any) -> None:
+    """``signals``: a tuple (or list) of distinct names from :data:`SIGNALS`, possibly empty."""
+    if isinstance(value, str) or not isinstance(value, (tuple, list)):
+        raise InvalidTypeError(f"signals must be a tuple of names from {SIGNALS}, got {value!r}")
+    if any(s not in SIGNALS for s in value) or len(set(value)) != len(value):
+        raise InvalidInputError(f"signals must be distinct names from {SIGNALS}, got {tuple(value)!r}")
+
+
+def _check_predictor(value: Any) -> None:
+    """``estimator``: anything with ``predict(X)`` (a bare predictor is taken as is)."""
+    if not callable(getattr(value, "predict", None)):
+        raise InvalidTypeError(f"estimator must have predict(X), got {type(value).__name__}")
+
+
+class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEstimatorMixin, BaseEstimator):
     """Per-pixel intervals around a fitted inpainter, calibrated on drives it never saw.
 
     Parameters
@@ -119,6 +133,15 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         What it was calibrated on: ``drives``, ``n_frames``, ``n_pixels``, ``coverage``,
         ``protocol``, ``seed``, ``base`` (the base's class), ``signals``, ``weighting``.
 
+    Notes
+    -----
+    ``save(path, base=None)`` writes the calibration, never the base model, as one small
+    JSON file; ``base`` says how ``load(path)`` rebuilds the base (a registered method name
+    such as ``"scanline"`` or ``"pretrained"``, or a model folder; by default the base's
+    class name, and then ``load`` needs ``estimator=``). ``load(path, estimator=None)``
+    reads it around ``estimator``, whose class must be the one calibrated. Both are
+    :class:`estimators._persistence.SaveLoadMixin`'s, the one pair of every estimator.
+
     Examples
     --------
     >>> from inpaintenv.data import KittiDepth                      # doctest: +SKIP
@@ -143,25 +166,16 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         self.weighting = weighting
 
     # -- parameters --------------------------------------------------------------
-    def _check_params(self) -> tuple[str, ...]:
-        check_coverage(self.coverage, "coverage")
-        if isinstance(self.signals, str) or not isinstance(self.signals, (tuple, list)):
-            raise InvalidTypeError(f"signals must be a tuple of names from {SIGNALS}, got {self.signals!r}")
-        bad = [s for s in self.signals if s not in SIGNALS]
-        if bad or len(set(self.signals)) != len(self.signals):
-            raise InvalidInputError(f"signals must be distinct names from {SIGNALS}, got {tuple(self.signals)!r}")
-        if not callable(getattr(self.estimator, "predict", None)):
-            raise InvalidTypeError(f"estimator must have predict(X), got {type(self.estimator).__name__}")
-        if not isinstance(self.spread_method, str):
-            raise InvalidTypeError(f"spread_method must be a registered method name, got {self.spread_method!r}")
-        if self.weighting not in WEIGHTINGS:
-            raise InvalidInputError(f"weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
-        calibration_protocols(self.protocol)
-        for name in ("seed", "max_fit_pixels"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "seed" else 10):
-                raise InvalidInputError(f"{name} must be an integer >= {0 if name == 'seed' else 10}, got {v!r}")
-        return tuple(self.signals)
+    _parameter_constraints: dict[str, list[Any]] = {
+        "coverage": [Check(check_coverage)],  # a number in (0, 1), as every coverage of the package
+        "signals": [Check(_check_signals)],
+        "estimator": [Check(_check_predictor)],
+        "spread_method": [InstanceOf(str, "a registered method name")],
+        "weighting": [Options(*WEIGHTINGS)],
+        "protocol": [Check(calibration_protocols)],  # an unknown name lists the known protocols
+        "seed": [Integer(0)],
+        "max_fit_pixels": [Integer(10)],
+    }
 
     @staticmethod
     def _second_fill(name: str) -> Any:
@@ -196,7 +210,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             Without drive ids, when a calibration drive is one the base was trained on
             (its ``training_drives_``), or when no hole pixel has ground truth.
         """
-        signals = self._check_params()
+        self._check_params()
+        signals = tuple(self.signals)
         if hasattr(self.estimator, "fit"):  # an sklearn estimator must be fitted; a bare predictor is taken as is
             check_is_fitted(self.estimator)
         dataset = self._grouped(X, groups)
@@ -233,7 +248,8 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
             For no folds, a model of another class, a drive a fold model saw or a drive in
             two folds.
         """
-        signals = self._check_params()
+        self._check_params()
+        signals = tuple(self.signals)
         if hasattr(self.estimator, "fit"):
             check_is_fitted(self.estimator)
         if isinstance(folds, (str, bytes)) or not isinstance(folds, Sequence) or not folds:
@@ -454,46 +470,3 @@ class ConformalIntervalInpainter(MetaEstimatorMixin, BaseEstimator):
         high = (pred + half).astype(np.float32)
         low, high = np.minimum(low, pred), np.maximum(high, pred)  # float32 rounding never excludes pred
         return (low[0], high[0]) if single else (low, high)
-
-    # -- persistence -------------------------------------------------------------
-    def to_dict(self, base: str | None = None) -> dict[str, Any]:
-        """The calibration as plain JSON types (see :meth:`save`)."""
-        return calibration_dict(self, base)
-
-    def save(self, path: str | os.PathLike, base: str | None = None) -> Path:
-        """Write the calibration (never the base model) as a small JSON file.
-
-        Parameters
-        ----------
-        path : path-like
-            The ``.json`` file to write (atomically: a reader never sees half a file).
-        base : str, optional
-            How :meth:`load` rebuilds the base without ``estimator=``: a registered
-            method name (``"scanline"``, ``"pretrained"``) or a checkpoint path. By
-            default the base's class name (then ``load`` needs ``estimator=``).
-
-        Returns
-        -------
-        pathlib.Path
-        """
-        return write_calibration(path, self.to_dict(base))
-
-    @classmethod
-    def load(cls, path: str | os.PathLike, estimator: Any = None) -> ConformalIntervalInpainter:
-        """Read a calibration written by :meth:`save` around ``estimator``.
-
-        Parameters
-        ----------
-        path : path-like
-        estimator : fitted inpainter, optional
-            The base; by default rebuilt from the file's ``base`` with
-            its name (a classical method, a shipped release or a model folder). Its class
-            must be the one calibrated.
-
-        Raises
-        ------
-        InvalidInputError
-            Naming the file and the key, for a file that is not such a calibration, or
-            when ``estimator``'s class differs from the one calibrated.
-        """
-        return wrapper_from_file(cls, path, estimator)

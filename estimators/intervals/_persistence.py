@@ -1,13 +1,16 @@
-"""Saving and loading a :class:`~estimators.intervals.ConformalIntervalInpainter`'s calibration.
+"""The calibration-file format of ``save`` / ``load`` of a :class:`~estimators.intervals.ConformalIntervalInpainter`.
 
-The file itself (its format and every field's check) is :mod:`._calibration_file`'s, read
-and written through :mod:`inpaintenv.files`; this module maps it to and from the wrapper.
+``save`` / ``load`` themselves are :class:`estimators._persistence.SaveLoadMixin`'s (the one
+pair of every estimator); :class:`CalibrationFileMixin` is their interval format: one small
+JSON file holding the calibration, never the base model (``save(path, base=...)`` records
+how ``load(path)`` rebuilds the base; ``load(path, estimator=...)`` takes it instead). The
+file itself (its format and every field's check) is :mod:`._calibration_file`'s, read and
+written through :mod:`inpaintenv.files`; this module maps it to and from the wrapper.
 """
 
 from __future__ import annotations
 
 import copy
-import os
 from pathlib import Path
 from typing import Any
 
@@ -16,10 +19,11 @@ from sklearn.utils.validation import check_is_fitted
 
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
+from .._persistence import SaveLoadMixin
 from ._bases import make_base
-from ._calibration_file import FORMAT, read_calibration
+from ._calibration_file import FORMAT, read_calibration, write_calibration
 
-__all__ = ["calibration_dict", "wrapper_from_file"]
+__all__ = ["CalibrationFileMixin", "calibration_dict", "wrapper_from_calibration"]
 
 
 def calibration_dict(wrapper: Any, base: str | None = None) -> dict[str, Any]:
@@ -43,10 +47,9 @@ def calibration_dict(wrapper: Any, base: str | None = None) -> dict[str, Any]:
     }
 
 
-def wrapper_from_file(cls: type, path: str | os.PathLike, estimator: Any = None) -> Any:
-    """A fitted ``cls`` around ``estimator`` (rebuilt from the file's ``base`` by default) from ``path``."""
-    path = Path(path)
-    data = read_calibration(path)  # every field checked; one error naming the file and the field
+def wrapper_from_calibration(cls: type, data: dict[str, Any], path: Any, estimator: Any = None) -> Any:
+    """A fitted ``cls`` around ``estimator`` (rebuilt from ``data["base"]`` by default) from the
+    checked calibration ``data`` of the file ``path``."""
     if estimator is None:
         estimator = make_base(data["base"])
     if type(estimator).__name__ != data["base_class"]:
@@ -68,3 +71,30 @@ def wrapper_from_file(cls: type, path: str | os.PathLike, estimator: Any = None)
     out.calibration_ = copy.deepcopy(data["calibration"])
     out.calibration_.setdefault("weighting", out.weighting)
     return out
+
+
+class CalibrationFileMixin(SaveLoadMixin):
+    """The hooks of :class:`~estimators._persistence.SaveLoadMixin` for an interval calibration:
+    ``save(path, base=None)`` writes the calibration JSON, ``load(path, estimator=None)`` reads it."""
+
+    _save_options = ("base",)
+    _load_options = ("estimator",)
+
+    def to_dict(self, base: str | None = None) -> dict[str, Any]:
+        """The calibration as plain JSON types (what :meth:`save` writes; ``base`` as there)."""
+        return calibration_dict(self, base)
+
+    def _save_state(self, base: str | None = None) -> tuple[dict[str, Any], None]:
+        return self.to_dict(base), None
+
+    @classmethod
+    def _write_state(cls, path: Path, config: dict[str, Any], payload: None) -> Path:
+        return write_calibration(path, config)
+
+    @classmethod
+    def _read_state(cls, path: Path) -> tuple[dict[str, Any], None, Path]:
+        return read_calibration(path), None, path  # every field checked; one error naming the file and the field
+
+    @classmethod
+    def _from_state(cls, config: dict[str, Any], payload: None, where: Any, estimator: Any = None) -> Any:
+        return wrapper_from_calibration(cls, config, where, estimator)

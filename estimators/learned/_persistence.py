@@ -1,8 +1,9 @@
-"""``save`` / ``load`` of every learned estimator and its registration: one mixin, per-class config hooks.
+"""The learned format of ``save`` / ``load`` and the class registration: per-class config hooks.
 
-Like segmentation_models_pytorch's hub mixin, a saved model is a folder whose
-``config.json`` records its class (see :mod:`~estimators.learned._checkpoint` for the
-files). Each family says only what is its own:
+``save`` / ``load`` themselves are :class:`estimators._persistence.SaveLoadMixin`'s (the one
+pair of every estimator); :class:`PersistenceMixin` is their learned format: a saved model
+is a folder whose ``config.json`` records its class (see
+:mod:`~estimators.learned._checkpoint` for the files). Each family says only what is its own:
 
 ``_config()``
     ``(config, weights)``: the JSON-able entries of its config (``params`` and whatever
@@ -22,20 +23,23 @@ registered by its name (:data:`~estimators.learned._checkpoint.CLASSES`) when it
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import torch
 from sklearn.exceptions import NotFittedError
 
+from .._persistence import SaveLoadMixin
 from . import _checkpoint as ckpt
 
 __all__ = ["CheckpointMixin", "PersistenceMixin"]
 
 
-class PersistenceMixin:
-    """``save``, ``load`` and ``from_config`` on top of two per-class hooks."""
+class PersistenceMixin(SaveLoadMixin):
+    """The learned format of ``save`` / ``load`` (a checkpoint folder), ``from_config`` and the
+    class registration, on top of two per-class hooks."""
+
+    _load_error = ckpt.CheckpointError
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -60,34 +64,9 @@ class PersistenceMixin:
         sklearn.exceptions.NotFittedError
             The estimator is not fitted (a ``ValueError``).
         """
-        if not (getattr(self, "is_fitted_", False) or hasattr(self, "model_")):
-            raise NotFittedError(f"this {type(self).__name__} is not fitted; call fit first (nothing to save)")
+        self._require_saveable()
         config, weights = self._config()
         return {"class": type(self).__name__, **config, **ckpt.provenance(self)}, weights
-
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write the fitted model to the folder ``path`` (``model.safetensors`` + ``config.json``).
-
-        Returns
-        -------
-        pathlib.Path
-            The folder; read it back with :meth:`load` or :func:`estimators.learned.load`.
-        """
-        config, weights = self.to_config()
-        return ckpt.write_checkpoint(path, config, weights)
-
-    @classmethod
-    def load(cls, path: str | os.PathLike) -> Any:
-        """Load a model written by ``save`` (or the best, else last, model of a training run folder).
-
-        Raises
-        ------
-        CheckpointError
-            Missing, truncated, corrupt or tampered-with files, or a checkpoint of a class
-            that is not this one (or a subclass).
-        """
-        config, weights, where = ckpt.read_model(path)
-        return cls.from_config(config, weights, where)
 
     @classmethod
     def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
@@ -99,10 +78,31 @@ class PersistenceMixin:
         CheckpointError
             A class this version does not know, or one that is not ``cls``.
         """
-        klass = ckpt.recorded_class(config, where)
-        if not issubclass(klass, cls):
-            raise ckpt.CheckpointError(f"{where} holds a {klass.__name__!r}, not a {cls.__name__}")
-        return ckpt.from_checked(klass, config, weights, where)
+        return cls._loaded_class(config, where)._from_state(config, weights, where)
+
+    # -- the hooks of SaveLoadMixin (save / load): a checkpoint folder ---------------------
+    def _is_saveable(self) -> bool:
+        return bool(getattr(self, "is_fitted_", False) or hasattr(self, "model_"))
+
+    def _save_state(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+        return self.to_config()
+
+    @classmethod
+    def _write_state(cls, path: Path, config: dict[str, Any], weights: dict[str, torch.Tensor]) -> Path:
+        return ckpt.write_checkpoint(path, config, weights)
+
+    @classmethod
+    def _read_state(cls, path: Path) -> tuple[dict[str, Any], dict[str, torch.Tensor], Path]:
+        # A model folder, or a training run folder's best (else last) checkpoint.
+        return ckpt.read_model(path)
+
+    @classmethod
+    def _state_class(cls, config: dict[str, Any], where: Any) -> type:
+        return ckpt.recorded_class(config, where)
+
+    @classmethod
+    def _from_state(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
+        return ckpt.from_checked(cls, config, weights, where)
 
 
 class CheckpointMixin(PersistenceMixin):

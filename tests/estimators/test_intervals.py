@@ -199,10 +199,23 @@ def test_spread_against_the_same_fill_is_refused():
 @pytest.mark.parametrize("params, match", [
     ({"coverage": 1.0}, "coverage"), ({"signals": ("width",)}, "signals"), ({"signals": "border"}, "signals"),
     ({"seed": -1}, "seed"), ({"protocol": "nope"}, "nope"), ({"weighting": "drive"}, "weighting"),
+    ({"coverage": True}, r"^coverage must be a number in \(0, 1\), got True$"),
+    ({"signals": ("border", "border")}, "^signals must be distinct names"),
+    ({"estimator": object()}, r"^estimator must have predict\(X\), got object$"),
+    ({"spread_method": 3}, "^spread_method must be a registered method name, got 3$"),
+    ({"seed": 1.0}, "^seed must be an integer >= 0, got 1.0$"),
+    ({"max_fit_pixels": 9}, "^max_fit_pixels must be an integer >= 10, got 9$"),
+    ({"weighting": "drive"}, r"^weighting must be one of \('frame', 'pixel'\), got 'drive'$"),
 ])
 def test_bad_parameters_named(params, match):
+    params = {"estimator": FillTen(), **params}
     with pytest.raises((InvalidInputError, InvalidTypeError, KeyError), match=match):
-        ConformalIntervalInpainter(FillTen(), **params).fit(iid_frames(2, seed=0), groups=["a", "b"])
+        ConformalIntervalInpainter(**params).fit(iid_frames(2, seed=0), groups=["a", "b"])
+
+
+def test_parameter_table_lists_every_parameter():
+    table = ConformalIntervalInpainter._parameter_constraints
+    assert set(table) == set(ConformalIntervalInpainter(FillTen()).get_params(deep=False))
 
 
 def test_unfitted_wrapper_refuses_intervals():
