@@ -196,13 +196,15 @@ _FILLS = {
 AVAILABLE_CANDIDATES: tuple[str, ...] = tuple(_FILLS)
 
 
-def check_candidates(names: Sequence[str]) -> tuple[str, ...]:
+def check_candidates(names: Sequence[str], name: str = "candidates") -> tuple[str, ...]:
     """``names`` as a tuple, after checking it is a non-empty sequence of known fills.
 
     Parameters
     ----------
     names : sequence of str (a tuple or a list; a plain string is refused)
         Candidate fills, from :data:`AVAILABLE_CANDIDATES`.
+    name : str, default "candidates"
+        The parameter the error names.
 
     Returns
     -------
@@ -216,7 +218,7 @@ def check_candidates(names: Sequence[str]) -> tuple[str, ...]:
     if isinstance(names, str) or not isinstance(names, Sequence) or not names or any(
         n not in _FILLS for n in names
     ):
-        raise InvalidInputError(f"candidates must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
+        raise InvalidInputError(f"{name} must be a non-empty tuple from {AVAILABLE_CANDIDATES}, got {names!r}")
     return tuple(names)
 
 

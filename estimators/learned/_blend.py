@@ -36,7 +36,7 @@ from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import get_protocol
 from inpaintenv.progress import FrameProgress
 
-from ..base import BaseInpainter, resolve_seed
+from ..base import BaseInpainter, check_n_jobs, check_random_state, resolve_seed
 from ..candidates import (
     ENDPOINT_CHANNELS,
     GAP_CHANNELS,
@@ -265,12 +265,11 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         "tta": [Bool()],
         "num_threads": [Integer(1, limit=MAX_THREADS), None],
         "predict_threads": [Integer(1, limit=MAX_THREADS), None],
+        "n_jobs": [Check(check_n_jobs), None],  # joblib's meaning, as the classical methods take it
+        "random_state": [Check(check_random_state)],
         "keep_observed": [Bool()],
         "verbose": [Bool()],
     }
-
-    def _check_param_relations(self) -> None:
-        self._check_n_jobs()  # joblib's meaning (estimators.base), shared with the classical methods
 
     def _model_params(self) -> dict[str, Any]:
         """The parameters the weights depend on."""

@@ -34,10 +34,10 @@ from inpaintenv.data.base import DepthDataset
 from inpaintenv.report.provenance import environment_info
 from inpaintenv.exceptions import InvalidInputError
 
-from ..base import BaseInpainter, check_random_state
+from ..base import BaseInpainter, check_n_jobs, check_random_state
 from . import _checkpoint as ckpt
 from . import _blend, _context_blend, _neural, _prior  # noqa: F401  (each registers the classes a member may be)
-from .._constraints import Bool, Check, ConstrainedParams, Integer
+from .._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer
 from ._limits import MAX_THREADS
 from ._output import bound_output
 from ._persistence import PersistenceMixin
@@ -152,11 +152,14 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         "verbose": [Bool(), None],
         "predict_threads": [Integer(1, limit=MAX_THREADS), None],
         "keep_observed": [Bool()],
+        # The members and their weights are checked one by one in _check_param_relations.
+        "estimators": [InstanceOf((list, tuple), "a non-empty list of (name, estimator) pairs")],
+        "weights": [InstanceOf((list, tuple, np.ndarray), "a list of numbers, one per member"), None],
+        "n_jobs": [Check(check_n_jobs), None],
     }
 
     def _check_param_relations(self) -> None:
         """Check the members, the weights and, with the ensemble's shared parameters applied, each member's own."""
-        self._check_n_jobs()
         members = self._check_members()
         self._member_weights(len(members))
         for _, est in members:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import os
 from typing import Any
 
 import numpy as np
@@ -44,6 +45,22 @@ _MAX_DEPTH_RANGE = (0.1, 1e5)
 MAX_CHANNELS = 2048
 
 
+_DEVICES = "'auto', 'cpu', 'cuda', 'cuda:N' or 'mps'"
+
+
+def _check_device_type(value: Any) -> None:
+    """Accept a device name or ``torch.device``; anything else is one ``TypeError``."""
+    if not isinstance(value, (str, torch.device)):
+        raise InvalidTypeError(f"device must be one of {_DEVICES}, got {value!r}")
+
+
+def _check_warm_start(value: Any) -> None:
+    """Accept a neural inpainter (its encoder warm-starts the fit); anything else is one error."""
+    if not isinstance(value, NeuralParamsMixin):
+        raise InvalidTypeError("warm_start must be None, a bool, a path to a saved model or a neural inpainter, "
+                               f"got {type(value).__name__}")
+
+
 class NeuralParamsMixin(ConstrainedParams):
     """Checks and interprets the parameters of a neural inpainter (documented on
     :class:`estimators.learned._neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
@@ -74,6 +91,11 @@ class NeuralParamsMixin(ConstrainedParams):
         "num_workers": [Integer(0)],
         "random_state": [Check(check_random_state)],
         "checkpoint_every": [Integer(1), None],
+        "checkpoint_dir": [InstanceOf((str, os.PathLike), "a folder path"), None],
+        # Whether the device exists is checked where it is used (_device).
+        "device": [Check(_check_device_type)],
+        "warm_start": [Bool(), InstanceOf((str, os.PathLike), "a path to a saved model"), Check(_check_warm_start),
+                       None],
         "keep_observed": [Bool()],
         "verbose": [Bool()],
     }
@@ -151,7 +173,7 @@ class NeuralParamsMixin(ConstrainedParams):
         where available. Other torch device types ("meta", "xla", ...) would only fail
         later, deep inside autocast or a kernel.
         """
-        choices = "'auto', 'cpu', 'cuda', 'cuda:N' or 'mps'"
+        choices = _DEVICES
         if self.device == "auto":
             return torch.device("cuda" if torch.cuda.is_available() else "cpu")
         if not isinstance(self.device, (str, torch.device)):

@@ -111,7 +111,7 @@ class ScanBlendInpainter(BlendInpainter):
 
     _parameter_constraints: dict[str, list[Any]] = {
         **BlendInpainter._parameter_constraints,
-        "near_fills": [Check(check_candidates)],
+        "near_fills": [Check(lambda names: check_candidates(names, "near_fills"))],
         "near_distance": [Real(0)],
     }
 

@@ -22,26 +22,15 @@ SUBPACKAGES = ("estimators.classical", "estimators.learned", "estimators.interva
 
 #: Classes left out, and why: each must still have no table (checked below).
 NO_TABLE_YET: dict[str, str] = {}
-#: Parameters each learned class's table does not list yet (estimators/learned/ is being
-#: refactored; a fixed table turns its strict xfail into a failure: drop the entry then).
+#: Parameters a class's table does not list yet (a fixed table turns its strict xfail into a
+#: failure: drop the entry then).
 TABLE_GAPS: dict[str, frozenset[str]] = {
-    "AutoencoderInpainter": frozenset({"checkpoint_dir", "device", "warm_start"}),
-    "BlendInpainter": frozenset({"n_jobs", "random_state"}),
-    "ContextBlendInpainter": frozenset({"n_jobs", "random_state"}),
     "InputRoutedInpainter": frozenset({"input", "map_method", "map_name", "scan_method", "scan_name", "threshold"}),
-    "MeanEnsembleInpainter": frozenset({"estimators", "n_jobs", "weights"}),
-    "PriorUNetInpainter": frozenset({"checkpoint_dir", "device", "warm_start"}),
-    "ScanBlendInpainter": frozenset({"n_jobs", "random_state"}),
-    "UNetInpainter": frozenset({"checkpoint_dir", "device", "warm_start"}),
 }
 _NOT_CHECKED = "a wrong type passes _check_params (the parameter is not in the table)"
 #: (class, parameter) whose wrong type is not yet one error naming it, and why.
 UNCHECKED: dict[tuple[str, str], str] = {
-    **{(cls, p): _NOT_CHECKED for cls in ("AutoencoderInpainter", "PriorUNetInpainter", "UNetInpainter")
-       for p in ("checkpoint_dir", "device", "warm_start")},
-    **{(cls, "random_state"): _NOT_CHECKED for cls in ("BlendInpainter", "ContextBlendInpainter", "ScanBlendInpainter")},
     **{("InputRoutedInpainter", p): _NOT_CHECKED for p in ("map_method", "map_name", "scan_method", "scan_name")},
-    ("ScanBlendInpainter", "near_fills"): "its check (check_candidates) names candidates, not near_fills",
 }
 
 def _public_classes() -> dict[str, type]:
