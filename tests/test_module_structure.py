@@ -19,7 +19,8 @@ function do more) is over :data:`MAX_FUNCTION_LINES` lines, unless a comment on 
 above the ``def`` (or its decorators) says why: ``# long function: <reason>``.
 
 Layout: the top of ``inpaintenv/`` holds at most :data:`MAX_LOOSE_MODULES` modules; the
-rest live in packages named after their job.
+rest live in packages named after their job; likewise the top of ``tests/`` holds at most
+:data:`MAX_LOOSE_TEST_MODULES` test modules.
 """
 
 from __future__ import annotations
@@ -36,6 +37,9 @@ SIZED = (*PACKAGES, "benchmarks", "experiments")
 MAX_LINES = 500
 MAX_FUNCTION_LINES = 100
 MAX_LOOSE_MODULES = 6
+#: Test modules loose at the top of ``tests/``: the cross-cutting ones; the rest sit in
+#: folders that mirror the package or job they test.
+MAX_LOOSE_TEST_MODULES = 12
 #: The comment that once let a module exceed MAX_LINES; spelled in two parts so that this
 #: file does not hold it.
 OPT_OUT = "# long " + "module:"
@@ -309,6 +313,13 @@ def test_inpaintenv_root_shows_its_rooms():
     assert len(loose) <= MAX_LOOSE_MODULES, (
         f"{len(loose)} modules loose at the top of inpaintenv/ (at most {MAX_LOOSE_MODULES}; group them into "
         f"packages by job): {loose}")
+
+
+def test_tests_root_holds_only_the_cross_cutting_tests():
+    loose = sorted(p.name for p in (ROOT / "tests").glob("test_*.py"))
+    assert len(loose) <= MAX_LOOSE_TEST_MODULES, (
+        f"{len(loose)} test modules loose at the top of tests/ (at most {MAX_LOOSE_TEST_MODULES}; move the ones "
+        f"that test one package or job into the folder that mirrors it): {loose}")
 
 
 def test_test_modules_have_distinct_names():

@@ -14,7 +14,7 @@ A card marks where a release family's table goes with two HTML comments::
 The table is rendered from ``estimators/pretrained/<name>.json`` (class, every parameter,
 trained steps, seed, weights checksum) and the header of ``<name>.safetensors`` (tensor
 shapes, so the parameter count needs no torch), so a card cannot drift from the weights
-it describes: ``tests/test_model_cards.py`` regenerates every table and compares.
+it describes: ``tests/docs/test_model_cards.py`` regenerates every table and compares.
 """
 
 from __future__ import annotations

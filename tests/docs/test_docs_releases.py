@@ -18,7 +18,7 @@ from inpaintenv.methods.registry import (
     resolve_class,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DOCS = ["README.md", "CHANGELOG.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))]
 #: A release name as the docs write it: kitti-<family>-v<N>.
 RELEASE = re.compile(r"\bkitti-[a-z]+-v\d+\b")
