@@ -236,7 +236,7 @@ class RunFolder:
             _, best, _, _ = ckpt.read_checkpoint(self.path / state["best"], owned=True)
         return progress, best
 
-    def save(self, progress: dict[str, Any], model: torch.nn.Module, optimizer: torch.optim.Optimizer,
+    def write(self, progress: dict[str, Any], model: torch.nn.Module, optimizer: torch.optim.Optimizer,
              rngs: dict[str, Any], *, new_best: bool = False) -> None:
         """Write a checkpoint of where ``progress`` stands (``rngs``: the random streams to continue)."""
         if not self.shard.writes:
@@ -262,7 +262,7 @@ def fit_loop(
     shard: Shard | None = None,
     device: torch.device | None = None,
     end_epoch: Callable[[dict[str, Any]], bool] | None = None,
-    save: Callable[..., None] | None = None,
+    checkpoint: Callable[..., None] | None = None,
     checkpoint_every: int | None = None,
 ) -> dict[str, Any]:
     """Take the steps of a run from where ``progress`` stands until it is finished or its time is spent.
@@ -287,8 +287,8 @@ def fit_loop(
         This process's part of a multi-process run (default: alone).
     end_epoch : callable, optional
         Called at each epoch's end (validation); returns whether the weights are the best so far.
-    save : callable, optional
-        ``save(new_best=...)`` writes a checkpoint: after every epoch, every
+    checkpoint : callable, optional
+        ``checkpoint(new_best=...)`` writes a checkpoint: after every epoch, every
         ``checkpoint_every`` steps and at a budget stop.
     """
     shard = shard or Shard()
@@ -296,7 +296,7 @@ def fit_loop(
     bar = StepBar(epochs * steps_per_epoch if max_steps is None else min(max_steps, epochs * steps_per_epoch),
                   progress["step"], budget, disable=not (verbose and shard.writes), desc=desc)
     progress["history"].pop("budget_stop", None)  # a resumed run records its own stop
-    write = save or (lambda **_: None)
+    write = checkpoint or (lambda **_: None)
     running: float | None = None
     try:
         while not progress["finished"]:

@@ -190,10 +190,10 @@ class TrainingMixin:
             best["state"] = cpu_state(model, clone=True)
             return True
 
-        def save(*, new_best: bool = False) -> None:
+        def checkpoint(*, new_best: bool = False) -> None:
             if folder is not None:
                 rngs = {"rng": self._rng_state(), "global_rng": global_rng_state()}
-                folder.save(progress, model, optimisation.optimizer, rngs, new_best=new_best)
+                folder.write(progress, model, optimisation.optimizer, rngs, new_best=new_best)
 
         try:
             fit_loop(
@@ -202,7 +202,7 @@ class TrainingMixin:
                 epochs=self.epochs, steps_per_epoch=shard.batches_per_epoch(len(train_ds), self.batch_size),
                 max_steps=self.max_steps, desc=type(self).__name__, verbose=bool(self.verbose),
                 max_minutes=getattr(self, "max_minutes", None), shard=shard, device=device, end_epoch=end_epoch,
-                save=save, checkpoint_every=self.checkpoint_every,
+                checkpoint=checkpoint, checkpoint_every=self.checkpoint_every,
             )
         finally:
             batches.close()
