@@ -53,10 +53,25 @@ def check_beats_every_classical_method(release: Any, name: str, held_out: Any, s
     assert learned < classical[best], f"{name} {learned:.2f} m vs {best} {classical[best]:.2f} m"
 
 
-def class_in_fresh_process(method: str) -> str:
-    """The class name a fresh interpreter (as the CLI is) builds for registry name ``method``."""
-    code = f"from inpaintenv.methods.registry import make_method; print(type(make_method({method!r})).__name__)"
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+def classes_in_fresh_processes(methods: list[str]) -> dict[str, str]:
+    """The class name a fresh interpreter (as the CLI is) builds for each registry name: one
+    interpreter per name, all started at once (each pays Python's and torch's start alone)."""
+    code = ("import sys; from inpaintenv.methods.registry import make_method; "
+            "print(type(make_method(sys.argv[1])).__name__)")
+    procs = {m: subprocess.Popen([sys.executable, "-c", code, m], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 text=True) for m in methods}
+    try:
+        classes = {}
+        for method, proc in procs.items():
+            out, err = proc.communicate(timeout=600)
+            assert proc.returncode == 0, f"{method}: {err}"
+            classes[method] = out.strip()
+        return classes
+    finally:
+        for proc in procs.values():
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
 
 
 def check_shipped_interval(wrapped: Any, x: np.ndarray, pred: np.ndarray) -> None:

@@ -22,6 +22,7 @@ name                   what it is
                        :mod:`inpaintenv.methods.learned`, torch-free)
 ``load_default``       the default method ``pretrained``, routed by input kind
 ``InputRoutedInpainter``  a map to one method, a single scan to another
+``OnFirstUse``         a route's method made when the route first fills a frame
 =====================  ===============================================================
 
 Every class saves and loads through one mixin (``_persistence``: ``save``, ``load``,
@@ -48,7 +49,7 @@ from inpaintenv.methods.learned import require_learned
 _EXPORTS: dict[str, str] = {
     "UNetInpainter": "_neural", "AutoencoderInpainter": "_neural", "PriorUNetInpainter": "_prior",
     "BlendInpainter": "_blend", "ContextBlendInpainter": "_context_blend", "MeanEnsembleInpainter": "_ensemble",
-    "InputRoutedInpainter": "_routed", "ScanBlendInpainter": "_scan_blend",
+    "InputRoutedInpainter": "_routed", "OnFirstUse": "_routed", "ScanBlendInpainter": "_scan_blend",
     "load": "_load", "load_release": "_releases", "load_default": "_releases"
 }
 

@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT
+from inpaintenv.exceptions import UnknownNameError
+from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT, shipped
 
 from . import _checkpoint as ckpt
 from ._load import load
@@ -39,12 +40,24 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
     -------
     InputRoutedInpainter
         Its ``routed_to_`` names the method that filled each frame of the last ``predict``.
-    """
-    from ._routed import InputRoutedInpainter
+        Each release is loaded when its route first fills a frame (a run on scans never
+        loads the map release); with ``overrides`` the map release is loaded at once, so a
+        bad one is refused here.
 
-    return InputRoutedInpainter(map_method=load_release(DEFAULT_RELEASE, **overrides),
-                                scan_method=load_release(SCAN_DEFAULT), input=input, scan_name=SCAN_DEFAULT,
-                                map_name=DEFAULT_RELEASE)
+    Raises
+    ------
+    KeyError
+        A default release is not shipped (found here, not at the first frame).
+    """
+    from ._routed import InputRoutedInpainter, OnFirstUse
+
+    releases = shipped()
+    for name in (DEFAULT_RELEASE, SCAN_DEFAULT):
+        if name not in releases:
+            raise UnknownNameError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
+    map_method = load_release(DEFAULT_RELEASE, **overrides) if overrides else OnFirstUse(load_release, DEFAULT_RELEASE)
+    return InputRoutedInpainter(map_method=map_method, scan_method=OnFirstUse(load_release, SCAN_DEFAULT), input=input,
+                                scan_name=SCAN_DEFAULT, map_name=DEFAULT_RELEASE)
 
 
 def load_release(name: str = DEFAULT_RELEASE, **overrides: Any) -> Any:

@@ -9,11 +9,16 @@ each frame by its kind: given as ``input``, or told from its measured density.
 >>> from estimators.learned import InputRoutedInpainter                   # doctest: +SKIP
 >>> est = InputRoutedInpainter(map_method=load_release(), scan_method=HarmonicInpainter())
 >>> est.choose(scan_with_nan)                                            # "scan"
+
+A route may be given as :class:`OnFirstUse`: its method is made when the route first fills a
+frame, so ``pretrained`` loads the map release only for a map and the scan release only for a scan.
 """
 
 from __future__ import annotations
 
 import inspect
+import threading
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -22,7 +27,7 @@ from inpaintenv.exceptions import InvalidInputError
 
 from ..base import BaseInpainter
 
-__all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "InputRoutedInpainter", "measured_density"]
+__all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "InputRoutedInpainter", "OnFirstUse", "measured_density"]
 
 #: Measured share of the rows a frame's measurements span at or below which it is a scan.
 #: On the KITTI slice (scripts: experiments/scan_release.py --density) single scans span
@@ -30,6 +35,11 @@ __all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "InputRoutedInpainter", "measured_de
 SCAN_DENSITY = 0.10
 #: What ``input`` may say: decide per frame, or every frame is of one kind.
 INPUT_CHOICES = ("auto", "scan", "map")
+#: The routes, in the order a batch is filled.
+ROUTES = ("scan", "map")
+# One lock for every router: a module's lock is never pickled or copied with an estimator, and
+# making a route (loading a release) is rare enough that routers need not make theirs in parallel.
+_MAKING = threading.Lock()
 
 
 def measured_density(x: np.ndarray) -> float:
@@ -46,15 +56,57 @@ def measured_density(x: np.ndarray) -> float:
     return float(measured[rows[0] : rows[-1] + 1].mean())
 
 
+class OnFirstUse:
+    """A route's method, made by ``factory(*args, **kwargs)`` when the route first fills a frame.
+
+    Picklable and copyable when ``factory`` is (a module-level function): a router that was
+    never used pickles without any method in it.
+
+    Parameters
+    ----------
+    factory : callable
+        Returns the fitted method (e.g. :func:`~estimators.learned.load_release`).
+    *args, **kwargs
+        Its arguments.
+    """
+
+    def __init__(self, factory: Callable[..., Any], *args: Any, **kwargs: Any):
+        self.factory = factory
+        self.args = args
+        self.kwargs = kwargs
+
+    def make(self) -> Any:
+        """The method: ``factory(*args, **kwargs)``, made anew at each call."""
+        return self.factory(*self.args, **self.kwargs)
+
+    def __repr__(self) -> str:
+        given = [repr(a) for a in self.args] + [f"{k}={v!r}" for k, v in self.kwargs.items()]
+        return f"OnFirstUse({', '.join([getattr(self.factory, '__name__', repr(self.factory)), *given])})"
+
+
+def _route_attribute(kind: str) -> property:
+    """``<kind>_method``: set, the route as given; read, its method (made now if given as :class:`OnFirstUse`)."""
+
+    def read(self: InputRoutedInpainter) -> Any:
+        return self._route(kind)
+
+    def write(self: InputRoutedInpainter, value: Any) -> None:
+        self.__dict__[f"_{kind}_given"] = value
+        self.__dict__.pop(f"_{kind}_made", None)  # a route set anew is made anew
+
+    return property(read, write, doc=f"The method that fills a {kind} (made on first use if given as OnFirstUse).")
+
+
 class InputRoutedInpainter(BaseInpainter):
     """Fill each frame with ``scan_method`` if it is a single LiDAR scan, else ``map_method``.
 
     Parameters
     ----------
-    map_method : estimator
-        Fills a ground-truth map with holes (a fitted inpainter).
-    scan_method : estimator
-        Fills a single scan (every unmeasured pixel NaN).
+    map_method : estimator or OnFirstUse
+        Fills a ground-truth map with holes (a fitted inpainter); an :class:`OnFirstUse` is
+        made when a map is first filled (reading ``map_method`` makes it too).
+    scan_method : estimator or OnFirstUse
+        Fills a single scan (every unmeasured pixel NaN); likewise.
     input : {"auto", "scan", "map"}, default "auto"
         ``"auto"``: each frame's kind from its :func:`measured_density` (at most
         ``threshold``: a scan); otherwise every frame is of that kind.
@@ -70,6 +122,8 @@ class InputRoutedInpainter(BaseInpainter):
     """
 
     _stateless = True  # its members come fitted; fit trains nothing
+    map_method = _route_attribute("map")
+    scan_method = _route_attribute("scan")
 
     def __init__(self, *, map_method: Any, scan_method: Any, input: str = "auto", threshold: float = SCAN_DENSITY,
                  scan_name: str = "scan", map_name: str = "map"):
@@ -79,6 +133,48 @@ class InputRoutedInpainter(BaseInpainter):
         self.threshold = threshold
         self.scan_name = scan_name
         self.map_name = map_name
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The constructor's parameters, each route as given (an :class:`OnFirstUse` stays one).
+
+        Parameters
+        ----------
+        deep : bool, default True
+            Also each route's own parameters as ``map_method__<name>``: the routes are made
+            for it, and given as made (so ``set_params(map_method__tta=...)`` sets the method).
+
+        Returns
+        -------
+        dict
+            Parameter names mapped to their values.
+        """
+        routes = [f"{kind}_method" for kind in ROUTES]
+        params = {name: getattr(self, name) for name in self._get_param_names() if name not in routes}
+        for kind in ROUTES:
+            route = self._route(kind) if deep else self.__dict__[f"_{kind}_given"]
+            params[f"{kind}_method"] = route
+            if deep and hasattr(route, "get_params") and not isinstance(route, type):
+                params.update((f"{kind}_method__{k}", v) for k, v in route.get_params().items())
+        return params
+
+    def _route(self, kind: str) -> Any:
+        """The method of route ``kind``: as given, or made from its :class:`OnFirstUse` once (under a lock,
+        so threads sharing the router make it once)."""
+        given, made = self.__dict__[f"_{kind}_given"], f"_{kind}_made"
+        if not isinstance(given, OnFirstUse):
+            return given
+        if made not in self.__dict__:
+            with _MAKING:
+                if made not in self.__dict__:  # another thread may have made it meanwhile
+                    self.__dict__[made] = given.make()
+        return self.__dict__[made]
+
+    def _routes(self, kinds: list[str]) -> Iterator[tuple[str, list[int], Any]]:
+        """Each route that ``kinds`` (one per frame) uses: its kind, its frames and its method (made only now)."""
+        for kind in ROUTES:
+            pick = [i for i, k in enumerate(kinds) if k == kind]
+            if pick:
+                yield kind, pick, self._route(kind)
 
     def _check_params(self) -> None:
         if self.input not in INPUT_CHOICES:
@@ -104,10 +200,8 @@ class InputRoutedInpainter(BaseInpainter):
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         kinds = [self.kind(frame) for frame in X]
         out = np.empty(X.shape, np.float32)
-        for kind, method in (("scan", self.scan_method), ("map", self.map_method)):
-            pick = [i for i, k in enumerate(kinds) if k == kind]
-            if pick:
-                out[pick] = method.predict(X[pick])
+        for _, pick, method in self._routes(kinds):
+            out[pick] = method.predict(X[pick])
         self.routed_to_ = [self.scan_name if k == "scan" else self.map_name for k in kinds]
         return out
 
@@ -134,10 +228,8 @@ class InputRoutedInpainter(BaseInpainter):
         batch = x if x.ndim == 3 else x[None]
         kinds = [self.kind(frame) for frame in batch]
         low, high = np.empty(batch.shape, np.float32), np.empty(batch.shape, np.float32)
-        for kind, method, name in (("scan", self.scan_method, self.scan_name), ("map", self.map_method, self.map_name)):
-            pick = [i for i, k in enumerate(kinds) if k == kind]
-            if not pick:
-                continue
+        for kind, pick, method in self._routes(kinds):
+            name = self.scan_name if kind == "scan" else self.map_name
             if not hasattr(method, "predict_interval"):
                 raise InvalidInputError(
                     f"no calibrated interval for a single {kind} yet: its route {name} ships none; drop the interval "

@@ -17,7 +17,7 @@ from release_checks import (
     FRAME_SHAPES,
     check_beats_every_classical_method,
     check_full_frame,
-    class_in_fresh_process,
+    classes_in_fresh_processes,
 )
 
 from estimators.learned import PriorUNetInpainter, load, load_release
@@ -98,8 +98,7 @@ def test_loads_by_name_as_the_class_its_json_records(release):
 
 def test_loads_in_a_fresh_process_by_registry_name():
     """A fresh interpreter (as the CLI is) finds each release's class without importing it first."""
-    for name in RELEASES:
-        assert class_in_fresh_process(name) == shipped()[name]
+    assert classes_in_fresh_processes(RELEASES) == {name: shipped()[name] for name in RELEASES}
 
 
 def _recipe_params(est) -> dict:
