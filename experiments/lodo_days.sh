@@ -40,14 +40,12 @@ SUITE=${SUITE-classical}
 SUITE_FLAGS=()
 if [ -n "$SUITE" ]; then SUITE_FLAGS=(--suite "$SUITE"); fi
 
-drives_of_day() {  # the train drives recorded on day $1
-  python -c "
+# One line per recording day of the train split: the day, then its drives (one Python start).
+DAY_DRIVES=$(python -c "
 from inpaintenv.data import KittiDepth
-print(' '.join(sorted({str(g) for g in KittiDepth('$ROOT', split='train').groups if str(g).startswith('$1')})))"
-}
-DAYS=$(python -c "
-from inpaintenv.data import KittiDepth
-print(' '.join(sorted({str(g)[:10] for g in KittiDepth('$ROOT', split='train').groups})))")
+drives = sorted({str(g) for g in KittiDepth('$ROOT', split='train').groups})
+for day in sorted({d[:10] for d in drives}):
+    print(day, *[d for d in drives if d.startswith(day)])")
 
 checkpoints() {  # sets CHECKPOINTS: a --checkpoint flag for each preset's model of fold $1
   local ENTRY PRESET
@@ -84,9 +82,9 @@ fold() {  # fold name, drives to leave out and score (space-separated), camera t
 
 # The folds, listed once: name, drives left out and scored, camera scored.
 FOLD_NAMES=() FOLD_HELD=() FOLD_CAMERAS=()
-for D in $DAYS; do
-  FOLD_NAMES+=("day-$D") FOLD_HELD+=("$(drives_of_day "$D")") FOLD_CAMERAS+=(image_02)
-done
+while read -r D HELD; do
+  if [ -n "$D" ]; then FOLD_NAMES+=("day-$D") FOLD_HELD+=("$HELD") FOLD_CAMERAS+=(image_02); fi
+done <<< "$DAY_DRIVES"
 FOLD_NAMES+=(drive-0001) FOLD_HELD+=("$OFFICIAL") FOLD_CAMERAS+=(both)
 
 TRAIN_JOBS=${TRAIN_JOBS:-1}

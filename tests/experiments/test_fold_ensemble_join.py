@@ -6,18 +6,14 @@ import numpy as np
 import pytest
 
 
-def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_experiment):
+def test_joined_checkpoint_predicts_the_mean_of_its_members(tmp_path, load_experiment, tiny_models):
     from estimators.learned import MeanEnsembleInpainter
-    from estimators.learned import BlendInpainter
     from estimators.learned import load
     from inpaintenv.data import SyntheticStreets
 
     script = load_experiment("fold_ensemble")
-    frames = SyntheticStreets(n=3, frame_shape=(48, 128))
-    small = {"width": 4, "layers": 1, "epochs": 1, "masks_per_frame": 1, "pixels_per_frame": 100,
-             "batch_pixels": 64, "num_threads": 1}
-    a = BlendInpainter(**small).fit(frames).save(tmp_path / "a")
-    b = BlendInpainter(**small, random_state=1).fit(frames).save(tmp_path / "b")
+    frames = SyntheticStreets(n=3, frame_shape=(48, 128))  # the frames the tiny models were trained on
+    a, b = tiny_models["blend"], tiny_models["blend-1"]  # two blends of different seeds
     out = tmp_path / "joined"
     assert script.main(["join", f"first={a}", f"second={b}", "--out", str(out), "--set", "second__tta=false"]) == 0
     joined = load(out)

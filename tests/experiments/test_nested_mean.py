@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -57,27 +59,22 @@ def three_days(tmp_path_factory):
     return root
 
 
-def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp_path, capsys, load_experiment):
-    from estimators.learned import BlendInpainter
-    from estimators.learned import ContextBlendInpainter
-    from inpaintenv.data import ArrayDataset
+def _place(model: Path, folder: Path) -> None:
+    """A saved model at ``folder/model``, as a training run leaves it."""
+    shutil.copytree(model, folder / "model")
 
+
+def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp_path, capsys, load_experiment,
+                                                                 tiny_models):
     script = load_experiment("nested_mean")
     out = tmp_path / "nested"
     args = ["--kitti-root", str(three_days), "--out", str(out), "-m", "harmonic", "--seed", "0",
             "--fold", "day-2011_09_30"]
     assert script.main(args) == 1  # models missing, no --train: says which
     assert "missing inner models" in capsys.readouterr().err
-    from inpaintenv.data import KittiDepth
-
-    frames = ArrayDataset(np.stack([KittiDepth(three_days, split="train")[i] for i in range(3)]), groups=list("abc"))
-    small = dict(epochs=1, masks_per_frame=1, keep=(1.0,), pixels_per_frame=100, num_threads=1)
-    context = ContextBlendInpainter(**small, n_context=2, context_widths=(4, 4), width=4, layers=1,
-                                    batch_frames=2, batch_pixels=32).fit(frames)
-    blend = BlendInpainter(**small, width=4, layers=1, batch_pixels=64).fit(frames)
     for tag in ("2011_09_26+2011_09_30", "2011_09_30+2011_10_03"):
-        context.save(out / f"train-without-{tag}-context-kitti-draws" / "model")
-        blend.save(out / f"train-without-{tag}-blend-kitti" / "model")
+        _place(tiny_models["context"], out / f"train-without-{tag}-context-kitti-draws")
+        _place(tiny_models["blend"], out / f"train-without-{tag}-blend-kitti")
     assert script.main(args) == 0
     printed = capsys.readouterr().out
     assert "## fold day-2011_09_30: inner splits leave out 2011_09_26, 2011_10_03" in printed
@@ -90,8 +87,8 @@ def test_scores_three_candidates_per_fold_and_records_the_choice(three_days, tmp
     # the mean candidates on the fold's reported frames with its linked fold models
     before = json.loads((out / "inner-day-2011_09_30.json").read_text())["rows"]
     lodo = tmp_path / "lodo"
-    context.save(lodo / "train-day-2011_09_30-context-kitti-draws" / "model")
-    blend.save(lodo / "train-day-2011_09_30-blend-kitti" / "model")
+    _place(tiny_models["context"], lodo / "train-day-2011_09_30-context-kitti-draws")
+    _place(tiny_models["blend"], lodo / "train-day-2011_09_30-blend-kitti")
     assert script.main([*args, "--weight", "0.7", "--outer", "--link", str(lodo)]) == 0
     printed = capsys.readouterr().out
     assert "| mean-w0.7" in printed and "reported frames of fold day-2011_09_30" in printed
