@@ -15,16 +15,18 @@ DRIVES = ["2011_09_26_drive_9001_sync", "2011_09_26_drive_9002_sync", "2011_09_3
           "2011_09_30_drive_9020_sync"]
 
 
-@pytest.fixture
-def two_days(tmp_path):
+@pytest.fixture(scope="module")
+def two_days(tmp_path_factory):
+    """Two frames of each drive in DRIVES (read only: the tests write their outputs elsewhere)."""
+    root = tmp_path_factory.mktemp("two_days")
     rng = np.random.default_rng(0)
     for drive in DRIVES:
-        folder = tmp_path / "train" / drive / "proj_depth" / "groundtruth" / "image_02"
+        folder = root / "train" / drive / "proj_depth" / "groundtruth" / "image_02"
         folder.mkdir(parents=True)
         for f in range(2):
             depth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
             write_depth_png(folder / f"{f:010d}.png", depth.astype(np.float32))
-    return tmp_path
+    return root
 
 
 def test_folds_rows_and_curve(load_benchmark, two_days, tmp_path, capsys):
@@ -68,10 +70,10 @@ def test_drives_the_base_saw_are_neither_calibrated_nor_scored(load_benchmark, t
 
 @pytest.fixture
 def scans(tmp_path):
-    """Two days of drives, plus official drive 0001, each frame with a ground truth and a sparser scan."""
+    """Two days of drives, plus official drive 0001, a frame each with a ground truth and a sparser scan."""
     rng = np.random.default_rng(1)
     for drive in [*DRIVES, "2011_09_26_drive_0001_sync"]:
-        for f in range(2):
+        for f in range(1):
             truth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
             scan = np.where(rng.random((375, 1242)) < 0.15, truth, 0.0)
             for kind, depth in (("groundtruth", truth), ("velodyne_raw", scan)):
