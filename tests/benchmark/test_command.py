@@ -105,7 +105,8 @@ def test_study_baselines_are_scored_at_0_m_unless_the_run_says_otherwise(tmp_pat
 
     # telea-hole leaves 0 m in holes next to unmeasured pixels by design (the study's way):
     # its registered policy scores them as 0 m; --unfilled error refuses them, with a count.
-    common = ["-m", "telea-hole", "--n-frames", "4", "--holdout", "0", "--figure-frames", "1", "--quiet"]
+    common = ["-m", "telea-hole", "--n-frames", "4", "--frame-shape", "64", "192", "--holdout", "0", "--figure-frames", "1",
+              "--quiet"]
     assert main(["benchmark", *common, "--out", str(tmp_path / "a")]) == 0
     results = json.loads((tmp_path / "a" / "results.json").read_text())
     assert results["meta"]["unfilled"] == {"telea-hole": "zero"}
