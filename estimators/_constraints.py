@@ -194,8 +194,9 @@ class Check(Constraint):
         return getattr(self.check, "__name__", "valid")
 
 
-def validate_params(owner: Any, constraints: Mapping[str, list[Constraint | None]]) -> None:
-    """Check ``owner``'s attributes named in ``constraints``.
+def validate_params(owner: Any, constraints: Mapping[str, list[Constraint | None]],
+                    value_of: Callable[[str], Any] | None = None) -> None:
+    """Check ``owner``'s attributes named in ``constraints`` (read by ``value_of(name)``, default ``getattr``).
 
     Raises
     ------
@@ -205,7 +206,7 @@ def validate_params(owner: Any, constraints: Mapping[str, list[Constraint | None
         the size-limit error of a value above :mod:`estimators.learned._limits`.
     """
     for name, options in constraints.items():
-        value = getattr(owner, name)
+        value = getattr(owner, name) if value_of is None else value_of(name)
         allowed = [c for c in options if c is not None]
         if value is None and None in options:
             continue
@@ -226,8 +227,12 @@ class ConstrainedParams:
 
     def _check_params(self) -> None:
         """Raise one clear error for the first parameter outside its documented range."""
-        validate_params(self, self._parameter_constraints)
+        validate_params(self, self._parameter_constraints, self._param_value)
         self._check_param_relations()
+
+    def _param_value(self, name: str) -> Any:
+        """The value of parameter ``name`` as set (an attribute, unless a class stores it otherwise)."""
+        return getattr(self, name)
 
     def _check_param_relations(self) -> None:
         """Rules that tie several (already checked) parameters together; none by default."""

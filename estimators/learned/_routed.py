@@ -23,8 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from inpaintenv.exceptions import InvalidInputError
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
+from .._constraints import Check, ConstrainedParams, InstanceOf, Options, Real
 from ..base import BaseInpainter
 
 __all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "InputRoutedInpainter", "OnFirstUse", "measured_density"]
@@ -40,6 +41,12 @@ ROUTES = ("scan", "map")
 # One lock for every router: a module's lock is never pickled or copied with an estimator, and
 # making a route (loading a release) is rare enough that routers need not make theirs in parallel.
 _MAKING = threading.Lock()
+
+
+def _check_route(route: Any, name: str) -> None:
+    """Accept a method with ``predict`` or an :class:`OnFirstUse`; anything else is one error naming ``name``."""
+    if not isinstance(route, OnFirstUse) and not callable(getattr(route, "predict", None)):
+        raise InvalidTypeError(f"{name} must be an inpainter (with predict) or an OnFirstUse, got {route!r}")
 
 
 def measured_density(x: np.ndarray) -> float:
@@ -97,7 +104,7 @@ def _route_attribute(kind: str) -> property:
     return property(read, write, doc=f"The method that fills a {kind} (made on first use if given as OnFirstUse).")
 
 
-class InputRoutedInpainter(BaseInpainter):
+class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     """Fill each frame with ``scan_method`` if it is a single LiDAR scan, else ``map_method``.
 
     Parameters
@@ -176,12 +183,19 @@ class InputRoutedInpainter(BaseInpainter):
             if pick:
                 yield kind, pick, self._route(kind)
 
-    def _check_params(self) -> None:
-        if self.input not in INPUT_CHOICES:
-            raise InvalidInputError(f"input must be one of {INPUT_CHOICES}, got {self.input!r}")
-        if isinstance(self.threshold, bool) or not isinstance(self.threshold, (int, float)) or not (
-                0.0 < float(self.threshold) < 1.0):
-            raise InvalidInputError(f"threshold must be a share in (0, 1), got {self.threshold!r}")
+    _parameter_constraints: dict[str, list[Any]] = {
+        "map_method": [Check(lambda route: _check_route(route, "map_method"))],
+        "scan_method": [Check(lambda route: _check_route(route, "scan_method"))],
+        "input": [Options(*INPUT_CHOICES)],
+        "threshold": [Real(0, 1, closed="neither")],
+        "scan_name": [InstanceOf(str, "a name (str)")],
+        "map_name": [InstanceOf(str, "a name (str)")],
+    }
+
+    def _param_value(self, name: str) -> Any:
+        # A route is checked as given: reading it would make (load) an OnFirstUse route.
+        return self.__dict__[f"_{name[:-len('_method')]}_given"] if name in ("map_method", "scan_method") \
+            else getattr(self, name)
 
     def kind(self, x: np.ndarray) -> str:
         """``"scan"`` or ``"map"``: the kind of one ``(H, W)`` frame (NaN = to fill)."""

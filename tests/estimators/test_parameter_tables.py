@@ -24,14 +24,10 @@ SUBPACKAGES = ("estimators.classical", "estimators.learned", "estimators.interva
 NO_TABLE_YET: dict[str, str] = {}
 #: Parameters a class's table does not list yet (a fixed table turns its strict xfail into a
 #: failure: drop the entry then).
-TABLE_GAPS: dict[str, frozenset[str]] = {
-    "InputRoutedInpainter": frozenset({"input", "map_method", "map_name", "scan_method", "scan_name", "threshold"}),
-}
+TABLE_GAPS: dict[str, frozenset[str]] = {}
 _NOT_CHECKED = "a wrong type passes _check_params (the parameter is not in the table)"
 #: (class, parameter) whose wrong type is not yet one error naming it, and why.
-UNCHECKED: dict[tuple[str, str], str] = {
-    **{("InputRoutedInpainter", p): _NOT_CHECKED for p in ("map_method", "map_name", "scan_method", "scan_name")},
-}
+UNCHECKED: dict[tuple[str, str], str] = {}
 
 def _public_classes() -> dict[str, type]:
     found = {}
