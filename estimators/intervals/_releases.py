@@ -56,11 +56,7 @@ def release_intervals(name: str | None = None, **overrides: Any) -> ConformalInt
         from inpaintenv.methods.learned import DEFAULT_RELEASE
 
         name = DEFAULT_RELEASE
-    path = _intervals_dir() / f"{name}.json" if isinstance(name, str) else None
-    if path is None or not path.is_file():
-        have = ", ".join(shipped_intervals()) or "none"
-        raise InvalidInputError(f"method {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
-                                "one with ConformalIntervalInpainter(...).fit on drives it never saw and save it")
+    path = _calibration_path(name)
     if name in CLASSICAL_FILLS:
         base = make_base(name)
         if overrides:
@@ -70,6 +66,24 @@ def release_intervals(name: str | None = None, **overrides: Any) -> ConformalInt
 
         base = load_release(name, **overrides)
     return ConformalIntervalInpainter.load(path, estimator=base)
+
+
+def _calibration_path(name: Any) -> Path:
+    """The shipped calibration of method ``name``; one error listing those shipped if it has none."""
+    path = _intervals_dir() / f"{name}.json" if isinstance(name, str) else None
+    if path is None or not path.is_file():
+        have = ", ".join(shipped_intervals()) or "none"
+        raise InvalidInputError(f"method {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
+                                "one with ConformalIntervalInpainter(...).fit on drives it never saw and save it")
+    return path
+
+
+def _calibrated_route(route: Any, name: str) -> ConformalIntervalInpainter:
+    """A router's ``route`` (made now if it waits for first use) in the calibration shipped for ``name``."""
+    from ..learned import OnFirstUse
+
+    method = route.make() if isinstance(route, OnFirstUse) else route
+    return ConformalIntervalInpainter.load(_calibration_path(name), estimator=method)
 
 
 def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalIntervalInpainter:
@@ -93,7 +107,8 @@ def default_intervals(name: str | None = None, input: str = "auto") -> Any:
     shipped for the scan route's method by its name (``<SCAN_DEFAULT>.json``, calibrated on
     scans), wrapped around the route's own method, so its fill is ``pretrained``'s bit for
     bit. A scan route without a shipped calibration gives no interval: asking it for a scan's
-    is one error naming it, never the map release's fill and interval on a scan.
+    is one error naming it, never the map release's fill and interval on a scan. As for
+    ``pretrained``, each route is loaded when a frame first takes it.
 
     Parameters
     ----------
@@ -104,12 +119,13 @@ def default_intervals(name: str | None = None, input: str = "auto") -> Any:
     """
     from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT
 
-    from ..learned import load_default
+    from ..learned import OnFirstUse, load_default
 
+    map_name = name or DEFAULT_RELEASE
+    _calibration_path(map_name)  # a release without a calibration is refused now, not at its first map
     routed = load_default(input=input)
-    routed.map_method = release_intervals(name or DEFAULT_RELEASE)
-    routed.map_name = name or DEFAULT_RELEASE
+    routed.map_method = OnFirstUse(release_intervals, map_name)
+    routed.map_name = map_name
     if routed.scan_name == SCAN_DEFAULT and SCAN_DEFAULT in shipped_intervals():
-        routed.scan_method = ConformalIntervalInpainter.load(_intervals_dir() / f"{SCAN_DEFAULT}.json",
-                                                             estimator=routed.scan_method)
+        routed.scan_method = OnFirstUse(_calibrated_route, routed.get_params(deep=False)["scan_method"], SCAN_DEFAULT)
     return routed

@@ -149,3 +149,28 @@ def test_a_scan_default_without_a_calibration_gets_no_interval(monkeypatch):
     routed = make_method("pretrained-intervals")
     with pytest.raises(InpaintenvError, match="no calibrated interval for a single scan"):
         routed.predict_interval(_scans())
+
+
+def test_pretrained_intervals_loads_only_the_route_a_frame_takes(monkeypatch):
+    """As pretrained: intervals on scans never load the map release (and its calibration); a map's load it."""
+    import estimators.learned
+    from estimators.learned import _releases
+    from inpaintenv.methods.learned import SCAN_DEFAULT
+
+    loaded = []
+    real = _releases.load_release
+
+    def counting(name, **kw):
+        loaded.append(name)
+        return real(name, **kw)
+
+    monkeypatch.setattr(_releases, "load_release", counting)
+    monkeypatch.setattr(estimators.learned, "load_release", counting)
+    routed, x = make_method("pretrained-intervals"), _scans()
+    assert loaded == []
+    low, high = routed.predict_interval(x, 0.9)
+    assert loaded == [SCAN_DEFAULT] and (low <= high).all()
+    dense = np.where(np.isnan(x[:1]), 20.0, x[:1])
+    dense[:, : dense.shape[1] // 2, : dense.shape[2] // 2] = np.nan  # a dense frame with a hole: a map
+    routed.predict(dense)
+    assert loaded == [SCAN_DEFAULT, DEFAULT_RELEASE]
