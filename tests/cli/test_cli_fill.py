@@ -12,11 +12,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from point_checks import check_points_added
 
 from inpaintenv.cli import build_parser, main
 from inpaintenv.data import (
     SyntheticStreets,
-    project_points,
     project_scan,
     read_calibration,
     read_depth_file,
@@ -244,15 +244,7 @@ def test_scan_to_depth_to_filled_depth_to_points_keeps_every_original_point(kitt
     np.testing.assert_array_equal(filled[~mask], depth[~mask])
     np.testing.assert_array_equal(read_depth_file(tmp_path / "out" / "0000000005.png"), np.rint(filled * 256) / 256)
     out = read_scan(tmp_path / "out" / "0000000005.bin")
-    assert len(out) == len(original) + mask.sum()
-    np.testing.assert_array_equal(out[: len(original)], original)  # every original point, bit for bit
-    new = out[len(original):]
-    assert (new[:, 3] == 0).all()
-    u, v, z = project_points(new, calib)
-    rows, cols = np.nonzero(mask)
-    np.testing.assert_array_equal(np.rint(u), cols)
-    np.testing.assert_array_equal(np.rint(v), rows)
-    np.testing.assert_allclose(z, filled[mask], rtol=1e-5)
+    check_points_added(out, original, filled, mask, calib)
     ply = (tmp_path / "out" / "0000000005.ply").read_bytes()
     assert f"element vertex {len(out)}".encode() in ply
 

@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from point_checks import check_points_added
 
 from estimators.classical import ScanlineInpainter
 from inpaintenv.cli import main
 from inpaintenv.data import (
     Calibration,
     SyntheticStreets,
-    project_points,
     project_scan,
     read_calibration,
     read_depth_file,
@@ -235,15 +235,7 @@ def test_a_scan_is_projected_filled_and_written_back_as_points(tmp_path):
     np.testing.assert_array_equal(filled[~mask], depth[~mask])
     np.testing.assert_array_equal(filled, fill_depth("nearest", depth, mask))
     out = read_scan(tmp_path / "out" / "s.bin")
-    assert len(out) == len(original) + mask.sum()
-    np.testing.assert_array_equal(out[: len(original)], original)  # every original point, bit for bit
-    new = out[len(original):]
-    assert (new[:, 3] == 0).all()
-    u, v, z = project_points(new, calib)
-    rows, cols = np.nonzero(mask)
-    np.testing.assert_array_equal(np.rint(u), cols)
-    np.testing.assert_array_equal(np.rint(v), rows)
-    np.testing.assert_allclose(z, filled[mask], rtol=1e-5)
+    check_points_added(out, original, filled, mask, calib)
 
 
 def test_a_scan_with_missing_fills_its_band_not_the_sky(tmp_path):
