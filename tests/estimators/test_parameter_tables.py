@@ -2,8 +2,8 @@
 one error naming the parameter.
 
 The classes are every public class of ``estimators.classical``, ``estimators.learned`` and
-``estimators.intervals`` with ``get_params`` (found, not listed by hand, so none is left out);
-a class whose table is not there yet is marked below, each with its reason. Nothing is fitted.
+``estimators.intervals`` with ``get_params``, found, not listed by hand, and none excused.
+Nothing is fitted.
 """
 
 from __future__ import annotations
@@ -20,14 +20,6 @@ from inpaintenv.exceptions import InpaintenvError
 
 SUBPACKAGES = ("estimators.classical", "estimators.learned", "estimators.intervals")
 
-#: Classes left out, and why: each must still have no table (checked below).
-NO_TABLE_YET: dict[str, str] = {}
-#: Parameters a class's table does not list yet (a fixed table turns its strict xfail into a
-#: failure: drop the entry then).
-TABLE_GAPS: dict[str, frozenset[str]] = {}
-_NOT_CHECKED = "a wrong type passes _check_params (the parameter is not in the table)"
-#: (class, parameter) whose wrong type is not yet one error naming it, and why.
-UNCHECKED: dict[tuple[str, str], str] = {}
 
 def _public_classes() -> dict[str, type]:
     found = {}
@@ -41,7 +33,6 @@ def _public_classes() -> dict[str, type]:
 
 
 CLASSES = _public_classes()
-TESTED = {name: cls for name, cls in CLASSES.items() if name not in NO_TABLE_YET}
 
 
 def _required_args(name: str) -> dict[str, Any]:
@@ -63,32 +54,16 @@ class _WrongType:
         return "<wrong type>"
 
 
-def _xfail(reason: str) -> pytest.MarkDecorator:
-    return pytest.mark.xfail(strict=True, reason=reason)
-
-
-def test_every_class_left_out_has_no_table_yet():
-    for name in NO_TABLE_YET:
-        assert name in CLASSES, f"{name} is no public class any more: drop it from NO_TABLE_YET"
-        assert "_parameter_constraints" not in vars(CLASSES[name]), f"{name} has a table now: test it"
-
-
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=_xfail(f"not in the table yet: {sorted(TABLE_GAPS[n])}")) if n in TABLE_GAPS else n
-    for n in sorted(TESTED)
-])
+@pytest.mark.parametrize("name", sorted(CLASSES))
 def test_table_lists_exactly_the_parameters(name):
-    cls = TESTED[name]
+    cls = CLASSES[name]
     est = cls(**_required_args(name))
     assert set(getattr(cls, "_parameter_constraints", {})) == set(est.get_params(deep=False))
 
 
-@pytest.mark.parametrize(("name", "param"), [
-    pytest.param(n, p, marks=_xfail(UNCHECKED[n, p])) if (n, p) in UNCHECKED else (n, p)
-    for n in sorted(TESTED) for p in TESTED[n]._get_param_names()
-])
+@pytest.mark.parametrize(("name", "param"), [(n, p) for n in sorted(CLASSES) for p in CLASSES[n]._get_param_names()])
 def test_a_wrong_type_is_one_error_naming_the_parameter(name, param):
-    est = TESTED[name](**_required_args(name)).set_params(**{param: _WrongType()})
+    est = CLASSES[name](**_required_args(name)).set_params(**{param: _WrongType()})
     with pytest.raises(InpaintenvError) as info:
         est._check_params()
     message = str(info.value)
