@@ -252,10 +252,6 @@ class BaseInpainter(BaseEstimator):
             out = np.where(observed, batch, out)
         return out[0] if x.ndim == 2 else out
 
-    def _check_n_jobs(self) -> None:
-        """Raise a clear error unless ``n_jobs`` is None or a non-zero integer (:func:`check_n_jobs`)."""
-        check_n_jobs(self.n_jobs)
-
     @abstractmethod
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
         """Predict a validated ``(N, H, W)`` float32 batch (NaN = fill); must not modify X."""

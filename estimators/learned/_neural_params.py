@@ -176,8 +176,7 @@ class NeuralParamsMixin(ConstrainedParams):
         choices = _DEVICES
         if self.device == "auto":
             return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-        if not isinstance(self.device, (str, torch.device)):
-            raise InvalidTypeError(f"device must be one of {choices}, got {self.device!r}")
+        _check_device_type(self.device)
         try:
             dev = torch.device(self.device)
         except (RuntimeError, TypeError, ValueError):
