@@ -1,5 +1,6 @@
-"""Training of the neural inpainters: the loop, its resume state and its threads (samples:
-:mod:`._training_data`; their loader and the device path: :mod:`._sampling`).
+"""Training of the neural inpainters through the one fitting loop (:mod:`._loop`): their run
+folder, warm start, steps over frames, validation and threads (samples: :mod:`._training_data`;
+their loader and the device path: :mod:`._sampling`).
 
 Reproducibility: every random choice of a training sample (crop offset, occlusion mask,
 flip, depth factor) comes from generators seeded by ``(seed, epoch, index)`` alone, and the
@@ -106,8 +107,8 @@ _RUN_INDEPENDENT = ("verbose", "num_workers", "num_threads", "checkpoint_dir", "
 
 
 class TrainingMixin:
-    """The training loop of a neural inpainter: run directory, resume, warm start, the
-    optimiser steps and per-epoch validation (``fit`` of :class:`estimators.learned._neural._NeuralInpainter`).
+    """What a neural inpainter gives :func:`~._loop.fit_loop`: run directory, warm start, the
+    step over a batch of frames and per-epoch validation (``fit`` of :class:`estimators.learned._neural._NeuralInpainter`).
 
     Relies on the parameter mixin (``_check_params``, ``_device``, ``_build_model``, ...)
     and the checkpoint mixin of the same class.
