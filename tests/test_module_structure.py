@@ -1,4 +1,4 @@
-"""The project's modules form no import circle and stay small (issues 18 and 26).
+"""The project's modules form no import circle, import only what the layer table allows, and stay small.
 
 The import graph is read from the source, not from ``sys.modules``: every ``import`` /
 ``from ... import`` anywhere in a module (function-level ones too, since a deferred import
@@ -332,3 +332,83 @@ def test_test_modules_have_distinct_names():
             clashes.append(f"{seen[path.name].relative_to(ROOT)} and {path.relative_to(ROOT)}")
         seen.setdefault(path.name, path)
     assert not clashes, "test modules sharing a name: " + "; ".join(clashes)
+
+
+MAP_PAGE = ROOT / "docs" / "reference" / "README.md"
+
+
+def layer_table(text: str) -> dict[str, set[str]]:
+    """Unit -> the units it imports, from the fenced block after "The layers, bottom up" in the code map.
+
+    A line is ``unit  a, b, c`` (``-`` for none); a unit is ``name/`` (a package of
+    ``inpaintenv``), ``name.py`` (a loose module) or ``estimators`` (the methods' package).
+    """
+    start = text.index("The layers, bottom up")
+    block = text[start:].split("```text\n", 1)[1].split("```", 1)[0]
+    out: dict[str, set[str]] = {}
+    for line in block.splitlines():
+        unit, _, rest = line.strip().partition(" ")
+        rest = rest.strip()
+        out[unit] = set() if rest == "-" else {u.strip() for u in rest.split(",")}
+    return out
+
+
+def unit_of(module: str) -> str:
+    """The layer-table unit of a dotted module name (see :func:`layer_table`)."""
+    parts = module.split(".")
+    if parts[0] != "inpaintenv":
+        return parts[0]
+    if len(parts) == 1:
+        return "__init__.py"
+    return f"{parts[1]}/" if (ROOT / "inpaintenv" / parts[1]).is_dir() else f"{parts[1]}.py"
+
+
+def unit_graph() -> dict[str, set[str]]:
+    """Unit -> the other units its modules import, for every unit of ``inpaintenv``."""
+    out: dict[str, set[str]] = {}
+    for module, deps in import_graph().items():
+        if module.startswith("inpaintenv"):
+            unit = unit_of(module)
+            out.setdefault(unit, set()).update(unit_of(d) for d in deps if unit_of(d) != unit)
+    return out
+
+
+def test_layer_table_reads_units_and_their_imports():
+    text = "The layers, bottom up: ...\n\n```text\nfiles/    exceptions.py\nexceptions.py  -\ncli/  a/, estimators\n```\n"
+    assert layer_table(text) == {"files/": {"exceptions.py"}, "exceptions.py": set(), "cli/": {"a/", "estimators"}}
+
+
+def test_the_layer_table_is_the_import_graph():
+    declared = layer_table(MAP_PAGE.read_text(encoding="utf-8"))
+    actual = {unit: deps for unit, deps in unit_graph().items() if unit != "_version.py"}
+    undeclared = {u: sorted(d - declared.get(u, set())) for u, d in actual.items() if d - declared.get(u, set())}
+    assert not undeclared, (
+        f"imports the layer table of {MAP_PAGE.relative_to(ROOT)} does not list (add the arrow there if it is "
+        f"meant, or import the other way): {undeclared}")
+    stale = {u: sorted(d - actual.get(u, set())) for u, d in declared.items() if d - actual.get(u, set())}
+    assert not stale, f"arrows in {MAP_PAGE.relative_to(ROOT)}'s layer table that no import makes: {stale}"
+    missing = sorted(set(actual) - set(declared) - {"_version.py"})
+    assert not missing, f"units of inpaintenv/ missing from the layer table: {missing}"
+
+
+#: The only units of ``inpaintenv`` that import ``estimators``: the registry builds a
+#: method by module name, and ``train`` reads the training recipes.
+ESTIMATORS_IMPORTERS = {"inpaintenv.methods.registry", "inpaintenv.cli.train"}
+#: The only modules below ``cli/`` that import ``benchmark/``: a scored submission is
+#: written as a benchmark run folder.
+BENCHMARK_IMPORTERS = {"inpaintenv.submission.score"}
+
+
+def test_the_benchmark_stays_method_agnostic():
+    graph = import_graph()
+    up = {m for m, deps in graph.items() if m.startswith("inpaintenv") and any(d.startswith("estimators") for d in deps)}
+    assert up == ESTIMATORS_IMPORTERS, f"modules of inpaintenv importing estimators: {sorted(up)}"
+
+
+def test_features_and_infrastructure_do_not_import_the_benchmark():
+    graph = import_graph()
+    below = {m for m, deps in graph.items()
+             if m.startswith("inpaintenv") and not m.startswith(("inpaintenv.benchmark", "inpaintenv.cli"))
+             and any(d.startswith("inpaintenv.benchmark") for d in deps)}
+    assert below == BENCHMARK_IMPORTERS, (
+        f"modules below the benchmark importing it (the lock, identity and ledger live in files/): {sorted(below)}")

@@ -6,7 +6,7 @@ knows methods by name; it builds them through :mod:`inpaintenv.methods.registry`
 
 from ..report.stats import bootstrap_mean_ci, bootstrap_ratio_ci
 from .headline import CLASSICAL_METHODS, headline_markdown, learned_vs_classical
-from .identity import method_identity
+from ..files.identity import method_identity
 from .report import summary_table, to_markdown, write_report
 from .runner import RunMismatchError, RunStateError, run_benchmark
 from .suites import SUITES, LazyMethod, suite_methods

@@ -32,7 +32,7 @@ from ..report import style
 from ..exceptions import FileTooLargeError, JSONFileError
 from ..files import read_json, write_atomic, write_text_atomic
 from ..progress import count
-from . import ownership
+from ..files import ownership
 
 __all__ = [
     "DISTANCE_BINS", "DISTANCE_FRAMES", "FramePredictions", "frame_panel", "plot_error_vs_distance",

@@ -14,7 +14,7 @@ from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_mark
 from .headline import (
     every_method_markdown, every_method_vs_strongest, headline_markdown, headline_title, learned_vs_classical,
 )
-from .ownership import claim
+from ..files.ownership import claim
 
 __all__ = ["REPORT_METRICS", "summary_table", "table_keys", "to_markdown", "environment_info", "write_report"]
 

@@ -18,7 +18,7 @@ from typing import Any
 from ..data.base import DepthDataset
 from ..files import read_json, write_text_atomic
 from .datakey import data_key
-from .ownership import claim
+from ..files.ownership import claim
 from ..exceptions import InpaintenvError, RunMismatchError, RunStateError
 
 __all__ = ["RunMismatchError", "RunStateError", "differences", "fingerprint", "read_run_file", "run_fingerprint",

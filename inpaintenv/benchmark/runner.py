@@ -33,9 +33,9 @@ from ..progress import (
     format_duration,
     stderr_is_terminal,
 )
-from .identity import method_identity
-from .lock import run_lock
-from .ownership import adopt, check_folder, claim, remove
+from ..files.identity import method_identity
+from ..files.lock import run_lock
+from ..files.ownership import adopt, check_folder, claim, remove
 from .rows import append_rows, end_partial_line, read_rows
 from .run_state import RunMismatchError, RunStateError, differences, read_run_file, run_fingerprint, write_run_file
 from .suites import method_kind

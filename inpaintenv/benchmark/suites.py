@@ -82,7 +82,7 @@ class LazyMethod:
     failing the whole run.
 
     ``identity`` says what the method is without building it (e.g.
-    ``"checkpoint:<sha256 of its files>"``, see :mod:`inpaintenv.benchmark.identity`);
+    ``"checkpoint:<sha256 of its files>"``, see :mod:`inpaintenv.files.identity`);
     when None, the runner builds the method to learn its identity if a resume needs it.
 
     ``unfilled`` is how the runner scores the method's 0 m pixels where ground truth

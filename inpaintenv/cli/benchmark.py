@@ -107,8 +107,8 @@ def interrupted_note(args: argparse.Namespace) -> str:
 def cmd_benchmark(args: argparse.Namespace) -> int:
     """Run ``inpaintenv benchmark``: check every argument, score the suite into ``--out``
     under its lock, print the tables and write the report and figures."""
-    from ..benchmark.lock import run_lock
-    from ..benchmark.ownership import check_folder
+    from ..files.lock import run_lock
+    from ..files.ownership import check_folder
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, method_kind
     from ..conventions import check_int, check_seeds

@@ -78,8 +78,8 @@ OUT_FILES = ("results.json", "results.csv", "table.md", "table.csv", "partial-ro
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Run ``inpaintenv evaluate``: check every option and build every method, then score them
     (holding the lock of ``--out``, a folder that is new, empty or written by inpaintenv)."""
-    from ..benchmark.lock import run_lock
-    from ..benchmark.ownership import check_folder
+    from ..files.lock import run_lock
+    from ..files.ownership import check_folder
     from ..masks import get_protocol
     from ..metrics import check_coverage
     from ..methods.registry import make_method, unfilled_policy
@@ -112,7 +112,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 def _score(args: argparse.Namespace, methods: list[tuple[str, Any, str]], ds: Any, seeds: list[int],
            out: Path | None) -> int:
     """Score ``methods``, print the table and, with ``--out`` (whose lock is held), write the files."""
-    from ..benchmark.ownership import adopt, claim, remove
+    from ..files.ownership import adopt, claim, remove
     from ..evaluate import evaluate
     from ..report.results import EvaluationResult, skipped_markdown
     from ..benchmark.rows import append_rows

@@ -168,7 +168,7 @@ def parse_checkpoints(specs: Sequence[str], taken: Sequence[str] = ()) -> dict[s
 
 def checkpoint_methods(specs: list[str], taken: list[str]) -> dict[str, Any]:
     """``--checkpoint NAME=PATH`` values as lazily loaded methods of a benchmark run."""
-    from ..benchmark.identity import files_identity
+    from ..files.identity import files_identity
     from ..benchmark.suites import LazyMethod
     from ..methods.registry import make_method
 

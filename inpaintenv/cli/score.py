@@ -78,8 +78,8 @@ def cmd_score(args: argparse.Namespace) -> int:
     """Run ``inpaintenv score``."""
     from ..benchmark.figures import write_figures
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
-    from ..benchmark.lock import run_lock
-    from ..benchmark.ownership import check_folder
+    from ..files.lock import run_lock
+    from ..files.ownership import check_folder
     from ..benchmark.report import summary_table, table_keys, to_markdown, write_report
     from ..benchmark.runner import run_benchmark
     from ..benchmark.suites import LazyMethod, build_method

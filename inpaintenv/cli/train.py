@@ -375,8 +375,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InvalidInputError(f"--out {out} is a file; give a folder")
     record = {"preset": args.preset, "overrides": overrides, "source": repr(ds)}
-    from ..benchmark.lock import run_lock
-    from ..benchmark.ownership import TRAIN, check_folder
+    from ..files.lock import run_lock
+    from ..files.ownership import TRAIN, check_folder
 
     check_folder(out, TRAIN)  # someone else's folder or file is refused before anything is written
     # One run per folder: two trainings into one --out would write the same checkpoints.
@@ -386,7 +386,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def _own_folder(out: Path) -> None:
-    """Record every file ``train`` writes in ``out`` (its ledger, :mod:`~inpaintenv.benchmark.ownership`)
+    """Record every file ``train`` writes in ``out`` (its ledger, :mod:`~inpaintenv.files.ownership`)
     before anything is written, and clear the temporaries a killed run left.
 
     Raises
@@ -396,7 +396,7 @@ def _own_folder(out: Path) -> None:
     UnsafeFileError
         ``model/`` or ``checkpoints/`` is a symbolic link.
     """
-    from ..benchmark.ownership import TRAIN, TRAIN_FILES, claim
+    from ..files.ownership import TRAIN, TRAIN_FILES, claim
     from ..files import remove_stale_temporaries
 
     claim(out, *TRAIN_FILES, kind=TRAIN)

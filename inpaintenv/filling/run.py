@@ -16,7 +16,7 @@ from ..data.calibration import Calibration
 from ..exceptions import InvalidInputError
 from ..metrics import as_coverage
 from ..methods.intervals import IntervalSource
-from ..benchmark.lock import run_lock
+from ..files.lock import run_lock
 from ..files import remove_stale_temporaries
 from ..progress import FrameProgress
 from .ledger import Ledger, file_identity
@@ -185,7 +185,7 @@ def _recipe(method: Any, checkpoint: Any, confidence: float | None, intervals: A
 
         made_by = canonical_name(method)
     else:
-        from ..benchmark.identity import method_identity
+        from ..files.identity import method_identity
 
         made_by = method_identity(method)
     return {"method": made_by, "confidence": confidence,

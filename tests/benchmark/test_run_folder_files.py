@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from inpaintenv.benchmark.ownership import LEDGER
+from inpaintenv.files.ownership import LEDGER
 from inpaintenv.cli import main
 from inpaintenv.files import TEMP_PREFIX
 

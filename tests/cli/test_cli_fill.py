@@ -24,7 +24,7 @@ from inpaintenv.data import (
     read_scan,
     write_depth_png,
 )
-from inpaintenv.benchmark.lock import LOCK_FILE
+from inpaintenv.files.lock import LOCK_FILE
 from inpaintenv.filling import NO_HOLES, fill
 from inpaintenv.filling.ledger import LEDGER
 from inpaintenv.methods.registry import make_method

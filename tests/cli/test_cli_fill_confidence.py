@@ -13,7 +13,7 @@ from inpaintenv.cli import main
 from inpaintenv.conventions import DEPTH_LIMIT
 from inpaintenv.data import SyntheticStreets, read_depth_file, read_depth_png, write_depth_png
 from inpaintenv.exceptions import InvalidInputError
-from inpaintenv.benchmark.lock import LOCK_FILE
+from inpaintenv.files.lock import LOCK_FILE
 from inpaintenv.filling import fill
 from inpaintenv.filling.ledger import LEDGER
 from inpaintenv.filling.write import LOW_FLOOR

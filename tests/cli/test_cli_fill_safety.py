@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from inpaintenv.benchmark.lock import LOCK_FILE
+from inpaintenv.files.lock import LOCK_FILE
 from inpaintenv.cli import main
 from inpaintenv.data import SyntheticStreets, read_depth_file, write_depth_png
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError

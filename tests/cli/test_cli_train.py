@@ -294,7 +294,7 @@ def test_a_second_training_into_the_same_out_is_refused_while_the_first_runs(tmp
     out = tmp_path / "run"
     holder = textwrap.dedent("""
         import sys
-        from inpaintenv.benchmark.lock import run_lock
+        from inpaintenv.files.lock import run_lock
         with run_lock(sys.argv[1]):
             print("locked", flush=True)
             sys.stdin.read()

@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from inpaintenv.benchmark.ownership import LEDGER
+from inpaintenv.files.ownership import LEDGER
 from inpaintenv.cli import main
 from inpaintenv.files import TEMP_PREFIX
 

@@ -11,7 +11,7 @@ import textwrap
 
 import pytest
 
-from inpaintenv.benchmark.lock import LOCK_FILE, RunLockedError, run_lock
+from inpaintenv.files.lock import LOCK_FILE, RunLockedError, run_lock
 from inpaintenv.cli import main
 
 pytest.importorskip("estimators.classical")
@@ -22,7 +22,7 @@ ARGV = ["benchmark", "-m", "constant", "--frame-shape", "32", "96", "--n-frames"
 # A process that takes the lock and waits for stdin to close.
 HOLDER = textwrap.dedent("""
     import sys
-    from inpaintenv.benchmark.lock import run_lock
+    from inpaintenv.files.lock import run_lock
     with run_lock(sys.argv[1]):
         print("locked", flush=True)
         sys.stdin.read()

@@ -27,7 +27,10 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..files import MAX_JSON_BYTES, TEMP_PREFIX, loads_json, read_bytes, read_json, write_text_atomic
+from .jsonio import loads_json, read_json
+from .limits import MAX_JSON_BYTES
+from .reading import read_bytes
+from .writing import TEMP_PREFIX, write_text_atomic
 from .lock import LOCK_FILE
 from ..exceptions import ForeignFolderError, InpaintenvError
 

@@ -28,7 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from ..exceptions import InpaintenvError, RunLockedError
-from ..files import loads_json, open_lock
+from .jsonio import loads_json
+from .writing import open_lock
 
 try:  # POSIX
     import fcntl

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from inpaintenv.benchmark import run_benchmark
-from inpaintenv.benchmark.ownership import LEDGER, ForeignFolderError, check_folder, claim, remove
+from inpaintenv.files.ownership import LEDGER, ForeignFolderError, check_folder, claim, remove
 from inpaintenv.cli import main
 
 pytest.importorskip("estimators.classical")
