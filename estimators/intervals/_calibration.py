@@ -18,17 +18,13 @@ from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.data.inputs import method_input
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import border_distance
+from inpaintenv.values.interval_calibration import (DEPTH_FLOOR, FAR_DISTANCE, N_LEVELS, RESIDUAL_FLOOR,
+                                                    SCALE_LOG_RANGE, SPREAD_FLOOR)
 
 from ..base import SCORE_CHUNK
-from ._calibration_file import N_LEVELS
 
 __all__ = ["balanced_scale", "calibration_protocols", "check_enough_pixels", "exact_quantile", "features", "fit_scale", "residual_quantiles", "scale_from",
            "scored_residuals", "weighted_quantiles"]
-
-#: Offsets (metres) that keep the logs finite where the residual or the spread is 0.
-RESIDUAL_FLOOR, SPREAD_FLOOR, DEPTH_FLOOR = 0.05, 0.1, 1.0
-#: Border distance (px) beyond which the ``"far"`` signal grows: kitti-scan-v1's near_distance.
-FAR_DISTANCE = 16.0
 
 
 def features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second: np.ndarray | None) -> np.ndarray:
@@ -145,7 +141,7 @@ def balanced_scale(F: np.ndarray, r: np.ndarray, frame: np.ndarray, signals: Seq
 def scale_from(coef: np.ndarray, F: np.ndarray) -> np.ndarray:
     """The scale (metres) of each row of ``F``."""
     # Clipped so that one extreme signal never gives a zero or an overflowing width.
-    return np.exp(np.clip(F @ coef, -12.0, 8.0))
+    return np.exp(np.clip(F @ coef, *SCALE_LOG_RANGE))
 
 
 def check_enough_pixels(n: int, coverage: float) -> int:

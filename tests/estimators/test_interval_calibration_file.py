@@ -85,6 +85,12 @@ TAMPERINGS = {
     "negative seed": (_set("params", "seed", -1), "params.seed"),
     "unknown weighting": (_set("params", "weighting", "drive"), "params.weighting"),
     "calibration a list": (_set("calibration", []), "calibration"),
+    # Each number within its bound, together impossible: what the scale implies.
+    "intercept -20 (a scale far below its residuals)": (_set("coef", lambda c: [-20.0] + c[1:]), "coef"),
+    "intercept +20 (a scale far above any residual)": (_set("coef", lambda c: [20.0] + c[1:]), "coef"),
+    "quantiles x1000 and the scale /1000 together": (
+        lambda d: (_set("residual_quantiles", lambda r: [v * 1000 for v in r])(d), _set("quantile", lambda q: q * 1000)(d),
+                   _set("coef", lambda c: [c[0] - np.log(1000.0)] + c[1:])(d)), "coef"),
 }
 
 
@@ -118,6 +124,21 @@ def test_out_of_fold_counts_must_add_up(wrapper, tmp_path):
     doc["calibration"]["out_of_fold"][0]["n_pixels"] = n
     (tmp_path / "oof.json").write_text(json.dumps(doc))
     assert _load(tmp_path / "oof.json").calibration_["out_of_fold"][0]["n_pixels"] == n
+
+
+def test_the_shipped_calibrations_imply_a_possible_scale():
+    """Every shipped file passes the joint check, and its intercept set to -20 (each number
+    within its bound; intervals a few millimetres wide) does not."""
+    from estimators.intervals import shipped_intervals
+    from inpaintenv.values.interval_calibration import check_calibration
+
+    folder = Path(__file__).resolve().parents[2] / "estimators" / "pretrained" / "intervals"
+    for name in shipped_intervals():
+        doc = json.loads((folder / f"{name}.json").read_text())
+        check_calibration(doc, name)
+        doc["coef"][0] = -20.0
+        with pytest.raises(InvalidInputError, match=f"{name}: 'coef' must be a scale that reaches"):
+            check_calibration(doc, name)
 
 
 def test_untouched_files_still_load(wrapper, tmp_path, x):

@@ -253,7 +253,9 @@ def _fill_depth(depth: Any, mask: Any = None) -> Callable[[Place, dict], Callabl
 def _cal_edits() -> list[Case]:
     edits = {"nan-quantile": ("quantile", float("nan")), "negative-quantile": ("quantile", -5.0),
              "huge-coef": ("coef", [-1e300] * 4), "negative-residuals": ("residual_quantiles", [-1.0] * 2001),
-             "count-not-a-number": ("n_pixels", "many"), "zero-count": ("n_pixels", 0)}
+             "count-not-a-number": ("n_pixels", "many"), "zero-count": ("n_pixels", 0),
+             # each number within its bound, the scale they imply millimetres where the residuals were metres
+             "intercept-minus-20": ("coef", [-20.0, *json.loads(INTERVALS.read_text())["coef"][1:]])}
     cases = []
     for name, (key, value) in edits.items():
         edit = settable(key, value)
