@@ -29,6 +29,7 @@ from typing import Any
 
 from ..exceptions import InpaintenvError, RunLockedError
 from .jsonio import loads_json
+from .processes import writer_gone
 from .writing import open_lock
 
 try:  # POSIX
@@ -46,18 +47,6 @@ _HOLDER_BYTES = 4096
 
 # Locks this process holds: path (folder resolved) -> [descriptor, depth of nesting, flocked?].
 _HELD: dict[Path, list[Any]] = {}
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # alive, owned by someone else
-        return True
-    except OSError:
-        return False
-    return True
 
 
 def _holder_text(info: dict[str, Any]) -> str:
@@ -118,8 +107,7 @@ def _acquire_exclusive(path: Path, say: Callable[[str], None]) -> int:  # pragma
             fd = open_lock(path)
             holder = _read_holder(fd)
             os.close(fd)
-            pid = holder.get("pid")
-            if holder.get("host") == socket.gethostname() and isinstance(pid, int) and not _pid_alive(pid):
+            if holder.get("host") == socket.gethostname() and writer_gone(holder.get("pid")):
                 say(f"taking over the stale lock of {path.parent} ({_holder_text(holder)}; that process is gone)")
                 path.unlink(missing_ok=True)
                 continue

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ..exceptions import UnsafeFileError
+from .processes import writer_gone
 from .reading import describe_kind
 
 __all__ = [
@@ -211,16 +212,6 @@ def open_lock(path: str | os.PathLike, what: str = "lock file") -> int:
     return _open_owned(path, os.O_RDWR | os.O_CREAT, what)
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def _through_link(folder: Path, within: Path) -> bool:
     """Whether a component of ``folder`` below ``within`` is a symbolic link (or ``folder`` is not inside it)."""
     folder, within = Path(os.path.abspath(folder)), Path(os.path.abspath(within))
@@ -243,7 +234,8 @@ def remove_stale_temporaries(folder: str | os.PathLike, within: str | os.PathLik
     """Remove the temporary files of :func:`write_atomic` in ``folder`` whose writer is no longer running.
 
     Only regular files named ``.inpaintenv-tmp-<pid>-...`` of a process that has ended
-    are removed (a kill -9 mid-write leaves one); nothing else is touched.
+    are removed (a kill -9 mid-write leaves one); nothing else is touched, a name whose
+    pid does not parse (:func:`~inpaintenv.files.processes.parse_pid`) included.
 
     Parameters
     ----------
@@ -268,8 +260,7 @@ def remove_stale_temporaries(folder: str | os.PathLike, within: str | os.PathLik
     for entry in entries:
         if not entry.name.startswith(TEMP_PREFIX):
             continue
-        pid = entry.name[len(TEMP_PREFIX):].split("-", 1)[0]
-        if not pid.isdigit() or int(pid) == os.getpid() or _alive(int(pid)):
+        if not writer_gone(entry.name[len(TEMP_PREFIX):].split("-", 1)[0]):
             continue
         try:
             if entry.is_file(follow_symlinks=False):

@@ -38,6 +38,7 @@ from ..data.base import Subset
 from ..data.io import KITTI_DEPTH_SCALE, write_depth_png, write_png
 from ..evaluate import resolve_source
 from ..files import describe_kind, remove_stale_temporaries, write_atomic
+from ..files.processes import writer_gone
 from ..masks import OcclusionProtocol, get_protocol
 from .layout import (
     DEPTH_ENCODING,
@@ -133,37 +134,25 @@ def _prepare_out(out: Path, overwrite: bool) -> bool:
     return True
 
 
-def _pid_alive(pid: int) -> bool:
-    """Whether process ``pid`` runs (any process is taken to run where signal 0 cannot ask)."""
-    if os.name != "posix":
-        return True  # os.kill would end the process there, not probe it
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True  # another user's process
-    return True
-
-
 def clean_stale(out: Path) -> list[Path]:
     """Remove the temporary folders and files that killed exports into ``out`` left beside it.
 
     Only ``.<out>.partial-<pid>-<random>`` (and ``.<out>.replaced-<pid>-<random>`` when
     ``out`` itself is in place, and the key's ``.<key>.partial-<pid>`` of earlier versions)
-    whose process is gone and which belong to this user are removed. Returns what was removed.
+    whose process is gone and which belong to this user are removed; a name whose pid does not
+    parse (:func:`inpaintenv.files.processes.parse_pid`) is left alone. Returns what was removed.
     """
     removed = []
-    pattern = re.compile(rf"^\.{re.escape(out.name)}(?:\.key\.json)?\.(partial|replaced)-(\d+)(?:-[0-9a-f]+)?$")
+    pattern = re.compile(rf"^\.{re.escape(out.name)}(?:\.key\.json)?\.(partial|replaced)-([0-9]+)(?:-[0-9a-f]+)?$",
+                         re.ASCII)
     if not out.parent.is_dir():
         return removed
     for entry in out.parent.iterdir():
         match = pattern.match(entry.name)
         if match is None:
             continue
-        pid = int(match.group(2))
         info = os.lstat(entry)
-        if pid == os.getpid() or _pid_alive(pid) or info.st_uid != os.getuid() or stat.S_ISLNK(info.st_mode):
+        if not writer_gone(match.group(2)) or info.st_uid != os.getuid() or stat.S_ISLNK(info.st_mode):
             continue
         if match.group(1) == "replaced" and not out.is_dir():
             continue  # killed between the two renames: the only copy of the earlier export

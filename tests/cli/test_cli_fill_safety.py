@@ -61,6 +61,19 @@ def test_no_temporary_name_can_be_planted_and_no_output_link_is_written_through(
     assert not (out / "a.png").is_symlink() and (read_depth_file(out / "a.png") > 0).any()
 
 
+@pytest.mark.parametrize("pid", ["\u00b2", "1" * 23])
+def test_a_temp_looking_name_whose_pid_does_not_parse_is_left_alone_and_fill_runs(tmp_path, capsys, pid):
+    """A superscript digit (ValueError) or 23 digits (OverflowError) crashed every later fill."""
+    out = tmp_path / "out"
+    out.mkdir()
+    odd = out / f".inpaintenv-tmp-{pid}-abc.png"
+    odd.write_bytes(b"not ours")
+    np.save(tmp_path / "a.npy", holed())
+    assert run(str(tmp_path / "a.npy"), "-m", "scanline", "--out", str(out)) == 0
+    assert "Traceback" not in capsys.readouterr().err
+    assert odd.read_bytes() == b"not ours" and (out / "a.png").is_file()
+
+
 def test_a_name_of_250_bytes_is_written(tmp_path, capsys):
     name = "f" * 246 + ".npy"  # the output a.png is 250 bytes; the former hidden temporary name was over 255
     np.save(tmp_path / name, holed())

@@ -115,6 +115,24 @@ def test_stale_temporaries_of_a_dead_writer_are_removed_and_nothing_else(tmp_pat
     assert live.exists() and mine.exists()
 
 
+#: Temp-looking names whose pid is not one: a superscript digit (a digit to str.isdigit, not to
+#: int), an Arabic-Indic digit, 23 digits (os.kill overflows), 0, and a number past a pid_t.
+UNPARSEABLE_PIDS = ["\u00b2", "\u0663", "1" * 23, "0", str(2**31), "", "+12", " 12"]
+
+
+def test_a_temp_looking_name_whose_pid_does_not_parse_is_left_alone(tmp_path):
+    from inpaintenv.files.processes import parse_pid, writer_gone
+
+    names = [f"{files.TEMP_PREFIX}{pid}-abc.png" for pid in UNPARSEABLE_PIDS]
+    for name in names:
+        (tmp_path / name).write_bytes(b"not ours")
+    assert files.remove_stale_temporaries(tmp_path) == []  # was ValueError / OverflowError
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names)
+    assert [parse_pid(p) for p in UNPARSEABLE_PIDS] == [None] * len(UNPARSEABLE_PIDS)
+    assert parse_pid(True) is None and parse_pid(10**23) is None and parse_pid("4194304") == 4194304
+    assert not writer_gone("1" * 23) and not writer_gone(str(os.getpid()))
+
+
 def test_a_folder_link_inside_the_owned_folder_is_never_written_through(tmp_path):
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()

@@ -330,6 +330,11 @@ CASES: list[Case] = [
     Case("cli:show", "out-link-out", lambda p, f: ["show", *TINY, "--out", str(p.link_out(p.work / "panel.png"))],
          ok=True),
     # export: its --out, its key
+    # temp-looking names whose pid does not parse: left alone, the command runs (was a traceback)
+    Case("cli:export", "partial-name-23-digit-pid", lambda p, f: [
+        "export", *TINY, "--holdout", "0", "--out", str(p.work / "kit"),
+        *_none(p.write(p.work / f".kit.partial-{'1' * 23}" / "x", b"x"), p.write(p.work / ".kit.partial-\u00b2", b"x"))],
+         ok=True),
     Case("cli:export", "manifest-fifo", lambda p, f: [
         "export", *TINY, "--holdout", "0", "--overwrite", "--out", str(p.fifo(p.work / "kit" / "manifest.json").parent)]),
     Case("cli:export", "manifest-nested", lambda p, f: [
@@ -354,6 +359,9 @@ CASES: list[Case] = [
         p, f, lambda k, d: shutil.copy(_first_prediction(d), _first_prediction(d).with_name(f"{NOT_UTF8}.png"))),
          says=r"caf\\xe9\.png"),  # an extra file, named as it is
     # fill: inputs, masks, outputs, models, calibrations
+    Case("cli:fill", "out-temp-name-unparseable-pid", lambda p, f: _fill(p, [p.depth()], *_none(
+        p.write(p.work / "out" / ".inpaintenv-tmp-\u00b2-abc.png", b"x"),
+        p.write(p.work / "out" / f".inpaintenv-tmp-{'1' * 23}-abc.png", b"x"))), ok=True),
     Case("cli:fill", "input-fifo", lambda p, f: _fill(p, [p.fifo(p.work / "in" / "a.png")])),
     Case("cli:fill", "input-fifo-in-folder", lambda p, f: _fill(p, [p.fifo(p.work / "in" / "a.png").parent])),
     Case("cli:fill", "input-bomb", lambda p, f: _fill(p, [p.write(p.work / "in" / "a.png", BOMB)])),

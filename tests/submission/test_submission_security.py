@@ -313,6 +313,16 @@ def test_a_later_export_removes_what_a_killed_one_left(tmp_path, streets):
     assert not stale.exists() and not stale_key.exists() and alive.is_dir() and other.is_dir()
 
 
+def test_a_partial_name_whose_pid_does_not_parse_is_left_alone(tmp_path, streets):
+    """``.<out>.partial-<23 digits>`` beside --out crashed export with an OverflowError."""
+    odd = [tmp_path / f".x.partial-{'1' * 23}", tmp_path / ".x.partial-\u00b2", tmp_path / f".x.replaced-{'9' * 30}-ab",
+           tmp_path / f".x.key.json.partial-{'7' * 23}"]
+    for folder in odd:
+        folder.mkdir()
+    export(tmp_path / "x", streets, n_frames=2, progress=False)
+    assert all(folder.is_dir() for folder in odd) and (tmp_path / "x" / "manifest.json").is_file()
+
+
 def test_overwrite_into_a_linked_folder(tmp_path, capsys):
     (tmp_path / "real").mkdir()
     (tmp_path / "link").symlink_to(tmp_path / "real")
