@@ -348,7 +348,7 @@ class _Scans:
         makes the row/column fills, gaps and endpoints: NumPy and OpenCV release the GIL,
         so on two cores a KITTI frame takes about the longer of the two instead of their
         sum (the features of the five blend candidates: 165 -> 96 ms per 352x1216 frame in
-        ``benchmarks/bench_blend.py``, docs/performance.md). The numbers are the same as
+        ``perf/bench_blend.py``, docs/performance.md). The numbers are the same as
         computed one by one.
         """
         def extra() -> list[np.ndarray]:

@@ -125,7 +125,7 @@ SIGNALS_DOC = """Which per-pixel signals rank a fold model's errors: the probe b
 
 For each ``--fold DAY=MODEL`` (a fold model of ``interval_folds.sh``, trained without DAY and
 a few calibration drives), the model fills two sets of frames, each occluded as
-``benchmarks/interval_lodo.py`` occludes it (rect-v1, seed 0, ``--frames-per-drive`` evenly
+``perf/interval_lodo.py`` occludes it (rect-v1, seed 0, ``--frames-per-drive`` evenly
 spaced frames per drive): its calibration drives (the other days' drives its
 ``training_drives_`` does not name) and DAY's drives. Every hole pixel with truth gives its
 absolute error and its signals. Each variant fits a scale on the calibration pixels, ranks

@@ -9,7 +9,7 @@
 #    thread each (~50 min on 2 cores), into OUT/train-day-<DAY>.
 # 2. Scores their 90 % intervals on the left-out day (and drive 0001's official maps with the
 #    2011_09_26 model), calibrated on the fold's held-out drives:
-#    benchmarks/interval_lodo.py, rows in OUT/lodo-learned.json.
+#    perf/interval_lodo.py, rows in OUT/lodo-learned.json.
 # 3. Writes the shipped calibration, estimators/pretrained/intervals/kitti-ensemble-v1.json:
 #    every drive scored by the fold model trained without its day (experiments/interval_calibration.py calibrate).
 # Rerunning skips the trained folds.
@@ -39,7 +39,7 @@ train 2011_09_30 "$D30 $CAL30" &
 train 2011_10_03 "$D03 $CAL03" &
 wait
 train 2011_09_26 "$D26 $CAL26"
-python "$HERE/benchmarks/interval_lodo.py" --kitti-root "$ROOT" --spread-method scanline \
+python "$HERE/perf/interval_lodo.py" --kitti-root "$ROOT" --spread-method scanline \
   --checkpoint day-2011_09_26="$OUT/train-day-2011_09_26/model" \
   --checkpoint day-2011_09_30="$OUT/train-day-2011_09_30/model" \
   --checkpoint day-2011_10_03="$OUT/train-day-2011_10_03/model" \

@@ -157,7 +157,7 @@ def _clients(dd: Any, kind: str, value: Any, timeout: float) -> Iterator[Any]:
 
         # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in workers, which makes glibc
         # unmap and re-fault every frame-sized array: evaluate() ran ~2x slower
-        # (benchmarks/bench_dask.py --malloc-check). Unset it, also where an earlier nanny
+        # (perf/bench_dask.py --malloc-check). Unset it, also where an earlier nanny
         # left it in this process's environment (nannies write it there, and a variable
         # set here overrides Dask's configuration).
         if os.environ.get("MALLOC_TRIM_THRESHOLD_") == str(DASK_MALLOC_TRIM):

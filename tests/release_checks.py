@@ -30,7 +30,7 @@ def check_full_frame(release: Any, shape: tuple[int, int] = (352, 1216)) -> None
     assert out.shape == x.shape and np.isfinite(out).all() and (out[hole] > 0).all()
     measured = (gt > 0) & ~hole
     np.testing.assert_array_equal(out[measured], gt[measured])
-    # The goal is 0.3 s on 2 idle cores (benchmarks/bench_blend.py); a loaded CI
+    # The goal is 0.3 s on 2 idle cores (perf/bench_blend.py); a loaded CI
     # machine gets 10x that before this order-of-magnitude check fails.
     assert seconds < 3.0, f"predict took {seconds:.2f} s on a {shape} frame"
 

@@ -12,7 +12,7 @@ An edge goes to the deepest project module the statement names (``from pkg impor
 the implicit import of a parent package by its submodules is not an edge (Python resolves
 it first).
 
-Size, in the packages and in ``benchmarks/`` and ``experiments/`` (:data:`SIZED`): no
+Size, in the packages and in ``perf/`` and ``experiments/`` (:data:`SIZED`): no
 module over :data:`MAX_LINES` lines, with no way to opt out, and no function whose code
 (its lines without the docstring: a numpydoc docstring documents, it does not make a
 function do more) is over :data:`MAX_FUNCTION_LINES` lines, unless a comment on the line
@@ -33,7 +33,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("inpaintenv", "estimators")
 #: Folders whose modules the size limits cover: the packages and the scripts beside them.
-SIZED = (*PACKAGES, "benchmarks", "experiments")
+SIZED = (*PACKAGES, "perf", "experiments")
 MAX_LINES = 500
 MAX_FUNCTION_LINES = 100
 MAX_LOOSE_MODULES = 6

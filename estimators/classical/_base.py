@@ -27,7 +27,7 @@ __all__ = ["FILL_MODES", "ClassicalInpainter", "in_inverse_depth", "unknown_mask
 FILL_MODES = ("invalid", "hole")
 #: joblib backend for frames of a batch. OpenCV and the large NumPy operations release
 #: the GIL, so threads avoid copying frames between processes (as fast as or faster
-#: than loky for 13 of 14 configurations in benchmarks/bench_classical.py). Passed to
+#: than loky for 13 of 14 configurations in perf/bench_classical.py). Passed to
 #: joblib as a soft hint (``prefer="threads"``), so a caller's
 #: ``joblib.parallel_config(backend=...)`` (loky, dask, ray) still chooses the backend.
 PARALLEL_BACKEND = "threading"

@@ -160,7 +160,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         default: the network's share of a frame is ~30 ms, threads gain little on it,
         and on a busy machine (the benchmark beside other work) two threads made
         ``predict`` 2.3x slower than one (471 vs 205 ms per KITTI frame, measured with
-        ``benchmarks/bench_blend.py`` while two benchmarks ran). Parallelise over
+        ``perf/bench_blend.py`` while two benchmarks ran). Parallelise over
         frames instead (``inpaintenv benchmark --scheduler local:N``).
     n_jobs : int, optional
         Frames whose features are computed in parallel during ``fit`` (joblib threads;

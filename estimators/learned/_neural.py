@@ -113,7 +113,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         scaling) on CUDA only; False: float32 everywhere; "cpu-bf16": also bf16
         autocast on CPU.
     channels_last : bool, default False
-        Use the channels-last memory format (can be faster on CPU/GPU; see benchmarks).
+        Use the channels-last memory format (can be faster on CPU/GPU; see perf/).
     compile : bool, str or dict, default False
         Run the network through ``torch.compile`` for training steps and prediction.
         True: default settings; a string: that ``mode`` (e.g. ``"max-autotune"``); a

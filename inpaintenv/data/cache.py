@@ -1,7 +1,7 @@
 """An optional on-disk cache of decoded frames for repeated passes over a dataset.
 
 Decoding a KITTI PNG costs a few milliseconds per frame (see
-``benchmarks/profile_pipeline.py``); an epoch over 86k frames pays it every time. A
+``perf/profile_pipeline.py``); an epoch over 86k frames pays it every time. A
 :class:`CachedDataset` stores every decoded (already cropped) frame once in a single
 uint16 ``.npy`` file, memory-mapped, and serves later reads from it.
 

@@ -134,7 +134,7 @@ def check_python(args: list[str]) -> str | None:
         return check_module(args[1])
     if args[:1] == ["-c"] or not args:
         return None
-    script = ROOT / args[0].removeprefix("PLACEHOLDER/")  # <this repository>/benchmarks/x.py
+    script = ROOT / args[0].removeprefix("PLACEHOLDER/")  # <this repository>/perf/x.py
     if not script.is_file():
         return f"script {args[0]} does not exist in the repository"
     unknown = sorted(set(used_flags(args[1:])) - script_flags(script))
@@ -172,7 +172,7 @@ def check(cmd: list[str]) -> str | None:
 def test_commands_are_collected():
     cmds = [c for _, c in doc_commands()]
     assert sum(c[0] == "inpaintenv" for c in cmds) >= 5
-    assert any(c[0] == "python" and c[1].startswith("benchmarks/") for c in cmds)
+    assert any(c[0] == "python" and c[1].startswith("perf/") for c in cmds)
     assert commands('K=<KITTI root>\ninpaintenv info --kitti-root $K \\\n  --split val && python -m pytest -q\n') == [
         ["inpaintenv", "info", "--kitti-root", "PLACEHOLDER", "--split", "val"], ["python", "-m", "pytest", "-q"]]
 
@@ -181,12 +181,12 @@ def test_the_checks_catch_wrong_commands(tmp_path):
     assert check(["inpaintenv", "benchmark", "--no-such-flag"]) is not None
     assert check(["inpaintenv", "no-such-command"]) is not None
     assert check(["inpaintenv", "benchmark", "--kitti-root", "PLACEHOLDER", "-m", "harmonic"]) is None
-    assert "does not exist" in check(["python", "benchmarks/no_such_script.py"])
-    assert "declares no option" in check(["python", "benchmarks/bench_masks.py", "--no-such-flag"])
-    assert check(["python", "benchmarks/bench_masks.py", "--stats", "10"]) is None
+    assert "does not exist" in check(["python", "perf/no_such_script.py"])
+    assert "declares no option" in check(["python", "perf/bench_masks.py", "--no-such-flag"])
+    assert check(["python", "perf/bench_masks.py", "--stats", "10"]) is None
     assert "outside the repository" in check(["inpaintenv", "info", "--kitti-root", "../shared/kitti"])
     assert check(["python", "-m", "no_such_module_here"]) is not None
-    assert check(["python", "PLACEHOLDER/benchmarks/bench_masks.py", "--stats", "10"]) is None
+    assert check(["python", "PLACEHOLDER/perf/bench_masks.py", "--stats", "10"]) is None
     assert check(["pip", "install", "-e", ".[test]"]) is None
     assert "no extra" in check(["pip", "install", "-e", ".[no-such-extra]"])
     assert commands("for p in a b; do inpaintenv train --preset $p; done") == [

@@ -23,7 +23,7 @@ from inpaintenv.data import ArrayDataset
 from inpaintenv.envs import DepthInpaintEnv
 from inpaintenv.metrics import ScoredPixels, frame_metrics
 
-_BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+_BENCHMARKS = Path(__file__).resolve().parents[2] / "perf"
 METRIC_KEYS = [f"{r}_{m}" for r in ("hole", "all") for m in ("rmse", "mae", "irmse", "imae", "psnr", "count")]
 
 

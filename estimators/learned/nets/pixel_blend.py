@@ -37,7 +37,7 @@ GAP_SCALE = 7.0
 MIN_DEPTH = 1e-3
 #: Pixels per chunk when a whole frame is predicted. Small enough that a chunk's
 #: activations (8192 x 128 floats = 4 MB) stay in cache: 1.5x faster on the 2-core CPU
-#: than 1 << 18 (``python benchmarks/bench_pretrained.py --chunk 8192 --chunk 262144``).
+#: than 1 << 18 (``python perf/bench_pretrained.py --chunk 8192 --chunk 262144``).
 CHUNK = 1 << 13
 
 

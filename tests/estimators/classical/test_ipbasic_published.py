@@ -2,7 +2,7 @@
 
 The published code (github.com/kujason/ip_basic, ``fill_in_fast``) is not in the repository;
 ``_published_paper_fill`` follows its steps for the paper's setting (``extrapolate=True``,
-``blur_type='gaussian'``). benchmarks/published_ipbasic.py runs the real code on KITTI.
+``blur_type='gaussian'``). perf/published_ipbasic.py runs the real code on KITTI.
 """
 
 from __future__ import annotations

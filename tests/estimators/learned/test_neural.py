@@ -299,7 +299,7 @@ def test_compiled_training_and_prediction_match_eager(dataset, corrupted):
 
     ``aot_eager`` traces forward and backward graphs like the default inductor backend
     but runs them with eager kernels, so the test is quick and exact; inductor itself
-    (minutes of C++ compilation on CPU) is measured in benchmarks/bench_neural.py.
+    (minutes of C++ compilation on CPU) is measured in perf/bench_neural.py.
     """
     eager = tiny(max_steps=3).fit(dataset)
     compiled = tiny(max_steps=3, compile={"backend": "aot_eager"}).fit(dataset)
