@@ -15,6 +15,7 @@ from .projection import (
 )
 from .sources import open_source
 from .synthetic import SyntheticStreets
+from .thinning import laser_rings, ring_map, thin_points_by_rings, thin_points_by_share, thin_scan_by_points, thin_scan_by_rings
 
 __all__ = [
     "ArrayDataset",
@@ -49,6 +50,12 @@ __all__ = [
     "spaced_per_drive",
     "split_by_drive",
     "subset",
+    "laser_rings",
+    "ring_map",
+    "thin_points_by_rings",
+    "thin_points_by_share",
+    "thin_scan_by_points",
+    "thin_scan_by_rings",
     "write_depth_file",
     "write_depth_png",
     "write_points_bin",
