@@ -27,6 +27,7 @@ import numpy as np
 
 from ..exceptions import CalibrationError, FileTooLargeError, InvalidInputError, UnsafeFileError
 from ..files import MAX_TEXT_BYTES, check_frame_pixels, open_regular, read_text
+from ..values.calibration import MAX_CONDITION, check_projection
 
 __all__ = ["CALIBRATION_LAYOUTS", "MAX_CONDITION", "Calibration", "CalibrationError", "check_size", "parse_size",
            "read_calibration"]
@@ -39,8 +40,6 @@ CALIBRATION_LAYOUTS = (
 )
 _RAW = ("calib_cam_to_cam.txt", "calib_velo_to_cam.txt")
 _K360 = ("perspective.txt", "calib_cam_to_velo.txt")
-#: The largest condition number of a projection's 3 x 3 part accepted (a camera's is of the order of its focal length).
-MAX_CONDITION: float = 1e8
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,20 +69,8 @@ class Calibration:
     camera: int = 2
 
     def __post_init__(self) -> None:
-        m = np.asarray(self.matrix, dtype=np.float64)
         where = f"{self.source}: " if self.source is not None else ""
-        if m.shape != (3, 4) or not np.isfinite(m).all():
-            raise CalibrationError(f"{where}a projection matrix is 3 x 4 and finite, got shape {m.shape}")
-        with np.errstate(all="ignore"):
-            det, cond = np.linalg.det(m[:, :3]), np.linalg.cond(m[:, :3])
-        if abs(det) < 1e-12:
-            raise CalibrationError(f"{where}the projection matrix is singular (cannot back-project)")
-        if not cond <= MAX_CONDITION:
-            raise CalibrationError(
-                f"{where}the projection matrix is badly conditioned (condition number {cond:.3g}, more than "
-                f"{MAX_CONDITION:.0e}; a camera's is of the order of its focal length in pixels): back-projected "
-                "points would be meaningless"
-            )
+        m = check_projection(self.matrix, where)  # finite, invertible, right-handed (inpaintenv.values.calibration)
         object.__setattr__(self, "matrix", m)
 
     def with_size(self, size: tuple[int, int] | None) -> Calibration:
@@ -183,8 +170,10 @@ def _matrix(values: dict[str, list[_Entry]], key: str, shape: tuple[int, int], p
     line, v = entries[0]
     if isinstance(v, str):
         raise CalibrationError(f"{path} line {line}: {key} holds {v!r}, not a decimal number")
-    if v.size != shape[0] * shape[1] or not np.isfinite(v).all():
-        raise CalibrationError(f"{path}: {key} holds {v.size} numbers, expected {shape[0] * shape[1]} finite ones")
+    if v.size != shape[0] * shape[1]:
+        raise CalibrationError(f"{path}: {key} holds {v.size} numbers, expected {shape[0] * shape[1]}")
+    if not np.isfinite(v).all():  # a decimal beyond float64's range (1e400) reads as inf
+        raise CalibrationError(f"{path} line {line}: {key} holds a number beyond any float (it reads as infinite)")
     return v.reshape(shape)
 
 
@@ -197,6 +186,8 @@ def _homogeneous(rt: np.ndarray) -> np.ndarray:
 def _rect_size(values: dict[str, np.ndarray], camera: int, path: Path) -> tuple[int, int]:
     key = f"S_rect_{camera:02d}"
     s = _matrix(values, key, (1, 2), path)[0]
+    if not (s == np.round(s)).all():
+        raise CalibrationError(f"{path}: {key} is {s[0]:g} x {s[1]:g}; an image size is whole pixels")
     return check_size((round(s[0]), round(s[1])), f"{path}: {key}")
 
 
@@ -267,10 +258,12 @@ def _locate(path: Path) -> tuple[str, Path]:
             return "kitti360", path.parent
         return "odometry", path
     for folder in (path, path.parent, path / "calibration"):
-        if all(_is_file_like(folder / name) for name in _RAW):
-            return "raw", folder
-        if all(_is_file_like(folder / name) for name in _K360):
-            return "kitti360", folder
+        raw, k360 = (all(_is_file_like(folder / name) for name in names) for names in (_RAW, _K360))
+        if raw and k360:  # which one the user meant is theirs to say
+            raise CalibrationError(f"{folder} holds both a KITTI raw ({' + '.join(_RAW)}) and a KITTI-360 "
+                                   f"({' + '.join(_K360)}) calibration; give one of their files")
+        if raw or k360:
+            return ("raw" if raw else "kitti360"), folder
     if _is_file_like(path / "calib.txt"):
         return "odometry", path / "calib.txt"
     raise CalibrationError(f"{path} is not a calibration: expected {CALIBRATION_LAYOUTS}")
@@ -303,9 +296,9 @@ def read_calibration(
         If nothing is at ``path``.
     CalibrationError
         If the files are unreadable (a FIFO or device is refused at once), lack a matrix,
-        hold a value that is not a decimal number (its file and line named), give a singular
-        or badly conditioned projection (:data:`MAX_CONDITION`), or ``camera`` is not one of
-        the layout's.
+        hold a value that is not a decimal number (its file and line named), give a singular,
+        badly conditioned (:data:`MAX_CONDITION`) or left-handed projection
+        (:mod:`inpaintenv.values.calibration`), or ``camera`` is not one of the layout's.
     FileTooLargeError
         A file larger than ``inpaintenv.files.MAX_TEXT_BYTES``, or an image size beyond
         ``inpaintenv.files.MAX_FRAME_PIXELS``.

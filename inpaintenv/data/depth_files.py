@@ -26,6 +26,7 @@ import numpy as np
 from ..conventions import as_depth_array, check_depth
 from ..exceptions import InvalidInputError
 from ..files import write_bytes_atomic
+from ..values.depth import check_metres_scale
 from .io import DepthFormatError, load_array, read_depth_png, read_png, write_depth_png
 
 __all__ = ["DEPTH_SUFFIXES", "MASK_SUFFIXES", "read_depth_file", "read_mask_file", "write_depth_file"]
@@ -65,12 +66,16 @@ def read_depth_file(path: str | os.PathLike) -> np.ndarray:
         (checked from its header, before anything is decoded or allocated).
     DepthFormatError
         If the file cannot be decoded or is not one 2-D map of metres (the message names
-        the file and the problem: an integer array, negative or infinite depth, ...).
+        the file and the problem: an integer array, negative or infinite depth, ...), or every
+        measurement is under a metre (a PNG of plain metres, a normalised array:
+        :func:`inpaintenv.values.depth.check_metres_scale`).
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".png":
-        return read_depth_png(path)
+        depth = read_depth_png(path)
+        check_metres_scale(depth, str(path), png=True)
+        return depth
     if suffix not in DEPTH_SUFFIXES:
         raise DepthFormatError(f"{path}: not a depth file (expected {', '.join(DEPTH_SUFFIXES)})")
     arr = load_array(path, "depth file", key=(NPZ_KEY,))
@@ -79,6 +84,7 @@ def read_depth_file(path: str | os.PathLike) -> np.ndarray:
         check_depth(arr, name="the array", allow_nan=True, ndim=(2,))
     except (TypeError, ValueError) as exc:
         raise DepthFormatError(f"{path}: {exc}") from None
+    check_metres_scale(arr, str(path), png=False)
     return np.ascontiguousarray(arr)
 
 

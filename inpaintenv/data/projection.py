@@ -26,9 +26,11 @@ from .calibration import Calibration
 from .io import KITTI_DEPTH_SCALE
 from ..exceptions import CalibrationError, FileTooLargeError, InvalidInputError, ScanFormatError
 from ..files import MAX_SCAN_POINTS, open_regular, write_bytes_atomic
+from ..values.points import PointCounts, check_finite, check_in_range, check_landed, split_far
 
 __all__ = [
-    "MIN_SCAN_DEPTH", "ScanFormatError", "depth_to_points", "project_points", "project_scan", "read_scan",
+    "MIN_SCAN_DEPTH", "ScanFormatError", "depth_to_points", "drop_far_points", "project_points", "project_scan",
+    "read_scan",
     "write_points_bin", "write_points_ply",
 ]
 
@@ -66,10 +68,7 @@ def read_scan(path: str | os.PathLike) -> np.ndarray:
     """
     path = Path(path)
     points = _read_points(path)
-    bad = np.count_nonzero(~np.isfinite(points[:, :3]).all(axis=1))
-    if bad:
-        raise ScanFormatError(f"{path}: {bad} of its {len(points)} points have a NaN or infinite coordinate; a KITTI "
-                              "scan holds finite x, y, z in metres")
+    check_finite(points[:, :3], str(path))
     return points
 
 
@@ -121,9 +120,7 @@ def project_points(points: np.ndarray, calibration: Calibration) -> tuple[np.nda
         ``z <= 0`` (behind the camera).
     """
     xyz = _as_points(points)[:, :3].astype(np.float64)
-    if not np.isfinite(xyz).all():
-        raise InvalidInputError(f"{np.count_nonzero(~np.isfinite(xyz).all(axis=1))} points have a NaN or infinite "
-                                "coordinate; points are finite x, y, z in metres")
+    check_finite(xyz, "points")
     m = calibration.matrix
     with np.errstate(all="ignore"):  # overflow: refused below, by whoever uses the values
         uvw = xyz @ m[:, :3].T
@@ -159,19 +156,23 @@ def project_scan(
 
     Raises
     ------
-    InvalidInputError
-        A point with a NaN or infinite coordinate.
+    ScanFormatError
+        A point with a NaN or infinite coordinate, or one farther than the PNG limit
+        (255.996 m; it would be stored as that: leave such points out with :func:`drop_far_points`).
     CalibrationError
-        A point in front of the camera projects to an infinite or NaN pixel or depth.
+        A point in front of the camera projects to an infinite or NaN pixel or depth, or no
+        point lands in the image (the calibration does not fit the scan).
     """
     width, height = calibration.image_size()
     pts = _as_points(points)
+    behind = landed = 0
     # In chunks, keeping the nearest point of each pixel so far: a 16 M-point scan's float64
     # coordinates and sort keys would otherwise take gigabytes at once.
     nearest = np.full(height * width, np.inf)
     index = np.full(height * width, -1, dtype=np.int64)
     for start in range(0, len(pts), _CHUNK_POINTS):
-        pixel, z, idx = _kept_in_image(pts[start:start + _CHUNK_POINTS], start, calibration, width, height)
+        pixel, z, idx, n_behind = _kept_in_image(pts[start:start + _CHUNK_POINTS], start, calibration, width, height)
+        behind, landed = behind + n_behind, landed + len(idx)
         # Sort by pixel, then depth: the first point of each pixel is the nearest (ties: the earlier point).
         order = np.lexsort((z, pixel))
         pixel, z, idx = pixel[order], z[order], idx[order]
@@ -180,28 +181,68 @@ def project_scan(
         pixel, z, idx = pixel[first], z[first], idx[first]
         closer = z < nearest[pixel]  # strictly: on a tie the earlier chunk's point stays
         nearest[pixel[closer]], index[pixel[closer]] = z[closer], idx[closer]
+    check_landed(PointCounts(len(pts), behind, 0, landed), _name(calibration), (width, height), MIN_SCAN_DEPTH)
     depth = np.where(index >= 0, nearest, 0.0)
-    if quantize:
-        depth = np.minimum(np.rint(depth * KITTI_DEPTH_SCALE), 65535) / KITTI_DEPTH_SCALE
+    if quantize:  # every depth is within the PNG limit (checked): rounding never passes 65535
+        depth = np.rint(depth * KITTI_DEPTH_SCALE) / KITTI_DEPTH_SCALE
     depth = depth.astype(np.float32).reshape(height, width)
     return (depth, index.reshape(height, width)) if return_index else depth
 
 
 def _kept_in_image(
     points: np.ndarray, start: int, calibration: Calibration, width: int, height: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel (flat), depth and index (from ``start``) of the points that land in the image, in their order."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Pixel (flat), depth and index (from ``start``) of the points that land in the image, in their order;
+    how many points are behind the camera."""
     u, v, z = project_points(points, calibration)
     with np.errstate(invalid="ignore"):
         behind = ~(z > MIN_SCAN_DEPTH)
     for values in (z, u, v):  # u, v only count in front of the camera
         _check_finite(np.isfinite(values) | (behind if values is not z else False), calibration,
                       "projects finite points")
+    check_in_range(z, "points")
     with np.errstate(invalid="ignore"):
         ur, vr = np.rint(u), np.rint(v)  # the nearest pixel
         keep = ~behind & (ur >= 0) & (ur < width) & (vr >= 0) & (vr < height)
     idx = np.flatnonzero(keep)
-    return vr[idx].astype(np.int64) * width + ur[idx].astype(np.int64), z[idx], idx + start
+    return vr[idx].astype(np.int64) * width + ur[idx].astype(np.int64), z[idx], idx + start, int(behind.sum())
+
+
+def drop_far_points(points: np.ndarray, calibration: Calibration, where: str = "points") -> tuple[np.ndarray, int]:
+    """``points`` without those farther (in depth) than a KITTI 16-bit PNG can hold, and how many went.
+
+    Such a point cannot be stored in a map: :func:`project_scan` refuses it rather than store
+    it as 255.996 m. ``fill`` leaves them out (as points behind the camera) and says how many.
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        ``(N, 3)`` or ``(N, 4)`` float, metres in the LiDAR frame.
+    calibration : Calibration
+    where : str
+        The scan, for the error.
+
+    Returns
+    -------
+    kept : numpy.ndarray
+        The rows of ``points`` within the limit (``points`` itself when none went).
+    n_far : int
+
+    Raises
+    ------
+    ScanFormatError
+        A NaN or infinite coordinate; more than :data:`~inpaintenv.values.points.MAX_FAR_SHARE`
+        of the points in front of the camera beyond the limit (a scan not in metres).
+    """
+    pts = _as_points(points)
+    z = np.empty(len(pts))
+    for start in range(0, len(pts), _CHUNK_POINTS):  # a large scan's work arrays stay small
+        z[start:start + _CHUNK_POINTS] = project_points(pts[start:start + _CHUNK_POINTS], calibration)[2]
+    return split_far(pts, z, MIN_SCAN_DEPTH, where)
+
+
+def _name(calibration: Calibration) -> str:
+    return f"calibration {calibration.source or '(given as a matrix)'}"
 
 
 def depth_to_points(depth: np.ndarray, calibration: Calibration, mask: np.ndarray | None = None) -> np.ndarray:
@@ -254,7 +295,7 @@ def _check_finite(finite: np.ndarray, calibration: Calibration, action: str) -> 
     """Refuse non-finite results of a calibration (``finite`` False anywhere): they would be written as points or depth."""
     if not finite.all():
         raise CalibrationError(
-            f"calibration {calibration.source or '(given as a matrix)'} {action} to infinite or NaN values (a "
+            f"{_name(calibration)} {action} to infinite or NaN values (a "
             "matrix out of range, or values beyond any sensor's); nothing written"
         )
 

@@ -12,8 +12,10 @@ import numpy as np
 
 from ..data.calibration import Calibration, read_calibration
 from ..data.depth_files import MASK_SUFFIXES, read_depth_file, read_mask_file
-from ..data.projection import project_scan, read_scan
+from ..data.projection import drop_far_points, project_scan, read_scan
 from ..exceptions import InvalidInputError
+from ..values.calibration import check_scan_rig
+from ..values.points import far_note
 from .ledger import file_identity
 from .plan import FillJob
 from .view import sensor_view
@@ -120,6 +122,7 @@ class Item:
     points: np.ndarray | None = None
     error: str | None = None
     route: tuple[str, str] | None = None  # (input kind, method) for a method routed by input kind
+    note: str = ""  # what the run says of the input once written (a scan's points left out)
 
 
 class Reader:
@@ -168,8 +171,12 @@ class Reader:
         try:
             if job.is_scan:
                 points = read_scan(job.source)
-                depth = project_scan(points, self.calibration(job))
-                return Item(job, depth, self.holes.fill_mask(job, depth), points)
+                calibration = self.calibration(job)
+                check_scan_rig(job.source, calibration.kind, calibration.source)
+                # Points beyond the PNG limit cannot be stored: left out (counted), neither filled from nor written.
+                points, n_far = drop_far_points(points, calibration, str(job.source))
+                depth = project_scan(points, calibration)
+                return Item(job, depth, self.holes.fill_mask(job, depth), points, note=far_note(n_far))
             depth = read_depth_file(job.source)
             return Item(job, depth, self.holes.fill_mask(job, depth))
         except Exception as exc:  # noqa: BLE001 - any unreadable input is one line, the run goes on

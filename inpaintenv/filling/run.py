@@ -137,6 +137,8 @@ def _loop(run: _Run, todo: list[FillJob], batch_size: int, progress: bool) -> No
             try:
                 future.result()
                 report.written.append(item.job.source)
+                if item.note:
+                    run.log(f"{item.job.source}: {item.note}")
                 if item.route is not None:
                     report.routes[item.route] = report.routes.get(item.route, 0) + 1
             except Exception as exc:  # noqa: BLE001 - e.g. a full disk: one line, the next file may fit

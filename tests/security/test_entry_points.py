@@ -286,6 +286,71 @@ def _config_edits() -> list[Case]:
     return cases
 
 
+def _wall(scale: float = 1.0, behind: bool = False) -> np.ndarray:
+    """A LiDAR scan of a wall 8-12 m ahead (x forward, y left, z up), scaled, or turned behind the car."""
+    az, el = np.meshgrid(np.radians(np.arange(-50, 50, 0.8)), np.radians(np.linspace(3, -15, 16)))
+    x = 10 + 2 * np.sin(3 * az)
+    pts = np.stack([x, x * np.tan(az), x * np.tan(el) / np.cos(az), np.full_like(x, 0.5)], -1).reshape(-1, 4)
+    pts[:, :3] *= scale
+    pts[:, 0] *= -1 if behind else 1
+    return pts.astype(np.float32)
+
+
+#: The P lines and Tr of an odometry calib.txt whose camera (120 x 48 px) looks along the LiDAR's x axis.
+_FORWARD_P, _FORWARD_TR = "60 0 60 0 0 60 24 0 0 0 1 0", "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 0\n"
+
+
+def _scan_fill(p: Place, points: np.ndarray, p2: str = _FORWARD_P, folder: str = "in", *more: str) -> list[str]:
+    """``fill`` of one scan (in ``folder``) with an odometry calibration whose P lines are ``p2``."""
+    scan = p.write(p.work / folder / "s.bin", points.tobytes())
+    calib = p.write(p.work / "calib.txt", "".join(f"P{i}: {p2}\n" for i in range(4)) + _FORWARD_TR)
+    return _fill(p, [scan], "--calib", str(calib), "--size", "120x48", *more)
+
+
+def _value_cases() -> list[Case]:
+    """Values that are well-formed files but impossible values: scan points, calibrations, depth scale."""
+    k360 = "2013_05_28_drive_0000_sync/velodyne_points/data"
+    metres = np.where(np.random.default_rng(0).random((32, 64)) < 0.3, 40, 0).astype(np.uint16)
+    return [
+        Case("cli:fill", "scan-one-point-at-1e30", lambda p, f: _scan_fill(
+            p, np.vstack([_wall(), [[1e30, 0, 0, 0]]]).astype(np.float32), _FORWARD_P, "in", "--points", "bin"),
+             ok=True),
+        Case("cli:fill", "scan-in-decimetres", lambda p, f: _scan_fill(p, _wall(30.0)), says="unit mistake"),
+        Case("cli:fill", "scan-all-behind", lambda p, f: _scan_fill(p, _wall(behind=True)),
+             says="no point of the scan lands in the 120x48 image"),
+        Case("cli:fill", "calib-negated-depth-row", lambda p, f: _scan_fill(p, _wall(), "60 0 60 0 0 60 24 0 0 0 -1 0"),
+             says="not right-handed"),
+        Case("cli:fill", "calib-number-beyond-float", lambda p, f: _scan_fill(p, _wall(), "1e400 0 60 0 0 60 24 0 0 0 1 0"),
+             says="beyond any float"),
+        Case("cli:fill", "calib-singular", lambda p, f: _scan_fill(p, _wall(), "60 0 60 0 0 60 24 0 0 0 0 0"),
+             says="singular"),
+        Case("cli:fill", "scan-kitti360-with-odometry-calib", lambda p, f: _scan_fill(p, _wall(), _FORWARD_P, k360),
+             says="is a KITTI-360 scan"),
+        Case("cli:fill", "input-png-of-plain-metres", lambda p, f: _fill(p, [_png_metres(p, metres)]),
+             says="plain metres"),
+        Case("py:fill", "scan-all-behind", lambda p, f: _py_fill(p, [p.write(p.work / "in" / "s.bin", _wall(
+            behind=True).tobytes())], calibration=_py_calibration()), says="no point of the scan lands"),
+        Case("py:fill", "scan-in-decimetres", lambda p, f: _py_fill(p, [p.write(p.work / "in" / "s.bin", _wall(
+            30.0).tobytes())], calibration=_py_calibration()), says="unit mistake"),
+    ]
+
+
+def _png_metres(p: Place, values: np.ndarray) -> Path:
+    from inpaintenv.data.io import write_png
+
+    path = p.work / "in" / "a.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_png(path, values)
+    return path
+
+
+def _py_calibration() -> Any:
+    from inpaintenv.data import Calibration
+
+    k = np.array([[60.0, 0, 60], [0, 60, 24], [0, 0, 1]])
+    return Calibration(k @ np.array([[0, -1.0, 0, 0], [0, 0, -1, 0], [1, 0, 0, 0]]), (120, 48), "odometry")
+
+
 CASES: list[Case] = [
     # info, evaluate, show, export, benchmark, train: a KITTI tree holding one hostile frame
     *[Case(f"cli:{cmd[0]}", f"kitti-{bad}", _cli_kitti(cmd, bad), ok=bad == "not-utf8")
@@ -401,6 +466,7 @@ CASES: list[Case] = [
          says="shape"),
     *_cal_edits(),
     *_config_edits(),
+    *_value_cases(),
     Case("py:ConformalIntervalInpainter.load", "fifo", _intervals_load(lambda p: p.fifo(p.work / "cal.json"))),
     Case("py:ConformalIntervalInpainter.load", "nested", _intervals_load(lambda p: p.write(p.work / "c.json", NESTED))),
     Case("py:ConformalIntervalInpainter.load", "not-utf8-name", _intervals_load(
