@@ -4,6 +4,13 @@ The file layer (:mod:`inpaintenv.files`) checks that a file is safe to read; thi
 checks that what it holds is possible. Each module owns one kind of value and is called
 by every reader of that kind, so a new reader cannot forget the check:
 
+* :mod:`~inpaintenv.values.points`: a LiDAR scan point (finite, and once projected a depth a
+  16-bit PNG can hold; a scan some point of which lands in the image);
+* :mod:`~inpaintenv.values.calibration`: a projection (finite, invertible, right-handed) and the
+  rig a scan's folders name for it;
+* :mod:`~inpaintenv.values.depth`: a depth map (each value by
+  :func:`inpaintenv.conventions.check_depth`; a frame in metres, not all under a metre).
+
 Import a check from its module (``from inpaintenv.values.points import ...``); this
 package imports nothing else, so every layer may use it.
 """
