@@ -10,8 +10,8 @@ The calibration maths (``scored_residuals``, ``scale_from``, ``balanced_scale``,
 
 from ._calibration import balanced_scale, residual_quantiles, scale_from, scored_residuals
 from ._conformal import SIGNALS, WEIGHTINGS, ConformalIntervalInpainter, weighted_quantiles
-from ._releases import default_intervals, load_intervals, release_intervals, shipped_intervals
+from ._releases import ShippedIntervals, default_intervals, load_intervals, release_intervals, shipped_intervals
 
-__all__ = ["SIGNALS", "WEIGHTINGS", "ConformalIntervalInpainter", "balanced_scale", "default_intervals", "load_intervals",
+__all__ = ["SIGNALS", "WEIGHTINGS", "ConformalIntervalInpainter", "ShippedIntervals", "balanced_scale", "default_intervals", "load_intervals",
            "release_intervals", "residual_quantiles", "scale_from", "scored_residuals", "shipped_intervals",
            "weighted_quantiles"]

@@ -10,7 +10,7 @@ from inpaintenv.exceptions import InvalidInputError
 
 from ._conformal import ConformalIntervalInpainter
 
-__all__ = ["default_intervals", "load_intervals", "release_intervals", "shipped_intervals"]
+__all__ = ["ShippedIntervals", "default_intervals", "load_intervals", "release_intervals", "shipped_intervals"]
 
 
 def _intervals_dir() -> Path:
@@ -72,18 +72,14 @@ def _calibration_path(name: Any) -> Path:
     """The shipped calibration of method ``name``; one error listing those shipped if it has none."""
     path = _intervals_dir() / f"{name}.json" if isinstance(name, str) else None
     if path is None or not path.is_file():
-        have = ", ".join(shipped_intervals()) or "none"
-        raise InvalidInputError(f"method {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
-                                "one with ConformalIntervalInpainter(...).fit on drives it never saw and save it")
+        raise _no_calibration(name)
     return path
 
 
-def _calibrated_route(route: Any, name: str) -> ConformalIntervalInpainter:
-    """A router's ``route`` (made now if it waits for first use) in the calibration shipped for ``name``."""
-    from ..learned import OnFirstUse
-
-    method = route.make() if isinstance(route, OnFirstUse) else route
-    return ConformalIntervalInpainter.load(_calibration_path(name), estimator=method)
+def _no_calibration(name: Any) -> InvalidInputError:
+    have = ", ".join(shipped_intervals()) or "none"
+    return InvalidInputError(f"method {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
+                             "one with ConformalIntervalInpainter(...).fit on drives it never saw and save it")
 
 
 def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalIntervalInpainter:
@@ -99,16 +95,47 @@ def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalI
     return ConformalIntervalInpainter.load(path, estimator=estimator)
 
 
-def default_intervals(name: str | None = None, input: str = "auto") -> Any:
-    """``pretrained-intervals``: routed like ``pretrained`` (:func:`estimators.learned.load_default`),
-    each route in its own shipped calibration.
+class ShippedIntervals:
+    """The interval of a route of ``pretrained``: the calibration shipped for the route's name.
 
-    A map's interval is the map release's calibration; a single scan's is the calibration
-    shipped for the scan route's method by its name (``<SCAN_DEFAULT>.json``, calibrated on
-    scans), wrapped around the route's own method, so its fill is ``pretrained``'s bit for
-    bit. A scan route without a shipped calibration gives no interval: asking it for a scan's
-    is one error naming it, never the map release's fill and interval on a scan. As for
-    ``pretrained``, each route is loaded when a frame first takes it.
+    ``ShippedIntervals()(name, method)`` is ``method`` wrapped in
+    ``estimators/pretrained/intervals/<name>.json`` (a :class:`ConformalIntervalInpainter`,
+    whose ``predict`` is ``method``'s bit for bit); the ``intervals`` of
+    :class:`~estimators.learned.InputRoutedInpainter`. Stateless, so it pickles and copies.
+
+    Raises
+    ------
+    InvalidInputError
+        When called for a name that ships no calibration (the message lists those that do).
+    """
+
+    def __call__(self, name: str, method: Any) -> ConformalIntervalInpainter:
+        if name not in shipped_intervals():
+            raise _no_calibration(name)
+        return ConformalIntervalInpainter.load(_calibration_path(name), estimator=method)
+
+    def __eq__(self, other: object) -> bool:
+        return type(other) is ShippedIntervals
+
+    def __hash__(self) -> int:
+        return hash(ShippedIntervals)
+
+    def __repr__(self) -> str:
+        return "ShippedIntervals()"
+
+
+def default_intervals(name: str | None = None, input: str = "auto", require_calibration: bool = True,
+                      **overrides: Any) -> Any:
+    """``pretrained`` and ``pretrained-intervals``: routed as :func:`estimators.learned.load_default`,
+    each route's interval from the calibration shipped for its method by name.
+
+    A map's interval is the map release's calibration (calibrated on maps); a single scan's
+    (or a thinned scan's: any frame routed as a scan) the one shipped for the scan route
+    (``<SCAN_DEFAULT>.json``, calibrated on scans), wrapped around the route's own method when
+    an interval is first asked (:class:`ShippedIntervals`), so the fill is ``pretrained``'s
+    bit for bit. A route without a shipped calibration gives no interval: asking it is one
+    error naming it, never another route's interval. Each route is loaded when a frame first
+    takes it; its calibration when a frame's interval is first asked.
 
     Parameters
     ----------
@@ -116,16 +143,31 @@ def default_intervals(name: str | None = None, input: str = "auto") -> Any:
         The map release (the default release by default).
     input : {"auto", "scan", "map"}
         As for :func:`~estimators.learned.load_default`.
-    """
-    from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT
+    require_calibration : bool, default True
+        Refuse now a map release that ships no calibration (``pretrained-intervals``);
+        ``pretrained`` (False) fills without one and refuses only an interval asked of it.
+    **overrides
+        Prediction-time parameters of the map release (:func:`~estimators.learned.load_release`).
 
-    from ..learned import OnFirstUse, load_default
+    Returns
+    -------
+    InputRoutedInpainter
+        ``predict_interval(X, coverage)`` and ``predict(X, return_std=True)`` (``std``: the
+        calibrated 90 % half-width over 1.645, see
+        :meth:`ConformalIntervalInpainter.predict`) on maps and scans.
+    """
+    from inpaintenv.methods.learned import DEFAULT_RELEASE
+
+    from ..learned import OnFirstUse, load_default, load_release
 
     map_name = name or DEFAULT_RELEASE
-    _calibration_path(map_name)  # a release without a calibration is refused now, not at its first map
-    routed = load_default(input=input)
-    routed.map_method = OnFirstUse(release_intervals, map_name)
-    routed.map_name = map_name
-    if routed.scan_name == SCAN_DEFAULT and SCAN_DEFAULT in shipped_intervals():
-        routed.scan_method = OnFirstUse(_calibrated_route, routed.get_params(deep=False)["scan_method"], SCAN_DEFAULT)
+    if require_calibration:
+        _calibration_path(map_name)  # a release without a calibration is refused now, not at its first map
+    if map_name == DEFAULT_RELEASE:
+        routed = load_default(input=input, **overrides)
+    else:
+        routed = load_default(input=input)
+        routed.map_method = load_release(map_name, **overrides) if overrides else OnFirstUse(load_release, map_name)
+        routed.map_name = map_name
+    routed.intervals = ShippedIntervals()
     return routed

@@ -12,6 +12,8 @@ each frame by its kind: given as ``input``, or told from its measured density.
 
 A route may be given as :class:`OnFirstUse`: its method is made when the route first fills a
 frame, so ``pretrained`` loads the map release only for a map and the scan release only for a scan.
+A route without an interval of its own gets one from ``intervals`` (``pretrained``'s: the
+calibration shipped for the route's name), wrapped around the route's method when first asked.
 """
 
 from __future__ import annotations
@@ -22,11 +24,12 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
 from .._constraints import Check, ConstrainedParams, InstanceOf, Options, Real
-from ..base import BaseInpainter
+from ..base import BaseInpainter, check_inpaint_input
 
 __all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "InputRoutedInpainter", "OnFirstUse", "measured_density"]
 
@@ -47,6 +50,13 @@ def _check_route(route: Any, name: str) -> None:
     """Accept a method with ``predict`` or an :class:`OnFirstUse`; anything else is one error naming ``name``."""
     if not isinstance(route, OnFirstUse) and not callable(getattr(route, "predict", None)):
         raise InvalidTypeError(f"{name} must be an inpainter (with predict) or an OnFirstUse, got {route!r}")
+
+
+def _check_intervals(value: Any) -> None:
+    """``intervals``: None or a callable ``(name, method) -> interval estimator``."""
+    if not callable(value):
+        raise InvalidTypeError(f"intervals must be None or a callable (route name, method) -> interval estimator, "
+                               f"got {value!r}")
 
 
 def measured_density(x: np.ndarray) -> float:
@@ -100,6 +110,7 @@ def _route_attribute(kind: str) -> property:
     def write(self: InputRoutedInpainter, value: Any) -> None:
         self.__dict__[f"_{kind}_given"] = value
         self.__dict__.pop(f"_{kind}_made", None)  # a route set anew is made anew
+        self.__dict__.pop(f"_{kind}_interval", None)  # and its interval with it
 
     return property(read, write, doc=f"The method that fills a {kind} (made on first use if given as OnFirstUse).")
 
@@ -121,6 +132,12 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         The density that separates the kinds.
     scan_name, map_name : str
         What :attr:`routed_to_` says for each route (e.g. ``"harmonic"``).
+    intervals : callable or None, default None
+        How a route whose method has no ``predict_interval`` gets an interval:
+        ``intervals(name, method)`` (``name`` the route's ``scan_name``/``map_name``) returns
+        an interval estimator around ``method`` (e.g.
+        :class:`estimators.intervals.ShippedIntervals`: the calibration shipped for ``name``),
+        made when the route is first asked for one; None: such a route has no interval.
 
     Attributes
     ----------
@@ -133,13 +150,14 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     scan_method = _route_attribute("scan")
 
     def __init__(self, *, map_method: Any, scan_method: Any, input: str = "auto", threshold: float = SCAN_DENSITY,
-                 scan_name: str = "scan", map_name: str = "map"):
+                 scan_name: str = "scan", map_name: str = "map", intervals: Callable[[str, Any], Any] | None = None):
         self.map_method = map_method
         self.scan_method = scan_method
         self.input = input
         self.threshold = threshold
         self.scan_name = scan_name
         self.map_name = map_name
+        self.intervals = intervals
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         """The constructor's parameters, each route as given (an :class:`OnFirstUse` stays one).
@@ -190,6 +208,7 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         "threshold": [Real(0, 1, closed="neither")],
         "scan_name": [InstanceOf(str, "a name (str)")],
         "map_name": [InstanceOf(str, "a name (str)")],
+        "intervals": [None, Check(_check_intervals)],
     }
 
     def _param_value(self, name: str) -> Any:
@@ -219,6 +238,78 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         self.routed_to_ = [self.scan_name if k == "scan" else self.map_name for k in kinds]
         return out
 
+    def interval_method(self, kind: str) -> Any:
+        """The estimator that gives route ``kind``'s interval (``"scan"`` or ``"map"``).
+
+        The route's own method when it has ``predict_interval``; else ``intervals(name, method)``,
+        made once (under the lock, as the routes are), around the route's method.
+
+        Raises
+        ------
+        InvalidInputError
+            If the route has no interval and ``intervals`` gives none: it is named, rather
+            than a frame being given the other route's method and interval.
+        """
+        method = self._route(kind)
+        if hasattr(method, "predict_interval"):
+            return method
+        made, name = f"_{kind}_interval", self.scan_name if kind == "scan" else self.map_name
+        if made not in self.__dict__:
+            if self.intervals is None:
+                raise InvalidInputError(
+                    f"no calibrated interval for a single {kind} yet: its route {name} ships none; drop the interval "
+                    f"(fill without --confidence), or give one (--intervals CAL.json, or -m <method>-intervals)")
+            with _MAKING:
+                if made not in self.__dict__:
+                    self.__dict__[made] = self.intervals(name, method)
+        return self.__dict__[made]
+
+    def predict(self, X: Any, return_std: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """Fill each frame by its route; with ``return_std`` also each route's per-pixel std.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(H, W)`` or ``(N, H, W)`` metres, NaN = fill, 0 = no measurement.
+        return_std : bool, default False
+            Also return ``std`` (scikit-learn's ``GaussianProcessRegressor`` convention),
+            from each frame's :meth:`interval_method`.
+
+        Returns
+        -------
+        pred : numpy.ndarray
+            float32 metres, the same as ``predict(X)`` bit for bit.
+        std : numpy.ndarray, only with ``return_std``
+            float32 metres, 0 at measured pixels. For a conformal interval
+            (:class:`~estimators.intervals.ConformalIntervalInpainter`) it is the half-width of
+            the calibrated interval (nominal coverage ``c``, 0.9 for the shipped calibrations)
+            divided by the normal quantile ``z_c`` (1.645 at 0.9): ``pred ± z_c · std`` is that
+            interval. It assumes nothing is normal: ``pred ± z · std`` at another coverage is
+            not calibrated (ask :meth:`predict_interval` for it).
+
+        Raises
+        ------
+        InvalidInputError
+            If a frame's route gives no interval (see :meth:`interval_method`).
+        """
+        if not return_std:
+            return super().predict(X)
+        check_is_fitted(self)
+        x = check_inpaint_input(X)
+        batch = x[None] if x.ndim == 2 else x
+        kinds = [self.kind(frame) for frame in batch]
+        pred, std = np.empty(batch.shape, np.float32), np.zeros(batch.shape, np.float32)
+        for kind, pick, _ in self._routes(kinds):
+            method = self.interval_method(kind)
+            if "return_std" not in inspect.signature(method.predict).parameters:
+                name = self.scan_name if kind == "scan" else self.map_name
+                raise InvalidInputError(f"the interval of route {name} ({type(method).__name__}) gives no std: ask "
+                                        "predict_interval instead of predict(X, return_std=True)")
+            pred[pick], std[pick] = method.predict(batch[pick], return_std=True)
+        self.routed_to_ = [self.scan_name if k == "scan" else self.map_name for k in kinds]
+        pred = np.where(batch > 0, batch, pred)  # as predict: measured pixels are given
+        return (pred[0], std[0]) if x.ndim == 2 else (pred, std)
+
     def predict_interval(self, X: Any, coverage: float = 0.9,
                          prediction: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Per-pixel ``(low, high)`` of nominal ``coverage``, each frame from the interval of its route.
@@ -235,19 +326,14 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         Raises
         ------
         InvalidInputError
-            If a frame's route has no calibrated interval: it is named, rather than a
-            frame being filled by the other route's method.
+            If a frame's route gives no interval (see :meth:`interval_method`).
         """
         x = np.asarray(X, dtype=np.float32)
         batch = x if x.ndim == 3 else x[None]
         kinds = [self.kind(frame) for frame in batch]
         low, high = np.empty(batch.shape, np.float32), np.empty(batch.shape, np.float32)
-        for kind, pick, method in self._routes(kinds):
-            name = self.scan_name if kind == "scan" else self.map_name
-            if not hasattr(method, "predict_interval"):
-                raise InvalidInputError(
-                    f"no calibrated interval for a single {kind} yet: its route {name} ships none; drop the interval "
-                    f"(fill without --confidence), or give one (--intervals CAL.json, or -m <method>-intervals)")
+        for kind, pick, _ in self._routes(kinds):
+            method = self.interval_method(kind)
             given = {}
             if prediction is not None and "prediction" in inspect.signature(method.predict_interval).parameters:
                 given["prediction"] = (prediction if prediction.ndim == 3 else prediction[None])[pick]

@@ -311,6 +311,8 @@ for _name, _cls, _kw, _desc in CLASSICAL_METHODS:
 # One factory loads any of them: estimators.learned.load_release (the release folder, the
 # default and the list of releases: inpaintenv.methods.learned, the one torch-free copy).
 _RELEASES_MODULE = "estimators.learned"
+#: Interval calibrations (and the default, which gives each route's on asking).
+_INTERVALS_MODULE = "estimators.intervals"
 #: The releases that left the package (the git tag releases-0.1 holds their weights and cards).
 REMOVED_RELEASES = ("kitti-rect-v1", "kitti-rect-v2", "kitti-rect-v3", "kitti-rect-v4",
                      "kitti-context-v1", "kitti-context-v2", "kitti-context-v3")
@@ -322,12 +324,14 @@ def register_removed(name: str, message: str) -> None:
     _REMOVED[name] = message
 
 
+# The default: estimators.learned.load_default, and each route's interval from the calibration
+# shipped for it (asked only when an interval is: predict_interval / predict(X, return_std=True)).
 register_method(
-    "pretrained", _RELEASES_MODULE, "load_default", {},
+    "pretrained", _INTERVALS_MODULE, "default_intervals", {"name": DEFAULT_RELEASE, "require_calibration": False},
     f"the default: a map with holes gets the learned release {DEFAULT_RELEASE} (the per-pixel mean of a context "
     "blend and a per-pixel blend of classical fills, trained on 15 KITTI drives, CC BY-NC-SA 3.0), a single LiDAR "
     f"scan gets the scan release {SCAN_DEFAULT}; decided per frame from its measured density or by "
-    "input='scan'|'map'",
+    "input='scan'|'map'; each route's shipped 90 % interval on asking (predict_interval, return_std)",
 )
 for _release, _class in shipped().items():
     register_method(_release, _RELEASES_MODULE, "load_release", {"name": _release},
@@ -352,7 +356,6 @@ for _release in REMOVED_RELEASES:
 # Methods (releases, classical fills) shipped with a per-pixel interval calibration
 # (estimators/pretrained/intervals/<name>.json): <name>-intervals predicts as <name> and adds
 # predict_interval / predict(X, return_std=True).
-_INTERVALS_MODULE = "estimators.intervals"
 
 
 def shipped_interval_calibrations() -> tuple[str, ...]:
@@ -367,11 +370,11 @@ for _release in shipped_interval_calibrations():
                     + ("docs/model_card.md" if _release in PRETRAINED_RELEASES else "docs/estimators.md")
                     + ", 'Per-pixel intervals'); predicts as " + _release)
 if DEFAULT_RELEASE in shipped_interval_calibrations():
-    # Routed like 'pretrained': a scan's interval is asked of the scan route (which has none yet,
-    # so it is refused), never answered by the map release's fill and interval.
+    # 'pretrained', refused when built if the map release ships no calibration: a scan's interval is
+    # the scan route's own, never answered by the map release's fill and interval.
     register_method("pretrained-intervals", _INTERVALS_MODULE, "default_intervals", {"name": DEFAULT_RELEASE},
                     f"pretrained with its 90 % per-pixel intervals: a map's from {DEFAULT_RELEASE}'s shipped "
-                    "calibration (docs/model_card.md, 'Per-pixel intervals'); a single scan has none yet")
+                    f"calibration, a scan's from {SCAN_DEFAULT}'s (docs/model_card.md, 'Per-pixel intervals')")
 register_method(
     "intervals", _INTERVALS_MODULE, "load_intervals", {},
     "a saved interval calibration around its base: make_method('intervals', path=..., estimator=...)",

@@ -39,8 +39,8 @@ def test_the_default_release_ships_a_calibration_registered_as_pretrained_interv
     assert type(wrapped.estimator) is type(load_release())
     # pretrained-intervals routes like pretrained: a map's interval is this calibration's.
     routed = make_method("pretrained-intervals")
-    assert type(routed.map_method) is ConformalIntervalInpainter
-    assert routed.map_method.calibration_ == wrapped.calibration_
+    assert type(routed.interval_method("map")) is ConformalIntervalInpainter
+    assert routed.interval_method("map").calibration_ == wrapped.calibration_
 
 
 def test_its_calibration_is_out_of_fold_on_drives_each_fold_model_never_saw(wrapped):
@@ -128,11 +128,11 @@ def test_pretrained_intervals_gives_a_scan_the_interval_of_its_scan_route_by_nam
     if SCAN_DEFAULT not in shipped_intervals():
         pytest.skip(f"{SCAN_DEFAULT} ships no calibration")
     routed, x = make_method("pretrained-intervals"), _scans()
-    assert routed.scan_method.calibration_ == release_intervals(SCAN_DEFAULT).calibration_
+    assert routed.interval_method("scan").calibration_ == release_intervals(SCAN_DEFAULT).calibration_
     pred = make_method("pretrained").predict(x)
     np.testing.assert_array_equal(routed.predict(x), pred)
     assert routed.routed_to_ == [SCAN_DEFAULT] * len(x)
-    check_shipped_interval(routed.scan_method, x, pred)
+    check_shipped_interval(routed.interval_method("scan"), x, pred)
 
 
 def test_a_scan_default_without_a_calibration_gets_no_interval(monkeypatch):
@@ -147,7 +147,7 @@ def test_a_scan_default_without_a_calibration_gets_no_interval(monkeypatch):
     monkeypatch.setattr(shipped_calibrations, "shipped_intervals",
                         lambda: [k for k in every() if k != scan_default])
     routed = make_method("pretrained-intervals")
-    with pytest.raises(InpaintenvError, match="no calibrated interval for a single scan"):
+    with pytest.raises(InpaintenvError, match=f"{SCAN_DEFAULT!r} has no shipped interval calibration"):
         routed.predict_interval(_scans())
 
 
@@ -174,3 +174,37 @@ def test_pretrained_intervals_loads_only_the_route_a_frame_takes(monkeypatch):
     dense[:, : dense.shape[1] // 2, : dense.shape[2] // 2] = np.nan  # a dense frame with a hole: a map
     routed.predict(dense)
     assert loaded == [SCAN_DEFAULT, DEFAULT_RELEASE]
+
+
+@pytest.mark.parametrize("name", ["pretrained", "pretrained-intervals"])
+def test_the_default_gives_each_frame_the_shipped_interval_of_its_route(name, holed, wrapped):
+    """pretrained and pretrained-intervals: predict_interval and predict(X, return_std=True) on a batch
+    of a map and scans, each frame's interval the one shipped for its route, the fill pretrained's."""
+    from inpaintenv.methods.learned import SCAN_DEFAULT
+    from inpaintenv.metrics import normal_quantile
+
+    if SCAN_DEFAULT not in shipped_intervals():
+        pytest.skip(f"{SCAN_DEFAULT} ships no calibration")
+    scans = _scans()
+    batch = np.concatenate([holed[None, :64, :192], scans])
+    routed = make_method(name)
+    pred = make_method("pretrained").predict(batch)
+    check_shipped_interval(routed, batch, pred)
+    assert routed.routed_to_ == [DEFAULT_RELEASE] + [SCAN_DEFAULT] * len(scans)
+    low, high = routed.predict_interval(batch, coverage=0.8)
+    for k, own in [(0, wrapped), *((k, release_intervals(SCAN_DEFAULT)) for k in range(1, len(batch)))]:
+        own_low, own_high = own.predict_interval(batch[k], coverage=0.8)
+        np.testing.assert_array_equal(low[k], own_low)
+        np.testing.assert_array_equal(high[k], own_high)
+    # std is the calibrated 90 % half-width over z(0.9): pred + z std is the interval's top.
+    _, std = routed.predict(batch, return_std=True)
+    _, high90 = routed.predict_interval(batch, coverage=0.9)
+    np.testing.assert_allclose(pred + normal_quantile(0.9) * std, high90, rtol=1e-5, atol=1e-4)
+
+
+def test_benchmark_scores_the_default_s_interval(tmp_path):
+    argv = ["benchmark", "-m", "pretrained", "--n-frames", "2", "--frame-shape", "64", "192", "--holdout", "0",
+            "--figure-frames", "0", "--quiet", "--out", str(tmp_path / "run"), "--interval-coverage", "0.9"]
+    assert main(argv) == 0
+    rows = json.loads((tmp_path / "run" / "results.json").read_text())["rows"]
+    assert rows and all(0 <= r["hole_coverage"] <= 1 and r["hole_interval_width"] > 0 for r in rows)

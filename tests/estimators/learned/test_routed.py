@@ -118,7 +118,7 @@ def test_a_router_on_first_use_keeps_its_parameters_clones_and_pickles():
     given = OnFirstUse(HarmonicInpainter)
     est = InputRoutedInpainter(map_method=OnFirstUse(NearestInpainter), scan_method=given, scan_name="harmonic")
     params = est.get_params(deep=False)
-    assert set(params) == {"map_method", "scan_method", "input", "threshold", "scan_name", "map_name"}
+    assert set(params) == {"map_method", "scan_method", "input", "threshold", "scan_name", "map_name", "intervals"}
     assert params["scan_method"] is given and "OnFirstUse(HarmonicInpainter)" in repr(est)
     unused = pickle.loads(pickle.dumps(est))
     expected = est.predict(scans)
@@ -284,6 +284,54 @@ def test_an_interval_is_asked_of_each_frames_route_and_a_route_without_one_is_na
         est.predict_interval(np.concatenate([maps, scans]), coverage=0.9)
 
 
+class _OneMetre:
+    """An interval of 1 m either side around any method; counts the ones it made and names their route."""
+
+    def __init__(self):
+        self.made = []
+
+    def __call__(self, name, method):
+        self.made.append(name)
+        return _WithStd(method)
+
+
+class _WithStd:
+    def __init__(self, method):
+        self.method = method
+
+    def predict(self, X, return_std=False):
+        pred = self.method.predict(X)
+        return (pred, np.where(np.isnan(X), 0.5, 0.0).astype(np.float32)) if return_std else pred
+
+    def predict_interval(self, X, coverage=0.9):
+        pred = self.method.predict(X)
+        return pred - 1.0, pred + 1.0
+
+
+def test_a_route_without_an_interval_gets_one_from_intervals_once_and_return_std_routes_per_frame():
+    intervals = _OneMetre()
+    est = InputRoutedInpainter(map_method=_WithInterval(), scan_method=OnFirstUse(HarmonicInpainter),
+                               scan_name="harmonic", map_name="nearest", intervals=intervals)
+    maps, scans = _inputs("map", "rect-v1", 2), _inputs("scan", "densify-v1", 1)
+    batch = np.concatenate([maps, scans])
+    low, high = est.predict_interval(batch, coverage=0.9)
+    est.predict_interval(scans, coverage=0.8)
+    assert intervals.made == ["harmonic"]  # the map route has its own; the scan route's made once
+    pred = est.predict(batch)
+    np.testing.assert_array_equal(low[2], pred[2] - 1.0)
+    np.testing.assert_array_equal(high[:2], pred[:2] + 1.0)
+    with pytest.raises(InpaintenvError, match="route nearest .* gives no std"):
+        est.predict(batch, return_std=True)  # _WithInterval has no return_std
+    same, std = est.predict(scans, return_std=True)
+    np.testing.assert_array_equal(same, pred[2:])
+    assert est.routed_to_ == ["harmonic"] and (std[np.isnan(scans)] == 0.5).all() and (std[~np.isnan(scans)] == 0).all()
+    est.set_params(scan_method=NearestInpainter())  # a route set anew gets its interval anew
+    est.predict_interval(scans)
+    assert intervals.made == ["harmonic", "harmonic"]
+    with pytest.raises(InpaintenvError, match="intervals must be None or a callable"):
+        est.set_params(intervals="shipped").predict(scans)
+
+
 def test_pretrained_intervals_routes_like_pretrained():
     pytest.importorskip("torch")
     from inpaintenv.methods.registry import is_learned, make_method
@@ -291,4 +339,4 @@ def test_pretrained_intervals_routes_like_pretrained():
     est = make_method("pretrained-intervals")
     assert is_learned("pretrained-intervals")
     assert est.choose(_inputs("scan", "densify-v1", 1)[0]) == est.scan_name
-    assert hasattr(est.map_method, "predict_interval")
+    assert hasattr(est.interval_method("map"), "predict_interval")
