@@ -1,15 +1,19 @@
 """What made each output of ``--out``: so a rerun skips only its own outputs and replaces nothing else.
 
 ``fill`` records every input it writes in :data:`LEDGER` (``inpaintenv-fill.jsonl`` in
-``--out``, one JSON line per input, appended after its outputs are written): the outputs
-(relative paths), the input (path, size, modification time) and the recipe (the method's
-identity and every option that changes the pixels). Before a run writes an input's
-outputs, each output already there must be recorded as made from the same input by the
-same recipe; otherwise the input is refused in one line naming the file and what differs
-(``--overwrite`` replaces it). An input whose outputs all exist and match is skipped.
+``--out``, JSON lines): the outputs (relative paths), the input (path, size, modification
+time) and the recipe (the method's identity and every option that changes the pixels).
+Each input gets two lines: an *intent* (``"intent": true``) appended before the first of
+its outputs is written, and the record appended after the last. Before a run writes an
+input's outputs, each output already there must be recorded, by either line, as made from
+the same input by the same recipe; otherwise the input is refused in one line naming the
+file and what differs (``--overwrite`` replaces it). An input whose outputs all exist and
+whose latest line is the record is skipped; one whose latest line is an intent was cut
+short (a kill between its outputs, several per input with ``--format both`` or
+``--confidence``) and is redone, its files there replaced.
 
-An append costs one line per input whatever the folder holds; a line cut short by a kill
-is ignored (its outputs then count as not recorded).
+An append costs one line whatever the folder holds; a line cut short by a kill is ignored
+(its outputs then count as not recorded: the intent is appended whole before any output).
 """
 
 from __future__ import annotations
@@ -115,14 +119,28 @@ class Ledger:
                         f"{self.path.name}); not replaced: give --overwrite to replace it, or another --out")
             diff = _differences(old, record)
             if diff:
-                return (f"{path} exists and was made {'; '.join(diff)}; not replaced: give --overwrite to "
+                made = "was being made" if old.get("intent") is True else "was made"
+                return (f"{path} exists and {made} {'; '.join(diff)}; not replaced: give --overwrite to "
                         "redo it, or another --out")
         return None
+
+    def done(self, job: FillJob) -> bool:
+        """Whether every output of ``job`` is there and its latest line is a record, not an intent
+        (a run killed between an input's outputs left an intent: the input is redone)."""
+        for path in job.all_outputs:
+            old = self._by_output.get(self._rel(path))
+            if not os.path.lexists(path) or (old is not None and old.get("intent") is True):
+                return False
+        return True
 
     def new_record(self, job: FillJob, recipe: dict[str, Any]) -> dict[str, Any]:
         """The record of ``job`` made by ``recipe`` (its input's identity taken now, before it is read)."""
         return {"outputs": [self._rel(p) for p in job.all_outputs], "input": file_identity(job.source),
                 "recipe": recipe}
+
+    def intend(self, record: dict[str, Any]) -> None:
+        """Append ``record`` as an intent (before the first of its outputs is written)."""
+        self.record({**record, "intent": True})
 
     def record(self, record: dict[str, Any]) -> None:
         """Append ``record`` (after its outputs are written); never through a link."""

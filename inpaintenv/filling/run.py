@@ -44,10 +44,13 @@ class _Run:
         self.report.method = name
 
     def write(self, item: Item, arrays: tuple[np.ndarray, ...]) -> None:
-        """Write every output of one filled input (in the writer thread)."""
-        write_outputs(item, arrays, lambda: self.reader.calibration(item.job))
+        """Write every output of one filled input (in the writer thread), between its intent and its record
+        in the ledger (a kill between them leaves the intent: a rerun redoes the input)."""
         assert self.ledger is not None
-        self.ledger.record(self.records[item.job])
+        record = self.records[item.job]
+        self.ledger.intend(record)
+        write_outputs(item, arrays, lambda: self.reader.calibration(item.job))
+        self.ledger.record(record)
 
     def fail(self, item: Item, line: str) -> None:
         self.fail_job(item.job, line)
@@ -207,7 +210,7 @@ def _todo(jobs: list[FillJob], run: _Run, recipe: dict[str, Any], overwrite: boo
             if why is not None:
                 run.fail_job(job, why)
                 continue
-            if all(os.path.lexists(o) for o in job.all_outputs):
+            if run.ledger.done(job):
                 run.report.skipped.append(job.source)
                 continue
         todo.append(job)

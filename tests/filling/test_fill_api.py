@@ -106,7 +106,10 @@ def test_the_ledger_records_each_input_and_a_rerun_skips_it(pngs, tmp_path):
     folder, _ = pngs
     out = tmp_path / "out"
     run([folder], out, method="nearest", boxes=[BOX])
-    records = [json.loads(line) for line in (out / LEDGER).read_text().splitlines()]
+    lines = [json.loads(line) for line in (out / LEDGER).read_text().splitlines()]
+    # Each input's intent (before its outputs), then its record (after them).
+    assert [{**r, "intent": True} for r in lines[1::2]] == lines[::2]
+    records = [r for r in lines if "intent" not in r]
     assert sorted(r["outputs"][0] for r in records) == ["a/0001.png", "b/0002.png"]
     for r in records:
         source = folder / Path(r["outputs"][0])

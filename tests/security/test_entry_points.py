@@ -101,6 +101,9 @@ class Case:
         return ""
 
 
+#: ``says`` of a case that must succeed (``ok=True``): no error line can match it.
+SUCCESS_ONLY = "(?!)"
+
 #: What the error names, by the kind of hostile file (a FIFO is not "not found"; a bomb's size is shown).
 SAYS = {"fifo": "FIFO|not a regular file", "bomb": "20000|60000", "nested": "nested", "link-out": "symbolic link",
         "nan": "NaN|nan", "not-utf8": "UTF-8|utf-8|encod"}
@@ -160,6 +163,18 @@ def _py_fill(p: Place, inputs: list[Path], **kw: Any) -> Callable[[], Any]:
             assert "\n" not in why and "Traceback" not in why, why
             raise InpaintenvError(why)
     return run
+
+
+def _killed_between_outputs(p: Place) -> list[str]:
+    """A ``--format both`` fill as a SIGKILL after its first output leaves it: the intent line alone, the
+    PNG there, the ``.npy`` not; the rerun of the same command must finish it."""
+    argv = _fill(p, [p.depth()], "--format", "both")
+    assert main(argv) == 0
+    ledger = p.work / "out" / "inpaintenv-fill.jsonl"
+    intent = next(line for line in ledger.read_text().splitlines() if json.loads(line).get("intent") is True)
+    ledger.write_text(intent + "\n")
+    (p.work / "out" / "a.npy").unlink()
+    return argv
 
 
 def _none(*done: Any) -> list[str]:
@@ -399,7 +414,7 @@ CASES: list[Case] = [
     Case("cli:export", "partial-name-23-digit-pid", lambda p, f: [
         "export", *TINY, "--holdout", "0", "--out", str(p.work / "kit"),
         *_none(p.write(p.work / f".kit.partial-{'1' * 23}" / "x", b"x"), p.write(p.work / ".kit.partial-\u00b2", b"x"))],
-         ok=True),
+         ok=True, says=SUCCESS_ONLY),
     Case("cli:export", "manifest-fifo", lambda p, f: [
         "export", *TINY, "--holdout", "0", "--overwrite", "--out", str(p.fifo(p.work / "kit" / "manifest.json").parent)]),
     Case("cli:export", "manifest-nested", lambda p, f: [
@@ -426,7 +441,8 @@ CASES: list[Case] = [
     # fill: inputs, masks, outputs, models, calibrations
     Case("cli:fill", "out-temp-name-unparseable-pid", lambda p, f: _fill(p, [p.depth()], *_none(
         p.write(p.work / "out" / ".inpaintenv-tmp-\u00b2-abc.png", b"x"),
-        p.write(p.work / "out" / f".inpaintenv-tmp-{'1' * 23}-abc.png", b"x"))), ok=True),
+        p.write(p.work / "out" / f".inpaintenv-tmp-{'1' * 23}-abc.png", b"x"))), ok=True, says=SUCCESS_ONLY),
+    Case("cli:fill", "killed-between-outputs", lambda p, f: _killed_between_outputs(p), ok=True, says=SUCCESS_ONLY),
     Case("cli:fill", "input-fifo", lambda p, f: _fill(p, [p.fifo(p.work / "in" / "a.png")])),
     Case("cli:fill", "input-fifo-in-folder", lambda p, f: _fill(p, [p.fifo(p.work / "in" / "a.png").parent])),
     Case("cli:fill", "input-bomb", lambda p, f: _fill(p, [p.write(p.work / "in" / "a.png", BOMB)])),
