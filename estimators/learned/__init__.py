@@ -26,7 +26,7 @@ name                   what it is
 =====================  ===============================================================
 
 Every class saves and loads through one mixin (``_persistence``: ``save``, ``load``,
-per-class ``_config`` / ``_from_config`` hooks, registration by class name) over one file
+per-class ``_config`` / ``_from_config`` hooks; ``load`` lists every class it reads) over one file
 format (``_checkpoint``). The training recipes are in :mod:`estimators.learned.presets`;
 multi-process training is ``torchrun -m estimators.learned.distributed``.
 

@@ -26,8 +26,8 @@ point or not finite, and config entries of the wrong type, each with one
 :class:`CheckpointError` naming the file and the key or tensor.
 
 :mod:`~estimators.learned._persistence` gives every learned estimator ``save`` / ``load``
-on top of these files; :data:`CLASSES` maps the class name a checkpoint records to its
-class. The shipped releases are such files under flat names in
+on top of these files; :func:`recorded_class` finds the class a checkpoint records among the classes its
+caller knows. The shipped releases are such files under flat names in
 :data:`~inpaintenv.methods.learned.RELEASE_DIR`.
 """
 
@@ -39,7 +39,7 @@ import re
 import shutil
 import tempfile
 import uuid
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -377,32 +377,18 @@ def read_model(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, torch
     return config, weights, path
 
 
-#: Learned estimator classes by the name a checkpoint's ``config.json`` records.
-CLASSES: dict[str, type] = {}
-
-
-def checkpoint_class(name: Any) -> type | None:
-    """The estimator class a checkpoint names, or None if no such class is registered.
-
-    Each learned family registers its classes in :data:`CLASSES` when its module is
-    imported; :func:`estimators.learned.load` imports every family first, so this
-    module never imports a family (or the package face) to find one.
-    """
-    return CLASSES.get(name) if isinstance(name, str) else None
-
-
-def recorded_class(config: dict[str, Any], where: Any) -> type:
-    """The registered class ``config`` records.
+def recorded_class(config: dict[str, Any], where: Any, known: Mapping[str, type]) -> type:
+    """The class ``config`` records, looked up in ``known`` (class name -> class).
 
     Raises
     ------
     CheckpointError
-        No class, or one this version does not know.
+        No class, or one not in ``known`` (this version cannot load it).
     """
-    klass = checkpoint_class(config.get("class"))
+    name = config.get("class")
+    klass = known.get(name) if isinstance(name, str) else None
     if klass is None or not hasattr(klass, "_from_config"):
-        raise CheckpointError(f"{where} holds a {config.get('class')!r}, which this version cannot load "
-                              f"(known: {sorted(CLASSES)})")
+        raise CheckpointError(f"{where} holds a {name!r}, which this version cannot load (known: {sorted(known)})")
     return klass
 
 

@@ -36,7 +36,11 @@ from inpaintenv.exceptions import InvalidInputError
 
 from ..base import BaseInpainter, check_n_jobs, check_random_state
 from . import _checkpoint as ckpt
-from . import _blend, _context_blend, _neural, _prior  # noqa: F401  (each registers the classes a member may be)
+from ._blend import BlendInpainter
+from ._context_blend import ContextBlendInpainter
+from ._neural import AutoencoderInpainter, UNetInpainter
+from ._prior import PriorUNetInpainter
+from ._scan_blend import ScanBlendInpainter
 from .._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer
 from ._limits import MAX_THREADS
 from ._output import bound_output
@@ -47,6 +51,10 @@ __all__ = ["MeanEnsembleInpainter"]
 
 #: Parameters that, when set on the ensemble (not None), are passed to every member that has them.
 _SHARED_PARAMS = ("random_state", "num_threads", "n_jobs", "verbose")
+#: The classes a member may be (besides an ensemble), by the name its nested config records.
+_MEMBER_CLASSES: dict[str, type] = {klass.__name__: klass for klass in (
+    UNetInpainter, AutoencoderInpainter, PriorUNetInpainter, BlendInpainter, ContextBlendInpainter,
+    ScanBlendInpainter)}
 #: Member names: they prefix the members' parameters (``name__param``) and weights (``name.key``).
 _NAME = re.compile(r"[A-Za-z][A-Za-z0-9]*(_[A-Za-z0-9]+)*")
 
@@ -316,7 +324,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         for name, member_config in entries:
             where = f"{path} (member {name!r})"
             own = {k[len(name) + 1:]: v for k, v in weights.items() if k.startswith(f"{name}.")}
-            fitted.append(ckpt.from_checked(ckpt.recorded_class(member_config, where), member_config, own, where))
+            fitted.append(ckpt.from_checked(ckpt.recorded_class(member_config, where, {**_MEMBER_CLASSES, cls.__name__: cls}), member_config, own, where))
         params = {**ckpt.config_value(config, "params", dict, path),
                   "estimators": [(n, clone(m)) for n, m in zip(names, fitted)]}
         est = ckpt.build_checked(cls, params, path)

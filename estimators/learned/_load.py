@@ -1,10 +1,10 @@
 """``load``: any saved learned estimator, its class read from the checkpoint's ``config.json``.
 
-This module sits above every learned family and imports each one, so every class a
-checkpoint may name is registered (each registers itself when defined:
-:class:`~estimators.learned._persistence.PersistenceMixin`) before one is looked up: no
-module below imports a family above it, by name or through ``importlib``. A new family is
-added to the imports here.
+This module sits above every learned family and lists, once, every class a checkpoint may
+record (:data:`LOADABLE`); a checkpoint's class is then found among the defined classes
+(:func:`~estimators.learned._persistence.defined_classes`). No module below imports a family
+above it, by name or through ``importlib``. A new family is added to :data:`LOADABLE`
+(``tests/estimators/learned/test_class_registration.py`` fails until it is).
 """
 
 from __future__ import annotations
@@ -12,10 +12,20 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from . import _blend, _context_blend, _ensemble, _neural, _prior, _scan_blend  # noqa: F401  (each registers its classes)
+from ._blend import BlendInpainter
+from ._context_blend import ContextBlendInpainter
+from ._ensemble import MeanEnsembleInpainter
+from ._neural import AutoencoderInpainter, UNetInpainter
 from ._persistence import PersistenceMixin
+from ._prior import PriorUNetInpainter
+from ._scan_blend import ScanBlendInpainter
 
-__all__ = ["load"]
+__all__ = ["LOADABLE", "load"]
+
+#: Every class a saved learned model may record, by the name its ``config.json`` holds.
+LOADABLE: dict[str, type] = {klass.__name__: klass for klass in (
+    UNetInpainter, AutoencoderInpainter, PriorUNetInpainter, BlendInpainter, ContextBlendInpainter,
+    ScanBlendInpainter, MeanEnsembleInpainter)}
 
 
 def load(path: str | os.PathLike) -> Any:

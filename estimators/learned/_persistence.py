@@ -14,10 +14,11 @@ is a folder whose ``config.json`` records its class (see
 
 The mixin adds the class name and the provenance (training drives, machine) to the
 config, writes and reads the files, dispatches a load on the recorded class, and marks
-the result fitted. Every public class of :mod:`estimators.learned` that derives from it is
-registered by its name (:data:`~estimators.learned._checkpoint.CLASSES`) when it is defined
-(``__init_subclass__``): the one registration, so a checkpoint naming it can be loaded.
-:func:`estimators.learned.load` is :meth:`PersistenceMixin.load` (any registered class). An ensemble nests its members' configs (see
+the result fitted. A checkpoint's class is found among the public classes of
+:mod:`estimators.learned` that derive from the mixin and are defined (:func:`defined_classes`:
+Python's own record of subclasses, so a class is known where it is defined and nothing
+registers it by hand); :func:`estimators.learned.load` lists every family it loads, so all
+are defined when it reads a checkpoint. An ensemble nests its members' configs (see
 :class:`~estimators.learned.MeanEnsembleInpainter`).
 """
 
@@ -32,7 +33,7 @@ from sklearn.exceptions import NotFittedError
 from .._persistence import SaveLoadMixin
 from . import _checkpoint as ckpt
 
-__all__ = ["CheckpointMixin", "PersistenceMixin"]
+__all__ = ["CheckpointMixin", "PersistenceMixin", "defined_classes"]
 
 
 class PersistenceMixin(SaveLoadMixin):
@@ -40,14 +41,6 @@ class PersistenceMixin(SaveLoadMixin):
     class registration, on top of two per-class hooks."""
 
     _load_error = ckpt.CheckpointError
-
-    def __init_subclass__(cls, **kwargs: Any) -> None:
-        super().__init_subclass__(**kwargs)
-        # The package's own public classes only: a subclass defined elsewhere (a test's, a user's)
-        # never takes over the name a shipped checkpoint records.
-        if cls.__module__.startswith("estimators.learned.") and not cls.__name__.startswith("_") \
-                and cls.__module__ != __name__:
-            ckpt.CLASSES[cls.__name__] = cls
 
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
         raise NotImplementedError(f"{type(self).__name__} defines no _config(): it cannot be saved")
@@ -98,11 +91,28 @@ class PersistenceMixin(SaveLoadMixin):
 
     @classmethod
     def _state_class(cls, config: dict[str, Any], where: Any) -> type:
-        return ckpt.recorded_class(config, where)
+        return ckpt.recorded_class(config, where, defined_classes())
 
     @classmethod
     def _from_state(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
         return ckpt.from_checked(cls, config, weights, where)
+
+
+def defined_classes() -> dict[str, type]:
+    """Class name -> class, for every public class of :mod:`estimators.learned` defined so far
+    that derives from :class:`PersistenceMixin`.
+
+    A subclass defined elsewhere (a test's, a user's) never takes over the name a shipped
+    checkpoint records: only the package's own modules count.
+    """
+    found: dict[str, type] = {}
+    todo = list(PersistenceMixin.__subclasses__())
+    while todo:
+        klass = todo.pop()
+        todo.extend(klass.__subclasses__())
+        if klass.__module__.startswith("estimators.learned.") and not klass.__name__.startswith("_"):
+            found.setdefault(klass.__name__, klass)
+    return found
 
 
 class CheckpointMixin(PersistenceMixin):

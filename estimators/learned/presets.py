@@ -25,7 +25,7 @@ from inpaintenv.exceptions import InvalidInputError, UnknownNameError
 from inpaintenv.methods.learned import RELEASE_DIR, shipped
 
 from . import _checkpoint as ckpt
-from . import _load  # noqa: F401  (imports every learned family: each registers its classes)
+from ._load import LOADABLE
 from ._blend import BlendInpainter
 from ._context_blend import ContextBlendInpainter
 from ._neural import AutoencoderInpainter, UNetInpainter
@@ -42,7 +42,7 @@ _RUN_PARAMS = ("verbose", "checkpoint_dir")
 def _recipe(config: dict[str, Any], where: str) -> tuple[type, dict[str, Any]]:
     """The class and constructor keywords a checkpoint config records (an ensemble's members
     built from their nested configs); JSON lists become the tuples the classes take."""
-    klass = ckpt.recorded_class(config, where)
+    klass = ckpt.recorded_class(config, where, LOADABLE)
     params = {k: tuple(v) if isinstance(v, list) else v
               for k, v in ckpt.config_value(config, "params", dict, where).items() if k not in _RUN_PARAMS}
     if "members" in config:

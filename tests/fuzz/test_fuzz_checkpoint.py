@@ -207,10 +207,10 @@ def _every_params(est: Any) -> list[tuple[str, dict[str, Any]]]:
 def test_every_parameter_that_names_a_file_is_listed():
     import inspect
 
-    from estimators.learned._checkpoint import CLASSES
+    from estimators.learned._load import LOADABLE
 
-    assert len(CLASSES) >= 6
-    for name, klass in CLASSES.items():
+    assert len(LOADABLE) >= 6
+    for name, klass in LOADABLE.items():
         params = inspect.signature(klass.__init__).parameters
         pathlike = {p for p in params if p == "warm_start" or p.endswith(("_dir", "_path", "_file", "_root"))}
         assert pathlike <= set(PATH_PARAMS), (name, pathlike - set(PATH_PARAMS))
