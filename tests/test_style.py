@@ -35,11 +35,14 @@ def test_twenty_methods_get_distinct_colours_in_run_order():
     assert more["extra-a"] == style.method_colours([*names, "extra-a"])["extra-a"]  # stable fallback
 
 
-def test_depth_map_near_is_red_far_is_blue_and_no_data_grey():
-    # `show` used OpenCV's TURBO (near = blue), the benchmark turbo_r (near = red).
+def test_depth_map_is_perceptually_ordered_near_bright_far_dark_and_no_data_grey():
+    # One perceptually uniform map (viridis reversed): lightness falls steadily with depth.
+    depths = np.linspace(1.0, 79.0, 40, dtype=np.float32)[None]
+    lab = _lab(colorize_depth(depths, 80.0)[0] / 255.0)
+    assert (np.diff(lab[:, 0]) < 0).all()  # near = bright, far = dark, no turn back (turbo's lightness turns)
     rgb = colorize_depth(np.array([[2.0, 75.0, 0.0]], np.float32), 80.0).astype(int)
     near, far, none = rgb[0]
-    assert near[0] > near[2] + 50 and far[2] > far[0]
+    assert near.sum() > far.sum() + 200
     assert (none == style.to_uint8(np.array(style.NO_DATA))).all()
     assert (style.to_uint8(style.depth_rgb(np.array([[2.0]]), 80.0))[0, 0] == near).all()
 

@@ -1,4 +1,8 @@
-"""Figures of a benchmark: study-style frame panels and error against hole size / range.
+"""Figures of a benchmark task: study-style frame panels, and error by hole size, by depth and by
+distance to the nearest measurement.
+
+Each task of a run (maps or single scans, any protocol) has its own figures
+(:mod:`.figure_files` writes them); a method is given what the rows scored it on.
 
 Every figure uses the look of :mod:`inpaintenv.report.style` (the same depth and error colour
 maps, hole drawing and method colours as ``inpaintenv show``), one colour per method for
@@ -11,32 +15,27 @@ say which frames in their title.
 
 from __future__ import annotations
 
-import hashlib
-import json
-import os
 from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-import inpaintenv
-
-from ..conventions import corrupt
 from ..data.base import DepthDataset
+from ..data.inputs import method_input
+from ..filling.view import sensor_view
 from ..report.results import EvaluationResult
 from ..masks import get_protocol
 from ..methods.calls import run_method
 from ..metrics import frame_metrics, interpolate_background
 from ..report import style
-from ..exceptions import FileTooLargeError, JSONFileError
-from ..files import read_json, write_atomic, write_text_atomic
+from ..files import write_atomic
 from ..progress import count
 from ..files import ownership
 
 __all__ = [
-    "DISTANCE_BINS", "DISTANCE_FRAMES", "FramePredictions", "frame_panel", "plot_error_vs_distance",
-    "plot_error_rejection", "plot_error_vs_hole_size", "spread_indices", "write_figures",
+    "DISTANCE_BINS", "DISTANCE_FRAMES", "NEAREST_BINS", "FramePredictions", "frame_panel", "plot_error_vs_distance",
+    "plot_error_rejection", "plot_error_vs_hole_size", "plot_error_vs_nearest", "spread_indices",
 ]
 
 #: Ground-truth range bins (m) of the error-against-distance plot.
@@ -71,20 +70,6 @@ def _save(fig: Any, path: str | Path, dpi: int) -> Path:
     return path
 
 
-def _stamp_of(path: Path) -> str | None:
-    """The stamp ``figures.json`` records, or None when it is missing or unreadable (the figures are redrawn).
-
-    A link, FIFO or device at ``figures.json`` is refused, never read or waited on.
-    """
-    if not os.path.lexists(path):
-        return None
-    try:
-        doc = read_json(path, "figure stamp", follow_links=False)
-    except (JSONFileError, FileTooLargeError):
-        return None  # unreadable stamp: redraw
-    return doc.get("stamp") if isinstance(doc, dict) else None
-
-
 def spread_indices(dataset: DepthDataset, k: int, exclude: Collection[int] = ()) -> list[int]:
     """``k`` frame positions spread over the drives: round robin over the drives (in order
     of first appearance), evenly spaced within each drive; never one of ``exclude``
@@ -114,7 +99,11 @@ def _describe(dataset: DepthDataset, indices: Sequence[int]) -> str:
 
 
 class FramePredictions:
-    """Ground truth, hole and every method's reconstruction of a frame, computed once.
+    """Input, ground truth, hole and every method's reconstruction of a frame, computed once.
+
+    The method is given what the rows scored it on: the map with the hole cut, or for a
+    dataset of single scans (``input_kind == "scan"``) the frame's scan with the hole cut
+    (:func:`inpaintenv.data.inputs.method_input`).
 
     Parameters
     ----------
@@ -139,21 +128,52 @@ class FramePredictions:
         self.methods, self.dataset, self.seed = dict(methods), dataset, seed
         self.unfilled = dict(unfilled or {})
         self.protocol = get_protocol(protocol)
-        self._frames: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.input_kind = getattr(dataset, "input_kind", "map")
+        self._frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         self._preds: dict[tuple[str, int], np.ndarray] = {}
+
+    def _load(self, index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if index not in self._frames:
+            inputs, gt = self.dataset.load_pairs([index])
+            hole = self.protocol.mask(self.dataset.frame_shape, self.seed, index)
+            self._frames[index] = (gt[0], hole, method_input(inputs[0], hole, self.input_kind), inputs[0])
+        return self._frames[index]
 
     def frame(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         """``(gt, hole)`` of frame ``index``."""
-        if index not in self._frames:
-            gt = self.dataset[index]
-            self._frames[index] = (gt, self.protocol.mask(self.dataset.frame_shape, self.seed, index))
-        return self._frames[index]
+        gt, hole, _, _ = self._load(index)
+        return gt, hole
+
+    def inputs(self, index: int) -> np.ndarray:
+        """The measured input of frame ``index`` before the hole is cut (the map itself, or the scan)."""
+        return self._load(index)[3]
+
+    def view(self, index: int) -> np.ndarray:
+        """Pixels a fill of frame ``index`` can be judged on: all of a map; of a scan, the band of rows
+        its LiDAR covers (:func:`inpaintenv.filling.view.sensor_view`), as ``fill --missing`` fills."""
+        if self.input_kind == "map":
+            return np.ones(self.dataset.frame_shape, bool)
+        return sensor_view(self.inputs(index))
+
+    def method_input(self, index: int) -> np.ndarray:
+        """What each method is given for frame ``index``: NaN where it is to fill."""
+        return self._load(index)[2]
+
+    def scored(self, index: int) -> np.ndarray:
+        """The task's pixels of frame ``index`` that have ground truth: the hole, or under a protocol
+        whose task is ``"unmeasured"`` (``densify-v1``) every pixel the input lacks."""
+        gt, hole, x, _ = self._load(index)
+        return (np.isnan(x) if self.protocol.task == "unmeasured" else hole) & (gt > 0)
+
+    def measured(self, index: int) -> np.ndarray:
+        """Pixels the method's input measured (finite and above 0)."""
+        x = self.method_input(index)
+        return np.nan_to_num(x, nan=0.0) > 0
 
     def prediction(self, name: str, index: int) -> np.ndarray:
         """Method ``name``'s reconstruction of frame ``index``."""
         if (name, index) not in self._preds:
-            gt, hole = self.frame(index)
-            pred, _ = run_method(self.methods[name], corrupt(gt, hole)[None], name)
+            pred, _ = run_method(self.methods[name], self.method_input(index)[None], name)
             if self.policy(name) == "interpolate":
                 pred = interpolate_background(pred)
             self._preds[(name, index)] = pred[0]
@@ -171,6 +191,28 @@ def _colourbar(fig: Any, axes: Any, cmap: str, vmax: float, label: str) -> None:
     fig.colorbar(mappable, ax=axes, orientation="horizontal", fraction=0.04, pad=0.02, aspect=50, label=label)
 
 
+def _scores(predictions: FramePredictions, name: str, index: int, pred: np.ndarray, max_depth: float) -> str:
+    """The title of a fill tile: the method and its task and all-pixel scores on the frame."""
+    gt, hole = predictions.frame(index)
+    scan = None if predictions.input_kind == "map" else predictions.inputs(index)
+    m = frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled=predictions.policy(name), inputs=scan)
+    if predictions.protocol.task == "unmeasured":
+        return f"{name}\nunmeasured RMSE {float(m['unmeasured_rmse']):.2f} m | all {float(m['all_rmse']):.2f} m"
+    return (f"{name}\nhole RMSE {float(m['hole_rmse']):.2f} m, PSNR {float(m['hole_psnr']):.1f} dB | "
+            f"all {float(m['all_rmse']):.2f} m, {float(m['all_psnr']):.1f} dB")
+
+
+def _shown_input(x: np.ndarray, width: int) -> np.ndarray:
+    """The method's input as drawn: a scan's points widened to ``width`` pixels (the max depth of each
+    neighbourhood), so points stay visible in a shrunk tile; NaN shown as no data."""
+    shown = np.nan_to_num(x, nan=0.0)
+    if width > 1:
+        import cv2
+
+        shown = cv2.dilate(shown.astype(np.float32), np.ones((width, width), np.uint8))
+    return shown
+
+
 def frame_panel(
     methods: Mapping[str, Any],
     dataset: DepthDataset,
@@ -186,15 +228,20 @@ def frame_panel(
     """The study's Fig. 2 for one frame, in the look of ``inpaintenv show``.
 
     Per method a row of input (holes hatched), ground truth, reconstruction (method name
-    in its run colour, hole/all metrics) and absolute error in the holes; holes outlined on
+    in its run colour, the task's and all-pixel metrics) and absolute error on the task's
+    pixels (the hole, or under ``densify-v1`` every pixel the scan lacks); holes outlined on
     every tile; one colour bar for depth and one for the error (robust scale shared by the
-    rows, :func:`inpaintenv.report.style.error_scale`), both in metres.
+    rows, :func:`inpaintenv.report.style.error_scale`), both in metres. Pixels without
+    ground truth are grey in the truth and error tiles; on a scan, the fill's pixels outside
+    the band of rows the LiDAR covers (:meth:`FramePredictions.view`) are grey too: nothing
+    there can be judged, and ``fill --missing`` leaves them empty.
     """
     plt = _pyplot()
     predictions = predictions or FramePredictions(methods, dataset, protocol, seed)
     colours = colours or style.method_colours(methods)
     gt, hole = predictions.frame(index)
-    scored = hole & (gt > 0)
+    scored = predictions.scored(index)
+    view = predictions.view(index)
     preds = {name: predictions.prediction(name, index) for name in methods}
     error_max = style.error_scale([np.abs(p - gt)[scored] for p in preds.values()])
     n = len(methods)
@@ -205,27 +252,27 @@ def frame_panel(
     )
     # Tiles are shown shrunk: hole lines as wide on the page as in `inpaintenv show`.
     k = w / (tile_inches * dpi)
-    inp = style.draw_holes(style.depth_rgb(np.where(hole, 0.0, gt), max_depth), hole, hatch=True, scale=k)
+    scan = predictions.input_kind != "map"
+    x = _shown_input(predictions.method_input(index), max(1, round(k)) if scan else 1)
+    inp = style.draw_holes(style.depth_rgb(x, max_depth), hole, hatch=True, scale=k)
     truth = style.draw_holes(style.depth_rgb(gt, max_depth), hole, scale=k)
+    what = "hole" if predictions.protocol.task == "hole" else "unmeasured pixels"
     for r, (name, pred) in enumerate(preds.items()):
-        m = frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled=predictions.policy(name))
-        scores = (
-            f"{name}\nhole RMSE {float(m['hole_rmse']):.2f} m, PSNR {float(m['hole_psnr']):.1f} dB | "
-            f"all {float(m['all_rmse']):.2f} m, {float(m['all_psnr']):.1f} dB"
-        )
         tiles = [
-            (inp, "input (holes hatched)"),
+            (inp, ("scan" if scan else "input") + (" (holes hatched)" if hole.any() else "")),
             (truth, "ground truth (grey = no data)"),
-            (style.draw_holes(style.depth_rgb(pred, max_depth), hole, scale=k), scores),
+            (style.draw_holes(style.depth_rgb(np.where(view, pred, 0.0), max_depth), hole, scale=k),
+             _scores(predictions, name, index, pred, max_depth)),
             (style.draw_holes(style.error_rgb(np.abs(pred - gt), scored, error_max), hole, scale=k),
-             f"|error| in the holes, 0-{error_max:g} m"),
+             f"|error| in the {what}, 0-{error_max:g} m"),
         ]
         for c, (img, title) in enumerate(tiles):
             ax = axes[r, c]
             ax.imshow(img, interpolation="nearest")
             ax.set_title(title, fontsize=8, color=colours.get(name, "black") if c == 2 else "black")
             ax.axis("off")
-    fig.suptitle(f"{dataset.frame_ids[index]} — {protocol}, seed {seed}", fontsize=10)
+    task = protocol if not scan else f"{protocol} on single scans (grey above the scan's rows: outside its view)"
+    fig.suptitle(f"{dataset.frame_ids[index]} — {task}, seed {seed}", fontsize=10)
     fig.tight_layout(rect=(0, 0.09, 1, 1))
     _colourbar(fig, axes[:, :3].ravel().tolist(), style.DEPTH_CMAP, max_depth, "depth (m)")
     _colourbar(fig, axes[:, 3].ravel().tolist(), style.ERROR_CMAP, error_max, "|error| (m)")
@@ -323,6 +370,50 @@ def has_intervals(result: EvaluationResult) -> bool:
     return any(_finite(r.get("rmse_keep_80")) for r in result.rows)
 
 
+def _pooled_rmse(
+    predictions: FramePredictions, names: Sequence[str], indices: Sequence[int], edges: np.ndarray,
+    value: Callable[[int, np.ndarray], np.ndarray],
+) -> tuple[dict[str, list[float]], np.ndarray]:
+    """RMSE per bin of ``value(frame, scored pixels)`` per method, the task's pixels pooled over
+    ``indices``; and the pixels per bin."""
+    nb = len(edges) - 1
+    sq = {name: np.zeros(nb) for name in names}
+    pixels = np.zeros(nb)
+    for i in indices:
+        gt, _ = predictions.frame(int(i))
+        sel = predictions.scored(int(i))
+        which = np.digitize(value(int(i), sel), edges[1:-1])
+        pixels += np.bincount(which, minlength=nb)[:nb]
+        for name in names:
+            err2 = (predictions.prediction(name, int(i))[sel] - gt[sel]) ** 2
+            sq[name] += np.bincount(which, weights=err2, minlength=nb)[:nb]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return {name: np.sqrt(s / pixels).tolist() for name, s in sq.items()}, pixels
+
+
+def _task_words(predictions: FramePredictions) -> str:
+    return "hole" if predictions.protocol.task == "hole" else "unmeasured-pixel"
+
+
+def _line_figure(
+    values: dict[str, list[float]], xs: np.ndarray, path: str | Path, colours: Mapping[str, Any], *,
+    xlabel: str, ylabel: str, title: str, log_x: bool = False,
+) -> Path:
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    for name, v in values.items():
+        ax.plot(xs, v, marker="o", label=name, color=colours.get(name))
+    if log_x:
+        ax.set_xscale("log", base=2)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path, dpi=100)
+
+
 def plot_error_vs_distance(
     methods: Mapping[str, Any],
     dataset: DepthDataset,
@@ -335,126 +426,69 @@ def plot_error_vs_distance(
     colours: Mapping[str, Any] | None = None,
     predictions: FramePredictions | None = None,
 ) -> tuple[Path, dict[str, list[float]]]:
-    """Hole RMSE per ground-truth range bin (pixels pooled over ``indices``).
+    """RMSE of the task's pixels (the hole, or the unmeasured pixels under ``densify-v1``) per
+    ground-truth range bin, pixels pooled over ``indices``: the error by depth.
 
     The title says which frames: how many, over how many of the drives.
     Returns the figure's path and the plotted values per method.
     """
-    plt = _pyplot()
     predictions = predictions or FramePredictions(methods, dataset, protocol, seed)
     colours = colours or style.method_colours(methods)
     edges = np.asarray(bins, dtype=float)
-    sq = {name: np.zeros(len(edges) - 1) for name in methods}
-    count = np.zeros(len(edges) - 1)
-    for i in indices:
-        gt, hole = predictions.frame(int(i))
-        sel = hole & (gt > 0)
-        which = np.digitize(gt[sel], edges[1:-1])
-        count += np.bincount(which, minlength=len(edges) - 1)[: len(edges) - 1]
-        for name in methods:
-            err2 = (predictions.prediction(name, int(i))[sel] - gt[sel]) ** 2
-            sq[name] += np.bincount(which, weights=err2, minlength=len(edges) - 1)[: len(edges) - 1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        values = {name: np.sqrt(s / count).tolist() for name, s in sq.items()}
-    centres = 0.5 * (edges[:-1] + edges[1:])
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    for name, v in values.items():
-        ax.plot(centres, v, marker="o", label=name, color=colours.get(name))
-    ax.set_xlabel("ground-truth depth (m)")
-    ax.set_ylabel("hole RMSE (m), pixels pooled")
-    ax.set_title(f"{_describe(dataset, indices)}, {protocol}, seed {seed}", fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return _save(fig, path, dpi=100), values
+    values, _ = _pooled_rmse(predictions, list(methods), indices, edges,
+                             lambda i, sel: predictions.frame(i)[0][sel])
+    return _line_figure(
+        values, 0.5 * (edges[:-1] + edges[1:]), path, colours, xlabel="ground-truth depth (m)",
+        ylabel=f"{_task_words(predictions)} RMSE (m), pixels pooled",
+        title=f"{_describe(dataset, indices)}, {_task_label(predictions)}, seed {seed}"), values
 
 
-def _stamp(result: EvaluationResult, settings: dict[str, Any]) -> str:
-    """Digest of what the figures show: every row's identity and hole RMSE, and the settings."""
-    digest = hashlib.sha1(json.dumps(settings, sort_keys=True).encode())
-    for r in result.rows:
-        digest.update(f"{r['method']}|{r['protocol']}|{r['seed']}|{r['index']}|{r['hole_rmse']!r}\n".encode())
-        if "rmse_keep_80" in r:  # only rows with intervals: other runs keep the stamp they had
-            digest.update(f"{r['rmse_keep_80']!r}\n".encode())
-    return digest.hexdigest()
+#: Distance bins (pixels) of :func:`plot_error_vs_nearest`: doubling, so near and far gaps both show.
+NEAREST_BINS = (0, 2, 4, 8, 16, 32, 64, 128, 256, 100_000)
 
 
-def write_figures(
-    result: EvaluationResult,
-    methods: Mapping[str, Callable[[], Any]],
+def _nearest_distance(measured: np.ndarray) -> np.ndarray:
+    """Per pixel, the Euclidean distance (pixels) to the nearest measured pixel (inf when none is)."""
+    import cv2
+
+    if not measured.any():
+        return np.full(measured.shape, np.inf, np.float32)
+    return cv2.distanceTransform((~measured).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+def plot_error_vs_nearest(
+    methods: Mapping[str, Any],
     dataset: DepthDataset,
-    out_dir: str | Path,
+    indices: Sequence[int],
+    path: str | Path,
     *,
-    panel_methods: Sequence[str],
-    n_panels: int,
-    protocol: str,
-    seed: int,
-    log: Callable[[str], None] = lambda msg: None,
-    exclude: Collection[int] = (),
-    unfilled: Mapping[str, str] | None = None,
-) -> list[Path]:
-    """Write a run's figures into ``out_dir``; skip them when they already show these rows.
+    protocol: str = "rect-v1",
+    seed: int = 0,
+    bins: Sequence[float] = NEAREST_BINS,
+    colours: Mapping[str, Any] | None = None,
+    predictions: FramePredictions | None = None,
+) -> tuple[Path, dict[str, list[float]]]:
+    """RMSE of the task's pixels against their distance (pixels) to the nearest pixel the method's
+    input measured, pooled over ``indices``: how fast each method's error grows away from the data.
 
-    Parameters
-    ----------
-    result : EvaluationResult
-        The run's rows (``error_vs_hole_size.png`` and, when rows carry intervals, ``error_rejection.png`` come from them).
-    methods : mapping of str to zero-argument callable
-        Name -> a function returning the built method (built only if a figure needs it).
-    dataset : DepthDataset
-        The run's frames.
-    out_dir : path
-        Folder of the figures; ``figures.json`` there records what they show.
-    panel_methods : sequence of str
-        Methods drawn in the frame panels and ``error_vs_distance.png``.
-    n_panels : int
-        Frame panels to draw (the first of the :data:`DISTANCE_FRAMES` spread frames).
-    protocol, seed
-        Masks of the panels and ``error_vs_distance.png``.
-    log : callable
-        Receives one line before any method is run again (what, why, how long).
-    exclude : collection of int
-        Frames never drawn (the unreadable frames a run skipped).
-    unfilled : mapping of str to str, optional
-        Each method's ``unfilled`` policy in the run (``meta["unfilled"]`` of the runner's result).
+    Returns the figure's path and the plotted values per method (NaN for an empty bin).
     """
-    out = Path(out_dir)
-    colours = style.method_colours(result.methods)  # one colour per method, in run order
-    indices = spread_indices(dataset, max(n_panels, DISTANCE_FRAMES), exclude)
-    panels = indices[:n_panels]
-    names = [out / f"frame_{i:04d}.png" for i in panels] + [out / "error_vs_hole_size.png", out / "error_vs_distance.png"]
-    if has_intervals(result):
-        names.append(out / "error_rejection.png")
-    settings = {"panel_methods": list(panel_methods), "panels": panels, "distance": indices,
-                "protocol": protocol, "seed": seed, "version": inpaintenv.__version__,
-                "style": [style.DEPTH_CMAP, style.ERROR_CMAP, style.ERROR_PERCENTILE, list(style.METHOD_PALETTE)]}
-    stamp_path = out / "figures.json"
-    stamp = _stamp(result, settings)
-    if _stamp_of(stamp_path) == stamp and all(p.exists() for p in names):
-        log(f"figures in {out} already show these rows; not redrawn")
-        return names
-    root = ownership.run_root(out)
-    ownership.adopt(root)  # a folder holding files no run wrote is refused before anything is drawn
-    out.mkdir(parents=True, exist_ok=True)
-    ownership.claim(root, *(p.resolve().relative_to(root.resolve()) for p in [*names, stamp_path]))
-    for stale in sorted(set(out.glob("frame_*.png")) - set(names)):  # panels of other frames, drawn before
-        ownership.remove(root, stale.resolve().relative_to(root.resolve()))  # only those a run recorded
-    plot_error_vs_hole_size(result, out / "error_vs_hole_size.png", colours=colours)
-    if has_intervals(result):
-        plot_error_rejection(result, out / "error_rejection.png", colours=colours)
-    ms = {e["method"]: e["ms_per_frame"] for e in result.group_table(("method",))}
-    seconds = sum(ms.get(n, 0.0) for n in panel_methods) * len(indices) / 1000.0
-    log(
-        f"figures: running {count(len(panel_methods), 'method')} again on {_describe(dataset, indices)} "
-        f"(about {seconds:.0f} s): the frame panels and error_vs_distance need pixels, which the rows do "
-        "not keep; error_vs_hole_size comes from the rows"
-    )
-    built = {name: methods[name]() for name in panel_methods}
-    predictions = FramePredictions(built, dataset, protocol, seed, unfilled)
-    for i in panels:
-        frame_panel(built, dataset, i, out / f"frame_{i:04d}.png", protocol=protocol, seed=seed,
-                    colours=colours, predictions=predictions)
-    plot_error_vs_distance(built, dataset, indices, out / "error_vs_distance.png", protocol=protocol, seed=seed,
-                           colours=colours, predictions=predictions)
-    write_text_atomic(stamp_path, json.dumps({"stamp": stamp, **settings}, indent=1))
-    return names
+    predictions = predictions or FramePredictions(methods, dataset, protocol, seed)
+    colours = colours or style.method_colours(methods)
+    edges = np.asarray(bins, dtype=float)
+    values, pixels = _pooled_rmse(predictions, list(methods), indices, edges,
+                                  lambda i, sel: _nearest_distance(predictions.measured(i))[sel])
+    keep = pixels > 0
+    centres = np.sqrt(np.maximum(edges[:-1], 0.5) * np.minimum(edges[1:], 2 * np.maximum(edges[:-1], 1)))
+    values = {name: [v for v, k in zip(vs, keep) if k] for name, vs in values.items()}
+    return _line_figure(
+        values, centres[keep], path, colours, xlabel="distance to the nearest measured pixel (px)",
+        ylabel=f"{_task_words(predictions)} RMSE (m), pixels pooled", log_x=True,
+        title=f"{_describe(dataset, indices)}, {_task_label(predictions)}, seed {seed}"), values
+
+
+def _task_label(predictions: FramePredictions) -> str:
+    name = predictions.protocol.name
+    return name if predictions.input_kind == "map" else f"{name} on scans"
+
+

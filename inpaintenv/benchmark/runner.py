@@ -282,7 +282,10 @@ class _Run:
         if self.rows_dir.is_symlink():
             raise UnsafeFileError(f"{self.rows_dir} is a symbolic link; a run writes its rows in its own folder only")
         self.rows_dir.mkdir(parents=True, exist_ok=True)
-        for folder in (self.out, self.rows_dir, self.out / "figures"):
+        figures = self.out / "figures"
+        task_figures = [f for f in figures.iterdir() if f.is_dir() and not f.is_symlink()] \
+            if figures.is_dir() and not figures.is_symlink() else []
+        for folder in (self.out, self.rows_dir, figures, *task_figures):
             remove_stale_temporaries(folder)  # left by a writer killed mid-write
         self.fingerprint = run_fingerprint(self.datasets, self.totals, self.tasks, self.seeds)
         if unfilled is not None:

@@ -113,6 +113,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..benchmark.suites import LazyMethod, method_kind
     from ..conventions import check_int, check_seeds
 
+    import time
+
+    started = time.monotonic()
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # Every argument is resolved and checked before any frame is scored: a typo in the
     # last option must not cost the hour spent on the first methods.
@@ -163,7 +166,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                 interval_coverage=coverage,
             )
         _report(args, result, out, holdout, {n: (lambda n=n: materialise(n, methods[n])) for n in methods},
-                methods, datasets[tasks[0].input_kind], tasks[0].protocol, seeds[0], log)
+                methods, datasets, tasks, seeds[0], log, started)
     return 0
 
 
@@ -227,19 +230,51 @@ def _dataset(args: argparse.Namespace) -> tuple[Any, float]:
     return dataset, holdout
 
 
+def write_task_figures(
+    result: Any, tasks: list[Any], datasets: dict[str, Any], out: Path, factories: dict[str, Any],
+    methods: dict[str, Any], *, n_panels: int, seed: int, log: Any, exclude: set[int],
+) -> None:
+    """Draw every task's figures (:func:`~inpaintenv.benchmark.figures.task_folder`): its best four
+    methods by the task's RMSE on ``n_panels`` frames, its error by depth, by distance to the
+    nearest measurement and by hole size."""
+    from ..benchmark.figure_files import task_folder, write_figures
+    from ..benchmark.report import summary_table
+    from ..masks import get_protocol
+
+    for k, task in enumerate(tasks):
+        rows = [r for r in result.rows if r.get("input_kind", "map") == task.input_kind
+                and r["protocol"] == task.protocol]
+        if not rows:
+            continue
+        on_task = type(result)(rows=rows, meta=result.meta)
+        metric = f"{get_protocol(task.protocol).task}_rmse"
+        table = summary_table(on_task, ("method", "protocol"))
+        folder = task_folder(out, task.label, first=k == 0)
+        write_figures(
+            on_task, factories, datasets[task.input_kind], folder,
+            panel_methods=list(figure_methods(table, methods, metric=metric)), n_panels=n_panels,
+            protocol=task.protocol, seed=seed, log=log, exclude=exclude,
+            unfilled=result.meta.get("unfilled", {}),
+        )
+        log(f"figures of {task.label} in {folder}")
+
+
 def _report(
     args: argparse.Namespace, result: Any, out: Path, holdout: float, factories: dict[str, Any],
-    methods: dict[str, Any], dataset: Any, protocol: str, seed: int, log: Any,
+    methods: dict[str, Any], datasets: dict[str, Any], tasks: list[Any], seed: int, log: Any, started: float,
 ) -> None:
     """Write the report, print the tables (skipped frames, the learned-vs-classical
-    headline) and draw the figures of a finished run."""
-    from ..benchmark.figures import write_figures
+    headline), draw the figures of a finished run and write its ``report.html``."""
+    import time
+
+    from ..benchmark.html import write_html_report
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..benchmark.report import summary_table, table_keys, to_markdown, write_report
     from ..report.results import skipped_markdown
 
     command = "inpaintenv " + " ".join(getattr(args, "argv", []))
-    paths = write_report(result, out, meta={"command": command, "holdout": holdout})
+    scored = time.monotonic() - started
+    paths = write_report(result, out, meta={"command": command, "holdout": holdout, "seconds_scoring": scored})
     keys = table_keys(result)
     table = summary_table(result, keys)
     print(to_markdown(table, keys))
@@ -250,17 +285,8 @@ def _report(
     if compared:
         what = "hole RMSE" if all(r["task"] == "hole" for r in compared) else "RMSE of the task"
         print(f"\n{headline_title(compared)} ({what} ratio, paired 95 % CI):\n" + headline_markdown(compared))
-    # The figures draw a map input; a scan task's rows stay in the tables only.
-    on_maps = type(result)(rows=[r for r in result.rows if r.get("input_kind", "map") == "map"], meta=result.meta)
-    if args.figure_frames > 0 and not on_maps.rows:
-        log("no figures: they are drawn for tasks on maps only")
-    elif args.figure_frames > 0:
-        fig_dir = out / "figures"
-        write_figures(
-            on_maps, factories, dataset, fig_dir,
-            panel_methods=list(figure_methods(table, methods)), n_panels=args.figure_frames,
-            protocol=protocol, seed=seed, log=log, exclude={r["index"] for r in skipped},
-            unfilled=result.meta.get("unfilled", {}),
-        )
-        log(f"figures in {fig_dir}")
+    if args.figure_frames > 0:
+        write_task_figures(result, tasks, datasets, out, factories, methods, n_panels=args.figure_frames, seed=seed,
+                           log=log, exclude={r["index"] for r in skipped})
     log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
+    write_html_report(out, log)

@@ -13,6 +13,7 @@ Examples
     inpaintenv info
     inpaintenv evaluate --method telea --method telea-hole --n-frames 8 --out results/
     inpaintenv show --method ipbasic --index 3 --out panel.png
+    inpaintenv report benchmark-results
     inpaintenv info --kitti-root <KITTI root> --split train
 """
 
@@ -31,6 +32,7 @@ from .export import add_export
 from .fill import add_fill
 from .info import add_info
 from .messages import print_line
+from .report import add_report
 from .score import add_score
 from .show import add_show
 from .train import add_train
@@ -47,7 +49,7 @@ USER_ERRORS: tuple[type[BaseException], ...] = (InpaintenvError, OSError)
 
 #: ``add_<name>(subparsers)`` functions, one per subcommand.
 SUBCOMMANDS: list[Callable[[Any], None]] = [
-    add_info, add_evaluate, add_show, add_benchmark, add_train, add_export, add_score, add_fill,
+    add_info, add_evaluate, add_show, add_benchmark, add_report, add_train, add_export, add_score, add_fill,
 ]
 
 

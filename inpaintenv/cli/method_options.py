@@ -179,8 +179,11 @@ def checkpoint_methods(specs: list[str], taken: list[str]) -> dict[str, Any]:
     }
 
 
-def figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int = 4) -> dict[str, Any]:
-    """The best ``k`` methods by hole RMSE (first protocol), for readable panels; none for an empty table.
+def figure_methods(
+    table: list[dict[str, Any]], methods: dict[str, Any], k: int = 4, metric: str = "hole_rmse",
+) -> dict[str, Any]:
+    """The best ``k`` methods by ``metric`` (the task's RMSE; first protocol of the table), for readable
+    panels; none for an empty table.
 
     A table is empty when no frame could be scored (every frame unreadable and skipped).
     """
@@ -188,7 +191,7 @@ def figure_methods(table: list[dict[str, Any]], methods: dict[str, Any], k: int 
         return {}
     first = table[0]["protocol"]
     ranked = sorted(
-        (e for e in table if e["protocol"] == first and np.isfinite(e["hole_rmse"])),
-        key=lambda e: e["hole_rmse"],
+        (e for e in table if e["protocol"] == first and np.isfinite(e.get(metric, np.nan))),
+        key=lambda e: e[metric],
     )
     return {e["method"]: methods[e["method"]] for e in ranked[:k]}

@@ -76,7 +76,8 @@ def _score_interrupted(args: argparse.Namespace) -> str:
 
 def cmd_score(args: argparse.Namespace) -> int:
     """Run ``inpaintenv score``."""
-    from ..benchmark.figures import write_figures
+    from ..benchmark.figure_files import write_figures
+    from ..benchmark.html import write_html_report
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..files.lock import run_lock
     from ..files.ownership import check_folder
@@ -150,4 +151,5 @@ def cmd_score(args: argparse.Namespace) -> int:
             )
             log(f"figures in {fig_dir}")
         log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
+        write_html_report(out, log)
     return 0

@@ -4,7 +4,7 @@ Used by :meth:`DepthInpaintEnv.render` and by ``inpaintenv show``. Tiles are sta
 vertically (KITTI frames are wide), each under a short label, optionally under a title
 line, with a colour bar in metres under the depth tiles and under the error tile. Colours
 and hole drawing come from :mod:`inpaintenv.report.style`, the same as the benchmark's figures:
-depth in ``turbo`` reversed (near = red) on ``[0, max_depth]``, absolute error in the
+depth in ``viridis`` reversed (near = bright) on ``[0, max_depth]``, absolute error in the
 holes in ``magma`` on ``[0, error_max]``, pixels without ground truth grey, holes hatched
 in the input and outlined on every tile.
 """

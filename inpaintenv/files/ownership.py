@@ -46,7 +46,8 @@ LEDGER = "inpaintenv-files.json"
 #: ``evaluate --out`` write: one of them not in the ledger is a foreign file.
 RUN_FILES: tuple[str, ...] = (
     "run.json", "results.json", "results.csv", "results.md", "table.csv", "table.md", "by_drive.csv",
-    "partial-rows.jsonl", "rows/*.jsonl", "figures/*.png", "figures/figures.json",
+    "partial-rows.jsonl", "rows/*.jsonl", "figures/*.png", "figures/figures.json", "figures/*/*.png",
+    "figures/*/figures.json", "report.html",
 )
 
 #: Paths that ``inpaintenv train`` writes in its ``--out`` (its checkpoints are keyed
@@ -249,9 +250,12 @@ def _relative(out: Path, path: str | os.PathLike) -> str:
 
 def run_root(folder: str | os.PathLike) -> Path:
     """The run folder whose ledger covers files in ``folder``: ``folder`` itself, or its parent
-    when the parent is a run folder (``figures/`` of a benchmark run)."""
+    when the parent is a run folder (``figures/`` of a benchmark run), or its grandparent
+    (``figures/<task>/``)."""
     folder = Path(folder)
-    parent = folder.parent
-    if not os.path.lexists(folder / LEDGER) and os.path.lexists(parent / LEDGER):
-        return parent
+    if os.path.lexists(folder / LEDGER):
+        return folder
+    for above in (folder.parent, folder.parent.parent):
+        if os.path.lexists(above / LEDGER):
+            return above
     return folder

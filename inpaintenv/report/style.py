@@ -4,8 +4,11 @@ Used by the panels of :mod:`inpaintenv.envs.render` (``env.render()``, ``inpaint
 show``) and by the benchmark's figures (:mod:`inpaintenv.benchmark.figures`), so a
 colour means the same thing in all of them:
 
-* depth: matplotlib's ``turbo`` reversed on ``[0, max_depth]`` (near = red, far = blue),
-  with a colour bar in metres;
+* depth: matplotlib's ``viridis`` reversed on ``[0, max_depth]`` (near = bright yellow, far =
+  dark purple), with a colour bar in metres: perceptually uniform (equal steps in metres look
+  like equal steps in colour; ``turbo``/``jet`` show false edges where their hue turns), its
+  lightness falls with depth so it reads in grey scale and for colour-blind readers, and it
+  shares no colour with the grey of pixels without data;
 * absolute error: ``magma`` on ``[0, error_max]`` (black = exact, light = large), where
   ``error_max`` is a robust percentile of the errors shown (:func:`error_scale`), so a
   few far pixels do not leave the panel black;
@@ -33,8 +36,8 @@ __all__ = [
     "depth_rgb", "draw_holes", "error_rgb", "error_scale", "lookup_table", "method_colours", "to_uint8",
 ]
 
-#: Colour map of depth (matplotlib name): near = red, far = blue.
-DEPTH_CMAP = "turbo_r"
+#: Colour map of depth (matplotlib name): perceptually uniform, near = bright yellow, far = dark purple.
+DEPTH_CMAP = "viridis_r"
 #: Colour map of absolute error (matplotlib name): perceptually uniform, black = no error.
 ERROR_CMAP = "magma"
 #: Percentile of the shown errors that tops the error scale: a robust maximum. Hole errors

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from inpaintenv.benchmark import RunMismatchError, run_benchmark, write_report
-from inpaintenv.benchmark import figures
+from inpaintenv.benchmark import figure_files, figures
 from inpaintenv.cli import main
 from inpaintenv.data import ArrayDataset
 from inpaintenv.metrics import border_distance
@@ -87,8 +87,8 @@ def test_error_rejection_figure_from_the_rows(dataset, tmp_path, monkeypatch):
         return save(fig, path, dpi)
 
     monkeypatch.setattr(figures, "_save", spy)
-    names = figures.write_figures(res, {"iv": TenPlusMinus, "ten": lambda: ten_metres}, dataset,
-                                  tmp_path / "figures", panel_methods=["iv"], n_panels=1, protocol="rect-v1", seed=0)
+    names = figure_files.write_figures(res, {"iv": TenPlusMinus, "ten": lambda: ten_metres}, dataset,
+                                       tmp_path / "figures", panel_methods=["iv"], n_panels=1, protocol="rect-v1", seed=0)
     assert (tmp_path / "figures" / "error_rejection.png") in names
     lines = drawn["error_rejection.png"]
     colour = mcolors.to_hex(style.method_colours(res.methods)["iv"])

@@ -58,7 +58,7 @@ def test_rerun_with_everything_done_does_not_predict_again(tmp_path, drawn, caps
     first = drawn["predict"]
     err = capsys.readouterr().err
     assert first == 4 * 8  # the four best methods on the 8 spread frames, once each (panel frames shared)
-    line = next(x for x in err.splitlines() if x.startswith("figures: running"))
+    line = next(x for x in err.splitlines() if x.startswith("figures (rect-v1): running"))
     assert "4 methods again on 8 frames spread over 2 of 2 drives" in line and "the rows do not keep" in line
     assert main(argv) == 0
     assert drawn["predict"] == first  # nothing new: figures already show these rows

@@ -145,7 +145,8 @@ def test_command_scores_the_suite_tasks_and_input_scan(tmp_path, capsys, monkeyp
     assert "| harmonic | scan | densify-v1 |" in table and "unmeasured RMSE (m)" in table
     doc = json.loads((out / "results.json").read_text())
     assert {r["input_kind"] for r in doc["rows"]} == {"scan"}
-    assert not (out / "figures").exists()  # the figures draw a map input
+    assert (out / "figures" / "error_vs_nearest.png").is_file()  # a scan-only run has its figures too
+    assert "scan:densify-v1" in (out / "report.html").read_text()
     # A suite without --protocol/--input scores its tasks; a method added to it is scored on scans too.
     out = tmp_path / "suite"
     monkeypatch.setitem(SUITES, "default", ["harmonic", "ipbasic-scan"])

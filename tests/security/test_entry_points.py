@@ -120,6 +120,13 @@ def _run_dir(p: Place, f: dict, tamper: Callable[[Path], Any]) -> list[str]:
     return ["benchmark", *TINY, "--holdout", "0", "-m", "scanline", "--figure-frames", "0", "--out", str(out)]
 
 
+def _report_dir(p: Place, f: dict, tamper: Callable[[Path], Any]) -> list[str]:
+    out = p.work / "run"
+    shutil.copytree(f["benchmark_run"], out, symlinks=True)
+    tamper(out)
+    return ["report", str(out), "-q"]
+
+
 def _move_out(folder: Path, p: Place) -> None:
     """Move ``folder``'s files to the folder outside and leave a link to it in its place."""
     for item in folder.iterdir():
@@ -393,6 +400,14 @@ CASES: list[Case] = [
         p, f, lambda o: _replace(o / "results.json", p.link_out)), ok=True),
     Case("cli:benchmark", "run.json-nan", lambda p, f: _run_dir(p, f, lambda o: p.write(
         o / "run.json", re.sub(r'"n_frames": \d+', '"n_frames": NaN', (o / "run.json").read_text())))),
+    Case("cli:report", "rows-fifo", lambda p, f: _report_dir(p, f, lambda o: _replace(_rows(o), p.fifo))),
+    Case("cli:report", "rows-link-out", lambda p, f: _report_dir(p, f, lambda o: _replace(_rows(o), p.link_out))),
+    Case("cli:report", "results-nested", lambda p, f: _report_dir(p, f, lambda o: p.write(o / "results.json", NESTED)),
+         ok=True),  # the page is built without what results.json would add
+    Case("cli:report", "report-link-out", lambda p, f: _report_dir(
+        p, f, lambda o: _replace(o / "report.html", p.link_out)), ok=True),  # replaced, never written through
+    Case("cli:report", "figure-link-out", lambda p, f: _report_dir(
+        p, f, lambda o: p.link_out(o / "figures" / "frame_0000.png")), says="symbolic link|no inpaintenv run wrote"),
     Case("cli:score", "run.lock-link-out", lambda p, f: _score(p, f, lambda k, d: p.link_out(
         p.work / "run" / "run.lock"))),
     Case("cli:train", "run.lock-link-out", lambda p, f: [
