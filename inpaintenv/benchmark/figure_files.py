@@ -1,7 +1,7 @@
 """A task's figure files in a run folder: which figures, in which folder, drawn only when the rows changed.
 
 :func:`write_figures` draws one task's figures (:mod:`.figures`) into its folder
-(:func:`task_folder`), records them as the run's (:mod:`.ownership`) and stamps what they
+(:func:`task_folder`), records them as the run's (:mod:`inpaintenv.files.ownership`) and stamps what they
 show in ``figures.json``, so a rerun with nothing new draws nothing.
 """
 
@@ -25,7 +25,7 @@ from ..masks import get_protocol
 from ..progress import count
 from ..report import style
 from ..report.results import EvaluationResult
-from . import ownership
+from ..files import ownership
 from .figures import (
     DISTANCE_FRAMES, FramePredictions, _describe, frame_panel, has_intervals, plot_error_rejection,
     plot_error_vs_distance, plot_error_vs_hole_size, plot_error_vs_nearest, spread_indices,

@@ -36,7 +36,7 @@ from ..report import style
 from ..report.results import EvaluationResult
 from ..report.tables import summary_table
 from .headline import every_method_vs_strongest
-from .ownership import claim
+from ..files.ownership import claim
 from .rows import read_rows
 
 __all__ = ["REPORT_FILE", "build_html", "figure_groups", "write_html_report"]
@@ -440,7 +440,7 @@ def build_html(run_dir: str | os.PathLike) -> str:
 def write_html_report(run_dir: str | os.PathLike, log: Callable[[str], None] | None = None) -> Path:
     """Write ``report.html`` into the run folder ``run_dir`` (replacing the one a run wrote there before).
 
-    The file is recorded as the run's (:mod:`.ownership`) and written whole or not at all.
+    The file is recorded as the run's (:mod:`inpaintenv.files.ownership`) and written whole or not at all.
 
     Returns
     -------

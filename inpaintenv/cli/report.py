@@ -30,8 +30,8 @@ def add_report(subparsers: Any) -> None:
 def cmd_report(args: argparse.Namespace) -> int:
     """Run ``inpaintenv report``: check the folder is a run's, hold its lock, write the page."""
     from ..benchmark.html import write_html_report
-    from ..benchmark.lock import run_lock
-    from ..benchmark.ownership import adopt, check_folder
+    from ..files.lock import run_lock
+    from ..files.ownership import adopt, check_folder
 
     out = Path(args.run_folder)
     if not out.is_dir():

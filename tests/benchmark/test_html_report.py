@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from inpaintenv.benchmark import figures, ownership
+from inpaintenv.benchmark import figures
+from inpaintenv.files import ownership
 from inpaintenv.benchmark.html import REPORT_FILE, build_html
 from inpaintenv.cli import main
 
