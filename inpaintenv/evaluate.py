@@ -40,7 +40,8 @@ from .masks import OcclusionProtocol, get_protocol
 from .methods.calls import _as_predictor, _run, _warm_up, method_name
 from .methods.intervals import IntervalSource, interval_source
 from .exceptions import BadFrameError, InvalidInputError, MethodOutputError, UnfilledPixelsError
-from .metrics import INTERVAL_COLUMNS, Coverage, as_coverage, check_unfilled, interval_metrics
+from .metrics import (Coverage, FrameBatch, as_coverage, check_unfilled, computed_metrics, interval_metrics,
+                      metric_records)
 from .metrics._depth import _frame_metrics_checked
 from .report.results import METRIC_COLUMNS, EvaluationResult
 
@@ -364,11 +365,13 @@ def _score_locally(
                                                  inputs=None if inputs is gt else inputs)
             except UnfilledPixelsError as exc:
                 raise MethodOutputError(f"method {name!r}: {exc}") from None
+            # The task's pixels, as the headline's: densify-v1's are every pixel the input lacks.
+            scored = np.isnan(x) if protocol.task == "unmeasured" else hole
+            low = high = None
             if interval is not None:
-                # The task's pixels, as the headline's: densify-v1's are every pixel the input lacks.
-                scored = np.isnan(x) if protocol.task == "unmeasured" else hole
                 low, high = interval.bounds(x, pred, scored)
                 metrics.update(interval_metrics(pred, gt, scored, low, high))
+            metrics.update(computed_metrics(FrameBatch(pred, gt, scored, x, low, high)))
             batch_rows = _rows(name, protocol.name, seed, idx, dataset, hole.mean(axis=(1, 2)), metrics, ms)
             rows.extend(batch_rows)
             if on_batch is not None:
@@ -383,6 +386,7 @@ def _rows(
 ) -> list[dict[str, Any]]:
     """One row per frame of a scored batch (the columns of ``ROW_COLUMNS``)."""
     batch_rows: list[dict[str, Any]] = []
+    record_columns = [r.name for r in metric_records() if r.name not in METRIC_COLUMNS]  # intervals, computed
     for k, i in enumerate(idx):
         row: dict[str, Any] = {
             "method": name,
@@ -397,7 +401,7 @@ def _rows(
         for c in METRIC_COLUMNS:
             v = metrics[c][k]
             row[c] = int(v) if c.endswith("_count") else float(v)
-        for c in INTERVAL_COLUMNS:
+        for c in record_columns:
             if c in metrics:
                 row[c] = float(metrics[c][k])
         row["ms"] = ms

@@ -24,6 +24,7 @@ prediction to :data:`MIN_INVERSE_DEPTH` (0.1 m) before inverting, so a predictio
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 
 import numpy as np
@@ -32,6 +33,7 @@ from ..conventions import DEFAULT_MAX_DEPTH, check_depth, check_mask, check_max_
 from ..exceptions import InvalidInputError, UnfilledPixelsError, UnknownNameError
 from ._checks import _check_inputs, _check_pred, _checked_scored
 from ._devkit import interpolate_background
+from ._records import metric_record, metric_records
 
 __all__ = [
     "EXTRA_COLUMNS", "KITTI_METRICS", "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS",
@@ -380,7 +382,9 @@ def aggregate(
     if isinstance(per_frame, list):
         if not per_frame:
             raise InvalidInputError("no frames to aggregate")
-        cols = {k: np.asarray([row[k] for row in per_frame], dtype=np.float64) for k in per_frame[0]}
+        # Rows may be whole result rows: the metric records' columns and the counts are read.
+        known = {r.name for r in metric_records()} | {f"{r}_count" for r in (*REGIONS, "unmeasured")}
+        cols = {k: np.asarray([row[k] for row in per_frame], dtype=np.float64) for k in per_frame[0] if k in known}
     else:
         cols = {k: np.atleast_1d(np.asarray(v, dtype=np.float64)) for k, v in per_frame.items()}
     missing = [f"{r}_{m}" for r in REGIONS for m in ("rmse", "mae", "count") if f"{r}_{m}" not in cols]
@@ -411,17 +415,38 @@ def aggregate(
             key = f"{region}_{metric}"
             if key not in cols:
                 continue
-            vals = cols[key][ok]
-            if not ok.any():
-                out[key] = float("nan")
-            elif how == "mean":
-                out[key] = float(vals.mean())
-            elif metric in ("rmse", "irmse"):
-                out[key] = float(np.sqrt((vals**2 * count[ok]).sum() / count[ok].sum()))
-            elif metric in ("mae", "imae"):
-                out[key] = float((vals * count[ok]).sum() / count[ok].sum())
+            out[key] = _pool(metric_record(key).pool, cols[key], count, ok, how)
         if how == "pooled" and ok.any() and "psnr" in names:
             out[f"{region}_psnr"] = float(
                 20.0 * np.log10(max_depth / max(out[f"{region}_rmse"], MIN_PSNR_RMSE))
             )
+    # Every other metric record the rows hold, by its own record (evaluate's computed metrics, intervals).
+    for record in metric_records():
+        if record.name in out or record.name not in cols:
+            continue
+        count = cols.get(f"{task}_count" if record.count == "task" else record.count)
+        if count is None:
+            raise UnknownNameError(f"per-frame metrics lack {record.count!r}, the pixels of {record.name!r}")
+        ok = (count > 0) & np.isfinite(cols[record.name])
+        ok &= True if record.frames == "every" or (record.frames == "all" and all_frames == "every") else scored
+        if record.pool == "psnr":  # from the pooled RMSE of its region
+            rmse = out.get(record.name[: -len("psnr")] + "rmse", float("nan"))
+            out[record.name] = float(20.0 * np.log10(max_depth / max(rmse, MIN_PSNR_RMSE))) \
+                if how == "pooled" and not math.isnan(rmse) else _pool("frames", cols[record.name], count, ok, how)
+        else:
+            out[record.name] = _pool(record.pool, cols[record.name], count, ok, how)
     return out
+
+
+def _pool(pool: str, values: np.ndarray, count: np.ndarray, ok: np.ndarray, how: str) -> float:
+    """One metric over the frames ``ok``: their mean (``how="mean"``), or pooled over pixels by ``pool``."""
+    if not ok.any():
+        return float("nan")
+    vals, weights = values[ok], count[ok]
+    if how == "mean" or pool == "frames":
+        return float(vals.mean())
+    if pool == "rms":
+        return float(np.sqrt((vals**2 * weights).sum() / weights.sum()))
+    if pool == "mean":
+        return float((vals * weights).sum() / weights.sum())
+    return float(vals.mean())  # "psnr": set from the pooled RMSE by the caller

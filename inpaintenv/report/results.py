@@ -19,8 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..conventions import DEFAULT_MAX_DEPTH
-from ..metrics import INTERVAL_COLUMNS
-from ..metrics import EXTRA_COLUMNS, METRIC_NAMES, REGIONS, aggregate, task_of
+from ..metrics import EXTRA_COLUMNS, METRIC_NAMES, REGIONS, aggregate, metric_records, task_of
 from . import tables
 from ..files import MAX_JSON_BYTES, read_json, read_text, write_bytes_atomic, write_text_atomic
 from ..exceptions import InvalidInputError
@@ -78,8 +77,9 @@ class EvaluationResult:
 
         Each output row holds the key values, :func:`inpaintenv.metrics.aggregate`'s
         result (``{region}_{metric}``, ``n_frames``, ``n_skipped_hole``), the mean
-        ``hole_fraction`` and ``ms_per_frame``, and the mean of each interval column
-        (:data:`~inpaintenv.metrics.INTERVAL_COLUMNS`) some row of the group has.
+        ``hole_fraction`` and ``ms_per_frame``, and the mean of every other metric record's
+        column (intervals, computed metrics: :func:`~inpaintenv.metrics.metric_records`) some
+        row of the group has.
         Groups keep the order of first appearance.
         """
         groups: dict[tuple, list[dict[str, Any]]] = {}
@@ -88,17 +88,16 @@ class EvaluationResult:
         max_depth = float(self.meta.get("max_depth", DEFAULT_MAX_DEPTH))
         table = []
         for key, rows in groups.items():
-            # Rows of runs made before the unmeasured and KITTI columns existed lack them.
-            metrics = [{c: row.get(c, math.nan) for c in METRIC_COLUMNS} for row in rows]
+            # Rows of runs made before the unmeasured and KITTI columns existed lack them; every other
+            # metric record (intervals, evaluate's computed metrics) is pooled where some row has it.
+            columns = [*METRIC_COLUMNS, *_record_columns(rows)]
+            metrics = [{c: row.get(c, math.nan) for c in columns} for row in rows]
             agg = aggregate(metrics, how="mean", max_depth=max_depth, task=task_of(r["hole_fraction"] for r in rows))
             entry: dict[str, Any] = dict(zip(keys, key))
             entry.update(agg)
             entry["n_frames"] = int(agg["n_frames"])
             entry["hole_fraction"] = _mean(r["hole_fraction"] for r in rows)
             entry["ms_per_frame"] = _mean(r["ms"] for r in rows)
-            # Interval columns (evaluate(..., intervals=...)): means over the frames that have them.
-            for c in _interval_columns(rows):
-                entry[c] = _mean(r.get(c, math.nan) for r in rows)
             table.append(entry)
         return table
 
@@ -185,7 +184,7 @@ class EvaluationResult:
 
         # The interval columns only when some row has them (before "ms"), so runs without
         # intervals write the file they always wrote.
-        columns = list(ROW_COLUMNS[:-1]) + _interval_columns(self.rows) + [ROW_COLUMNS[-1]]
+        columns = list(ROW_COLUMNS[:-1]) + _record_columns(self.rows) + [ROW_COLUMNS[-1]]
 
         text = io.StringIO(newline="")
         writer = csv.DictWriter(text, fieldnames=columns, extrasaction="ignore")
@@ -228,10 +227,10 @@ class EvaluationResult:
         return f"EvaluationResult({len(self.rows)} rows, methods={self.methods})"
 
 
-def _interval_columns(rows: Sequence[dict[str, Any]]) -> list[str]:
-    """The interval columns (in :data:`~inpaintenv.metrics.INTERVAL_COLUMNS` order) some row has."""
-    present = {c for row in rows for c in INTERVAL_COLUMNS if c in row}
-    return [c for c in INTERVAL_COLUMNS if c in present]
+def _record_columns(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The metric records' columns beyond :data:`METRIC_COLUMNS` some row has, in the records' order."""
+    present = {c for row in rows for c in row}
+    return [r.name for r in metric_records() if r.name in present and r.name not in METRIC_COLUMNS]
 
 
 def merge_skipped(lists: Iterable[Sequence[dict[str, Any]]]) -> list[dict[str, Any]]:

@@ -26,7 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..files import write_bytes_atomic
-from ..metrics import task_of
+from ..metrics import metric_records, task_of
 from .stats import FEW_FRAMES, bootstrap_mean_ci
 
 __all__ = [
@@ -48,33 +48,19 @@ class Rows(Protocol):
     def group_table(self, keys: Sequence[str] = ...) -> list[dict[str, Any]]: ...
 
 
-#: (key, header with unit, format) of every table: the study's Table I/II columns first.
-REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
-    ("hole_rmse", "hole RMSE (m)", ".2f"),
-    ("hole_psnr", "hole PSNR (dB)", ".1f"),
-    ("all_rmse", "all RMSE (m)", ".2f"),
-    ("all_psnr", "all PSNR (dB)", ".1f"),
-    ("hole_mae", "hole MAE (m)", ".2f"),
-    ("hole_irmse", "hole iRMSE (1/km)", ".1f"),
-)
+def _columns(group: str) -> tuple[tuple[str, str, str], ...]:
+    """(key, header with unit, format) of the metric records of table ``group``, in table order."""
+    return tuple((r.name, r.label, r.fmt) for r in metric_records(group))
+
+
+#: (key, header with unit, format) of every table: the study's Table I/II columns first
+#: (the ``"depth"`` metric records; tables read the records when they are drawn).
+REPORT_METRICS: tuple[tuple[str, str, str], ...] = _columns("depth")
 #: The columns a run with per-pixel intervals adds (``evaluate(..., intervals=0.9)``), same layout.
-INTERVAL_REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
-    ("hole_coverage", "hole coverage", ".1%"),
-    ("hole_interval_width", "interval width (m)", ".2f"),
-    ("rmse_keep_80", "hole RMSE, 80 % most confident (m)", ".2f"),
-    ("border_rmse_keep_80", "hole RMSE, 80 % nearest border (m)", ".2f"),
-    ("rejection_auc", "rejection AUC", ".3f"),
-)
+INTERVAL_REPORT_METRICS: tuple[tuple[str, str, str], ...] = _columns("interval")
 #: The columns a table of single-scan inputs adds (rows of ``input_kind`` ``"scan"``): the ground-truth
 #: pixels the input did not measure (densify-v1's task), and KITTI depth completion's own four.
-SCAN_REPORT_METRICS: tuple[tuple[str, str, str], ...] = (
-    ("unmeasured_rmse", "unmeasured RMSE (m)", ".2f"),
-    ("unmeasured_mae", "unmeasured MAE (m)", ".2f"),
-    ("kitti_rmse", "KITTI RMSE (mm)", ".0f"),
-    ("kitti_mae", "KITTI MAE (mm)", ".0f"),
-    ("kitti_irmse", "KITTI iRMSE (1/km)", ".2f"),
-    ("kitti_imae", "KITTI iMAE (1/km)", ".2f"),
-)
+SCAN_REPORT_METRICS: tuple[tuple[str, str, str], ...] = _columns("scan")
 #: Mark of an interval from fewer than FEW_FRAMES frames.
 FEW_MARK = "†"
 #: Mark of a method scored on a drive that was in its training data.
@@ -149,8 +135,8 @@ def _metrics_of(entries: Sequence[dict[str, Any]]) -> tuple[tuple[str, str, str]
     """:data:`REPORT_METRICS`, then :data:`SCAN_REPORT_METRICS` when some entry is of a scan input, then
     :data:`INTERVAL_REPORT_METRICS` when ``entries`` have intervals."""
     scans = any(e.get("input_kind") == "scan" for e in entries)
-    return REPORT_METRICS + (SCAN_REPORT_METRICS if scans else ()) + (
-        INTERVAL_REPORT_METRICS if _has_intervals(entries) else ())
+    return _columns("depth") + (_columns("scan") if scans else ()) + (
+        _columns("interval") if _has_intervals(entries) else ())
 
 
 def _missing(value: Any) -> bool:
