@@ -27,7 +27,7 @@ import numpy as np
 
 from ..exceptions import CalibrationError, FileTooLargeError, InvalidInputError, UnsafeFileError
 from ..files import MAX_TEXT_BYTES, check_frame_pixels, open_regular, read_text
-from ..values.calibration import MAX_CONDITION, check_projection
+from ..values.calibration import MAX_CONDITION, check_projection, check_rotation
 
 __all__ = ["CALIBRATION_LAYOUTS", "MAX_CONDITION", "Calibration", "CalibrationError", "check_size", "parse_size",
            "read_calibration"]
@@ -177,6 +177,13 @@ def _matrix(values: dict[str, list[_Entry]], key: str, shape: tuple[int, int], p
     return v.reshape(shape)
 
 
+def _rotation(values: dict[str, list[_Entry]], key: str, path: Path, shape: tuple[int, int] = (3, 3)) -> np.ndarray:
+    """``values[key]`` as :func:`_matrix` gives it, its 3 x 3 part checked to be a rotation."""
+    m = _matrix(values, key, shape, path)
+    check_rotation(m[:, :3], f"{path}: {key}")
+    return m
+
+
 def _homogeneous(rt: np.ndarray) -> np.ndarray:
     out = np.eye(4)
     out[: rt.shape[0], : rt.shape[1]] = rt
@@ -195,15 +202,15 @@ def _read_raw(folder: Path, camera: int) -> Calibration:
     c2c_path, v2c_path = folder / _RAW[0], folder / _RAW[1]
     c2c, v2c = _read_key_values(c2c_path), _read_key_values(v2c_path)
     p = _matrix(c2c, f"P_rect_{camera:02d}", (3, 4), c2c_path)
-    r0 = _homogeneous(_matrix(c2c, "R_rect_00", (3, 3), c2c_path))
-    velo = _homogeneous(np.hstack([_matrix(v2c, "R", (3, 3), v2c_path), _matrix(v2c, "T", (3, 1), v2c_path)]))
+    r0 = _homogeneous(_rotation(c2c, "R_rect_00", c2c_path))
+    velo = _homogeneous(np.hstack([_rotation(v2c, "R", v2c_path), _matrix(v2c, "T", (3, 1), v2c_path)]))
     return Calibration(p @ r0 @ velo, _rect_size(c2c, camera, c2c_path), "raw", folder, camera)
 
 
 def _read_odometry(path: Path, camera: int) -> Calibration:
     values = _read_key_values(path)
     p = _matrix(values, f"P{camera}", (3, 4), path)
-    tr = _homogeneous(_matrix(values, "Tr", (3, 4), path))
+    tr = _homogeneous(_rotation(values, "Tr", path, (3, 4)))
     return Calibration(p @ tr, None, "odometry", path, camera)
 
 
@@ -211,7 +218,7 @@ def _read_kitti360(folder: Path, camera: int) -> Calibration:
     persp_path, c2v_path = folder / _K360[0], folder / _K360[1]
     persp = _read_key_values(persp_path)
     p = _matrix(persp, f"P_rect_{camera:02d}", (3, 4), persp_path)
-    r0 = _homogeneous(_matrix(persp, "R_rect_00", (3, 3), persp_path))
+    r0 = _homogeneous(_rotation(persp, "R_rect_00", persp_path))
     rows = [(n, _numbers(line.split())) for n, line in enumerate(_read_text(c2v_path).splitlines(), start=1)]
     bad = next(((n, v) for n, v in rows if isinstance(v, str)), None)
     if bad is not None:
@@ -224,6 +231,7 @@ def _read_kitti360(folder: Path, camera: int) -> Calibration:
     except np.linalg.LinAlgError:
         raise CalibrationError(f"{c2v_path}: T_cam0_to_velo is singular (not a rigid motion); cannot invert it") \
             from None
+    check_rotation(numbers.reshape(3, 4)[:, :3], f"{c2v_path}: T_cam0_to_velo")
     with np.errstate(all="ignore"):
         matrix = p @ r0 @ velo_to_cam
     return Calibration(matrix, _rect_size(persp, camera, persp_path), "kitti360", folder, camera)

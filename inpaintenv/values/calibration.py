@@ -22,12 +22,17 @@ import numpy as np
 
 from ..exceptions import CalibrationError
 
-__all__ = ["KITTI360_DATE", "MAX_CONDITION", "check_projection", "check_scan_rig", "rig_of_scan"]
+__all__ = ["KITTI360_DATE", "MAX_CONDITION", "ROTATION_TOLERANCE", "check_projection", "check_rotation",
+           "check_scan_rig", "rig_of_scan"]
 
 #: The largest condition number of a projection's 3 x 3 part accepted (a camera's is of the order of its focal length).
 MAX_CONDITION: float = 1e8
 #: The recording date of every KITTI-360 drive folder (``2013_05_28_drive_0000_sync``); KITTI raw days are in 2011.
 KITTI360_DATE = "2013_05_28"
+#: How far a calibration file's rotation may be from orthonormal (largest entry of ``R Rᵀ - I``): KITTI's are within
+#: 1e-6 (raw ``R`` 9e-8, ``R_rect_00`` 8e-8, odometry ``Tr`` 8e-8, KITTI-360 ``T_cam0_to_velo`` 6e-11 and
+#: ``R_rect_00`` 1e-6 on kitti-raw), as printed to 7 to 9 digits.
+ROTATION_TOLERANCE: float = 1e-3
 _DRIVE = re.compile(r"(\d{4}_\d{2}_\d{2})_drive_\d{4}_sync")
 
 
@@ -40,9 +45,14 @@ def check_projection(matrix: object, where: str) -> np.ndarray:
         Not 3 x 4 and finite; singular; badly conditioned (:data:`MAX_CONDITION`); or not
         right-handed (``det M[:, :3] < 0``: a negated depth row, points behind the camera would land in the image).
     """
-    m = np.asarray(matrix, dtype=np.float64)
-    if m.shape != (3, 4) or not np.isfinite(m).all():
+    given = np.asarray(matrix)
+    if not (np.issubdtype(given.dtype, np.floating) or np.issubdtype(given.dtype, np.integer)):
+        raise CalibrationError(f"{where}a projection matrix is 3 x 4 real numbers, got {given.dtype}")
+    m = given.astype(np.float64)
+    if m.shape != (3, 4):
         raise CalibrationError(f"{where}a projection matrix is 3 x 4 and finite, got shape {m.shape}")
+    if not np.isfinite(m).all():
+        raise CalibrationError(f"{where}the projection matrix holds NaN or infinite values")
     with np.errstate(all="ignore"):
         det, cond = np.linalg.det(m[:, :3]), np.linalg.cond(m[:, :3])
     if abs(det) < 1e-12:
@@ -60,6 +70,23 @@ def check_projection(matrix: object, where: str) -> np.ndarray:
             "camera's depth increases forward, u to the right and v down"
         )
     return m
+
+
+def check_rotation(r: np.ndarray, what: str) -> None:
+    """Refuse a calibration file's rotation (``R``, ``R_rect_00``, the 3 x 3 of ``Tr`` or ``T_cam0_to_velo``)
+    that is not one: not orthonormal within :data:`ROTATION_TOLERANCE`, or a reflection.
+
+    Raises
+    ------
+    CalibrationError
+        Naming ``what`` (its file and key) and how far it is from a rotation.
+    """
+    off = float(np.abs(r @ r.T - np.eye(3)).max())
+    if not off <= ROTATION_TOLERANCE:
+        raise CalibrationError(f"{what} is not a rotation (R Rᵀ differs from the identity by {off:.3g}; a "
+                               "calibration's rotations are orthonormal): a scaled, sheared or mistyped matrix")
+    if np.linalg.det(r) < 0:
+        raise CalibrationError(f"{what} is a reflection (determinant -1), not a rotation: a negated row or axis")
 
 
 def rig_of_scan(path: PurePath) -> str | None:

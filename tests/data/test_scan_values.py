@@ -281,3 +281,21 @@ def test_a_folder_holding_two_layouts_is_refused_until_a_file_is_named(tmp_path)
         read_calibration(folder)
     assert read_calibration(folder / "perspective.txt").kind == "kitti360"
     assert read_calibration(folder / "calib_velo_to_cam.txt").kind == "raw"
+
+
+@pytest.mark.parametrize(("key", "value", "says"), [
+    ("R", "0 -1000 0 0 0 -1000 1000 0 0", "is not a rotation"),  # millimetres typed into a rotation
+    ("R", "0 -1 0 0 0 -1 1 0 0.1", "is not a rotation"),
+    ("R", "0 1 0 0 0 -1 1 0 0", "is a reflection"),  # right-handed overall only with another negation
+])
+def test_a_calibration_files_rotation_must_be_one(tmp_path, key, value, says):
+    folder = _raw_folder(tmp_path / "raw")
+    (folder / "calib_velo_to_cam.txt").write_text(f"{key}: {value}\nT: 0 0 0\n")
+    with pytest.raises(CalibrationError, match=rf"calib_velo_to_cam\.txt: R {says}"):
+        read_calibration(folder)
+
+
+@pytest.mark.parametrize("matrix", ["abc", np.full((3, 4), None), np.eye(3, 4) * (1 + 1j)])
+def test_a_projection_that_is_not_real_numbers_is_one_calibration_error(matrix):
+    with pytest.raises(CalibrationError, match="real numbers|NaN or infinite"):
+        Calibration(matrix, (120, 48), "odometry")

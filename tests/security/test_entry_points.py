@@ -322,10 +322,11 @@ def _wall(scale: float = 1.0, behind: bool = False) -> np.ndarray:
 _FORWARD_P, _FORWARD_TR = "60 0 60 0 0 60 24 0 0 0 1 0", "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 0\n"
 
 
-def _scan_fill(p: Place, points: np.ndarray, p2: str = _FORWARD_P, folder: str = "in", *more: str) -> list[str]:
-    """``fill`` of one scan (in ``folder``) with an odometry calibration whose P lines are ``p2``."""
+def _scan_fill(p: Place, points: np.ndarray, *more: str, p2: str = _FORWARD_P, tr: str = _FORWARD_TR,
+               folder: str = "in") -> list[str]:
+    """``fill`` of one scan (in ``folder``) with an odometry calibration whose P lines are ``p2`` and Tr ``tr``."""
     scan = p.write(p.work / folder / "s.bin", points.tobytes())
-    calib = p.write(p.work / "calib.txt", "".join(f"P{i}: {p2}\n" for i in range(4)) + _FORWARD_TR)
+    calib = p.write(p.work / "calib.txt", "".join(f"P{i}: {p2}\n" for i in range(4)) + tr)
     return _fill(p, [scan], "--calib", str(calib), "--size", "120x48", *more)
 
 
@@ -335,19 +336,21 @@ def _value_cases() -> list[Case]:
     metres = np.where(np.random.default_rng(0).random((32, 64)) < 0.3, 40, 0).astype(np.uint16)
     return [
         Case("cli:fill", "scan-one-point-at-1e30", lambda p, f: _scan_fill(
-            p, np.vstack([_wall(), [[1e30, 0, 0, 0]]]).astype(np.float32), _FORWARD_P, "in", "--points", "bin"),
+            p, np.vstack([_wall(), [[1e30, 0, 0, 0]]]).astype(np.float32), "--points", "bin"),
              ok=True),
         Case("cli:fill", "scan-in-decimetres", lambda p, f: _scan_fill(p, _wall(30.0)), says="unit mistake"),
         Case("cli:fill", "scan-all-behind", lambda p, f: _scan_fill(p, _wall(behind=True)),
              says="no point of the scan lands in the 120x48 image"),
-        Case("cli:fill", "calib-negated-depth-row", lambda p, f: _scan_fill(p, _wall(), "60 0 60 0 0 60 24 0 0 0 -1 0"),
+        Case("cli:fill", "calib-negated-depth-row", lambda p, f: _scan_fill(p, _wall(), p2="60 0 60 0 0 60 24 0 0 0 -1 0"),
              says="not right-handed"),
-        Case("cli:fill", "calib-number-beyond-float", lambda p, f: _scan_fill(p, _wall(), "1e400 0 60 0 0 60 24 0 0 0 1 0"),
+        Case("cli:fill", "calib-number-beyond-float", lambda p, f: _scan_fill(p, _wall(), p2="1e400 0 60 0 0 60 24 0 0 0 1 0"),
              says="beyond any float"),
-        Case("cli:fill", "calib-singular", lambda p, f: _scan_fill(p, _wall(), "60 0 60 0 0 60 24 0 0 0 0 0"),
+        Case("cli:fill", "calib-singular", lambda p, f: _scan_fill(p, _wall(), p2="60 0 60 0 0 60 24 0 0 0 0 0"),
              says="singular"),
-        Case("cli:fill", "scan-kitti360-with-odometry-calib", lambda p, f: _scan_fill(p, _wall(), _FORWARD_P, k360),
+        Case("cli:fill", "scan-kitti360-with-odometry-calib", lambda p, f: _scan_fill(p, _wall(), folder=k360),
              says="is a KITTI-360 scan"),
+        Case("cli:fill", "calib-rotation-in-millimetres", lambda p, f: _scan_fill(
+            p, _wall(), tr="Tr: 0 -1000 0 0 0 0 -1000 0 1000 0 0 0\n"), says="not a rotation"),
         Case("cli:fill", "input-png-of-plain-metres", lambda p, f: _fill(p, [_png_metres(p, metres)]),
              says="plain metres"),
         Case("py:fill", "scan-all-behind", lambda p, f: _py_fill(p, [p.write(p.work / "in" / "s.bin", _wall(
