@@ -229,7 +229,7 @@ def _prepare_key(key: Path, out: Path, overwrite: bool) -> None:
         raise InvalidInputError(f"the score key's path {key} is not a plain file; give another --key")
     if key.exists():
         try:
-            is_key = read_manifest(key).role == KEY
+            is_key = read_manifest(key, follow_kit=False).role == KEY
         except (ManifestError, ValueError):
             is_key = False
         if not is_key:

@@ -223,13 +223,53 @@ def require_key(manifest: Manifest) -> Manifest:
                         f"the score key export wrote{where}: --manifest <key>")
 
 
-def read_manifest(path: str | os.PathLike) -> Manifest:
+def is_kit_path(value: str) -> bool:
+    """Whether ``value`` may be a score key's ``"kit"``: a normalised relative POSIX path, names after
+    any leading ``..`` (a key kept elsewhere with ``export --key``), never absolute, never ``.``."""
+    if not value or "\0" in value or "\\" in value or value.startswith("/") or os.path.isabs(value):
+        return False
+    parts = value.split("/")
+    up = 0
+    while up < len(parts) and parts[up] == "..":
+        up += 1
+    return up < len(parts) and all(p not in ("", ".", "..") for p in parts[up:])
+
+
+def _check_kit_folder(key: Manifest) -> None:
+    """The folder a key's ``"kit"`` names, where it exists, holds a submission kit of the same export.
+
+    A kit handed out and deleted leaves nothing to check (the key alone scores); anything else
+    there (``"kit": "../../../etc"``) would point the checks that keep ``score``'s run and the
+    predictions out of the export at a folder that is none.
+    """
+    root = key.root
+    if not os.path.lexists(root):
+        return
+    where = f"{key.path}: \"kit\" {key.kit!r} names {os.path.abspath(root)}"
+    if not root.is_dir():
+        raise ManifestError(f"{where}, which is not a folder; fix the key's \"kit\" (the export folder relative to it)")
+    try:
+        kit = read_manifest(root / MANIFEST_NAME, follow_kit=False)
+    except FileNotFoundError:
+        raise ManifestError(f"{where}, which holds no export (no {MANIFEST_NAME}); fix the key's \"kit\" (the export "
+                            "folder relative to it) or move that folder") from None
+    except ManifestError as exc:
+        raise ManifestError(f"{where}, whose {MANIFEST_NAME} is not an export's ({exc})") from None
+    if kit.role != KIT or kit.protocol_name != key.protocol_name or \
+            sorted(i.input for i in kit.items) != sorted(i.input for i in key.items):
+        raise ManifestError(f"{where}, which holds another export (its {MANIFEST_NAME} lists other inputs); fix the "
+                            "key's \"kit\" or move that folder")
+
+
+def read_manifest(path: str | os.PathLike, *, follow_kit: bool = True) -> Manifest:
     """Read a score key, or an export's ``manifest.json`` (or the export folder holding it).
 
     Every field is checked: seeds and indices are integers (not floats or booleans), every
     item's seed is one of ``seeds`` and its index one of the frames, every (seed, frame)
     is listed once, paths stay inside the export (and the KITTI root), the frame shape
-    and crop are two integers of at most :data:`~.layout.MAX_FRAME_PIXELS` pixels.
+    and crop are two integers of at most :data:`~.layout.MAX_FRAME_PIXELS` pixels. A score
+    key's ``"kit"`` is a normalised relative path (:func:`is_kit_path`) and, with
+    ``follow_kit``, the folder it names holds this export's kit where it exists.
 
     Raises
     ------
@@ -257,7 +297,10 @@ def read_manifest(path: str | os.PathLike) -> Manifest:
             f"{p} has format version {doc.get('format_version')!r}; this inpaintenv reads version "
             f"{FORMAT_VERSION}: export again with this version"
         )
-    return _Reader(p, doc).manifest()
+    manifest = _Reader(p, doc).manifest()
+    if follow_kit and manifest.role == KEY and manifest.kit is not None:
+        _check_kit_folder(manifest)
+    return manifest
 
 
 class _Reader:
@@ -328,8 +371,8 @@ class _Reader:
         if role == KEY:
             kit = self.get("kit")
             if kit is not None:
-                self.text(kit, "kit", lambda v: bool(v) and not os.path.isabs(v) and "\0" not in v,
-                          "the export folder relative to the key")
+                self.text(kit, "kit", is_kit_path, "the export folder relative to the key (a normalised relative "
+                          "path, no '.' or '..' after a name)")
             truth = self.get("ground_truth")
             if not isinstance(truth, dict) or truth.get("type") not in ("kitti", "synthetic", "custom"):
                 raise self.fail("ground_truth", "must be an object whose \"type\" is kitti, synthetic or custom")

@@ -50,9 +50,17 @@ def _count(n: int, noun: str) -> str:
     return f"{n} {noun}{'s' * (n != 1)}"
 
 
+def shown_name(rel: str) -> str:
+    """``rel`` as a message shows it: a name that is not plain printable ASCII also with its code points
+    escaped, so two names that print alike (NFC and NFD forms of one accent) read apart."""
+    if rel.isascii() and rel.isprintable():
+        return rel
+    return f"{rel} [{rel.encode('ascii', 'backslashreplace').decode('ascii')}]"
+
+
 def _listing(paths: list[str]) -> str:
     more = len(paths) - _SHOWN
-    return ", ".join(paths[:_SHOWN]) + (f" and {more} more" if more > 0 else "")
+    return ", ".join(shown_name(p) for p in paths[:_SHOWN]) + (f" and {more} more" if more > 0 else "")
 
 
 def manifest_protocol(manifest: Manifest) -> OcclusionProtocol:
@@ -248,7 +256,7 @@ def _scan(folder: Path, export: Path, truth: set[tuple[int, int]]) -> tuple[set[
             elif stat.S_ISLNK(mode):
                 if name.lower().endswith(".png"):
                     refused[rel] = f"{rel} is a symbolic link"
-            elif name.endswith(".png"):
+            elif name.lower().endswith(".png"):  # a .PNG is listed (as unexpected), never silently passed over
                 if stat.S_ISREG(mode):
                     found.add(rel)
                 else:

@@ -67,7 +67,7 @@ def prepare(
 
 
 def check_run_folder(out: str | os.PathLike, manifest: Manifest, predictions: str | os.PathLike) -> Path:
-    """``out`` as a Path if it may hold the run: not a file, outside the export and the predictions.
+    """``out`` as a Path if it may hold the run: not a file, writable, outside the export and the predictions.
 
     Raises
     ------
@@ -77,6 +77,10 @@ def check_run_folder(out: str | os.PathLike, manifest: Manifest, predictions: st
     path = Path(out)
     if path.exists() and not path.is_dir():
         raise InvalidInputError(f"--out {path} is a file; give a folder for the run")
+    existing = next((p for p in (path, *path.absolute().parents) if p.exists()), None)
+    if existing is not None and not os.access(existing, os.W_OK | os.X_OK):
+        raise InvalidInputError(f"--out {path}: cannot write the run folder there ({existing} is on a read-only disk or "
+                                "not writable by you); give a folder you can write to")
     for folder, what in ((manifest.root, "export"), (Path(predictions), "predictions")):
         if is_inside(path, folder):
             raise InvalidInputError(f"--out {path} lies in the {what} folder {folder}; give a run folder outside it")

@@ -441,6 +441,13 @@ CASES: list[Case] = [
         "export", *TINY, "--holdout", "0", "--out", str(p.work / "kit"), "--key", str(p.link_out(p.work / "kit.key.json"))],
          says="symbolic link|not a plain file"),
     # score: the key, the predictions
+    Case("cli:score", "key-kit-out-of-folder", lambda p, f: _score(p, f, lambda k, d: p.write(k, json.dumps(
+        {**json.loads(k.read_text()), "kit": "../../../../../../../../etc"}))), says="holds no export"),
+    Case("cli:score", "prediction-upper-case-png", lambda p, f: _score(p, f, lambda k, d: shutil.copy(
+        _first_prediction(d), _first_prediction(d).with_name("0000000099.PNG"))), says=r"0000000099\.PNG"),
+    Case("cli:score", "prediction-nfc-nfd-twins", lambda p, f: _score(p, f, lambda k, d: [shutil.copy(
+        _first_prediction(d), _first_prediction(d).with_name(n)) for n in ("caf\u00e9.png", "cafe\u0301.png")]),
+         says=r"cafe\\u0301\.png\].*caf\\xe9\.png\]|caf\\xe9\.png\].*cafe\\u0301\.png\]"),
     Case("cli:score", "key-fifo", lambda p, f: _score(p, f, lambda k, d: _replace(k, p.fifo))),
     Case("cli:score", "key-nested", lambda p, f: _score(p, f, lambda k, d: p.write(k, NESTED))),
     Case("cli:score", "key-nan-seed", lambda p, f: _score(p, f, lambda k, d: p.write(

@@ -332,3 +332,71 @@ def test_overwrite_into_a_linked_folder(tmp_path, capsys):
     assert (tmp_path / "link").is_symlink() and (tmp_path / "real" / "manifest.json").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "link.key.json", "real"]
     assert read_manifest(tmp_path / "link.key.json").root.resolve() == (tmp_path / "real").resolve()
+
+
+# -- names that score passed over or printed alike, a key's kit elsewhere, a read-only --out -----
+
+def test_an_upper_case_png_is_listed_as_unexpected(submitted):
+    manifest, predictions = submitted
+    first = first_prediction(manifest, predictions)
+    shutil.copy(first, first.with_name("0000000099.PNG"))  # was passed over in silence
+    with pytest.raises(SubmissionError, match=r"1 PNG file there is not a prediction.*0000000099\.PNG"):
+        score(manifest.path, predictions)
+
+
+def test_nfc_and_nfd_twins_read_apart(submitted):
+    manifest, predictions = submitted
+    first = first_prediction(manifest, predictions)
+    nfc, nfd = "caf\u00e9.png", "cafe\u0301.png"  # one name to the eye
+    shutil.copy(first, first.with_name(nfc))
+    shutil.copy(first, first.with_name(nfd))
+    with pytest.raises(SubmissionError) as info:
+        score(manifest.path, predictions)
+    message = str(info.value)
+    assert "2 PNG files there are not predictions" in message
+    assert "caf\\xe9.png]" in message and "cafe\\u0301.png]" in message, message
+
+
+@pytest.mark.parametrize("kit, says", [
+    ("/etc", "normalised relative path"),
+    ("inputs/../../../etc", "normalised relative path"),
+    ("./inputs", "normalised relative path"),
+    ("../../../../../../../../etc", "holds no export"),
+    ("predictions", "holds no export"),
+])
+def test_a_keys_kit_must_name_this_export(submitted, tmp_path, kit, says):
+    manifest, predictions = submitted
+    doc = json.loads(manifest.path.read_text())
+    doc["kit"] = kit
+    bad = tmp_path / "bad.key.json"
+    bad.write_text(json.dumps(doc))
+    with pytest.raises(ManifestError, match=says):
+        score(bad, predictions)
+
+
+def test_a_key_kept_elsewhere_still_names_its_kit(tmp_path, streets):
+    m = export(tmp_path / "x", streets, n_frames=2, progress=False, key=tmp_path / "keys" / "deep" / "k.json")
+    assert json.loads(m.path.read_text())["kit"] == "../../x"
+    assert read_manifest(m.path).root == tmp_path / "x"
+    other = export(tmp_path / "y", streets, n_frames=3, progress=False)
+    doc = json.loads(m.path.read_text())
+    doc["kit"] = "../../y"  # another export's kit
+    (tmp_path / "keys" / "deep" / "k.json").write_text(json.dumps(doc))
+    with pytest.raises(ManifestError, match="holds another export"):
+        read_manifest(m.path)
+    assert other.root == tmp_path / "y"
+
+
+def test_a_read_only_out_is_one_line_naming_the_folder(submitted, tmp_path, capsys, monkeypatch):
+    manifest, predictions = submitted
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    real = os.access
+    # A read-only disk as os.access sees it (a test cannot mount one; root may write through chmod).
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if os.fspath(p) == str(ro) else real(p, mode, **kw))
+    status = main(["score", "--manifest", str(manifest.path), "--predictions", str(predictions), "--name", "x",
+                   "--figure-frames", "0", "--out", str(ro / "run"), "-q"])
+    err = capsys.readouterr().err.strip()
+    assert status == 1 and len(err.splitlines()) == 1, err
+    assert f"--out {ro / 'run'}: cannot write the run folder there ({ro} is on a read-only disk" in err
+    assert list(ro.iterdir()) == []
