@@ -96,8 +96,9 @@ class Ledger:
                 record = loads_json(line, "fill ledger line")
             except InpaintenvError:
                 continue  # a line cut short by a kill
+            # A line of another shape (outputs that are not paths: a tampered or foreign line) records nothing.
             if isinstance(record, dict) and isinstance(record.get("outputs"), list) and isinstance(
-                    record.get("input"), dict):
+                    record.get("input"), dict) and all(isinstance(o, str) for o in record["outputs"]):
                 records.append(record)
         return records
 

@@ -172,7 +172,7 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
     ------
     InvalidInputError
         If an output would be an input or lie in an input (or ``protect``) folder, ``out``
-        is a file, or two inputs would write the same output.
+        is a file, or two inputs would write the same output (every such pair listed).
     """
     if format not in FORMATS:
         raise InvalidInputError(f"format must be one of {', '.join(FORMATS)}, got {format!r}")
@@ -187,6 +187,7 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
     folders = [g.resolve() for g in given_all if g.is_dir()] + masks
     files = {g.resolve() for g in given_all if g.is_file()}
     jobs, missing, ignored, by_output = [], [], [], {}
+    collisions: list[tuple[Path, Path, Path, bool]] = []
     for given in given_all:
         found = _found(given, out, out_abs, masks)
         if found is None:
@@ -214,8 +215,29 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
                     raise InvalidInputError(f"{path} would be filled into {o}, an input or inside an input folder; "
                                             "fill never writes there: give another --out")
                 if o.resolve() in by_output:
-                    raise InvalidInputError(f"{path} and {by_output[o.resolve()]} would both be written to {o}; "
-                                            "fill them into separate --out folders")
-                by_output[o.resolve()] = path
+                    other, other_rel = by_output[o.resolve()]
+                    collisions.append((other, path, o, other_rel == rel))
+                by_output[o.resolve()] = (path, rel)
             jobs.append(job)
+    if collisions:
+        _refuse_collisions(collisions)
     return jobs, missing, ignored
+
+
+def _refuse_collisions(collisions: list[tuple[Path, Path, Path, bool]]) -> None:
+    """One error listing the outputs two inputs would both write, before anything is read.
+
+    Two INPUT folders holding the same inner path (two drives' ``velodyne_points/data/0000000000.bin``)
+    are not given a subfolder each: an output keeps its path inside its INPUT, as the masks of
+    ``--holes`` are matched, and the folder holding both, given as one INPUT, keeps each one's folder.
+    """
+    pairs = list(dict.fromkeys((a, b) for a, b, _, _ in collisions))
+    shown = "; ".join(f"{a} and {b} -> {o}" for a, b, o, _ in collisions[:3])
+    more = f" and {len(pairs) - 3} more" if len(pairs) > 3 else ""
+    if any(same for *_, same in collisions):
+        how = ("the same path inside two INPUT folders: give the folder that holds them as one INPUT (each then "
+               "keeps its own folder under --out), or fill them into separate --out folders")
+    else:
+        how = "rename one, or fill them into separate --out folders"
+    raise InvalidInputError(f"{count(len(pairs), 'pair')} of inputs would be written to the same output ({shown}"
+                            f"{more}): {how}; nothing was read")

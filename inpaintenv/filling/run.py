@@ -319,6 +319,10 @@ def fill(
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     if holes is not None and not Path(holes).exists():
         raise FileNotFoundError(f"--holes {holes}: no such mask file or folder")
+    if isinstance(calibration, (str, os.PathLike)) and not os.path.lexists(calibration):
+        # A mistyped path: one line before any input is read, not one per scan.
+        raise FileNotFoundError(f"--calib {calibration}: no such calibration file or folder (a KITTI raw day folder, "
+                                "an odometry calib.txt or a KITTI-360 calibration folder)")
     jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points,
                                          protect=[holes] if holes is not None else [],
                                          confidence=confidence is not None)

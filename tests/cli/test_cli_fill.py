@@ -271,10 +271,19 @@ def test_a_scan_without_calibration_is_one_line_and_the_pngs_are_still_written(t
     err = capsys.readouterr().err
     assert rc == 1 and "s.bin: a LiDAR scan needs its calibration: give --calib PATH" in err
     assert (tmp_path / "out" / "f.png").is_file()
+
+
+
+def test_a_mistyped_calib_path_is_one_line_before_any_input_is_read(tmp_path, capsys):
+    """Was one line per scan, after the depth files were filled."""
+    write_depth_png(tmp_path / "in" / "f.png", frames(1, (64, 96))[0])
+    for k in range(3):
+        np.zeros((10, 4), np.float32).tofile(tmp_path / "in" / f"s{k}.bin")
     assert main(["fill", str(tmp_path / "in"), "--missing", "--calib", str(tmp_path / "nowhere"),
                  "--out", str(tmp_path / "out2"), "-m", "scanline", "-q"]) == 1
-    err = capsys.readouterr().err
-    assert "s.bin: calibration not found" in err and (tmp_path / "out2" / "f.png").is_file()
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"--calib {tmp_path / 'nowhere'}: no such calibration" in err, err
+    assert not (tmp_path / "out2").exists()
 
 
 def test_option_errors_come_before_any_file(tmp_path, capsys):

@@ -123,7 +123,7 @@ def test_an_input_named_like_an_interval_file_is_refused(calibration, tmp_path):
     path, _ = calibration
     _npy(tmp_path / "in" / "a.npy", holed())
     _npy(tmp_path / "in" / "a_low.npy", holed())
-    with pytest.raises(InvalidInputError, match="would both be written to"):
+    with pytest.raises(InvalidInputError, match="would be written to the same output"):
         fill([tmp_path / "in"], tmp_path / "out", method="scanline", format="npy", confidence=0.9,
              intervals=path, progress=False)
 

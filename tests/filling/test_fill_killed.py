@@ -140,3 +140,19 @@ def test_an_intent_without_its_record_is_redone_and_a_file_without_either_is_ref
     (out / LEDGER).write_text("")
     report = fill([inputs / "f0.npy"], out, method="scanline", format="both", progress=False)
     assert not report.ok and "was not written by inpaintenv fill" in report.failed[0][1]
+
+
+def test_ledger_lines_of_another_shape_or_naming_files_outside_record_nothing(inputs, tmp_path):
+    """A tampered ledger: outputs that are not paths (an unhashable one crashed the run with a TypeError),
+    an intent naming files outside --out (never touched: only a job's own outputs are looked up)."""
+    out = tmp_path / "out"
+    victim = tmp_path / "victim.png"
+    victim.write_bytes(b"the user's")
+    assert fill([inputs / "f0.npy"], out, method="scanline", progress=False).ok
+    record = json.loads((out / LEDGER).read_text().splitlines()[-1])
+    (out / LEDGER).write_text("\n".join(json.dumps(line) for line in [
+        {"outputs": [{}], "input": {}}, {"outputs": ["f0.png", 5], "input": {}},
+        {**record, "intent": True, "outputs": ["../victim.png", str(victim), "f0.png"]}]) + "\n")
+    report = fill([inputs / "f0.npy"], out, method="scanline", progress=False)
+    assert report.ok and len(report.written) == 1  # the intent of f0.png's own recipe: redone
+    assert victim.read_bytes() == b"the user's"

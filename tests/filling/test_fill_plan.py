@@ -67,7 +67,7 @@ def test_a_mask_folder_inside_the_input_is_not_read_as_input(tree, tmp_path):
 @pytest.mark.parametrize("case, match", [
     ("out inside the input", "lies inside the input folder"),
     ("out is a file", "is a file; give a folder"),
-    ("two inputs, one output", "would both be written to"),
+    ("two inputs, one output", "would be written to the same output"),
     ("bad format", "format must be one of"),
     ("bad points", "points must be None"),
 ])
@@ -85,3 +85,23 @@ def test_plans_that_would_write_over_inputs_or_twice_are_refused(tree, tmp_path,
         kwargs = {"points": "las"}
     with pytest.raises(InvalidInputError, match=match):
         plan(inputs, out, **kwargs)
+
+
+def test_two_input_folders_with_the_same_inner_paths_are_refused_listing_every_pair(tmp_path):
+    """Two drives' folders into one --out: every colliding pair counted, the first named, the way out said;
+    the folder holding both, given as one INPUT, keeps each drive's folder."""
+    d = np.full((8, 16), 5.0, np.float32)
+    drives = [tmp_path / "day" / f"drive_{k}" for k in (1, 2)]
+    for drive in drives:
+        for frame in range(4):
+            write_depth_file(drive / "image_02" / f"{frame:010d}.png", d)
+    out = tmp_path / "out"
+    with pytest.raises(InvalidInputError) as info:
+        plan(drives, out)
+    message = str(info.value)
+    assert message.startswith("4 pairs of inputs would be written to the same output (")
+    assert f"{drives[0] / 'image_02' / '0000000000.png'} and {drives[1] / 'image_02' / '0000000000.png'}" in message
+    assert "and 1 more" in message and "give the folder that holds them as one INPUT" in message
+    jobs, _, _ = plan([tmp_path / "day"], out)
+    assert sorted(j.rel.as_posix() for j in jobs)[::4] == ["drive_1/image_02/0000000000.png",
+                                                           "drive_2/image_02/0000000000.png"]

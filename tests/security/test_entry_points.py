@@ -468,6 +468,14 @@ CASES: list[Case] = [
         p.write(p.work / "out" / ".inpaintenv-tmp-\u00b2-abc.png", b"x"),
         p.write(p.work / "out" / f".inpaintenv-tmp-{'1' * 23}-abc.png", b"x"))), ok=True, says=SUCCESS_ONLY),
     Case("cli:fill", "killed-between-outputs", lambda p, f: _killed_between_outputs(p), ok=True, says=SUCCESS_ONLY),
+    Case("cli:fill", "calib-mistyped", lambda p, f: _fill(p, [p.write(p.work / "in" / f"s{k}.bin", np.ones(
+        (4, 4), np.float32).tobytes()).parent for k in range(2)][-1:], "--calib", str(p.work / "nowhere")),
+         says="--calib .*nowhere: no such calibration"),
+    Case("cli:fill", "two-drives-same-inner-paths", lambda p, f: _fill(p, [
+        p.depth(f"d{k}/image_02/0000000000.png").parents[1] for k in (1, 2)]), says="same output.*as one INPUT"),
+    Case("cli:fill", "ledger-outputs-not-paths", lambda p, f: _fill(p, [p.depth()], *_none(p.write(
+        p.work / "out" / "inpaintenv-fill.jsonl", '{"outputs": [{}], "input": {}}\n{"outputs": ["../../victim.txt"], '
+        '"input": {}, "intent": true}\n'))), ok=True, says=SUCCESS_ONLY),
     Case("cli:fill", "input-fifo", lambda p, f: _fill(p, [p.fifo(p.work / "in" / "a.png")])),
     Case("cli:fill", "input-fifo-in-folder", lambda p, f: _fill(p, [p.fifo(p.work / "in" / "a.png").parent])),
     Case("cli:fill", "input-bomb", lambda p, f: _fill(p, [p.write(p.work / "in" / "a.png", BOMB)])),
