@@ -31,7 +31,7 @@ import numpy as np
 from ..exceptions import InpaintenvError
 from ..files import read_bytes, read_json, write_text_atomic
 from ..masks import get_protocol
-from ..progress import format_duration
+from ..progress import count, format_duration
 from ..report import style
 from ..report.results import EvaluationResult
 from ..report.tables import summary_table
@@ -425,8 +425,10 @@ def build_html(run_dir: str | os.PathLike) -> str:
     nav = " · ".join([f"<a href='#results'>results</a>"]
                      + [f"<a href='#task-{_slug(lb)}'>{html.escape(lb)}</a>" for lb in labels]
                      + ["<a href='#provenance'>provenance</a>"])
-    summary = (f"{len(methods)} methods, {len(tasks)} task{'s' * (len(tasks) != 1)}, "
-               f"{len({(r['seed'], r['index']) for r in rows})} frame-masks; data: {meta.get('source') or '?'}")
+    seeds = sorted({r["seed"] for r in rows})
+    summary = (f"{count(len(methods), 'method')}, {count(len(tasks), 'task')}, "
+               f"{count(len({r['index'] for r in rows}), 'frame')}, seed{'s' * (len(seeds) != 1)} "
+               f"{', '.join(map(str, seeds))}; the data and how the run was made are under provenance.")
     return (
         "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
         "<meta name='viewport' content='width=device-width, initial-scale=1'>"

@@ -71,3 +71,25 @@ def test_spread_indices_cover_the_drives_in_turn():
     assert [str(data.groups[i]) for i in picked[:3]] == ["a", "b", "c"]
     assert picked == [0, 6, 9, 5, 8]  # a: first and last of its 6, b: first and last of its 3, c: its one
     assert sorted(figures.spread_indices(data, 50)) == list(range(10))
+
+
+def test_scan_panel_shows_no_fill_above_the_scans_rows(tmp_path, monkeypatch):
+    """A fill of a scan is drawn only inside the band of rows the LiDAR covers: above it nothing can be
+    judged, and fills that extrapolate there drew vertical streaks."""
+    import matplotlib.axes
+
+    from inpaintenv.data import SyntheticStreets
+    from inpaintenv.filling.view import sensor_view
+
+    data = SyntheticStreets(n=1, frame_shape=(48, 160), input="scan")
+    everywhere = lambda x: np.where(np.isnan(x), np.float32(10.0), x)  # fills every pixel, sky included
+    shown = []
+    imshow = matplotlib.axes.Axes.imshow
+    monkeypatch.setattr(matplotlib.axes.Axes, "imshow",
+                        lambda ax, img, **kw: (shown.append(img), imshow(ax, img, **kw))[1])
+    figures.frame_panel({"ten": everywhere}, data, 0, tmp_path / "p.png", protocol="densify-v1")
+    view = sensor_view(data.load_pairs([0])[0][0])
+    assert (~view).any() and view.any()
+    fill_tile = shown[2]
+    assert np.allclose(fill_tile[~view], style.NO_DATA)  # grey outside the scan's band
+    assert (~np.isclose(fill_tile[view], style.NO_DATA).all(axis=-1)).mean() > 0.9  # the fill inside it
