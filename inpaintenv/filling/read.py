@@ -14,7 +14,7 @@ from ..data.calibration import Calibration, read_calibration
 from ..data.depth_files import MASK_SUFFIXES, read_depth_file, read_mask_file
 from ..data.projection import drop_far_points, project_scan, read_scan
 from ..exceptions import InvalidInputError
-from ..values.calibration import check_scan_rig
+from ..values.calibration import check_scan_fits
 from ..values.points import far_note
 from .ledger import file_identity
 from .plan import FillJob
@@ -172,7 +172,7 @@ class Reader:
             if job.is_scan:
                 points = read_scan(job.source)
                 calibration = self.calibration(job)
-                check_scan_rig(job.source, calibration.kind, calibration.source)
+                check_scan_fits(job.source, calibration.kind, calibration.source)
                 # Points beyond the PNG limit cannot be stored: left out (counted), neither filled from nor written.
                 points, n_far = drop_far_points(points, calibration, str(job.source))
                 depth = project_scan(points, calibration)

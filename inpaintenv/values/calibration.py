@@ -1,8 +1,9 @@
 """What a projection (calibration) may be: finite, invertible, right-handed, of the scan's rig.
 
 Called by :class:`~inpaintenv.data.calibration.Calibration` (every projection, however made or
-read: :func:`check_projection`) and by ``fill``'s reader of a scan (the scan's file layout names
-the rig its calibration must be of: :func:`check_scan_rig`).
+read: :func:`check_projection`), by :func:`~inpaintenv.data.calibration.read_calibration` (a
+file's rotations: :func:`check_rotation`) and by ``fill``'s reader of a scan (the scan's file
+layout names the rig and day its calibration must be of: :func:`check_scan_fits`).
 
 A projection ``M = K R [I | t]`` takes a LiDAR point to ``z (u, v, 1)``. With the image's
 ``u`` to the right and ``v`` down, ``det M[:, :3] = fx fy det R`` is positive for every real
@@ -22,8 +23,8 @@ import numpy as np
 
 from ..exceptions import CalibrationError
 
-__all__ = ["KITTI360_DATE", "MAX_CONDITION", "ROTATION_TOLERANCE", "check_projection", "check_rotation",
-           "check_scan_rig", "rig_of_scan"]
+__all__ = ["KITTI360_DATE", "MAX_CONDITION", "ODOMETRY_DAYS", "ROTATION_TOLERANCE", "check_projection",
+           "check_rotation", "check_scan_fits", "recording_day", "rig_of_scan"]
 
 #: The largest condition number of a projection's 3 x 3 part accepted (a camera's is of the order of its focal length).
 MAX_CONDITION: float = 1e8
@@ -34,6 +35,10 @@ KITTI360_DATE = "2013_05_28"
 #: ``R_rect_00`` 1e-6 on kitti-raw), as printed to 7 to 9 digits.
 ROTATION_TOLERANCE: float = 1e-3
 _DRIVE = re.compile(r"(\d{4}_\d{2}_\d{2})_drive_\d{4}_sync")
+_DAY = re.compile(r"2011_\d{2}_\d{2}")
+#: The KITTI raw day each odometry sequence with ground truth was recorded on (the odometry devkit's table).
+ODOMETRY_DAYS = {"00": "2011_10_03", "01": "2011_10_03", "02": "2011_10_03", "03": "2011_09_26",
+                 **{f"{n:02d}": "2011_09_30" for n in range(4, 11)}}
 
 
 def check_projection(matrix: object, where: str) -> np.ndarray:
@@ -107,13 +112,29 @@ def rig_of_scan(path: PurePath) -> str | None:
     return None
 
 
-def check_scan_rig(scan: PurePath, kind: str, source: PurePath | None) -> None:
-    """Refuse a calibration of another rig than the one the scan's file layout names.
+def recording_day(path: PurePath) -> str | None:
+    """The KITTI raw day a scan or calibration path names, or None: a ``2011_MM_DD_drive_NNNN_sync`` or
+    ``2011_MM_DD`` folder on it, or ``sequences/NN`` of an odometry sequence (:data:`ODOMETRY_DAYS`)."""
+    parts = path.parts
+    for i in range(len(parts) - 1, -1, -1):
+        match = _DRIVE.fullmatch(parts[i])
+        if match or _DAY.fullmatch(parts[i]):
+            day = match.group(1) if match else parts[i]
+            return day if day.startswith("2011_") else None
+        if i and parts[i - 1] == "sequences" and parts[i] in ODOMETRY_DAYS:
+            return ODOMETRY_DAYS[parts[i]]
+    return None
+
+
+def check_scan_fits(scan: PurePath, kind: str, source: PurePath | None) -> None:
+    """Refuse a calibration of another rig, or another KITTI day, than the scan's file layout names.
 
     KITTI raw and odometry scans are of one car (its cameras 2 and 3); KITTI-360's another
     (its cameras 0 and 1, a 1408x376 image). A raw calibration given for KITTI-360 scans, or
     the reverse, projects plausible-looking maps with the wrong geometry, which no statistic
-    of the projected points reveals (docs/fill.md), so the layouts are compared.
+    of the projected points reveals (docs/fill.md), so the layouts are compared. Each KITTI
+    day has its own calibration too (2011_09_26's moves kitti-raw's 2011_09_30 scan by 10 px,
+    median): a raw or odometry scan and calibration whose paths name two days are refused.
 
     Parameters
     ----------
@@ -132,6 +153,8 @@ def check_scan_rig(scan: PurePath, kind: str, source: PurePath | None) -> None:
     rig = rig_of_scan(scan)
     calib_rig = "kitti360" if kind == "kitti360" else "kitti"
     if rig is None or rig == calib_rig:
+        if calib_rig == "kitti":
+            _check_day(scan, source)
         return
     names = {"kitti360": "KITTI-360", "kitti": "KITTI raw/odometry"}
     layout = {"raw": "KITTI raw", "odometry": "KITTI odometry", "kitti360": "KITTI-360"}.get(kind, kind)
@@ -139,3 +162,11 @@ def check_scan_rig(scan: PurePath, kind: str, source: PurePath | None) -> None:
         f"{scan} is a {names[rig]} scan (its folders say so), but the calibration {source or '(given as a matrix)'} "
         f"is a {layout} one, of the {names[calib_rig]} rig: it would project plausible-looking maps with the wrong "
         f"geometry; give the calibration of the {names[rig]} rig")
+
+
+def _check_day(scan: PurePath, source: PurePath | None) -> None:
+    day, calib_day = recording_day(scan), None if source is None else recording_day(source)
+    if day is not None and calib_day is not None and day != calib_day:
+        raise CalibrationError(
+            f"{scan} was recorded on {day} (its folders say so), but the calibration {source} is of {calib_day}: each "
+            f"KITTI day has its own calibration (another day's moves the points by about 10 px); give {day}'s")

@@ -31,7 +31,7 @@ from inpaintenv.data import (
 from inpaintenv.data.io import write_png
 from inpaintenv.data.projection import drop_far_points
 from inpaintenv.filling import fill
-from inpaintenv.values.calibration import rig_of_scan
+from inpaintenv.values.calibration import recording_day, rig_of_scan
 from inpaintenv.values.points import MAX_FAR_SHARE
 
 SHAPE = (48, 120)
@@ -201,6 +201,30 @@ def test_a_kitti360_scan_with_a_raw_calibration_is_refused(tmp_path):
     assert report.ok, report.failed
 
 
+@pytest.mark.parametrize(("path", "day"), [
+    ("2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000005.bin", "2011_09_26"),
+    ("kitti-raw/2011_09_30", "2011_09_30"),
+    ("odometry/sequences/05/velodyne/000002.bin", "2011_09_30"),
+    ("odometry/sequences/00/calib.txt", "2011_10_03"),
+    ("odometry/sequences/11/calib.txt", None),  # a test sequence: no raw day published
+    ("2013_05_28_drive_0000_sync/velodyne_points/data/0000000000.bin", None),
+    ("scans/s.bin", None),
+])
+def test_the_recording_day_of_a_path(path, day):
+    assert recording_day(Path(path)) == day
+
+
+def test_a_scan_with_another_days_raw_calibration_is_refused(tmp_path):
+    scan = tmp_path / "2011_09_30_drive_0018_sync" / "velodyne_points" / "data" / "0000000000.bin"
+    scan.parent.mkdir(parents=True)
+    write_points_bin(scan, wall())
+    report, _ = run([scan], tmp_path / "out", calibration=_raw_folder(tmp_path / "2011_09_26"))
+    (_, why), = report.failed
+    assert "was recorded on 2011_09_30" in why and "is of 2011_09_26" in why
+    report, _ = run([scan], tmp_path / "out", calibration=_raw_folder(tmp_path / "2011_09_30"))
+    assert report.ok, report.failed
+
+
 @pytest.mark.kitti
 def test_real_scans_with_the_other_rigs_calibration_are_refused(kitti_raw_root, tmp_path):
     raw_scan = kitti_raw_root / RAW_DAY / f"{RAW_DAY}_drive_0001_sync" / "velodyne_points" / "data" / "0000000005.bin"
@@ -209,6 +233,21 @@ def test_real_scans_with_the_other_rigs_calibration_are_refused(kitti_raw_root, 
         report, _ = run([scan], tmp_path / "out", calibration=calib)
         (_, why), = report.failed
         assert "would project plausible-looking maps with the wrong geometry" in why
+
+
+@pytest.mark.kitti
+def test_another_days_calibration_moves_real_points_and_is_refused(kitti_raw_root, tmp_path):
+    scan = kitti_raw_root / "odometry" / "sequences" / "05" / "velodyne" / "000002.bin"  # 2011_09_30 drive 0018
+    own = read_calibration(kitti_raw_root / "odometry" / "sequences" / "05" / "calib.txt", size=(1226, 370))
+    other = read_calibration(kitti_raw_root / RAW_DAY)
+    u1, v1, z1 = project_points(read_scan(scan), own)
+    u2, v2, z2 = project_points(read_scan(scan), other)
+    seen = (z1 > 1) & (u1 >= 0) & (u1 < 1226) & (v1 >= 0) & (v1 < 370)
+    # docs/fill.md: 2011_09_26's calibration moves these points by 10 px (median)
+    assert np.median(np.hypot(u1 - u2, v1 - v2)[seen]) == pytest.approx(10.5, abs=0.5)
+    report, _ = run([scan], tmp_path / "out", calibration=kitti_raw_root / RAW_DAY)
+    (_, why), = report.failed
+    assert "was recorded on 2011_09_30" in why and "is of 2011_09_26" in why
 
 
 @pytest.mark.kitti
