@@ -4,9 +4,11 @@ A checkpoint is a directory::
 
     model.safetensors      network weights
     config.json            format tag, estimator class and parameters, fitted attributes,
-                           and the SHA-256 of model.safetensors (written last: the commit)
+                           and the SHA-256 of model.safetensors and of training.json
+                           (written last: the commit)
     optimizer.safetensors  optional, Adam state tensors (for resuming training)
-    training.json          optional, step / epoch / position / history + optimizer groups
+    training.json          optional, step / epoch / position / history + optimizer groups,
+                           and the SHA-256 of both tensor files
 
 Every file is read and written through :mod:`inpaintenv.files`: reads take regular files
 only (a FIFO is refused at once, never waited on), JSON is bounded in size and nesting,
@@ -15,9 +17,12 @@ temporary file renamed into place, never through a planted link. The JSON files 
 truncated or edited checkpoint fails to load with :class:`CheckpointError` instead of
 producing a silently different model.
 
-A training run directory holds immutable checkpoint directories ``ckpt-<step>`` and a
-pointer file ``state.json`` = ``{"last": ..., "best": ...}`` that is replaced
-atomically, so a crash while writing never leaves ``last`` half-written.
+A training run directory holds immutable checkpoint directories ``ckpt-<step>-<tag>``,
+each written whole under a temporary name and renamed into place (a full disk or a kill
+leaves no partial checkpoint folder), and a pointer file ``state.json`` =
+``{"last": ..., "best": ...}`` that is replaced atomically, so a crash while writing never
+leaves ``last`` half-written. What a training state read back may be is
+:mod:`~estimators.learned._training_state`'s.
 
 A checkpoint is data from outside: loading one never writes a file, never reads outside
 its folder (the pointers of ``state.json`` must be plain names of checkpoint folders of
@@ -33,7 +38,9 @@ caller knows. The shipped releases are such files under flat names in
 
 from __future__ import annotations
 
+import errno
 import hashlib
+import json
 import os
 import re
 import shutil
@@ -52,16 +59,19 @@ from inpaintenv.exceptions import UnknownNameError
 from inpaintenv.methods.learned import RELEASE_DIR, shipped
 from inpaintenv.files import (
     MAX_JSON_BYTES,
+    loads_json,
     open_regular,
     read_bytes,
-    read_json,
+    remove_stale_temporaries,
     write_atomic,
     write_bytes_atomic,
+    write_folder_atomic,
     write_json,
 )
 
 from ._checkpoint_checks import CheckpointError, build_checked, check_tensors, config_value, load_weights
 from ._limits import MAX_PARAMETERS
+from ._training_state import check_form
 
 __all__ = [
     "FORMAT",
@@ -109,9 +119,21 @@ def _write_json(path: Path, obj: dict[str, Any]) -> None:
     write_json(path, obj)
 
 
+def _save_tensors(flat: dict[str, torch.Tensor], path: Path) -> None:
+    """safetensors' ``save_file``, its write failures as the OSError they are (a full disk: ENOSPC)."""
+    try:
+        save_file(flat, str(path))
+    except SafetensorError as e:
+        # safetensors reports an I/O failure as "... (os error 28)" in its own exception class.
+        code = re.search(r"os error (\d+)", str(e))
+        if code is None:
+            raise OSError(errno.EIO, f"safetensors could not write the file: {e}") from None
+        raise OSError(int(code.group(1)), os.strerror(int(code.group(1)))) from None
+
+
 def _write_tensors(path: Path, tensors: dict[str, torch.Tensor]) -> str:
     flat = {k: v.detach().to("cpu").contiguous() for k, v in tensors.items()}
-    write_atomic(path, lambda tmp: save_file(flat, str(tmp)), "checkpoint tensors")
+    write_atomic(path, lambda tmp: _save_tensors(flat, tmp), "checkpoint tensors")
     fd = open_regular(path, "checkpoint tensors")
     try:
         return _sha256(fd)
@@ -119,14 +141,21 @@ def _write_tensors(path: Path, tensors: dict[str, torch.Tensor]) -> str:
         os.close(fd)
 
 
-def _read_json(path: Path, owned: bool = False) -> dict[str, Any]:
+def _read_json(path: Path, owned: bool = False, sha256: str | None = None) -> dict[str, Any]:
     """A checkpoint's JSON file: a regular file, bounded in size and nesting, holding an object
-    (not read through a link when the folder is the command's own: ``owned``)."""
+    (not read through a link when the folder is the command's own: ``owned``; its bytes
+    checked against ``sha256`` when given)."""
     try:
-        obj = read_json(path, "checkpoint file", limit=MAX_JSON_BYTES, follow_links=not owned)
+        data = read_bytes(path, "checkpoint file", limit=MAX_JSON_BYTES, follow_links=not owned)
+        if sha256 is not None and hashlib.sha256(data).hexdigest() != sha256:
+            raise CheckpointError(f"{path} does not match the checksum recorded in {CONFIG_FILE} beside it: the "
+                                  "training state was edited, truncated or partly overwritten")
+        obj = loads_json(data, f"checkpoint file {path}")
     except FileNotFoundError:
         raise CheckpointError(f"checkpoint file missing: {path}") from None
     except (ValueError, OSError) as e:  # a FIFO, a folder, too large, too deep, not JSON: named by the file layer
+        if isinstance(e, CheckpointError):
+            raise
         raise CheckpointError(str(e) if str(path) in str(e) else f"{path}: {e}") from None
     if not isinstance(obj, dict):
         raise CheckpointError(f"checkpoint file {path} does not hold a JSON object")
@@ -181,15 +210,24 @@ def write_checkpoint(
     training: dict[str, Any] | None = None,
     optimizer_tensors: dict[str, torch.Tensor] | None = None,
 ) -> Path:
-    """Write a checkpoint directory (created if needed; existing files are replaced)."""
+    """Write a checkpoint directory (created if needed; existing files are replaced).
+
+    Raises
+    ------
+    OSError
+        A file cannot be written (a full disk: ENOSPC), naming it.
+    """
     path = Path(path)
     path.mkdir(parents=True, exist_ok=True)
     weights_sha = _write_tensors(path / MODEL_FILE, weights)
+    sums = {"weights_sha256": weights_sha}
     if training is not None:
         optim_sha = _write_tensors(path / OPTIM_FILE, optimizer_tensors or {})
-        _write_json(path / TRAINING_FILE, {**training, "optimizer_sha256": optim_sha, "weights_sha256": weights_sha})
-    # config.json last: its checksum commits the weights written above.
-    _write_json(path / CONFIG_FILE, {"format": FORMAT, "format_version": FORMAT_VERSION, **config, "weights_sha256": weights_sha})
+        state = json.dumps({**training, "optimizer_sha256": optim_sha, "weights_sha256": weights_sha}, indent=1)
+        write_bytes_atomic(path / TRAINING_FILE, state.encode(), "training state")
+        sums["training_sha256"] = hashlib.sha256(state.encode()).hexdigest()
+    # config.json last: its checksums commit the weights and the training state written above.
+    _write_json(path / CONFIG_FILE, {"format": FORMAT, "format_version": FORMAT_VERSION, **config, **sums})
     return path
 
 
@@ -231,10 +269,16 @@ def read_checkpoint(
     check_tensors(weights, path / MODEL_FILE)
     if not training:
         return config, weights, None, None
-    state = _read_json(path / TRAINING_FILE, owned)
-    if state.get("weights_sha256") != config.get("weights_sha256"):
+    recorded = config.get("training_sha256")
+    if not isinstance(recorded, str):
+        # Without it an edited step, learning rate or history would be trained on silently.
+        raise CheckpointError(f"{path / CONFIG_FILE} records no SHA-256 of {TRAINING_FILE} (key 'training_sha256'): "
+                              "its training state cannot be verified (written by an earlier version, or edited); "
+                              f"delete {path.parent} to train this run from the start")
+    state = check_form(_read_json(path / TRAINING_FILE, owned, sha256=recorded), path / TRAINING_FILE)
+    if state["weights_sha256"] != config.get("weights_sha256"):
         raise CheckpointError(f"{path}: training state and weights come from different saves")
-    optim = _read_tensors(path / OPTIM_FILE, state.get("optimizer_sha256"), path / TRAINING_FILE, owned)
+    optim = _read_tensors(path / OPTIM_FILE, state["optimizer_sha256"], path / TRAINING_FILE, owned)
     return config, weights, state, optim
 
 
@@ -310,21 +354,25 @@ def write_run_checkpoint(
     """
     run_dir = Path(run_dir)
     old = read_run_state(run_dir, owned=True) or {}
-    # Fresh names: a referenced checkpoint is never rewritten in place.
+    # Fresh names: a referenced checkpoint is never rewritten in place. Each folder is
+    # written whole under a temporary name, so a failed write leaves no folder of that name.
     tag = f"{step:08d}-{uuid.uuid4().hex[:8]}"
     last = f"ckpt-{tag}"
-    write_checkpoint(run_dir / last, config, weights, training=training, optimizer_tensors=optimizer_tensors)
+    write_folder_atomic(run_dir / last, lambda tmp: write_checkpoint(
+        tmp, config, weights, training=training, optimizer_tensors=optimizer_tensors), "training checkpoint")
     best = old.get("best")
     if best_is_current:
         best = last
     elif best_weights is not None:
         best = f"best-{tag}"
-        write_checkpoint(run_dir / best, config, best_weights)
+        write_folder_atomic(run_dir / best, lambda tmp: write_checkpoint(tmp, config, best_weights),
+                            "best checkpoint")
     _write_json(run_dir / STATE_FILE, {"last": last, "best": best})
     # Only now are older checkpoints unreferenced.
     for child in run_dir.iterdir():
         if child.is_dir() and child.name not in (last, best) and child.name.startswith(("ckpt-", "best-")):
             shutil.rmtree(child, ignore_errors=True)
+    remove_stale_temporaries(run_dir, folders=True)  # a checkpoint folder a killed writer left half-written
 
 
 def provenance(est: Any) -> dict[str, Any]:

@@ -26,10 +26,11 @@ from inpaintenv.exceptions import TrainingDivergedError
 from . import _checkpoint as ckpt
 from ._budget import Budget, StepBar, record_stop
 from ._checkpoint import cpu_state
+from ._training_state import RunPlan, check_config, check_fitted, check_optimizer, check_progress, checkpoint_step
 
 __all__ = [
-    "Constant", "Cosine", "OneCycle", "Optimisation", "RunFolder", "Schedule", "Shard", "fit_loop", "new_progress",
-    "seeded",
+    "Constant", "Cosine", "OneCycle", "Optimisation", "RunFolder", "RunPlan", "Schedule", "Shard", "fit_loop",
+    "new_progress", "seeded",
 ]
 
 Model = TypeVar("Model", bound=torch.nn.Module)
@@ -54,9 +55,17 @@ class Schedule:
     def after(self) -> None:
         """Advance after an update."""
 
+    def lr_after(self, lr: float, updates: int) -> tuple[float, ...] | None:
+        """The learning rates an optimiser built with ``lr`` may hold after ``updates`` updates
+        (what a resumed state must agree with); None where the schedule cannot say."""
+        return None
+
 
 class Constant(Schedule):
     """The optimiser's learning rate throughout."""
+
+    def lr_after(self, lr: float, updates: int) -> tuple[float, ...]:
+        return (float(lr),)
 
 
 class OneCycle(Schedule):
@@ -85,12 +94,21 @@ class Cosine(Schedule):
 
     def before(self, optimizer: torch.optim.Optimizer) -> None:
         state = optimizer.state.get(optimizer.param_groups[0]["params"][0], {})
-        step = float(state.get("step", 0))
+        lr = self._lr_at(float(state.get("step", 0)))
+        for group in optimizer.param_groups:
+            group["lr"] = lr
+
+    def _lr_at(self, step: float) -> float:
+        """The learning rate of the update after ``step`` updates."""
         warm = max(1.0, 0.05 * self.total)
         scale = (step + 1) / warm if step < warm else \
             0.5 * (1 + np.cos(np.pi * min(1.0, (step - warm) / max(1.0, self.total - warm))))
-        for group in optimizer.param_groups:
-            group["lr"] = self.lr * max(scale, 0.01)
+        return self.lr * max(scale, 0.01)
+
+    def lr_after(self, lr: float, updates: int) -> tuple[float, ...]:
+        # The rate set before the last update; an update a gradient scaler skipped leaves
+        # Adam's count behind the rate set for it.
+        return (float(lr),) if updates == 0 else (self._lr_at(updates - 1), self._lr_at(updates))
 
 
 class Optimisation:
@@ -220,15 +238,38 @@ class RunFolder:
     def __init__(self, path: Path, config: dict[str, Any], shard: Shard):
         self.path, self.config, self.shard = path, config, shard
 
-    def resume(self, model: torch.nn.Module, optimizer: torch.optim.Optimizer) -> tuple[dict, dict | None] | None:
-        """Load the last checkpoint's weights and optimiser state; its progress and the best weights (None: a fresh run)."""
+    def resume(self, model: torch.nn.Module, optimisation: Optimisation,
+               plan: RunPlan) -> tuple[dict, dict | None] | None:
+        """Load the last checkpoint's weights and optimiser state; its progress and the best weights (None: a fresh run).
+
+        Parameters
+        ----------
+        model, optimisation
+            This fit's network and its optimiser, as built from the estimator's parameters.
+        plan : RunPlan
+            What this fit expects of the run (its length, Adam's updates per step, ...).
+
+        Raises
+        ------
+        CheckpointError
+            The last checkpoint is torn, edited, or disagrees with itself, its folder's name
+            or this fit (:mod:`~estimators.learned._training_state`); one line naming the file.
+        """
         state = ckpt.read_run_state(self.path, owned=True)
         if state is None:
             return None
-        _, weights, progress, optim = ckpt.read_checkpoint(self.path / state["last"], training=True, owned=True)
-        model.load_state_dict(weights)
-        meta = progress.pop("optimizer")
-        optimizer.load_state_dict(ckpt.unflatten_optimizer_state(optim, meta))
+        folder = self.path / state["last"]
+        checkpoint_step(state["last"], self.path / ckpt.STATE_FILE)  # a training checkpoint, not a best one
+        config, weights, progress, optim = ckpt.read_checkpoint(folder, training=True, owned=True)
+        where = folder / ckpt.TRAINING_FILE
+        check_config(config, self.config, plan, folder / ckpt.CONFIG_FILE)
+        check_progress(progress, plan, state["last"], where)
+        check_fitted(config, progress, folder / ckpt.CONFIG_FILE)
+        optimizer = optimisation.optimizer
+        adam = check_optimizer(progress.pop("optimizer"), optim, optimizer, optimisation.schedule.lr_after,
+                               progress["step"], plan, where)
+        ckpt.load_weights(model, weights, folder / ckpt.MODEL_FILE).train()
+        optimizer.load_state_dict(adam)
         for k in ("optimizer_sha256", "weights_sha256"):
             progress.pop(k, None)
         best = None

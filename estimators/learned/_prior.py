@@ -297,6 +297,9 @@ class PriorUNetInpainter(_NeuralInpainter):
     def _updates_per_step(self) -> int:
         return int(self.pixel_batches) if self.arch == "pixel" else 1
 
+    #: A batch without ground truth in its holes takes no update; a pixel batch may take fewer.
+    _exact_updates = False
+
     def _train_step(self, model: torch.nn.Module, optimisation: Optimisation, gt: torch.Tensor, hole: torch.Tensor,
                     device: torch.device) -> float:
         corrupted = torch.where(hole, torch.nan, gt).numpy()

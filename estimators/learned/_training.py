@@ -31,7 +31,7 @@ from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 
 from ..base import resolve_seed
-from ._loop import Constant, Optimisation, RunFolder, Schedule, Shard, fit_loop, new_progress
+from ._loop import Constant, Optimisation, RunFolder, RunPlan, Schedule, Shard, fit_loop, new_progress
 from ._limits import usable_threads
 from ._checkpoint import cpu_state
 from .losses import inpainting_loss
@@ -161,8 +161,14 @@ class TrainingMixin:
         progress = new_progress(val_hole_rmse=[], best_epoch=None)
         best: dict[str, Any] = {"state": None}
         folder = self._run_folder(dataset, seed, shard)
+        steps_per_epoch = shard.batches_per_epoch(len(train_ds), self.batch_size)
         if folder is not None:
-            resumed = folder.resume(model, optimisation.optimizer)
+            plan = RunPlan(epochs=self.epochs, steps_per_epoch=steps_per_epoch, max_steps=self.max_steps,
+                           updates_per_step=self._updates_per_step,
+                           exact_updates=self._exact_updates and optimisation.scaler is None,
+                           validates=val_ds is not None, free_params=_RUN_INDEPENDENT,
+                           param_defaults=self._run_key_defaults)
+            resumed = folder.resume(model, optimisation, plan)
             if resumed is not None:
                 progress, best["state"] = resumed
                 self._set_rng_state(progress.pop("rng", None))
@@ -200,7 +206,7 @@ class TrainingMixin:
             fit_loop(
                 progress, epoch_batches,
                 lambda batch: self._train_step(step_model, optimisation, *batch, device),
-                epochs=self.epochs, steps_per_epoch=shard.batches_per_epoch(len(train_ds), self.batch_size),
+                epochs=self.epochs, steps_per_epoch=steps_per_epoch,
                 max_steps=self.max_steps, desc=type(self).__name__, verbose=bool(self.verbose),
                 max_minutes=getattr(self, "max_minutes", None), shard=shard, device=device, end_epoch=end_epoch,
                 checkpoint=checkpoint, checkpoint_every=self.checkpoint_every,
@@ -237,6 +243,10 @@ class TrainingMixin:
     #: Parameters left out of the run folder's key at these values (added after run folders
     #: were written, so those still resume).
     _run_key_defaults: dict[str, Any] = {}
+    #: The most optimiser updates one training step takes.
+    _updates_per_step: int = 1
+    #: Whether every step takes exactly that many (a resumed Adam's count is then checked exactly).
+    _exact_updates: bool = True
 
     def _augmentation(self) -> Augmentation | None:
         """Flips and depth factors of the training samples (None: crops and occlusions only)."""

@@ -453,8 +453,10 @@ def _train_locked(args: argparse.Namespace, ds: Any, out: Path, record: dict[str
     }
     write_text_atomic(out / "training_log.json", json.dumps(json_safe(log), indent=1))
     plot_training(history, out / "loss.png", f"{args.preset} on {ds!r}", getattr(est, "loss_label", "training loss"))
-    # Last: a rerun of this command is a no-op only once the model and its log are written.
-    write_text_atomic(out / TRAIN_ARGS_FILE, json.dumps({**record, "finished": True}, indent=1))
+    # Last: a rerun of this command is a no-op only once the model and its log are written,
+    # and the run was not stopped by --max-minutes (a rerun then resumes it).
+    finished = {} if "budget_stop" in history else {"finished": True}
+    write_text_atomic(out / TRAIN_ARGS_FILE, json.dumps({**record, **finished}, indent=1))
     print(f"model: {model_path}")
     print(f"log: {out / 'training_log.json'}, curves: {out / 'loss.png'}")
     print(f"score it: inpaintenv benchmark --checkpoint mine={model_path} ...")

@@ -4,9 +4,9 @@
   waited on), check the size before reading, and inside a folder the command owns do
   not follow links (:mod:`~inpaintenv.files.reading`);
 - JSON is bounded in size and nesting (:mod:`~inpaintenv.files.jsonio`);
-- every write goes to an exclusively created, unpredictably named temporary file in
-  the target's folder and is renamed over the target; appends and locks never follow
-  a link (:mod:`~inpaintenv.files.writing`);
+- every write goes to an exclusively created, unpredictably named temporary file (or
+  folder) in the target's folder and is renamed over the target; appends and locks never
+  follow a link (:mod:`~inpaintenv.files.writing`);
 - every size bound lives in :mod:`~inpaintenv.files.limits`.
 """
 
@@ -27,6 +27,7 @@ from .writing import (
     remove_stale_temporaries,
     write_atomic,
     write_bytes_atomic,
+    write_folder_atomic,
     write_text_atomic,
 )
 
@@ -34,5 +35,5 @@ __all__ = [
     "MAX_FRAME_PIXELS", "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_SCAN_POINTS", "MAX_TEXT_BYTES", "TEMP_PREFIX",
     "append_text", "check_frame_pixels", "describe_kind", "loads_json", "open_lock", "open_regular", "read_bytes",
     "read_head", "read_json", "read_text", "remove_stale_temporaries", "write_atomic", "write_bytes_atomic",
-    "write_json", "write_text_atomic",
+    "write_folder_atomic", "write_json", "write_text_atomic",
 ]

@@ -16,6 +16,7 @@ from __future__ import annotations
 import errno
 import os
 import secrets
+import shutil
 import stat
 from collections.abc import Callable
 from pathlib import Path
@@ -27,7 +28,7 @@ from .reading import describe_kind
 
 __all__ = [
     "TEMP_PREFIX", "append_text", "open_lock", "remove_stale_temporaries", "write_atomic", "write_bytes_atomic",
-    "write_text_atomic",
+    "write_folder_atomic", "write_text_atomic",
 ]
 
 #: Prefix of every temporary file while a file is written: ``.inpaintenv-tmp-<pid>-<random><suffix>``.
@@ -144,6 +145,50 @@ def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: st
     return path
 
 
+def write_folder_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: str = "") -> Path:
+    """Call ``write(tmp)`` on a fresh temporary folder beside ``path`` and rename it to ``path``.
+
+    A folder is whole or absent: a failure (a full disk) or a kill while ``write`` runs
+    leaves no folder named ``path`` (a killed writer's temporary folder is cleared by
+    :func:`remove_stale_temporaries` with ``folders=True``).
+
+    Parameters
+    ----------
+    path : path-like
+        The folder to write; it must not exist (write under a fresh name).
+    write : callable
+        Writes the folder's files into the folder it is given (each through :func:`write_atomic`).
+    what : str
+        What the folder is, for messages.
+
+    Raises
+    ------
+    OSError
+        The cause (e.g. no space left on device) with ``path`` named; nothing is left behind.
+    """
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if os.path.lexists(path):
+            raise FileExistsError(errno.EEXIST, "it exists already")
+        tmp = path.parent / f"{TEMP_PREFIX}{os.getpid()}-{secrets.token_hex(8)}"
+        os.mkdir(tmp)
+    except OSError as exc:
+        raise _naming(exc, path, what) from None
+    try:
+        write(tmp)
+        os.rename(tmp, path)
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and not isinstance(exc, UnsafeFileError):
+            # The cause alone: a message naming the temporary file would name a file that is gone.
+            reason = os.strerror(exc.errno) if exc.errno else str(exc)
+            raise OSError(exc.errno, f"cannot write {what + ' ' if what else ''}{path}: {reason}; nothing of it "
+                                     "was kept") from None
+        raise
+    return path
+
+
 def write_bytes_atomic(path: str | os.PathLike, data: bytes, what: str = "", *,
                        within: str | os.PathLike | None = None) -> Path:
     """Write ``data`` to ``path`` whole or not at all (see :func:`write_atomic`)."""
@@ -230,7 +275,8 @@ def _through_link(folder: Path, within: Path) -> bool:
     return False
 
 
-def remove_stale_temporaries(folder: str | os.PathLike, within: str | os.PathLike | None = None) -> list[Path]:
+def remove_stale_temporaries(folder: str | os.PathLike, within: str | os.PathLike | None = None, *,
+                             folders: bool = False) -> list[Path]:
     """Remove the temporary files of :func:`write_atomic` in ``folder`` whose writer is no longer running.
 
     Only regular files named ``.inpaintenv-tmp-<pid>-...`` of a process that has ended
@@ -244,6 +290,8 @@ def remove_stale_temporaries(folder: str | os.PathLike, within: str | os.PathLik
     within : path-like, optional
         The folder the command owns: nothing is removed when ``folder`` is reached from
         it through a symbolic link (or lies outside it).
+    folders : bool
+        Also remove such folders (of :func:`write_folder_atomic`), with what they hold.
 
     Returns
     -------
@@ -265,6 +313,9 @@ def remove_stale_temporaries(folder: str | os.PathLike, within: str | os.PathLik
         try:
             if entry.is_file(follow_symlinks=False):
                 os.unlink(entry.path)
+                removed.append(Path(entry.path))
+            elif folders and entry.is_dir(follow_symlinks=False):
+                shutil.rmtree(entry.path)
                 removed.append(Path(entry.path))
         except OSError:
             pass

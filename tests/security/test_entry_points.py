@@ -18,6 +18,7 @@ A new entry point that is not in the table fails :func:`test_every_entry_point_i
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -44,6 +45,8 @@ pytestmark = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="FIFOs and sym
 TIME_LIMIT = 20
 #: Fast flags for the synthetic source.
 TINY = ["--synthetic", "--n-frames", "2", "--frame-shape", "32", "64", "-q"]
+#: A smoke training of three steps on it (one step an epoch).
+TRAIN = [*TINY, "--max-steps", "3"]
 
 
 # -- the runs that make folders to tamper with (each case copies what it needs) --------------
@@ -67,6 +70,19 @@ def exported(tmp_path_factory) -> Path:
         write_depth_png(base / "pred" / item.input,
                         np.where(manifest.read_hole(item), 10.0, manifest.read_input(item)))
     return base
+
+
+@pytest.fixture(scope="module")
+def train_run(tmp_path_factory) -> Path:
+    """A smoke training stopped by its time budget after step 2 of 3: a run the next ``train`` resumes."""
+    from estimators.learned import _budget
+
+    out = tmp_path_factory.mktemp("train") / "t"
+    looks = iter(range(0, 10_000, 60))  # one minute further on at every look
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_budget, "clock", lambda: float(next(looks)))
+        assert main(["train", "--preset", "smoke", *TRAIN, "--max-minutes", "1.5", "--out", str(out)]) == 0
+    return out
 
 
 # -- the table ---------------------------------------------------------------------------------
@@ -125,6 +141,57 @@ def _report_dir(p: Place, f: dict, tamper: Callable[[Path], Any]) -> list[str]:
     shutil.copytree(f["benchmark_run"], out, symlinks=True)
     tamper(out)
     return ["report", str(out), "-q"]
+
+
+def _train_resume(p: Place, f: dict, tamper: Callable[[Path], Any]) -> list[str]:
+    """``train`` resuming a copy of the stopped smoke run whose last checkpoint ``tamper`` edited."""
+    out = p.work / "t"
+    shutil.copytree(f["train_run"], out)
+    run = next((out / "checkpoints").iterdir())
+    tamper(run / json.loads((run / "state.json").read_text())["last"])
+    return ["train", "--preset", "smoke", *TRAIN, "--out", str(out)]
+
+
+def _state(edit: Callable[[dict], Any], checksum: bool = False) -> Callable[[Path], None]:
+    """Edit a checkpoint's ``training.json`` (``checksum``: and record the edit's SHA-256 in its ``config.json``)."""
+    def tamper(ckpt: Path) -> None:
+        path = ckpt / "training.json"
+        state = json.loads(path.read_text())
+        edit(state)
+        path.write_text(json.dumps(state))
+        if checksum:
+            config = json.loads((ckpt / "config.json").read_text())
+            config["training_sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
+            (ckpt / "config.json").write_text(json.dumps(config))
+    return tamper
+
+
+def _training_states() -> list[Case]:
+    """``train`` resuming an edited training state: the checksum refuses it, and so does the
+    state's consistency when the checksum is recomputed; a state of the wrong form is one line."""
+    lr = lambda s: s["optimizer"]["param_groups"][0].update(lr=50.0)  # noqa: E731
+    edits: list[tuple[str, Callable[[dict], Any], str]] = [
+        ("step", lambda s: s.update(step=s["step"] + 98, batch=s["batch"] + 98), "disagrees with its checkpoint folder"),
+        ("lr-50", lr, "lr=50.0 disagrees"),
+        ("finished", lambda s: s.update(finished=True), "says finished at step 2"),
+        ("fake-history", lambda s: s["history"].update(step_loss=[9.0] * 5), "'step_loss' has 5 entries"),
+        ("step-string", lambda s: s.update(step="2"), "'step' must be an integer"),
+        ("history-null", lambda s: s.update(history=None), "'history' must be an object"),
+        ("no-optimizer", lambda s: s.pop("optimizer"), "has no 'optimizer'"),
+        ("extra-key", lambda s: s.update(extra=1), "'extra' is not a key of a training state"),
+        ("negative-step", lambda s: s.update(step=-1), "never negative"),
+    ]
+    cases = [Case("cli:train", f"state-{name}", lambda p, f, e=edit: _train_resume(p, f, _state(e)),
+                  says=r"training\.json does not match the checksum") for name, edit, _ in edits[:4]]
+    cases += [Case("cli:train", f"state-{name}-checksummed", lambda p, f, e=edit: _train_resume(
+        p, f, _state(e, checksum=True)), says=re.escape(says)) for name, edit, says in edits]
+    cases.append(Case("cli:train", "state-unchecksummed", lambda p, f: _train_resume(p, f, lambda c: (
+        c / "config.json").write_text(json.dumps({k: v for k, v in json.loads((c / "config.json").read_text()).items()
+                                                  if k != "training_sha256"}))),
+        says="records no SHA-256 of training.json"))
+    cases.append(Case("cli:train", "state-fifo", lambda p, f: _train_resume(
+        p, f, lambda c: _replace(c / "training.json", p.fifo))))
+    return cases
 
 
 def _move_out(folder: Path, p: Place) -> None:
@@ -516,6 +583,7 @@ CASES: list[Case] = [
     *_cal_edits(),
     *_config_edits(),
     *_value_cases(),
+    *_training_states(),
     Case("py:ConformalIntervalInpainter.load", "fifo", _intervals_load(lambda p: p.fifo(p.work / "cal.json"))),
     Case("py:ConformalIntervalInpainter.load", "nested", _intervals_load(lambda p: p.write(p.work / "c.json", NESTED))),
     Case("py:ConformalIntervalInpainter.load", "not-utf8-name", _intervals_load(
@@ -601,7 +669,7 @@ def test_hostile_file_is_one_clear_error(case, tmp_path, capsys, request, monkey
     os.chmod(place.victim, stat.S_IRUSR | stat.S_IWUSR)
     place.victim_dir.mkdir()
     (place.victim_dir / "mine.txt").write_bytes(VICTIM)
-    fixtures = {name: request.getfixturevalue(name) for name in ("benchmark_run", "exported")}
+    fixtures = {name: request.getfixturevalue(name) for name in ("benchmark_run", "exported", "train_run")}
     try:
         call = case.call(place, fixtures)
         before = place.outside()
