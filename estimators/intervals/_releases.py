@@ -130,11 +130,12 @@ def default_intervals(name: str | None = None, input: str = "auto", require_cali
     each route's interval from the calibration shipped for its method by name.
 
     A map's interval is the map release's calibration (calibrated on maps); a single scan's
-    (or a thinned scan's: any frame routed as a scan) the one shipped for the scan route
+    (any frame routed as a 64-beam-like scan) the one shipped for the scan route
     (``<SCAN_DEFAULT>.json``, calibrated on scans), wrapped around the route's own method when
     an interval is first asked (:class:`ShippedIntervals`), so the fill is ``pretrained``'s
-    bit for bit. A route without a shipped calibration gives no interval: asking it is one
-    error naming it, never another route's interval. Each route is loaded when a frame first
+    bit for bit. A route without a shipped calibration gives no interval (the sparse-scan
+    route's classical fill, which a scan sparser than a 64-beam one takes, ships none): asking
+    it is one error naming it, never another route's interval. Each route is loaded when a frame first
     takes it; its calibration when a frame's interval is first asked.
 
     Parameters

@@ -17,7 +17,8 @@ from __future__ import annotations
 from typing import Any
 
 from inpaintenv.exceptions import UnknownNameError
-from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT, shipped
+from inpaintenv.methods.classical import CLASSICAL_METHODS
+from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT, SPARSE_DEFAULT, shipped
 
 from . import _checkpoint as ckpt
 from ._load import load
@@ -27,6 +28,10 @@ __all__ = ["load_default", "load_release"]
 
 def load_default(input: str = "auto", **overrides: Any) -> Any:
     """The default method ``pretrained``: the map release for a map, the scan release :data:`~inpaintenv.methods.learned.SCAN_DEFAULT` for a scan.
+
+    A scan sparser than a 64-beam one (:func:`~estimators.learned._routed.scan_spacing` above
+    :data:`~estimators.learned._routed.SPARSE_SPACING`) goes to the classical
+    :data:`~inpaintenv.methods.learned.SPARSE_DEFAULT` instead.
 
     Parameters
     ----------
@@ -57,7 +62,16 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
             raise UnknownNameError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
     map_method = load_release(DEFAULT_RELEASE, **overrides) if overrides else OnFirstUse(load_release, DEFAULT_RELEASE)
     return InputRoutedInpainter(map_method=map_method, scan_method=OnFirstUse(load_release, SCAN_DEFAULT), input=input,
-                                scan_name=SCAN_DEFAULT, map_name=DEFAULT_RELEASE)
+                                scan_name=SCAN_DEFAULT, map_name=DEFAULT_RELEASE,
+                                sparse_method=_classical(SPARSE_DEFAULT), sparse_name=SPARSE_DEFAULT)
+
+
+def _classical(name: str) -> Any:
+    """The classical fill registered as ``name`` (its row of :data:`~inpaintenv.methods.classical.CLASSICAL_METHODS`)."""
+    import estimators.classical as classical
+
+    (cls, kwargs), = [(cls, kwargs) for row, cls, kwargs, _ in CLASSICAL_METHODS if row == name]
+    return getattr(classical, cls)(**kwargs)
 
 
 def load_release(name: str = DEFAULT_RELEASE, **overrides: Any) -> Any:

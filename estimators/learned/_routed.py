@@ -4,7 +4,11 @@ A single LiDAR scan (KITTI's ``velodyne_raw``) measures about 4-5 % of a frame's
 ground-truth map with holes cut into it keeps 12 % or more of the rows it spans. The
 method that fills one well is not the one that fills the other (the map releases were
 never trained on a scan and are worse than ``harmonic`` on one), so ``pretrained`` routes
-each frame by its kind: given as ``input``, or told from its measured density.
+each frame by its kind: given as ``input``, or told from its measured density. A scan much
+sparser than the 64-beam scans the scan route was trained on (a 32-, 16- or 8-beam LiDAR, or a
+thinned scan: told from :func:`scan_spacing`) goes to ``sparse_method`` when one is given: there
+the scan release's learned blend is worse than the classical fills, so ``pretrained`` falls
+back to the classical ``harmonic``.
 
 >>> from estimators.learned import InputRoutedInpainter                   # doctest: +SKIP
 >>> est = InputRoutedInpainter(map_method=load_release(), scan_method=HarmonicInpainter())
@@ -31,16 +35,24 @@ from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from .._constraints import Check, ConstrainedParams, InstanceOf, Options, Real
 from ..base import BaseInpainter, check_inpaint_input
 
-__all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "InputRoutedInpainter", "OnFirstUse", "measured_density"]
+__all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "SPARSE_SPACING", "InputRoutedInpainter", "OnFirstUse", "measured_density",
+           "scan_spacing"]
 
 #: Measured share of the rows a frame's measurements span at or below which it is a scan.
 #: On the KITTI slice (scripts: experiments/scan_release.py --density) single scans span
 #: 0.042-0.072 and maps with any protocol's holes 0.12-0.43; synthetic scans 0.04-0.05.
 SCAN_DENSITY = 0.10
+#: :func:`scan_spacing` (pixels) above which a scan is sparser than a 64-beam one. Chosen with one
+#: recording day left out (experiments/scan_lodo.py density): KITTI's 64-beam scans, with or
+#: without rect-v1's holes, measure 8-12 px, the same scans with every 2nd ring or half the
+#: points kept 16-21 px, sparser ones more; 14 lies between them on every pair of days.
+SPARSE_SPACING = 14.0
 #: What ``input`` may say: decide per frame, or every frame is of one kind.
 INPUT_CHOICES = ("auto", "scan", "map")
 #: The routes, in the order a batch is filled.
-ROUTES = ("scan", "map")
+ROUTES = ("scan", "sparse", "map")
+#: How messages name each route's frames.
+_KIND_WORDS = {"scan": "scan", "sparse": "sparse scan", "map": "map"}
 # One lock for every router: a module's lock is never pickled or copied with an estimator, and
 # making a route (loading a release) is rare enough that routers need not make theirs in parallel.
 _MAKING = threading.Lock()
@@ -71,6 +83,21 @@ def measured_density(x: np.ndarray) -> float:
     if not len(rows):
         return 0.0
     return float(measured[rows[0] : rows[-1] + 1].mean())
+
+
+def scan_spacing(x: np.ndarray) -> float:
+    """The median gap (pixels) between vertically consecutive measurements of a column: how far apart a scan's lines lie.
+
+    Counted per gap, not per pixel, so a hole cut into a scan (one long gap in each column it
+    covers) barely moves it, while keeping every k-th laser ring or a k-th of the points
+    multiplies it by about k. ``inf`` for a frame with no two measurements in any column.
+    """
+    measured = np.asarray(x) > 0
+    cols, rows = np.nonzero(measured.T)  # column-major: each column's rows in order
+    same = cols[1:] == cols[:-1]
+    if not same.any():
+        return float("inf")
+    return float(np.median(np.diff(rows)[same]))
 
 
 class OnFirstUse:
@@ -116,7 +143,8 @@ def _route_attribute(kind: str) -> property:
 
 
 class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
-    """Fill each frame with ``scan_method`` if it is a single LiDAR scan, else ``map_method``.
+    """Fill each frame with ``scan_method`` if it is a single LiDAR scan, else ``map_method``;
+    a scan sparser than ``sparse_spacing`` with ``sparse_method`` when one is given.
 
     Parameters
     ----------
@@ -130,7 +158,12 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         ``threshold``: a scan); otherwise every frame is of that kind.
     threshold : float, default :data:`SCAN_DENSITY`
         The density that separates the kinds.
-    scan_name, map_name : str
+    sparse_method : estimator, OnFirstUse or None, default None
+        Fills a scan whose :func:`scan_spacing` exceeds ``sparse_spacing`` (a sensor with
+        fewer beams than the scans ``scan_method`` knows); None: every scan goes to ``scan_method``.
+    sparse_spacing : float, default :data:`SPARSE_SPACING`
+        The spacing (pixels) above which a scan is sparse.
+    scan_name, map_name, sparse_name : str
         What :attr:`routed_to_` says for each route (e.g. ``"harmonic"``).
     intervals : callable or None, default None
         How a route whose method has no ``predict_interval`` gets an interval:
@@ -143,14 +176,18 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     ----------
     routed_to_ : list of str
         After :meth:`predict`: per frame of the last call, the name of the method that filled it.
+    routed_kinds_ : list of str
+        After :meth:`predict`: per frame of the last call, its route (``"scan"``, ``"sparse"``, ``"map"``).
     """
 
     _stateless = True  # its members come fitted; fit trains nothing
     map_method = _route_attribute("map")
     scan_method = _route_attribute("scan")
+    sparse_method = _route_attribute("sparse")
 
     def __init__(self, *, map_method: Any, scan_method: Any, input: str = "auto", threshold: float = SCAN_DENSITY,
-                 scan_name: str = "scan", map_name: str = "map", intervals: Callable[[str, Any], Any] | None = None):
+                 scan_name: str = "scan", map_name: str = "map", intervals: Callable[[str, Any], Any] | None = None,
+                 sparse_method: Any = None, sparse_spacing: float = SPARSE_SPACING, sparse_name: str = "sparse"):
         self.map_method = map_method
         self.scan_method = scan_method
         self.input = input
@@ -158,6 +195,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         self.scan_name = scan_name
         self.map_name = map_name
         self.intervals = intervals
+        self.sparse_method = sparse_method
+        self.sparse_spacing = sparse_spacing
+        self.sparse_name = sparse_name
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         """The constructor's parameters, each route as given (an :class:`OnFirstUse` stays one).
@@ -178,7 +218,7 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         for kind in ROUTES:
             route = self._route(kind) if deep else self.__dict__[f"_{kind}_given"]
             params[f"{kind}_method"] = route
-            if deep and hasattr(route, "get_params") and not isinstance(route, type):
+            if deep and route is not None and hasattr(route, "get_params") and not isinstance(route, type):
                 params.update((f"{kind}_method__{k}", v) for k, v in route.get_params().items())
         return params
 
@@ -204,6 +244,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     _parameter_constraints: dict[str, list[Any]] = {
         "map_method": [Check(lambda route: _check_route(route, "map_method"))],
         "scan_method": [Check(lambda route: _check_route(route, "scan_method"))],
+        "sparse_method": [None, Check(lambda route: _check_route(route, "sparse_method"))],
+        "sparse_spacing": [Real(0, None, closed="neither")],
+        "sparse_name": [InstanceOf(str, "a name (str)")],
         "input": [Options(*INPUT_CHOICES)],
         "threshold": [Real(0, 1, closed="neither")],
         "scan_name": [InstanceOf(str, "a name (str)")],
@@ -213,19 +256,30 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
 
     def _param_value(self, name: str) -> Any:
         # A route is checked as given: reading it would make (load) an OnFirstUse route.
-        return self.__dict__[f"_{name[:-len('_method')]}_given"] if name in ("map_method", "scan_method") \
+        return self.__dict__[f"_{name[:-len('_method')]}_given"] if name in (f"{k}_method" for k in ROUTES) \
             else getattr(self, name)
 
     def kind(self, x: np.ndarray) -> str:
-        """``"scan"`` or ``"map"``: the kind of one ``(H, W)`` frame (NaN = to fill)."""
+        """``"scan"``, ``"sparse"`` or ``"map"``: the route of one ``(H, W)`` frame (NaN = to fill).
+
+        ``"sparse"`` only with a ``sparse_method``: a scan (``input="scan"``, or told from its
+        density) whose :func:`scan_spacing` exceeds ``sparse_spacing``.
+        """
         self._check_params()
-        if self.input != "auto":
-            return self.input
-        return "scan" if measured_density(np.nan_to_num(x, nan=0.0)) <= float(self.threshold) else "map"
+        measured = np.nan_to_num(x, nan=0.0)
+        if self.input == "map" or (self.input == "auto" and measured_density(measured) > float(self.threshold)):
+            return "map"
+        if self.__dict__["_sparse_given"] is not None and scan_spacing(measured) > float(self.sparse_spacing):
+            return "sparse"
+        return "scan"
+
+    def name_of(self, kind: str) -> str:
+        """What :attr:`routed_to_` says for route ``kind``."""
+        return {"scan": self.scan_name, "sparse": self.sparse_name, "map": self.map_name}[kind]
 
     def choose(self, x: np.ndarray) -> str:
-        """The name of the method that fills frame ``x`` (``scan_name`` or ``map_name``)."""
-        return self.scan_name if self.kind(x) == "scan" else self.map_name
+        """The name of the method that fills frame ``x`` (``scan_name``, ``sparse_name`` or ``map_name``)."""
+        return self.name_of(self.kind(x))
 
     def _fit(self, dataset: Any) -> None:
         raise InvalidInputError("InputRoutedInpainter trains nothing: fit its map_method and scan_method instead")
@@ -235,7 +289,8 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         out = np.empty(X.shape, np.float32)
         for _, pick, method in self._routes(kinds):
             out[pick] = method.predict(X[pick])
-        self.routed_to_ = [self.scan_name if k == "scan" else self.map_name for k in kinds]
+        self.routed_to_ = [self.name_of(k) for k in kinds]
+        self.routed_kinds_ = kinds
         return out
 
     def interval_method(self, kind: str) -> Any:
@@ -253,11 +308,11 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         method = self._route(kind)
         if hasattr(method, "predict_interval"):
             return method
-        made, name = f"_{kind}_interval", self.scan_name if kind == "scan" else self.map_name
+        made, name = f"_{kind}_interval", self.name_of(kind)
         if made not in self.__dict__:
             if self.intervals is None:
                 raise InvalidInputError(
-                    f"no calibrated interval for a single {kind} yet: its route {name} ships none; drop the interval "
+                    f"no calibrated interval for a single {_KIND_WORDS[kind]} yet: its route {name} ships none; drop the interval "
                     f"(fill without --confidence), or give one (--intervals CAL.json, or -m <method>-intervals)")
             with _MAKING:
                 if made not in self.__dict__:
@@ -302,11 +357,12 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         for kind, pick, _ in self._routes(kinds):
             method = self.interval_method(kind)
             if "return_std" not in inspect.signature(method.predict).parameters:
-                name = self.scan_name if kind == "scan" else self.map_name
+                name = self.name_of(kind)
                 raise InvalidInputError(f"the interval of route {name} ({type(method).__name__}) gives no std: ask "
                                         "predict_interval instead of predict(X, return_std=True)")
             pred[pick], std[pick] = method.predict(batch[pick], return_std=True)
-        self.routed_to_ = [self.scan_name if k == "scan" else self.map_name for k in kinds]
+        self.routed_to_ = [self.name_of(k) for k in kinds]
+        self.routed_kinds_ = kinds
         pred = np.where(batch > 0, batch, pred)  # as predict: measured pixels are given
         return (pred[0], std[0]) if x.ndim == 2 else (pred, std)
 

@@ -82,6 +82,10 @@ class _Run:
             return [(batch[0], None)]
 
 
+#: How the route line names each route's frames.
+_KIND_WORDS = {"sparse": "sparse scan"}
+
+
 def _note_routes(batch: list[Item], routed: Any, before: Any) -> None:
     """Each item's ``(kind, method)`` from the router's ``routed_to_`` of the call that just filled ``batch``
     (``before``: its value until then; a batch with nothing to fill made no call)."""
@@ -89,8 +93,11 @@ def _note_routes(batch: list[Item], routed: Any, before: Any) -> None:
     filled = [item for item in batch if item.fill is not None and item.fill.any()]
     if names is None or names is before or len(names) != len(filled):
         return
-    for item, name in zip(filled, names):
-        item.route = ("scan" if name == routed.scan_name else "map", str(name))
+    kinds = getattr(routed, "routed_kinds_", None)
+    if kinds is None or len(kinds) != len(names):
+        kinds = ["scan" if name == routed.scan_name else "map" for name in names]
+    for item, name, kind in zip(filled, names, kinds):
+        item.route = (_KIND_WORDS.get(kind, kind), str(name))
 
 
 def _batches(items: Iterator[Item], size: int) -> Iterator[list[Item]]:

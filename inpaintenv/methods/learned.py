@@ -25,6 +25,7 @@ __all__ = [
     "LEARNED_INSTALL",
     "RELEASE_DIR",
     "SCAN_DEFAULT",
+    "SPARSE_DEFAULT",
     "MissingExtraError",
     "learned_missing",
     "missing_extra_error",
@@ -45,6 +46,12 @@ DEFAULT_RELEASE = "kitti-ensemble-v1"
 #: on both official sets with a scan it is no worse than every classical fill on densify and
 #: better in rect-v1's holes (docs/model_cards/kitti-scan-v1.md).
 SCAN_DEFAULT = "kitti-scan-v1"
+
+#: What ``pretrained`` fills a scan sparser than a 64-beam one with (fewer beams, or thinned): the
+#: classical ``harmonic``. There the scan release's learned blend is worse than the classical
+#: fills, and no fill tried beats ``harmonic`` on every left-out day and on val_selection
+#: (docs/model_cards/kitti-scan-v1.md).
+SPARSE_DEFAULT = "harmonic"
 
 #: The modules the ``[learned]`` extra brings (import names).
 LEARNED_DEPENDENCIES: tuple[str, ...] = ("torch", "safetensors")

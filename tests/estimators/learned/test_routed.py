@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from estimators.classical import HarmonicInpainter, NearestInpainter
-from estimators.learned._routed import SCAN_DENSITY, InputRoutedInpainter, OnFirstUse, measured_density
+from estimators.learned._routed import (SCAN_DENSITY, SPARSE_SPACING, InputRoutedInpainter, OnFirstUse,
+                                       measured_density, scan_spacing)
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.data.inputs import method_input
 from inpaintenv.exceptions import InpaintenvError
@@ -73,6 +74,73 @@ def test_the_scan_route_is_the_registered_scan_default():
     assert est.scan_method.get_params() == make_method(SCAN_DEFAULT).get_params()
 
 
+def _lines(every: int, shape=SHAPE) -> np.ndarray:
+    """A synthetic scan: a sloped ground's depth on every ``every``-th row (a LiDAR's lines) and every 4th
+    column (its points along a line), NaN elsewhere: at most 1/12 of the pixels, as sparse as a scan."""
+    depth = np.broadcast_to(np.linspace(40.0, 5.0, shape[0], dtype=np.float32)[:, None], shape).copy()
+    depth[np.arange(shape[0]) % every != 0] = np.nan
+    depth[:, np.arange(shape[1]) % 4 != 0] = np.nan
+    return depth
+
+
+def test_scan_spacing_follows_the_lines_not_a_hole():
+    dense = _lines(3)
+    assert scan_spacing(np.nan_to_num(dense)) == 3.0
+    assert scan_spacing(np.nan_to_num(_lines(12))) == 12.0  # every 4th line kept: 4x the spacing
+    holed = dense.copy()
+    holed[10:50, 40:150] = np.nan  # a large hole: one long gap per column it covers
+    assert scan_spacing(np.nan_to_num(holed)) == 3.0
+    one_row = np.zeros((8, 8), np.float32)
+    one_row[3] = 5.0
+    assert scan_spacing(one_row) == np.inf and scan_spacing(np.zeros((8, 8))) == np.inf
+
+
+def test_a_scan_sparser_than_the_gate_falls_back_to_the_sparse_route():
+    dense, sparse = _lines(3), _lines(3 * 8)  # 8x fewer lines: spacing 24 > SPARSE_SPACING
+    assert scan_spacing(np.nan_to_num(sparse)) > SPARSE_SPACING >= scan_spacing(np.nan_to_num(dense))
+    maps = _inputs("map", "rect-v1", 1)
+    est = _router(sparse_method=NearestInpainter(), sparse_name="nearest-sparse")
+    both = np.stack([dense, sparse])
+    out = est.predict(np.concatenate([both, maps]))
+    assert est.routed_to_ == ["harmonic", "nearest-sparse", "nearest"]
+    assert est.routed_kinds_ == ["scan", "sparse", "map"]
+    np.testing.assert_array_equal(out[0], HarmonicInpainter().predict(dense))
+    np.testing.assert_array_equal(out[1], NearestInpainter().predict(sparse))
+    # Told it is a scan, the gate still looks at its spacing; told it is a map, never.
+    assert est.set_params(input="scan").choose(sparse) == "nearest-sparse"
+    assert est.set_params(input="map").choose(sparse) == "nearest"
+    # Without a sparse route every scan takes the scan route, however sparse.
+    assert _router().choose(sparse) == "harmonic"
+    # The threshold is the parameter's: raised above the spacing, the same scan is no longer sparse.
+    assert _router(sparse_method=NearestInpainter(), sparse_spacing=30.0).choose(sparse) == "harmonic"
+
+
+@pytest.mark.parametrize("bad", [{"sparse_spacing": 0.0}, {"sparse_spacing": np.inf}, {"sparse_method": "harmonic"},
+                                 {"sparse_name": 3}])
+def test_bad_sparse_route_parameters_are_one_clear_error(bad):
+    with pytest.raises(InpaintenvError, match="sparse_"):
+        _router(**bad).predict(_lines(3)[None])
+
+
+def test_a_sparse_scan_has_no_interval_unless_its_route_gives_one():
+    est = InputRoutedInpainter(map_method=_WithInterval(), scan_method=_WithInterval(), sparse_method=HarmonicInpainter(),
+                               sparse_name="harmonic")
+    low, high = est.predict_interval(_lines(3), coverage=0.9)
+    np.testing.assert_allclose(high - low, 2.0, atol=1e-5)
+    with pytest.raises(InpaintenvError, match="no calibrated interval for a single sparse scan yet: its route harmonic"):
+        est.predict_interval(_lines(24), coverage=0.9)
+
+
+def test_pretrained_fills_a_sparse_scan_with_the_sparse_default():
+    from inpaintenv.methods.learned import SCAN_DEFAULT, SPARSE_DEFAULT
+    from inpaintenv.methods.registry import make_method
+
+    est = make_method("pretrained")
+    sparse = _lines(24)
+    np.testing.assert_array_equal(est.predict(sparse), make_method(SPARSE_DEFAULT).predict(sparse))
+    assert est.routed_to_ == [SPARSE_DEFAULT] and est.choose(_lines(3)) == SCAN_DEFAULT
+
+
 class _Counted:
     """A route's factory that counts the methods it made."""
 
@@ -118,7 +186,8 @@ def test_a_router_on_first_use_keeps_its_parameters_clones_and_pickles():
     given = OnFirstUse(HarmonicInpainter)
     est = InputRoutedInpainter(map_method=OnFirstUse(NearestInpainter), scan_method=given, scan_name="harmonic")
     params = est.get_params(deep=False)
-    assert set(params) == {"map_method", "scan_method", "input", "threshold", "scan_name", "map_name", "intervals"}
+    assert set(params) == {"map_method", "scan_method", "input", "threshold", "scan_name", "map_name",
+                           "intervals", "sparse_method", "sparse_spacing", "sparse_name"}
     assert params["scan_method"] is given and "OnFirstUse(HarmonicInpainter)" in repr(est)
     unused = pickle.loads(pickle.dumps(est))
     expected = est.predict(scans)
