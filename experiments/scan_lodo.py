@@ -16,6 +16,12 @@ are ``predict`` per frame beside ``harmonic``'s in the same run.
     python experiments/scan_lodo.py release --save /tmp/kitti-scan-v1      # all rebuilt drives
     python experiments/scan_lodo.py official --method kitti-scan-v1        # a method on the official sets
     python experiments/scan_lodo.py time --method kitti-scan-v1            # its ms/frame beside harmonic's
+    python experiments/scan_lodo.py density --method pretrained            # per density, every set
+
+``density`` scores a registered method at every density on every set: the scan as it is (64
+beams), every 2nd / 4th / 8th laser ring kept (32, 16, 8 beams; rings from each frame's day's
+calibration), a seeded 50 / 25 / 10 % of its points, and rect-v1's holes cut into the 64-beam
+scan.
 """
 
 from __future__ import annotations
@@ -28,6 +34,8 @@ import numpy as np
 
 from inpaintenv.data import KittiDepth
 from inpaintenv.data.base import ConcatDataset, Subset, spaced_per_drive
+from inpaintenv.data.calibration import Calibration, read_calibration
+from inpaintenv.data.thinning import thin_scan_by_points, thin_scan_by_rings
 from inpaintenv.data.inputs import method_input
 from inpaintenv.files.jsonio import loads_json
 from inpaintenv.masks import get_protocol
@@ -205,8 +213,81 @@ def cmd_time(argv: list[str]) -> None:
               f"ratio {ours[pick].mean() / base[pick].mean():.2f}")
 
 
+#: Each density: (label, kept rings 1 in k, or kept share of points).
+DENSITIES = (("64 beams", 1, None), ("32 beams", 2, None), ("16 beams", 4, None), ("8 beams", 8, None),
+             ("50 % points", None, 0.5), ("25 % points", None, 0.25), ("10 % points", None, 0.1))
+#: Raw image size (W, H) of each recording day; frames are its bottom-centre CROP.
+RAW_SIZES = {"2011_09_26": (1242, 375), "2011_09_30": (1226, 370), "2011_10_03": (1241, 376)}
+
+
+def crop_calibration(root: str, day: str, camera: int) -> Calibration:
+    """The day's projection into camera ``camera``, shifted to the bottom-centre CROP its frames are scored in."""
+    width, height = RAW_SIZES[day]
+    calib = read_calibration(f"{root}/calib/{day}", size=(width, height), camera=camera)
+    shift = np.array([[1.0, 0.0, -((width - CROP[1]) // 2)], [0.0, 1.0, -(height - CROP[0])], [0.0, 0.0, 1.0]])
+    return Calibration(shift @ calib.matrix, (CROP[1], CROP[0]), calib.kind, calib.source, calib.camera)
+
+
+def thinned(scan: np.ndarray, density: tuple[str, int | None, float | None], calibration: Calibration,
+            seed: int) -> np.ndarray:
+    """``scan`` at ``density`` (an item of :data:`DENSITIES`)."""
+    _, every, share = density
+    if share is not None:
+        return thin_scan_by_points(scan, share, seed)
+    return scan if every == 1 else thin_scan_by_rings(scan, calibration, every)
+
+
+def density_units(root: str, frames: Any, seeds: tuple[int, ...]) -> Any:
+    """Every unit of every density of ``frames``: ``(density label, method input, ground truth, scored pixels)``.
+
+    A unit is a frame at each density (scored on the ground-truth pixels it did not measure), and a
+    (seed, frame) for rect-v1's holes cut into the 64-beam scan (scored in the hole)."""
+    rect, calibrations = get_protocol("rect-v1"), {}
+    for i in range(len(frames)):
+        scan, gt = (a[0] for a in frames.load_pairs([i]))
+        drive, camera = frames.frame_ids[i].split("/")[:2]
+        key = (drive[:10], int(camera[-1]))
+        if key not in calibrations:
+            calibrations[key] = crop_calibration(root, *key)
+        for density in DENSITIES:
+            x = method_input(thinned(scan, density, calibrations[key], i), np.zeros(scan.shape, bool), "scan")
+            yield density[0], x, gt, (gt > 0) & np.isnan(x)
+        for seed in seeds:
+            hole = rect.mask(scan.shape, seed, i)
+            yield "rect-v1 hole", method_input(scan, hole, "scan"), gt, (gt > 0) & hole
+
+
+def cmd_density(argv: list[str]) -> None:
+    """A method against the strongest classical fill at every density and in holes, per set, ms beside harmonic."""
+    parser = _parser("a method at every density and in holes cut into the scan", learned=False)
+    parser.add_argument("--method", default="pretrained", help="a registered method name")
+    parser.add_argument("--sets", default=",".join(DAYS + OFFICIAL_SETS), help="the sets, comma-separated")
+    args = parser.parse_args(argv)
+    sets = _sets(parser, args)
+    name = args.method
+    methods = {name: make_method(name), **{m: make_method(m) for m in CLASSICAL}}
+    for set_name in args.sets.split(","):
+        errs: dict[tuple[str, str], list[float]] = {}
+        seconds: dict[tuple[str, str], float] = {}
+        for label, x, gt, scored in density_units(str(default_root()), sets[set_name], _seeds(args)):
+            for m, method in methods.items():
+                start = time.perf_counter()
+                pred = method.predict(x)
+                seconds[label, m] = seconds.get((label, m), 0.0) + time.perf_counter() - start
+                errs.setdefault((label, m), []).append(
+                    float(np.sqrt(np.mean((pred[scored] - gt[scored]) ** 2))) if scored.any() else np.nan)
+        for label in [d[0] for d in DENSITIES] + ["rect-v1 hole"]:
+            e = {m: np.asarray(errs[label, m]) for m in methods}
+            best = min(CLASSICAL, key=lambda m: np.nanmean(e[m]))
+            r, lo, hi = paired_ratio(e[name], e[best])
+            ms = {m: 1000.0 * seconds[label, m] / len(e[m]) for m in (name, "harmonic")}
+            print(f"{set_name:14s} {label:13s} | {name} {np.nanmean(e[name]):.3f} m, {best} {np.nanmean(e[best]):.3f} m,"
+                  f" ratio {r:.3f} [{lo:.3f}, {hi:.3f}] | {ms[name]:.0f} vs harmonic {ms['harmonic']:.0f} ms/frame",
+                  flush=True)
+
+
 COMMANDS = {"classical": cmd_classical, "lodo": cmd_lodo, "release": cmd_release, "official": cmd_official,
-            "time": cmd_time}
+            "time": cmd_time, "density": cmd_density}
 
 if __name__ == "__main__":
     run_command("scan_lodo.py", COMMANDS, None)
