@@ -300,6 +300,7 @@ def export(
         1/512 m (it would read as 0 = no measurement in KITTI's encoding).
     """
     dataset = resolve_source(source)
+    data_root = getattr(dataset, "root", None)  # a folder of files read (KITTI): never written into
     proto = get_protocol(protocol)
     _check_task(proto, dataset.input_kind)
     seed_list = check_seeds(seeds, "seeds")
@@ -315,6 +316,11 @@ def export(
         dataset = Subset(dataset, range(total))
     given = Path(out)
     key_path = Path(os.path.abspath(key)) if key is not None else default_key_path(given)
+    if isinstance(data_root, (str, os.PathLike)):
+        for path, what in ((given, "--out"), (key_path, "the score key")):
+            if is_inside(path, Path(data_root)):
+                raise InvalidInputError(f"{what} {path} lies inside the data root {data_root}, which export reads; it "
+                                        "never writes there: give a folder outside it")
     # Work on the folder itself: renaming a link to it would replace the link, not the export.
     out = Path(os.path.realpath(given))
     replace = _prepare_out(out, overwrite)

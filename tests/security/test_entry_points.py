@@ -500,6 +500,9 @@ CASES: list[Case] = [
         "export", *TINY, "--holdout", "0", "--out", str(p.work / "kit"),
         *_none(p.write(p.work / f".kit.partial-{'1' * 23}" / "x", b"x"), p.write(p.work / ".kit.partial-\u00b2", b"x"))],
          ok=True, says=SUCCESS_ONLY),
+    Case("cli:export", "out-inside-the-data-root", lambda p, f: [
+        "export", "--kitti-root", str(p.kitti()), "--holdout", "0", "--out", str(p.work / "kitti" / "train" / "kit"), "-q"],
+         says="inside the data root"),
     Case("cli:export", "manifest-fifo", lambda p, f: [
         "export", *TINY, "--holdout", "0", "--overwrite", "--out", str(p.fifo(p.work / "kit" / "manifest.json").parent)]),
     Case("cli:export", "manifest-nested", lambda p, f: [

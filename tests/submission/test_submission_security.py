@@ -400,3 +400,18 @@ def test_a_read_only_out_is_one_line_naming_the_folder(submitted, tmp_path, caps
     assert status == 1 and len(err.splitlines()) == 1, err
     assert f"--out {ro / 'run'}: cannot write the run folder there ({ro} is on a read-only disk" in err
     assert list(ro.iterdir()) == []
+
+
+def test_export_never_writes_into_the_data_root_it_reads(tmp_path, capsys):
+    """A kit or key inside --kitti-root was written there (next to the ground truth it reads)."""
+    drive = tmp_path / "kitti" / "train" / "2011_09_26_drive_0001_sync" / "proj_depth" / "groundtruth" / "image_02"
+    rows = np.linspace(40.0, 5.0, 376)[:, None] + np.zeros((1, 1241))
+    write_depth_png(drive / "0000000000.png", np.where(np.random.default_rng(0).random(rows.shape) < 0.3, rows, 0.0))
+    root = tmp_path / "kitti"
+    before = sorted(p.relative_to(root) for p in root.rglob("*"))
+    for more in (["--out", str(root / "train" / "kit")], ["--out", str(tmp_path / "kit"), "--key", str(root / "k.json")]):
+        assert main(["export", "--kitti-root", str(root), "--holdout", "0", *more, "-q"]) == 1
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and f"inside the data root {root}" in err, err
+    assert sorted(p.relative_to(root) for p in root.rglob("*")) == before
+    assert main(["export", "--kitti-root", str(root), "--holdout", "0", "--out", str(tmp_path / "kit"), "-q"]) == 0
