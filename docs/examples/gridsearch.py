@@ -42,9 +42,12 @@ def main(argv: list[str] | None = None) -> GridSearchCV:
         # num_threads=None: torch's default in this process, and cores // n_jobs inside
         # joblib's workers (loky exports OMP_NUM_THREADS), so n_jobs never oversubscribes.
         checkpoint_dir=args.checkpoint_dir,
+        # Each fit's progress: a bar on a terminal, one line per epoch in a log.
+        verbose=1,
     )
     grid = {"hole_weight": [0.0, 2.0], "tv_weight": [0.0, 0.01]}
-    search = GridSearchCV(model, grid, cv=GroupKFold(n_splits=3), n_jobs=args.n_jobs)
+    # verbose=2: one line per (candidate, fold) when it ends, with its score and time.
+    search = GridSearchCV(model, grid, cv=GroupKFold(n_splits=3), n_jobs=args.n_jobs, verbose=2)
     t0 = time.perf_counter()
     # ``score`` is minus the hole RMSE on rect-v1 holes (seed 0) of the held-out drive.
     search.fit(data, groups=data.groups)

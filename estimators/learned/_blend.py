@@ -167,8 +167,9 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         None = 1, -1 = all cores).
     keep_observed : bool, default True
         Return measured input pixels unchanged.
-    verbose : bool, default False
-        Print progress of ``fit``.
+    verbose : bool or int, default False
+        Progress of ``fit`` when true or > 0 (as scikit-learn's ``verbose``): a bar on a
+        terminal, one line per epoch in a log.
 
     Attributes
     ----------
@@ -268,7 +269,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         "n_jobs": [Check(check_n_jobs), None],  # joblib's meaning, as the classical methods take it
         "random_state": [Check(check_random_state)],
         "keep_observed": [Bool()],
-        "verbose": [Bool()],
+        "verbose": [Bool(), Integer(0)],
     }
 
     def _model_params(self) -> dict[str, Any]:

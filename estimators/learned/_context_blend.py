@@ -121,8 +121,9 @@ class ContextBlendInpainter(BlendInpainter):
         Frames whose training samples are computed in parallel (joblib threads).
     keep_observed : bool, default True
         Return measured input pixels unchanged.
-    verbose : bool, default False
-        Print progress of ``fit``.
+    verbose : bool or int, default False
+        Progress of ``fit`` when true or > 0 (as scikit-learn's ``verbose``): a bar on a
+        terminal, one line per epoch in a log.
 
     Attributes
     ----------

@@ -70,7 +70,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     random_state, num_threads, n_jobs : optional
         When not None, given to every member that has the parameter (its own value
         otherwise): one seed, torch thread count or feature-job count for the whole fit.
-    verbose : bool or None, default None
+    verbose : bool, int or None, default None
         When not None, given to every member (progress of ``fit``).
     predict_threads : int or None, default 1
         torch threads while predicting (None: leave torch's setting).
@@ -157,7 +157,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     _parameter_constraints: dict[str, list[Any]] = {
         "random_state": [Check(check_random_state)],
         "num_threads": [Integer(1, limit=MAX_THREADS), None],
-        "verbose": [Bool(), None],
+        "verbose": [Bool(), Integer(0), None],
         "predict_threads": [Integer(1, limit=MAX_THREADS), None],
         "keep_observed": [Bool()],
         # The members and their weights are checked one by one in _check_param_relations.

@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from inpaintenv.exceptions import TrainingDivergedError
+from inpaintenv.progress import format_duration, stderr_is_terminal
 
 from . import _checkpoint as ckpt
 from ._budget import Budget, StepBar, record_stop
@@ -334,8 +335,11 @@ def fit_loop(
     """
     shard = shard or Shard()
     budget = Budget(max_minutes)
+    # As scikit-learn's verbose: on a terminal a bar; in a log (stderr a file or pipe) one line per epoch.
+    shown = bool(verbose) and shard.writes
+    lines = shown and not stderr_is_terminal()
     bar = StepBar(epochs * steps_per_epoch if max_steps is None else min(max_steps, epochs * steps_per_epoch),
-                  progress["step"], budget, disable=not (verbose and shard.writes), desc=desc)
+                  progress["step"], budget, disable=not shown or lines, desc=desc)
     progress["history"].pop("budget_stop", None)  # a resumed run records its own stop
     write = checkpoint or (lambda **_: None)
     running: float | None = None
@@ -366,11 +370,24 @@ def fit_loop(
                 break
             new_best = _close_epoch(progress, end_epoch)
             progress["finished"] = stopped == "steps" or progress["epoch"] >= epochs or steps_per_epoch == 0
+            if lines:
+                _epoch_line(desc, progress, epochs, bar)
             write(new_best=new_best)
     finally:
         bar.close()
     shard.done(progress)
     return progress
+
+
+def _epoch_line(desc: str, progress: dict[str, Any], epochs: int, bar: StepBar) -> None:
+    """One line in a log after an epoch: which, the steps done of all, its mean loss, the time left."""
+    import sys
+
+    loss = progress["history"]["epoch_loss"][-1]
+    seconds = bar.time_left.seconds()
+    left = "time left not measured yet" if seconds is None else f"{format_duration(seconds)} left"
+    print(f"{desc}: epoch {progress['epoch']}/{epochs}, step {progress['step']}/{bar.time_left.total}, "
+          f"loss {loss:.4f}, {left}", file=sys.stderr, flush=True)
 
 
 def _close_epoch(progress: dict[str, Any], end_epoch: Callable[[dict[str, Any]], bool] | None) -> bool:

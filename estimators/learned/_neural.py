@@ -146,8 +146,9 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
         Also checkpoint every this many steps (always at the end of each epoch).
     keep_observed : bool, default True
         Return measured input pixels unchanged.
-    verbose : bool, default False
-        Progress bar with the running loss.
+    verbose : bool or int, default False
+        Progress of ``fit`` when true or > 0 (as scikit-learn's ``verbose``): on a terminal a
+        bar with the running loss and the time left, in a log one line per epoch.
 
     Attributes
     ----------

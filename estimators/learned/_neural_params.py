@@ -97,7 +97,7 @@ class NeuralParamsMixin(ConstrainedParams):
         "warm_start": [Bool(), InstanceOf((str, os.PathLike), "a path to a saved model"), Check(_check_warm_start),
                        None],
         "keep_observed": [Bool()],
-        "verbose": [Bool()],
+        "verbose": [Bool(), Integer(0)],
     }
 
     def _check_param_relations(self) -> None:

@@ -34,6 +34,7 @@ from ..progress import (
     stderr_is_terminal,
 )
 from ..files.identity import method_identity
+from .costs import relative_costs
 from ..files.lock import run_lock
 from ..files.ownership import adopt, check_folder, claim, remove
 from .rows import append_rows, end_partial_line, read_rows
@@ -360,7 +361,10 @@ class _Run:
                      "already scored)")
         # A terminal gets tqdm bars from evaluate(); a log gets periodic lines instead.
         if self.evaluate_kw["progress"] and n_todo_all and not stderr_is_terminal():
-            self.reporter = ProgressReporter(per_method, self.say, seconds_per_frame=known, interval=PROGRESS_INTERVAL)
+            left = {name: {k: sum(len(v) for t, by_seed in self.todos[name].items() if t.input_kind == k
+                                  for v in by_seed.values()) for k in totals} for name in methods}
+            self.reporter = ProgressReporter(per_method, self.say, seconds_per_frame=known,
+                                             relative_cost=relative_costs(left), interval=PROGRESS_INTERVAL)
 
     def build(self, name: str, method: Any) -> Any:
         """``method`` ready to score (a lazy one built when needed), its identity checked and
