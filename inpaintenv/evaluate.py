@@ -40,7 +40,7 @@ from .masks import OcclusionProtocol, get_protocol
 from .methods.calls import _as_predictor, _run, _warm_up, method_name
 from .methods.intervals import IntervalSource, interval_source
 from .exceptions import BadFrameError, InvalidInputError, MethodOutputError, UnfilledPixelsError
-from .metrics import (Coverage, FrameBatch, as_coverage, check_unfilled, computed_metrics, interval_metrics,
+from .metrics import (CALIBRATION_LEVELS, Coverage, FrameBatch, as_coverage, check_unfilled, computed_metrics, interval_metrics,
                       metric_records)
 from .metrics._depth import _frame_metrics_checked
 from .report.results import METRIC_COLUMNS, EvaluationResult
@@ -369,9 +369,10 @@ def _score_locally(
             scored = np.isnan(x) if protocol.task == "unmeasured" else hole
             low = high = None
             if interval is not None:
-                low, high = interval.bounds(x, pred, scored)
+                low, high = interval.bounds(x, pred, scored, levels=CALIBRATION_LEVELS)
                 metrics.update(interval_metrics(pred, gt, scored, low, high))
-            metrics.update(computed_metrics(FrameBatch(pred, gt, scored, x, low, high)))
+            levels = interval.at_levels if interval is not None else None
+            metrics.update(computed_metrics(FrameBatch(pred, gt, scored, x, low, high, levels)))
             batch_rows = _rows(name, protocol.name, seed, idx, dataset, hole.mean(axis=(1, 2)), metrics, ms)
             rows.extend(batch_rows)
             if on_batch is not None:

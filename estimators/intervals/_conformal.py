@@ -54,6 +54,7 @@ under a hole protocol the hole cut out of the scan; ``"densify-v1+rect-v1"`` poo
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -361,7 +362,28 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
 
     # -- prediction --------------------------------------------------------------
     def _scale(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> np.ndarray:
-        """Per-pixel scale (metres), 0 outside the hole; ``x``, ``pred``, ``hole`` are (N, H, W)."""
+        """Per-pixel scale (metres), 0 outside the hole; ``x``, ``pred``, ``hole`` are (N, H, W).
+
+        The last batch's is kept (keyed by a digest of ``x`` and ``pred``): intervals of several
+        coverages of one batch (a reliability diagram) compute it once.
+        """
+        key = hashlib.blake2b(np.ascontiguousarray(x).tobytes(), digest_size=16)
+        key.update(np.ascontiguousarray(pred, dtype=np.float32).tobytes())
+        digest = (x.shape, key.digest(), id(self.coef_))
+        last = self.__dict__.get("_last_scale")
+        if last is not None and last[0] == digest:
+            return last[1]
+        out = self._compute_scale(x, pred, hole)
+        out.flags.writeable = False  # shared by the calls of one batch: never written
+        self.__dict__["_last_scale"] = (digest, out)
+        return out
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("_last_scale", None)  # a cache: never pickled (or sent to a worker) with the estimator
+        return state
+
+    def _compute_scale(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> np.ndarray:
         signals = tuple(self.calibration_["signals"])
         other = None
         if "spread" in signals:
@@ -463,10 +485,12 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         else:
             pred = self._checked_prediction(prediction, x, "predict_interval", X, given=True)
         hole = np.isnan(x)
-        half = self._scale(x, pred, hole) * q
+        # Only the hole's pixels have a width: the rest of the frame is pred itself.
+        p = pred[hole]
         # A width below float32's resolution at pred would round to an empty interval.
-        half[hole] = np.maximum(half[hole], 4.0 * np.spacing(np.abs(pred[hole])))
-        low = np.maximum(pred - half, 0.0).astype(np.float32)
-        high = (pred + half).astype(np.float32)
-        low, high = np.minimum(low, pred), np.maximum(high, pred)  # float32 rounding never excludes pred
+        half = np.maximum(self._scale(x, pred, hole)[hole] * q, 4.0 * np.spacing(np.abs(p)))
+        low, high = pred.copy(), pred.copy()
+        # float32 rounding never excludes pred
+        low[hole] = np.minimum(np.maximum(p - half, 0.0).astype(np.float32), p)
+        high[hole] = np.maximum((p + half).astype(np.float32), p)
         return (low[0], high[0]) if single else (low, high)

@@ -50,7 +50,7 @@ from ..conventions import (
 from ..data.base import DepthDataset, as_dataset
 from ..data.inputs import check_input_kind
 from ..masks import OcclusionProtocol, get_protocol
-from ..metrics import as_coverage, interval_from_std, interval_metrics
+from ..metrics import CALIBRATION_LEVELS, FrameBatch, as_coverage, computed_metrics, interval_from_std, interval_metrics
 from ..metrics import ScoredPixels, check_unfilled
 from .render import render_panel
 from ..exceptions import InvalidInputError, StateError
@@ -155,7 +155,9 @@ class DepthInpaintEnv(gym.Env):
     ``hole_count`` is 0) is left out. ``reset`` returns the same episode keys.
     With an interval, ``info`` also has the columns of
     :data:`~inpaintenv.metrics.INTERVAL_COLUMNS` (``hole_coverage``,
-    ``hole_interval_width``, ``rmse_keep_80``, ...) as floats; the reward is unchanged.
+    ``hole_interval_width``, ``rmse_keep_80``, ...) and of the metric records computed
+    from their own record (per-image ``ause_rmse``, ``aurg_rmse``, ``auce`` and the coverage at
+    each level, the last two from a ``std`` action only) as floats; the reward is unchanged.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -307,6 +309,7 @@ class DepthInpaintEnv(gym.Env):
         metrics = {k: (int(v) if k.endswith("_count") else float(v)) for k, v in m.items() if not np.isnan(v)}
         if bounds is not None:
             metrics.update(self._interval_info(pred, bounds))
+        metrics.update(self._computed_info(pred, bounds))
         # Only render() reads the reconstruction later: copy it only then (the caller's
         # array is never kept, and a 352x1216 copy per step is not free).
         self._pred = np.array(pred, dtype=np.float32, copy=True) if self.render_mode is not None else None
@@ -370,6 +373,26 @@ class DepthInpaintEnv(gym.Env):
         gt = np.zeros(self.frame_shape, dtype=np.float32)
         gt.reshape(-1)[self._scored._index] = self._scored._gt
         return {k: float(v) for k, v in interval_metrics(pred, gt, self._hole, low, high).items()}
+
+    def _computed_info(self, pred: np.ndarray, bounds: dict[str, Any] | None) -> dict[str, float]:
+        """The metric records computed from their own record (AUSE, AURG, AUCE, ...): as ``evaluate`` gives them.
+
+        The reliability diagram needs the interval at every level: from a ``std`` action; an
+        action's ``low``/``high`` is one level only, so the figures that need the others are left out.
+        """
+        assert self._scored is not None and self._hole is not None and self._obs_depth is not None
+        gt = np.zeros(self.frame_shape, dtype=np.float32)
+        gt.reshape(-1)[self._scored._index] = self._scored._gt
+        low = high = levels = None
+        if bounds is not None:
+            if "std" in bounds:
+                levels = {c: tuple(b[None] for b in interval_from_std(pred, bounds["std"], c))
+                          for c in CALIBRATION_LEVELS}
+                low, high = (b[None] for b in interval_from_std(pred, bounds["std"], self.interval_coverage))
+            else:
+                low, high = (np.asarray(bounds[k], dtype=np.float64)[None] for k in ("low", "high"))
+        batch = FrameBatch(pred[None], gt[None], self._hole[None], np.asarray(self._obs_depth)[None], low, high, levels)
+        return {k: float(v[0]) for k, v in computed_metrics(batch).items() if not np.isnan(v[0])}
 
     def _check_action(self, action: Any) -> np.ndarray:
         # The package's one input rule: a plain float array (masked arrays, integers,

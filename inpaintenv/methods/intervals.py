@@ -46,6 +46,7 @@ class IntervalSource:
     def __init__(self, method: Any, coverage: Coverage, name: str, kind: str) -> None:
         self.method, self.coverage, self.name, self.kind = method, coverage, name, kind
         self._std: Any = None
+        self.at_levels: dict[float, tuple[np.ndarray, np.ndarray]] = {}
 
     def wrap(self, call: Callable) -> Callable:
         """The prediction call: ``call`` itself, or ``predict(X, return_std=True)`` keeping ``std``."""
@@ -62,8 +63,12 @@ class IntervalSource:
 
         return predict_with_std
 
-    def bounds(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray,
+               levels: tuple[float, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
         """``(low, high)`` of the batch ``x`` whose checked prediction is ``pred``.
+
+        With ``levels`` (nominal coverages), the interval of each is asked too and kept in
+        :attr:`at_levels` (``{level: (low, high)}``), checked alike: the reliability diagram's.
 
         Raises
         ------
@@ -72,18 +77,26 @@ class IntervalSource:
             shape, is NaN/inf, negative, inverted or does not hold the prediction in the hole.
         """
         try:
-            if self.kind == "std":
-                std, self._std = self._std, None
-                low, high = interval_from_std(pred, std, self.coverage)
-            else:
-                given = {"prediction": pred} if _takes(self.method.predict_interval, "prediction") else {}
-                out = self.method.predict_interval(x, coverage=self.coverage, **given)
-                if not (isinstance(out, tuple) and len(out) == 2):
-                    raise InvalidInputError(f"predict_interval must return (low, high), got {type(out).__name__}")
-                low, high = out
-            return check_interval(pred, low, high, hole)
+            std, self._std = (self._std, None) if self.kind == "std" else (None, None)
+            # The levels first: a method sees the coverage asked last (as without levels).
+            at = {c: self._bounds(x, pred, hole, c, std) for c in levels if c != self.coverage}
+            low, high = self._bounds(x, pred, hole, self.coverage, std)
+            self.at_levels = {c: at.get(c, (low, high)) for c in levels}
+            return low, high
         except (InvalidInputError, InvalidTypeError) as exc:  # the interval's checks; a bug in the method shows as such
             raise MethodOutputError(f"method {self.name!r}: {exc}") from None
+
+    def _bounds(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray, coverage: float,
+                std: Any) -> tuple[np.ndarray, np.ndarray]:
+        if self.kind == "std":
+            low, high = interval_from_std(pred, std, coverage)
+        else:
+            given = {"prediction": pred} if _takes(self.method.predict_interval, "prediction") else {}
+            out = self.method.predict_interval(x, coverage=coverage, **given)
+            if not (isinstance(out, tuple) and len(out) == 2):
+                raise InvalidInputError(f"predict_interval must return (low, high), got {type(out).__name__}")
+            low, high = out
+        return check_interval(pred, low, high, hole)
 
 
 def interval_source(method: Any, coverage: Coverage | None, name: str) -> IntervalSource | None:

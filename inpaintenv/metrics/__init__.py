@@ -22,6 +22,7 @@ from ._depth import (
 )
 from ._depth_bins import DEPTH_BIN_EDGES, depth_binned_errors
 from ._devkit import interpolate_background
+from ._sparsification import CALIBRATION_LEVELS, CONVENTIONS, REMOVED, auce, calibration, sparsification
 from ._records import POOLS, FrameBatch, Metric, computed_metrics, metric_record, metric_records, register_metric
 from ._intervals import (
     INTERVAL_COLUMNS,
@@ -39,7 +40,7 @@ from ._intervals import (
 )
 
 __all__ = [
-    "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "KITTI_METRICS",
+    "CALIBRATION_LEVELS", "CONVENTIONS", "REMOVED", "auce", "calibration", "sparsification", "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "KITTI_METRICS",
     "METRIC_NAMES", "POOLS", "REGIONS", "FrameBatch", "Metric", "UNFILLED", "UNMEASURED_METRICS", "Coverage", "ScoredPixels", "aggregate",
     "as_coverage", "border_distance", "check_coverage", "check_interval", "check_unfilled", "computed_metrics", "depth_binned_errors",
     "frame_metrics", "interpolate_background", "interval_from_std", "interval_metrics", "metric_record", "metric_records", "normal_quantile",

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -138,6 +138,11 @@ class FrameBatch:
         What the method was given (NaN = to fill).
     low, high : numpy.ndarray or None
         The method's interval, None for a method without one.
+    levels : dict or None
+        ``{nominal coverage: (low, high)}``, the interval at each level of the reliability
+        diagram (:data:`~inpaintenv.metrics.CALIBRATION_LEVELS`), when the method gives one.
+    cache : dict
+        Where records computed from one quantity share it (e.g. AUSE and AURG one curve).
     """
 
     pred: np.ndarray
@@ -146,6 +151,8 @@ class FrameBatch:
     inputs: np.ndarray
     low: np.ndarray | None = None
     high: np.ndarray | None = None
+    levels: dict[float, tuple[np.ndarray, np.ndarray]] | None = None
+    cache: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
 
 
 def computed_metrics(batch: FrameBatch) -> dict[str, np.ndarray]:

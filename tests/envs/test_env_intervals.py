@@ -94,3 +94,23 @@ def test_checker_still_passes_with_an_interval_coverage(dataset):
         warnings.simplefilter("error")
         check_env(env.unwrapped)
     env.close()
+
+
+def test_env_info_has_the_uncertainty_figures_evaluate_gives(dataset):
+    """AUSE, AURG, AUCE and the coverage at each level: the env's info equals evaluate's row."""
+
+    class Fill15Std:
+        def predict(self, x, return_std=False):
+            p = np.nan_to_num(x, nan=15.0).astype(np.float32)
+            return (p, np.where(np.isnan(x), 0.5 + 0.1 * np.arange(x.shape[-1]), 0.0)) if return_std else p
+
+    env = DepthInpaintEnv(dataset, interval_coverage=0.9)
+    obs, _ = env.reset(options={"index": 1, "mask_seed": 0})
+    x = np.where(obs["hole"].astype(bool), np.nan, obs["depth"]).astype(np.float32)
+    depth, std = Fill15Std().predict(x, return_std=True)
+    info = env.step({"depth": depth, "std": std})[4]
+    row = evaluate(Fill15Std(), dataset, seeds=[0], indices=[1], intervals=0.9, progress=False).rows[0]
+    names = ["ause_rmse", "aurg_rmse", "ause_mae", "aurg_mae", "auce", "coverage_50", "coverage_95",
+             "hole_interval_width_median"]
+    assert {c: info[c] for c in names} == pytest.approx({c: row[c] for c in names}, rel=1e-9)
+    assert info["auce"] > 0 and info["ause_rmse"] >= 0
