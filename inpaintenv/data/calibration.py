@@ -318,7 +318,8 @@ def read_calibration(
     cams = (0, 1) if kind == "kitti360" else (2, 3)
     cam = cams[0] if camera is None else camera
     if cam not in cams:
-        raise CalibrationError(f"{where}: a {kind} calibration projects into camera {cams[0]} or {cams[1]}, "
+        layout = {"raw": "KITTI raw", "odometry": "KITTI odometry", "kitti360": "KITTI-360"}[kind]
+        raise CalibrationError(f"{where}: a {layout} calibration projects into camera {cams[0]} or {cams[1]}, "
                                f"not {camera!r}")
     reader = {"raw": _read_raw, "odometry": _read_odometry, "kitti360": _read_kitti360}[kind]
     return reader(where, cam).with_size(size)
