@@ -24,7 +24,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from inpaintenv.conventions import DEFAULT_MAX_DEPTH, check_depth, reconstruction_problem
 from inpaintenv.data.base import DepthDataset, as_dataset
-from inpaintenv.data.inputs import method_input
+from inpaintenv.data.inputs import input_kind, method_input
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import aggregate, frame_metrics
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
@@ -120,7 +120,7 @@ def iter_scoring_batches(
     pixel of ``X`` is scored. Without ``y``, ``X`` is a dataset and frame ``i``'s hole is
     ``protocol``'s mask for ``(seed, i)``, cut out of the dataset's measured input
     (:func:`inpaintenv.data.method_input`): for a map the input is the ground truth and
-    the hole is scored; for a single scan (``input_kind == "scan"``) every pixel left to
+    the hole is scored; for a single scan (a dataset whose input kind is ``separate``) every pixel left to
     fill is scored (the unmeasured pixels, the hole included), as ``evaluate``'s
     ``unmeasured`` set.
     """
@@ -135,13 +135,13 @@ def iter_scoring_batches(
         return
     dataset = as_dataset(X)
     proto = get_protocol(protocol)
-    kind = getattr(dataset, "input_kind", "map")
+    kind = input_kind(getattr(dataset, "input_kind", "map"))
     for start in range(0, len(dataset), chunk):
         idx = range(start, min(start + chunk, len(dataset)))
         inputs, gt = dataset.load_pairs(idx)
         hole = proto.masks(dataset.frame_shape, seed, idx)
         x = method_input(inputs, hole, kind)
-        yield x, gt, (np.isnan(x) if kind == "scan" else hole)
+        yield x, gt, kind.scored(x, hole)
 
 
 #: Drive ids that :class:`~inpaintenv.data.ArrayDataset` makes up for frames without one.

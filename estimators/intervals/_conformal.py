@@ -46,7 +46,7 @@ the drives it is used on. **The base model must never have seen the calibration 
 ``fit`` takes whole drives (``groups``) and refuses drives the base records in
 ``training_drives_``.
 
-On a dataset of single scans (``input_kind == "scan"``) the scored pixels are the protocol's
+On a dataset of single scans (``input_kind`` ``"scan"`` or a density variant) the scored pixels are the protocol's
 task, as the benchmark scores it: under ``densify-v1`` every pixel the scan did not measure,
 under a hole protocol the hole cut out of the scan; ``"densify-v1+rect-v1"`` pools both. The maths is in ``._calibration``, the file's reading and writing in
 ``._persistence`` and ``._calibration_file``.
@@ -64,6 +64,7 @@ from sklearn.base import BaseEstimator, MetaEstimatorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from inpaintenv.data.base import DepthDataset, Subset, as_dataset
+from inpaintenv.data.inputs import input_kind
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.metrics import check_coverage, normal_quantile
 
@@ -316,8 +317,9 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
             "signals": list(signals), "spread_method": self.spread_method if "spread" in signals else None,
             "weighting": self.weighting,
         }
-        if getattr(dataset, "input_kind", "map") == "scan":  # maps' records stay as they were
-            self.calibration_["input_kind"] = "scan"
+        kind = getattr(dataset, "input_kind", "map")
+        if input_kind(kind).separate:  # maps' records stay as they were
+            self.calibration_["input_kind"] = kind
         return self
 
     @staticmethod

@@ -19,6 +19,7 @@ from torch.utils.data import DataLoader, Dataset
 
 from inpaintenv.conventions import check_depth
 from inpaintenv.data.base import DepthDataset
+from inpaintenv.data.inputs import input_kind
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import OcclusionProtocol
 
@@ -168,7 +169,7 @@ class OcclusionFrames(Dataset):
 def scan_input(dataset: DepthDataset) -> bool:
     """Whether ``dataset``'s method input is a separate LiDAR scan (``input_kind == "scan"``)
     rather than its ground-truth map with holes cut into it."""
-    return getattr(dataset, "input_kind", "map") == "scan"
+    return input_kind(getattr(dataset, "input_kind", "map")).separate
 
 
 def input_frame(dataset: DepthDataset, index: int, gt: np.ndarray) -> np.ndarray:

@@ -51,7 +51,7 @@ def _frame_facts(dataset: DepthDataset, index: int) -> Iterator[bytes]:
     if isinstance(sha, str):
         yield sha.encode()
     scans = getattr(dataset, "input_paths", None)
-    scan = scans[index] if isinstance(scans, list) and dataset.input_kind == "scan" else None
+    scan = scans[index] if isinstance(scans, list) and dataset.input.separate else None
     for path in (_frame_path(dataset, index), scan):  # a scan's file too: its changes change the run
         if path is None:
             continue

@@ -11,6 +11,7 @@ from ..report.provenance import environment_info
 from ..report.results import EvaluationResult, json_safe, skipped_markdown
 from ..files import write_text_atomic
 from ..report.tables import REPORT_METRICS, summary_table, table_to_csv, to_markdown
+from .density import density_markdown, density_table
 from .headline import (
     every_method_markdown, every_method_vs_strongest, headline_markdown, headline_title, learned_vs_classical,
 )
@@ -37,7 +38,8 @@ def write_report(
     ``results.csv`` (per-frame rows), ``table.csv`` / ``by_drive.csv`` (the tables: mean,
     interval bounds and frames in the mean per metric; empty bounds where no interval
     exists) and ``results.md`` (overall and per-drive tables, and the best learned vs
-    strongest classical comparison of :mod:`.headline` when the run has both kinds).
+    strongest classical comparison of :mod:`.headline` when the run has both kinds, and the
+    table by LiDAR density of :mod:`.density` when the run scored scans at several densities).
 
     Each file is written whole or not at all (a full disk leaves the previous one), and
     only over a file a run recorded writing (:mod:`.ownership`): ``out_dir`` must be
@@ -62,6 +64,7 @@ def write_report(
     per_drive = summary_table(result, drive_keys)
     headline = learned_vs_classical(result)
     every = every_method_vs_strongest(result)
+    by_density = density_table(result)
     full_meta = {**result.meta, **(meta or {})}
     doc = {
         "meta": {k: v for k, v in full_meta.items() if k != "skipped_frames"},
@@ -71,6 +74,7 @@ def write_report(
         "by_drive": per_drive,
         "headline": headline,
         "vs_strongest_classical": every,
+        **({"by_density": by_density} if by_density else {}),  # a run without a density axis keeps its document
         "rows": result.rows,
     }
     paths = {
@@ -113,6 +117,11 @@ def write_report(
             headline_markdown(headline),
             "",
         ]
+    if by_density:
+        md += ["## By LiDAR density", "",
+               "Mean RMSE (m) of each task's pixels over its frames at every scan density the run scored: the hole, "
+               "under densify-v1 the ground-truth pixels the input did not measure (sparser inputs leave more of "
+               "them, farther from a measurement).", "", density_markdown(by_density), ""]
     if every:
         md += ["## Every method vs the strongest classical (all drives pooled)", "", every_method_markdown(every), ""]
     write_text_atomic(paths["markdown"], "\n".join(md))

@@ -46,14 +46,17 @@ def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], 
 def run_fingerprint(datasets: Mapping[str, DepthDataset], totals: Mapping[str, int], tasks: Sequence[Any],
                     seeds: Sequence[int]) -> dict[str, Any]:
     """What keys a run of tasks (:mod:`.tasks`): the :func:`fingerprint` of its one input kind (a run on
-    maps keeps the key it always had), or, with tasks on both, that of the maps with the scans' under ``"scan"``."""
+    maps keeps the key it always had), or, with tasks on several, that of the maps (else the first kind) with each
+    other kind's under its name (``"scan"``, ``"scan-rings16-v1"``)."""
     kinds = list(dict.fromkeys(t.input_kind for t in tasks))
     keys = {k: fingerprint(datasets[k], totals[k], [t.protocol for t in tasks if t.input_kind == k], seeds)
             for k in kinds}
     if len(kinds) == 1:
         return keys[kinds[0]]
-    key = keys["map"]
-    key["scan"] = {k: v for k, v in keys["scan"].items() if k not in ("seeds", "input_kind")}
+    key = keys[kinds[0]] if "map" not in keys else keys["map"]  # the map's, or the first kind's, as it always was
+    for kind in kinds:
+        if keys[kind] is not key:
+            key[kind] = {k: v for k, v in keys[kind].items() if k not in ("seeds", "input_kind")}
     return key
 
 

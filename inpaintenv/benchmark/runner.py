@@ -23,6 +23,7 @@ from typing import Any
 
 from ..conventions import DEFAULT_MAX_DEPTH, check_int, check_seeds
 from ..data.base import DepthDataset
+from ..data.inputs import input_kind
 from ..evaluate import _evaluate_checked, check_on_bad_frame, resolve_source, training_drives_of
 from ..files import remove_stale_temporaries
 from ..masks import get_protocol
@@ -60,7 +61,7 @@ def _slug(name: str) -> str:
 
 def _rows_file(name: str, task: Task) -> str:
     """``<method>__<protocol>.jsonl`` of a map task (as always); a scan task's file ends in ``__scan``."""
-    kind = "" if task.input_kind == "map" else f"__{task.input_kind}"
+    kind = input_kind(task.input_kind).file_tag
     return f"{_slug(name)}__{_slug(task.protocol)}{kind}.jsonl"
 
 

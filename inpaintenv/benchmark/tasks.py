@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..data.base import DepthDataset
-from ..data.inputs import INPUT_KINDS, check_input_kind
+from ..data.inputs import INPUT_KINDS, INPUTS, check_input_kind, input_kind
 from ..exceptions import InvalidInputError, InvalidTypeError
 from ..masks import get_protocol
 
@@ -42,7 +42,7 @@ class Task:
     @property
     def label(self) -> str:
         """The task in text: ``"rect-v1"`` on maps, ``"scan:rect-v1"`` on scans."""
-        return self.protocol if self.input_kind == "map" else f"{self.input_kind}:{self.protocol}"
+        return input_kind(self.input_kind).label(self.protocol)
 
     def scores(self, name: str) -> bool:
         """Whether the method ``name`` is scored in this task."""
@@ -68,7 +68,7 @@ def parse_task(value: Any, input_kind: str = "map") -> Task:
         raise InvalidTypeError(f"a task must be a protocol name, 'scan:<protocol>' or a Task, got {value!r}")
     check_input_kind(kind, "a task's input kind")
     proto = get_protocol(protocol)
-    if kind == "map" and proto.task == "unmeasured":
+    if INPUTS[kind].is_map and proto.task == "unmeasured":
         raise InvalidInputError(f"{proto.name} fills what a single scan did not measure: a map input has nothing "
                                 f"to fill; score it on scans (--input scan, or the task 'scan:{proto.name}')")
     return Task(kind, proto.name, None if methods is None else tuple(methods))

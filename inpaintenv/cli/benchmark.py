@@ -26,6 +26,7 @@ from .options import (
     open_source_from_args,
     test_split,
 )
+from ..data.inputs import INPUT_KINDS
 
 __all__ = ["add_benchmark", "cmd_benchmark"]
 
@@ -70,11 +71,15 @@ def add_benchmark(subparsers: Any) -> None:
     add_checkpoint_option(p)
     p.add_argument("--protocol", "-p", action="append", metavar="NAME",
                    help="occlusion protocol (repeatable; default: the suite's tasks, see below)")
-    p.add_argument("--input", choices=["map", "scan"],
-                   help="what a method is given under every --protocol: map (the ground truth with the hole cut) or "
-                        "scan (each frame's single LiDAR scan with the hole cut; densify-v1: the scan as it is). "
-                        "Without --protocol and --input a suite scores its tasks: rect-v1 on maps, and for the "
-                        "default and classical suites densify-v1 and rect-v1 on scans with their scan methods")
+    p.add_argument("--input", choices=list(INPUT_KINDS), action="append", metavar="KIND",
+                   help="what a method is given under every --protocol (repeatable: every --protocol on every "
+                        "--input): map (the ground truth with the hole cut), scan (each frame's single LiDAR scan with "
+                        "the hole cut; densify-v1: the scan as it is), or a sparser LiDAR made from the scan: "
+                        "scan-rings32-v1 / scan-rings16-v1 / scan-rings8-v1 (every 2nd / 4th / 8th laser ring) or "
+                        "scan-points50-v1 / scan-points25-v1 / scan-points10-v1 (a seeded share of its points); see "
+                        "docs/protocols.md. Without --protocol and --input a suite scores its tasks: rect-v1 on maps, "
+                        "and for the default and classical suites densify-v1 and rect-v1 on scans with their scan "
+                        "methods")
     p.add_argument("--seed", type=int, action="append", metavar="S", help="evaluation seed (repeatable; default 0)")
     p.add_argument("--holdout", type=float, metavar="FRACTION",
                    help=f"score only a drive-level test split holding this share of the drives "
@@ -207,7 +212,8 @@ def _tasks(args: argparse.Namespace, methods: dict[str, Any]) -> list[Any]:
         protocols = [get_protocol(p).name for p in args.protocol or ["rect-v1"]]
         if len(set(protocols)) != len(protocols):
             raise InvalidInputError(f"--protocol values must be distinct, got {protocols}")
-        return check_tasks(protocols, args.input or "map")
+        inputs = list(dict.fromkeys(args.input or ["map"]))
+        return [task for kind in inputs for task in check_tasks(protocols, kind)]
     suite = args.suite or (None if args.method else "default")
     members = SUITES.get(suite or "", [])
     added = tuple(n for n in methods if n not in members)
@@ -267,6 +273,7 @@ def _report(
     headline), draw the figures of a finished run and write its ``report.html``."""
     import time
 
+    from ..benchmark.density import write_density_figure
     from ..benchmark.html import write_html_report
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..benchmark.report import summary_table, table_keys, to_markdown, write_report
@@ -288,5 +295,8 @@ def _report(
     if args.figure_frames > 0:
         write_task_figures(result, tasks, datasets, out, factories, methods, n_panels=args.figure_frames, seed=seed,
                            log=log, exclude={r["index"] for r in skipped})
+        beams = write_density_figure(result, out / "figures" / "density")
+        if beams is not None:
+            log(f"RMSE against the LiDAR's beams: {beams}")
     log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
     write_html_report(out, log)

@@ -25,6 +25,7 @@ from .options import (
     open_source_from_args,
 )
 from ..exceptions import InvalidInputError
+from ..data.inputs import INPUT_KINDS
 
 __all__ = ["add_evaluate", "cmd_evaluate"]
 
@@ -42,9 +43,12 @@ def add_evaluate(subparsers: Any) -> None:
                    help="method name (repeatable); see `inpaintenv info` for the list")
     add_checkpoint_option(p)
     p.add_argument("--protocol", default="rect-v1", help="occlusion protocol (default rect-v1)")
-    p.add_argument("--input", choices=["map", "scan"], default="map",
+    p.add_argument("--input", choices=list(INPUT_KINDS), default="map", metavar="KIND",
                    help="what a method is given: map (the ground truth with the hole cut, the default) or scan "
-                        "(each frame's single LiDAR scan with the hole cut; e.g. with --protocol densify-v1)")
+                        "(each frame's single LiDAR scan with the hole cut; e.g. with --protocol densify-v1)"
+                        "; or a sparser LiDAR made from the scan: scan-rings32-v1 / scan-rings16-v1 / scan-rings8-v1 "
+                        "(every 2nd / 4th / 8th laser ring), scan-points50-v1 / scan-points25-v1 / scan-points10-v1 "
+                        "(a seeded share of its points; docs/protocols.md)")
     p.add_argument("--seed", type=int, action="append", metavar="S",
                    help="evaluation seed (repeatable; default 0)")
     p.add_argument("--batch-size", type=int, default=4, help="frames per batch (default 4)")

@@ -15,6 +15,7 @@ from .options import (
     test_split,
 )
 from ..exceptions import InvalidInputError
+from ..data.inputs import INPUT_KINDS
 
 __all__ = ["add_export", "cmd_export"]
 
@@ -36,9 +37,12 @@ def add_export(subparsers: Any) -> None:
     )
     p.add_argument("--protocol", default="rect-v1",
                    help="occlusion protocol (default rect-v1; densify-v1, no hole, with --input scan)")
-    p.add_argument("--input", choices=["map", "scan"], default="map",
+    p.add_argument("--input", choices=list(INPUT_KINDS), default="map", metavar="KIND",
                    help="what is exported as the input: map (the ground truth with the hole cut, the default) or "
-                        "scan (each frame's single LiDAR scan with the hole cut; the ground truth stays the target)")
+                        "scan (each frame's single LiDAR scan with the hole cut; the ground truth stays the target)"
+                        "; or a sparser LiDAR made from the scan: scan-rings32-v1 / scan-rings16-v1 / scan-rings8-v1 "
+                        "(every 2nd / 4th / 8th laser ring), scan-points50-v1 / scan-points25-v1 / scan-points10-v1 "
+                        "(a seeded share of its points; docs/protocols.md)")
     p.add_argument("--seed", type=int, action="append", metavar="S",
                    help="evaluation seed (default 0; repeatable only with --trusted: each input would show the other "
                         "seeds' holes as measured depth)")
@@ -83,7 +87,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     manifest = export(out, dataset, args.protocol, seeds, overwrite=args.overwrite, progress=not args.quiet,
                       trusted=args.trusted, key=args.key)
     n_frames = len(manifest.frames)
-    scans = ", inputs: scans" if manifest.input_kind == "scan" else ""
+    kind = manifest.input_kind
+    scans = "" if kind == "map" else ", inputs: scans" + ("" if kind == "scan" else f" ({kind})")
     print(f"exported {len(manifest.items)} input{'s' * (len(manifest.items) != 1)} ({n_frames} "
           f"frame{'s' * (n_frames != 1)} × {len(seeds)} seed{'s' * (len(seeds) != 1)}, protocol "
           f"{manifest.protocol_name}{scans}) to {out}")

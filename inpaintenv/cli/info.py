@@ -8,7 +8,7 @@ import json
 from typing import Any
 
 from ..data.base import as_dataset
-from ..data.inputs import INPUT_KINDS
+from ..data.inputs import INPUT_KINDS, INPUTS
 from .options import add_common_options, add_source_options, open_source_from_args
 from ..exceptions import InvalidInputError
 
@@ -31,24 +31,22 @@ def describe_source(ds: Any, n_sample: int = 8) -> dict[str, Any]:
     return dict(as_dataset(ds).summary(n_sample=n_sample))
 
 
-#: What each input kind gives a method, for ``inpaintenv info``.
-_INPUT_KINDS = {
-    "map": "the ground-truth map with the protocol's hole cut, the default",
-    "scan": "the frame's single LiDAR scan with the hole cut (--input scan; KITTI's velodyne_raw, simulated for "
-            "the synthetic streets)",
-}
+def _kinds_words(kinds: list[str]) -> str:
+    """``"scan"`` for every scan kind (the scan and its density variants), else the kinds joined."""
+    return "scan" if kinds == [k for k in INPUT_KINDS if INPUTS[k].separate] else " and ".join(kinds)
 
 
 def input_kinds() -> dict[str, str]:
-    """Each input kind (:data:`~inpaintenv.data.inputs.INPUT_KINDS`) and what a method is then given."""
-    return {k: _INPUT_KINDS[k] for k in INPUT_KINDS}
+    """Each input kind (:data:`~inpaintenv.data.inputs.INPUTS`) and what a method is then given."""
+    return {k: INPUTS[k].summary for k in INPUT_KINDS}
 
 
 def protocol_inputs() -> dict[str, list[str]]:
     """Each protocol and the input kinds it applies to (``densify-v1``, which cuts no hole, to scans only)."""
     from ..masks import available_protocols, get_protocol
 
-    return {p: ["scan"] if get_protocol(p).task == "unmeasured" else list(INPUT_KINDS) for p in available_protocols()}
+    scans = [k for k in INPUT_KINDS if INPUTS[k].separate]
+    return {p: scans if get_protocol(p).task == "unmeasured" else list(INPUT_KINDS) for p in available_protocols()}
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -72,7 +70,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"{key:>16}: {value}")
     print(f"{'input kinds':>16}: " + "; ".join(f"{k} ({what})" for k, what in input_kinds().items()))
     print(f"{'protocols':>16}: " + ", ".join(
-        p if kinds == list(INPUT_KINDS) else f"{p} ({' and '.join(kinds)} only)" for p, kinds in protocol_inputs().items()))
+        p if kinds == list(INPUT_KINDS) else f"{p} ({_kinds_words(kinds)} only)" for p, kinds in protocol_inputs().items()))
     print(f"{'methods':>16}: {', '.join(available_methods())}")
     print(f"{'aliases':>16}: {', '.join(f'{a} -> {t}' for a, t in available_aliases().items())}")
     return 0

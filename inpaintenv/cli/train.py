@@ -24,6 +24,7 @@ from .options import (
     thread_count,
 )
 from ..exceptions import FileTooLargeError, InpaintenvError, InvalidInputError, JSONFileError, UnsafeFileError
+from ..data.inputs import INPUT_KINDS, input_kind
 
 
 def add_train(subparsers: Any) -> None:
@@ -58,9 +59,12 @@ def add_train(subparsers: Any) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute the blend presets' training features on a Dask cluster: tcp://HOST:PORT of a "
                         'running scheduler, or local:N worker processes here (needs pip install "inpaintenv[dask]")')
-    p.add_argument("--input", choices=["map", "scan"], default="map",
+    p.add_argument("--input", choices=list(INPUT_KINDS), default="map", metavar="KIND",
                    help="what the model learns to fill: map (the ground truth with holes cut, the default) or scan "
-                        "(each frame's single LiDAR scan, with or without holes; blend presets only, e.g. blend-kitti)")
+                        "(each frame's single LiDAR scan, with or without holes; blend presets only, e.g. blend-kitti)"
+                        "; or a sparser LiDAR made from the scan: scan-rings32-v1 / scan-rings16-v1 / scan-rings8-v1 "
+                        "(every 2nd / 4th / 8th laser ring), scan-points50-v1 / scan-points25-v1 / scan-points10-v1 "
+                        "(a seeded share of its points; docs/protocols.md)")
     add_source_options(p)
     add_common_options(p)
     p.set_defaults(func=cmd_train, on_interrupt=_train_interrupted)
@@ -368,7 +372,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     # Every parameter is checked before anything is written: a refused --max-steps must not
     # leave a train_args.json behind that the next run compares itself with.
     check_preset(args.preset, **overrides)
-    if args.input == "scan":
+    if input_kind(args.input).separate:
         check_scan_training(args.preset, overrides)
     ds = open_source_from_args(args)  # with --input scan, each frame's scan paired with its ground truth
     out = Path(args.out)

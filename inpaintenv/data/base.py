@@ -258,8 +258,8 @@ class ArrayDataset(DepthDataset):
     def _load(self, index: int) -> np.ndarray:
         return np.asarray(self._frames[index], dtype=np.float32)
 
-    def _load_input(self, index: int) -> np.ndarray:
-        return self._load(index) if self._inputs is None else self._inputs[index]
+    def _load_scan(self, index: int) -> np.ndarray:
+        return self._inputs[index]
 
 
 class ConcatDataset(DepthDataset):

@@ -31,10 +31,11 @@ from .io import (
     png_header,
     read_depth_png_raw,
 )
-from ..exceptions import InvalidInputError, InvalidTypeError
-from .inputs import check_input_kind
+from ..exceptions import CalibrationError, InvalidInputError, InvalidTypeError
+from .calibration import Calibration, read_calibration
+from .inputs import check_input_kind, input_kind
 
-__all__ = ["KittiDepth", "KITTI_URL", "KITTI_ROOT_ENV", "png_header", "bottom_center_crop"]
+__all__ = ["KittiDepth", "KITTI_URL", "KITTI_ROOT_ENV", "png_header", "bottom_center_crop", "scan_calibration"]
 
 #: Where to download the KITTI depth-completion data.
 KITTI_URL = "https://www.cvlibs.net/datasets/kitti/eval_depth.php?benchmark=depth_completion"
@@ -76,6 +77,45 @@ def bottom_center_crop(
     top, left = h - ch, (w - cw) // 2
     view = depth[top:, left : left + cw]
     return np.ascontiguousarray(view) if copy else view
+
+
+def scan_calibration(
+    root: Path, frame_id: str, file_size: tuple[int, int], frame_shape: tuple[int, int],
+) -> Calibration:
+    """The projection a KITTI frame's scan was made with, as the frame is read (cropped).
+
+    Parameters
+    ----------
+    root : Path
+        The KITTI root; each day's calibration is at ``<root>/calib/<day>/`` (a raw day
+        folder or an odometry ``calib.txt``, see :func:`~inpaintenv.data.calibration.read_calibration`).
+    frame_id : str
+        ``<drive>/<camera>/<frame>``: the day is the drive's first 10 characters.
+    file_size : (int, int)
+        ``(width, height)`` of the scan's PNG (a bottom-centre crop of the camera image, or all of it).
+    frame_shape : (int, int)
+        ``(H, W)`` the frame is read at (the file's bottom-centre crop).
+
+    Raises
+    ------
+    CalibrationError
+        No calibration of the frame's day under ``root/calib``, naming the folder.
+    """
+    drive, camera = frame_id.split("/")[:2]
+    folder = Path(root) / "calib" / drive[:10]
+    if not folder.is_dir():
+        raise CalibrationError(
+            f"{folder} not found: a ring-thinned input finds each scan's laser rings from its day's calibration "
+            "(<root>/calib/<day>/: a KITTI raw day folder, calib_cam_to_cam.txt + calib_velo_to_cam.txt, or an odometry "
+            "calib.txt)")
+    calib = read_calibration(folder, camera=int(camera[-1]))
+    full_w, full_h = calib.size or file_size
+    h, w = frame_shape
+    # The frame is a bottom-centre crop of the file, itself one of the camera image: shift the principal point.
+    left = (full_w - file_size[0]) // 2 + (file_size[0] - w) // 2
+    top = full_h - h
+    shift = np.array([[1.0, 0.0, -left], [0.0, 1.0, -top], [0.0, 0.0, 1.0]])
+    return Calibration(shift @ calib.matrix, (w, h), calib.kind, calib.source, calib.camera)
 
 
 class KittiDepth(DepthDataset):
@@ -143,8 +183,10 @@ class KittiDepth(DepthDataset):
         if kind not in _KINDS:
             raise InvalidInputError(f"kind must be one of {_KINDS}, got {kind!r}")
         self.input_kind = check_input_kind(input)
-        if input == "scan" and kind != "groundtruth":
-            raise InvalidInputError(f"input='scan' pairs a scan with its ground truth: kind must be 'groundtruth', got {kind!r}")
+        scans = input_kind(input).separate
+        if scans and kind != "groundtruth":
+            raise InvalidInputError(f"input={input!r} pairs a scan with its ground truth: kind must be 'groundtruth', "
+                                    f"got {kind!r}")
         if camera not in (*_CAMERAS, "both"):
             raise InvalidInputError(f"camera must be 'image_02', 'image_03' or 'both', got {camera!r}")
         if crop is not None:
@@ -182,11 +224,12 @@ class KittiDepth(DepthDataset):
         if not entries:
             raise FileNotFoundError(f"no depth PNGs found: searched {searched}\n{_LAYOUT_HELP}")
         entries.sort(key=lambda e: (e[1], e[2], e[3]))  # drive, camera, frame
-        if input == "scan":
+        if scans:
             entries = _pair_with_scans(entries, index(self.root, kind="velodyne_raw", cameras=cameras, drives=wanted))
 
         self.paths: list[Path] = [e[0] for e in entries]
-        self.input_paths: list[Path] = [e[-1] for e in entries] if input == "scan" else self.paths
+        self.input_paths: list[Path] = [e[-1] for e in entries] if scans else self.paths
+        self._calibrations: dict[tuple[tuple[int, int], str], Calibration] = {}
         self.groups = np.asarray([e[1] for e in entries])
         self.frame_ids = [f"{e[1]}/{e[2]}/{e[3]}" for e in entries]
         self._headers: list[PngHeader] | None = None
@@ -212,8 +255,15 @@ class KittiDepth(DepthDataset):
     def _load(self, index: int) -> np.ndarray:
         return self._read(self.paths[index])
 
-    def _load_input(self, index: int) -> np.ndarray:
+    def _load_scan(self, index: int) -> np.ndarray:
         return self._read(self.input_paths[index])
+
+    def _scan_calibration(self, index: int) -> tuple[Calibration, float | None]:
+        header = png_header(self.input_paths[index])
+        key = ((header.width, header.height), self.frame_ids[index].rsplit("/", 1)[0])
+        if key not in self._calibrations:  # one per drive, camera and file size
+            self._calibrations[key] = scan_calibration(self.root, self.frame_ids[index], key[0], self.frame_shape)
+        return self._calibrations[key], None
 
     def _read(self, path: Path) -> np.ndarray:
         raw = read_depth_png_raw(path)

@@ -32,9 +32,10 @@ import numpy as np
 
 from ..conventions import check_frame_shape, check_int, check_seed
 from .base import DepthDataset
-from .inputs import check_input_kind
+from .calibration import Calibration
+from .inputs import check_input_kind, input_kind
 from .synthetic_lidar import (  # noqa: F401  (KITTI_* and Camera are part of this module's API)
-    KITTI_CX, KITTI_CY, KITTI_FX, KITTI_FY, KITTI_RAW_SHAPE, Camera, accumulated_scans, single_scan,
+    KITTI_CX, KITTI_CY, KITTI_FX, KITTI_FY, KITTI_RAW_SHAPE, Camera, accumulated_scans, lidar_calibration, single_scan,
 )
 from ..exceptions import InvalidInputError
 
@@ -297,8 +298,9 @@ class SyntheticStreets(DepthDataset):
         if kind not in _KINDS:
             raise InvalidInputError(f"kind must be one of {_KINDS}, got {kind!r}")
         self.input_kind = check_input_kind(input)
-        if input == "scan" and kind != "groundtruth":
-            raise InvalidInputError(f"input='scan' pairs a scan with its ground truth: kind must be 'groundtruth', got {kind!r}")
+        if input_kind(input).separate and kind != "groundtruth":
+            raise InvalidInputError(f"input={input!r} pairs a scan with its ground truth: kind must be 'groundtruth', "
+                                    f"got {kind!r}")
         self.frame_shape = check_frame_shape(frame_shape, "frame_shape")
         self.seed, self.kind = check_seed(seed, "seed"), kind
         self.camera = Camera(self.frame_shape)
@@ -325,16 +327,14 @@ class SyntheticStreets(DepthDataset):
             return single_scan(depth, self.camera, rng)
         return accumulated_scans(depth, moving, self.camera, speed, rng)
 
-    def _load_input(self, index: int) -> np.ndarray:
-        if self.input_kind == "map":
-            return self._load(index)
+    def _load_scan(self, index: int) -> np.ndarray:
         depth, _, _, rng = self._render(index)
         return single_scan(depth, self.camera, rng)
 
-    def _load_pair(self, index: int) -> tuple[np.ndarray, np.ndarray]:
-        if self.input_kind == "map":
-            frame = self._load(index)
-            return frame, frame
+    def _scan_calibration(self, index: int) -> tuple[Calibration, float | None]:
+        return lidar_calibration(self.camera), 0.0  # the simulated lasers sit at the LiDAR's origin
+
+    def _load_scan_pair(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         # One render; the scan draws from a copy of the rng, so each equals its own kind's frame.
         depth, moving, speed, rng = self._render(index)
         scan = single_scan(depth, self.camera, copy.deepcopy(rng))

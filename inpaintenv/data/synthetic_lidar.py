@@ -12,7 +12,9 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["Camera", "accumulated_scans", "single_scan", "KITTI_FX", "KITTI_FY", "KITTI_CX", "KITTI_CY", "KITTI_RAW_SHAPE"]
+from .calibration import Calibration
+
+__all__ = ["Camera", "accumulated_scans", "lidar_calibration", "single_scan", "KITTI_FX", "KITTI_FY", "KITTI_CX", "KITTI_CY", "KITTI_RAW_SHAPE"]
 
 # KITTI P_rect_02 of 2011_09_26 (the raw 1242x375 image).
 KITTI_FX = KITTI_FY = 721.5377
@@ -52,6 +54,18 @@ class Camera:
         a = (np.arange(w) - self.cx) / KITTI_FX
         b = (np.arange(h) - self.cy) / KITTI_FY
         return a, b
+
+
+def lidar_calibration(camera: Camera) -> Calibration:
+    """The projection of the simulated LiDAR's frame (x forward, y left, z up, origin at the lasers) into ``camera``.
+
+    Each simulated laser sweeps a cone of constant elevation in this frame, so
+    :func:`~inpaintenv.data.thinning.ring_map` finds its rings (with laser height 0).
+    """
+    h, w = camera.shape
+    k = np.array([[KITTI_FX, 0.0, camera.cx], [0.0, KITTI_FY, camera.cy], [0.0, 0.0, 1.0]])
+    to_camera = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # forward, left, up -> right, down, forward
+    return Calibration(k @ np.hstack([to_camera, np.asarray(LIDAR_OFFSET)[:, None]]), (w, h), "synthetic")
 
 
 _LUT_STEP = 1e-4  # resolution of the nearest-beam table in tan(elevation)

@@ -185,7 +185,8 @@ def laser_rings(points: np.ndarray, laser_height: float | None = None) -> np.nda
         return np.zeros(0, dtype=np.int64)
     corrected = np.empty_like(elevation)
     for block in (lower, ~lower):  # each block of lasers drifts on its own
-        corrected[block] = _corrected(azimuth[block], elevation[block])
+        if block.any():
+            corrected[block] = _corrected(azimuth[block], elevation[block])
     edges = _ring_edges(corrected)
     # edges descend: a point above the first edge is ring 0.
     return np.searchsorted(-edges, -corrected, side="left").astype(np.int64)

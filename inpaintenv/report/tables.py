@@ -134,7 +134,7 @@ def _has_intervals(entries: Sequence[dict[str, Any]]) -> bool:
 def _metrics_of(entries: Sequence[dict[str, Any]]) -> tuple[tuple[str, str, str], ...]:
     """:data:`REPORT_METRICS`, then :data:`SCAN_REPORT_METRICS` when some entry is of a scan input, then
     :data:`INTERVAL_REPORT_METRICS` when ``entries`` have intervals."""
-    scans = any(e.get("input_kind") == "scan" for e in entries)
+    scans = any(e.get("input_kind", "map") != "map" for e in entries)
     return _columns("depth") + (_columns("scan") if scans else ()) + (
         _columns("interval") if _has_intervals(entries) else ())
 

@@ -202,7 +202,7 @@ def _check_task(proto: OcclusionProtocol, input_kind: str) -> None:
 def _load_frame(dataset: Any, i: int) -> tuple[np.ndarray, np.ndarray]:
     """``(input, ground truth)`` of frame ``i``; the input, which is written, must survive KITTI's encoding."""
     inputs, gt = dataset.load_pairs([i])
-    scan = dataset.input_kind == "scan"
+    scan = dataset.input.separate
     tiny = (inputs[0] > 0) & (inputs[0] < 0.5 / KITTI_DEPTH_SCALE)
     if tiny.any():
         raise InvalidInputError(f"{'the scan of ' if scan else ''}frame {i} ({dataset.frame_ids[i]}) has depth below "
@@ -215,7 +215,7 @@ def _frame_record(dataset: Any, i: int, fields: dict[str, Any], inputs: np.ndarr
     generated frames (and scans), which only loading them gives."""
     if "ground_truth_sha256" not in fields:
         fields = {**fields, "ground_truth_sha256": array_sha256(gt)}
-    if dataset.input_kind == "scan" and "scan_sha256" not in fields:
+    if dataset.input.separate and "scan_sha256" not in fields:
         fields = {**fields, "scan_sha256": array_sha256(inputs)}
     return Frame(index=i, frame_id=str(dataset.frame_ids[i]), drive=str(dataset.groups[i]), **fields)
 
@@ -360,7 +360,7 @@ def export(
             inpaintenv_version=__version__,
             extra={"encoding": {"input": DEPTH_ENCODING, "hole": HOLE_ENCODING},
                    # Only an export of scans says so: a map export keeps the bytes it always had.
-                   **({"input_kind": "scan"} if dataset.input_kind == "scan" else {})},
+                   **({"input_kind": dataset.input_kind} if dataset.input.separate else {})},
             role=KEY, kit=Path(os.path.relpath(os.path.abspath(given), key_path.parent)).as_posix(), trusted=trusted,
         )
         manifest.kit_manifest().write(tmp / MANIFEST_NAME)

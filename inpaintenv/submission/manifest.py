@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from ..data.inputs import INPUTS
 from ..data.io import read_depth_png, read_png
 from .layout import HOLE_VALUE, MAX_FRAME_PIXELS, is_safe_relative
 from ..exceptions import FileTooLargeError, JSONFileError, ManifestError
@@ -393,11 +394,11 @@ class _Reader:
         """Whether the inputs are scans: the document's ``input_kind`` (absent: maps), which a key's
         ``ground_truth.input`` must repeat (it says how to rebuild them)."""
         kind = self.doc.get("input_kind", "map")
-        if kind not in ("map", "scan"):
-            raise self.fail("input_kind", f"must be \"map\" or \"scan\", got {str(kind)[:80]!r}")
+        if not isinstance(kind, str) or kind not in INPUTS:
+            raise self.fail("input_kind", f"must be one of {', '.join(INPUTS)}, got {str(kind)[:80]!r}")
         if role == KEY and truth.get("input", "map") != kind:
             raise self.fail("ground_truth.input", f"must be the input_kind {kind!r}, got {str(truth.get('input'))[:80]!r}")
-        return kind == "scan"
+        return INPUTS[kind].separate
 
     def frames(self, raw: Any, role: str, truth: dict[str, Any], scans: bool = False) -> list[Frame]:
         if not isinstance(raw, list) or not raw:

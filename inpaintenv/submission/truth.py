@@ -28,7 +28,8 @@ import numpy as np
 
 from ..data.base import ConcatDataset, DepthDataset, Subset
 from ..data.io import depth_from_uint16, read_depth_png_raw
-from ..data.kitti import KittiDepth, bottom_center_crop
+from ..data.calibration import Calibration
+from ..data.kitti import KittiDepth, bottom_center_crop, png_header, scan_calibration
 from ..data.synthetic import SyntheticStreets
 from .layout import array_sha256, file_sha256, is_inside
 from .manifest import Frame, Manifest, ManifestError
@@ -54,19 +55,19 @@ def _leaves(ds: DepthDataset) -> list[tuple[DepthDataset, int]]:
 def _synthetic_params(ds: SyntheticStreets) -> dict[str, Any]:
     params = {"n": ds.n, "seed": ds.seed, "kind": ds.kind, "frame_shape": list(ds.frame_shape),
               "frames_per_drive": ds.frames_per_drive}
-    return {**params, "input": "scan"} if ds.input_kind == "scan" else params  # a map key keeps its bytes
+    return {**params, "input": ds.input_kind} if ds.input.separate else params  # a map key keeps its bytes
 
 
 def _input_record(dataset: DepthDataset) -> dict[str, Any]:
     """``{"input": "scan"}`` for a source of scans (what the key's ``ground_truth`` adds), else nothing."""
-    return {"input": "scan"} if dataset.input_kind == "scan" else {}
+    return {"input": dataset.input_kind} if dataset.input.separate else {}
 
 
 def _kitti_fields(owner: KittiDepth, i: int) -> dict[str, Any]:
     """The score key's record of KITTI frame ``i`` of ``owner``: its ground-truth file (and scan file) and sha256."""
     fields = {"ground_truth": owner.paths[i].relative_to(owner.root).as_posix(),
               "ground_truth_sha256": file_sha256(owner.paths[i], "ground-truth file")}
-    if owner.input_kind == "scan":
+    if owner.input.separate:
         scan = owner.input_paths[i]
         fields.update(scan=scan.relative_to(owner.root).as_posix(), scan_sha256=file_sha256(scan, "scan file"))
     return fields
@@ -137,9 +138,12 @@ class ManifestFrames(DepthDataset):
         frame = self._frames[index]
         return self._read_listed(index, str(frame.ground_truth), str(frame.ground_truth_sha256), "ground truth")
 
-    def _load_input(self, index: int) -> np.ndarray:
-        if self.input_kind == "map":
-            return self._load(index)
+    def _scan_calibration(self, index: int) -> tuple[Calibration, float | None]:
+        path = self.root / str(self._frames[index].scan)
+        header = png_header(path)
+        return scan_calibration(self.root, self.frame_ids[index], (header.width, header.height), self.frame_shape), None
+
+    def _load_scan(self, index: int) -> np.ndarray:
         frame = self._frames[index]
         return self._read_listed(index, str(frame.scan), str(frame.scan_sha256), "scan")
 
@@ -258,7 +262,7 @@ def verify_frame(manifest: Manifest, frame: Frame, gt: np.ndarray, scan: np.ndar
     if manifest.ground_truth.get("type") == "kitti":
         return
     checks = [("ground truth", gt, frame.ground_truth_sha256)]
-    if manifest.input_kind == "scan":
+    if manifest.input_kind != "map":
         checks.append(("scan", scan, frame.scan_sha256))
     for what, array, recorded in checks:
         if array is None or array_sha256(np.asarray(array, dtype=np.float32)) != recorded:

@@ -350,6 +350,9 @@ def test_train_input_scan_opens_scans_or_names_the_limitation(tmp_path, capsys, 
     data = ["--n-frames", "8", "--frame-shape", "64", "192", "--quiet"]
     assert main(["train", "--preset", "blend-kitti", "--input", "scan", "--out", str(tmp_path / "b"), *data]) == 0
     assert seen["ds"].input_kind == "scan" and "input='scan'" in seen["record"]["source"]
+    # A density variant trains on the thinned scans.
+    assert main(["train", "--preset", "blend-kitti", "--input", "scan-rings8-v1", "--out", str(tmp_path / "r"), *data]) == 0
+    assert seen["ds"].input_kind == "scan-rings8-v1" and seen["ds"].input.keep_every == 8
     # A preset whose estimator does not learn from a scan is refused in one line naming it.
     assert main(["train", "--preset", "smoke", "--input", "scan", "--out", str(tmp_path / "s"), *data]) == 1
     err = capsys.readouterr().err.strip()

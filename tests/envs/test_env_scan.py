@@ -53,6 +53,17 @@ def test_a_map_env_observes_what_it_was_given(scans):
     assert DepthInpaintEnv(scans, input="scan").input_kind == "scan"
 
 
+def test_a_density_variant_env_observes_the_thinned_scan():
+    env = gym.make("inpaintenv/SyntheticInpaint-v0", n=2, seed=0, frame_shape=(64, 160), input="scan-rings16-v1",
+                   protocol="rect-v1")
+    obs, info = env.reset(options={"index": 0, "mask_seed": 1})
+    thinned = env.unwrapped.dataset.input_frame(0)
+    assert info["input_kind"] == "scan-rings16-v1"
+    np.testing.assert_array_equal(obs["measured"].astype(bool), (thinned > 0) & ~obs["hole"].astype(bool))
+    full = SyntheticStreets(n=2, seed=0, frame_shape=(64, 160), input="scan").input_frame(0)
+    assert 0 < np.count_nonzero(obs["measured"]) < 0.5 * np.count_nonzero(full)
+
+
 @pytest.mark.parametrize("protocol", ["densify-v1", "rect-v1"])
 def test_gymnasium_checker_passes_on_scans(protocol):
     env = gym.make("inpaintenv/SyntheticInpaint-v0", n=3, seed=0, frame_shape=(64, 160), input="scan",

@@ -42,13 +42,13 @@ def raw_of(path) -> np.ndarray:
     return cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
 
 
-def assert_close_rows(scored, reference) -> None:
+def assert_close_rows(scored, reference, kind="scan") -> None:
     """Every identifying column equal and every metric within 1e-6 relative (NaN equal to NaN)."""
     key = lambda r: (r["seed"], r["index"])
     a, b = sorted(scored.rows, key=key), sorted(reference.rows, key=key)
     assert [key(r) for r in a] == [key(r) for r in b] and a
     for ra, rb in zip(a, b):
-        assert ra["input_kind"] == rb["input_kind"] == "scan"
+        assert ra["input_kind"] == rb["input_kind"] == kind
         for c in COMPARED:
             x, y = ra[c], rb[c]
             if isinstance(x, float) and isinstance(y, float):
@@ -99,6 +99,33 @@ def test_synthetic_scan_round_trip_equals_evaluate(tmp_path, scans, protocol, ru
     assert_close_rows(scored, reference)
     assert len(scored.rows) == len(manifest.items)
     assert all(r["unmeasured_count"] > r["hole_count"] for r in scored.rows)
+
+
+@pytest.mark.parametrize("kind, protocol", [("scan-rings16-v1", "rect-v1"), ("scan-points25-v1", "densify-v1")])
+def test_a_density_variant_round_trip_equals_evaluate(tmp_path, kind, protocol, run_fill, fill_method):
+    """A thinned scan exported, filled in a separate process and scored: the scores of evaluate() in-process."""
+    source = SyntheticStreets(n=4, seed=0, frame_shape=(64, 192), frames_per_drive=2, input=kind)
+    manifest, scored, reference = round_trip(tmp_path, source, protocol, run_fill, fill_method)
+    assert manifest.input_kind == kind and manifest.ground_truth["input"] == kind
+    assert_close_rows(scored, reference, kind)
+    for item in manifest.items:  # the input written is the thinned scan with the hole cut
+        scan = source.input_frame(item.index)
+        np.testing.assert_array_equal(raw_of(manifest.root / item.input),
+                                      np.rint(np.where(manifest.read_hole(item), 0.0, scan.astype(np.float64)) * 256))
+
+
+@pytest.mark.kitti
+def test_kitti_ring_thinned_round_trip_equals_evaluate(tmp_path, kitti_root, run_fill, fill_method):
+    """The score key lists the full scan file; scoring thins it again from the day's calibration under the root."""
+    source = KittiDepth(kitti_root, split="val_selection", input="scan-rings8-v1")
+    manifest, scored, reference = round_trip(tmp_path, source, "rect-v1", run_fill, fill_method, kitti_root)
+    assert_close_rows(scored, reference, "scan-rings8-v1")
+    full = KittiDepth(kitti_root, split="val_selection", input="scan")
+    for item in manifest.items:
+        thinned, scan = source.input_frame(item.index), full.input_frame(item.index)
+        assert 0 < np.count_nonzero(thinned) < 0.2 * np.count_nonzero(scan)
+        np.testing.assert_array_equal(raw_of(manifest.root / item.input).astype(np.float32) / 256,
+                                      np.where(manifest.read_hole(item), 0, thinned))
 
 
 @pytest.mark.kitti
