@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..data.inputs import INPUTS
 from ..exceptions import InpaintenvError
 from ..files import read_bytes, read_json, write_text_atomic
 from ..masks import get_protocol
@@ -56,6 +57,8 @@ KNOWN_FIGURES: tuple[tuple[str, str], ...] = (
                              "their distance in pixels to the nearest pixel the method's input measured."),
     ("error_rejection.png", "Error rejection (methods with intervals): RMSE of the most confident pixels kept, "
                             "against the pixels nearest the hole border (dashed)."),
+    ("error_vs_beams.png", "Error by LiDAR density: mean RMSE of the task against the beams of the LiDAR simulated "
+                           "(every k-th ring of the 64-beam scan kept), one line per method (from the rows)."),
 )
 
 _SCRIPT = """
@@ -147,8 +150,11 @@ def _task_title(kind: str, protocol: str) -> str:
         unmeasured = get_protocol(protocol).task == "unmeasured"
     except InpaintenvError:
         unmeasured = False
-    what = ("Densifying single scans" if unmeasured else "Holes in single scans") if kind == "scan" else (
+    spec = INPUTS.get(kind)
+    what = ("Densifying single scans" if unmeasured else "Holes in single scans") if spec and spec.separate else (
         "Holes in maps" if kind == "map" else f"Input {kind}")
+    if spec is not None and spec.thinned:
+        what += f" ({spec.density})"
     return f"{what} — {task_label(kind, protocol)}"
 
 

@@ -41,7 +41,9 @@ def test_the_report_has_the_density_table_and_figure(run):
         < by[("nearest", "densify-v1", "scan-rings8-v1")]["rmse"]
     md = (run / "results.md").read_text()
     assert "## By LiDAR density" in md and "| 16 beams (scan-rings16-v1) |" in md
-    assert (run / "figures" / "error_vs_beams.png").stat().st_size > 0
+    assert (run / "figures" / "density" / "error_vs_beams.png").stat().st_size > 0
+    html = (run / "report.html").read_text()
+    assert "Error by LiDAR density" in html and "Holes in single scans (16 beams)" in html
 
 
 def test_a_run_on_one_density_has_no_density_axis():
