@@ -113,6 +113,10 @@ def add_fill(subparsers: Any) -> None:
     c.add_argument("--intervals", metavar="CAL.json",
                    help="a saved interval calibration of the method (ConformalIntervalInpainter.save), for "
                         "--confidence")
+    o.add_argument("--preview", action="store_true",
+                   help="also write <name>_preview.png beside each input's outputs: an 8-bit colour picture of the "
+                        "input, the fill and (with --confidence) the interval width, one depth scale in metres with "
+                        "its colour bar")
     o.add_argument("--jobs", type=int, metavar="N", help="parallel frames for the classical methods")
     o.add_argument("--batch-size", type=int, default=4, metavar="N", help="same-sized frames per call (default 4)")
     o.add_argument("--overwrite", action="store_true",
@@ -151,7 +155,7 @@ def cmd_fill(args: argparse.Namespace) -> int:
         missing=args.missing, calibration=args.calib, size=args.size, camera=args.camera, format=args.format,
         points=args.points, overwrite=args.overwrite, on_error=args.on_error, n_jobs=args.jobs,
         batch_size=args.batch_size, progress=not args.quiet, log=log, confidence=args.confidence,
-        intervals=args.intervals, fill_all=args.fill_all, input=args.input,
+        intervals=args.intervals, fill_all=args.fill_all, input=args.input, preview=args.preview,
     )
     print_line(report.summary())
     return 0 if report.ok else 1

@@ -23,6 +23,8 @@ POINT_FORMATS = {None: (), "bin": (".bin",), "ply": (".ply",), "both": (".bin", 
 SCAN_SUFFIX = ".bin"
 #: Suffixes (before the format's) of the interval files written beside each depth file.
 INTERVAL_SUFFIXES = ("_low", "_high")
+#: What the preview's name adds to the input's stem (``frame.png`` -> ``frame_preview.png``).
+PREVIEW_SUFFIX = "_preview"
 
 
 @dataclass(frozen=True)
@@ -39,17 +41,21 @@ class FillJob:
         The depth files, then (scans only) the point files.
     intervals : tuple of (pathlib.Path, pathlib.Path)
         With ``confidence``: per depth file, its ``_low`` and ``_high`` files.
+    preview : pathlib.Path or None
+        With ``preview``: the colour picture ``<name>_preview.png`` (:mod:`.preview`).
     """
 
     source: Path
     rel: Path
     outputs: tuple[Path, ...]
     intervals: tuple[tuple[Path, Path], ...] = ()
+    preview: Path | None = None
 
     @property
     def all_outputs(self) -> tuple[Path, ...]:
-        """Every file the job writes: depth, interval and point files."""
-        return (*self.outputs, *(p for pair in self.intervals for p in pair))
+        """Every file the job writes: depth, interval, point files and the preview."""
+        return (*self.outputs, *(p for pair in self.intervals for p in pair),
+                *((self.preview,) if self.preview is not None else ()))
 
     @property
     def out(self) -> Path:
@@ -143,7 +149,8 @@ def _found(given: Path, out: Path, out_abs: Path, masks: list[Path]) -> list[tup
 
 
 def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format: str = "png",
-         points: str | None = None, protect: Sequence[str | os.PathLike] = (), confidence: bool = False) -> tuple[
+         points: str | None = None, protect: Sequence[str | os.PathLike] = (), confidence: bool = False,
+         preview: bool = False) -> tuple[
              list[FillJob], list[tuple[Path, str]], list[Path]]:
     """The jobs of a run: ``(jobs, missing inputs with why, ignored files)``.
 
@@ -162,6 +169,8 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
         or folder of masks, when it lies inside an input folder).
     confidence : bool
         Each depth file has its interval files beside it.
+    preview : bool
+        Each input also has a colour picture, ``<name>_preview.png`` (:mod:`.preview`).
 
     Returns
     -------
@@ -209,7 +218,8 @@ def plan(inputs: Sequence[str | os.PathLike], out: str | os.PathLike, *, format:
             extra = POINT_FORMATS[points] if suffix == SCAN_SUFFIX else ()
             outputs = tuple(out / rel.with_suffix(s) for s in (*FORMATS[format], *extra))
             intervals = tuple(_interval_pair(out / rel.with_suffix(s)) for s in FORMATS[format]) if confidence else ()
-            job = FillJob(path, rel, outputs, intervals)
+            shown = out / rel.with_name(rel.stem + PREVIEW_SUFFIX + ".png") if preview else None
+            job = FillJob(path, rel, outputs, intervals, shown)
             for o in job.all_outputs:
                 if o.resolve() in files or any(_is_under(o.resolve(), f) for f in folders):
                     raise InvalidInputError(f"{path} would be filled into {o}, an input or inside an input folder; "

@@ -248,6 +248,7 @@ def fill(
     on_error: str = "continue", n_jobs: int | None = None, batch_size: int = 4, progress: bool = True,
     log: Callable[[str], None] | None = None, confidence: float | None = None,
     intervals: str | os.PathLike | None = None, fill_all: bool = False, input: str | None = None,
+    preview: bool = False,
 ) -> FillReport:
     """Fill depth files and LiDAR scans (files or folders, read recursively) into ``out``.
 
@@ -304,6 +305,10 @@ def fill(
     intervals : path-like, optional
         With ``confidence``: a calibration saved by
         :meth:`estimators.intervals.ConformalIntervalInpainter.save` to wrap ``method`` in.
+    preview : bool
+        Also write ``<name>_preview.png`` beside each input's outputs: an 8-bit colour picture of
+        the input, the fill and (with ``confidence``) the interval width (:mod:`.preview`); one
+        more output of the input, recorded and skipped like the others.
     fill_all : bool
         With ``missing``: every pixel without a measurement, the sky included.
     input : {None, "auto", "scan", "map"}
@@ -332,7 +337,7 @@ def fill(
                                 "an odometry calib.txt or a KITTI-360 calibration folder)")
     jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points,
                                          protect=[holes] if holes is not None else [],
-                                         confidence=confidence is not None)
+                                         confidence=confidence is not None, preview=preview)
     if points is not None and not any(j.is_scan for j in jobs):
         raise InvalidInputError("points (--points) applies to .bin LiDAR scans, and there are none among the inputs")
     report = FillReport(ignored=ignored)

@@ -1,4 +1,4 @@
-"""Writing the outputs of one filled input: depth files, interval files, point files.
+"""Writing the outputs of one filled input: depth files, interval files, point files, the preview.
 
 Every file goes through :func:`inpaintenv.files.write_atomic` (an exclusive, unpredictable
 temporary name in the target's folder, renamed over the target; never written through a
@@ -22,6 +22,7 @@ from ..data.depth_files import write_depth_file
 from ..data.io import KITTI_DEPTH_SCALE
 from ..data.projection import depth_to_points, write_points_bin, write_points_ply
 from ..files import write_atomic
+from .preview import write_preview
 from .read import Item
 
 __all__ = ["LOW_FLOOR", "interval_bounds", "write_outputs"]
@@ -79,6 +80,10 @@ def write_outputs(item: Item, arrays: tuple[np.ndarray, ...], calibration: Calla
     """
     assert item.fill is not None
     filled = arrays[0]
+    if item.job.preview is not None:
+        width = arrays[2] - arrays[1] if len(arrays) == 3 else None
+        write_atomic(item.job.preview, lambda tmp: write_preview(tmp, filled, item.fill, width),
+                     "preview", within=item.job.out)
     for pair in item.job.intervals:
         png = pair[0].suffix.lower() == ".png"
         for path, bound in zip(pair, interval_bounds(arrays[1], arrays[2], item.fill, png)):

@@ -560,6 +560,8 @@ CASES: list[Case] = [
         p.depth("sub/a.png"), p.folder_link_out(p.work / "out" / "sub"))), says="symbolic link|link"),
     Case("cli:fill", "output-link-out", lambda p, f: _fill(p, [p.depth()], "--overwrite", *_none(
         p.link_out(p.work / "out" / "a.png"))), ok=True),
+    Case("cli:fill", "preview-link-out", lambda p, f: _fill(p, [p.depth()], "--preview", "--overwrite", *_none(
+        p.link_out(p.work / "out" / "a_preview.png"))), ok=True),  # replaced, never written through
     Case("cli:fill", "intervals-fifo", lambda p, f: _fill(p, [p.depth()], "--confidence", "0.9", "--intervals",
                                                           str(p.fifo(p.work / "cal.json")))),
     Case("cli:fill", "intervals-nested", lambda p, f: _fill(p, [p.depth()], "--confidence", "0.9", "--intervals",
