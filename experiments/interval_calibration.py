@@ -283,7 +283,9 @@ days' residuals only (rect-v1 seed 0), and scored on the left-out day's. Scored 
 task's, as ``evaluate --interval-coverage`` scores them: every pixel the scan did not measure
 (densify-v1), the hole cut out of the scan (rect-v1, each (seed, frame) a unit). Printed per
 variant, left-out day and task: mean over units of the coverage, of the mean width, and of
-``rmse_cut_80`` (the share of RMSE cut by keeping the narrowest 80 %, the benchmark's ranking).
+``rmse_cut_80`` (the share of RMSE cut by keeping the narrowest 80 %, the benchmark's ranking),
+and the AUSE of the day and task in pNCNN's convention (RMSE-based, every pixel pooled, curves
+normalised by their start; ranked by the interval's width).
 
     python experiments/interval_calibration.py lodo --kitti-root <KITTI root> --spread-method harmonic \\
         --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
@@ -319,7 +321,7 @@ def pooled(parts: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def interval_scores(coef: np.ndarray, q: float, F: np.ndarray, r: np.ndarray, frame: np.ndarray) -> dict[str, float]:
     """Mean over units of coverage, width (low clipped at 0 m) and RMSE cut by the narrowest 80 %."""
     from estimators.intervals import scale_from
-    from inpaintenv.metrics import rejection_curve
+    from inpaintenv.metrics import rejection_curve, sparsification
 
     half = q * scale_from(coef, F)
     width = half + np.minimum(half, np.exp(F[:, 2]))  # column 2 is log(max(pred, 1 m)): low clipped at 0
@@ -327,9 +329,11 @@ def interval_scores(coef: np.ndarray, q: float, F: np.ndarray, r: np.ndarray, fr
     n = np.bincount(unit).astype(np.float64)
     sq = r ** 2
     curve = rejection_curve(sq, np.round(width, 3), unit, len(units), (0.8, 1.0))
+    # AUSE as pNCNN reports it: RMSE-based, every pixel of the day and task pooled, normalised by the start.
+    ause = sparsification(r + 1.0, np.ones_like(r), width, np.ones(r.shape, bool), "pooled", "rmse")["ause"]
     return {"coverage": float(np.mean(np.bincount(unit, r <= half) / n)),
             "width": float(np.mean(np.bincount(unit, width) / n)),
-            "cut_80": float(np.nanmean(1.0 - curve[:, 0] / curve[:, 1]))}
+            "cut_80": float(np.nanmean(1.0 - curve[:, 0] / curve[:, 1])), "ause": float(ause)}
 
 
 def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
@@ -361,7 +365,8 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
         days[day] = day_residuals(load(path), frames, spread, seeds)
         print(f"{day}: {len(frames)} frames ({time.perf_counter() - start:.0f} s)", flush=True)
     rows = []
-    print("| calibrated on | left-out day | task | coverage | mean width (m) | keep-80 % cut |\n|---|---|---|---:|---:|---:|")
+    print("| calibrated on | left-out day | task | coverage | mean width (m) | keep-80 % cut | AUSE (pooled) |\n"
+          "|---|---|---|---:|---:|---:|---:|")
     for protocol, signals in CALIBRATIONS:
         variant = protocol + ("" if signals == SHIPPED_SIGNALS else " (+far)")
         cols = [0] + [1 + LODO_SIGNALS.index(name) for name in signals]
@@ -375,7 +380,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
                 row = {"calibration": variant, "day": day, "task": task, **interval_scores(coef, q, *test)}
                 rows.append(row)
                 print(f"| {variant} | {day} | {task} | {row['coverage']:.3f} | {row['width']:.2f} | "
-                      f"{row['cut_80']:.1%} |", flush=True)
+                      f"{row['cut_80']:.1%} | {row['ause']:.3f} |", flush=True)
     if args.json:
         from inpaintenv.files import write_json
         write_json(args.json, rows)

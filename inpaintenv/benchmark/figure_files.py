@@ -30,6 +30,7 @@ from .figures import (
     DISTANCE_FRAMES, FramePredictions, _describe, frame_panel, has_intervals, plot_error_rejection,
     plot_error_vs_distance, plot_error_vs_hole_size, plot_error_vs_nearest, spread_indices,
 )
+from .uncertainty_figure import has_reliability, plot_uncertainty
 
 __all__ = ["task_folder", "write_figures"]
 
@@ -117,6 +118,8 @@ def write_figures(
     names += [out / "error_vs_distance.png", out / "error_vs_nearest.png"]
     if has_intervals(result):
         names.append(out / "error_rejection.png")
+    if has_reliability(result):
+        names.append(out / "uncertainty.png")
     settings = {"task": task, "panel_methods": list(panel_methods), "panels": panels, "distance": indices,
                 "protocol": protocol, "seed": seed, "version": inpaintenv.__version__,
                 "style": [style.DEPTH_CMAP, style.ERROR_CMAP, style.ERROR_PERCENTILE, list(style.METHOD_PALETTE)]}
@@ -136,6 +139,8 @@ def write_figures(
         plot_error_vs_hole_size(result, out / "error_vs_hole_size.png", colours=colours)
     if has_intervals(result):
         plot_error_rejection(result, out / "error_rejection.png", colours=colours)
+    if has_reliability(result):
+        plot_uncertainty(result, out / "uncertainty.png", colours=colours)
     ms = {e["method"]: e["ms_per_frame"] for e in result.group_table(("method",))}
     seconds = sum(ms.get(n, 0.0) for n in panel_methods) * len(indices) / 1000.0
     log(

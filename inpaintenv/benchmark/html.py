@@ -59,6 +59,8 @@ KNOWN_FIGURES: tuple[tuple[str, str], ...] = (
                             "against the pixels nearest the hole border (dashed)."),
     ("error_vs_beams.png", "Error by LiDAR density: mean RMSE of the task against the beams of the LiDAR simulated "
                            "(every k-th ring of the 64-beam scan kept), one line per method (from the rows)."),
+    ("uncertainty.png", "Per-pixel intervals: the reliability diagram (coverage at nominal 50-95 %, per image "
+                        "solid, pixels pooled dashed) and each method's per-image AUSE and AURG (RMSE-based)."),
 )
 
 _SCRIPT = """

@@ -234,7 +234,11 @@ def interval_note(entries: Sequence[dict[str, Any]]) -> list[str]:
              "interval width = its mean high − low; hole RMSE, 80 % most confident = over the 80 % of hole pixels "
              "with the narrowest intervals, beside the 80 % nearest the hole border (a baseline that needs no "
              "interval); rejection AUC = mean RMSE over keeping 5 %, 10 %, …, 100 % of the pixels ÷ hole RMSE "
-             "(1 = no better than chance, lower is better); – = the method gives no interval.")]
+             "(1 = no better than chance, lower is better); AUSE / AURG RMSE per image = area between the RMSE "
+             "sparsification curve ranked by interval width and the oracle's (lower is better) / below random removal's "
+             "(higher is better), over 0-98 % removed, per frame in metres (Poggi et al.'s convention); AUCE per image = "
+             "area between the reliability diagram at nominal 50-95 % and the diagonal (lower is better); "
+             "– = the method gives no interval.")]
 
 
 def to_markdown(table: list[dict[str, Any]], keys: Sequence[str] = ("method", "protocol")) -> str:

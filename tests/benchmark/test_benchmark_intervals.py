@@ -114,6 +114,8 @@ def test_cli_option(tmp_path, monkeypatch, capsys):
             "--figure-frames", "1", "--quiet", "--out", str(tmp_path / "run"), "--interval-coverage", "0.9"]
     assert main(argv) == 0
     assert (tmp_path / "run" / "figures" / "error_rejection.png").is_file()
+    assert (tmp_path / "run" / "figures" / "uncertainty.png").is_file()  # reliability diagram, AUSE and AURG
+    assert "AUSE RMSE per image (m)" in (tmp_path / "run" / "results.md").read_text()
     assert "hole coverage" in (tmp_path / "run" / "results.md").read_text()
     capsys.readouterr()
     assert main([*argv[:-1], "1.5", "--out", str(tmp_path / "bad")]) == 1

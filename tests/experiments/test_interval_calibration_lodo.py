@@ -55,3 +55,4 @@ def test_each_row_is_the_wrapper_calibrated_out_of_fold_and_scored_by_evaluate(l
             row = rows[(variant, left, task)]
             assert row["coverage"] == pytest.approx(np.mean([r["hole_coverage"] for r in scored]), abs=1e-3)
             assert row["width"] == pytest.approx(np.mean([r["hole_interval_width"] for r in scored]), rel=1e-3)
+            assert 0.0 <= row["ause"] < 1.0  # pooled and normalised: 0 for the oracle ranking
