@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from inpaintenv.data import KittiDepth
 from inpaintenv.data.calibration import Calibration, read_calibration
 from inpaintenv.data.io import read_depth_png
 from inpaintenv.data.projection import project_scan
@@ -159,3 +160,20 @@ def test_ring_thinning_on_real_scans_of_each_day(kitti_root, day):
             assert 0.8 / k < share < 1.2 / k, f"{path.name}: keeping every {k}th ring kept {share:.3f}"
             kept = np.where(thinned > 0, rings, -1)
             assert ring_curves_are_continuous(kept, depth) < 0.01
+
+
+@pytest.mark.kitti
+@pytest.mark.parametrize("day", ["2011_09_26", "2011_09_30", "2011_10_03"])
+def test_kitti_depth_ring_variant_on_cropped_frames_of_each_day(kitti_root, day):
+    """``KittiDepth(input="scan-rings16-v1")``: the day's calibration shifted to the crop; every 4th ring kept."""
+    drive = sorted(p.name for p in (kitti_root / "train").glob(f"{day}_drive_*_sync"))[0]
+    thinned = KittiDepth(kitti_root, split="train", drives=[drive], input="scan-rings16-v1")
+    full = KittiDepth(kitti_root, split="train", drives=[drive], input="scan")
+    calibration, height = thinned._scan_calibration(0)
+    assert calibration.size == (thinned.frame_shape[1], thinned.frame_shape[0])
+    for i in range(min(2, len(thinned))):
+        scan, mine = full.input_frame(i), thinned.input_frame(i)
+        np.testing.assert_array_equal(mine[mine > 0], scan[mine > 0])
+        assert 0.8 / 4 < np.count_nonzero(mine) / np.count_nonzero(scan) < 1.2 / 4
+        rings = ring_map(scan, calibration, height)
+        assert 40 <= rings.max() + 1 <= 64 and ring_curves_are_continuous(rings, scan) < 0.01
