@@ -41,10 +41,12 @@ from sklearn.pipeline import make_pipeline
 from sklearn.utils import estimator_checks as skchecks
 
 from inpaintenv.conventions import check_depth
+from inpaintenv.data.base import ArrayDataset
 from inpaintenv.masks import get_protocol
 from inpaintenv.exceptions import InpaintenvError, InvalidInputError, UnknownNameError
 
-__all__ = ["CHECKS", "CheckData", "CheckSkipped", "check_inpainter", "make_check_data", "run_check"]
+__all__ = ["CHECKS", "CheckData", "CheckSkipped", "check_inpainter", "make_check_data", "refits", "run_check",
+           "training_frames"]
 
 #: Shape of the frames :func:`make_check_data` draws when no ground truth is given.
 CHECK_SHAPE = (4, 32, 96)
@@ -70,7 +72,7 @@ class CheckData:
             return estimator
         key = id(estimator)
         if key not in self._fitted:
-            self._fitted[key] = (estimator, _seeded(clone(estimator)).fit(self.gt))
+            self._fitted[key] = (estimator, _seeded(clone(estimator)).fit(training_frames(estimator, self.gt)))
         return self._fitted[key][1]
 
 
@@ -91,6 +93,25 @@ def make_check_data(X: Any = None) -> CheckData:
             raise InvalidInputError(f"X must hold at least 2 frames for the batch checks, got {len(gt)}")
     hole = get_protocol("rect-v1").masks(gt.shape[1:], 0, range(len(gt)))
     return CheckData(gt=gt, x=np.where(hole, np.float32(np.nan), gt).astype(np.float32))
+
+
+def training_frames(estimator: Any, gt: np.ndarray) -> Any:
+    """What the checks fit ``estimator`` on: ``gt``, as frames of one drive each where the
+    estimator calibrates on whole drives (``_needs_drive_ids``, e.g. an interval wrapper)."""
+    if getattr(estimator, "_needs_drive_ids", False):
+        return ArrayDataset(gt, groups=[f"check-drive-{i}" for i in range(len(gt))])
+    return gt
+
+
+def _needs_plain_fit(estimator: Any, what: str) -> None:
+    if getattr(estimator, "_needs_drive_ids", False):
+        raise CheckSkipped(f"the estimator calibrates on whole drives: {what} passes no drive ids")
+
+
+def _needs_depth_frames(estimator: Any) -> None:
+    if getattr(estimator, "_learns_far_pixels", False):
+        raise CheckSkipped("the estimator learns only pixels far from every measurement: scikit-learn's small "
+                           "tables have none")
 
 
 def refits(estimator: Any) -> bool:
@@ -124,16 +145,18 @@ def _same(a: np.ndarray, b: np.ndarray, what: str) -> None:
 def check_fit_returns_self(est: Any, data: CheckData) -> None:
     _needs_refit(est)
     e = _seeded(clone(est))
-    assert e.fit(data.gt) is e, "fit(X) must return self"
-    assert e.fit(list(data.gt)) is e, "fit on a list of frames must return self"
+    assert e.fit(training_frames(e, data.gt)) is e, "fit(X) must return self"
+    if not getattr(e, "_needs_drive_ids", False):
+        assert e.fit(list(data.gt)) is e, "fit on a list of frames must return self"
 
 
 def check_fit_idempotent(est: Any, data: CheckData) -> None:
     _needs_refit(est)
     e = _seeded(clone(est))
-    first = e.fit(data.gt).predict(data.x)
-    _same(e.fit(data.gt).predict(data.x), first, "fitting twice")
-    _same(_seeded(clone(est)).fit(data.gt).predict(data.x), first, "a clone fitted alike")
+    frames = training_frames(e, data.gt)
+    first = e.fit(frames).predict(data.x)
+    _same(e.fit(frames).predict(data.x), first, "fitting twice")
+    _same(_seeded(clone(est)).fit(frames).predict(data.x), first, "a clone fitted alike")
 
 
 def check_dict_unchanged_by_predict(est: Any, data: CheckData) -> None:
@@ -146,6 +169,7 @@ def check_dict_unchanged_by_predict(est: Any, data: CheckData) -> None:
 
 def check_pipeline_consistency(est: Any, data: CheckData) -> None:
     _needs_refit(est)
+    _needs_plain_fit(est, "a Pipeline")
     pipe = make_pipeline(_seeded(clone(est))).fit(data.gt)
     _same(pipe.predict(data.x), data.fitted(est).predict(data.x), "in a Pipeline")
     assert np.isclose(pipe.score(data.x, data.gt), data.fitted(est).score(data.x, data.gt)), "Pipeline.score differs"
@@ -230,6 +254,8 @@ def check_joblib_mmap_round_trip(est: Any, data: CheckData) -> None:
 
 
 def check_unfitted(est: Any, data: CheckData) -> None:
+    if not refits(est):
+        raise CheckSkipped("the estimator comes fitted (pretrained): it has no unfitted state")
     e = clone(est)
     if getattr(e, "_stateless", False):
         assert e.predict(data.x).shape == data.x.shape, "a stateless estimator predicts without fit"
@@ -246,11 +272,11 @@ def check_random_state_types(est: Any, data: CheckData) -> None:
         raise CheckSkipped("the estimator has no random_state")
     _needs_refit(est)
     for value in (0, np.random.RandomState(0), np.random.default_rng(0), None):
-        out = clone(est).set_params(random_state=value).fit(data.gt).predict(data.x)
+        out = clone(est).set_params(random_state=value).fit(training_frames(est, data.gt)).predict(data.x)
         assert out.shape == data.x.shape and np.isfinite(out).all(), f"random_state={value!r} gave a bad output"
     for bad in (-1, 1.5, "0"):
         try:
-            clone(est).set_params(random_state=bad).fit(data.gt)
+            clone(est).set_params(random_state=bad).fit(training_frames(est, data.gt))
         except (TypeError, ValueError):
             continue
         raise AssertionError(f"random_state={bad!r} must be refused")
@@ -260,6 +286,8 @@ def _sklearn(check: Callable[[str, Any], None], fits: bool) -> Callable[[Any, Ch
     def run(est: Any, data: CheckData) -> None:
         if fits:
             _needs_refit(est)
+            _needs_plain_fit(est, "scikit-learn's check")
+            _needs_depth_frames(est)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             check(type(est).__name__, clone(est))

@@ -69,7 +69,7 @@ from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.metrics import check_coverage, normal_quantile
 
 from .._constraints import Check, ConstrainedParams, InstanceOf, Integer, Options
-from ..base import SCORE_PROTOCOL, SCORE_SEED, check_inpaint_input, training_drives
+from ..base import SCORE_PROTOCOL, SCORE_SEED, BaseInpainter, check_inpaint_input, training_drives
 from ._bases import CLASSICAL_FILLS, make_base
 from ._calibration import (balanced_scale, calibration_protocols, exact_quantile, features, residual_quantiles,
                            scale_from, scored_residuals, weighted_quantiles)
@@ -184,6 +184,13 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         if name not in CLASSICAL_FILLS:
             raise InvalidInputError(f"spread_method must be a classical method ({', '.join(CLASSICAL_FILLS)}), got {name!r}")
         return make_base(name)
+
+    #: Calibrates on whole drives: fit needs each frame's drive (``groups`` or a dataset's).
+    _needs_drive_ids = True
+
+    # Scored as every inpainter is, through its own predict (the filled depth, not the interval).
+    score = BaseInpainter.score
+    score_frames = BaseInpainter.score_frames
 
     def __sklearn_is_fitted__(self) -> bool:
         return hasattr(self, "calibration_")

@@ -123,6 +123,15 @@ class OnFirstUse:
         """The method: ``factory(*args, **kwargs)``, made anew at each call."""
         return self.factory(*self.args, **self.kwargs)
 
+    def __eq__(self, other: object) -> bool:
+        # Two promises of the same method are the same parameter (a clone's copy equals the original).
+        if not isinstance(other, OnFirstUse):
+            return NotImplemented
+        return (self.factory, self.args, self.kwargs) == (other.factory, other.args, other.kwargs)
+
+    def __hash__(self) -> int:
+        return hash((self.factory, self.args, tuple(sorted(self.kwargs.items()))))
+
     def __repr__(self) -> str:
         given = [repr(a) for a in self.args] + [f"{k}={v!r}" for k, v in self.kwargs.items()]
         return f"OnFirstUse({', '.join([getattr(self.factory, '__name__', repr(self.factory)), *given])})"
@@ -180,7 +189,8 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         After :meth:`predict`: per frame of the last call, its route (``"scan"``, ``"sparse"``, ``"map"``).
     """
 
-    _stateless = True  # its members come fitted; fit trains nothing
+    # Its routes come fitted and fit trains nothing: checked as a pretrained model is, never refitted.
+    _stateless = False
     map_method = _route_attribute("map")
     scan_method = _route_attribute("scan")
     sparse_method = _route_attribute("sparse")
@@ -206,7 +216,8 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         ----------
         deep : bool, default True
             Also each route's own parameters as ``map_method__<name>``: the routes are made
-            for it, and given as made (so ``set_params(map_method__tta=...)`` sets the method).
+            for it (so ``set_params(map_method__tta=...)`` sets the made method); the routes
+            themselves stay as given, as with ``deep=False``.
 
         Returns
         -------
@@ -216,9 +227,11 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         routes = [f"{kind}_method" for kind in ROUTES]
         params = {name: getattr(self, name) for name in self._get_param_names() if name not in routes}
         for kind in ROUTES:
-            route = self._route(kind) if deep else self.__dict__[f"_{kind}_given"]
-            params[f"{kind}_method"] = route
-            if deep and route is not None and hasattr(route, "get_params") and not isinstance(route, type):
+            # Deep or not, the route itself is as given (scikit-learn: the shallow parameters
+            # are a part of the deep ones); only its own parameters need it made.
+            params[f"{kind}_method"] = self.__dict__[f"_{kind}_given"]
+            route = self._route(kind) if deep else None
+            if route is not None and hasattr(route, "get_params") and not isinstance(route, type):
                 params.update((f"{kind}_method__{k}", v) for k, v in route.get_params().items())
         return params
 
@@ -280,6 +293,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     def choose(self, x: np.ndarray) -> str:
         """The name of the method that fills frame ``x`` (``scan_name``, ``sparse_name`` or ``map_name``)."""
         return self.name_of(self.kind(x))
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return True  # each route checks its own fit when it predicts
 
     def _fit(self, dataset: Any) -> None:
         raise InvalidInputError("InputRoutedInpainter trains nothing: fit its map_method and scan_method instead")

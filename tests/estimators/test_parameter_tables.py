@@ -8,31 +8,18 @@ Nothing is fitted.
 
 from __future__ import annotations
 
-import importlib
-import inspect
 import re
 from typing import Any
 
 import pytest
 
+# tests/ has no __init__.py, so pytest puts this directory on sys.path.
+from instances import public_classes
+
 from estimators.classical import HarmonicInpainter, NearestInpainter
 from inpaintenv.exceptions import InpaintenvError
 
-SUBPACKAGES = ("estimators.classical", "estimators.learned", "estimators.intervals")
-
-
-def _public_classes() -> dict[str, type]:
-    found = {}
-    for package in SUBPACKAGES:
-        module = importlib.import_module(package)
-        for name in module.__all__:
-            obj = getattr(module, name)
-            if inspect.isclass(obj) and hasattr(obj, "get_params"):
-                found[name] = obj
-    return found
-
-
-CLASSES = _public_classes()
+CLASSES = public_classes()
 
 
 def _required_args(name: str) -> dict[str, Any]:
