@@ -1,6 +1,6 @@
 """A learned fill of a single LiDAR scan against the classical fills, leaving one recording day out.
 
-The sets of issue 52: each recording day's drives without drive 0001 (2011_09_26,
+The sets: each recording day's drives without drive 0001 (2011_09_26,
 2011_09_30, 2011_10_03), the official drive 0001 frames that have a scan (both cameras), and
 KITTI's val_selection_cropped; every frame a 352x1216 bottom-centre crop. Two tasks:
 ``densify`` (the whole scan in, scored on the ground-truth pixels it did not measure) and

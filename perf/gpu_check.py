@@ -1,4 +1,4 @@
-"""The prepared GPU check (issue 42): CUDA tests, training and predict throughput, one run.
+"""The prepared GPU check: CUDA tests, training and predict throughput, one run.
 
 On the device machine (one NVIDIA H200), one call of the device tool, ``timeout_s=480``,
 ``carry=[".whl"]``::

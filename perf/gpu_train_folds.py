@@ -1,4 +1,4 @@
-"""Train the study's GPU recipes on every leave-one-day-out fold (issue 42), for CPU scoring after.
+"""Train the study's GPU recipes on every leave-one-day-out fold, for CPU scoring after.
 
 For each fold of ``experiments/lodo_days.sh`` -- each recording day of KITTI's train split
 left out, then drive ``2011_09_26_drive_0001_sync`` (the official maps) left out -- train

@@ -1,4 +1,4 @@
-"""``--on-bad-frame error|skip``: one unreadable PNG in a KITTI tree (issue 16, item 9)."""
+"""``--on-bad-frame error|skip``: one unreadable PNG in a KITTI tree."""
 
 from __future__ import annotations
 

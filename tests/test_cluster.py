@@ -301,7 +301,7 @@ def _start_scheduler_and_worker(tmp_path):
 
 
 def test_killed_scheduler_is_one_line_and_the_run_resumes(client, tmp_path, monkeypatch, capfd, caplog):
-    # Issue 24: kill -9 of the scheduler ended in a FuturesCancelledError traceback. Issue 43, item 21:
+    # Kill -9 of the scheduler ended in a FuturesCancelledError traceback, and
     # distributed's own log lines (tracebacks of the lost connection) came before that line; capfd
     # sees them, as they are written to the stderr of the process, not to sys.stderr as replaced here.
     from inpaintenv.benchmark import suites
@@ -367,7 +367,7 @@ def test_asyncio_error_of_a_client_closed_mid_run_is_one_line(client, monkeypatc
 
 
 def test_client_closed_mid_run_is_one_line(client, streets):
-    # Issue 24: close() mid-evaluate raised ClosedClientError from the cleanup, hiding the cause.
+    # close() mid-evaluate raised ClosedClientError from the cleanup, hiding the cause.
     got = []
     other = distributed.Client(client.scheduler.address)
 

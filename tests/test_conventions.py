@@ -38,7 +38,7 @@ def test_check_depth_keeps_float32_without_copy_and_converts_other_floats():
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int32, np.int64])
 def test_check_depth_refuses_integer_depth(dtype):
-    # One rule everywhere (issue 24): integer depth is an 8-bit image, PNG codes or mm.
+    # One rule everywhere: integer depth is an 8-bit image, PNG codes or mm.
     with pytest.raises(TypeError, match=rf"X has integer dtype {np.dtype(dtype).name}; depth is floating-point metres"):
         check_depth(np.ones((8, 8), dtype), name="X")
 

@@ -191,7 +191,7 @@ def test_method_cannot_corrupt_later_frames_by_writing_input(gt_ds):
         (lambda x: np.zeros((3, 3)), "shape"),
         (lambda x: -np.ones_like(x), "negative"),
         (lambda x: np.full(x.shape, "a"), "dtype"),
-        # One input rule everywhere (issue 24): the env and the loader refuse these too.
+        # One input rule everywhere: the env and the loader refuse these too.
         (lambda x: np.nan_to_num(x, nan=5.0).astype(np.uint8), "output has integer dtype uint8"),
         (lambda x: np.ma.masked_invalid(x).filled(5.0).view(np.ma.MaskedArray), "output is a numpy masked array"),
     ],
@@ -203,7 +203,7 @@ def test_bad_output_names_method(gt_ds, bad, match):
 
 
 def test_unfilled_hole_pixels_are_refused_with_a_count(gt_ds):
-    # Issue 24: nan_to_num(x, nan=0.0) was scored as 0 m without a word.
+    # nan_to_num(x, nan=0.0) was scored as 0 m without a word.
     with pytest.raises(MethodOutputError, match=r"^method 'zeros': prediction is 0 m \(unfilled\) at \d+ hole pixels with "
                                                 r"ground truth; fill them, or set unfilled"):
         evaluate(lambda x: np.nan_to_num(x, nan=0.0), gt_ds, progress=False, name="zeros")

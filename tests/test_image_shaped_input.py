@@ -1,4 +1,4 @@
-"""Image-shaped arrays are refused with one line on every path that takes depth (issue 16.7).
+"""Image-shaped arrays are refused with one line on every path that takes depth.
 
 An ``(H, W, 3)`` colour image used to be read as ``H`` frames of ``W x 3`` pixels: predict
 returned it filled, metrics and evaluate scored it. The shared check (conventions.check_depth)

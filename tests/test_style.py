@@ -1,4 +1,4 @@
-"""One look for every figure (issue 16, item 6): colour maps, holes, method colours."""
+"""One look for every figure: colour maps, holes, method colours."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Report files are written whole or not at all (issue 43, item 5): a full disk during a rerun
+"""Report files are written whole or not at all: a full disk during a rerun
 leaves the previous report intact and names the file it could not write."""
 
 from __future__ import annotations

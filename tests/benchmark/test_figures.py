@@ -1,5 +1,4 @@
-"""The benchmark's figures: one colour per method, every drive, no needless re-prediction
-(issue 16, items 6 and 10)."""
+"""The benchmark's figures: one colour per method, every drive, no needless re-prediction."""
 
 from __future__ import annotations
 

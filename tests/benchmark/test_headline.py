@@ -82,7 +82,7 @@ def test_report_and_json_carry_the_headline(small_gt, tmp_path):
 
 
 def test_a_users_own_methods_are_labelled_submitted_not_learned(tmp_path, capsys):
-    # Issue 43, item 18: the kind comes from what a method is, not from its name.
+    # The kind comes from what a method is, not from its name.
     from estimators.classical import NearestInpainter
 
     from inpaintenv.benchmark.suites import LazyMethod, method_kind
@@ -104,7 +104,7 @@ def test_a_users_own_methods_are_labelled_submitted_not_learned(tmp_path, capsys
 
 
 def test_a_classical_method_at_0_m_makes_the_ratio_undefined_not_a_crash():
-    # Issue 43, item 9: the strongest classical method is perfect on these frames.
+    # The strongest classical method is perfect on these frames.
     rows = _rows("harmonic", "d0", [0.0, 0.0]) + _rows("mine", "d0", [2.0, 3.0])
     (row,) = learned_vs_classical(EvaluationResult(rows=rows, meta={}))
     assert math.isnan(row["hole_ratio"]) and math.isnan(row["all_over_classical_hole"])

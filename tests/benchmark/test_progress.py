@@ -1,4 +1,4 @@
-"""Progress of a benchmark whose stderr is a log file, not a terminal (issue 16, item 2)."""
+"""Progress of a benchmark whose stderr is a log file, not a terminal."""
 
 from __future__ import annotations
 

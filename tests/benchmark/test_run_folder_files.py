@@ -1,4 +1,4 @@
-"""Every file of a benchmark run folder goes through inpaintenv.files (issue 50, items 3, 13, 14, 19)."""
+"""Every file of a benchmark run folder goes through inpaintenv.files."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def run(tmp_path, capsys):
 
 
 def test_a_symlinked_row_file_receives_no_rows_on_resume(tmp_path, capsys, run):
-    # Item 3: rows/*.jsonl -> ../victim used to be read through and appended to on resume.
+    # rows/*.jsonl -> ../victim used to be read through and appended to on resume.
     victim = tmp_path / "victim"
     victim.write_text("the user's notes\n")
     (run / ROWS).unlink()
@@ -79,7 +79,7 @@ def test_a_symlinked_rows_folder_is_refused(tmp_path, capsys, run):
 
 @pytest.mark.parametrize("name", ["run.json", LEDGER])
 def test_deeply_nested_json_in_the_run_folder_is_one_line(capsys, run, name):
-    # Item 13: a RecursionError traceback before.
+    # A RecursionError traceback before.
     (run / name).write_text(NESTED)
     one_line_error(capsys, [*ARGV, "--out", str(run)], name, "nested deeper")
 
@@ -113,7 +113,7 @@ def test_a_nested_figure_stamp_is_redrawn(capsys, run):
 
 @pytest.mark.parametrize("name", ["run.json", LEDGER, ROWS, "figures/figures.json"])
 def test_a_fifo_named_like_a_run_file_is_refused_at_once(capsys, run, name):
-    # Item 14: a FIFO opened for reading waits forever for a writer.
+    # A FIFO opened for reading waits forever for a writer.
     argv = FIGURES if name.startswith("figures/") else ARGV
     if name.startswith("figures/"):
         assert main([*argv, "--out", str(run)]) == 0
@@ -123,7 +123,7 @@ def test_a_fifo_named_like_a_run_file_is_refused_at_once(capsys, run, name):
 
 
 def test_stale_temporaries_of_a_killed_writer_are_removed_at_start(capsys, run):
-    # Item 19: hidden temporaries of a writer killed with -9 stayed forever.
+    # Hidden temporaries of a writer killed with -9 stayed forever.
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
                           text=True, check=True)
     dead_pid = int(dead.stdout)
@@ -151,7 +151,7 @@ def test_results_readers_refuse_nested_json_and_fifos(tmp_path):
 
 
 def test_row_appends_never_follow_a_link(tmp_path):
-    # Item 3, evaluate's partial-rows.jsonl and benchmark's rows/*.jsonl share append_rows.
+    # evaluate's partial-rows.jsonl and benchmark's rows/*.jsonl share append_rows.
     from inpaintenv.benchmark.rows import append_rows, read_rows
     from inpaintenv.exceptions import UnsafeFileError
 

@@ -1,5 +1,5 @@
-"""What keys a run folder: the data's content (issue 43, item 6) and the message naming the
-setting that differs (item 16)."""
+"""What keys a run folder: the data's content and the message naming the
+setting that differs."""
 
 from __future__ import annotations
 

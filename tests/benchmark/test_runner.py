@@ -255,7 +255,7 @@ def test_unfilled_pixels_follow_the_run_or_the_method_policy(dataset, tmp_path):
     from inpaintenv.exceptions import MethodOutputError
 
     kw = {"protocols": "rect-v1", "seeds": 0, "progress": False}
-    # Issue 24: refused by default, with the count, naming the method.
+    # Refused by default, with the count, naming the method.
     with pytest.raises(MethodOutputError, match=r"method 'zeros': prediction is 0 m \(unfilled\) at \d+ hole pixels"):
         run_benchmark({"zeros": holes_at_zero}, dataset, out_dir=tmp_path / "a", **kw)
     # A method's own policy (the registry's "zero" for the study's hole-only baselines) ...

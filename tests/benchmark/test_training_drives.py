@@ -1,4 +1,4 @@
-"""Rows, headlines and reports mark the drives a scored model was trained on (issue 24, item 8).
+"""Rows, headlines and reports mark the drives a scored model was trained on.
 
 `--drives 2011_09_26_drive_9001_sync` reported 0.97 for a release trained on 9001 without
 a word: a learned model's training drives (``training_drives_``, saved with it) now reach

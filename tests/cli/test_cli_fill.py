@@ -1,4 +1,4 @@
-"""``inpaintenv fill`` and :func:`inpaintenv.filling.fill`: files and folders in, filled files out (issue 39).
+"""``inpaintenv fill`` and :func:`inpaintenv.filling.fill`: files and folders in, filled files out.
 
 Most tests use small synthetic frames and ``scanline`` (fast); one checks ``pretrained`` on one small frame; the
 LiDAR tests use the real scans of ``kitti-raw`` (the ``kitti_raw_root`` fixture, skipped when absent).

@@ -150,7 +150,7 @@ def test_scanline_fills_with_its_shipped_interval_without_a_calibration_file(tmp
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["kitti-ensemble-v1", "scanline"])
 def test_confidence_on_the_official_scans_writes_every_file_and_reads_back(kitti_root, tmp_path, method):
-    """Lower bounds below 1/256 m failed whole frames (issue 50, item 9): each file is written, and read back."""
+    """Lower bounds below 1/256 m failed whole frames: each file is written, and read back."""
     frames_dir = kitti_root / "depth_selection" / "val_selection_cropped" / "velodyne_raw"
     inputs = sorted(frames_dir.glob("*.png"))
     report = fill([frames_dir], tmp_path, method=method, missing=True, confidence=0.9, format="both", progress=False)

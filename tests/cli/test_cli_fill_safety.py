@@ -1,6 +1,6 @@
-"""``inpaintenv fill`` against hostile files and careless reruns (issue 50, the fill items).
+"""``inpaintenv fill`` against hostile files and careless reruns.
 
-Planted links and predictable temporaries (item 4), long names (18), outputs that other methods,
+Planted links and predictable temporaries, long names, outputs that other methods,
 inputs or users made (7), FIFOs (14), bad arrays in ``fill_depth`` (17), hints (20), warnings and
 built-in functions as methods (25), two runs into one ``--out`` (27), a model that predicts 303 m (10).
 """

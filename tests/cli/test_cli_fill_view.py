@@ -1,4 +1,4 @@
-"""``fill --missing`` densifies within the scan's field of view, not the sky (issue 52, item 4)."""
+"""``fill --missing`` densifies within the scan's field of view, not the sky."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Which data a CLI command scores: ``--kitti-root``, ``$INPAINTENV_KITTI_ROOT`` or the built-in
-synthetic streets, and the options refused when they do not apply (issue 24, item 1)."""
+synthetic streets, and the options refused when they do not apply."""
 
 from __future__ import annotations
 

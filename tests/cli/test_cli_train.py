@@ -286,7 +286,7 @@ SMOKE = ["train", "--preset", "smoke", "--n-frames", "8", "--frame-shape", "64",
 
 
 def test_a_second_training_into_the_same_out_is_refused_while_the_first_runs(tmp_path, capsys):
-    # Issue 43, item 3: two processes, one folder. The holder stands for a training in progress.
+    # Two processes, one folder. The holder stands for a training in progress.
     import subprocess
     import sys
     import textwrap
@@ -314,7 +314,7 @@ def test_a_second_training_into_the_same_out_is_refused_while_the_first_runs(tmp
 
 
 def test_progress_in_a_log_is_plain_lines(tmp_path, capsys):
-    # Issue 43, item 20: stderr captured here is not a terminal, like a log file.
+    # Stderr captured here is not a terminal, like a log file.
     assert main([*SMOKE, "--out", str(tmp_path / "run")]) == 0
     err = capsys.readouterr().err
     assert "\r" not in err

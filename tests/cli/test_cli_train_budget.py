@@ -49,7 +49,7 @@ def _steps(time_left, durations, monkeypatch):
 
 
 def test_time_left_is_measured_after_the_warm_up_steps(monkeypatch):
-    # Issue 50, item 26: the first estimate extrapolated a first step that includes the warm-up
+    # The first estimate extrapolated a first step that includes the warm-up
     # (2.4x the actual). A slow first step (10 s) and 1 s steps after it, on a fake clock.
     from estimators.learned._budget import WARMUP_STEPS, TimeLeft
 

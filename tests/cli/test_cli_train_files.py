@@ -1,5 +1,4 @@
-"""``inpaintenv train --out``: the ledger of benchmark's run folders, and files through inpaintenv.files
-(issue 50, items 6, 13, 14, 19)."""
+"""``inpaintenv train --out``: the ledger of benchmark's run folders, and files through inpaintenv.files."""
 
 from __future__ import annotations
 
@@ -39,7 +38,7 @@ def trained(tmp_path, capsys):
 
 @pytest.mark.parametrize("name", ["loss.png", "training_log.json", "model/config.json"])
 def test_a_users_file_at_a_train_path_is_refused_and_nothing_written(tmp_path, capsys, name):
-    # Item 6: train overwrote the user's loss.png, training_log.json and model/config.json.
+    # Train overwrote the user's loss.png, training_log.json and model/config.json.
     out = tmp_path / "mine"
     (out / name).parent.mkdir(parents=True, exist_ok=True)
     (out / name).write_text("the user's own\n")
@@ -83,14 +82,14 @@ def test_checkpoints_without_a_record_are_a_training_folder(capsys, trained):
 
 
 def test_nested_train_args_start_a_new_run_without_a_traceback(capsys, trained):
-    # Item 13: json.loads raised RecursionError on 200 kB of nesting.
+    # json.loads raised RecursionError on 200 kB of nesting.
     (trained / "train_args.json").write_text(NESTED)
     assert main([*SMOKE, "--out", str(trained)]) == 0
     assert json.loads((trained / "train_args.json").read_text())["finished"] is True
 
 
 def test_a_fifo_at_a_train_path_is_refused_at_once(tmp_path, capsys):
-    # Item 14: nothing may wait on a FIFO named like one of train's files.
+    # Nothing may wait on a FIFO named like one of train's files.
     out = tmp_path / "fifo"
     out.mkdir()
     os.mkfifo(out / "loss.png")
@@ -105,7 +104,7 @@ def test_a_symlinked_model_folder_is_refused(tmp_path, capsys, trained):
 
 
 def test_stale_temporaries_of_a_killed_training_are_removed(capsys, trained):
-    # Item 19: hidden temporaries of a writer killed with -9 stayed forever.
+    # Hidden temporaries of a writer killed with -9 stayed forever.
     dead = int(subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
                               text=True, check=True).stdout)
     stale = [trained / f"{TEMP_PREFIX}{dead}-0123.png", trained / "model" / f"{TEMP_PREFIX}{dead}-4567.json"]

@@ -1,4 +1,4 @@
-"""Ctrl-C: one line saying what is kept and how to resume, exit 130 (issue 16, item 5)."""
+"""Ctrl-C: one line saying what is kept and how to resume, exit 130."""
 
 from __future__ import annotations
 
@@ -74,7 +74,7 @@ def test_train_ctrl_c_is_one_line(tmp_path, capsys, monkeypatch):
     assert main(["train", "--preset", "smoke", "--n-frames", "4", "--frame-shape", "32", "96",
                  "--out", str(tmp_path), "--quiet"]) == 130
     err = capsys.readouterr().err.strip().splitlines()
-    # Stopped before any step: nothing to keep (issue 43, item 20).
+    # Stopped before any step: nothing to keep.
     assert err[-1] == ("inpaintenv train: interrupted; no checkpoint was written (this run stopped before its first "
                        "one, at the end of the first epoch); rerun the same command to start again")
 

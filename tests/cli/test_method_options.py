@@ -1,4 +1,4 @@
-"""Every method name and checkpoint of a run is checked before any scoring (issue 16, items 3 and 8)."""
+"""Every method name and checkpoint of a run is checked before any scoring."""
 
 from __future__ import annotations
 

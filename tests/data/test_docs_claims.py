@@ -1,4 +1,4 @@
-"""What the first-hour docs say about the data, the baselines and the tests is true (issue 43, item 19)."""
+"""What the first-hour docs say about the data, the baselines and the tests is true."""
 
 from __future__ import annotations
 

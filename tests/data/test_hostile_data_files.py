@@ -78,7 +78,7 @@ def _sparse(path: Path, head: bytes, size: int) -> Path:
     return path
 
 
-# -- item 11: a mask named in bytes that are not UTF-8 ----------------------------------------------------------
+# -- a mask named in bytes that are not UTF-8 ----------------------------------------------------------
 
 def test_a_mask_whose_name_is_not_utf8_is_read(tmp_path):
     # cv2.imread(str(path)) crashed the interpreter (SIGSEGV) on such a name.
@@ -96,7 +96,7 @@ def test_a_mask_whose_name_is_not_utf8_is_read(tmp_path):
     assert done.stdout.strip() == "[[False, True], [False, True]]"
 
 
-# -- item 12: declared sizes checked before anything is decoded or allocated -------------------------------------
+# -- declared sizes checked before anything is decoded or allocated -------------------------------------
 
 def test_a_mask_png_bomb_is_refused_from_its_header(tmp_path):
     # 20000 x 20000 RGBA16 is 3.2 GB decoded; cv2.imread decoded it.
@@ -171,7 +171,7 @@ def test_a_calibrated_image_size_beyond_the_frame_limit_is_refused(tmp_path):
     assert parse_size("1226x370") == (1226, 370)
 
 
-# -- item 8: a calibration that passes the determinant check but gives infinite points ---------------------------
+# -- a calibration that passes the determinant check but gives infinite points ---------------------------
 
 def test_a_badly_conditioned_calibration_is_refused_with_its_file(tmp_path):
     calib = tmp_path / "calib.txt"
@@ -200,7 +200,7 @@ def test_a_scan_with_nan_coordinates_is_refused_with_its_name(tmp_path):
         read_scan(path)
 
 
-# -- items 14, 21: a FIFO or device is refused at once and said to be one ----------------------------------------
+# -- a FIFO or device is refused at once and said to be one ----------------------------------------
 
 @pytest.mark.parametrize("name, read", [
     ("a.png", read_depth_file), ("a.npy", read_depth_file), ("a.npz", read_depth_file),
@@ -234,7 +234,7 @@ def test_a_device_is_not_called_missing(no_hang):
         read_scan("/dev/zero")
 
 
-# -- item 22: KITTI-360 calibration errors name their file --------------------------------------------------------
+# -- KITTI-360 calibration errors name their file --------------------------------------------------------
 
 def test_a_singular_kitti360_calibration_names_its_file(tmp_path):
     folder = _kitti360(tmp_path / "calibration", _perspective(), "1 0 0 0 0 1 0 0 0 0 0 0")

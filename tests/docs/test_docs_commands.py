@@ -1,4 +1,4 @@
-"""The shell commands in README.md and docs/**/*.md name things that exist (issue 18) and run in order.
+"""The shell commands in README.md and docs/**/*.md name things that exist and run in order.
 
 Every fenced ```bash / ```sh / ```console block is read line by line (backslash
 continuations joined, ``&&`` / ``;`` / ``|`` split, ``NAME=value`` lines of the block
@@ -14,7 +14,7 @@ substituted into later ones). For each command:
 And the commands run in the order the docs give them: two ``benchmark`` (``train``)
 commands anywhere in the docs that share an ``--out`` are the same run, a
 ``--checkpoint`` comes from an earlier ``train`` of its page, and README's commands run
-for real, in order, on the real slice (issue 24, item 2).
+for real, in order, on the real slice.
 
 Placeholders such as ``<KITTI root>`` or ``<held-out drive>`` stand for one argument.
 Unlabelled fences whose first line is a command must be labelled ``bash`` so this test sees them.

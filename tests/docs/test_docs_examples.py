@@ -1,4 +1,4 @@
-"""Every Python example in README.md and docs/**/*.md runs as written (issue 16.12).
+"""Every Python example in README.md and docs/**/*.md runs as written.
 
 The ```python blocks of a page run in order in one namespace, like a notebook, from a
 temporary working folder. A block may be marked by an HTML comment on the line before it:

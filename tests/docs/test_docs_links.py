@@ -58,7 +58,7 @@ def test_checker_finds_a_missing_file_and_a_missing_heading(tmp_path):
 
 
 def test_slug_follows_github():
-    assert slug("After kitti-rect-v4: what limits the blend (issue 15's directions)") == (
-        "after-kitti-rect-v4-what-limits-the-blend-issue-15s-directions")
+    assert slug("After kitti-rect-v4: what limits the blend (the card's 3 directions)") == (
+        "after-kitti-rect-v4-what-limits-the-blend-the-cards-3-directions")
     assert slug("Evaluation data, protocol and metrics") == "evaluation-data-protocol-and-metrics"
     assert slug("`inpaintenv benchmark` options") == "inpaintenv-benchmark-options"

@@ -94,11 +94,27 @@ def test_user_docs_do_not_cite_internal_issue_numbers(name):
     assert not hits, "say what the issue said instead of its number:\n" + "\n".join(hits)
 
 
+#: Code, tests and scripts: they say what a thing does and why, never which tracker item asked for it
+#: (history goes to CHANGELOG.md). This file is left out: it holds sample text for the pattern.
+CODE = sorted(str(p.relative_to(ROOT)) for folder in ("inpaintenv", "estimators", "tests", "perf", "experiments")
+              for p in (ROOT / folder).rglob("*") if p.suffix in (".py", ".sh") and p.name != Path(__file__).name)
+#: A tracker reference in code: an issue number, or an item number of one.
+TRACKER = re.compile(r"\bissues? ?#?\d+|\bitems? \d+(?![\w-])", re.IGNORECASE)
+
+
+def test_code_and_tests_do_not_cite_tracker_items():
+    hits = [f"{name}:{text(name)[: m.start()].count(chr(10)) + 1}: {m.group()}"
+            for name in CODE for m in TRACKER.finditer(text(name))]
+    assert not hits, "say what the item asked for instead of its number:\n" + "\n".join(hits)
+
+
 def test_the_checks_catch_stale_names():
     assert PAIRED.search("the default, `blend-pretrained` (`kitti-rect-v3`), and")["release"] == "kitti-rect-v3"
     assert PAIRED.search("`blend-pretrained` (alias `unet-pretrained`) (`kitti-rect-v3`)") is not None
     assert LOADABLE.search('-m kitti-rect-v4 -m scanline')["release"] == "kitti-rect-v4"
     assert LOADABLE.search('BlendInpainter.pretrained("kitti-rect-v4")') and not LOADABLE.search("kitti-rect-v4's recipe")
     assert ISSUE.search("the natural next step (issue 8).") and ISSUE.search("see issues #12")
+    assert TRACKER.search("(issue 43, item 5)") and TRACKER.search("# Item 13: a traceback")
+    assert not TRACKER.search("the items 2-D array") and not TRACKER.search("issues/ tracker")
     assert not ISSUE.search("issues/ tracker") and RELEASE.findall("kitti-rect-v9 and kitti-mixed-v1") == [
         "kitti-rect-v9", "kitti-mixed-v1"]

@@ -133,7 +133,7 @@ def test_step_outside_episode_raises(dataset):
 
 
 def test_unfilled_action_is_refused_unless_the_env_says_how_to_score_it(dataset):
-    # Issue 24: 0 m left in the hole was scored as 0 m; NaN was refused.
+    # 0 m left in the hole was scored as 0 m; NaN was refused.
     env = DepthInpaintEnv(dataset)
     env.reset(seed=0, options={"index": 1, "mask_seed": 3})
     gt = dataset[1]
@@ -179,7 +179,7 @@ def _one_pixel(value, dtype=np.float32):
         (np.ones(SHAPE, np.int32), TypeError, "dtype"),
         (np.ones(SHAPE, np.uint8), TypeError, "action has integer dtype uint8"),
         (np.ones(SHAPE, bool), TypeError, "dtype"),
-        # Scored on the data under the mask until issue 24; refused as everywhere else.
+        # Once scored on the data under the mask; refused as everywhere else.
         (np.ma.masked_array(np.full(SHAPE, 5.0, np.float32), mask=np.eye(*SHAPE, dtype=bool)), TypeError,
          "action is a numpy masked array"),
         ("deep", TypeError, "dtype"),

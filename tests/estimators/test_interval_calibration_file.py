@@ -1,4 +1,4 @@
-"""Interval calibration files from outside (issue 50, items 4, 5, 13, 14, 16, 23).
+"""Interval calibration files from outside.
 
 A tampered calibration is refused in one line naming the file and the field, never read
 into zero-width intervals; a FIFO or 200 kB of nested JSON is refused at once; ``save``

@@ -1,4 +1,4 @@
-"""One run per run folder (issue 16, item 4)."""
+"""One run per run folder."""
 
 from __future__ import annotations
 
@@ -108,7 +108,7 @@ def _score_argv(tmp_path):
 
 @pytest.mark.parametrize("command", ["benchmark", "train", "score"])
 def test_a_symlinked_lock_file_is_refused_and_its_target_untouched(tmp_path, capsys, command):
-    # Issue 50, item 1: run.lock -> ../victim used to be opened "a+" and truncated through the link.
+    # run.lock -> ../victim used to be opened "a+" and truncated through the link.
     if command == "train":
         pytest.importorskip("torch")
     victim = tmp_path / "victim"
@@ -129,7 +129,7 @@ def test_a_symlinked_lock_file_is_refused_and_its_target_untouched(tmp_path, cap
 
 
 def test_a_fifo_lock_file_is_refused_at_once(tmp_path):
-    # Issue 50, item 14: a FIFO named run.lock must not block the run.
+    # A FIFO named run.lock must not block the run.
     from inpaintenv.exceptions import UnsafeFileError
 
     os.mkfifo(tmp_path / LOCK_FILE)

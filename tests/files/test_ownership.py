@@ -1,4 +1,4 @@
-"""Run folders replace and delete only the files a run recorded writing (issue 43, item 4)."""
+"""Run folders replace and delete only the files a run recorded writing."""
 
 from __future__ import annotations
 

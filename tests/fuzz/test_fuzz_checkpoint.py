@@ -191,7 +191,7 @@ def test_huge_sizes_of_an_ensemble_member_are_refused(saved, sandbox, member, ke
     assert f"member {members[member]['name']!r}" in message and f"{key}={value}" in message
 
 
-# -- issue 50: paths, threads and hostile files in a checkpoint ---------------------------
+# -- paths, threads and hostile files in a checkpoint ---------------------------
 def _with_paths(params: dict[str, Any], target: Path, names: tuple[str, ...] = PATH_PARAMS) -> dict[str, Any]:
     return {**params, **{k: str(target) for k in names if k in params}}
 

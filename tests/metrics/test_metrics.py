@@ -183,7 +183,7 @@ def test_all_pixel_means_against_the_devkit_formulas():
     # Per frame: the devkit's formulas (float64), every frame.
     for m, scale in units.items():
         np.testing.assert_allclose(per_frame[f"all_{m}"], [d[m] * scale for d in devkit], rtol=1e-12)
-    # The devkit averages every frame: all_frames="every" (issue 24) ...
+    # The devkit averages every frame: all_frames="every" ...
     every = aggregate(per_frame, all_frames="every")
     # ... while by default the all-pixel means cover the frames of the hole means.
     scored = aggregate(per_frame)
@@ -253,7 +253,7 @@ def _unfilled_case():
 
 
 def test_unfilled_pixels_are_refused_with_a_count():
-    # Issue 24: a 0 m hole pixel was scored as 0 m without a word (NaN was refused).
+    # A 0 m hole pixel was scored as 0 m without a word (NaN was refused).
     pred, gt, hole = _unfilled_case()
     with pytest.raises(UnfilledPixelsError, match=r"^prediction is 0 m \(unfilled\) at 2 hole pixels with ground truth; "
                                                  r"fill them, or set unfilled to 'interpolate'"):

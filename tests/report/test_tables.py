@@ -1,4 +1,4 @@
-"""One table format for ``evaluate`` and the benchmark, and the interval rule (issue 16, items 1 and 11)."""
+"""One table format for ``evaluate`` and the benchmark, and the interval rule."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Every entry point of the package against the same hostile files (issue 50).
+"""Every entry point of the package against the same hostile files.
 
 :data:`CASES` is the table: each entry point (every CLI subcommand, ``load``,
 ``load_release``, ``fill``/``fill_depth``, ``ConformalIntervalInpainter.load``, the Gymnasium

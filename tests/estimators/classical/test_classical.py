@@ -220,7 +220,7 @@ def test_ipbasic_large_hole_kernel_none_follows_the_published_code():
     got = IPBasicInpainter(large_hole_kernel=None, keep_observed=False).predict(small)
     np.testing.assert_array_equal(got, want)
     # A hole wider than the 7x7 fill: the published code runs its 31x31 fill only when
-    # extrapolating (issue 24); None does the same and leaves the rest to the fallback.
+    # extrapolating; None does the same and leaves the rest to the fallback.
     wide = _holed(depth, 10, 20, 40, 50)
     published = IPBasicInpainter(large_hole_kernel=None, fallback="nearest").predict(wide)
     np.testing.assert_array_equal(published, IPBasicInpainter(large_hole_kernel=1, fallback="nearest").predict(wide))

@@ -1,4 +1,4 @@
-"""What learned methods return in the pixels they fill (issue 43, items 14 and 15; issue 50, items 10 and 23).
+"""What learned methods return in the pixels they fill.
 
 Every hole pixel of a frame with a measurement is a positive depth, at least
 ``MIN_HOLE_DEPTH`` (a net's raw output at or below 0 m used to be clipped to 0 m, which the
@@ -116,7 +116,7 @@ def test_the_cap_changes_only_pixels_above_the_trained_range():
 
 
 def test_a_briefly_trained_unet_far_beyond_any_training_depth_is_capped(data, frames):
-    # Issue 50 item 10: such a U-Net predicted 303 m; evaluate, fill and the env refuse that.
+    # Such a U-Net predicted 303 m; evaluate, fill and the env refuse that.
     est = UNetInpainter(**UNET, keep_observed=False).fit(data)
     with torch.no_grad():
         est.model_.head.bias.fill_(100.0)
