@@ -26,12 +26,9 @@ The interval of nominal coverage ``c`` is ``pred ± q_c · scale`` (low clipped 
 
 ``"frame"`` (default)
     Every calibration frame weighs the same (each of its ``n_k`` scored pixels ``1 / n_k``),
-    so that the *mean over frames of each frame's coverage*, the figure the benchmark
-    reports (``hole_coverage``), is ``c`` on the calibration frames. Without it the frames
-    with the most hole pixels set ``q``, and the mean over frames falls short of ``c``
-    whenever the frames with large holes are the easier ones. The weighted quantile is an
-    estimate: a frame's coverage is a share, to which split conformal's order-statistic
-    argument does not apply, so no finite-sample correction is made.
+    so the mean over frames of each frame's coverage (the benchmark's ``hole_coverage``) is
+    ``c`` on the calibration frames, even where the frames with large holes are the easier
+    ones; an estimate, without split conformal's finite-sample correction.
 ``"pixel"``
     Every scored pixel weighs the same: the split-conformal quantile with the finite-sample
     correction (the ``ceil((n + 1) c)``-th smallest of ``n``), whose guarantee is for a pixel
@@ -46,10 +43,10 @@ the drives it is used on. **The base model must never have seen the calibration 
 ``fit`` takes whole drives (``groups``) and refuses drives the base records in
 ``training_drives_``.
 
-On a dataset of single scans (``input_kind`` ``"scan"`` or a density variant) the scored pixels are the protocol's
-task, as the benchmark scores it: under ``densify-v1`` every pixel the scan did not measure,
-under a hole protocol the hole cut out of the scan; ``"densify-v1+rect-v1"`` pools both. The maths is in ``._calibration``, the file's reading and writing in
-``._persistence`` and ``._calibration_file``.
+On single scans (``input_kind`` ``"scan"`` or a density variant) the scored pixels are the
+protocol's task: under ``densify-v1`` every pixel the scan did not measure, under a hole
+protocol the hole cut out of the scan; ``"densify-v1+rect-v1"`` pools both. The maths is in
+``._calibration``, the file's reading and writing in ``._persistence`` and ``._calibration_file``.
 """
 
 from __future__ import annotations
@@ -187,7 +184,6 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
 
     #: Calibrates on whole drives: fit needs each frame's drive (``groups`` or a dataset's).
     _needs_drive_ids = True
-
     # Scored as every inpainter is, through its own predict (the filled depth, not the interval).
     score = BaseInpainter.score
     score_frames = BaseInpainter.score_frames
