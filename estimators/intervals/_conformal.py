@@ -37,11 +37,9 @@ The interval of nominal coverage ``c`` is ``pred ± q_c · scale`` (low clipped 
 The weighted residuals are kept as 2001 quantiles, so any coverage can be asked after
 calibration (rounded up to the next stored level: conservative by at most 0.05 %).
 
-The guarantee is marginal over pixels of frames exchangeable with the calibration frames;
-it holds on new drives only when the calibration drives are as new to the base model as
-the drives it is used on. **The base model must never have seen the calibration drives**:
-``fit`` takes whole drives (``groups``) and refuses drives the base records in
-``training_drives_``.
+The guarantee is marginal over pixels of frames exchangeable with the calibration frames,
+so **the base model must never have seen the calibration drives**: ``fit`` takes whole
+drives (``groups``) and refuses drives the base records in ``training_drives_``.
 
 On single scans (``input_kind`` ``"scan"`` or a density variant) the scored pixels are the
 protocol's task: under ``densify-v1`` every pixel the scan did not measure, under a hole
