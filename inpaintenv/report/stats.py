@@ -88,18 +88,25 @@ def bootstrap_ratio_ci(
     Returns
     -------
     (ratio, low, high) : tuple of float
-        ``low`` and ``high`` are NaN for a single pair.
+        ``low`` and ``high`` are NaN for a single pair. A ratio to a mean of 0 does not
+        exist: all three are NaN when ``mean(b)`` is 0, and the bounds are NaN when some
+        resample's mean of ``b`` is 0 (its ratio, and so the interval, is undefined).
     """
     _check_confidence(confidence)
     a = np.asarray(a, dtype=np.float64).reshape(-1)
     b = np.asarray(b, dtype=np.float64).reshape(-1)
     if a.size != b.size or a.size == 0:
         raise InvalidInputError(f"a and b must be non-empty and paired, got {a.size} and {b.size} values")
+    if b.mean() == 0:
+        return _NAN, _NAN, _NAN
     ratio = float(a.mean() / b.mean())
     if a.size == 1:
         return ratio, _NAN, _NAN
     idx = _resample(a.size, n_resamples, seed)
-    return (ratio, *_percentile_interval(a[idx].mean(axis=1) / b[idx].mean(axis=1), confidence))
+    denominators = b[idx].mean(axis=1)
+    if not denominators.all():
+        return ratio, _NAN, _NAN
+    return (ratio, *_percentile_interval(a[idx].mean(axis=1) / denominators, confidence))
 
 
 def _check_confidence(confidence: float) -> None:

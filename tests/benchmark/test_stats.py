@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -53,3 +55,11 @@ def test_ratio_degenerate_and_bad_inputs():
         bootstrap_ratio_ci([], [])
     with pytest.raises(ValueError, match="confidence"):
         bootstrap_ratio_ci([1.0, 2.0], [1.0, 2.0], confidence=0.0)
+
+
+def test_ratio_to_a_mean_of_zero_is_undefined_without_a_warning():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's "divide by zero" must not be how it is found out
+        assert all(np.isnan(v) for v in bootstrap_ratio_ci([1.0, 2.0], [0.0, 0.0]))
+        ratio, low, high = bootstrap_ratio_ci([1.0, 2.0, 3.0], [0.0, 0.0, 1.0])  # some resamples draw only zeros
+    assert ratio == pytest.approx(6.0) and np.isnan(low) and np.isnan(high)
