@@ -344,9 +344,9 @@ class NestedChoice:
         saved = self.out / f"inner-{fold['name']}.json"
         rows: list[dict] = []
         if saved.is_file():  # a rerun scores only the candidates (or seeds) not yet there
-            # parse_row would read the split's day as a number (float accepts 2011_09_30)
-            rows = [{**parse_row(r), "split": r["split"]} for r in read_json(saved, "inner rows")["rows"]
-                    if int(r["seed"]) in args.seeds]
+            # The split's day is this experiment's own column: a row is checked without it.
+            rows = [{**parse_row({k: v for k, v in r.items() if k != "split"}), "split": r["split"]}
+                    for r in read_json(saved, "inner rows")["rows"] if int(r["seed"]) in args.seeds]
         for n, split in enumerate(fold["inner"]):
             done = {r["method"] for r in rows if r["split"] == split["day"]}
             wanted = (set(args.candidates) | set(args.method)) - done

@@ -39,11 +39,12 @@ from .data.inputs import method_input
 from .masks import OcclusionProtocol, get_protocol
 from .methods.calls import _as_predictor, _run, _warm_up, method_name
 from .methods.intervals import IntervalSource, interval_source
-from .exceptions import BadFrameError, InvalidInputError, MethodOutputError, UnfilledPixelsError
+from .exceptions import BadFrameError, InvalidInputError, MethodOutputError, ResultRowError, UnfilledPixelsError
 from .metrics import (CALIBRATION_LEVELS, Coverage, FrameBatch, as_coverage, check_unfilled, computed_metrics, interval_metrics,
                       metric_records)
 from .metrics._depth import _frame_metrics_checked
 from .report.results import METRIC_COLUMNS, EvaluationResult
+from .values.rows import RowPlan, UniqueRows, check_row
 
 __all__ = ["BAD_FRAME_ERRORS", "check_on_bad_frame", "evaluate", "resolve_source", "training_drives_of"]
 
@@ -432,7 +433,22 @@ def _score_on_cluster(
     """Rows and skipped frames of ``batches``, each scored by :func:`_score_shard` on a Dask worker."""
     from .cluster import map_shards  # lazy: Dask is an optional extra
 
+    dataset = shared["dataset"]
+    # Rows cross a process (and maybe a network) here: each is checked before anything keeps it.
+    plan = RowPlan(methods={shared["name"]}, protocol=shared["protocol"].name, input_kind=dataset.input_kind,
+                   seeds=set(shared["seeds"]), frame_ids=[str(f) for f in dataset.frame_ids],
+                   drives=[str(g) for g in dataset.groups])
+    unique = UniqueRows(default_input=dataset.input_kind)
+    n_received = [0]
+
     def received(part: EvaluationResult) -> None:
+        for row in part.rows:
+            n_received[0] += 1
+            try:
+                plan.check(check_row(row, max_depth=shared["max_depth"]))
+                unique.add(row, f"row {n_received[0]} sent back")
+            except ResultRowError as exc:
+                raise ResultRowError(f"a Dask worker sent back a row that is not one of this run: {exc}") from None
         bar.update(len(part.rows) + len(part.meta.get("skipped_frames", [])) * len(shared["seeds"]))
         if on_batch is not None and part.rows:
             on_batch(part.rows)

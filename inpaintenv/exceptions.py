@@ -33,7 +33,7 @@ from __future__ import annotations
 __all__ = [
     "BadFrameError", "CalibrationError", "CheckpointError", "ClusterError", "DataError", "DepthFormatError",
     "FileTooLargeError", "ForeignFolderError", "InpaintenvError", "InvalidInputError", "InvalidTypeError", "JSONFileError",
-    "ManifestError", "MethodOutputError", "MissingDependencyError", "OutOfRangeError", "RunLockedError",
+    "ManifestError", "MethodOutputError", "MissingDependencyError", "OutOfRangeError", "ResultRowError", "RunLockedError",
     "RunMismatchError", "RunStateError", "ScanFormatError", "StaleCacheError", "StateError", "SubmissionError",
     "TrainingDivergedError", "UnfilledPixelsError", "UnknownNameError", "UnsafeFileError", "WorkerDataError",
 ]
@@ -139,6 +139,11 @@ class RunMismatchError(InvalidInputError):
 
 class RunStateError(InvalidInputError):
     """The output folder's ``run.json`` (the resume state) cannot be read."""
+
+
+class ResultRowError(InvalidInputError):
+    """A per-frame result row holds what no scoring gives (a negative error, a metric out of
+    its range, a bool for a number), or is not a row of the run that reads it."""
 
 
 class ForeignFolderError(InvalidInputError):

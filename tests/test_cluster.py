@@ -18,6 +18,7 @@ import time
 
 import numpy as np
 import pytest
+from hostile_rows import HOSTILE_ROWS, tamper_rows
 
 distributed = pytest.importorskip("distributed")
 
@@ -34,7 +35,7 @@ from inpaintenv.cluster import (
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.data.io import write_depth_png
 from inpaintenv.evaluate import evaluate
-from inpaintenv.exceptions import MethodOutputError
+from inpaintenv.exceptions import MethodOutputError, ResultRowError, RunStateError
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -487,3 +488,44 @@ def test_intervals_on_cluster_give_the_serial_rows(client, streets):
     assert "hole_coverage" in serial.rows[0]
     assert without_ms(dist.rows) == without_ms(serial.rows)
     assert dist.meta == serial.meta
+
+
+class OtherIdsOnWorkers(SyntheticStreets):
+    """Synthetic streets whose copy on a worker names its frames otherwise: a worker that reads
+    other data than the client planned (another version of a file list)."""
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self.frame_ids = [f"elsewhere/{i}" for i in range(len(self.frame_ids))]
+
+
+@pytest.fixture(scope="module")
+def small_run(client, tmp_path_factory):
+    out = tmp_path_factory.mktemp("dask-run") / "run"
+    source = SyntheticStreets(n=3, frame_shape=SHAPE)
+    run_benchmark({"harmonic": NearestInpainter(n_jobs=1)}, source, protocols=["rect-v1"], out_dir=out,
+                  client=client, progress=False)
+    return out, source
+
+
+@pytest.mark.parametrize("name", sorted(HOSTILE_ROWS))
+def test_dask_resume_refuses_a_row_its_run_could_not_have_written(name, client, small_run, tmp_path):
+    edit, says = HOSTILE_ROWS[name]
+    out = tmp_path / "run"
+    shutil.copytree(small_run[0], out)
+    path = out / "rows" / "harmonic__rect-v1.jsonl"
+    tamper_rows(path, edit)
+    before = path.read_bytes()
+    with pytest.raises(RunStateError, match=rf"line \d+ of .*harmonic__rect-v1\.jsonl is not a row of this run: "
+                                            rf".*{says}"):
+        run_benchmark({"harmonic": NearestInpainter(n_jobs=1)}, small_run[1], protocols=["rect-v1"], out_dir=out,
+                      client=client, progress=False)
+    assert path.read_bytes() == before
+
+
+def test_rows_a_worker_sends_back_are_checked_before_they_are_kept(client, tmp_path):
+    source = OtherIdsOnWorkers(n=3, frame_shape=SHAPE)
+    with pytest.raises(ResultRowError, match=r"a Dask worker sent back a row .*frame_id 'elsewhere/0' is not frame 0's"):
+        run_benchmark({"nearest": NearestInpainter(n_jobs=1)}, source, protocols=["rect-v1"],
+                      out_dir=tmp_path / "run", client=client, progress=False)
+    assert not list((tmp_path / "run" / "rows").glob("*.jsonl"))  # nothing of it written

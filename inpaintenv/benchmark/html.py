@@ -38,7 +38,7 @@ from ..report.results import EvaluationResult
 from ..report.tables import summary_table
 from .headline import every_method_vs_strongest
 from ..files.ownership import claim
-from .rows import read_rows
+from .rows import read_run_rows
 
 __all__ = ["REPORT_FILE", "build_html", "figure_groups", "write_html_report"]
 
@@ -120,14 +120,8 @@ def _optional_json(path: Path, what: str) -> dict[str, Any]:
 
 
 def _run_rows(run_dir: Path) -> list[dict[str, Any]]:
-    """Every row of ``rows/*.jsonl``, one per (method, input kind, protocol, seed, frame): the last written."""
-    unique: dict[tuple, dict[str, Any]] = {}
-    for path in sorted((run_dir / "rows").glob("*.jsonl")):
-        kind = "scan" if path.stem.endswith("__scan") else "map"
-        for row in read_rows(path):
-            row.setdefault("input_kind", kind)
-            unique[(row["method"], row["input_kind"], row["protocol"], row["seed"], row["index"])] = row
-    return list(unique.values())
+    """Every row of ``rows/*.jsonl``, each one its run could have written (:func:`.rows.read_run_rows`)."""
+    return read_run_rows(run_dir / "rows", _optional_json(run_dir / "run.json", "run file"))
 
 
 def _method_order(rows: list[dict[str, Any]], meta: dict[str, Any], run: dict[str, Any]) -> list[str]:

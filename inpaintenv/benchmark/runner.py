@@ -16,14 +16,12 @@ the same rows. Progress goes to tqdm bars on a terminal and, in a log, to a line
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from ..conventions import DEFAULT_MAX_DEPTH, check_int, check_seeds
 from ..data.base import DepthDataset
-from ..data.inputs import input_kind
 from ..evaluate import _evaluate_checked, check_on_bad_frame, resolve_source, training_drives_of
 from ..files import remove_stale_temporaries
 from ..masks import get_protocol
@@ -38,12 +36,13 @@ from ..files.identity import method_identity
 from .costs import relative_costs
 from ..files.lock import run_lock
 from ..files.ownership import adopt, check_folder, claim, remove
-from .rows import append_rows, end_partial_line, read_rows
+from .rows import append_rows, end_partial_line, read_rows, rows_file_name
 from .run_state import RunMismatchError, RunStateError, differences, read_run_file, run_fingerprint, write_run_file
 from .suites import method_kind
 from .tasks import Task, check_tasks, task_datasets
 from ..exceptions import InvalidInputError, InvalidTypeError, UnsafeFileError
 from ..report.results import EvaluationResult, merge_skipped
+from ..values.rows import RowPlan, SameFrames
 
 __all__ = ["RunMismatchError", "RunStateError", "run_benchmark"]
 
@@ -55,14 +54,9 @@ PROGRESS_INTERVAL = 10.0
 UNAVAILABLE = (ImportError, KeyError, FileNotFoundError)
 
 
-def _slug(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
-
-
 def _rows_file(name: str, task: Task) -> str:
-    """``<method>__<protocol>.jsonl`` of a map task (as always); a scan task's file ends in ``__scan``."""
-    kind = input_kind(task.input_kind).file_tag
-    return f"{_slug(name)}__{_slug(task.protocol)}{kind}.jsonl"
+    """The row file of ``name`` in ``task`` (:func:`.rows.rows_file_name`)."""
+    return rows_file_name(name, task.protocol, task.input_kind)
 
 
 def _check_run(
@@ -274,6 +268,8 @@ class _Run:
         self.skipped: list[list[dict[str, Any]]] = []
         self.reporter: ProgressReporter | None = None
         self._warmed: set[str] = set()  # methods warmed up (evaluate's ``warmup``) in this process
+        self._frames: dict[str, tuple[list[str], list[str]]] = {}  # input kind -> ids and drives of its frames
+        self._same = SameFrames()  # every row of one frame (and mask) describes it alike, across methods
 
     def save(self) -> None:
         write_run_file(self.run_file, self.fingerprint, self.identities, self.trained)
@@ -415,19 +411,26 @@ class _Run:
             if not task.scores(name):
                 continue
             self._score_task(name, method, task, self.paths[name][task])
-            keep = {(s, i) for s in self.seeds for i in range(self.totals[task.input_kind])}
-            rows = [r for r in self._read(name, task) if (r["seed"], r["index"]) in keep]
-            # One row per (seed, frame) even if a crash left a duplicate line behind.
-            unique = {(r["seed"], r["index"]): r for r in rows}
-            results.append(EvaluationResult(rows=[unique[k] for k in sorted(unique)], meta={"methods": [name]}))
+            # Every row is one the run planned, one per (seed, frame) (read_rows refuses others).
+            rows = sorted(self._read(name, task), key=lambda r: (r["seed"], r["index"]))
+            results.append(EvaluationResult(rows=rows, meta={"methods": [name]}))
         return results
 
     def _read(self, name: str, task: Task) -> list[dict[str, Any]]:
-        """The rows of ``name`` in ``task``'s file (rows made before rows recorded their input are of its kind)."""
-        rows = [r for r in read_rows(self.rows_dir / _rows_file(name, task)) if r["method"] == name]
+        """The rows of ``name`` in ``task``'s file, each one this run planned (rows made before rows
+        recorded their input are of its kind); a row the run did not plan is refused (RunStateError)."""
+        file = _rows_file(name, task)
+        if task.input_kind not in self._frames:
+            dataset, total = self.datasets[task.input_kind], self.totals[task.input_kind]
+            self._frames[task.input_kind] = ([str(f) for f in dataset.frame_ids[:total]],
+                                             [str(g) for g in dataset.groups[:total]])
+        frame_ids, drives = self._frames[task.input_kind]
+        plan = RowPlan(methods={n for n in self.methods if _rows_file(n, task) == file}, protocol=task.protocol,
+                       input_kind=task.input_kind, seeds=set(self.seeds), frame_ids=frame_ids, drives=drives)
+        rows = [r for r in read_rows(self.rows_dir / file, plan, check=self._same.add) if r["method"] == name]
         for r in rows:
             r.setdefault("input_kind", task.input_kind)
-        return [r for r in rows if r["input_kind"] == task.input_kind]
+        return rows
 
     def _score_task(self, name: str, method: Any, task: Task, path: Path) -> None:
         end_partial_line(path)

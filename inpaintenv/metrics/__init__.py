@@ -18,6 +18,7 @@ from ._depth import (
     aggregate,
     check_unfilled,
     frame_metrics,
+    psnr_of,
     task_of,
 )
 from ._depth_bins import DEPTH_BIN_EDGES, depth_binned_errors
@@ -43,6 +44,6 @@ __all__ = [
     "CALIBRATION_LEVELS", "CONVENTIONS", "REMOVED", "auce", "calibration", "sparsification", "DEPTH_BIN_EDGES", "EXTRA_COLUMNS", "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "KITTI_METRICS",
     "METRIC_NAMES", "POOLS", "REGIONS", "FrameBatch", "Metric", "UNFILLED", "UNMEASURED_METRICS", "Coverage", "ScoredPixels", "aggregate",
     "as_coverage", "border_distance", "check_coverage", "check_interval", "check_unfilled", "computed_metrics", "depth_binned_errors",
-    "frame_metrics", "interpolate_background", "interval_from_std", "interval_metrics", "metric_record", "metric_records", "normal_quantile",
+    "frame_metrics", "interpolate_background", "interval_from_std", "interval_metrics", "metric_record", "metric_records", "normal_quantile", "psnr_of",
     "register_metric", "rejection_curve", "task_of",
 ]

@@ -37,7 +37,7 @@ from ._records import metric_record, metric_records
 
 __all__ = [
     "EXTRA_COLUMNS", "KITTI_METRICS", "METRIC_NAMES", "REGIONS", "UNFILLED", "UNMEASURED_METRICS",
-    "ScoredPixels", "aggregate", "check_unfilled", "frame_metrics", "task_of",
+    "ScoredPixels", "aggregate", "check_unfilled", "frame_metrics", "psnr_of", "task_of",
 ]
 
 REGIONS = ("hole", "all")
@@ -58,6 +58,11 @@ MIN_PSNR_RMSE = 1e-6
 #: KITTI devkit's background interpolation (:func:`interpolate_background`), ``"zero"``
 #: scores them as 0 m (how the study scored its hole-only baselines).
 UNFILLED = ("error", "interpolate", "zero")
+
+
+def psnr_of(rmse: np.ndarray | float, max_depth: float) -> np.ndarray:
+    """PSNR in dB of an RMSE for the range ``max_depth``: ``20·log10(max_depth / max(rmse, MIN_PSNR_RMSE))``."""
+    return 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
 
 
 def check_unfilled(value: object, name: str = "unfilled") -> str:
@@ -257,7 +262,7 @@ class ScoredPixels:
             out[f"{region}_mae"] = _frame_sums(np.abs(e), runs) / denom
             out[f"{region}_irmse"] = np.sqrt(_frame_sums(ie * ie, runs) / denom)
             out[f"{region}_imae"] = _frame_sums(np.abs(ie), runs) / denom
-            out[f"{region}_psnr"] = 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE))
+            out[f"{region}_psnr"] = psnr_of(rmse, max_depth)
             out[f"{region}_count"] = np.asarray(n, dtype=np.int64)
         out.update(self._unmeasured_metrics(err, max_depth))
         # KITTI's four are the all-pixel ones in the devkit's units: mm, and 1/km as here.
@@ -274,7 +279,7 @@ class ScoredPixels:
         e = err[self._unmeasured]
         rmse = np.sqrt(_frame_sums(e * e, runs) / denom)
         return {"unmeasured_rmse": rmse, "unmeasured_mae": _frame_sums(np.abs(e), runs) / denom,
-                "unmeasured_psnr": 20.0 * np.log10(max_depth / np.maximum(rmse, MIN_PSNR_RMSE)),
+                "unmeasured_psnr": psnr_of(rmse, max_depth),
                 "unmeasured_count": np.asarray(n, dtype=np.int64)}
 
 
@@ -418,7 +423,7 @@ def aggregate(
             out[key] = _pool(metric_record(key).pool, cols[key], count, ok, how)
         if how == "pooled" and ok.any() and "psnr" in names:
             out[f"{region}_psnr"] = float(
-                20.0 * np.log10(max_depth / max(out[f"{region}_rmse"], MIN_PSNR_RMSE))
+                psnr_of(out[f"{region}_rmse"], max_depth)
             )
     # Every other metric record the rows hold, by its own record (evaluate's computed metrics, intervals).
     for record in metric_records():

@@ -57,8 +57,8 @@ from ..conventions import as_depth_array, check_depth, check_mask
 from ..exceptions import InvalidInputError, InvalidTypeError
 
 __all__ = [
-    "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "Coverage", "as_coverage", "border_distance", "check_coverage",
-    "check_interval",
+    "INTERVAL_COLUMNS", "KEEP_FRACTIONS", "KEEP_GRID", "Coverage", "as_coverage", "border_distance",
+    "check_coverage", "check_interval",
     "interval_from_std", "interval_metrics", "normal_quantile", "rejection_curve",
 ]
 

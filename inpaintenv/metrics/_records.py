@@ -31,7 +31,9 @@ from typing import Any
 
 import numpy as np
 
+from ..conventions import DEPTH_LIMIT
 from ..exceptions import InvalidInputError, UnknownNameError
+from ._intervals import KEEP_GRID
 
 __all__ = ["GROUPS", "POOLS", "FrameBatch", "Metric", "computed_metrics", "metric_record", "metric_records",
            "register_metric"]
@@ -200,7 +202,10 @@ def _depth_records() -> None:
     """The columns of :func:`~inpaintenv.metrics.frame_metrics`."""
     where = {"hole": "hole pixels with ground truth", "all": "pixels with ground truth",
              "unmeasured": "pixels with ground truth the input did not measure"}
-    error, inverse = (0.0, math.inf), (0.0, math.inf)
+    # A prediction and its truth both lie in [0, DEPTH_LIMIT] where scored, so an error is at most
+    # DEPTH_LIMIT m; an inverse error has no bound (the truth may be near 0 m); a PSNR follows
+    # from its RMSE and the run's max_depth (inpaintenv.values.rows checks the two agree).
+    error, inverse = (0.0, DEPTH_LIMIT), (0.0, math.inf)
     for region in ("hole", "all", "unmeasured"):
         frames = {"hole": "task", "all": "all", "unmeasured": "task"}[region]
         count = f"{region}_count"
@@ -225,35 +230,39 @@ def _depth_records() -> None:
                                          ("imae", "iMAE", "1/km", ".2f", "mean")):
         register_metric(Metric(
             f"kitti_{key}", f"KITTI depth completion's {short} over every pixel with ground truth, in its units",
-            pool, False, unit, f"KITTI {short} ({unit})", fmt, 0.0, math.inf, "all_count", "every", "scan"))
+            pool, False, unit, f"KITTI {short} ({unit})", fmt, 0.0, 1000.0 * DEPTH_LIMIT if unit == "mm" else math.inf,
+            "all_count", "every", "scan"))
 
 
 def _interval_records() -> None:
     """The columns of :func:`~inpaintenv.metrics.interval_metrics` (its module docstring defines them)."""
-    share, ratio = (0.0, 1.0), (0.0, math.inf)
+    # Keeping a fraction f keeps at least f of the pixels, so its RMSE is at most sqrt(1/f) times the
+    # whole task's: the cut at 80 % is at least 1 - sqrt(1/0.8), an area at most the mean of sqrt(1/f).
+    share, ratio, kept = (0.0, 1.0), (0.0, math.inf), (0.0, DEPTH_LIMIT)
+    area, cut = (0.0, float(np.mean(np.sqrt(1.0 / np.asarray(KEEP_GRID))))), (1.0 - math.sqrt(1.0 / 0.8), 1.0)
     specs = [
         ("hole_coverage", "share of the task's pixels whose truth lies in the interval", "mean", True, "share",
          "hole coverage", ".1%", share, "interval"),
         ("hole_interval_width", "mean high - low over the task's pixels", "mean", False, "m",
          "interval width (m)", ".2f", ratio, "interval"),
-        ("rmse_keep_90", "RMSE of the 90 % narrowest intervals' pixels", "frames", False, "m", None, ".2f", ratio, None),
+        ("rmse_keep_90", "RMSE of the 90 % narrowest intervals' pixels", "frames", False, "m", None, ".2f", kept, None),
         ("rmse_keep_80", "RMSE of the 80 % narrowest intervals' pixels", "frames", False, "m",
-         "hole RMSE, 80 % most confident (m)", ".2f", ratio, "interval"),
-        ("rmse_keep_50", "RMSE of the 50 % narrowest intervals' pixels", "frames", False, "m", None, ".2f", ratio, None),
-        ("rmse_cut_80", "1 - rmse_keep_80 / the task's RMSE", "frames", True, "", None, ".3f", (-math.inf, 1.0), None),
+         "hole RMSE, 80 % most confident (m)", ".2f", kept, "interval"),
+        ("rmse_keep_50", "RMSE of the 50 % narrowest intervals' pixels", "frames", False, "m", None, ".2f", kept, None),
+        ("rmse_cut_80", "1 - rmse_keep_80 / the task's RMSE", "frames", True, "", None, ".3f", cut, None),
         ("rejection_auc", "mean over keep fractions 0.05..1 of RMSE kept / RMSE", "frames", False, "",
-         "rejection AUC", ".3f", ratio, "interval"),
+         "rejection AUC", ".3f", area, "interval"),
         ("border_rmse_keep_90", "RMSE of the 90 % pixels nearest the hole border", "frames", False, "m", None, ".2f",
-         ratio, None),
+         kept, None),
         ("border_rmse_keep_80", "RMSE of the 80 % pixels nearest the hole border", "frames", False, "m",
-         "hole RMSE, 80 % nearest border (m)", ".2f", ratio, "interval"),
+         "hole RMSE, 80 % nearest border (m)", ".2f", kept, "interval"),
         ("border_rmse_keep_50", "RMSE of the 50 % pixels nearest the hole border", "frames", False, "m", None, ".2f",
-         ratio, None),
+         kept, None),
         ("border_rejection_auc", "rejection_auc ranked by distance to the border", "frames", False, "", None, ".3f",
-         ratio, None),
-        ("oracle_rmse_keep_80", "RMSE of the 80 % pixels of smallest error", "frames", False, "m", None, ".2f", ratio,
+         area, None),
+        ("oracle_rmse_keep_80", "RMSE of the 80 % pixels of smallest error", "frames", False, "m", None, ".2f", kept,
          None),
-        ("oracle_rejection_auc", "rejection_auc ranked by the true error", "frames", False, "", None, ".3f", ratio,
+        ("oracle_rejection_auc", "rejection_auc ranked by the true error", "frames", False, "", None, ".3f", area,
          None),
     ]
     shown = ["hole_coverage", "hole_interval_width", "rmse_keep_80", "border_rmse_keep_80", "rejection_auc"]

@@ -18,11 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from ..conventions import DEFAULT_MAX_DEPTH
+from ..conventions import DEFAULT_MAX_DEPTH, check_max_depth
 from ..metrics import EXTRA_COLUMNS, METRIC_NAMES, REGIONS, aggregate, metric_records, task_of
 from . import tables
 from ..files import MAX_JSON_BYTES, read_json, read_text, write_bytes_atomic, write_text_atomic
-from ..exceptions import InvalidInputError
+from ..exceptions import InvalidInputError, ResultRowError
+from ..values.rows import UniqueRows, check_row
 
 __all__ = [
     "ID_COLUMNS", "METRIC_COLUMNS", "ROW_COLUMNS", "EvaluationResult", "json_safe", "merge_skipped", "parse_row",
@@ -42,8 +43,6 @@ ID_COLUMNS: tuple[str, ...] = ("method", "protocol", "input_kind", "seed", "inde
 
 #: All per-frame columns, in report order.
 ROW_COLUMNS: tuple[str, ...] = ID_COLUMNS + ("hole_fraction",) + METRIC_COLUMNS + ("ms",)
-_INT_COLUMNS = ("seed", "index", "hole_count", "all_count", "unmeasured_count")
-_STR_COLUMNS = ("method", "protocol", "input_kind", "frame_id", "drive")
 
 
 def _mean(values: Iterable[float]) -> float:
@@ -164,13 +163,22 @@ class EvaluationResult:
 
     @classmethod
     def from_json(cls, path: str | Path) -> EvaluationResult:
-        """Read a result written by :meth:`to_json`."""
+        """Read a result written by :meth:`to_json`; every row is checked (:func:`parse_row`), one per key.
+
+        Raises
+        ------
+        InvalidInputError
+            If the file is not a results.json of inpaintenv, or a row is not a possible one
+            (:class:`~inpaintenv.exceptions.ResultRowError`, naming the file and the row).
+        """
         doc = read_json(path, "results file")  # bounded in size and nesting; a FIFO is refused at once
         if not isinstance(doc, dict) or not isinstance(doc.get("rows"), list) or not all(
-                isinstance(r, dict) for r in doc["rows"]):
-            raise InvalidInputError(f"{path} is not a results.json of inpaintenv (an object whose rows are objects)")
-        rows = [parse_row(r) for r in doc["rows"]]
+                isinstance(r, dict) for r in doc["rows"]) or not isinstance(doc.get("meta", {}), dict):
+            raise InvalidInputError(f"{path} is not a results.json of inpaintenv (an object whose meta is an object "
+                                    "and whose rows are objects)")
         meta = dict(doc.get("meta", {}))
+        max_depth = _max_depth_of(meta, path)
+        rows = _parse_rows(doc["rows"], path, max_depth=max_depth)
         if doc.get("skipped_frames"):
             meta["skipped_frames"] = doc["skipped_frames"]
         return cls(rows=rows, meta=meta)
@@ -198,7 +206,7 @@ class EvaluationResult:
         """Read per-frame rows written by :meth:`to_csv` (``meta`` is empty)."""
         # A results CSV is as large as its results.json can be; a FIFO is refused at once.
         text = read_text(path, "results CSV", limit=MAX_JSON_BYTES)
-        rows = [parse_row(r) for r in csv.DictReader(io.StringIO(text, newline=""))]
+        rows = _parse_rows(csv.DictReader(io.StringIO(text, newline="")), path, text=True)
         return cls(rows=rows, meta={})
 
     def to_markdown(
@@ -269,16 +277,26 @@ def _csv_cell(v: Any) -> Any:
     return v
 
 
-def parse_row(raw: dict[str, Any]) -> dict[str, Any]:
-    """Restore column types of a row read back from JSON or CSV."""
-    row: dict[str, Any] = {}
-    for k, v in raw.items():
-        if k in _STR_COLUMNS:
-            row[k] = str(v)
-        elif v is None or v == "":
-            row[k] = float("nan")
-        elif k in _INT_COLUMNS:
-            row[k] = int(v)
-        else:
-            row[k] = float(v)
-    return row
+def parse_row(raw: dict[str, Any], *, max_depth: float = DEFAULT_MAX_DEPTH, text: bool = False) -> dict[str, Any]:
+    """A row read back from JSON (or a CSV record, ``text=True``) with its column types restored, if it is a
+    possible row (:func:`inpaintenv.values.rows.check_row`, which raises ResultRowError naming the column)."""
+    return check_row(raw, max_depth=max_depth, text=text)
+
+
+def _parse_rows(raws: Iterable[Any], path: str | Path, **kw: Any) -> list[dict[str, Any]]:
+    """Every row of the file ``path``, checked, one per key; ResultRowError naming the file and row."""
+    rows, unique = [], UniqueRows()
+    for number, raw in enumerate(raws, 1):
+        where = f"row {number} of {path}"
+        try:
+            row = parse_row(raw, **kw)
+            unique.add(row, where)
+        except ResultRowError as exc:
+            raise ResultRowError(f"{where} is not a possible result row: {exc}") from None
+        rows.append(row)
+    return rows
+
+
+def _max_depth_of(meta: dict[str, Any], path: str | Path) -> float:
+    """The PSNR range a results file says its rows were scored with (80 m when it does not say)."""
+    return check_max_depth(meta.get("max_depth", DEFAULT_MAX_DEPTH), f"meta.max_depth of {path}")

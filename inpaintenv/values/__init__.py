@@ -9,7 +9,9 @@ by every reader of that kind, so a new reader cannot forget the check:
 * :mod:`~inpaintenv.values.calibration`: a projection (finite, invertible, right-handed) and the
   rig a scan's folders name for it;
 * :mod:`~inpaintenv.values.depth`: a depth map (each value by
-  :func:`inpaintenv.conventions.check_depth`; a frame in metres, not all under a metre).
+  :func:`inpaintenv.conventions.check_depth`; a frame in metres, not all under a metre);
+* :mod:`~inpaintenv.values.rows`: a per-frame result row (finite, non-negative errors, counts >= 0, metrics
+  in their definitions' bounds, NaN only where nothing was scored, one per key, planned by its run).
 
 Import a check from its module (``from inpaintenv.values.points import ...``); this
 package imports nothing else, so every layer may use it.

@@ -34,6 +34,7 @@ import pytest
 from hostile_files import (
     BOMB, INTERVALS, MASK_BOMB, NESTED, NOT_UTF8, NPY_BOMB, ODOMETRY, VICTIM, Place, png, settable,
 )
+from hostile_rows import HOSTILE_ROWS, tamper_rows
 
 from inpaintenv.cli.main import build_parser, main
 from inpaintenv.data import write_depth_png
@@ -443,6 +444,33 @@ def _py_calibration() -> Any:
     return Calibration(k @ np.array([[0, -1.0, 0, 0], [0, 0, -1, 0], [1, 0, 0, 0]]), (120, 48), "odometry")
 
 
+#: Hand-edited rows (tests/hostile_rows.py) a resume must refuse, and those of them found through a
+#: Dask resume (each such case starts two workers: ~5 s; tests/test_cluster.py runs the whole table
+#: through one shared cluster).
+RESUMED_ROWS = ("negative-rmse", "nan-rmse", "null-metric", "duplicate-other-protocol", "made-up-drive",
+                "seed-true", "negative-count", "psnr-out-of-range", "duplicate-key", "extra-key", "missing-key")
+DASK_ROWS = ("duplicate-other-protocol", "made-up-drive", "null-metric", "seed-true")
+
+
+#: Those a rebuilt report (``inpaintenv report``, no data at hand) refuses too, each in its own words.
+REPORTED_ROWS = {"negative-rmse": "hole_rmse", "duplicate-other-protocol": "freeform-v1", "seed-true": "seed",
+                 "unplanned-index": "index 999", "duplicate-key": "a second row"}
+
+
+def _row_cases() -> list[Case]:
+    cases = []
+    for where, names, more in (("resume", RESUMED_ROWS, []), ("dask-resume", DASK_ROWS, ["--scheduler", "local:2"])):
+        for name in names:
+            edit, says = HOSTILE_ROWS[name]
+            cases.append(Case("cli:benchmark", f"{where}-row-{name}", lambda p, f, e=edit, m=more: [
+                *_run_dir(p, f, lambda o: tamper_rows(_rows(o), e)), *m],
+                says=rf"line \d+ of .*\.jsonl is not a row of this run: .*{says}"))
+    for name, says in REPORTED_ROWS.items():
+        cases.append(Case("cli:report", f"row-{name}", lambda p, f, e=HOSTILE_ROWS[name][0]: _report_dir(
+            p, f, lambda o: tamper_rows(_rows(o), e)), says=rf"line \d+ of .*\.jsonl is not a row of this run: .*{says}"))
+    return cases
+
+
 CASES: list[Case] = [
     # info, evaluate, show, export, benchmark, train: a KITTI tree holding one hostile frame
     *[Case(f"cli:{cmd[0]}", f"kitti-{bad}", _cli_kitti(cmd, bad), ok=bad == "not-utf8")
@@ -589,6 +617,7 @@ CASES: list[Case] = [
     *_config_edits(),
     *_value_cases(),
     *_training_states(),
+    *_row_cases(),
     Case("py:ConformalIntervalInpainter.load", "fifo", _intervals_load(lambda p: p.fifo(p.work / "cal.json"))),
     Case("py:ConformalIntervalInpainter.load", "nested", _intervals_load(lambda p: p.write(p.work / "c.json", NESTED))),
     Case("py:ConformalIntervalInpainter.load", "not-utf8-name", _intervals_load(
