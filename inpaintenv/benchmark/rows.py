@@ -137,9 +137,9 @@ def read_run_rows(rows_dir: Path, run: Mapping[str, Any]) -> list[dict[str, Any]
 def _recorded_tasks(run: Mapping[str, Any]) -> dict[str, tuple[set[str], int, str | None, set[str] | None]]:
     """Input kind -> (protocols, frames in play, the frames' sha1, the drives when it names them: its
     ``data`` digests) as ``run.json`` records them ({} if it does not)."""
+    # The fingerprint of the map's (else the first kind's) at the top, each other kind's under its name.
     keys = {run.get("input_kind", "map") if isinstance(run.get("input_kind"), str) else "map": run}
-    if isinstance(run.get("scan"), Mapping):
-        keys["scan"] = run["scan"]
+    keys.update({kind: run[kind] for kind in INPUT_KINDS if isinstance(run.get(kind), Mapping)})
     out = {}
     for kind, key in keys.items():
         protocols, n_frames, sha1 = key.get("protocols"), key.get("n_frames"), key.get("frames_sha1")
