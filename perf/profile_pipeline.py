@@ -87,7 +87,7 @@ def png_paths(args: argparse.Namespace, tmp: Path) -> tuple[list[Path], str]:
     return paths, "SyntheticStreets groundtruth 1242x375 written to 16-bit PNG"
 
 
-def make_method(name: str) -> Any:
+def classical_method(name: str) -> Any:
     """A classical estimator by short name, single-threaded."""
     from estimators.classical import (
         HarmonicInpainter,
@@ -163,7 +163,7 @@ def main() -> None:
     hole = stage(f"mask: {proto.name} masks for the batch", lambda: proto.masks(SHAPE, 0, range(n)))
     x = stage("batch: corrupt (copy + NaN holes)", lambda: corrupt(gt, hole))
     for name in args.methods:
-        est = make_method(name)
+        est = classical_method(name)
         pred = stage(f"method: {type(est).__name__}.predict", lambda est=est: est.predict(x))
     stage("metrics: frame_metrics (batched)", lambda: frame_metrics(pred, gt, hole))
 
@@ -208,7 +208,7 @@ def scaling(args: argparse.Namespace) -> None:
         def __call__(self, x: np.ndarray) -> np.ndarray:
             return np.nan_to_num(x, nan=1.0)  # filled: 0 m would be refused as unfilled
 
-    methods = [("none", MetricsOnly())] + [(m, make_method(m)) for m in args.methods]
+    methods = [("none", MetricsOnly())] + [(m, classical_method(m)) for m in args.methods]
     # The frames the sweeps use (positions 0-4 of every 40 are skipped).
     full = KittiDepth(root, split="train")
     usable = [i for i in range(len(full)) if i % 40 not in range(5)]
@@ -267,15 +267,15 @@ def scaling(args: argparse.Namespace) -> None:
     print("|---|---:|---:|---:|---:|")
     ds = full[usable[:n]]
     for key, _ in methods[1:]:
-        _, one = run(make_method(key), ds, n)
+        _, one = run(classical_method(key), ds, n)
         walls = []
         for backend in ("threading", "loky"):
-            est = make_method(key).set_params(n_jobs=None)
+            est = classical_method(key).set_params(n_jobs=None)
             with parallel_config(backend=backend, n_jobs=2):
                 run(est, ds, 2)  # warm the pool
                 walls.append(run(est, ds, n)[1])
         report.setdefault("parallel", {})[key] = {"n_jobs_1": one, "threading_2": walls[0], "loky_2": walls[1]}
-        print(f"| {type(make_method(key)).__name__} | {one:.2f} | {walls[0]:.2f} | {walls[1]:.2f} | {one / min(walls):.2f}x |")
+        print(f"| {type(classical_method(key)).__name__} | {one:.2f} | {walls[0]:.2f} | {walls[1]:.2f} | {one / min(walls):.2f}x |")
     if args.json:
         write_json(args.json, report)
 

@@ -412,3 +412,27 @@ def test_features_and_infrastructure_do_not_import_the_benchmark():
              and any(d.startswith("inpaintenv.benchmark") for d in deps)}
     assert below == BENCHMARK_IMPORTERS, (
         f"modules below the benchmark importing it (the lock, identity and ledger live in files/): {sorted(below)}")
+
+
+def python_files() -> list[Path]:
+    """Every Python file of the repository (packages, scripts, tests, docs), none under a hidden folder."""
+    return [p for p in sorted(ROOT.rglob("*.py")) if not any(part.startswith(".") for part in p.relative_to(ROOT).parts)]
+
+
+def definitions_of(name: str, paths: list[Path], root: Path = ROOT) -> list[str]:
+    """``path:line`` of every function named ``name`` (at any depth) in ``paths``."""
+    return [f"{p.relative_to(root).as_posix()}:{n.lineno}" for p in paths
+            for n in ast.walk(ast.parse(p.read_text(), str(p)))
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and n.name == name]
+
+
+def test_definitions_of_sees_methods_nested_and_async_functions(tmp_path):
+    (tmp_path / "a.py").write_text("class A:\n    def make_method(self):\n        async def make_method():\n"
+                                   "            pass\n\n\ndef other():\n    pass\n")
+    assert definitions_of("make_method", [tmp_path / "a.py"], tmp_path) == ["a.py:2", "a.py:3"]
+
+
+def test_one_make_method():
+    """``make_method`` is the registry's; a helper that builds a method for one job has its own name."""
+    found = [d.rpartition(":")[0] for d in definitions_of("make_method", python_files())]
+    assert found == ["inpaintenv/methods/registry.py"], f"functions named make_method: {found}"

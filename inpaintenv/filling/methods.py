@@ -16,7 +16,7 @@ from ..methods.calls import method_name, run_method
 from ..methods.intervals import IntervalSource
 
 __all__ = [
-    "INPUT_CHOICES", "fill_batch", "fill_depth", "interval_method", "make_method", "router", "shipped_interval_name",
+    "INPUT_CHOICES", "fill_batch", "fill_depth", "interval_method", "resolve_method", "router", "shipped_interval_name",
 ]
 
 #: Values of ``input``: each frame's kind told from its measured density, or every frame of one kind.
@@ -54,7 +54,7 @@ def fill_depth(method: Any, depth: np.ndarray, fill: np.ndarray | None = None) -
     depth = as_depth_array(depth, "depth")
     check_depth(depth, name="depth", allow_nan=True, ndim=(2,))
     mask = np.isnan(depth) if fill is None else _check_fill(fill, depth.shape) | np.isnan(depth)
-    return fill_batch(*make_method(method, None, None), [depth], [mask])[0]
+    return fill_batch(*resolve_method(method, None, None), [depth], [mask])[0]
 
 
 def _check_fill(fill: Any, shape: tuple[int, ...]) -> np.ndarray:
@@ -120,7 +120,7 @@ def _unfilled_message(name: str, unfilled: int, fill: np.ndarray, depth: np.ndar
             f"e.g. --method {other}")
 
 
-def make_method(method: Any, checkpoint: Any, n_jobs: int | None, input: str | None = None) -> tuple[Any, str]:
+def resolve_method(method: Any, checkpoint: Any, n_jobs: int | None, input: str | None = None) -> tuple[Any, str]:
     """The method of a run and its name: a registry name, a checkpoint folder, or an estimator as given.
 
     ``input`` (``"auto"``, ``"scan"``, ``"map"``) is set as the ``input`` parameter of a method

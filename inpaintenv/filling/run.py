@@ -20,7 +20,7 @@ from ..files.lock import run_lock
 from ..files import remove_stale_temporaries
 from ..progress import FrameProgress
 from .ledger import Ledger, file_identity
-from .methods import INPUT_CHOICES, fill_batch, interval_method, make_method, router, shipped_interval_name
+from .methods import INPUT_CHOICES, fill_batch, interval_method, resolve_method, router, shipped_interval_name
 from .plan import FillJob, FillReport, plan
 from .read import Holes, Item, Reader, check_box, message
 from .write import write_outputs
@@ -233,7 +233,7 @@ def _method(method: Any, checkpoint: Any, n_jobs: int | None, confidence: float 
     """The method of a run, its name and (with ``confidence``) its interval source."""
     if confidence is not None and checkpoint is None and intervals is None:
         method = shipped_interval_name(method)  # "pretrained" -> "pretrained-intervals": its calibration
-    built, name = make_method(method, checkpoint, n_jobs, input)
+    built, name = resolve_method(method, checkpoint, n_jobs, input)
     if confidence is None:
         return built, name, None
     return interval_method(built, name, intervals, confidence)
