@@ -237,11 +237,12 @@ def thinned(scan: np.ndarray, density: tuple[str, int | None, float | None], cal
     return scan if every == 1 else thin_scan_by_rings(scan, calibration, every)
 
 
-def density_units(root: str, frames: Any, seeds: tuple[int, ...]) -> Any:
+def density_units(root: str, frames: Any, seeds: tuple[int, ...], densities: tuple[str, ...]) -> Any:
     """Every unit of every density of ``frames``: ``(density label, method input, ground truth, scored pixels)``.
 
     A unit is a frame at each density (scored on the ground-truth pixels it did not measure), and a
-    (seed, frame) for rect-v1's holes cut into the 64-beam scan (scored in the hole)."""
+    (seed, frame) for rect-v1's holes cut into the 64-beam scan (scored in the hole); only the
+    ``densities`` named (labels of :data:`DENSITIES` and ``"rect-v1 hole"``)."""
     rect, calibrations = get_protocol("rect-v1"), {}
     for i in range(len(frames)):
         scan, gt = (a[0] for a in frames.load_pairs([i]))
@@ -249,10 +250,10 @@ def density_units(root: str, frames: Any, seeds: tuple[int, ...]) -> Any:
         key = (drive[:10], int(camera[-1]))
         if key not in calibrations:
             calibrations[key] = crop_calibration(root, *key)
-        for density in DENSITIES:
+        for density in (d for d in DENSITIES if d[0] in densities):
             x = method_input(thinned(scan, density, calibrations[key], i), np.zeros(scan.shape, bool), "scan")
             yield density[0], x, gt, (gt > 0) & np.isnan(x)
-        for seed in seeds:
+        for seed in seeds if "rect-v1 hole" in densities else ():
             hole = rect.mask(scan.shape, seed, i)
             yield "rect-v1 hole", method_input(scan, hole, "scan"), gt, (gt > 0) & hole
 
@@ -262,21 +263,24 @@ def cmd_density(argv: list[str]) -> None:
     parser = _parser("a method at every density and in holes cut into the scan", learned=False)
     parser.add_argument("--method", default="pretrained", help="a registered method name")
     parser.add_argument("--sets", default=",".join(DAYS + OFFICIAL_SETS), help="the sets, comma-separated")
+    labels = [d[0] for d in DENSITIES] + ["rect-v1 hole"]
+    parser.add_argument("--densities", default=",".join(labels), help="the inputs scored, comma-separated")
     args = parser.parse_args(argv)
+    densities = tuple(args.densities.split(","))
     sets = _sets(parser, args)
     name = args.method
     methods = {name: make_method(name), **{m: make_method(m) for m in CLASSICAL}}
     for set_name in args.sets.split(","):
         errs: dict[tuple[str, str], list[float]] = {}
         seconds: dict[tuple[str, str], float] = {}
-        for label, x, gt, scored in density_units(str(default_root()), sets[set_name], _seeds(args)):
+        for label, x, gt, scored in density_units(str(default_root()), sets[set_name], _seeds(args), densities):
             for m, method in methods.items():
                 start = time.perf_counter()
                 pred = method.predict(x)
                 seconds[label, m] = seconds.get((label, m), 0.0) + time.perf_counter() - start
                 errs.setdefault((label, m), []).append(
                     float(np.sqrt(np.mean((pred[scored] - gt[scored]) ** 2))) if scored.any() else np.nan)
-        for label in [d[0] for d in DENSITIES] + ["rect-v1 hole"]:
+        for label in (d for d in labels if d in densities):
             e = {m: np.asarray(errs[label, m]) for m in methods}
             best = min(CLASSICAL, key=lambda m: np.nanmean(e[m]))
             r, lo, hi = paired_ratio(e[name], e[best])

@@ -5,8 +5,8 @@ ground-truth map with holes cut into it keeps 12 % or more of the rows it spans.
 method that fills one well is not the one that fills the other (the map releases were
 never trained on a scan and are worse than ``harmonic`` on one), so ``pretrained`` routes
 each frame by its kind: given as ``input``, or told from its measured density. A scan much
-sparser than the 64-beam scans the scan route was trained on (a 32-, 16- or 8-beam LiDAR, or a
-thinned scan: told from :func:`scan_spacing`) goes to ``sparse_method`` when one is given: there
+sparser than the 64-beam scans the scan route was trained on (a 32-, 16- or 8-beam LiDAR: told
+from :func:`scan_spacing` and :func:`close_gap_share`) goes to ``sparse_method`` when one is given: there
 the scan release's learned blend is worse than the classical fills, so ``pretrained`` falls
 back to the classical ``harmonic``.
 
@@ -35,8 +35,8 @@ from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from .._constraints import Check, ConstrainedParams, InstanceOf, Options, Real
 from ..base import BaseInpainter, check_inpaint_input
 
-__all__ = ["INPUT_CHOICES", "SCAN_DENSITY", "SPARSE_SPACING", "InputRoutedInpainter", "OnFirstUse", "measured_density",
-           "scan_spacing"]
+__all__ = ["INPUT_CHOICES", "LINE_SHARE", "SCAN_DENSITY", "SPARSE_SPACING", "InputRoutedInpainter", "OnFirstUse",
+           "close_gap_share", "measured_density", "scan_spacing"]
 
 #: Measured share of the rows a frame's measurements span at or below which it is a scan.
 #: On the KITTI slice (scripts: experiments/scan_release.py --density) single scans span
@@ -47,6 +47,14 @@ SCAN_DENSITY = 0.10
 #: without rect-v1's holes, measure 8-12 px, the same scans with every 2nd ring or half the
 #: points kept 16-21 px, sparser ones more; 14 lies between them on every pair of days.
 SPARSE_SPACING = 14.0
+#: :func:`close_gap_share` below which a sparse scan is a LiDAR's lines (fewer beams), not scattered
+#: points. On the KITTI slice's scans with every 2nd, 4th or 8th ring kept it is at most 0.019; with
+#: a random 50/25/10 % of the points kept, 0.017-0.10 (0.034 and more at 25 % and 50 %); on 64-beam
+#: scans 0.10-0.19. Scattered points stay with the scan route, whose classical mean near the points
+#: is the strongest fill there; a LiDAR's sparse lines take the sparse route.
+LINE_SHARE = 0.025
+#: The largest gap (pixels) :func:`close_gap_share` counts as close.
+CLOSE_GAP = 4
 #: What ``input`` may say: decide per frame, or every frame is of one kind.
 INPUT_CHOICES = ("auto", "scan", "map")
 #: The routes, in the order a batch is filled.
@@ -92,12 +100,25 @@ def scan_spacing(x: np.ndarray) -> float:
     covers) barely moves it, while keeping every k-th laser ring or a k-th of the points
     multiplies it by about k. ``inf`` for a frame with no two measurements in any column.
     """
+    gaps = _column_gaps(x)
+    return float(np.median(gaps)) if len(gaps) else float("inf")
+
+
+def close_gap_share(x: np.ndarray) -> float:
+    """The share of :func:`scan_spacing`'s gaps of at most :data:`CLOSE_GAP` pixels (0.0 when there are none).
+
+    A LiDAR's lines leave almost no such gap once rings are missing; points dropped at random
+    from a scan leave many (two neighbours on one line both kept).
+    """
+    gaps = _column_gaps(x)
+    return float(np.mean(gaps <= CLOSE_GAP)) if len(gaps) else 0.0
+
+
+def _column_gaps(x: np.ndarray) -> np.ndarray:
+    """Every gap (pixels) between vertically consecutive measurements (positive) of a column."""
     measured = np.asarray(x) > 0
     cols, rows = np.nonzero(measured.T)  # column-major: each column's rows in order
-    same = cols[1:] == cols[:-1]
-    if not same.any():
-        return float("inf")
-    return float(np.median(np.diff(rows)[same]))
+    return np.diff(rows)[cols[1:] == cols[:-1]]
 
 
 class OnFirstUse:
@@ -168,8 +189,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     threshold : float, default :data:`SCAN_DENSITY`
         The density that separates the kinds.
     sparse_method : estimator, OnFirstUse or None, default None
-        Fills a scan whose :func:`scan_spacing` exceeds ``sparse_spacing`` (a sensor with
-        fewer beams than the scans ``scan_method`` knows); None: every scan goes to ``scan_method``.
+        Fills a scan whose :func:`scan_spacing` exceeds ``sparse_spacing`` and whose lines are a
+        LiDAR's (a sensor with fewer beams than the scans ``scan_method`` knows; scattered points
+        stay with ``scan_method``); None: every scan goes to ``scan_method``.
     sparse_spacing : float, default :data:`SPARSE_SPACING`
         The spacing (pixels) above which a scan is sparse.
     scan_name, map_name, sparse_name : str
@@ -276,13 +298,15 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         """``"scan"``, ``"sparse"`` or ``"map"``: the route of one ``(H, W)`` frame (NaN = to fill).
 
         ``"sparse"`` only with a ``sparse_method``: a scan (``input="scan"``, or told from its
-        density) whose :func:`scan_spacing` exceeds ``sparse_spacing``.
+        density) whose :func:`scan_spacing` exceeds ``sparse_spacing`` and whose lines are a
+        LiDAR's (:func:`close_gap_share` below :data:`LINE_SHARE`), not scattered points.
         """
         self._check_params()
         measured = np.nan_to_num(x, nan=0.0)
         if self.input == "map" or (self.input == "auto" and measured_density(measured) > float(self.threshold)):
             return "map"
-        if self.__dict__["_sparse_given"] is not None and scan_spacing(measured) > float(self.sparse_spacing):
+        if self.__dict__["_sparse_given"] is not None and scan_spacing(measured) > float(self.sparse_spacing) \
+                and close_gap_share(measured) < LINE_SHARE:
             return "sparse"
         return "scan"
 

@@ -47,9 +47,9 @@ DEFAULT_RELEASE = "kitti-ensemble-v1"
 #: better in rect-v1's holes (docs/model_cards/kitti-scan-v1.md).
 SCAN_DEFAULT = "kitti-scan-v1"
 
-#: What ``pretrained`` fills a scan sparser than a 64-beam one with (fewer beams, or thinned): the
-#: classical ``harmonic``. There the scan release's learned blend is worse than the classical
-#: fills, and no fill tried beats ``harmonic`` on every left-out day and on val_selection
+#: What ``pretrained`` fills a LiDAR scan of fewer lines than a 64-beam one with (32, 16, 8 beams):
+#: the classical ``harmonic``. There the scan release's learned blend is worse than the classical
+#: fills, and ``harmonic`` is the strongest of them or near it on every recording day
 #: (docs/model_cards/kitti-scan-v1.md).
 SPARSE_DEFAULT = "harmonic"
 

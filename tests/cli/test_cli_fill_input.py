@@ -88,13 +88,13 @@ def test_an_interval_wrapper_is_looked_through_and_other_methods_state_nothing(t
 
 
 def test_pretrained_says_it_filled_a_sparser_sensors_scan_as_a_sparse_scan(tmp_path, capsys):
-    from inpaintenv.data.thinning import thin_scan_by_points
     from inpaintenv.methods.learned import SPARSE_DEFAULT
 
     write_inputs(tmp_path / "in" / "full", "scan", 1)
-    ds = SyntheticStreets(n=2, frame_shape=SHAPE, input="scan", seed=2)
-    for i in range(2):  # a tenth of the points: lines far wider apart than a 64-beam scan's
-        write_depth_png(tmp_path / "in" / "thin" / f"{i}.png", thin_scan_by_points(ds.input_frame(i), 0.1, seed=i))
+    for i in range(2):  # a LiDAR of few lines: a sloped ground on every 20th row, every 3rd column
+        lines = np.zeros(SHAPE, np.float32)
+        lines[i::20, ::3] = np.linspace(40.0, 5.0, SHAPE[0], dtype=np.float32)[i::20, None]
+        write_depth_png(tmp_path / "in" / "thin" / f"{i}.png", lines)
     assert main(["fill", str(tmp_path / "in"), "--missing", "--out", str(tmp_path / "out"), "-q"]) == 0
     last = capsys.readouterr().err.strip().splitlines()[-1]
     assert f"1 as scans with {SCAN_DEFAULT}" in last and f"2 as sparse scans with {SPARSE_DEFAULT}" in last, last

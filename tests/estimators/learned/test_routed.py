@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from estimators.classical import HarmonicInpainter, NearestInpainter
-from estimators.learned._routed import (SCAN_DENSITY, SPARSE_SPACING, InputRoutedInpainter, OnFirstUse,
-                                       measured_density, scan_spacing)
+from estimators.learned._routed import (LINE_SHARE, SCAN_DENSITY, SPARSE_SPACING, InputRoutedInpainter, OnFirstUse,
+                                       close_gap_share, measured_density, scan_spacing)
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.data.inputs import method_input
 from inpaintenv.exceptions import InpaintenvError
@@ -113,6 +113,16 @@ def test_a_scan_sparser_than_the_gate_falls_back_to_the_sparse_route():
     assert _router().choose(sparse) == "harmonic"
     # The threshold is the parameter's: raised above the spacing, the same scan is no longer sparse.
     assert _router(sparse_method=NearestInpainter(), sparse_spacing=30.0).choose(sparse) == "harmonic"
+
+
+def test_scattered_points_stay_with_the_scan_route_however_sparse():
+    """A tenth of a dense scan's points, dropped at random, is as sparse as 8 beams' lines but not a LiDAR's lines."""
+    dense = _lines(3)
+    scattered = np.where(np.random.default_rng(0).random(dense.shape) < 0.1, dense, np.nan)
+    assert scan_spacing(np.nan_to_num(scattered)) > SPARSE_SPACING
+    assert close_gap_share(np.nan_to_num(scattered)) >= LINE_SHARE > close_gap_share(np.nan_to_num(_lines(24)))
+    est = _router(sparse_method=NearestInpainter(), sparse_name="nearest-sparse")
+    assert est.choose(scattered) == "harmonic" and est.choose(_lines(24)) == "nearest-sparse"
 
 
 @pytest.mark.parametrize("bad", [{"sparse_spacing": 0.0}, {"sparse_spacing": np.inf}, {"sparse_method": "harmonic"},
