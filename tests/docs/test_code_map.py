@@ -50,3 +50,41 @@ def test_code_map_matches_the_code(package):
     assert not actual - mapped, f"{MAP_PAGE.relative_to(ROOT)} does not list {sorted(actual - mapped)} under {package}/"
     gone = {name for name in mapped if not (ROOT / package / name.rstrip("/")).exists()}
     assert not gone, f"{MAP_PAGE.relative_to(ROOT)} lists {sorted(gone)} under {package}/, which do not exist"
+
+
+def named_below(text: str) -> dict[tuple[str, str], set[str]]:
+    """(top folder, entry) -> the module names (``x.py``) its description mentions.
+
+    An entry is a line indented two spaces (``  learned/ ...``); the lines indented deeper
+    below it continue its description.
+    """
+    block = re.search(r"^## Code layout$.*?^```text\n(.*?)^```", text, re.DOTALL | re.MULTILINE)
+    assert block, f"{MAP_PAGE} has no code map"
+    out: dict[tuple[str, str], set[str]] = {}
+    top = entry = ""
+    for line in block.group(1).splitlines():
+        if line and not line.startswith(" "):
+            top, entry = line.split()[0], ""
+            continue
+        if line.startswith("  ") and not line.startswith("   "):
+            entry = line[2:].split()[0]
+        out.setdefault((top, entry), set()).update(re.findall(r"(?<![\w/.-])([A-Za-z_]\w*\.py)\b", line))
+    return out
+
+
+def test_named_below_reads_each_entrys_modules():
+    text = "## Code layout\n\n```text\npkg/    the package\n  sub/    its part: a.py, b.py\n        and c.py\n```\n"
+    assert named_below(text) == {("pkg/", "sub/"): {"a.py", "b.py", "c.py"}}
+
+
+@pytest.mark.parametrize("package", ["inpaintenv", "estimators"])
+def test_every_module_the_map_names_is_where_it_says(package):
+    # Below the top level too: a module named in a package's description is in that package.
+    named = named_below(MAP_PAGE.read_text(encoding="utf-8"))
+    wrong = []
+    for (top, entry), modules in named.items():
+        if top != f"{package}/":
+            continue
+        where = ROOT / package / entry.rstrip("/") if entry.endswith("/") else ROOT / package
+        wrong += [f"{entry or top}: {m}" for m in sorted(modules) if not any(where.rglob(m))]
+    assert not wrong, f"{MAP_PAGE.relative_to(ROOT)} names modules that are not where it puts them: {wrong}"
