@@ -124,6 +124,15 @@ def _run_rows(run_dir: Path) -> list[dict[str, Any]]:
     return read_run_rows(run_dir / "rows", _optional_json(run_dir / "run.json", "run file"))
 
 
+def _labels(meta: dict[str, Any]) -> dict[str, Any]:
+    """What the tables take of ``results.json``'s meta, where it has the form a run writes: each method's
+    kind (a string) and the drives it was trained on (a list of strings); a hand-edited entry is left out."""
+    kinds, trained = meta.get("kinds"), meta.get("training_drives")
+    return {"kinds": {m: k for m, k in kinds.items() if isinstance(k, str)} if isinstance(kinds, dict) else {},
+            "training_drives": {m: d for m, d in trained.items() if isinstance(d, list) and all(
+                isinstance(x, str) for x in d)} if isinstance(trained, dict) else {}}
+
+
 def _method_order(rows: list[dict[str, Any]], meta: dict[str, Any], run: dict[str, Any]) -> list[str]:
     """The run's order of methods: as results.json or run.json recorded them, then any other in row order."""
     recorded = [*(meta.get("kinds") or {}), *(run.get("methods") or {})]
@@ -395,7 +404,7 @@ def build_html(run_dir: str | os.PathLike) -> str:
     methods = _method_order(rows, meta, run)
     rows.sort(key=lambda r: (methods.index(r["method"]), r.get("input_kind", "map"), r["protocol"], r["seed"],
                              r["index"]))
-    result = EvaluationResult(rows=rows, meta={k: v for k, v in meta.items() if k in ("kinds", "training_drives")})
+    result = EvaluationResult(rows=rows, meta=_labels(meta))
     tasks = _tasks(rows)
     labels = [task_label(k, p) for k, p in tasks]
     groups = figure_groups(run_dir, labels)

@@ -110,3 +110,21 @@ def test_a_row_whose_mask_disagrees_with_the_other_methods_is_refused(streets, f
     tamper_rows(path, lambda rows: [{**rows[0], "hole_fraction": rows[0]["hole_fraction"] / 2}, *rows[1:]])
     with pytest.raises(RunStateError, match=r"hole_fraction .* of frame 0 is not the .*one protocol and seed"):
         _run(streets, out)
+
+
+@pytest.mark.parametrize("meta", [{"training_drives": {"harmonic": 5}}, {"training_drives": {"harmonic": [{}]}},
+                                  {"training_drives": {"harmonic": "synthetic_s0_drive_0000"}},
+                                  {"kinds": {"harmonic": 7}}, {"training_drives": [1]}])
+def test_a_report_takes_only_well_formed_labels_from_a_hand_edited_results_json(meta, finished, tmp_path):
+    import json
+
+    from inpaintenv.benchmark.html import write_html_report
+    from inpaintenv.files.ownership import claim
+
+    out, _ = _copy(finished, tmp_path)
+    claim(out, "results.json")  # as the benchmark's report records it
+    finished[1].to_json(out / "results.json")
+    doc = json.loads((out / "results.json").read_text())
+    (out / "results.json").write_text(json.dumps({**doc, "meta": {**doc["meta"], **meta}}))
+    page = write_html_report(out, lambda line: None).read_text()
+    assert "harmonic" in page and "synthetic_s0_drive_0000 (trained" not in page

@@ -465,6 +465,9 @@ def _row_cases() -> list[Case]:
             cases.append(Case("cli:benchmark", f"{where}-row-{name}", lambda p, f, e=edit, m=more: [
                 *_run_dir(p, f, lambda o: tamper_rows(_rows(o), e)), *m],
                 says=rf"line \d+ of .*\.jsonl is not a row of this run: .*{says}"))
+    cases.append(Case("cli:report", "results-meta-hand-edited", lambda p, f: _report_dir(p, f, lambda o: p.write(
+        o / "results.json", re.sub(r'"meta": \{', '"meta": {"training_drives": {"scanline": 5}, "kinds": [], ',
+                                   (o / "results.json").read_text(), count=1))), ok=True))
     for name, says in REPORTED_ROWS.items():
         cases.append(Case("cli:report", f"row-{name}", lambda p, f, e=HOSTILE_ROWS[name][0]: _report_dir(
             p, f, lambda o: tamper_rows(_rows(o), e)), says=rf"line \d+ of .*\.jsonl is not a row of this run: .*{says}"))
