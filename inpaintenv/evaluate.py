@@ -106,7 +106,7 @@ def _load_batch(
                             "reason": str(exc)})
     empty = np.empty((0, *dataset.frame_shape), np.float32)
     gt = np.concatenate([p[1] for p in pairs]) if pairs else empty
-    inputs = gt if dataset.input_kind == "map" else np.concatenate([p[0] for p in pairs]) if pairs else empty
+    inputs = gt if dataset.input.is_map else np.concatenate([p[0] for p in pairs]) if pairs else empty
     return inputs, gt, kept, skipped
 
 

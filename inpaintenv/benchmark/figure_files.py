@@ -19,6 +19,7 @@ from typing import Any
 import inpaintenv
 
 from ..data.base import DepthDataset
+from ..data.inputs import INPUTS
 from ..exceptions import FileTooLargeError, JSONFileError
 from ..files import read_json, write_text_atomic
 from ..masks import get_protocol
@@ -111,7 +112,7 @@ def write_figures(
     indices = spread_indices(dataset, max(n_panels, DISTANCE_FRAMES), exclude)
     panels = indices[:n_panels]
     kind = getattr(dataset, "input_kind", "map")
-    task = protocol if kind == "map" else f"{kind}:{protocol}"
+    task = INPUTS[kind].label(protocol)
     by_size = get_protocol(protocol).task == "hole"  # densify-v1 cuts no hole: no hole size to plot
     names = [out / f"frame_{i:04d}.png" for i in panels]
     names += [out / "error_vs_hole_size.png"] if by_size else []

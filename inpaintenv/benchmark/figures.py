@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..data.base import DepthDataset
-from ..data.inputs import method_input
+from ..data.inputs import INPUTS, method_input
 from ..filling.view import sensor_view
 from ..report.results import EvaluationResult
 from ..masks import get_protocol
@@ -151,7 +151,7 @@ class FramePredictions:
     def view(self, index: int) -> np.ndarray:
         """Pixels a fill of frame ``index`` can be judged on: all of a map; of a scan, the band of rows
         its LiDAR covers (:func:`inpaintenv.filling.view.sensor_view`), as ``fill --missing`` fills."""
-        if self.input_kind == "map":
+        if INPUTS[self.input_kind].is_map:
             return np.ones(self.dataset.frame_shape, bool)
         return sensor_view(self.inputs(index))
 
@@ -194,7 +194,7 @@ def _colourbar(fig: Any, axes: Any, cmap: str, vmax: float, label: str) -> None:
 def _scores(predictions: FramePredictions, name: str, index: int, pred: np.ndarray, max_depth: float) -> str:
     """The title of a fill tile: the method and its task and all-pixel scores on the frame."""
     gt, hole = predictions.frame(index)
-    scan = None if predictions.input_kind == "map" else predictions.inputs(index)
+    scan = None if INPUTS[predictions.input_kind].is_map else predictions.inputs(index)
     m = frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled=predictions.policy(name), inputs=scan)
     if predictions.protocol.task == "unmeasured":
         return f"{name}\nunmeasured RMSE {float(m['unmeasured_rmse']):.2f} m | all {float(m['all_rmse']):.2f} m"
@@ -252,7 +252,7 @@ def frame_panel(
     )
     # Tiles are shown shrunk: hole lines as wide on the page as in `inpaintenv show`.
     k = w / (tile_inches * dpi)
-    scan = predictions.input_kind != "map"
+    scan = INPUTS[predictions.input_kind].separate
     x = _shown_input(predictions.method_input(index), max(1, round(k)) if scan else 1)
     inp = style.draw_holes(style.depth_rgb(x, max_depth), hole, hatch=True, scale=k)
     truth = style.draw_holes(style.depth_rgb(gt, max_depth), hole, scale=k)
@@ -489,6 +489,6 @@ def plot_error_vs_nearest(
 
 def _task_label(predictions: FramePredictions) -> str:
     name = predictions.protocol.name
-    return name if predictions.input_kind == "map" else f"{name} on scans"
+    return name if INPUTS[predictions.input_kind].is_map else f"{name} on scans"
 
 

@@ -35,7 +35,7 @@ def fingerprint(dataset: DepthDataset, n_frames: int, protocols: Sequence[str], 
         "protocols": list(protocols),
         "seeds": list(seeds),
     }
-    if dataset.input_kind != "map":  # a scan run and a map run of one source are different runs
+    if not dataset.input.is_map:  # a scan run and a map run of one source are different runs
         key["input_kind"] = dataset.input_kind
     data = data_key(dataset, n_frames)
     if data:  # a generated source has nothing beyond its description

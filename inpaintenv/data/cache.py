@@ -160,7 +160,7 @@ class CachedDataset(DepthDataset):
             raise InvalidInputError(f"on_stale must be 'error' or 'rebuild', got {on_stale!r}")
         if len(dataset) == 0:
             raise InvalidInputError("cannot cache an empty dataset")
-        if dataset.input_kind != "map":
+        if not dataset.input.is_map:
             # Only the ground truth is cached: a scan source would silently become a map source.
             raise InvalidInputError(f"a CachedDataset caches ground-truth maps only, not a source of input kind {dataset.input_kind!r}")
         self.dataset = dataset

@@ -346,7 +346,7 @@ class DepthInpaintEnv(gym.Env):
         """``(input, ground truth)`` of frame ``index``; the input *is* the frame for a map source."""
         # The checks also refuse depth above DEPTH_LIMIT, the observation space's bound.
         # No copy: reset builds its own observation and scored pixels from the frame.
-        if self.input_kind == "map":
+        if self.dataset.input.is_map:
             gt = self.dataset.checked_frame(index, f"frame {index}")
             return gt, gt
         inputs, gt = self.dataset.load_pairs([index])

@@ -35,6 +35,7 @@ import numpy as np
 from .._version import __version__
 from ..conventions import check_int, check_seeds
 from ..data.base import Subset
+from ..data.inputs import INPUTS
 from ..data.io import KITTI_DEPTH_SCALE, write_depth_png, write_png
 from ..evaluate import resolve_source
 from ..files import describe_kind, remove_stale_temporaries, write_atomic
@@ -194,7 +195,7 @@ def _install(tmp: Path, out: Path, replace: bool) -> None:
 
 def _check_task(proto: OcclusionProtocol, input_kind: str) -> None:
     """Refuse a protocol that poses no task on this input (``densify-v1`` on maps: nothing is unmeasured)."""
-    if input_kind == "map" and proto.task == "unmeasured":
+    if INPUTS[input_kind].is_map and proto.task == "unmeasured":
         raise InvalidInputError(f"{proto.name} fills what a single scan did not measure: a map input has nothing to "
                                 "fill; export a source of scans (--input scan, input='scan')")
 

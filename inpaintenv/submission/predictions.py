@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..data.base import DepthDataset, name_from_path
-from ..data.inputs import method_input
+from ..data.inputs import INPUTS, method_input
 from ..data.io import depth_from_uint16
 from ..masks import OcclusionProtocol, get_protocol
 from .intervals import read_interval_files, split_interval_files
@@ -288,7 +288,7 @@ def _whose(raw: np.ndarray, inputs: np.ndarray, item: Item, others: list[Item], 
 def _unfilled_pixels(raw: np.ndarray, x: np.ndarray, hole: np.ndarray, gt: np.ndarray, input_kind: str) -> int:
     """Pixels to fill that ``raw`` leaves at 0: a map's hole; a scan's unmeasured pixels with ground
     truth, the pixels ``evaluate`` refuses at 0 m (a densifier may leave the sky, where no truth is, empty)."""
-    if input_kind == "map":
+    if INPUTS[input_kind].is_map:
         return int(np.count_nonzero(raw[hole] == 0))
     return int(np.count_nonzero((raw == 0) & np.isnan(x) & (gt > 0)))
 
@@ -312,7 +312,7 @@ def _problems(manifest: Manifest, folder: Path, n_expected: int, missing: list[s
     if bad:
         parts.append(f"{_count(len(bad), 'prediction')} unusable: {_listing(bad)}")
     if unfilled:
-        what, fill = ("hole pixels", "hole pixel") if manifest.input_kind == "map" else \
+        what, fill = ("hole pixels", "hole pixel") if INPUTS[manifest.input_kind].is_map else \
             ("unmeasured pixels with ground truth", "pixel the input did not measure")
         parts.append(f"{_count(len(unfilled), 'prediction')} with {what} left at 0 (unfilled): "
                      f"{_listing(unfilled)}; fill every {fill}, or pass --allow-unfilled to score 0 as 0 m")
