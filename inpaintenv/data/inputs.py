@@ -103,8 +103,10 @@ class InputKind:
 
 
 def _rings(beams: int) -> InputKind:
-    return InputKind(f"scan-rings{beams}-v1", True, keep_every=64 // beams, beams=beams,
-                     summary=f"the scan with every {64 // beams}th laser ring kept ({beams} of 64 beams) and the hole cut")
+    k = 64 // beams
+    nth = {2: "2nd", 3: "3rd"}.get(k, f"{k}th")
+    return InputKind(f"scan-rings{beams}-v1", True, keep_every=k, beams=beams,
+                     summary=f"the scan with every {nth} laser ring kept ({beams} of 64 beams) and the hole cut")
 
 
 def _points(percent: int) -> InputKind:

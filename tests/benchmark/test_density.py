@@ -13,13 +13,16 @@ from inpaintenv.report.results import EvaluationResult
 KINDS = ("scan", "scan-rings16-v1", "scan-rings8-v1", "scan-points25-v1")
 
 
+def argv_of(out):
+    return ["benchmark", "-p", "densify-v1", "-p", "rect-v1", *(a for k in KINDS for a in ("--input", k)),
+            "-m", "nearest", "-m", "harmonic", "--n-frames", "4", "--frame-shape", "64", "192", "--holdout", "0",
+            "--out", str(out), "-q"]
+
+
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("density") / "run"
-    argv = ["benchmark", "-p", "densify-v1", "-p", "rect-v1", *(a for k in KINDS for a in ("--input", k)),
-            "-m", "nearest", "-m", "harmonic", "--n-frames", "4", "--frame-shape", "64", "192", "--holdout", "0",
-            "--out", str(out), "-q"]
-    assert main(argv) == 0
+    assert main(argv_of(out)) == 0
     return out
 
 
@@ -44,6 +47,12 @@ def test_the_report_has_the_density_table_and_figure(run):
     assert (run / "figures" / "density" / "error_vs_beams.png").stat().st_size > 0
     html = (run / "report.html").read_text()
     assert "Error by LiDAR density" in html and "Holes in single scans (16 beams)" in html
+
+
+def test_the_same_command_resumes_the_run_of_every_density(run, capsys):
+    before = {p.name: p.read_text() for p in (run / "rows").glob("*.jsonl")}
+    assert main(argv_of(run)) == 0  # the run's key holds every input kind: the same run, nothing rescored
+    assert {p.name: p.read_text() for p in (run / "rows").glob("*.jsonl")} == before
 
 
 def test_a_run_on_one_density_has_no_density_axis():
