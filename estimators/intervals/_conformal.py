@@ -136,8 +136,8 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
     JSON file; ``base`` says how ``load(path)`` rebuilds the base (a registered method name
     such as ``"scanline"`` or ``"pretrained"``, or a model folder; by default the base's
     class name, and then ``load`` needs ``estimator=``). ``load(path, estimator=None)``
-    reads it around ``estimator``, whose class must be the one calibrated. Both are
-    :class:`estimators._persistence.SaveLoadMixin`'s, the one pair of every estimator.
+    reads it around ``estimator``, whose class must be the one calibrated (both of
+    :class:`~estimators.intervals._persistence.CalibrationFileMixin`).
 
     Examples
     --------

@@ -10,7 +10,8 @@ cross-validated search.
 The estimator is split by job, as scikit-learn and skorch separate them: this module holds
 the parameters (``__init__``, documented below) and prediction; parameter validation and
 interpretation are in ``_neural_params.py``, the training loop in ``_training.py`` and
-``save`` / ``load`` in ``_persistence.py`` (mixins of :class:`_NeuralInpainter`).
+``save`` / ``load`` in ``_persistence.py`` (mixins of :class:`_NeuralInpainter`; its config
+hooks are here).
 """
 
 from __future__ import annotations
@@ -21,12 +22,14 @@ from typing import Any
 import numpy as np
 import torch
 
+from sklearn.exceptions import NotFittedError
+
 from ..base import BaseInpainter
 
 from . import _checkpoint as ckpt
 from ._neural_params import STUDY_CONSTRAINTS, NeuralParamsMixin
 from ._output import bound_output
-from ._persistence import CheckpointMixin
+from ._persistence import PersistenceMixin
 from ._training import Augmentation, TrainingMixin, encode_input, torch_threads
 from .nets import UNet
 
@@ -35,7 +38,7 @@ __all__ = ["AutoencoderInpainter", "CheckpointError", "UNetInpainter"]
 CheckpointError = ckpt.CheckpointError
 
 
-class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseInpainter):
+class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, PersistenceMixin, BaseInpainter):
     """Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.
 
     Parameters
@@ -288,6 +291,38 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, CheckpointMixin, BaseIn
             finally:
                 self.model_ = model.to("cpu", memory_format=torch.contiguous_format)
 
+    # -- persistence (the hooks of PersistenceMixin) ------------------------------------------
+    def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
+        """Parameters, seed, steps and history as JSON; the network's state dict as weights."""
+        if not hasattr(self, "model_"):
+            raise NotFittedError(f"this {type(self).__name__} is not fitted; nothing to save")
+        # The config is written from the current parameters: they must still describe the weights.
+        self._check_model_params()
+        config = {
+            "params": self._config_params(),
+            "seed": getattr(self, "seed_", None),
+            "fitted": {"n_steps_": getattr(self, "n_steps_", 0), "history_": getattr(self, "history_", None)},
+        }
+        return config, ckpt.cpu_state(self.model_)
+
+    @classmethod
+    def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
+        params = dict(ckpt.config_value(config, "params", dict, where))
+        if params.get("crop") is not None:
+            params["crop"] = tuple(ckpt.config_value(params, "crop", list, where))
+        fitted = ckpt.config_value(config, "fitted", dict, where, default={})
+        n_steps = ckpt.config_value(fitted, "n_steps_", int, where,
+                                    default=ckpt.config_value(fitted, "step", int, where, default=0))
+        history = ckpt.config_value(fitted, "history_", dict, where, default=None)
+        seed = ckpt.config_value(config, "seed", int, where, default=None)
+        est = ckpt.build_checked(cls, params, where)
+        est.model_ = ckpt.load_weights(est._build_model(0), weights, where)
+        est.history_ = history or ckpt.progress_history(fitted)
+        est.n_steps_ = n_steps
+        est.seed_ = seed
+        est.model_params_ = est._model_params()
+        return est
+
 
 class _StudyInpainter(_NeuralInpainter):
     """The study's two networks: the shared implementation plus sample augmentation and
@@ -327,6 +362,3 @@ class AutoencoderInpainter(_StudyInpainter):
     )
     _skip = False
 
-
-# The classes a checkpoint may name; each learned family registers its own on import
-# (estimators.learned.load imports them all before it looks one up).

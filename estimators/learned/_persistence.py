@@ -1,9 +1,8 @@
-"""The learned format of ``save`` / ``load`` and the class registration: per-class config hooks.
+"""``save`` / ``load`` of every learned estimator: one mixin over two per-class hooks.
 
-``save`` / ``load`` themselves are :class:`estimators._persistence.SaveLoadMixin`'s (the one
-pair of every estimator); :class:`PersistenceMixin` is their learned format: a saved model
-is a folder whose ``config.json`` records its class (see
-:mod:`~estimators.learned._checkpoint` for the files). Each family says only what is its own:
+A saved model is a checkpoint folder whose ``config.json`` records its class; the files
+are :mod:`~estimators.learned._checkpoint`'s plain functions. Each class says only what is
+its own:
 
 ``_config()``
     ``(config, weights)``: the JSON-able entries of its config (``params`` and whatever
@@ -12,35 +11,32 @@ is a folder whose ``config.json`` records its class (see
     The estimator those describe, built in memory from checked values (``where`` names
     the checkpoint in errors).
 
-The mixin adds the class name and the provenance (training drives, machine) to the
-config, writes and reads the files, dispatches a load on the recorded class, and marks
-the result fitted. A checkpoint's class is found among the public classes of
-:mod:`estimators.learned` that derive from the mixin and are defined (:func:`defined_classes`:
-Python's own record of subclasses, so a class is known where it is defined and nothing
-registers it by hand); :func:`estimators.learned.load` lists every family it loads, so all
-are defined when it reads a checkpoint. An ensemble nests its members' configs (see
+A load is three steps: :meth:`PersistenceMixin.load` reads the folder
+(:func:`~estimators.learned._checkpoint.read_model`), finds the class ``config.json``
+records among the public learned classes defined so far (:func:`defined_classes`: Python's
+own record of subclasses, so nothing registers a class by hand) and calls its
+``_from_config``. :func:`estimators.learned.load` lists every family it loads, so all are
+defined when it reads a checkpoint. An ensemble nests its members' configs (see
 :class:`~estimators.learned.MeanEnsembleInpainter`).
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
 import torch
-from sklearn.exceptions import NotFittedError
 
-from .._persistence import SaveLoadMixin
+from .._persistence import as_path, check_loaded_class, check_options, read_or_fail, require_saveable
 from . import _checkpoint as ckpt
 
-__all__ = ["CheckpointMixin", "PersistenceMixin", "defined_classes"]
+__all__ = ["PersistenceMixin", "defined_classes"]
 
 
-class PersistenceMixin(SaveLoadMixin):
-    """The learned format of ``save`` / ``load`` (a checkpoint folder), ``from_config`` and the
-    class registration, on top of two per-class hooks."""
-
-    _load_error = ckpt.CheckpointError
+class PersistenceMixin:
+    """``save`` / ``load`` (a checkpoint folder), ``to_config`` / ``from_config``, over the
+    per-class hooks ``_config`` / ``_from_config`` (see the module docstring)."""
 
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
         raise NotImplementedError(f"{type(self).__name__} defines no _config(): it cannot be saved")
@@ -57,7 +53,7 @@ class PersistenceMixin(SaveLoadMixin):
         sklearn.exceptions.NotFittedError
             The estimator is not fitted (a ``ValueError``).
         """
-        self._require_saveable()
+        require_saveable(self, bool(getattr(self, "is_fitted_", False) or hasattr(self, "model_")))
         config, weights = self._config()
         return {"class": type(self).__name__, **config, **ckpt.provenance(self)}, weights
 
@@ -71,31 +67,66 @@ class PersistenceMixin(SaveLoadMixin):
         CheckpointError
             A class this version does not know, or one that is not ``cls``.
         """
-        return cls._loaded_class(config, where)._from_state(config, weights, where)
+        klass = ckpt.recorded_class(config, where, defined_classes())
+        klass = check_loaded_class(cls, klass, where, ckpt.CheckpointError)
+        return ckpt.from_checked(klass, config, weights, where)
 
-    # -- the hooks of SaveLoadMixin (save / load): a checkpoint folder ---------------------
-    def _is_saveable(self) -> bool:
-        return bool(getattr(self, "is_fitted_", False) or hasattr(self, "model_"))
+    def save(self, path: str | os.PathLike, **options: Any) -> Path:
+        """Write the fitted estimator to the folder ``path`` (``config.json`` + ``model.safetensors``).
 
-    def _save_state(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
-        return self.to_config()
+        Parameters
+        ----------
+        path : path-like
+            The folder; written atomically, never through a planted link.
+        **options
+            None (the signature is the interval calibration's, which takes ``base=``).
+
+        Returns
+        -------
+        pathlib.Path
+            What was written; :meth:`load` reads it back.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            The estimator is not fitted (a ``ValueError``).
+        InvalidTypeError
+            ``path`` is not a path, or an option is given.
+        """
+        check_options(type(self), "save", options, ())
+        target = as_path(path, f"{type(self).__name__}.save")
+        config, weights = self.to_config()
+        return ckpt.write_checkpoint(target, config, weights)
 
     @classmethod
-    def _write_state(cls, path: Path, config: dict[str, Any], weights: dict[str, torch.Tensor]) -> Path:
-        return ckpt.write_checkpoint(path, config, weights)
+    def load(cls, path: str | os.PathLike, **options: Any) -> Any:
+        """Read an estimator written by :meth:`save`; the class ``config.json`` records builds it.
 
-    @classmethod
-    def _read_state(cls, path: Path) -> tuple[dict[str, Any], dict[str, torch.Tensor], Path]:
-        # A model folder, or a training run folder's best (else last) checkpoint.
-        return ckpt.read_model(path)
+        Parameters
+        ----------
+        path : path-like
+            A model folder written by ``save``, or a training run folder (its best, else
+            last, checkpoint).
+        **options
+            None (the signature is the interval calibration's, which takes ``estimator=``).
 
-    @classmethod
-    def _state_class(cls, config: dict[str, Any], where: Any) -> type:
-        return ckpt.recorded_class(config, where, defined_classes())
+        Returns
+        -------
+        estimator
+            Fitted, of the class the files record: ``cls`` or a subclass.
 
-    @classmethod
-    def _from_state(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
-        return ckpt.from_checked(cls, config, weights, where)
+        Raises
+        ------
+        CheckpointError
+            One error naming the file: missing, unreadable, truncated, tampered-with or not
+            of this format, or of a class that is not ``cls`` (or a subclass).
+        InvalidTypeError
+            ``path`` is not a path, or an option is given.
+        """
+        check_options(cls, "load", options, ())
+        source = as_path(path, f"{cls.__name__}.load")
+        config, weights, where = read_or_fail(ckpt.read_model, source, ckpt.CheckpointError)
+        return cls.from_config(config, weights, where)
 
 
 def defined_classes() -> dict[str, type]:
@@ -113,38 +144,3 @@ def defined_classes() -> dict[str, type]:
         if klass.__module__.startswith("estimators.learned.") and not klass.__name__.startswith("_"):
             found.setdefault(klass.__name__, klass)
     return found
-
-
-class CheckpointMixin(PersistenceMixin):
-    """The hooks of the step-trained networks (:class:`~estimators.learned._neural._NeuralInpainter`):
-    parameters, seed, steps and history as JSON, the network's state dict as weights."""
-
-    def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
-        if not hasattr(self, "model_"):
-            raise NotFittedError(f"this {type(self).__name__} is not fitted; nothing to save")
-        # The config is written from the current parameters: they must still describe the weights.
-        self._check_model_params()
-        config = {
-            "params": self._config_params(),
-            "seed": getattr(self, "seed_", None),
-            "fitted": {"n_steps_": getattr(self, "n_steps_", 0), "history_": getattr(self, "history_", None)},
-        }
-        return config, ckpt.cpu_state(self.model_)
-
-    @classmethod
-    def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
-        params = dict(ckpt.config_value(config, "params", dict, where))
-        if params.get("crop") is not None:
-            params["crop"] = tuple(ckpt.config_value(params, "crop", list, where))
-        fitted = ckpt.config_value(config, "fitted", dict, where, default={})
-        n_steps = ckpt.config_value(fitted, "n_steps_", int, where,
-                                    default=ckpt.config_value(fitted, "step", int, where, default=0))
-        history = ckpt.config_value(fitted, "history_", dict, where, default=None)
-        seed = ckpt.config_value(config, "seed", int, where, default=None)
-        est = ckpt.build_checked(cls, params, where)
-        est.model_ = ckpt.load_weights(est._build_model(0), weights, where)
-        est.history_ = history or ckpt.progress_history(fitted)
-        est.n_steps_ = n_steps
-        est.seed_ = seed
-        est.model_params_ = est._model_params()
-        return est

@@ -1,4 +1,4 @@
-"""The one ``save`` / ``load`` pair (estimators/_persistence.py) and the families that use it."""
+"""``save`` / ``load``: one persistence mixin per family format, the shared checks of estimators/_persistence.py."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sklearn.exceptions import NotFittedError
 
-from estimators._persistence import SaveLoadMixin
+from estimators._persistence import as_path, check_loaded_class, check_options, read_or_fail, require_saveable
 from estimators.intervals import ConformalIntervalInpainter
 from estimators.intervals._persistence import CalibrationFileMixin
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
@@ -22,8 +22,8 @@ from stand_ins import FillTen
 ROOT = Path(__file__).resolve().parents[2]
 
 
-#: The one function face of the pair: ``estimators.learned.load(path)``, any learned model (a
-#: function, so that it lives where its name does); it may only call the pair's ``load``.
+#: The one function face of the pairs: ``estimators.learned.load(path)``, any learned model (a
+#: function, so that it lives where its name does); it may only call a pair's ``load``.
 FACES = {"estimators/learned/_load.py:load"}
 
 
@@ -51,8 +51,13 @@ def _path_savers_and_loaders(root: Path) -> list[str]:
     return found
 
 
-def test_one_save_load_pair_in_the_source():
-    assert _path_savers_and_loaders(ROOT) == ["estimators/_persistence.py:save", "estimators/_persistence.py:load"]
+#: One ``save`` / ``load`` pair per family format, each on that family's persistence mixin.
+PAIRS = ["estimators/intervals/_persistence.py:save", "estimators/intervals/_persistence.py:load",
+         "estimators/learned/_persistence.py:save", "estimators/learned/_persistence.py:load"]
+
+
+def test_one_save_load_pair_per_format_in_the_source():
+    assert _path_savers_and_loaders(ROOT) == PAIRS
 
 
 def test_the_scan_sees_a_second_pair_and_a_face_that_does_more(tmp_path):
@@ -68,11 +73,16 @@ def test_the_scan_sees_a_second_pair_and_a_face_that_does_more(tmp_path):
     assert "estimators/learned/_load.py:load" in _path_savers_and_loaders(tmp_path)
 
 
-def test_learned_and_interval_classes_share_the_pair():
+def test_each_family_shares_its_format_pair():
     learned = pytest.importorskip("estimators.learned")
-    for klass in (ConformalIntervalInpainter, learned.UNetInpainter, learned.MeanEnsembleInpainter):
-        assert klass.save is SaveLoadMixin.save
-        assert klass.load.__func__ is SaveLoadMixin.load.__func__
+    from estimators.learned._persistence import PersistenceMixin
+
+    for klass in (learned.UNetInpainter, learned.PriorUNetInpainter, learned.MeanEnsembleInpainter,
+                  learned.ScanBlendInpainter):
+        assert klass.save is PersistenceMixin.save
+        assert klass.load.__func__ is PersistenceMixin.load.__func__
+    assert ConformalIntervalInpainter.save is CalibrationFileMixin.save
+    assert ConformalIntervalInpainter.load.__func__ is CalibrationFileMixin.load.__func__
 
 
 @pytest.fixture(scope="module")
@@ -108,34 +118,29 @@ def test_base_checks_options_path_and_fitted(wrapper, tmp_path):
         ConformalIntervalInpainter.load(tmp_path / "missing.json", estimator=FillTen())
 
 
-class _Note(SaveLoadMixin):
-    """A toy family: one JSON file recording its class (``_state_class`` dispatches on it)."""
-
-    _load_options = ("scale",)
+class _Note:
+    """A toy family in the shape of the real ones: one JSON file recording its class, read by a plain
+    function, the recorded class's ``_from_config`` building the object (over the shared checks)."""
 
     def __init__(self, value: float = 0.0) -> None:
         self.value = value
 
-    def __sklearn_is_fitted__(self) -> bool:
-        return self.value != 0.0
-
-    def _save_state(self) -> tuple[dict[str, Any], None]:
-        return {"class": type(self).__name__, "value": self.value}, None
-
-    @classmethod
-    def _write_state(cls, path: Path, config: dict[str, Any], payload: None) -> Path:
-        return write_json(path, config)
+    def save(self, path: Any, **options: Any) -> Path:
+        check_options(type(self), "save", options, ())
+        target = as_path(path, f"{type(self).__name__}.save")
+        require_saveable(self, self.value != 0.0)
+        return write_json(target, {"class": type(self).__name__, "value": self.value})
 
     @classmethod
-    def _read_state(cls, path: Path) -> tuple[dict[str, Any], None, Path]:
-        return read_json(path, "note"), None, path
+    def load(cls, path: Any, **options: Any) -> Any:
+        check_options(cls, "load", options, ("scale",))
+        source = as_path(path, f"{cls.__name__}.load")
+        config = read_or_fail(lambda p: read_json(p, "note"), source, InvalidInputError)
+        klass = {"_Note": _Note, "_LoudNote": _LoudNote, "_Other": _Other}[config["class"]]
+        return check_loaded_class(cls, klass, source, InvalidInputError)._from_config(config, **options)
 
     @classmethod
-    def _state_class(cls, config: dict[str, Any], where: Any) -> type:
-        return {"_Note": _Note, "_LoudNote": _LoudNote, "_Other": _Other}[config["class"]]
-
-    @classmethod
-    def _from_state(cls, config: dict[str, Any], payload: None, where: Any, scale: float = 1.0) -> Any:
+    def _from_config(cls, config: dict[str, Any], scale: float = 1.0) -> Any:
         return cls(config["value"] * scale)
 
 
@@ -168,6 +173,6 @@ def test_an_unreadable_file_is_one_error_naming_it(tmp_path):
     assert json.loads(_Note(1.5).save(tmp_path / "ok.json").read_text())["value"] == 1.5
 
 
-def test_interval_format_is_a_family_of_the_base():
+def test_interval_format_is_its_own_mixin():
     assert issubclass(ConformalIntervalInpainter, CalibrationFileMixin)
     assert CalibrationFileMixin._save_options == ("base",) and CalibrationFileMixin._load_options == ("estimator",)
