@@ -334,7 +334,7 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         return out
 
     def interval_method(self, kind: str) -> Any:
-        """The estimator that gives route ``kind``'s interval (``"scan"`` or ``"map"``).
+        """The estimator that gives route ``kind``'s interval (``"scan"``, ``"sparse"`` or ``"map"``).
 
         The route's own method when it has ``predict_interval``; else ``intervals(name, method)``,
         made once (under the lock, as the routes are), around the route's method.
@@ -356,7 +356,11 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
                     f"(fill without --confidence), or give one (--intervals CAL.json, or -m <method>-intervals)")
             with _MAKING:
                 if made not in self.__dict__:
-                    self.__dict__[made] = self.intervals(name, method)
+                    try:
+                        self.__dict__[made] = self.intervals(name, method)
+                    except InvalidInputError as exc:  # say which frames: the route's kind, not only its method
+                        raise InvalidInputError(f"no calibrated interval for a {_KIND_WORDS[kind]} (route {name}): "
+                                                f"{exc}") from None
         return self.__dict__[made]
 
     def predict(self, X: Any, return_std: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:

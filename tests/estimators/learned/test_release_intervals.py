@@ -208,3 +208,22 @@ def test_benchmark_scores_the_default_s_interval(tmp_path):
     assert main(argv) == 0
     rows = json.loads((tmp_path / "run" / "results.json").read_text())["rows"]
     assert rows and all(0 <= r["hole_coverage"] <= 1 and r["hole_interval_width"] > 0 for r in rows)
+
+
+def test_a_sparse_scan_s_route_without_a_calibration_is_named_with_its_kind():
+    """pretrained fills a scan thinned to 8 rings with its sparse route; that route ships no
+    calibration, so asking its interval is one error naming the kind of frame and the route."""
+    from inpaintenv.data import method_input
+    from inpaintenv.exceptions import InpaintenvError
+
+    ds = SyntheticStreets(n=1, frame_shape=(128, 384), input="scan-rings8-v1")
+    inputs = ds.load_input_batch([0])
+    x = method_input(inputs, np.zeros(inputs.shape, bool), ds.input)
+    routed = make_method("pretrained")
+    routed.predict(x)
+    if routed.routed_kinds_ != ["sparse"] or routed.sparse_name in shipped_intervals():
+        pytest.skip("this frame is not routed as a sparse scan, or its route ships a calibration")
+    with pytest.raises(InpaintenvError, match=rf"for a sparse scan \(route {routed.sparse_name}\).*no shipped"):
+        routed.predict_interval(x)
+    with pytest.raises(InpaintenvError, match="for a sparse scan"):
+        routed.predict(x, return_std=True)
