@@ -25,7 +25,7 @@ import numpy as np
 from inpaintenv.conventions import check_depth
 
 from ._scan import AxisScan
-from .classical._base import in_inverse_depth
+from .classical import in_inverse_depth
 from .classical.harmonic import harmonic_fill
 from .classical.ipbasic import IPBasicInpainter
 from .classical.nearest import nearest_fill

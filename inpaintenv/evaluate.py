@@ -23,6 +23,7 @@ Example
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -37,16 +38,16 @@ from .conventions import (
 from .data.base import DepthDataset, as_dataset
 from .data.inputs import method_input
 from .masks import OcclusionProtocol, get_protocol
-from .methods.calls import _as_predictor, _run, _warm_up, method_name
+from .methods.calls import Predictor, method_name
 from .methods.intervals import IntervalSource, interval_source
 from .exceptions import BadFrameError, InvalidInputError, MethodOutputError, ResultRowError, UnfilledPixelsError
 from .metrics import (CALIBRATION_LEVELS, Coverage, FrameBatch, as_coverage, check_unfilled, computed_metrics, interval_metrics,
-                      metric_records)
-from .metrics._depth import _frame_metrics_checked
+                      metric_records, ScoredPixels)
 from .report.results import METRIC_COLUMNS, EvaluationResult
 from .values.rows import RowPlan, UniqueRows, check_row
 
-__all__ = ["BAD_FRAME_ERRORS", "check_on_bad_frame", "evaluate", "resolve_source", "training_drives_of"]
+__all__ = ["BAD_FRAME_ERRORS", "EvaluationPlan", "check_on_bad_frame", "evaluate", "evaluate_plan", "resolve_source",
+           "training_drives_of"]
 
 
 #: What loading an unreadable frame raises: a corrupt, truncated, 8-bit or vanished PNG
@@ -235,7 +236,7 @@ def evaluate(
         ``n_frames`` or ``batch_size`` below 1; a NaN/inf/non-positive ``max_depth``;
         ground truth that breaks the depth convention (the message names the frame).
     """
-    _as_predictor(method)  # a method that cannot be called is refused before any frame is opened
+    Predictor.of(method)  # a method that cannot be called is refused before any frame is opened
     dataset = resolve_source(source)
     proto = get_protocol(protocol)
     # Integers only, never coerced: int("12") loops, 0.5 -> 0 and repeats would all
@@ -246,11 +247,10 @@ def evaluate(
     total, frame_list = _frames_to_score(dataset, n_frames, indices)
     check_on_bad_frame(on_bad_frame)
     check_unfilled(unfilled)
-    return _evaluate_checked(
-        method, dataset, proto, seed_list, frame_list, total=total, batch_size=batch_size, max_depth=max_depth,
-        progress=progress, name=name, on_batch=on_batch, on_bad_frame=on_bad_frame, client=client,
-        unfilled=unfilled, warmup=warmup, intervals=None if intervals is None else as_coverage(intervals, "intervals"),
-    )
+    plan = EvaluationPlan(dataset, proto, seed_list, frame_list, total, batch_size=batch_size, max_depth=max_depth,
+                          on_bad_frame=on_bad_frame, unfilled=unfilled, client=client,
+                          intervals=None if intervals is None else as_coverage(intervals, "intervals"))
+    return evaluate_plan(method, plan, name=name, progress=progress, on_batch=on_batch, warmup=warmup)
 
 
 def check_on_bad_frame(value: object) -> str:
@@ -260,51 +260,82 @@ def check_on_bad_frame(value: object) -> str:
     return str(value)
 
 
-def _evaluate_checked(
-    method: Any, dataset: DepthDataset, proto: OcclusionProtocol, seed_list: list[int], frame_list: list[int], *,
-    total: int, batch_size: int, max_depth: float, progress: bool, name: str | None,
-    on_batch: Callable[[list[dict[str, Any]]], None] | None, on_bad_frame: str, client: Any, unfilled: str,
-    warmup: bool, intervals: Coverage | None,
-) -> EvaluationResult:
-    """:func:`evaluate` on arguments its callers already checked (the benchmark runner, a worker's shard).
+@dataclass(frozen=True)
+class EvaluationPlan:
+    """What one evaluation scores, every value checked where it entered (by :func:`evaluate` or
+    the benchmark's run); nothing here is checked again.
 
-    ``frame_list`` are distinct positions below ``total`` (the frames in play, ``len(dataset)`` at most).
+    Parameters
+    ----------
+    dataset : DepthDataset
+        The source.
+    protocol : OcclusionProtocol
+        The hole protocol.
+    seeds : list of int
+        Distinct non-negative seeds.
+    frames : list of int
+        Distinct positions below ``total`` to score.
+    total : int
+        Frames in play (``len(dataset)`` at most): ``meta["n_frames"]``.
+    batch_size, max_depth, on_bad_frame, unfilled, intervals, client
+        As :func:`evaluate`'s, checked (``intervals`` a checked :class:`~inpaintenv.metrics.Coverage`).
     """
-    call, batched = _as_predictor(method)
-    label = name or method_name(method)
+
+    dataset: DepthDataset
+    protocol: OcclusionProtocol
+    seeds: list[int]
+    frames: list[int]
+    total: int
+    batch_size: int = 4
+    max_depth: float = DEFAULT_MAX_DEPTH
+    on_bad_frame: str = "error"
+    unfilled: str = "error"
+    intervals: Coverage | None = None
+    client: Any = None
+
+
+def evaluate_plan(
+    method: Any, plan: EvaluationPlan, *, name: str | None = None, progress: bool = False,
+    on_batch: Callable[[list[dict[str, Any]]], None] | None = None, warmup: bool = False,
+) -> EvaluationResult:
+    """:func:`evaluate` of a checked :class:`EvaluationPlan` (the benchmark's runner, a worker's shard).
+
+    ``name``, ``progress``, ``on_batch`` and ``warmup`` are :func:`evaluate`'s.
+    """
+    predictor = Predictor.of(method, name)
+    label = predictor.name
 
     from tqdm.auto import tqdm  # lazy: only needed when looping
 
     bar = tqdm(
-        total=len(frame_list) * len(seed_list), desc=f"evaluate {label}", unit="frame",
+        total=len(plan.frames) * len(plan.seeds), desc=f"evaluate {label}", unit="frame",
         disable=None if progress else True, leave=False,
     )
-    shared = {"dataset": dataset, "protocol": proto, "seeds": seed_list, "max_depth": max_depth, "name": label,
-              "on_bad_frame": on_bad_frame, "unfilled": unfilled, "intervals": intervals}
-    batches = [frame_list[s : s + batch_size] for s in range(0, len(frame_list), batch_size)]
+    batches = [plan.frames[s : s + plan.batch_size] for s in range(0, len(plan.frames), plan.batch_size)]
     try:
-        if client is not None:
-            rows, skipped = _score_on_cluster(client, bar, on_batch, batches, method=method, **shared)
+        if plan.client is not None:
+            rows, skipped = _score_on_cluster(plan, bar, on_batch, batches, method=method, name=label)
         else:
-            source_of_interval = interval_source(method, intervals, label)
-            rows, skipped = _score_locally(call, batched, bar, on_batch, batches, warmup=bool(warmup),
-                                           interval=source_of_interval, **shared)
+            source_of_interval = interval_source(method, plan.intervals, label)
+            rows, skipped = _score_locally(predictor, plan, bar, on_batch, batches, warmup=bool(warmup),
+                                           interval=source_of_interval)
     finally:
         bar.close()
 
     # Report rows seed-major (all frames of seed 0, then seed 1, ...).
-    order = {s: j for j, s in enumerate(seed_list)}
+    dataset, intervals = plan.dataset, plan.intervals
+    order = {s: j for j, s in enumerate(plan.seeds)}
     rows.sort(key=lambda r: (order[r["seed"]], r["index"]))
     meta = {
         "methods": [label],
-        "protocol": proto.name,
-        "seeds": seed_list,
-        "n_frames": total,
+        "protocol": plan.protocol.name,
+        "seeds": list(plan.seeds),
+        "n_frames": plan.total,
         "source": repr(dataset),
         "input_kind": dataset.input_kind,
         "frame_shape": list(dataset.frame_shape),
-        "max_depth": float(max_depth),
-        "unfilled": unfilled,
+        "max_depth": float(plan.max_depth),
+        "unfilled": plan.unfilled,
         "inpaintenv_version": __version__,
     }
     if intervals is not None:
@@ -331,24 +362,23 @@ def _frames_to_score(dataset: DepthDataset, n_frames: int | None, indices: Seque
 
 
 def _score_locally(
-    call: Callable, batched: bool, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None,
-    batches: list[list[int]], *, dataset: DepthDataset, protocol: OcclusionProtocol, seeds: list[int],
-    max_depth: float, name: str, on_bad_frame: str, unfilled: str, warmup: bool = False,
-    interval: IntervalSource | None = None, intervals: Coverage | None = None,
+    predictor: Predictor, plan: EvaluationPlan, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None,
+    batches: list[list[int]], *, warmup: bool = False, interval: IntervalSource | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Rows and skipped frames of ``batches``, scored in this process (checked arguments).
+    """Rows and skipped frames of ``batches``, scored in this process.
 
-    ``interval`` (from ``intervals``, the coverage asked) adds the interval columns, scored on
+    ``interval`` (from ``plan.intervals``, the coverage asked) adds the interval columns, scored on
     the protocol's task pixels (the hole, or under densify-v1 every pixel the input lacks).
     """
+    dataset, protocol, seeds, name = plan.dataset, plan.protocol, plan.seeds, predictor.name
     if interval is not None:
-        call = interval.wrap(call)
+        predictor = predictor.wrapped(interval.wrap)
     rows: list[dict[str, Any]] = []
     skipped: list[dict[str, Any]] = []
     shape = tuple(dataset.frame_shape)
     for idx in batches:
         # Load inputs and ground truth once per batch and reuse them for every seed.
-        inputs, gt, idx, bad = _load_batch(dataset, idx, on_bad_frame)
+        inputs, gt, idx, bad = _load_batch(dataset, idx, plan.on_bad_frame)
         skipped.extend(bad)
         bar.update(len(bad) * len(seeds))
         if not idx:
@@ -357,13 +387,14 @@ def _score_locally(
             hole = protocol.masks(shape, seed, idx)
             x = method_input(inputs, hole, dataset.input_kind)
             if warmup:
-                _warm_up(call, batched, x[0])
+                predictor.warm_up(x[0])
                 warmup = False
-            pred, ms = _run(call, batched, x, name)
+            pred, ms = predictor.run(x)
             try:
                 # Frames, masks, output and options were checked where they entered.
-                metrics = _frame_metrics_checked(pred, gt, hole, max_depth=max_depth, unfilled=unfilled,
-                                                 inputs=None if inputs is gt else inputs)
+                scored_pixels = ScoredPixels(gt, hole, inputs=None if inputs is gt else inputs, check_input=False)
+                metrics = scored_pixels.metrics(pred, max_depth=plan.max_depth, unfilled=plan.unfilled,
+                                                check_input=False)
             except UnfilledPixelsError as exc:
                 raise MethodOutputError(f"method {name!r}: {exc}") from None
             # The task's pixels, as the headline's: densify-v1's are every pixel the input lacks.
@@ -427,17 +458,17 @@ def training_drives_of(method: Any) -> list[str] | None:
 
 
 def _score_on_cluster(
-    client: Any, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None, batches: list[list[int]],
-    **shared: Any,
+    plan: EvaluationPlan, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None, batches: list[list[int]],
+    *, method: Any, name: str,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Rows and skipped frames of ``batches``, each scored by :func:`_score_shard` on a Dask worker."""
     from .cluster import map_shards  # lazy: Dask is an optional extra
 
-    dataset = shared["dataset"]
+    dataset = plan.dataset
     # Rows cross a process (and maybe a network) here: each is checked before anything keeps it.
-    plan = RowPlan(methods={shared["name"]}, protocol=shared["protocol"].name, input_kind=dataset.input_kind,
-                   seeds=set(shared["seeds"]), frame_ids=[str(f) for f in dataset.frame_ids],
-                   drives=[str(g) for g in dataset.groups])
+    rows_plan = RowPlan(methods={name}, protocol=plan.protocol.name, input_kind=dataset.input_kind,
+                        seeds=set(plan.seeds), frame_ids=[str(f) for f in dataset.frame_ids],
+                        drives=[str(g) for g in dataset.groups])
     unique = UniqueRows(default_input=dataset.input_kind)
     n_received = [0]
 
@@ -445,26 +476,22 @@ def _score_on_cluster(
         for row in part.rows:
             n_received[0] += 1
             try:
-                plan.check(check_row(row, max_depth=shared["max_depth"]))
+                rows_plan.check(check_row(row, max_depth=plan.max_depth))
                 unique.add(row, f"row {n_received[0]} sent back")
             except ResultRowError as exc:
                 raise ResultRowError(f"a Dask worker sent back a row that is not one of this run: {exc}") from None
-        bar.update(len(part.rows) + len(part.meta.get("skipped_frames", [])) * len(shared["seeds"]))
+        bar.update(len(part.rows) + len(part.meta.get("skipped_frames", [])) * len(plan.seeds))
         if on_batch is not None and part.rows:
             on_batch(part.rows)
 
-    parts = map_shards(client, _score_shard, batches, shared=shared, on_result=received)
+    # The plan crosses to the workers once, without the client (a worker scores its shard locally).
+    shared = {"method": method, "plan": replace(plan, client=None), "name": name}
+    parts = map_shards(plan.client, _score_shard, batches, shared=shared, on_result=received)
     rows = [row for part in parts for row in part.rows]
     return rows, [rec for part in parts for rec in part.meta.get("skipped_frames", [])]
 
 
-def _score_shard(
-    indices: list[int], *, method: Any, dataset: DepthDataset, protocol: OcclusionProtocol,
-    seeds: list[int], max_depth: float, name: str, on_bad_frame: str, unfilled: str, intervals: Coverage | None = None,
-) -> EvaluationResult:
-    """One batch of a distributed :func:`evaluate`, run on a Dask worker (arguments checked by the caller)."""
-    return _evaluate_checked(
-        method, dataset, protocol, seeds, indices, total=len(dataset), batch_size=len(indices), max_depth=max_depth,
-        progress=False, name=name, on_batch=None, on_bad_frame=on_bad_frame, client=None, unfilled=unfilled,
-        warmup=False, intervals=intervals,
-    )
+def _score_shard(indices: list[int], *, method: Any, plan: EvaluationPlan, name: str) -> EvaluationResult:
+    """One batch of a distributed :func:`evaluate`, run on a Dask worker (the plan checked by the caller)."""
+    shard = replace(plan, frames=indices, total=len(plan.dataset), batch_size=len(indices))
+    return evaluate_plan(method, shard, name=name)

@@ -436,3 +436,64 @@ def test_one_make_method():
     """``make_method`` is the registry's; a helper that builds a method for one job has its own name."""
     found = [d.rpartition(":")[0] for d in definitions_of("make_method", python_files())]
     assert found == ["inpaintenv/methods/registry.py"], f"functions named make_method: {found}"
+
+
+def _owner(module: str) -> str:
+    """The package whose modules alone may use ``module``'s private parts: the package
+    above its first private part (``a.b._c.d`` -> ``a.b``); "" when it has none."""
+    parts = module.split(".")
+    for i, part in enumerate(parts):
+        if part.startswith("_") and not part.startswith("__"):
+            return ".".join(parts[:i])
+    return ""
+
+
+def private_imports(name: str, path: Path, modules: dict[str, Path]) -> list[str]:
+    """What ``name`` imports that is private to another package (see :func:`test_no_private_cross_module_import`)."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    bad: list[str] = []
+    for target in sorted(imports_of(name, path, modules)):
+        owner = _owner(target)
+        if owner and not (package == owner or package.startswith(owner + ".")):
+            bad.append(f"{name} imports the private module {target}")
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        base = _resolve(package, node.module or "", node.level, package)
+        if base.partition(".")[0] not in {m.partition(".")[0] for m in modules}:
+            continue  # another project's names
+        home = base if base not in modules or modules[base].name == "__init__.py" else base.rpartition(".")[0]
+        for alias in node.names:
+            private = alias.name.startswith("_") and not alias.name.startswith("__")
+            if private and f"{base}.{alias.name}" not in modules and home != package:
+                bad.append(f"{name} imports {alias.name} from {base}")
+    return bad
+
+
+def test_private_imports_sees_names_and_modules_across_packages(tmp_path):
+    files = {"p/__init__.py": "", "p/_m.py": "def _f(): pass\n", "p/a.py": "from ._m import _f\n",
+             "p/sub/__init__.py": "", "p/sub/b.py": "from .._m import g\nfrom .. import _m\n",
+             "p/sub/c.py": "from .._m import _f\n", "q/__init__.py": "", "q/d.py": "from p._m import g\nimport p._m\n"}
+    for rel, text in files.items():
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text(text)
+    modules = {".".join(Path(rel).with_suffix("").parts).removesuffix(".__init__"): tmp_path / rel for rel in files}
+    found = {m: private_imports(m, modules[m], modules) for m in modules}
+    assert found["p.a"] == [] and found["p.sub.b"] == []  # a package's own private module, from anywhere inside it
+    assert found["p.sub.c"] == ["p.sub.c imports _f from p._m"]  # a private name, from another package
+    assert found["q.d"] == ["q.d imports the private module p._m"]
+
+
+def test_no_private_cross_module_import():
+    """A private name is no other package's API.
+
+    The rule: a private name (``_x``, not a dunder) may be imported only by a module of the
+    package that defines it (``from ._m import _x`` between siblings, or from the package's
+    ``__init__``); a private module (``pkg/_m.py``) only by modules inside ``pkg`` (its
+    subpackages included: ``estimators._constraints`` is the estimators' shared machinery).
+    What another package needs is public (``Predictor``, ``EvaluationPlan``), and imported
+    through its public path. Scripts and tests (``perf/``, ``tests/``) are not checked.
+    """
+    modules = project_modules()
+    bad = [line for name, path in modules.items() for line in private_imports(name, path, modules)]
+    assert bad == [], "private names used across packages (make them public or keep them home):\n" + "\n".join(bad)

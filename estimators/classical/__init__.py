@@ -4,6 +4,7 @@ Every class is a scikit-learn estimator that predicts without ``fit`` and proces
 the frames of a batch in parallel with ``n_jobs``.
 """
 
+from ._base import in_inverse_depth
 from .bilateral import IterativeBilateralInpainter
 from .harmonic import HarmonicInpainter
 from .ipbasic import IPBasicInpainter
@@ -22,4 +23,5 @@ __all__ = [
     "NearestInpainter",
     "ScanlineInpainter",
     "TeleaInpainter",
+    "in_inverse_depth",
 ]

@@ -22,7 +22,7 @@ from typing import Any
 
 from ..conventions import DEFAULT_MAX_DEPTH, check_int, check_seeds
 from ..data.base import DepthDataset
-from ..evaluate import _evaluate_checked, check_on_bad_frame, resolve_source, training_drives_of
+from ..evaluate import EvaluationPlan, check_on_bad_frame, evaluate_plan, resolve_source, training_drives_of
 from ..files import remove_stale_temporaries
 from ..masks import get_protocol
 from ..metrics import as_coverage, check_unfilled
@@ -453,9 +453,12 @@ class _Run:
             warmup = name not in self._warmed  # once per method, not per seed or protocol
             self._warmed.add(name)
             # Every argument was checked once, by run_benchmark: the frames are positions it planned.
-            part = _evaluate_checked(method, self.datasets[task.input_kind], self.protocols[task], [seed], indices,
-                                     total=self.totals[task.input_kind], max_depth=DEFAULT_MAX_DEPTH, name=name,
-                                     on_batch=append, unfilled=self.policies[name], warmup=warmup, **self.evaluate_kw)
+            kw = self.evaluate_kw
+            plan = EvaluationPlan(self.datasets[task.input_kind], self.protocols[task], [seed], indices,
+                                  self.totals[task.input_kind], batch_size=kw["batch_size"], max_depth=DEFAULT_MAX_DEPTH,
+                                  on_bad_frame=kw["on_bad_frame"], unfilled=self.policies[name],
+                                  intervals=kw["intervals"], client=kw["client"])
+            part = evaluate_plan(method, plan, name=name, progress=kw["progress"], on_batch=append, warmup=warmup)
             self.skipped.append(part.meta.get("skipped_frames") or [])
 
     def combine(self, results: list[EvaluationResult]) -> EvaluationResult:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -12,7 +13,7 @@ import numpy as np
 from ..conventions import as_depth_array, in_depth_range, reconstruction_problem
 from ..exceptions import InvalidInputError, InvalidTypeError, MethodOutputError
 
-__all__ = ["method_name", "run_method"]
+__all__ = ["Predictor", "method_name", "run_method"]
 
 
 def method_name(method: Any) -> str:
@@ -28,21 +29,79 @@ def method_name(method: Any) -> str:
     return type(method).__name__ if fn_name is None else "lambda"
 
 
-def _as_predictor(method: Any) -> tuple[Callable[[np.ndarray], Any], bool]:
-    """Return ``(call, batched)``: ``batched`` means ``call`` takes ``(N, H, W)``.
+@dataclass(frozen=True)
+class Predictor:
+    """How a method is called: its calling convention, its name in errors, the checks on its
+    output and the wall clock per frame (what :func:`inpaintenv.evaluate.evaluate` times).
 
-    Objects with ``predict`` are batched (the estimator API). Plain callables get one
-    ``(H, W)`` frame per call unless they set ``batched = True``.
+    Parameters
+    ----------
+    call : callable
+        ``(N, H, W) -> (N, H, W)`` when ``batched``, else ``(H, W) -> (H, W)``.
+    batched : bool
+        Whether ``call`` takes a whole batch.
+    name : str
+        The method's name in error messages.
     """
-    predict = getattr(method, "predict", None)
-    if callable(predict):
-        return predict, True
-    if callable(method):
-        return method, bool(getattr(method, "batched", False))
-    raise InvalidTypeError(
-        f"method must be a callable depth -> depth or an object with predict(), got "
-        f"{type(method).__name__}"
-    )
+
+    call: Callable[[np.ndarray], Any]
+    batched: bool
+    name: str
+
+    @classmethod
+    def of(cls, method: Any, name: str | None = None) -> Predictor:
+        """The predictor of ``method``: objects with ``predict`` are batched (the estimator API);
+        plain callables get one ``(H, W)`` frame per call unless they set ``batched = True``.
+
+        Raises
+        ------
+        InvalidTypeError
+            If ``method`` is neither callable nor has a callable ``predict``.
+        """
+        predict = getattr(method, "predict", None)
+        if callable(predict):
+            call, batched = predict, True
+        elif callable(method):
+            call, batched = method, bool(getattr(method, "batched", False))
+        else:
+            raise InvalidTypeError(
+                f"method must be a callable depth -> depth or an object with predict(), got "
+                f"{type(method).__name__}"
+            )
+        return cls(call, batched, name or method_name(method))
+
+    def wrapped(self, wrap: Callable[[Callable[[np.ndarray], Any]], Callable[[np.ndarray], Any]]) -> Predictor:
+        """This predictor with its call replaced by ``wrap(call)`` (same convention and name)."""
+        return replace(self, call=wrap(self.call))
+
+    def warm_up(self, frame: np.ndarray) -> None:
+        """One untimed call on a copy of ``frame`` (a one-frame batch for a batched method); output discarded.
+
+        Errors are left to the timed call that follows, which reports them with the method's name.
+        """
+        try:
+            self.call(frame[None].copy() if self.batched else frame.copy())
+        except Exception:  # noqa: BLE001 - the timed call raises it again, checked and named
+            pass
+
+    def run(self, x: np.ndarray) -> tuple[np.ndarray, float]:
+        """The validated float32 prediction of the checked ``(N, H, W)`` batch ``x`` and ms per frame."""
+        if self.batched:
+            t0 = time.perf_counter()
+            out = self.call(x)
+            elapsed = time.perf_counter() - t0
+            pred = _check_output(out, x.shape, self.name)
+        else:
+            pred = np.empty_like(x)
+            elapsed = 0.0
+            for k in range(len(x)):
+                t0 = time.perf_counter()
+                # Each frame gets its own copy so a method that writes into its input
+                # cannot change what later frames or the metrics see.
+                out = self.call(x[k].copy())
+                elapsed += time.perf_counter() - t0
+                pred[k] = _check_output(out, x.shape[1:], self.name)
+        return pred, 1000.0 * elapsed / len(x)
 
 
 def _check_output(out: Any, expected: tuple[int, ...], name: str) -> np.ndarray:
@@ -96,36 +155,4 @@ def run_method(method: Any, x: np.ndarray, name: str | None = None) -> tuple[np.
     if len(x) == 0:
         # Otherwise the per-frame time divides by zero.
         raise InvalidInputError(f"run_method got no frames (shape {x.shape})")
-    call, batched = _as_predictor(method)
-    return _run(call, batched, x, name or method_name(method))
-
-
-def _warm_up(call: Callable, batched: bool, frame: np.ndarray) -> None:
-    """One untimed call on a copy of ``frame`` (a one-frame batch for batched methods); output discarded.
-
-    Errors are left to the timed call that follows, which reports them with the method's name.
-    """
-    try:
-        call(frame[None].copy() if batched else frame.copy())
-    except Exception:  # noqa: BLE001 - the timed call raises it again, checked and named
-        pass
-
-
-def _run(call: Callable, batched: bool, x: np.ndarray, label: str) -> tuple[np.ndarray, float]:
-    """Run the method on a batch; return the validated prediction and ms per frame."""
-    if batched:
-        t0 = time.perf_counter()
-        out = call(x)
-        elapsed = time.perf_counter() - t0
-        pred = _check_output(out, x.shape, label)
-    else:
-        pred = np.empty_like(x)
-        elapsed = 0.0
-        for k in range(len(x)):
-            t0 = time.perf_counter()
-            # Each frame gets its own copy so a method that writes into its input
-            # cannot change what later frames or the metrics see.
-            out = call(x[k].copy())
-            elapsed += time.perf_counter() - t0
-            pred[k] = _check_output(out, x.shape[1:], label)
-    return pred, 1000.0 * elapsed / len(x)
+    return Predictor.of(method, name).run(x)

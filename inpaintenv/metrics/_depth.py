@@ -199,7 +199,8 @@ class ScoredPixels:
         }
 
     def metrics(
-        self, pred: np.ndarray, *, max_depth: float = DEFAULT_MAX_DEPTH, unfilled: str = "error"
+        self, pred: np.ndarray, *, max_depth: float = DEFAULT_MAX_DEPTH, unfilled: str = "error",
+        check_input: bool = True,
     ) -> dict[str, np.ndarray]:
         """The metrics of :func:`frame_metrics` for the prediction ``pred``.
 
@@ -212,6 +213,10 @@ class ScoredPixels:
             Range for PSNR (80 m by default).
         unfilled : {"error", "interpolate", "zero"}
             What a prediction of 0 m at a scored pixel means (see :data:`UNFILLED`).
+        check_input : bool, default True
+            False skips checking ``pred``, ``max_depth`` and ``unfilled``, for callers that checked
+            them where they entered (``evaluate``: a finite, non-negative float32 ``pred`` of the
+            ground truth's shape); unchecked input then gives wrong numbers silently.
 
         Returns
         -------
@@ -229,6 +234,8 @@ class ScoredPixels:
         TypeError
             If ``pred`` is not a floating-point array.
         """
+        if not check_input:
+            return self._metrics(pred, pred.reshape(-1).take(self._index).astype(np.float64), max_depth, unfilled)
         pred_arr = _check_pred(pred, self.shape)
         max_depth = check_max_depth(max_depth)
         check_unfilled(unfilled)
@@ -281,25 +288,6 @@ class ScoredPixels:
         return {"unmeasured_rmse": rmse, "unmeasured_mae": _frame_sums(np.abs(e), runs) / denom,
                 "unmeasured_psnr": psnr_of(rmse, max_depth),
                 "unmeasured_count": np.asarray(n, dtype=np.int64)}
-
-
-def _frame_metrics_checked(
-    pred: np.ndarray, gt: np.ndarray, hole: np.ndarray, *, max_depth: float, unfilled: str,
-    inputs: np.ndarray | None = None,
-) -> dict[str, np.ndarray]:
-    """:func:`frame_metrics` of inputs validated where they entered: the private fast path.
-
-    For :func:`inpaintenv.evaluate.evaluate`, whose frames, masks and outputs were checked
-    once at its boundary (as scikit-learn's ``skip_parameter_validation``): ``gt`` float32
-    from :meth:`~inpaintenv.data.base.DepthDataset.load_batch` (every frame checked by
-    :func:`~inpaintenv.conventions.check_depth`), ``hole`` a boolean mask of its shape
-    from :meth:`~inpaintenv.masks.OcclusionProtocol.masks`, ``pred`` a finite,
-    non-negative float32 array of its shape (``evaluate``'s output check), ``max_depth``
-    and ``unfilled`` checked. Nothing is checked again; unchecked input gives wrong
-    numbers silently. The numbers are :func:`frame_metrics`'s: the same code scores them.
-    """
-    scored = ScoredPixels(gt, hole, inputs=inputs, check_input=False)
-    return scored._metrics(pred, pred.reshape(-1).take(scored._index).astype(np.float64), max_depth, unfilled)
 
 
 def _runs(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
