@@ -67,6 +67,7 @@ from inpaintenv.files import (
     write_bytes_atomic,
     write_folder_atomic,
     write_json,
+    write_text_atomic,
 )
 
 from ._checkpoint_checks import CheckpointError, build_checked, check_tensors, config_value, load_weights
@@ -78,6 +79,7 @@ __all__ = [
     "FORMAT_VERSION",
     "CheckpointError",
     "build_checked",
+    "check_not_linked",
     "check_tensors",
     "config_value",
     "load_weights",
@@ -257,6 +259,8 @@ def read_checkpoint(
         On any missing, truncated, corrupt or foreign file.
     """
     path = Path(path)
+    if owned:
+        check_not_linked(path)
     if not path.is_dir():
         raise CheckpointError(f"no checkpoint directory at {path}")
     config = _read_json(path / CONFIG_FILE, owned)
@@ -308,6 +312,14 @@ def unflatten_optimizer_state(tensors: dict[str, torch.Tensor], meta: dict[str, 
 
 
 # -- training run directories ---------------------------------------------------------
+def check_not_linked(folder: Path) -> None:
+    """Refuse a folder of a run the command owns that is a symbolic link: through it, a resume
+    would read, and the next checkpoint write and delete, in a folder elsewhere."""
+    if folder.is_symlink():
+        raise CheckpointError(f"{folder} is a symbolic link; a training run reads and writes its checkpoints in "
+                              "its own folder only, never through a link")
+
+
 def read_run_state(run_dir: str | os.PathLike, *, owned: bool = False) -> dict[str, Any] | None:
     """The ``{"last": name, "best": name | None}`` pointers of a run, or None if new
     (``owned``: the run is the command's own, a linked ``state.json`` is refused).
@@ -318,6 +330,8 @@ def read_run_state(run_dir: str | os.PathLike, *, owned: bool = False) -> dict[s
         A pointer that is not the plain name of a checkpoint folder of the run (an absolute
         path, ``..``, a separator, a missing ``last``): loading never leaves the run folder.
     """
+    if owned:
+        check_not_linked(Path(run_dir))
     path = Path(run_dir) / STATE_FILE
     if not path.exists() and not path.is_symlink():
         return None
@@ -359,18 +373,21 @@ def write_run_checkpoint(
     tag = f"{step:08d}-{uuid.uuid4().hex[:8]}"
     last = f"ckpt-{tag}"
     write_folder_atomic(run_dir / last, lambda tmp: write_checkpoint(
-        tmp, config, weights, training=training, optimizer_tensors=optimizer_tensors), "training checkpoint")
+        tmp, config, weights, training=training, optimizer_tensors=optimizer_tensors), "training checkpoint",
+        within=run_dir.parent)
     best = old.get("best")
     if best_is_current:
         best = last
     elif best_weights is not None:
         best = f"best-{tag}"
         write_folder_atomic(run_dir / best, lambda tmp: write_checkpoint(tmp, config, best_weights),
-                            "best checkpoint")
-    _write_json(run_dir / STATE_FILE, {"last": last, "best": best})
+                            "best checkpoint", within=run_dir.parent)
+    write_text_atomic(run_dir / STATE_FILE, json.dumps({"last": last, "best": best}, indent=1) + "\n", "run state",
+                      within=run_dir.parent)
     # Only now are older checkpoints unreferenced.
     for child in run_dir.iterdir():
-        if child.is_dir() and child.name not in (last, best) and child.name.startswith(("ckpt-", "best-")):
+        if child.name not in (last, best) and child.name.startswith(("ckpt-", "best-")) and \
+                child.is_dir() and not child.is_symlink():
             shutil.rmtree(child, ignore_errors=True)
     remove_stale_temporaries(run_dir, folders=True)  # a checkpoint folder a killed writer left half-written
 

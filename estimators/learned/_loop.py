@@ -14,14 +14,15 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 import torch
 
-from inpaintenv.exceptions import TrainingDivergedError
+from inpaintenv.exceptions import RunLockedError, TrainingDivergedError
+from inpaintenv.files.lock import run_lock
 from inpaintenv.progress import format_duration, stderr_is_terminal
 
 from . import _checkpoint as ckpt
@@ -238,6 +239,29 @@ class RunFolder:
 
     def __init__(self, path: Path, config: dict[str, Any], shard: Shard):
         self.path, self.config, self.shard = path, config, shard
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[None]:
+        """Hold the run folder's lock (``run.lock``) for the block, if this process writes.
+
+        Raises
+        ------
+        RunLockedError
+            Another live process trains in this run folder (it is named).
+        CheckpointError
+            The run folder is a symbolic link.
+        """
+        if not self.shard.writes:  # the other processes of a job: rank 0 holds it for them
+            yield
+            return
+        ckpt.check_not_linked(self.path)
+        try:
+            with run_lock(self.path):
+                yield
+        except RunLockedError as e:
+            if "in use by another run" not in str(e):
+                raise
+            raise RunLockedError(str(e).replace("choose another --out", "use another checkpoint_dir")) from None
 
     def resume(self, model: torch.nn.Module, optimisation: Optimisation,
                plan: RunPlan) -> tuple[dict, dict | None] | None:

@@ -150,6 +150,14 @@ class TrainingMixin:
         (``estimators.learned.distributed``); None trains in this process alone.
         """
         shard = shard or Shard()
+        folder = self._run_folder(dataset, seed, shard)
+        # One fit per run folder: two at once would delete each other's checkpoints.
+        with folder.held() if folder is not None else contextlib.nullcontext():
+            self._train_in(dataset, seed, device, shard, folder)
+
+    def _train_in(self, dataset: DepthDataset, seed: int, device: torch.device, shard: Shard,
+                  folder: RunFolder | None) -> None:
+        """:meth:`_train` in its run ``folder`` (held), or without one."""
         if self.validation_fraction is not None:
             train_ds, val_ds = split_by_drive(dataset, self.validation_fraction, seed=seed)
         else:
@@ -160,7 +168,6 @@ class TrainingMixin:
         optimisation = self._prepare_training(model, device)
         progress = new_progress(val_hole_rmse=[], best_epoch=None)
         best: dict[str, Any] = {"state": None}
-        folder = self._run_folder(dataset, seed, shard)
         steps_per_epoch = shard.batches_per_epoch(len(train_ds), self.batch_size)
         if folder is not None:
             plan = RunPlan(epochs=self.epochs, steps_per_epoch=steps_per_epoch, max_steps=self.max_steps,

@@ -145,7 +145,8 @@ def write_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: st
     return path
 
 
-def write_folder_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: str = "") -> Path:
+def write_folder_atomic(path: str | os.PathLike, write: Callable[[Path], Any], what: str = "", *,
+                        within: str | os.PathLike | None = None) -> Path:
     """Call ``write(tmp)`` on a fresh temporary folder beside ``path`` and rename it to ``path``.
 
     A folder is whole or absent: a failure (a full disk) or a kill while ``write`` runs
@@ -160,14 +161,21 @@ def write_folder_atomic(path: str | os.PathLike, write: Callable[[Path], Any], w
         Writes the folder's files into the folder it is given (each through :func:`write_atomic`).
     what : str
         What the folder is, for messages.
+    within : path-like, optional
+        The folder the command owns, which ``path`` lies in: no folder between it and
+        ``path`` may be a symbolic link (as :func:`write_atomic`'s).
 
     Raises
     ------
+    UnsafeFileError
+        A folder between ``within`` and ``path`` is a symbolic link; nothing is written.
     OSError
         The cause (e.g. no space left on device) with ``path`` named; nothing is left behind.
     """
     path = Path(path)
     try:
+        if within is not None:
+            _owned_folder(path.parent, Path(within), f"{what + ' ' if what else ''}{path}")
         path.parent.mkdir(parents=True, exist_ok=True)
         if os.path.lexists(path):
             raise FileExistsError(errno.EEXIST, "it exists already")

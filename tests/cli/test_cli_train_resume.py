@@ -63,7 +63,7 @@ def test_a_full_disk_is_one_line_and_leaves_no_partial_checkpoint(tmp_path, caps
     assert "No space left on device" in line and str(out) in line
     run = next((out / "checkpoints").iterdir())
     names = sorted(p.name for p in run.iterdir())
-    assert len(names) == 2 and names[0].startswith(kept) and names[1] == "state.json", names
+    assert len(names) == 3 and names[0].startswith(kept) and names[1:] == ["run.lock", "state.json"], names
     monkeypatch.setattr(_checkpoint, "save_file", real)
     assert main([*SMOKE, "--out", str(out)]) == 0  # the disk has room again: the run resumes and ends
     assert json.loads((out / "training_log.json").read_text())["n_steps"] == 2

@@ -192,6 +192,11 @@ def _training_states() -> list[Case]:
         says="records no SHA-256 of training.json"))
     cases.append(Case("cli:train", "state-fifo", lambda p, f: _train_resume(
         p, f, lambda c: _replace(c / "training.json", p.fifo))))
+    # The run folder inside --out/checkpoints, or its last checkpoint, a link to a folder outside.
+    cases.append(Case("cli:train", "run-folder-link-out", lambda p, f: _train_resume(
+        p, f, lambda c: (shutil.rmtree(c.parent), p.folder_link_out(c.parent)))))
+    cases.append(Case("cli:train", "checkpoint-folder-link-out", lambda p, f: _train_resume(
+        p, f, lambda c: (shutil.rmtree(c), p.folder_link_out(c)))))
     return cases
 
 

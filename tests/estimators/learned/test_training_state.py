@@ -11,6 +11,8 @@ import errno
 import hashlib
 import json
 import shutil
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -24,7 +26,7 @@ from streets import streets as _streets
 from estimators.learned import PriorUNetInpainter, UNetInpainter
 from estimators.learned import _checkpoint
 from inpaintenv.data import ArrayDataset
-from inpaintenv.exceptions import CheckpointError
+from inpaintenv.exceptions import CheckpointError, RunLockedError
 
 #: A pixel PriorUNet (Cosine schedule, several Adam updates a step) and a U-Net (constant
 #: rate, one update a step, validation): 6 small frames, a checkpoint every step.
@@ -56,13 +58,11 @@ def _interrupted(klass: type, params: dict[str, Any], data: ArrayDataset, root: 
             raise _Stop
         return original(self, *args)
 
-    klass._train_step = step
     est = klass(**params, checkpoint_dir=root)
-    try:
+    with pytest.MonkeyPatch.context() as mp:  # restores the class as it was (the method inherited, not its own)
+        mp.setattr(klass, "_train_step", step)
         with pytest.raises(_Stop):
             est.fit(data)
-    finally:
-        klass._train_step = original
     return est.run_dir_
 
 
@@ -256,6 +256,38 @@ def test_state_json_pointing_at_a_best_checkpoint_is_refused(runs, data, tmp_pat
     _refused("prior", root, data, r"state\.json: 'best-00000004-abcdef12' is not the name of a training checkpoint")
 
 
+@pytest.mark.parametrize("linked", ["run", "checkpoint"])
+def test_a_run_or_checkpoint_folder_that_links_elsewhere_is_never_read_or_written(runs, data, tmp_path, linked):
+    """Through a link, a resume would read elsewhere, and the next checkpoint would be written
+    there and the folders named ckpt-* there deleted."""
+    root, ckpt = _copy(runs, "prior", tmp_path)
+    folder = ckpt.parent if linked == "run" else ckpt
+    elsewhere = tmp_path / "elsewhere"
+    shutil.move(folder, elsewhere)
+    (elsewhere / "ckpt-00000001-0123abcd").mkdir(exist_ok=True)  # someone's folder of that name
+    folder.symlink_to(elsewhere, target_is_directory=True)
+    before = sorted(str(p.relative_to(elsewhere)) for p in elsewhere.rglob("*"))
+    with pytest.raises(CheckpointError, match=f"{folder.name} is a symbolic link; a training run reads and writes"):
+        _resume("prior", root, data)
+    assert sorted(str(p.relative_to(elsewhere)) for p in elsewhere.rglob("*")) == before
+
+
+def test_a_second_fit_in_a_run_folder_in_use_is_refused(runs, data, tmp_path):
+    """Two fits of one run at once would delete each other's checkpoints: the second is refused."""
+    root, ckpt = _copy(runs, "prior", tmp_path)
+    holder = subprocess.Popen([sys.executable, "-c", "import sys; from inpaintenv.files.lock import run_lock\n"
+                               f"with run_lock({str(ckpt.parent)!r}):\n print('held', flush=True); sys.stdin.read()"],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(RunLockedError, match=rf"{ckpt.parent.name} is in use by another run \(pid {holder.pid} "
+                                                 r".*use another checkpoint_dir"):
+            _resume("prior", root, data)
+    finally:
+        holder.communicate("", timeout=30)
+    assert _resume("prior", root, data).n_steps_ == PRIOR["max_steps"]  # free again: it resumes
+
+
 # -- a full disk while a checkpoint is written ---------------------------------------------------------
 
 def test_a_full_disk_is_one_oserror_and_leaves_no_partial_checkpoint(data, tmp_path, monkeypatch):
@@ -279,8 +311,9 @@ def test_a_full_disk_is_one_oserror_and_leaves_no_partial_checkpoint(data, tmp_p
         est.fit(data)
     assert caught.value.errno == errno.ENOSPC
     run = est.run_dir_
-    names = sorted(p.name for p in run.iterdir())  # the 3rd checkpoint and its pointer: no 4th, no temporary
-    assert len(names) == 2 and names[0].startswith("ckpt-00000003-") and names[1] == "state.json"
+    # The 3rd checkpoint, its pointer and the run's lock: no 4th, no temporary.
+    names = sorted(p.name for p in run.iterdir())
+    assert len(names) == 3 and names[0].startswith("ckpt-00000003-") and names[1:] == ["run.lock", "state.json"]
     assert json.loads((run / "state.json").read_text())["last"] == names[0]
     monkeypatch.setattr(_checkpoint, "save_file", real)
     resumed = PriorUNetInpainter(**PRIOR, checkpoint_dir=tmp_path / "ckpt").fit(data)
