@@ -700,9 +700,11 @@ def _check_py(case: Case, run: Callable[[], Any]) -> None:
         pytest.fail(f"{case.id}: no error")
 
 
-@pytest.mark.timeout(TIME_LIMIT)
+# The limit times the case, not the module's runs it copies (set up once, untimed: the first
+# case to need them would pay a benchmark, an export and a training).
+@pytest.mark.timeout(TIME_LIMIT, func_only=True)
 @pytest.mark.parametrize("case", _params())
-def test_hostile_file_is_one_clear_error(case, tmp_path, capsys, request, monkeypatch):
+def test_hostile_file_is_one_clear_error(case, tmp_path, capsys, monkeypatch, benchmark_run, exported, train_run):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     place = Place(tmp_path)
     place.work.mkdir()
@@ -711,7 +713,7 @@ def test_hostile_file_is_one_clear_error(case, tmp_path, capsys, request, monkey
     os.chmod(place.victim, stat.S_IRUSR | stat.S_IWUSR)
     place.victim_dir.mkdir()
     (place.victim_dir / "mine.txt").write_bytes(VICTIM)
-    fixtures = {name: request.getfixturevalue(name) for name in ("benchmark_run", "exported", "train_run")}
+    fixtures = {"benchmark_run": benchmark_run, "exported": exported, "train_run": train_run}
     try:
         call = case.call(place, fixtures)
         before = place.outside()
