@@ -15,6 +15,7 @@ the same rows. Progress goes to tqdm bars on a terminal and, in a log, to a line
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -34,7 +35,7 @@ from ..progress import (
 )
 from ..files.identity import method_identity
 from .costs import relative_costs
-from ..files.lock import run_lock
+from ..files.lock import holds_lock, run_lock
 from ..files.ownership import adopt, check_folder, claim, remove
 from .rows import append_rows, end_partial_line, read_rows, rows_file_name
 from .run_state import RunMismatchError, RunStateError, differences, read_run_file, run_fingerprint, write_run_file
@@ -200,8 +201,10 @@ def run_benchmark(
         interval_coverage = as_coverage(interval_coverage, "interval_coverage")
     if any(len(ds) == 0 for ds in datasets.values()):
         raise InvalidInputError("the data source has no frames")
-    check_folder(out_dir)  # before the lock file is made in someone else's folder
-    with run_lock(out_dir, log):
+    held = holds_lock(out_dir)  # a caller holding the lock (the command) checked the folder before taking it
+    if not held:
+        check_folder(out_dir)  # before the lock file is made in someone else's folder
+    with contextlib.nullcontext() if held else run_lock(out_dir, log):
         return _run_locked(
             methods, datasets, tasks, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
             log or (lambda msg: None), on_bad_frame, client, policies, unfilled, interval_coverage,

@@ -135,8 +135,6 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InvalidInputError(f"--out {out} is a file; give a folder for the run")
     check_folder(out)  # someone else's folder is refused before anything is built or written
     datasets, holdout = {}, 0.0
     for kind in dict.fromkeys(t.input_kind for t in tasks):

@@ -37,7 +37,7 @@ try:  # POSIX
 except ImportError:  # pragma: no cover - Windows
     fcntl = None  # type: ignore[assignment]
 
-__all__ = ["LOCK_FILE", "RunLockedError", "run_lock"]
+__all__ = ["LOCK_FILE", "RunLockedError", "holds_lock", "run_lock"]
 
 #: Name of the lock file inside a run folder.
 LOCK_FILE = "run.lock"
@@ -120,6 +120,16 @@ def _acquire_exclusive(path: Path, say: Callable[[str], None]) -> int:  # pragma
     raise RunLockedError(f"could not take the lock {path}")
 
 
+def holds_lock(out_dir: str | os.PathLike) -> bool:
+    """Whether this process holds the run lock of folder ``out_dir`` (a ``run_lock`` block is open).
+
+    A command checks its folder (:func:`inpaintenv.files.ownership.check_folder`) before it takes
+    the lock, so what runs inside the block need not check it again.
+    """
+    out = Path(out_dir)
+    return out.is_dir() and out.resolve() / LOCK_FILE in _HELD
+
+
 @contextlib.contextmanager
 def run_lock(out_dir: str | os.PathLike, log: Callable[[str], None] | None = None) -> Iterator[Path]:
     """Hold the lock of run folder ``out_dir`` (created if missing) for the ``with`` block.
@@ -139,9 +149,10 @@ def run_lock(out_dir: str | os.PathLike, log: Callable[[str], None] | None = Non
         If ``run.lock`` is a symbolic link or not a regular file (nothing is written through it).
     """
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out} is a file; the run folder must be a folder")
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:  # a file there: the folder checks name it first, this is the last guard
+        raise NotADirectoryError(f"--out {out} is a file; the run folder must be a folder") from None
     # The folder is resolved, never the lock file: a link planted at run.lock is refused, not followed.
     path = out.resolve() / LOCK_FILE
     held = _HELD.get(path)

@@ -31,7 +31,7 @@ from .jsonio import loads_json, read_json
 from .limits import MAX_JSON_BYTES
 from .reading import read_bytes
 from .writing import TEMP_PREFIX, write_text_atomic
-from .lock import LOCK_FILE
+from .lock import LOCK_FILE, holds_lock
 from ..exceptions import ForeignFolderError, InpaintenvError
 
 __all__ = [
@@ -187,10 +187,12 @@ def adopt(out: str | os.PathLike, kind: FolderKind = BENCHMARK) -> None:
     """Check ``out`` (:func:`check_folder`), create it, and make sure it has a ledger.
 
     A folder written before ledgers existed is adopted: the files at ``kind``'s paths in
-    it are recorded as its own.
+    it are recorded as its own. Inside the folder's run lock the folder is not checked again:
+    the command that took the lock checked it first.
     """
     out = Path(out)
-    check_folder(out, kind)
+    if not holds_lock(out):
+        check_folder(out, kind)
     out.mkdir(parents=True, exist_ok=True)
     if _read(out) is None:
         _write(out, list(_run_paths(out, kind)) if kind.legacy(out) else [])

@@ -157,3 +157,39 @@ def test_a_checked_coverage_is_taken_as_it_is(coverage_checks):
 def test_no_coverage_outside_the_open_interval_exists(value):
     with pytest.raises((ValueError, TypeError), match="coverage"):
         Coverage(value)
+
+
+def _count_folder_checks(monkeypatch) -> tuple[list, list]:
+    import inpaintenv.files.lock
+    import inpaintenv.files.ownership
+
+    return (_count_calls(monkeypatch, inpaintenv.files.ownership, "check_folder"),
+            _count_calls(monkeypatch, inpaintenv.files.lock, "run_lock"))
+
+
+def test_a_benchmark_command_checks_its_folder_and_takes_its_lock_once(tmp_path, monkeypatch, methods_module):
+    monkeypatch.chdir(tmp_path)
+    folders, locks = _count_folder_checks(monkeypatch)
+    argv = ["benchmark", "-m", "twoways:Bounds", "--n-frames", "4", "--frame-shape", "64", "96", "--holdout", "0",
+            "--seed", "0", "--seed", "1", "--batch-size", "2", "--quiet", "--out", str(tmp_path / "run")]
+    assert main(argv) == 0
+    # Not again in run_benchmark, nor when the run adopts its folder or claims each file it writes.
+    assert [args[0] for args in folders] == [tmp_path / "run"]
+    assert len(locks) == 1
+
+
+def test_run_benchmark_checks_its_folder_and_takes_its_lock_once(dataset, tmp_path, monkeypatch, methods_module):
+    folders, locks = _count_folder_checks(monkeypatch)
+    run_benchmark({"bounds": methods_module.Bounds()}, dataset, protocols=["rect-v1", "lidar-dropout-v1"],
+                  seeds=[0, 1], batch_size=2, out_dir=tmp_path / "run", progress=False)
+    assert [args[0] for args in folders] == [tmp_path / "run"]
+    assert len(locks) == 1
+    assert (tmp_path / "run" / "run.json").is_file()
+
+
+def test_a_benchmark_into_a_file_is_one_line(tmp_path, capsys):
+    (tmp_path / "out").write_text("")
+    assert main(["benchmark", "-m", "nearest", "--n-frames", "2", "--frame-shape", "64", "96", "--quiet",
+                 "--out", str(tmp_path / "out")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"inpaintenv benchmark: error: --out {tmp_path / 'out'} is a file; the run folder must be a folder"]
