@@ -13,6 +13,11 @@ by every reader of that kind, so a new reader cannot forget the check:
 * :mod:`~inpaintenv.values.rows`: a per-frame result row (finite, non-negative errors, counts >= 0, metrics
   in their definitions' bounds, NaN only where nothing was scored, one per key, planned by its run).
 
+A training state (the ``training.json`` and Adam's tensors a fit resumes) is a torch value:
+its check is ``estimators/learned/_training_state.py`` (checksummed with the weights, and
+consistent with its checkpoint folder and with the estimator resuming it), read by the one
+reader of run checkpoints, ``estimators.learned._checkpoint.read_checkpoint``.
+
 Import a check from its module (``from inpaintenv.values.points import ...``); this
 package imports nothing else, so every layer may use it.
 """

@@ -171,6 +171,9 @@ def test_a_run_folder_from_before_the_checksum_says_to_start_again(runs, data, t
      r"run's lr and schedule, which give .* after \d+ updates"),
     ("unet", lambda s: s["optimizer"]["param_groups"][0].update(lr=50.0), r"optimizer lr=50\.0 .*give 0\.001 "),
     ("prior", lambda s: s["optimizer"]["param_groups"][0].update(weight_decay=0.5), r"weight_decay=0\.5 disagrees"),
+    ("unet", lambda s: s["optimizer"]["param_groups"][0].update(lr=float("nan")), r"optimizer lr=nan disagrees"),
+    ("unet", lambda s: s["optimizer"]["param_groups"][0].update(lr=True), r"optimizer lr=True disagrees"),
+    ("unet", lambda s: s["optimizer"]["param_groups"][0].update(betas=[0.9, 2.0]), r"betas=\[0\.9, 2\.0\] disagrees"),
     ("prior", lambda s: s.update(finished=True), r"says finished at step 4, .* ends at max_steps=5"),
     ("prior", lambda s: s["history"]["step_loss"].append(0.01), r"'step_loss' has 5 entries; it must have one per "
      r"step \(4\)"),
@@ -241,6 +244,14 @@ def test_a_checkpoint_of_another_run_is_refused(runs, data, tmp_path):
     shutil.rmtree(ckpt)
     shutil.copytree(foreign, ckpt)
     _refused("prior", root, data, r"config\.json: the checkpoint was trained with lr=0\.01, this run has lr=0\.002")
+
+
+def test_a_training_state_larger_than_any_is_not_read(runs, data, tmp_path):
+    root, ckpt = _copy(runs, "prior", tmp_path)
+    with open(ckpt / "training.json", "r+b") as f:
+        f.truncate(300 * 1024 * 1024)  # sparse: no disk used
+    with pytest.raises(CheckpointError, match=r"training\.json is 314,572,800 bytes, more than the"):
+        _resume("prior", root, data)
 
 
 def test_config_json_must_report_the_states_steps(runs, data, tmp_path):
