@@ -23,6 +23,7 @@ from ..data.inputs import INPUTS
 from ..exceptions import FileTooLargeError, JSONFileError
 from ..files import read_json, write_text_atomic
 from ..masks import get_protocol
+from ..metrics import as_coverage
 from ..progress import count
 from ..report import style
 from ..report.results import EvaluationResult
@@ -121,7 +122,7 @@ def write_figures(
         names.append(out / "error_rejection.png")
     if has_reliability(result):
         names.append(out / "uncertainty.png")
-    settings = {"task": task, "panel_methods": list(panel_methods), "panels": panels, "distance": indices,
+    settings = {"task": task, "coverage": result.meta.get("interval_coverage"), "panel_methods": list(panel_methods), "panels": panels, "distance": indices,
                 "protocol": protocol, "seed": seed, "version": inpaintenv.__version__,
                 "style": [style.DEPTH_CMAP, style.ERROR_CMAP, style.ERROR_PERCENTILE, list(style.METHOD_PALETTE)]}
     stamp_path = out / "figures.json"
@@ -151,7 +152,9 @@ def write_figures(
                                                                  if by_size else "")
     )
     built = {name: methods[name]() for name in panel_methods}
-    predictions = FramePredictions(built, dataset, protocol, seed, unfilled)
+    coverage = result.meta.get("interval_coverage")
+    predictions = FramePredictions(built, dataset, protocol, seed, unfilled,
+                                   as_coverage(coverage) if has_intervals(result) and coverage else None)
     for i in panels:
         frame_panel(built, dataset, i, out / f"frame_{i:04d}.png", protocol=protocol, seed=seed,
                     colours=colours, predictions=predictions)

@@ -16,6 +16,7 @@ say which frames in their title.
 from __future__ import annotations
 
 from collections.abc import Callable, Collection, Mapping, Sequence
+from types import SimpleNamespace
 from pathlib import Path
 from typing import Any
 
@@ -27,11 +28,13 @@ from ..filling.view import sensor_view
 from ..report.results import EvaluationResult
 from ..masks import get_protocol
 from ..methods.calls import run_method
-from ..metrics import frame_metrics, interpolate_background
+from ..methods.intervals import interval_source
+from ..metrics import Coverage, frame_metrics, interpolate_background
 from ..report import style
-from ..files import write_atomic
 from ..progress import count
-from ..files import ownership
+from .figure_io import colourbar as _colourbar
+from .figure_io import pyplot as _pyplot
+from .figure_io import save_figure as _save
 
 __all__ = [
     "DISTANCE_BINS", "DISTANCE_FRAMES", "NEAREST_BINS", "FramePredictions", "frame_panel", "plot_error_vs_distance",
@@ -42,32 +45,6 @@ __all__ = [
 DISTANCE_BINS = (0, 10, 20, 30, 40, 50, 60, 80)
 #: Frames (spread over the drives) whose pixels error_vs_distance pools.
 DISTANCE_FRAMES = 8
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)  # files only; never needs a display
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _save(fig: Any, path: str | Path, dpi: int) -> Path:
-    """Write ``fig`` to ``path`` whole or not at all (creating its folder) and free it.
-
-    In a run folder (:func:`.ownership.run_root`) the file is recorded as the run's
-    first, and a file there that no run wrote is refused, never replaced.
-    """
-    path = Path(path)
-    try:
-        root = ownership.run_root(path.parent)
-        if (root / ownership.LEDGER).exists():
-            ownership.claim(root, path.resolve().relative_to(root.resolve()))
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))
-    finally:
-        _pyplot().close(fig)
-    return path
 
 
 def spread_indices(dataset: DepthDataset, k: int, exclude: Collection[int] = ()) -> list[int]:
@@ -123,10 +100,12 @@ class FramePredictions:
 
     def __init__(
         self, methods: Mapping[str, Any], dataset: DepthDataset, protocol: str, seed: int,
-        unfilled: Mapping[str, str] | None = None,
+        unfilled: Mapping[str, str] | None = None, coverage: Coverage | None = None,
     ):
         self.methods, self.dataset, self.seed = dict(methods), dataset, seed
         self.unfilled = dict(unfilled or {})
+        self.coverage = coverage
+        self._widths: dict[tuple[str, int], np.ndarray | None] = {}
         self.protocol = get_protocol(protocol)
         self.input_kind = getattr(dataset, "input_kind", "map")
         self._frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -173,22 +152,28 @@ class FramePredictions:
     def prediction(self, name: str, index: int) -> np.ndarray:
         """Method ``name``'s reconstruction of frame ``index``."""
         if (name, index) not in self._preds:
-            pred, _ = run_method(self.methods[name], self.method_input(index)[None], name)
+            method, x = self.methods[name], self.method_input(index)[None]
+            source = interval_source(method, self.coverage, name)
+            call = getattr(method, "predict", method)  # a folder of predictions is a callable with intervals
+            pred, _ = run_method(SimpleNamespace(predict=source.wrap(call)) if source else method, x, name)
+            if source is not None:  # as the rows scored it: on the task's pixels
+                task = np.isnan(x) if self.protocol.task == "unmeasured" else self.frame(index)[1][None]
+                low, high = source.bounds(x, pred, task)
+                self._widths[(name, index)] = (high - low)[0]
             if self.policy(name) == "interpolate":
                 pred = interpolate_background(pred)
             self._preds[(name, index)] = pred[0]
         return self._preds[(name, index)]
 
+    def width(self, name: str, index: int) -> np.ndarray | None:
+        """The width of method ``name``'s interval on frame ``index`` (``coverage`` given and the method has
+        one), else None."""
+        self.prediction(name, index)
+        return self._widths.get((name, index))
+
     def policy(self, name: str) -> str:
         """Method ``name``'s ``unfilled`` policy in the run."""
         return self.unfilled.get(name, "error")
-
-
-def _colourbar(fig: Any, axes: Any, cmap: str, vmax: float, label: str) -> None:
-    import matplotlib
-
-    mappable = matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0.0, vmax), cmap=cmap)
-    fig.colorbar(mappable, ax=axes, orientation="horizontal", fraction=0.04, pad=0.02, aspect=50, label=label)
 
 
 def _scores(predictions: FramePredictions, name: str, index: int, pred: np.ndarray, max_depth: float) -> str:
@@ -231,7 +216,8 @@ def frame_panel(
     in its run colour, the task's and all-pixel metrics) and absolute error on the task's
     pixels (the hole, or under ``densify-v1`` every pixel the scan lacks); holes outlined on
     every tile; one colour bar for depth and one for the error (robust scale shared by the
-    rows, :func:`inpaintenv.report.style.error_scale`), both in metres. Pixels without
+    rows, :func:`inpaintenv.report.style.error_scale`), both in metres; with the ``coverage``
+    of ``predictions``, a fifth column: each method's interval width (grey: no interval). Pixels without
     ground truth are grey in the truth and error tiles; on a scan, the fill's pixels outside
     the band of rows the LiDAR covers (:meth:`FramePredictions.view`) are grey too: nothing
     there can be judged, and ``fill --missing`` leaves them empty.
@@ -244,11 +230,14 @@ def frame_panel(
     view = predictions.view(index)
     preds = {name: predictions.prediction(name, index) for name in methods}
     error_max = style.error_scale([np.abs(p - gt)[scored] for p in preds.values()])
+    widths = {name: predictions.width(name, index) for name in methods}
+    width_max = style.error_scale([w[scored] for w in widths.values() if w is not None])
+    cols = 5 if any(w is not None for w in widths.values()) else 4
     n = len(methods)
     h, w = gt.shape
     dpi, tile_inches = 90, 4.2
     fig, axes = plt.subplots(
-        n, 4, figsize=(4 * tile_inches, n * tile_inches * h / w + 0.5 * n + 1.2), squeeze=False
+        n, cols, figsize=(cols * tile_inches, n * tile_inches * h / w + 0.5 * n + 1.2), squeeze=False
     )
     # Tiles are shown shrunk: hole lines as wide on the page as in `inpaintenv show`.
     k = w / (tile_inches * dpi)
@@ -266,6 +255,12 @@ def frame_panel(
             (style.draw_holes(style.error_rgb(np.abs(pred - gt), scored, error_max), hole, scale=k),
              f"|error| in the {what}, 0-{error_max:g} m"),
         ]
+        if cols == 5:
+            width = widths[name]
+            tiles.append((style.draw_holes(style.error_rgb(np.zeros_like(gt) if width is None else width,
+                                                           scored & (width is not None), width_max), hole, scale=k),
+                          "no interval" if width is None else
+                          f"interval width ({predictions.coverage:g}), 0-{width_max:g} m"))
         for c, (img, title) in enumerate(tiles):
             ax = axes[r, c]
             ax.imshow(img, interpolation="nearest")
@@ -276,6 +271,8 @@ def frame_panel(
     fig.tight_layout(rect=(0, 0.09, 1, 1))
     _colourbar(fig, axes[:, :3].ravel().tolist(), style.DEPTH_CMAP, max_depth, "depth (m)")
     _colourbar(fig, axes[:, 3].ravel().tolist(), style.ERROR_CMAP, error_max, "|error| (m)")
+    if cols == 5:
+        _colourbar(fig, axes[:, 4].ravel().tolist(), style.ERROR_CMAP, width_max, "interval width (m)")
     return _save(fig, path, dpi=dpi)
 
 

@@ -122,3 +122,25 @@ def test_cli_option(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err.strip()
     assert "--interval-coverage" in err and "(0, 1)" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "bad").exists()
+
+
+def test_frame_panel_shows_the_interval_width_of_a_method_that_has_one(dataset, tmp_path, monkeypatch):
+    from inpaintenv.metrics import as_coverage
+
+    titles = {}
+    save = figures._save
+
+    def spy(fig, path, dpi):
+        titles[path.name] = [ax.get_title() for ax in fig.axes]
+        return save(fig, path, dpi)
+
+    monkeypatch.setattr(figures, "_save", spy)
+    predictions = figures.FramePredictions({"iv": TenPlusMinus(), "ten": ten_metres}, dataset, "rect-v1", 0,
+                                           coverage=as_coverage(0.9))
+    width = predictions.width("iv", 0)
+    hole = predictions.frame(0)[1]
+    assert width is not None and (width[hole] >= 2.0).all()  # 10 m ± (1 + 0.2 d): at least 2 m wide in the hole
+    assert predictions.width("ten", 0) is None  # a plain callable has no interval
+    figures.frame_panel(predictions.methods, dataset, 0, tmp_path / "p.png", predictions=predictions)
+    shown = titles["p.png"]
+    assert sum(t.startswith("interval width (0.9)") for t in shown) == 1 and "no interval" in shown
