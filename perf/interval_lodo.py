@@ -6,7 +6,8 @@ with ``inpaintenv.evaluate.evaluate(wrapper, ..., intervals=C)``; then the same 
 2011_09_26_drive_0001_sync (official maps) left out. Printed per fold: coverage of the
 interval in the hole, mean width, hole RMSE, the RMSE when the most confident 80 % are
 kept (and the share cut), and the border baseline (the 80 % nearest the hole border); then
-the error-rejection curve per fold (90 / 80 / 50 % kept, its AUC). Columns are the mean over
+the error-rejection curve per fold (90 / 80 / 50 % kept, its AUC). Each fold's row also gives the
+per-image RMSE AUSE (ranked by interval width, metres) and the AUCE (reliability diagram at 50-95 %). Columns are the mean over
 the fold's frames of the per-frame values, as in the benchmark; coverage and cut carry their
 standard error over those frames (how far other frames and masks of the same drives could
 move the mean; drives vary more, see ``interval_split_spread.py``). Drives the base was trained
@@ -45,7 +46,7 @@ import numpy as np
 
 OFFICIAL = "2011_09_26_drive_0001_sync"
 COLUMNS = ("hole_coverage", "hole_interval_width", "hole_rmse", "rmse_keep_90", "rmse_keep_80", "rmse_keep_50",
-           "rmse_cut_80", "rejection_auc", "border_rmse_keep_80")
+           "rmse_cut_80", "rejection_auc", "border_rmse_keep_80", "ause_rmse", "aurg_rmse", "auce")
 
 
 def folds(drives: list[str]) -> list[tuple[str, list[str], list[str]]]:
@@ -135,7 +136,8 @@ def print_row(row: dict[str, Any]) -> None:
     print(f"| {row['fold']} | {row['protocol']} | {row['n_frames']} | {row['n_cal_drives']} / {row['n_cal_pixels']} | "
           f"{row['hole_coverage']:.3f} ± {row['hole_coverage_se']:.3f} | {row['hole_interval_width']:.2f} | "
           f"{row['hole_rmse']:.2f} | {row['rmse_keep_80']:.2f} ({row['rmse_cut_80']:.1%} ± {row['rmse_cut_80_se']:.1%}) | "
-          f"{row['border_rmse_keep_80']:.2f} ({row['border_cut_80']:.0%}) |", flush=True)
+          f"{row['border_rmse_keep_80']:.2f} ({row['border_cut_80']:.0%}) | {row['ause_rmse']:.3f} | "
+          f"{row['auce']:.3f} |", flush=True)
 
 
 def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
@@ -176,7 +178,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
     checkpoints = dict(c.split("=", 1) for c in args.checkpoint)
     rows = []
     print("| fold | protocol | frames | cal. drives / pixels | coverage ± se | mean width (m) | RMSE | keep-80 % RMSE "
-          "(cut ± se) | border keep-80 % (cut) |\n|---|---|---:|---:|---:|---:|---:|---:|---:|")
+          "(cut ± se) | border keep-80 % (cut) | AUSE RMSE per image (m) | AUCE |\n"
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     curves = []
     for name, cal_drives, source, test_drives in sets:
         if name in checkpoints:
