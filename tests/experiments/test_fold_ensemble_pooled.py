@@ -5,14 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from inpaintenv.metrics import psnr_of
 from inpaintenv.report.results import EvaluationResult
 
 
 def _row(method: str, drive: str, index: int, rmse: float) -> dict:
-    metrics = {f"{where}_{m}": 1.0 for where in ("hole", "all") for m in ("mae", "irmse", "imae", "psnr")}
+    """A possible row (inpaintenv.values.rows): its MAE at most its RMSE, its PSNR its RMSE's."""
+    metrics = {f"{where}_{m}": value for where, e in (("hole", rmse), ("all", rmse / 2))
+               for m, value in (("rmse", e), ("mae", e / 2), ("irmse", 1.0), ("imae", 1.0),
+                                ("psnr", float(psnr_of(e, 80.0))))}
     return {"method": method, "protocol": "rect-v1", "seed": 0, "index": index, "frame_id": f"{drive}/{index}",
-            "drive": drive, **metrics, "hole_rmse": rmse, "all_rmse": rmse / 2, "hole_count": 100,
-            "all_count": 400, "hole_fraction": 0.1, "ms": 1.0}
+            "drive": drive, **metrics, "hole_count": 100, "all_count": 400, "hole_fraction": 0.1, "ms": 1.0}
 
 
 def test_pooled_ratio_over_drives_and_one_learned_method(tmp_path, capsys, load_experiment):
@@ -37,7 +40,8 @@ def test_gate_ceiling_takes_the_best_method_of_each_frame_mask(tmp_path, capsys,
     rows = []
     for i, (mine, harmonic, scanline) in enumerate([(8.0, 10.0, 12.0), (9.0, 6.0, 7.0), (5.0, 5.0, 4.0)]):
         rows += [_row("mine", "a", i, mine), _row("harmonic", "a", i, harmonic), _row("scanline", "a", i, scanline)]
-    rows.append({**_row("other", "a", 0, 1.0), "hole_count": 0})  # no truth in its hole: never counted
+    no_truth = {c: float("nan") for c in ("hole_rmse", "hole_mae", "hole_irmse", "hole_imae", "hole_psnr")}
+    rows.append({**_row("other", "a", 0, 1.0), **no_truth, "hole_count": 0})  # no truth in its hole: never counted
     result = EvaluationResult(rows=rows)
     gate = script.gate_ceiling(result, "mine", "harmonic")
     assert gate["n"] == 3
