@@ -16,6 +16,7 @@ and ``numpy.bool_`` are accepted where their Python counterparts are.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -219,6 +220,33 @@ def validate_params(owner: Any, constraints: Mapping[str, list[Constraint | None
         raise error(f"{name} must be {accepted}, got {value!r}")
 
 
+#: id of an estimator -> (a weak reference to it, the parameter values last checked). Kept outside
+#: the estimator, so a predict leaves its ``__dict__`` as it was and a clone or a pickle starts unchecked.
+_CHECKED: dict[int, tuple[weakref.ref, tuple[Any, ...]]] = {}
+
+
+def _param_values(est: Any) -> tuple[Any, ...]:
+    return tuple(est._param_value(name) for name in est._parameter_constraints)
+
+
+def _remember_checked(est: Any) -> None:
+    key = id(est)
+    try:
+        ref = weakref.ref(est, lambda _, key=key: _CHECKED.pop(key, None))
+    except TypeError:  # pragma: no cover - an object without weak references is checked every time
+        return
+    _CHECKED[key] = (ref, _param_values(est))
+
+
+def _checked_already(est: Any) -> bool:
+    """Whether ``est``'s current parameter values are the very objects it last checked."""
+    entry = _CHECKED.get(id(est))
+    if entry is None or entry[0]() is not est:
+        return False
+    values = _param_values(est)
+    return len(values) == len(entry[1]) and all(a is b for a, b in zip(values, entry[1]))
+
+
 class ConstrainedParams:
     """Checks a class's ``_parameter_constraints`` (then its cross-parameter rules) in one place."""
 
@@ -229,6 +257,14 @@ class ConstrainedParams:
         """Raise one clear error for the first parameter outside its documented range."""
         validate_params(self, self._parameter_constraints, self._param_value)
         self._check_param_relations()
+        _remember_checked(self)
+
+    def _check_params_once(self) -> None:
+        """:meth:`_check_params`, unless these very parameter values were checked last (by a fit or an
+        earlier predict): scikit-learn validates once per fit, not per predict batch. A value set
+        since (``set_params``, an assignment) is checked at the next call."""
+        if not _checked_already(self):
+            self._check_params()
 
     def _param_value(self, name: str) -> Any:
         """The value of parameter ``name`` as set (an attribute, unless a class stores it otherwise)."""

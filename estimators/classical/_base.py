@@ -112,7 +112,7 @@ class ClassicalInpainter(ConstrainedParams, BaseInpainter):
         super()._fit(dataset)
 
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
-        self._check_params()
+        self._check_params_once()
         n_workers = min(effective_n_jobs(self.n_jobs), len(X))
         if n_workers <= 1:
             frames = [self._fill_frame(X[i]) for i in range(len(X))]

@@ -120,7 +120,7 @@ class IPBasicInpainter(ClassicalInpainter):
             raise InvalidInputError(f"large_hole_kernel must be an odd integer >= 1 or None, got {kernel!r}")
 
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
-        self._check_params()
+        self._check_params_once()
         # Inverted depth is floored at 0.1 (0 means empty), so anything deeper than
         # max_depth - 0.1 would come back clipped to it: refuse instead.
         deepest = float(np.max(X, where=~np.isnan(X), initial=0.0))

@@ -408,7 +408,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
 
     # -- prediction ------------------------------------------------------------------------
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
-        self._check_params()
+        self._check_params_once()
         self._check_model_params()
         out = np.empty(X.shape, np.float32)
         with torch_threads(self.predict_threads), torch.inference_mode():

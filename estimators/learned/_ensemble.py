@@ -281,7 +281,7 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
             return bound_output(np.average([np.asarray(m.predict(X), np.float32) for m in members], axis=0,
                                           weights=weights).astype(np.float32), X)
         for m in members:
-            m._check_params()
+            m._check_params_once()
             m._check_model_params()
         out = np.empty(X.shape, np.float32)
         with torch_threads(self.predict_threads), torch.inference_mode():

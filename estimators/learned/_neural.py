@@ -279,7 +279,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, PersistenceMixin, BaseI
         return out
 
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
-        self._check_params()
+        self._check_params_once()
         self._check_model_params()
         device = self._device()
         with torch_threads(self.num_threads):

@@ -301,7 +301,7 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         density) whose :func:`scan_spacing` exceeds ``sparse_spacing`` and whose lines are a
         LiDAR's (:func:`close_gap_share` below :data:`LINE_SHARE`), not scattered points.
         """
-        self._check_params()
+        self._check_params_once()
         measured = np.nan_to_num(x, nan=0.0)
         if self.input == "map" or (self.input == "auto" and measured_density(measured) > float(self.threshold)):
             return "map"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sklearn.base import clone
 
 from estimators._constraints import Bool, Integer, Options, Real, Sequence, validate_params
 from estimators.learned import BlendInpainter
@@ -72,3 +73,51 @@ def test_every_table_entry_is_a_parameter(klass):
     params = set(klass._get_param_names())
     assert set(klass._parameter_constraints) <= params
     assert len(klass._parameter_constraints) >= min(5, len(params) - 2)
+
+
+def _count_validations(monkeypatch) -> list:
+    import estimators._constraints as constraints
+
+    calls: list = []
+    original = constraints.validate_params
+
+    def counting(owner, *args, **kwargs):
+        calls.append(type(owner).__name__)
+        return original(owner, *args, **kwargs)
+
+    monkeypatch.setattr(constraints, "validate_params", counting)
+    return calls
+
+
+def test_parameters_are_checked_once_not_per_predict_batch(monkeypatch):
+    from estimators.classical import HarmonicInpainter, IPBasicInpainter, NearestInpainter
+
+    calls = _count_validations(monkeypatch)
+    x = np.full((6, 16, 24), 5.0, np.float32)
+    x[:, 4:8, 6:12] = np.nan
+    for est in (NearestInpainter(), HarmonicInpainter(), IPBasicInpainter()):
+        calls.clear()
+        for start in range(0, 6, 2):  # three predict batches, and a fit
+            est.predict(x[start:start + 2])
+        est.fit(np.nan_to_num(x))
+        est.predict(x)
+        # Once at the first predict, once at the fit (scikit-learn validates every fit), none after.
+        assert calls == [type(est).__name__] * 2, (type(est).__name__, calls)
+
+
+def test_a_parameter_set_after_the_check_is_checked_at_the_next_predict(monkeypatch):
+    from estimators.classical import NearestInpainter
+
+    calls = _count_validations(monkeypatch)
+    est = NearestInpainter()
+    x = np.where(np.eye(8, dtype=bool)[None], np.nan, 4.0).astype(np.float32)
+    est.predict(x)
+    est.set_params(n_jobs=0)
+    with pytest.raises(InvalidInputError, match="n_jobs"):
+        est.predict(x)
+    est.n_jobs = 1  # assigned, not set_params: checked again too
+    est.predict(x)
+    est.predict(x)
+    assert len(calls) == 3
+    clone(est).predict(x)  # a clone starts unchecked
+    assert len(calls) == 4
