@@ -16,7 +16,7 @@ from ..methods.calls import method_name, run_method
 from ..methods.intervals import IntervalSource
 
 __all__ = [
-    "INPUT_CHOICES", "fill_batch", "fill_depth", "interval_method", "resolve_method", "router", "shipped_interval_name",
+    "INPUT_CHOICES", "check_input_choice", "fill_batch", "fill_depth", "interval_method", "resolve_method", "router", "shipped_interval_name",
 ]
 
 #: Values of ``input``: each frame's kind told from its measured density, or every frame of one kind.
@@ -123,8 +123,9 @@ def _unfilled_message(name: str, unfilled: int, fill: np.ndarray, depth: np.ndar
 def resolve_method(method: Any, checkpoint: Any, n_jobs: int | None, input: str | None = None) -> tuple[Any, str]:
     """The method of a run and its name: a registry name, a checkpoint folder, or an estimator as given.
 
-    ``input`` (``"auto"``, ``"scan"``, ``"map"``) is set as the ``input`` parameter of a method
-    that routes by input kind (``pretrained``); any other method refuses it.
+    ``input`` (one of :data:`INPUT_CHOICES`, checked by the caller: :func:`check_input_choice`) is set
+    as the ``input`` parameter of a method that routes by input kind (``pretrained``); any other method
+    refuses it.
     """
     from ..methods.registry import canonical_name
     from ..methods.registry import make_method as make
@@ -145,10 +146,18 @@ def resolve_method(method: Any, checkpoint: Any, n_jobs: int | None, input: str 
     return method, name
 
 
-def _set_input(method: Any, name: str, input: str) -> None:
-    """Set ``input`` on ``method`` (or the estimator an interval wrapper holds), or refuse in one line."""
-    if input not in INPUT_CHOICES:
+def check_input_choice(input: Any) -> str | None:
+    """``input`` if it is None or one of :data:`INPUT_CHOICES`, else one line naming the choices.
+
+    Checked once, where ``fill`` is called; :func:`resolve_method` takes it as it is.
+    """
+    if input is not None and input not in INPUT_CHOICES:
         raise InvalidInputError(f"input (--input) must be one of {', '.join(INPUT_CHOICES)}, got {input!r}")
+    return input
+
+
+def _set_input(method: Any, name: str, input: str) -> None:
+    """Set the checked ``input`` on ``method`` (or the estimator an interval wrapper holds), or refuse in one line."""
     for target in (method, getattr(method, "estimator", None)):
         params = target.get_params(deep=False) if hasattr(target, "get_params") else {}
         if "input" in params:

@@ -20,7 +20,7 @@ from ..files.lock import run_lock
 from ..files import remove_stale_temporaries
 from ..progress import FrameProgress
 from .ledger import Ledger, file_identity
-from .methods import INPUT_CHOICES, fill_batch, interval_method, resolve_method, router, shipped_interval_name
+from .methods import check_input_choice, fill_batch, interval_method, resolve_method, router, shipped_interval_name
 from .plan import FillJob, FillReport, plan
 from .read import Holes, Item, Reader, check_box, message
 from .write import write_outputs
@@ -325,8 +325,7 @@ def fill(
     if fill_all and not missing:
         raise InvalidInputError("fill_all (--fill-all) widens missing (--missing) to every pixel without a "
                                 "measurement; give missing too")
-    if input is not None and input not in INPUT_CHOICES:
-        raise InvalidInputError(f"input (--input) must be one of {', '.join(INPUT_CHOICES)}, got {input!r}")
+    input = check_input_choice(input)
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     if holes is not None and not Path(holes).exists():

@@ -98,3 +98,22 @@ def test_pretrained_says_it_filled_a_sparser_sensors_scan_as_a_sparse_scan(tmp_p
     assert main(["fill", str(tmp_path / "in"), "--missing", "--out", str(tmp_path / "out"), "-q"]) == 0
     last = capsys.readouterr().err.strip().splitlines()[-1]
     assert f"1 as scans with {SCAN_DEFAULT}" in last and f"2 as sparse scans with {SPARSE_DEFAULT}" in last, last
+
+
+def test_input_is_checked_once_per_fill(tmp_path, monkeypatch):
+    import inpaintenv.filling.methods
+    import inpaintenv.filling.run
+
+    calls: list = []
+    original = inpaintenv.filling.methods.check_input_choice
+
+    def counting(value):
+        calls.append(value)
+        return original(value)
+
+    for module in (inpaintenv.filling.methods, inpaintenv.filling.run):
+        monkeypatch.setattr(module, "check_input_choice", counting)
+    write_inputs(tmp_path / "in", "map", 2)
+    fill([tmp_path / "in"], tmp_path / "out", method=routed(), missing=True, input="scan", progress=False,
+         batch_size=1)
+    assert calls == ["scan"]  # at fill's entry, not again where the method is made or per input
