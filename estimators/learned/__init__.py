@@ -25,9 +25,14 @@ name                   what it is
 ``OnFirstUse``         a route's method made when the route first fills a frame
 =====================  ===============================================================
 
-Every class saves and loads through one mixin (``_persistence``: ``save``, ``load``,
-per-class ``_config`` / ``_from_config`` hooks; ``load`` lists every class it reads) over one file
-format (``_checkpoint``). The training recipes are in :mod:`estimators.learned.presets`;
+Every class saves and loads through one mixin (``_persistence.PersistenceMixin``: ``save``,
+``load``, ``to_config`` / ``from_config``) over two hooks on each class (``_config`` /
+``_from_config``) and one file format in plain functions (``_checkpoint``: ``write_checkpoint``,
+``read_model``); a load reads the folder, then the recorded class's ``_from_config`` builds the
+model (``load`` lists every class it reads). A network's MRO is its class, ``_NeuralInpainter``
+(parameters, prediction and config hooks; the parameter table and what the values mean in
+``_neural_params``), the parameter checks, the training loop (``_training``), the persistence
+mixin and ``BaseInpainter``. The training recipes are in :mod:`estimators.learned.presets`;
 multi-process training is ``torchrun -m estimators.learned.distributed``.
 
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``

@@ -7,11 +7,11 @@
 See ``docs/neural.md`` for the models, the loss, checkpoints and resuming, and
 cross-validated search.
 
-The estimator is split by job, as scikit-learn and skorch separate them: this module holds
-the parameters (``__init__``, documented below) and prediction; parameter validation and
-interpretation are in ``_neural_params.py``, the training loop in ``_training.py`` and
-``save`` / ``load`` in ``_persistence.py`` (mixins of :class:`_NeuralInpainter`; its config
-hooks are here).
+The estimator holds its parameters (``__init__``, documented below), their checks and
+prediction, and the config hooks of ``save`` / ``load``; the parameter table and what each
+value means for torch are in ``_neural_params.py``, the training loop in ``_training.py``
+(:class:`~estimators.learned._training.TrainingMixin`) and ``save`` / ``load`` in
+``_persistence.py`` (:class:`~estimators.learned._persistence.PersistenceMixin`).
 """
 
 from __future__ import annotations
@@ -21,16 +21,21 @@ from typing import Any
 
 import numpy as np
 import torch
-
 from sklearn.exceptions import NotFittedError
+
+from inpaintenv.exceptions import InvalidInputError
 
 from ..base import BaseInpainter
 
 from . import _checkpoint as ckpt
-from ._neural_params import STUDY_CONSTRAINTS, NeuralParamsMixin
+from .._constraints import ConstrainedParams
+from ._limits import check_parameter_count
+from ._loop import seeded
+from ._neural_params import (MAX_CHANNELS, STUDY_CONSTRAINTS, autocast, compiled, config_params, input_scale, plain,
+                             resolve_device)
 from ._output import bound_output
 from ._persistence import PersistenceMixin
-from ._training import Augmentation, TrainingMixin, encode_input, torch_threads
+from ._training import Augmentation, TrainingMixin, crop_shape, encode_input, torch_threads
 from .nets import UNet
 
 __all__ = ["AutoencoderInpainter", "CheckpointError", "UNetInpainter"]
@@ -38,7 +43,7 @@ __all__ = ["AutoencoderInpainter", "CheckpointError", "UNetInpainter"]
 CheckpointError = ckpt.CheckpointError
 
 
-class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, PersistenceMixin, BaseInpainter):
+class _NeuralInpainter(ConstrainedParams, TrainingMixin, PersistenceMixin, BaseInpainter):
     """Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.
 
     Parameters
@@ -181,6 +186,10 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, PersistenceMixin, BaseI
     #: What ``history_["step_loss"]`` is (the y axis of ``inpaintenv train``'s loss.png): the study's
     #: loss on depth divided by ``max_depth``, so without a unit.
     loss_label: str = "training loss: L1 + hole L1 + TV of depth / max_depth (no unit)"
+    _parameter_constraints = STUDY_CONSTRAINTS
+    # Left out of the run folder's key at their defaults: folders written before the
+    # parameters existed still resume.
+    _run_key_defaults = {"flip": False, "depth_jitter": None}
 
     def __init__(
         self,
@@ -248,6 +257,91 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, PersistenceMixin, BaseI
         self.checkpoint_every = checkpoint_every
         self.keep_observed = keep_observed
         self.verbose = verbose
+
+    # -- parameters, checked and interpreted at fit / predict (their table: _neural_params.py) --
+    def _check_param_relations(self) -> None:
+        self._check_capacity()
+
+    def _model_param_names(self) -> tuple[str, ...]:
+        """Parameters the trained weights depend on: the architecture and how depth is
+        scaled into and out of the network (not training-only or prediction-time ones)."""
+        return ("width", "depth", "input_mask", "depth_scale", "max_depth")
+
+    def _model_params(self) -> dict[str, Any]:
+        """Current values of :meth:`_model_param_names`, as plain comparable values."""
+        return {name: plain(getattr(self, name)) for name in self._model_param_names()}
+
+    def _check_model_params(self, hint: str = "refit or set it back") -> None:
+        """Raise if a parameter the fitted weights depend on changed since fit/load (else
+        ``set_params(max_depth=20)`` would silently rescale the output)."""
+        for name, value in (getattr(self, "model_params_", None) or {}).items():
+            current = plain(getattr(self, name, None))
+            if current != value:
+                raise InvalidInputError(
+                    f"{name}={current!r} differs from the {value!r} this model was trained with; {hint}")
+
+    def _check_capacity(self) -> None:
+        """Refuse networks far larger than any sensible use (channels double per level)."""
+        # Compare without computing 2**depth for an absurd depth.
+        if self.depth > MAX_CHANNELS.bit_length() or int(self.width) << int(self.depth) > MAX_CHANNELS:
+            d = self._depth_param
+            count = str(int(self.width) << int(self.depth)) if self.depth <= 64 else "astronomically many"
+            raise InvalidInputError(
+                f"width={self.width}, {d}={self.depth} gives {count} channels at the deepest level "
+                f"(width * 2**{d}), more than the {MAX_CHANNELS} allowed (channels double per level, "
+                f"so parameters about quadruple); lower {d} or width"
+            )
+
+    def _check_size(self) -> None:
+        """Refuse a network of more than ``MAX_PARAMETERS`` (counted before it is built)."""
+        sizes = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._model_param_names() if k not in ("candidates",))
+        check_parameter_count(lambda: self._build_model(0), sizes)
+
+    def _downsampling(self) -> tuple[int, str]:
+        """Total downsampling factor of the network and the parameters that set it."""
+        need = 2 ** int(self.depth)
+        return need, f"depth={self.depth} (2**depth = {need} px)"
+
+    def _check_frame_size(self, frame_shape: tuple[int, int]) -> None:
+        """Refuse training samples smaller than the network's total downsampling (the network
+        pads any input to a multiple of it, and its deepest levels would see only padding)."""
+        ch, cw = crop_shape(frame_shape, self.crop)
+        need, what = self._downsampling()
+        if min(ch, cw) < need:
+            kind = "crops" if self.crop is not None else "frames"
+            raise InvalidInputError(f"{what} needs training {kind} of at least {need} px per side, got {ch}x{cw}; "
+                                    f"lower it or train on larger {kind}")
+
+    def _device(self) -> torch.device:
+        return resolve_device(self.device)
+
+    def _autocast(self, device: torch.device) -> tuple[Any, bool]:
+        return autocast(self.amp, device)
+
+    def _input_scale(self, observed: torch.Tensor) -> torch.Tensor | float:
+        return input_scale(observed, self.depth_scale, self.max_depth)
+
+    def _compiled(self, model: torch.nn.Module) -> torch.nn.Module:
+        return compiled(model, self.compile)
+
+    def _config_params(self) -> dict[str, Any]:
+        return config_params(self)
+
+    @property
+    def in_channels(self) -> int:
+        """Network input channels: 1 (depth) or 3 (depth, hole mask, validity mask)."""
+        return 3 if self.input_mask else 1
+
+    def _build_model(self, seed: int) -> UNet:
+        # Seed the initial weights without touching the caller's global torch RNG.
+        return seeded(lambda: UNet(self.in_channels, int(self.width), int(self.depth), skip=self._skip), seed)
+
+    def _augmentation(self) -> Augmentation:
+        jitter = None if self.depth_jitter is None else float(self.depth_jitter)
+        return Augmentation(flip=bool(self.flip), depth_jitter=jitter)
+
+    def _sample_on_device(self, device: torch.device) -> bool:
+        return self.sample_device == "train" or (self.sample_device == "auto" and device.type == "cuda")
 
     def _load_warm_start(self, path: str | os.PathLike) -> _NeuralInpainter:
         # Any network of the family: a U-Net's encoder may start from a saved autoencoder.
@@ -324,28 +418,7 @@ class _NeuralInpainter(NeuralParamsMixin, TrainingMixin, PersistenceMixin, BaseI
         return est
 
 
-class _StudyInpainter(_NeuralInpainter):
-    """The study's two networks: the shared implementation plus sample augmentation and
-    sampling on the training device (parameters ``flip``, ``depth_jitter``, ``sample_device``).
-
-    PriorUNetInpainter shares :class:`_NeuralInpainter` but not this: it computes its
-    features from CPU samples and flips them itself.
-    """
-
-    _parameter_constraints = STUDY_CONSTRAINTS
-    # Left out of the run folder's key at their defaults: folders written before the
-    # parameters existed still resume.
-    _run_key_defaults = {"flip": False, "depth_jitter": None}
-
-    def _augmentation(self) -> Augmentation:
-        jitter = None if self.depth_jitter is None else float(self.depth_jitter)
-        return Augmentation(flip=bool(self.flip), depth_jitter=jitter)
-
-    def _sample_on_device(self, device: torch.device) -> bool:
-        return self.sample_device == "train" or (self.sample_device == "auto" and device.type == "cuda")
-
-
-class UNetInpainter(_StudyInpainter):
+class UNetInpainter(_NeuralInpainter):
     __doc__ = (_NeuralInpainter.__doc__ or "").replace(
         "Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.",
         "The study's U-Net inpainter: encoder-decoder with skip connections, trained with\n"
@@ -354,7 +427,7 @@ class UNetInpainter(_StudyInpainter):
     _skip = True
 
 
-class AutoencoderInpainter(_StudyInpainter):
+class AutoencoderInpainter(_NeuralInpainter):
     __doc__ = (_NeuralInpainter.__doc__ or "").replace(
         "Shared implementation; use :class:`UNetInpainter` or :class:`AutoencoderInpainter`.",
         "The study's autoencoder ablation: the U-Net with every skip connection removed.\n"

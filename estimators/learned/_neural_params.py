@@ -1,10 +1,10 @@
-"""Parameters of the neural inpainters: validation, the device and precision they ask for,
-and the record of the parameters the trained weights depend on.
+"""What the parameters of the neural inpainters may be and mean, as a table and plain functions.
 
-One job of :class:`estimators.learned._neural._NeuralInpainter`, split out as scikit-learn keeps
-``_validate_params`` and skorch its parameter handling beside the estimator: the class
-stores its ``__init__`` arguments as given, and this mixin checks and interprets them at
-``fit`` / ``predict`` time.
+:class:`estimators.learned._neural._NeuralInpainter` stores its ``__init__`` arguments as
+given and checks them against :data:`NEURAL_CONSTRAINTS` (:data:`STUDY_CONSTRAINTS` for the
+study's two networks) at ``fit`` / ``predict`` time; the functions here turn checked values
+into what torch is given: the device, the autocast context, the compiled module, the depth
+scale, and the JSON form of the parameters.
 """
 
 from __future__ import annotations
@@ -22,13 +22,12 @@ from inpaintenv.masks import get_protocol
 
 from ..base import check_random_state
 from ._checkpoint import cpu_state
-from .._constraints import Bool, Check, ConstrainedParams, InstanceOf, Integer, Options, Pair, Real
-from ._limits import MAX_THREADS, check_parameter_count
-from ._loop import seeded
-from ._training import crop_shape
-from .nets import UNet
+from .._constraints import Bool, Check, InstanceOf, Integer, Options, Pair, Real
+from ._limits import MAX_THREADS
+from ._training import TrainingMixin
 
-__all__ = ["MAX_CHANNELS", "NeuralParamsMixin", "STUDY_CONSTRAINTS"]
+__all__ = ["MAX_CHANNELS", "NEURAL_CONSTRAINTS", "STUDY_CONSTRAINTS", "autocast", "compiled", "config_params",
+           "input_scale", "plain", "resolve_device"]
 
 _AMP_CHOICES = (True, False, "cpu-bf16")
 _DEPTH_SCALES = ("fixed", "frame")
@@ -56,237 +55,65 @@ def _check_device_type(value: Any) -> None:
 
 def _check_warm_start(value: Any) -> None:
     """Accept a neural inpainter (its encoder warm-starts the fit); anything else is one error."""
-    if not isinstance(value, NeuralParamsMixin):
+    if not isinstance(value, TrainingMixin):
         raise InvalidTypeError("warm_start must be None, a bool, a path to a saved model or a neural inpainter, "
                                f"got {type(value).__name__}")
 
 
-class NeuralParamsMixin(ConstrainedParams):
-    """Checks and interprets the parameters of a neural inpainter (documented on
-    :class:`estimators.learned._neural._NeuralInpainter`, which defines ``_skip`` and ``_depth_param``)."""
-
-    _parameter_constraints: dict[str, list[Any]] = {
-        "width": [Integer(1)],
-        "depth": [Integer(1)],
-        "input_mask": [Bool()],
-        "depth_scale": [Options(*_DEPTH_SCALES)],
-        "hole_weight": [Real(0)],
-        "tv_weight": [Real(0)],
-        # Depths are divided by it: far outside this range (metres) inputs and targets
-        # overflow or vanish in float32 and training fails with an unexplained NaN loss.
-        "max_depth": [Real(*_MAX_DEPTH_RANGE)],
-        "lr": [Real(0, closed="neither")],
-        "weight_decay": [Real(0)],
-        "batch_size": [Integer(1)],
-        "epochs": [Integer(1)],
-        "max_steps": [Integer(1), None],
-        "max_minutes": [Real(0, closed="neither"), None],
-        "crop": [Pair(Integer(1), "a pair of integers >= 1 (h, w)"), None],
-        "protocol": [Check(get_protocol)],  # an unknown name lists the known protocols
-        "validation_fraction": [Real(0, 1, closed="neither"), None],
-        "amp": [Options(*_AMP_CHOICES)],
-        "channels_last": [Bool()],
-        "compile": [Bool(), InstanceOf(dict, "a dict of torch.compile arguments"), Options(*_COMPILE_MODES)],
-        "num_threads": [Integer(1, limit=MAX_THREADS), None],
-        "num_workers": [Integer(0)],
-        "random_state": [Check(check_random_state)],
-        "checkpoint_every": [Integer(1), None],
-        "checkpoint_dir": [InstanceOf((str, os.PathLike), "a folder path"), None],
-        # Whether the device exists is checked where it is used (_device).
-        "device": [Check(_check_device_type)],
-        "warm_start": [Bool(), InstanceOf((str, os.PathLike), "a path to a saved model"), Check(_check_warm_start),
-                       None],
-        "keep_observed": [Bool()],
-        "verbose": [Bool(), Integer(0)],
-    }
-
-    def _check_param_relations(self) -> None:
-        self._check_capacity()
-
-    def _model_param_names(self) -> tuple[str, ...]:
-        """Parameters the trained weights depend on: the architecture and how depth is
-        scaled into and out of the network (not training-only or prediction-time ones)."""
-        return ("width", "depth", "input_mask", "depth_scale", "max_depth")
-
-    def _model_params(self) -> dict[str, Any]:
-        """Current values of :meth:`_model_param_names`, as plain comparable values."""
-        return {name: _plain(getattr(self, name)) for name in self._model_param_names()}
-
-    def _check_model_params(self, hint: str = "refit or set it back") -> None:
-        """Raise if a parameter the fitted weights depend on changed since fit/load.
-
-        Without this, ``set_params(max_depth=20)`` after fit would silently rescale the
-        output and ``set_params(width=8)`` would run the width-4 model while
-        ``get_params`` says 8.
-        """
-        fitted = getattr(self, "model_params_", None)
-        if fitted is None:  # pickled by a version that did not record them
-            return
-        for name, value in fitted.items():
-            current = _plain(getattr(self, name, None))
-            if current != value:
-                raise InvalidInputError(
-                    f"{name}={current!r} differs from the {value!r} this model was trained with; {hint}"
-                )
-
-    def _check_capacity(self) -> None:
-        """Refuse networks far larger than any sensible use (channels double per level)."""
-        # Compare without computing 2**depth for an absurd depth.
-        if self.depth > MAX_CHANNELS.bit_length() or int(self.width) << int(self.depth) > MAX_CHANNELS:
-            d = self._depth_param
-            count = str(int(self.width) << int(self.depth)) if self.depth <= 64 else "astronomically many"
-            raise InvalidInputError(
-                f"width={self.width}, {d}={self.depth} gives {count} channels at the deepest level "
-                f"(width * 2**{d}), more than the {MAX_CHANNELS} allowed (channels double per level, "
-                f"so parameters about quadruple); lower {d} or width"
-            )
-
-    def _check_size(self) -> None:
-        """Refuse a network of more than ``MAX_PARAMETERS`` (counted before it is built)."""
-        sizes = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._model_param_names() if k not in ("candidates",))
-        check_parameter_count(lambda: self._build_model(0), sizes)
-
-    def _downsampling(self) -> tuple[int, str]:
-        """Total downsampling factor of the network and the parameters that set it."""
-        need = 2 ** int(self.depth)
-        return need, f"depth={self.depth} (2**depth = {need} px)"
-
-    def _check_frame_size(self, frame_shape: tuple[int, int]) -> None:
-        """Refuse training samples smaller than the network's total downsampling.
-
-        The network pads any input to a multiple of it, so this is not about crashing:
-        on smaller samples the deepest levels see nothing but padding.
-        """
-        ch, cw = crop_shape(frame_shape, self.crop)
-        need, what = self._downsampling()
-        if min(ch, cw) < need:
-            kind = "crops" if self.crop is not None else "frames"
-            raise InvalidInputError(
-                f"{what} needs training {kind} of at least {need} px per side, got {ch}x{cw}; "
-                f"lower it or train on larger {kind}"
-            )
-
-    def _device(self) -> torch.device:
-        """The torch device to fit/predict on; a clear ValueError for anything unusable.
-
-        Accepted: "auto", "cpu", "cuda", "cuda:N" (N < the number of GPUs) and "mps"
-        where available. Other torch device types ("meta", "xla", ...) would only fail
-        later, deep inside autocast or a kernel.
-        """
-        choices = _DEVICES
-        if self.device == "auto":
-            return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-        _check_device_type(self.device)
-        try:
-            dev = torch.device(self.device)
-        except (RuntimeError, TypeError, ValueError):
-            raise InvalidInputError(f"device must be one of {choices}, got {self.device!r}") from None
-        if dev.type == "cpu":
-            return dev
-        if dev.type == "cuda":
-            if not torch.cuda.is_available():
-                raise InvalidInputError(f"device={self.device!r} but no CUDA device is available; use device='auto' or 'cpu'")
-            if dev.index is not None and dev.index >= torch.cuda.device_count():
-                raise InvalidInputError(
-                    f"device={self.device!r} but only {torch.cuda.device_count()} CUDA device(s) are visible"
-                )
-            return dev
-        if dev.type == "mps":
-            if not torch.backends.mps.is_available():
-                raise InvalidInputError(f"device={self.device!r} but MPS is not available here; use device='auto' or 'cpu'")
-            return dev
-        raise InvalidInputError(f"device must be one of {choices}, got {self.device!r} (device type {dev.type!r} is not supported)")
-
-    def _autocast(self, device: torch.device) -> tuple[Any, bool]:
-        """Autocast context for ``device`` and whether fp16 gradient scaling is needed."""
-        # As documented: autocast on CUDA, and on CPU only with "cpu-bf16"; never on
-        # other devices (MPS), whose autocast support varies across torch versions.
-        if self.amp is False or device.type not in ("cpu", "cuda") or (device.type == "cpu" and self.amp != "cpu-bf16"):
-            return contextlib.nullcontext(), False
-        if device.type == "cuda" and self.amp is True and not torch.cuda.is_bf16_supported():
-            return torch.autocast("cuda", dtype=torch.float16), True
-        return torch.autocast(device.type, dtype=torch.bfloat16), False
-
-    def _input_scale(self, observed: torch.Tensor) -> torch.Tensor | float:
-        """Metres per network unit: ``max_depth``, or each frame's mean observed depth.
-
-        ``observed`` is ``(N, H, W)`` metres with 0 in holes and where unmeasured; the
-        frame scale is returned as ``(N, 1, 1)`` so it broadcasts over pixels. A frame
-        with nothing observed falls back to ``max_depth``; the floor of 1 m keeps a
-        frame of a few very near points from blowing up the input.
-        """
-        if self.depth_scale == "fixed":
-            return self.max_depth
-        valid = observed > 0
-        count = valid.sum(dim=(1, 2), keepdim=True)
-        mean = observed.sum(dim=(1, 2), keepdim=True) / count.clamp(min=1)
-        return torch.where(count > 0, mean.clamp(min=1.0), torch.full_like(mean, self.max_depth))
-
-    @property
-    def in_channels(self) -> int:
-        """Network input channels: 1 (depth) or 3 (depth, hole mask, validity mask)."""
-        return 3 if self.input_mask else 1
-
-    def _build_model(self, seed: int) -> UNet:
-        # Seed the initial weights without touching the caller's global torch RNG.
-        return seeded(lambda: UNet(self.in_channels, int(self.width), int(self.depth), skip=self._skip), seed)
-
-    # -- JSON form (run-directory hash, checkpoint config) ---------------------------
-    def _config_params(self) -> dict[str, Any]:
-        """Parameters as JSON-able values (warm_start estimators become a weight hash)."""
-        params = self.get_params(deep=False)
-        ws = params["warm_start"]
-        if isinstance(ws, bool):
-            params["warm_start"] = ws
-            if ws and hasattr(self, "model_"):
-                params["warm_start"] = f"<previous fit sha256:{_weights_hash(self)}>"
-        elif isinstance(ws, NeuralParamsMixin):
-            params["warm_start"] = f"<{type(ws).__name__} weights sha256:{_weights_hash(ws)}>" if hasattr(ws, "model_") else f"<unfitted {type(ws).__name__}>"
-        elif ws is not None:
-            params["warm_start"] = str(ws)
-        if params["crop"] is not None:
-            params["crop"] = [int(v) for v in params["crop"]]
-        if params["checkpoint_dir"] is not None:
-            params["checkpoint_dir"] = str(params["checkpoint_dir"])
-        if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
-            # A generator is not JSON: record the seed the fit drew from it (None before a fit).
-            params["random_state"] = getattr(self, "seed_", None)
-        return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in params.items()}
-
-    def _compiled(self, model: torch.nn.Module) -> torch.nn.Module:
-        """``model`` through ``torch.compile`` as the ``compile`` parameter asks, else itself.
-
-        The compiled wrapper shares the module's parameters, so optimiser, checkpoints
-        and ``train()``/``eval()`` keep working on the plain module.
-        """
-        if isinstance(self.compile, dict):
-            kwargs = dict(self.compile)
-        elif isinstance(self.compile, str):
-            kwargs = {"mode": self.compile}
-        elif self.compile:  # True or numpy.True_ (the parameter check accepts both)
-            kwargs = {}
-        else:
-            return model
-        return torch.compile(model, **kwargs)
+#: What each parameter of a neural inpainter may be (scikit-learn's ``_parameter_constraints``).
+NEURAL_CONSTRAINTS: dict[str, list[Any]] = {
+    "width": [Integer(1)],
+    "depth": [Integer(1)],
+    "input_mask": [Bool()],
+    "depth_scale": [Options(*_DEPTH_SCALES)],
+    "hole_weight": [Real(0)],
+    "tv_weight": [Real(0)],
+    # Depths are divided by it: far outside this range (metres) inputs and targets
+    # overflow or vanish in float32 and training fails with an unexplained NaN loss.
+    "max_depth": [Real(*_MAX_DEPTH_RANGE)],
+    "lr": [Real(0, closed="neither")],
+    "weight_decay": [Real(0)],
+    "batch_size": [Integer(1)],
+    "epochs": [Integer(1)],
+    "max_steps": [Integer(1), None],
+    "max_minutes": [Real(0, closed="neither"), None],
+    "crop": [Pair(Integer(1), "a pair of integers >= 1 (h, w)"), None],
+    "protocol": [Check(get_protocol)],  # an unknown name lists the known protocols
+    "validation_fraction": [Real(0, 1, closed="neither"), None],
+    "amp": [Options(*_AMP_CHOICES)],
+    "channels_last": [Bool()],
+    "compile": [Bool(), InstanceOf(dict, "a dict of torch.compile arguments"), Options(*_COMPILE_MODES)],
+    "num_threads": [Integer(1, limit=MAX_THREADS), None],
+    "num_workers": [Integer(0)],
+    "random_state": [Check(check_random_state)],
+    "checkpoint_every": [Integer(1), None],
+    "checkpoint_dir": [InstanceOf((str, os.PathLike), "a folder path"), None],
+    # Whether the device exists is checked where it is used (_device).
+    "device": [Check(_check_device_type)],
+    "warm_start": [Bool(), InstanceOf((str, os.PathLike), "a path to a saved model"), Check(_check_warm_start),
+                   None],
+    "keep_observed": [Bool()],
+    "verbose": [Bool(), Integer(0)],
+}
 
 
 #: The table of the study's two networks (U-Net, autoencoder): the shared one plus their
 #: augmentation and sampling parameters. Kept apart because PriorUNetInpainter builds its
 #: table from the shared one and has neither (it flips its own features, on the CPU).
 STUDY_CONSTRAINTS: dict[str, list[Any]] = {
-    **NeuralParamsMixin._parameter_constraints,
+    **NEURAL_CONSTRAINTS,
     "flip": [Bool()],
     "depth_jitter": [Real(1, _MAX_DEPTH_JITTER, closed="right"), None],
     "sample_device": [Options(*_SAMPLE_DEVICES)],
 }
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
     """``value`` with NumPy scalars as Python ones and lists as tuples, for comparison."""
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, (list, tuple)):
-        return tuple(_plain(v) for v in value)
+        return tuple(plain(v) for v in value)
     return value
 
 
@@ -297,3 +124,100 @@ def _weights_hash(est: Any) -> str:
         h.update(v.float().numpy().tobytes())
     return h.hexdigest()[:16]
 
+def resolve_device(device: Any) -> torch.device:
+    """The torch device ``device`` names; a clear ValueError for anything unusable.
+
+    Accepted: "auto", "cpu", "cuda", "cuda:N" (N < the number of GPUs) and "mps"
+    where available. Other torch device types ("meta", "xla", ...) would only fail
+    later, deep inside autocast or a kernel.
+    """
+    choices = _DEVICES
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    _check_device_type(device)
+    try:
+        dev = torch.device(device)
+    except (RuntimeError, TypeError, ValueError):
+        raise InvalidInputError(f"device must be one of {choices}, got {device!r}") from None
+    if dev.type == "cpu":
+        return dev
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            raise InvalidInputError(f"device={device!r} but no CUDA device is available; use device='auto' or 'cpu'")
+        if dev.index is not None and dev.index >= torch.cuda.device_count():
+            raise InvalidInputError(
+                f"device={device!r} but only {torch.cuda.device_count()} CUDA device(s) are visible"
+            )
+        return dev
+    if dev.type == "mps":
+        if not torch.backends.mps.is_available():
+            raise InvalidInputError(f"device={device!r} but MPS is not available here; use device='auto' or 'cpu'")
+        return dev
+    raise InvalidInputError(f"device must be one of {choices}, got {device!r} (device type {dev.type!r} is not supported)")
+
+
+def autocast(amp: Any, device: torch.device) -> tuple[Any, bool]:
+    """Autocast context of ``amp`` for ``device`` and whether fp16 gradient scaling is needed."""
+    # As documented: autocast on CUDA, and on CPU only with "cpu-bf16"; never on
+    # other devices (MPS), whose autocast support varies across torch versions.
+    if amp is False or device.type not in ("cpu", "cuda") or (device.type == "cpu" and amp != "cpu-bf16"):
+        return contextlib.nullcontext(), False
+    if device.type == "cuda" and amp is True and not torch.cuda.is_bf16_supported():
+        return torch.autocast("cuda", dtype=torch.float16), True
+    return torch.autocast(device.type, dtype=torch.bfloat16), False
+
+
+def input_scale(observed: torch.Tensor, depth_scale: str, max_depth: float) -> torch.Tensor | float:
+    """Metres per network unit: ``max_depth``, or each frame's mean observed depth.
+
+    ``observed`` is ``(N, H, W)`` metres with 0 in holes and where unmeasured; the
+    frame scale is returned as ``(N, 1, 1)`` so it broadcasts over pixels. A frame
+    with nothing observed falls back to ``max_depth``; the floor of 1 m keeps a
+    frame of a few very near points from blowing up the input.
+    """
+    if depth_scale == "fixed":
+        return max_depth
+    valid = observed > 0
+    count = valid.sum(dim=(1, 2), keepdim=True)
+    mean = observed.sum(dim=(1, 2), keepdim=True) / count.clamp(min=1)
+    return torch.where(count > 0, mean.clamp(min=1.0), torch.full_like(mean, max_depth))
+
+
+def compiled(model: torch.nn.Module, compile: Any) -> torch.nn.Module:
+    """``model`` through ``torch.compile`` as the ``compile`` parameter asks, else itself.
+
+    The compiled wrapper shares the module's parameters, so optimiser, checkpoints
+    and ``train()``/``eval()`` keep working on the plain module.
+    """
+    if isinstance(compile, dict):
+        kwargs = dict(compile)
+    elif isinstance(compile, str):
+        kwargs = {"mode": compile}
+    elif compile:  # True or numpy.True_ (the parameter check accepts both)
+        kwargs = {}
+    else:
+        return model
+    return torch.compile(model, **kwargs)
+
+
+def config_params(est: Any) -> dict[str, Any]:
+    """``est``'s parameters as JSON-able values (run-folder key, checkpoint config; a warm-start
+    estimator becomes a weight hash)."""
+    params = est.get_params(deep=False)
+    ws = params["warm_start"]
+    if isinstance(ws, bool):
+        params["warm_start"] = ws
+        if ws and hasattr(est, "model_"):
+            params["warm_start"] = f"<previous fit sha256:{_weights_hash(est)}>"
+    elif isinstance(ws, TrainingMixin):
+        params["warm_start"] = f"<{type(ws).__name__} weights sha256:{_weights_hash(ws)}>" if hasattr(ws, "model_") else f"<unfitted {type(ws).__name__}>"
+    elif ws is not None:
+        params["warm_start"] = str(ws)
+    if params["crop"] is not None:
+        params["crop"] = [int(v) for v in params["crop"]]
+    if params["checkpoint_dir"] is not None:
+        params["checkpoint_dir"] = str(params["checkpoint_dir"])
+    if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
+        # A generator is not JSON: record the seed the fit drew from it (None before a fit).
+        params["random_state"] = getattr(est, "seed_", None)
+    return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in params.items()}

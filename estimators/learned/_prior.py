@@ -34,6 +34,7 @@ from . import _checkpoint as ckpt
 from .._constraints import Bool, Check, Integer, Options
 from ._limits import MAX_LAYERS, MAX_WIDTH
 from ._neural import _NeuralInpainter
+from ._neural_params import NEURAL_CONSTRAINTS
 from ._loop import Constant, Cosine, Optimisation, Schedule, seeded
 from .nets import pixel_blend
 from .nets.pixel_blend import PixelBlendNet
@@ -186,7 +187,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         return self.levels
 
     _parameter_constraints = {
-        **{k: v for k, v in _NeuralInpainter._parameter_constraints.items() if k not in _FIXED_BY_RECIPE},
+        **{k: v for k, v in NEURAL_CONSTRAINTS.items() if k not in _FIXED_BY_RECIPE},
         "arch": [Options(*ARCHS)],
         # The U-Net's sizes are bounded more tightly by _check_capacity.
         "width": [Integer(1, limit=MAX_WIDTH)],
@@ -199,6 +200,15 @@ class PriorUNetInpainter(_NeuralInpainter):
         "flip": [Bool()],
         "tta": [Bool()],
     }
+    # It flips its own features on the CPU (_train_step): no sample augmentation, no device
+    # sampling, and every parameter in the run folder's key.
+    _run_key_defaults: dict[str, Any] = {}
+
+    def _augmentation(self) -> None:
+        return None
+
+    def _sample_on_device(self, device: torch.device) -> bool:
+        return False
 
     def _model_param_names(self) -> tuple[str, ...]:
         # max_depth, input_mask and depth_scale are fixed by the class, not parameters.

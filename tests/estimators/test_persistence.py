@@ -176,3 +176,52 @@ def test_an_unreadable_file_is_one_error_naming_it(tmp_path):
 def test_interval_format_is_its_own_mixin():
     assert issubclass(ConformalIntervalInpainter, CalibrationFileMixin)
     assert CalibrationFileMixin._save_options == ("base",) and CalibrationFileMixin._load_options == ("estimator",)
+
+
+#: Most classes of the project in a public estimator's MRO: the class, its family's base, the
+#: parameter table, the training loop, its persistence mixin and BaseInpainter.
+MAX_PROJECT_CLASSES = 6
+
+
+def _project_classes(klass: type) -> list[str]:
+    return [c.__name__ for c in klass.__mro__ if c.__module__.split(".")[0] in ("estimators", "inpaintenv")]
+
+
+def _deep_classes(packages: tuple[str, ...]) -> dict[str, list[str]]:
+    """Public class -> its project MRO, for every class of ``packages`` deeper than the limit."""
+    import importlib
+    import inspect
+
+    deep = {}
+    for package in packages:
+        module = importlib.import_module(package)
+        for name in module.__all__:
+            obj = getattr(module, name)
+            if inspect.isclass(obj) and len(_project_classes(obj)) > MAX_PROJECT_CLASSES:
+                deep[f"{package}.{name}"] = _project_classes(obj)
+    return deep
+
+
+def test_no_public_estimator_holds_more_than_six_project_classes():
+    pytest.importorskip("estimators.learned")
+    packages = ("estimators.classical", "estimators.learned", "estimators.intervals")
+    assert _deep_classes(packages) == {}
+    learned = __import__("estimators.learned", fromlist=["UNetInpainter"])
+    assert _project_classes(learned.UNetInpainter) == [
+        "UNetInpainter", "_NeuralInpainter", "ConstrainedParams", "TrainingMixin", "PersistenceMixin", "BaseInpainter"]
+
+
+def test_the_mro_check_sees_a_deeper_class(monkeypatch):
+    import sys
+    import types
+
+    from estimators.base import BaseInpainter
+
+    bases: list[type] = [BaseInpainter]
+    for i in range(MAX_PROJECT_CLASSES):
+        bases.append(type(f"_Layer{i}", (bases[-1],), {"__module__": "estimators.fake"}))
+    fake = types.ModuleType("estimators.fake")
+    fake.Deep = bases[-1]
+    fake.__all__ = ["Deep"]
+    monkeypatch.setitem(sys.modules, "estimators.fake", fake)
+    assert list(_deep_classes(("estimators.fake",))) == ["estimators.fake.Deep"]
