@@ -16,12 +16,14 @@ and ``numpy.bool_`` are accepted where their Python counterparts are.
 from __future__ import annotations
 
 import math
+import operator
 import weakref
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
+from inpaintenv.conventions import is_int
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 
 
@@ -51,10 +53,6 @@ class Constraint:
         """Raise the size-limit error for a value this constraint otherwise accepts."""
 
 
-def _is_int(value: Any) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
-
-
 def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
@@ -67,7 +65,7 @@ class Integer(Constraint):
         self.low, self.limit, self.high = low, limit, high
 
     def is_satisfied_by(self, value: Any) -> bool:
-        return _is_int(value) and value >= self.low and (self.high is None or value <= self.high)
+        return is_int(value) and self.low <= operator.index(value) and (self.high is None or value <= self.high)
 
     def check_limits(self, name: str, value: Any) -> None:
         if self.limit is not None:

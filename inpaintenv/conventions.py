@@ -45,7 +45,7 @@ from .files.limits import MAX_FRAME_PIXELS
 __all__ = [
     "DEFAULT_MAX_DEPTH", "DEPTH_LIMIT", "MAX_FRAME_PIXELS", "MIN_DEPTH", "MIN_FRAME_SIDE", "as_depth_array", "check_depth",
     "check_frame_shape", "check_int", "check_mask", "check_max_depth",
-    "check_seed", "check_seeds", "corrupt", "in_depth_range", "is_real_number", "reconstruction_problem",
+    "check_seed", "check_seeds", "corrupt", "in_depth_range", "is_int", "is_real_number", "reconstruction_problem",
 ]
 
 #: Fixed range used to normalise depth and to compute PSNR (the study's 80 m).
@@ -272,8 +272,9 @@ def reconstruction_problem(values: np.ndarray) -> str | None:
             "16-bit PNG can hold (DEPTH_LIMIT)")
 
 
-def _is_int(value: object) -> bool:
-    """True for Python and NumPy integers (and 0-d integer arrays), never for bool or float."""
+def is_int(value: object) -> bool:
+    """True for Python and NumPy integers (and 0-d integer arrays), never for bool or float: what an
+    integer parameter may be, here and in the estimators' parameter tables."""
     if isinstance(value, (bool, np.bool_)):
         return False
     try:
@@ -326,7 +327,7 @@ def check_int(value: object, name: str, *, minimum: int = 0, upper: int | None =
     ValueError
         If it is out of range.
     """
-    if not _is_int(value):
+    if not is_int(value):
         raise InvalidTypeError(f"{name} must be an integer, got {_show(value)} ({type(value).__name__})")
     v = operator.index(value)  # type: ignore[arg-type]
     if v < minimum or (upper is not None and v >= upper):
@@ -353,7 +354,7 @@ def check_frame_shape(value: object, name: str = "frame_shape", *, minimum: int 
         If a side is below ``minimum`` or the frame has more than :data:`MAX_FRAME_PIXELS` pixels.
     """
     if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list, np.ndarray)) or len(value) != 2 \
-            or not all(_is_int(v) for v in value):
+            or not all(is_int(v) for v in value):
         raise InvalidTypeError(f"{name} must be two integers (H, W), got {_show(value)}")
     h, w = (operator.index(v) for v in value)  # type: ignore[arg-type]
     if h < minimum or w < minimum:
@@ -374,8 +375,8 @@ def check_seed(value: object, name: str = "seed") -> int:
     ValueError
         If it is negative.
     """
-    if not _is_int(value) or operator.index(value) < 0:  # type: ignore[arg-type]
-        raise (InvalidInputError if _is_int(value) else InvalidTypeError)(
+    if not is_int(value) or operator.index(value) < 0:  # type: ignore[arg-type]
+        raise (InvalidInputError if is_int(value) else InvalidTypeError)(
             f"{name} must be a non-negative integer, got {_show(value)}"
         )
     return operator.index(value)  # type: ignore[arg-type]
@@ -419,7 +420,7 @@ def check_seeds(
         a value repeats.
     """
     kind = "distinct non-negative integers" if distinct else "non-negative integers"
-    if _is_int(values):
+    if is_int(values):
         items: list[Any] = [values]
     elif isinstance(values, (str, bytes)) or not isinstance(values, Iterable) or (
         isinstance(values, np.ndarray) and values.ndim != 1
@@ -429,12 +430,12 @@ def check_seeds(
         items = list(values)
     if not items and not allow_empty:
         raise InvalidInputError(f"{name} is empty")
-    bad = [v for v in items if not _is_int(v)]
+    bad = [v for v in items if not is_int(v)]
     if bad:
         raise InvalidTypeError(f"{name} must be {kind}, got {_show(values)}")
     out = [operator.index(v) for v in items]
     if any(v < 0 for v in out):
-        raise InvalidInputError(f"{name} must be {kind}, got {_show(values) if _is_int(values) else _show(out)}")
+        raise InvalidInputError(f"{name} must be {kind}, got {_show(values) if is_int(values) else _show(out)}")
     if upper is not None and any(v >= upper for v in out):
         outside = [v for v in out if v >= upper]
         raise InvalidInputError(f"{name} {outside[:5]} are outside 0..{upper - 1}")

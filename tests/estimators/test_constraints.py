@@ -121,3 +121,17 @@ def test_a_parameter_set_after_the_check_is_checked_at_the_next_predict(monkeypa
     assert len(calls) == 3
     clone(est).predict(x)  # a clone starts unchecked
     assert len(calls) == 4
+
+
+@pytest.mark.parametrize("value", [3, np.int64(3), np.uint8(3), np.array(3), 3.0, np.float32(3), True, np.bool_(True),
+                                   "3", None, np.array([3]), -1])
+def test_one_vocabulary_of_integers(value):
+    """The parameter tables' Integer and the package's check_int accept the same integers."""
+    from inpaintenv.conventions import check_int
+
+    try:
+        check_int(value, "n")
+        accepted = True
+    except (InvalidInputError, InvalidTypeError):
+        accepted = False
+    assert Integer(0).is_satisfied_by(value) is accepted
