@@ -187,8 +187,8 @@ class _NeuralInpainter(ConstrainedParams, TrainingMixin, PersistenceMixin, BaseI
     #: loss on depth divided by ``max_depth``, so without a unit.
     loss_label: str = "training loss: L1 + hole L1 + TV of depth / max_depth (no unit)"
     _parameter_constraints = STUDY_CONSTRAINTS
-    # Left out of the run folder's key at their defaults: folders written before the
-    # parameters existed still resume.
+    # Left out of the run folder's key at their defaults, so a run folder keyed without
+    # them resumes.
     _run_key_defaults = {"flip": False, "depth_jitter": None}
 
     def __init__(

@@ -291,7 +291,7 @@ class PriorUNetInpainter(_NeuralInpainter):
         return self._flip_rng.bit_generator.state
 
     def _set_rng_state(self, state: dict[str, Any] | None) -> None:
-        if state is None:  # written before the stream was checkpointed: it restarts (not bit-identical)
+        if state is None:  # a checkpoint without the stream: it restarts (not bit-identical)
             return
         try:
             self._flip_rng.bit_generator.state = state

@@ -247,8 +247,8 @@ class TrainingMixin:
     def _set_rng_state(self, state: dict[str, Any] | None) -> None:
         """Restore what :meth:`_rng_state` returned (None: a checkpoint that recorded none)."""
 
-    #: Parameters left out of the run folder's key at these values (added after run folders
-    #: were written, so those still resume).
+    #: Parameters left out of the run folder's key at these values, so a run folder keyed
+    #: without them resumes.
     _run_key_defaults: dict[str, Any] = {}
     #: The most optimiser updates one training step takes.
     _updates_per_step: int = 1

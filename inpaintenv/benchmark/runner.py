@@ -264,7 +264,7 @@ class _Run:
         self.rows_dir = out / "rows"
         self.run_file = out / "run.json"
         # name -> identity of the method that wrote its rows (see .identity); a name missing
-        # here (e.g. a run.json from before identities were recorded) is unknown and accepted.
+        # here (a run.json that records no identity for it) is unknown and accepted.
         self.identities: dict[str, str] = {}
         # name -> drives the method was trained on (see evaluate.training_drives_of), for the tables.
         self.trained: dict[str, list[str]] = {}
@@ -303,8 +303,8 @@ class _Run:
             self.trained = {k: [str(d) for d in v] for k, v in (previous.pop("training_drives", None) or {}).items()
                             if isinstance(v, list)}
             if "data" not in previous and "data" in self.fingerprint:
-                # A folder from before the data's content was recorded: its content is unknown, so
-                # it is accepted as it is (as a method without a recorded identity) and recorded now.
+                # A run.json without the data's content: its content is unknown, so it is
+                # accepted as it is (as a method without a recorded identity) and recorded now.
                 previous["data"] = self.fingerprint["data"]
             changed = differences(previous, self.fingerprint)
             if changed:

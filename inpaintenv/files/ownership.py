@@ -6,7 +6,7 @@ folder the user names. Each file they write is first recorded in the folder's :d
 is recorded there. So:
 
 * a folder that is neither empty nor a run folder of inpaintenv (it has no ledger, and no
-  ``run.json`` or ``results.json`` of a run from before ledgers existed) is refused with
+  ``run.json`` or ``results.json`` of a run without a ledger) is refused with
   one line naming the folder and one of its files (:class:`ForeignFolderError`);
 * in a run folder, a file at a path a run writes (``results.md``, ``rows/*.jsonl``,
   ``figures/frame_*.png``, ...; for ``train``: ``loss.png``, ``training_log.json``,
@@ -60,11 +60,11 @@ TRAIN_FILES: tuple[str, ...] = (
 @dataclass(frozen=True)
 class FolderKind:
     """What a command writes in its folder: the paths (glob patterns) and how to recognise
-    a folder it wrote before ledgers existed."""
+    a folder of its own that has no ledger."""
 
     #: Paths, relative to the folder, that the command writes.
     files: tuple[str, ...]
-    #: Whether a folder without a ledger was written by this command before ledgers existed.
+    #: Whether a folder without a ledger is one this command writes (its run files are there).
     legacy: Callable[[Path], bool]
 
 
@@ -73,7 +73,7 @@ def _regular(path: Path) -> bool:
 
 
 def _legacy_run(out: Path) -> bool:
-    """A run folder of inpaintenv from before ledgers: its run.json, or a results.json of ours."""
+    """A run folder of inpaintenv without a ledger: its run.json, or a results.json of ours."""
     if _regular(out / "run.json"):
         return True
     try:
@@ -84,7 +84,7 @@ def _legacy_run(out: Path) -> bool:
 
 
 def _legacy_train(out: Path) -> bool:
-    """A training folder of inpaintenv from before ledgers: its train_args.json, or the
+    """A training folder of inpaintenv without a ledger: its train_args.json, or the
     checkpoints of a training (``checkpoints/*/state.json``) that recorded none."""
     try:
         doc = read_json(out / "train_args.json", "training arguments", follow_links=False)
@@ -186,7 +186,7 @@ def check_folder(out: str | os.PathLike, kind: FolderKind = BENCHMARK) -> None:
 def adopt(out: str | os.PathLike, kind: FolderKind = BENCHMARK) -> None:
     """Check ``out`` (:func:`check_folder`), create it, and make sure it has a ledger.
 
-    A folder written before ledgers existed is adopted: the files at ``kind``'s paths in
+    A run folder without a ledger is adopted: the files at ``kind``'s paths in
     it are recorded as its own. Inside the folder's run lock the folder is not checked again:
     the command that took the lock checked it first.
     """

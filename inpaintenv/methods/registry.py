@@ -83,7 +83,7 @@ class MethodSpec:
 _LEARNED = "estimators.learned"
 
 _METHODS: dict[str, MethodSpec] = {}
-#: alias -> canonical name (old names kept working after a method was renamed).
+#: alias -> canonical name (a second name that loads the same method).
 _ALIASES: dict[str, str] = {}
 #: former name -> the one-line error naming it gives (what to use instead).
 _REMOVED: dict[str, str] = {}

@@ -96,8 +96,8 @@ def check_row(raw: Mapping[str, Any], *, max_depth: float = DEFAULT_MAX_DEPTH, t
     Returns
     -------
     dict
-        The row with its types restored (``input_kind`` only when ``raw`` has it: rows
-        from before it was recorded are of the task's input).
+        The row with its types restored (``input_kind`` only when ``raw`` has it: a row
+        without it is of the task's input).
 
     Raises
     ------
