@@ -18,7 +18,7 @@ from typing import Any
 
 from inpaintenv.exceptions import UnknownNameError
 from inpaintenv.methods.classical import CLASSICAL_METHODS
-from inpaintenv.methods.learned import DEFAULT_RELEASE, SCAN_DEFAULT, SPARSE_DEFAULT, shipped
+from inpaintenv.methods.learned import DEFAULT_RELEASE, POINTS_DEFAULT, SCAN_DEFAULT, SPARSE_DEFAULT, shipped
 
 from . import _checkpoint as ckpt
 from ._load import load
@@ -31,7 +31,10 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
 
     A scan sparser than a 64-beam one (:func:`~estimators.learned._routed.scan_spacing` above
     :data:`~estimators.learned._routed.SPARSE_SPACING`) goes to the classical
-    :data:`~inpaintenv.methods.learned.SPARSE_DEFAULT` instead.
+    :data:`~inpaintenv.methods.learned.SPARSE_DEFAULT` instead; a scan of points scattered far apart
+    along its lines (:func:`~estimators.learned._routed.row_spacing` above
+    :data:`~estimators.learned._routed.POINTS_SPACING`) to the classical
+    :data:`~inpaintenv.methods.learned.POINTS_DEFAULT`.
 
     Parameters
     ----------
@@ -63,7 +66,8 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
     map_method = load_release(DEFAULT_RELEASE, **overrides) if overrides else OnFirstUse(load_release, DEFAULT_RELEASE)
     return InputRoutedInpainter(map_method=map_method, scan_method=OnFirstUse(load_release, SCAN_DEFAULT), input=input,
                                 scan_name=SCAN_DEFAULT, map_name=DEFAULT_RELEASE,
-                                sparse_method=_classical(SPARSE_DEFAULT), sparse_name=SPARSE_DEFAULT)
+                                sparse_method=_classical(SPARSE_DEFAULT), sparse_name=SPARSE_DEFAULT,
+                                points_method=_classical(POINTS_DEFAULT), points_name=POINTS_DEFAULT)
 
 
 def _classical(name: str) -> Any:

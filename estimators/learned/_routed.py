@@ -8,7 +8,8 @@ each frame by its kind: given as ``input``, or told from its measured density. A
 sparser than the 64-beam scans the scan route was trained on (a 32-, 16- or 8-beam LiDAR: told
 from :func:`scan_spacing` and :func:`close_gap_share`) goes to ``sparse_method`` when one is given: there
 the scan release's learned blend is worse than the classical fills, so ``pretrained`` falls
-back to the classical ``harmonic``.
+back to the classical ``harmonic``. A scan of points scattered far apart along its lines (a tenth
+of a scan's points: told from :func:`row_spacing`) goes to ``points_method`` when one is given.
 
 >>> from estimators.learned import InputRoutedInpainter                   # doctest: +SKIP
 >>> est = InputRoutedInpainter(map_method=load_release(), scan_method=HarmonicInpainter())
@@ -35,8 +36,8 @@ from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from .._constraints import Check, ConstrainedParams, InstanceOf, Options, Real
 from ..base import BaseInpainter, check_inpaint_input
 
-__all__ = ["INPUT_CHOICES", "LINE_SHARE", "SCAN_DENSITY", "SPARSE_SPACING", "InputRoutedInpainter", "OnFirstUse",
-           "close_gap_share", "measured_density", "scan_spacing"]
+__all__ = ["INPUT_CHOICES", "LINE_SHARE", "POINTS_SPACING", "SCAN_DENSITY", "SPARSE_SPACING", "InputRoutedInpainter",
+           "OnFirstUse", "close_gap_share", "measured_density", "row_spacing", "scan_spacing"]
 
 #: Measured share of the rows a frame's measurements span at or below which it is a scan.
 #: On the KITTI slice (scripts: experiments/scan_release.py --density) single scans span
@@ -53,14 +54,21 @@ SPARSE_SPACING = 14.0
 #: scans 0.10-0.19. Scattered points stay with the scan route, whose classical mean near the points
 #: is the strongest fill there; a LiDAR's sparse lines take the sparse route.
 LINE_SHARE = 0.025
+#: :func:`row_spacing` (pixels) above which a scan's points lie far apart along its lines (scattered
+#: points, a tenth of a scan's or fewer). On the KITTI slice (experiments/scan_lodo.py density's
+#: frames, 2 per drive) a LiDAR's lines, 8 to 64 beams, with or without rect-v1's holes, measure
+#: 3 px; a random 50 % of the points 4-5, 25 % 9-13, 10 % 28-71. Chosen with one recording day left
+#: out, halfway between the largest 25 % and the smallest 10 % value of the other two days (20.0,
+#: 20.5, 22.0): each separates its left-out day; this is 2011_09_30 and 2011_10_03's.
+POINTS_SPACING = 20.0
 #: The largest gap (pixels) :func:`close_gap_share` counts as close.
 CLOSE_GAP = 4
 #: What ``input`` may say: decide per frame, or every frame is of one kind.
 INPUT_CHOICES = ("auto", "scan", "map")
 #: The routes, in the order a batch is filled.
-ROUTES = ("scan", "sparse", "map")
+ROUTES = ("scan", "sparse", "points", "map")
 #: How messages name each route's frames.
-_KIND_WORDS = {"scan": "scan", "sparse": "sparse scan", "map": "map"}
+_KIND_WORDS = {"scan": "scan", "sparse": "sparse scan", "points": "scattered-point scan", "map": "map"}
 # One lock for every router: a module's lock is never pickled or copied with an estimator, and
 # making a route (loading a release) is rare enough that routers need not make theirs in parallel.
 _MAKING = threading.Lock()
@@ -101,6 +109,19 @@ def scan_spacing(x: np.ndarray) -> float:
     multiplies it by about k. ``inf`` for a frame with no two measurements in any column.
     """
     gaps = _column_gaps(x)
+    return float(np.median(gaps)) if len(gaps) else float("inf")
+
+
+def row_spacing(x: np.ndarray) -> float:
+    """The median gap (pixels) between horizontally consecutive measurements of a row: how far apart a line's points lie.
+
+    A LiDAR's lines, however few, keep their points a few pixels apart along a line; points
+    dropped at random from a scan spread them by about the share dropped. ``inf`` for a frame
+    with no two measurements in any row.
+    """
+    measured = np.asarray(x) > 0
+    rows, cols = np.nonzero(measured)  # row-major: each row's columns in order
+    gaps = np.diff(cols)[rows[1:] == rows[:-1]]
     return float(np.median(gaps)) if len(gaps) else float("inf")
 
 
@@ -174,7 +195,8 @@ def _route_attribute(kind: str) -> property:
 
 class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     """Fill each frame with ``scan_method`` if it is a single LiDAR scan, else ``map_method``;
-    a scan sparser than ``sparse_spacing`` with ``sparse_method`` when one is given.
+    a scan sparser than ``sparse_spacing`` with ``sparse_method``, a scan of scattered points with
+    ``points_method`` when one is given.
 
     Parameters
     ----------
@@ -194,7 +216,14 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         stay with ``scan_method``); None: every scan goes to ``scan_method``.
     sparse_spacing : float, default :data:`SPARSE_SPACING`
         The spacing (pixels) above which a scan is sparse.
-    scan_name, map_name, sparse_name : str
+    points_method : estimator, OnFirstUse or None, default None
+        Fills a scan whose :func:`row_spacing` exceeds ``points_spacing`` (points scattered far
+        apart along its lines, fewer than a 64-beam scan's) before any other scan route; None:
+        such a scan goes to the sparse or scan route. Its interval is never borrowed from
+        ``intervals`` (no calibration is made on such scans): only its method's own.
+    points_spacing : float, default :data:`POINTS_SPACING`
+        The spacing (pixels) along a line above which a scan's points are scattered.
+    scan_name, map_name, sparse_name, points_name : str
         What :attr:`routed_to_` says for each route (e.g. ``"harmonic"``).
     intervals : callable or None, default None
         How a route whose method has no ``predict_interval`` gets an interval:
@@ -208,7 +237,7 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     routed_to_ : list of str
         After :meth:`predict`: per frame of the last call, the name of the method that filled it.
     routed_kinds_ : list of str
-        After :meth:`predict`: per frame of the last call, its route (``"scan"``, ``"sparse"``, ``"map"``).
+        After :meth:`predict`: per frame of the last call, its route (``"scan"``, ``"sparse"``, ``"points"``, ``"map"``).
     """
 
     # Its routes come fitted and fit trains nothing: checked as a pretrained model is, never refitted.
@@ -216,10 +245,12 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
     map_method = _route_attribute("map")
     scan_method = _route_attribute("scan")
     sparse_method = _route_attribute("sparse")
+    points_method = _route_attribute("points")
 
     def __init__(self, *, map_method: Any, scan_method: Any, input: str = "auto", threshold: float = SCAN_DENSITY,
                  scan_name: str = "scan", map_name: str = "map", intervals: Callable[[str, Any], Any] | None = None,
-                 sparse_method: Any = None, sparse_spacing: float = SPARSE_SPACING, sparse_name: str = "sparse"):
+                 sparse_method: Any = None, sparse_spacing: float = SPARSE_SPACING, sparse_name: str = "sparse",
+                 points_method: Any = None, points_spacing: float = POINTS_SPACING, points_name: str = "points"):
         self.map_method = map_method
         self.scan_method = scan_method
         self.input = input
@@ -230,6 +261,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         self.sparse_method = sparse_method
         self.sparse_spacing = sparse_spacing
         self.sparse_name = sparse_name
+        self.points_method = points_method
+        self.points_spacing = points_spacing
+        self.points_name = points_name
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         """The constructor's parameters, each route as given (an :class:`OnFirstUse` stays one).
@@ -282,6 +316,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         "sparse_method": [None, Check(lambda route: _check_route(route, "sparse_method"))],
         "sparse_spacing": [Real(0, None, closed="neither")],
         "sparse_name": [InstanceOf(str, "a name (str)")],
+        "points_method": [None, Check(lambda route: _check_route(route, "points_method"))],
+        "points_spacing": [Real(0, None, closed="neither")],
+        "points_name": [InstanceOf(str, "a name (str)")],
         "input": [Options(*INPUT_CHOICES)],
         "threshold": [Real(0, 1, closed="neither")],
         "scan_name": [InstanceOf(str, "a name (str)")],
@@ -295,7 +332,10 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
             else getattr(self, name)
 
     def kind(self, x: np.ndarray) -> str:
-        """``"scan"``, ``"sparse"`` or ``"map"``: the route of one ``(H, W)`` frame (NaN = to fill).
+        """``"scan"``, ``"sparse"``, ``"points"`` or ``"map"``: the route of one ``(H, W)`` frame (NaN = to fill).
+
+        ``"points"`` only with a ``points_method``: a scan whose :func:`row_spacing` exceeds
+        ``points_spacing`` (points scattered along its lines, not a LiDAR's lines).
 
         ``"sparse"`` only with a ``sparse_method``: a scan (``input="scan"``, or told from its
         density) whose :func:`scan_spacing` exceeds ``sparse_spacing`` and whose lines are a
@@ -305,6 +345,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         measured = np.nan_to_num(x, nan=0.0)
         if self.input == "map" or (self.input == "auto" and measured_density(measured) > float(self.threshold)):
             return "map"
+        if self.__dict__["_points_given"] is not None and np.isfinite(spread := row_spacing(measured)) \
+                and spread > float(self.points_spacing):
+            return "points"
         if self.__dict__["_sparse_given"] is not None and scan_spacing(measured) > float(self.sparse_spacing) \
                 and close_gap_share(measured) < LINE_SHARE:
             return "sparse"
@@ -312,10 +355,10 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
 
     def name_of(self, kind: str) -> str:
         """What :attr:`routed_to_` says for route ``kind``."""
-        return {"scan": self.scan_name, "sparse": self.sparse_name, "map": self.map_name}[kind]
+        return {"scan": self.scan_name, "sparse": self.sparse_name, "points": self.points_name, "map": self.map_name}[kind]
 
     def choose(self, x: np.ndarray) -> str:
-        """The name of the method that fills frame ``x`` (``scan_name``, ``sparse_name`` or ``map_name``)."""
+        """The name of the method that fills frame ``x`` (``scan_name``, ``sparse_name``, ``points_name`` or ``map_name``)."""
         return self.name_of(self.kind(x))
 
     def __sklearn_is_fitted__(self) -> bool:
@@ -334,7 +377,7 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         return out
 
     def interval_method(self, kind: str) -> Any:
-        """The estimator that gives route ``kind``'s interval (``"scan"``, ``"sparse"`` or ``"map"``).
+        """The estimator that gives route ``kind``'s interval (``"scan"``, ``"sparse"``, ``"points"`` or ``"map"``).
 
         The route's own method when it has ``predict_interval``; else ``intervals(name, method)``,
         made once (under the lock, as the routes are), around the route's method.
@@ -350,7 +393,7 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
             return method
         made, name = f"_{kind}_interval", self.name_of(kind)
         if made not in self.__dict__:
-            if self.intervals is None:
+            if self.intervals is None or kind == "points":  # no calibration is made on scattered points
                 raise InvalidInputError(
                     f"no calibrated interval for a single {_KIND_WORDS[kind]} yet: its route {name} ships none; drop the interval "
                     f"(fill without --confidence), or give one (--intervals CAL.json, or -m <method>-intervals)")

@@ -83,7 +83,7 @@ class _Run:
 
 
 #: How the route line names each route's frames.
-_KIND_WORDS = {"sparse": "sparse scan"}
+_KIND_WORDS = {"sparse": "sparse scan", "points": "scattered-point scan"}
 
 
 def _note_routes(batch: list[Item], routed: Any, before: Any) -> None:

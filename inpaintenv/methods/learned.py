@@ -25,6 +25,7 @@ __all__ = [
     "LEARNED_INSTALL",
     "RELEASE_DIR",
     "SCAN_DEFAULT",
+    "POINTS_DEFAULT",
     "SPARSE_DEFAULT",
     "MissingExtraError",
     "learned_missing",
@@ -52,6 +53,12 @@ SCAN_DEFAULT = "kitti-scan-v1"
 #: fills, and ``harmonic`` is the strongest of them or near it on every recording day
 #: (docs/model_cards/kitti-scan-v1.md).
 SPARSE_DEFAULT = "harmonic"
+
+#: What ``pretrained`` fills a scan of points scattered far apart along its lines with (a tenth of a
+#: scan's points kept at random): the classical mean ``harmonic-ipbasic``, the strongest classical
+#: fill there on every recording day, where the scan release's learned blend is 1.01-1.02x worse
+#: (docs/model_cards/kitti-scan-v1.md).
+POINTS_DEFAULT = "harmonic-ipbasic"
 
 #: The modules the ``[learned]`` extra brings (import names).
 LEARNED_DEPENDENCIES: tuple[str, ...] = ("torch", "safetensors")

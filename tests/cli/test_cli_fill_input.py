@@ -117,3 +117,16 @@ def test_input_is_checked_once_per_fill(tmp_path, monkeypatch):
     fill([tmp_path / "in"], tmp_path / "out", method=routed(), missing=True, input="scan", progress=False,
          batch_size=1)
     assert calls == ["scan"]  # at fill's entry, not again where the method is made or per input
+
+
+def test_pretrained_says_it_filled_scattered_points_as_a_scattered_point_scan(tmp_path, capsys):
+    from inpaintenv.methods.learned import POINTS_DEFAULT
+
+    write_inputs(tmp_path / "in" / "full", "scan", 1)
+    points = np.zeros(SHAPE, np.float32)  # points 30 px apart along every 3rd row, as a tenth of a scan's
+    for row in range(0, SHAPE[0], 3):
+        points[row, (row * 7) % 30::30] = 40.0 - 35.0 * row / SHAPE[0]
+    write_depth_png(tmp_path / "in" / "points.png", points)
+    assert main(["fill", str(tmp_path / "in"), "--missing", "--out", str(tmp_path / "out"), "-q"]) == 0
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert f"1 as scans with {SCAN_DEFAULT}" in last and f"1 as scattered-point scans with {POINTS_DEFAULT}" in last, last

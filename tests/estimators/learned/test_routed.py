@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from estimators.classical import HarmonicInpainter, NearestInpainter
-from estimators.learned._routed import (LINE_SHARE, SCAN_DENSITY, SPARSE_SPACING, InputRoutedInpainter, OnFirstUse,
-                                       close_gap_share, measured_density, scan_spacing)
+from estimators.learned._routed import (LINE_SHARE, POINTS_SPACING, SCAN_DENSITY, SPARSE_SPACING, InputRoutedInpainter,
+                                       OnFirstUse, close_gap_share, measured_density, row_spacing, scan_spacing)
 from inpaintenv.data import SyntheticStreets
 from inpaintenv.data.inputs import method_input
 from inpaintenv.exceptions import InpaintenvError
@@ -125,6 +125,54 @@ def test_scattered_points_stay_with_the_scan_route_however_sparse():
     assert est.choose(scattered) == "harmonic" and est.choose(_lines(24)) == "nearest-sparse"
 
 
+def _scattered(share: float, seed: int = 0) -> np.ndarray:
+    """A dense synthetic scan (every 3rd line, every 4th column: 4 px apart along a line, as KITTI's 3 px)
+    with a random ``share`` of its points kept."""
+    dense = _lines(3)
+    return np.where(np.random.default_rng(seed).random(dense.shape) < share, dense, np.nan)
+
+
+def test_row_spacing_follows_the_points_along_a_line_not_the_lines():
+    assert row_spacing(np.nan_to_num(_lines(3))) == 4.0
+    assert row_spacing(np.nan_to_num(_lines(24))) == 4.0  # fewer lines, the same points along each
+    holed = np.nan_to_num(_lines(3))
+    holed[10:50, 40:150] = 0.0  # a large hole: one long gap per row it covers
+    assert row_spacing(holed) == 4.0
+    assert row_spacing(np.nan_to_num(_scattered(0.1))) > POINTS_SPACING > row_spacing(np.nan_to_num(_scattered(0.25)))
+    one_column = np.zeros((8, 8), np.float32)
+    one_column[:, 3] = 5.0
+    assert row_spacing(one_column) == np.inf
+
+
+def test_a_tenth_of_the_points_takes_the_points_route_and_lines_do_not():
+    """Scattered points far apart along the lines go to points_method, before the sparse route looks at them;
+    a LiDAR's lines, however few, and a quarter of the points do not."""
+    tenth, quarter, eight = _scattered(0.1), _scattered(0.25), _lines(24)
+    est = _router(sparse_method=NearestInpainter(), sparse_name="nearest-sparse",
+                  points_method=NearestInpainter(), points_name="nearest-points")
+    out = est.predict(np.stack([tenth, quarter, eight, _lines(3)]))
+    assert est.routed_kinds_ == ["points", "scan", "sparse", "scan"]
+    assert est.routed_to_ == ["nearest-points", "harmonic", "nearest-sparse", "harmonic"]
+    np.testing.assert_array_equal(out[0], NearestInpainter().predict(tenth))
+    # Without a points route the same frame takes the route it took before; the threshold is the parameter's.
+    assert _router().choose(tenth) == "harmonic"
+    assert est.set_params(points_spacing=1000.0).kind(tenth) != "points"
+    assert est.set_params(points_spacing=POINTS_SPACING, input="map").choose(tenth) == "nearest"
+
+
+def test_a_scattered_point_scan_borrows_no_interval():
+    est = InputRoutedInpainter(map_method=_WithInterval(), scan_method=_WithInterval(), points_method=HarmonicInpainter(),
+                               points_name="harmonic-points", intervals=lambda name, method: _WithInterval())
+    with pytest.raises(InpaintenvError, match="scattered-point scan.*harmonic-points"):
+        est.predict_interval(_scattered(0.1)[None])
+
+
+@pytest.mark.parametrize("bad", [{"points_spacing": 0.0}, {"points_method": "harmonic"}, {"points_name": 3}])
+def test_bad_points_route_parameters_are_one_clear_error(bad):
+    with pytest.raises(InpaintenvError, match="points_"):
+        _router(**bad).predict(_lines(3)[None])
+
+
 @pytest.mark.parametrize("bad", [{"sparse_spacing": 0.0}, {"sparse_spacing": np.inf}, {"sparse_method": "harmonic"},
                                  {"sparse_name": 3}])
 def test_bad_sparse_route_parameters_are_one_clear_error(bad):
@@ -197,7 +245,8 @@ def test_a_router_on_first_use_keeps_its_parameters_clones_and_pickles():
     est = InputRoutedInpainter(map_method=OnFirstUse(NearestInpainter), scan_method=given, scan_name="harmonic")
     params = est.get_params(deep=False)
     assert set(params) == {"map_method", "scan_method", "input", "threshold", "scan_name", "map_name",
-                           "intervals", "sparse_method", "sparse_spacing", "sparse_name"}
+                           "intervals", "sparse_method", "sparse_spacing", "sparse_name", "points_method",
+                           "points_spacing", "points_name"}
     assert params["scan_method"] is given and "OnFirstUse(HarmonicInpainter)" in repr(est)
     unused = pickle.loads(pickle.dumps(est))
     expected = est.predict(scans)
