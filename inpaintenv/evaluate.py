@@ -297,10 +297,11 @@ class EvaluationPlan:
 def evaluate_plan(
     method: Any, plan: EvaluationPlan, *, name: str | None = None, progress: bool = False,
     on_batch: Callable[[list[dict[str, Any]]], None] | None = None, warmup: bool = False,
+    on_predictions: Callable[..., None] = lambda *_: None, on_warm: Callable[[], None] = lambda: None,
 ) -> EvaluationResult:
     """:func:`evaluate` of a checked :class:`EvaluationPlan` (the benchmark's runner, a worker's shard).
 
-    ``name``, ``progress``, ``on_batch`` and ``warmup`` are :func:`evaluate`'s.
+    Others are :func:`evaluate`'s; ``on_predictions(seed, frames, out)`` sees each local batch; ``on_warm()`` ends warm-up.
     """
     predictor = Predictor.of(method, name)
     label = predictor.name
@@ -318,7 +319,7 @@ def evaluate_plan(
         else:
             source_of_interval = interval_source(method, plan.intervals, label)
             rows, skipped = _score_locally(predictor, plan, bar, on_batch, batches, warmup=bool(warmup),
-                                           interval=source_of_interval)
+                                           interval=source_of_interval, on_predictions=on_predictions, on_warm=on_warm)
     finally:
         bar.close()
 
@@ -327,8 +328,7 @@ def evaluate_plan(
     order = {s: j for j, s in enumerate(plan.seeds)}
     rows.sort(key=lambda r: (order[r["seed"]], r["index"]))
     meta = {
-        "methods": [label],
-        "protocol": plan.protocol.name,
+        "methods": [label], "protocol": plan.protocol.name,
         "seeds": list(plan.seeds),
         "n_frames": plan.total,
         "source": repr(dataset),
@@ -364,6 +364,7 @@ def _frames_to_score(dataset: DepthDataset, n_frames: int | None, indices: Seque
 def _score_locally(
     predictor: Predictor, plan: EvaluationPlan, bar: Any, on_batch: Callable[[list[dict[str, Any]]], None] | None,
     batches: list[list[int]], *, warmup: bool = False, interval: IntervalSource | None = None,
+    on_predictions: Callable[..., None] = lambda *_: None, on_warm: Callable[[], None] = lambda: None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Rows and skipped frames of ``batches``, scored in this process.
 
@@ -389,7 +390,9 @@ def _score_locally(
             if warmup:
                 predictor.warm_up(x[0])
                 warmup = False
+                on_warm()
             pred, ms = predictor.run(x)
+            on_predictions(seed, idx, pred)
             try:
                 # Frames, masks, output and options were checked where they entered.
                 scored_pixels = ScoredPixels(gt, hole, inputs=None if inputs is gt else inputs, check_input=False)

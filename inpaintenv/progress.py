@@ -126,6 +126,12 @@ class ProgressReporter:
         self.current = task
         self._mark = self.clock()
 
+    def warmed(self) -> None:
+        """The current task's one-time start (its warm-up call, a model's first load) is over: the time
+        since :meth:`begin` is left out of its per-frame cost."""
+        if self.current is not None and self.done[self.current] == 0:
+            self._mark = self.clock()
+
     def update(self, n: int) -> None:
         """Count ``n`` more frames of the current task; log a line when one is due."""
         if self.current is None:

@@ -68,6 +68,26 @@ def _stamp(result: EvaluationResult, settings: dict[str, Any]) -> str:
     return digest.hexdigest()
 
 
+class _Built(Mapping[str, Any]):
+    """The drawn methods by name, each built from its factory only when a figure runs it again."""
+
+    def __init__(self, factories: Mapping[str, Callable[[], Any]], names: Sequence[str]) -> None:
+        self._factories, self._names, self._built = factories, list(names), {}
+
+    def __getitem__(self, name: str) -> Any:
+        if name not in self._names:
+            raise KeyError(name)
+        if name not in self._built:
+            self._built[name] = self._factories[name]()
+        return self._built[name]
+
+    def __iter__(self) -> Any:
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+
 def write_figures(
     result: EvaluationResult,
     methods: Mapping[str, Callable[[], Any]],
@@ -81,6 +101,7 @@ def write_figures(
     log: Callable[[str], None] = lambda msg: None,
     exclude: Collection[int] = (),
     unfilled: Mapping[str, str] | None = None,
+    kept: Callable[[str, int], Any] | None = None,
 ) -> list[Path]:
     """Write a run's figures into ``out_dir``; skip them when they already show these rows.
 
@@ -107,6 +128,9 @@ def write_figures(
         Frames never drawn (the unreadable frames a run skipped).
     unfilled : mapping of str to str, optional
         Each method's ``unfilled`` policy in the run (``meta["unfilled"]`` of the runner's result).
+    kept : callable, optional
+        ``(name, index) -> prediction or None``: the run's own predictions of the figure frames
+        (:meth:`~inpaintenv.benchmark.kept_frames.KeptFrames.lookup`); only the others are predicted again.
     """
     out = Path(out_dir)
     colours = style.method_colours(result.methods)  # one colour per method, in run order
@@ -143,18 +167,24 @@ def write_figures(
         plot_error_rejection(result, out / "error_rejection.png", colours=colours)
     if has_reliability(result):
         plot_uncertainty(result, out / "uncertainty.png", colours=colours)
-    ms = {e["method"]: e["ms_per_frame"] for e in result.group_table(("method",))}
-    seconds = sum(ms.get(n, 0.0) for n in panel_methods) * len(indices) / 1000.0
-    log(
-        f"figures ({task}): running {count(len(panel_methods), 'method')} again on {_describe(dataset, indices)} "
-        f"(about {seconds:.0f} s): the frame panels and the error by depth and by distance to the nearest "
-        "measurement need pixels, which the rows do not keep" + ("; error_vs_hole_size comes from the rows"
-                                                                 if by_size else "")
-    )
-    built = {name: methods[name]() for name in panel_methods}
     coverage = result.meta.get("interval_coverage")
+    built = _Built(methods, panel_methods)
     predictions = FramePredictions(built, dataset, protocol, seed, unfilled,
-                                   as_coverage(coverage) if has_intervals(result) and coverage else None)
+                                   as_coverage(coverage) if has_intervals(result) and coverage else None, kept=kept)
+    again = {n: [i for i in indices if predictions.held(n, i) is None] for n in panel_methods}
+    again = {n: frames for n, frames in again.items() if frames}
+    if again:
+        ms = {e["method"]: e["ms_per_frame"] for e in result.group_table(("method",))}
+        seconds = sum(ms.get(n, 0.0) * len(frames) for n, frames in again.items()) / 1000.0
+        log(
+            f"figures ({task}): running {count(len(again), 'method')} again on "
+            f"{_describe(dataset, sorted({i for f in again.values() for i in f}))} (about {seconds:.0f} s): the frame "
+            "panels and the error by depth and by distance to the nearest measurement need pixels, which the rows "
+            "do not keep" + ("; error_vs_hole_size comes from the rows" if by_size else "")
+        )
+    else:
+        log(f"figures ({task}): the pixels of {count(len(panel_methods), 'method')} on {_describe(dataset, indices)} "
+            "kept from the run's own predictions; no method runs again")
     for i in panels:
         frame_panel(built, dataset, i, out / f"frame_{i:04d}.png", protocol=protocol, seed=seed,
                     colours=colours, predictions=predictions)

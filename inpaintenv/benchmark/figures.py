@@ -96,15 +96,18 @@ class FramePredictions:
         Method name -> its ``unfilled`` policy in the run (default ``"error"``): with
         ``"interpolate"`` the reconstruction is shown and scored after the KITTI devkit's
         background interpolation, as the rows scored it.
+    kept : callable, optional
+        ``(name, index) -> the run's own output or None`` (:mod:`.kept_frames`), drawn instead of running again.
     """
 
     def __init__(
         self, methods: Mapping[str, Any], dataset: DepthDataset, protocol: str, seed: int,
         unfilled: Mapping[str, str] | None = None, coverage: Coverage | None = None,
+        kept: Callable[[str, int], np.ndarray | None] | None = None,
     ):
-        self.methods, self.dataset, self.seed = dict(methods), dataset, seed
+        self.methods, self.dataset, self.seed = methods, dataset, seed
         self.unfilled = dict(unfilled or {})
-        self.coverage = coverage
+        self.coverage, self.kept = coverage, (kept if coverage is None else None)  # a width needs the method
         self._widths: dict[tuple[str, int], np.ndarray | None] = {}
         self.protocol = get_protocol(protocol)
         self.input_kind = getattr(dataset, "input_kind", "map")
@@ -151,6 +154,8 @@ class FramePredictions:
 
     def prediction(self, name: str, index: int) -> np.ndarray:
         """Method ``name``'s reconstruction of frame ``index``."""
+        if (name, index) not in self._preds and (held := self.held(name, index)) is not None:
+            self._preds[(name, index)] = interpolate_background(held[None])[0] if self.policy(name) == "interpolate" else held
         if (name, index) not in self._preds:
             method, x = self.methods[name], self.method_input(index)[None]
             source = interval_source(method, self.coverage, name)
@@ -164,6 +169,10 @@ class FramePredictions:
                 pred = interpolate_background(pred)
             self._preds[(name, index)] = pred[0]
         return self._preds[(name, index)]
+
+    def held(self, name: str, index: int) -> np.ndarray | None:
+        """Method ``name``'s output on frame ``index`` as the run made it (``kept``), or None: run again."""
+        return None if self.kept is None else self.kept(name, index)
 
     def width(self, name: str, index: int) -> np.ndarray | None:
         """The width of method ``name``'s interval on frame ``index`` (``coverage`` given and the method has

@@ -35,6 +35,7 @@ from ..progress import (
 )
 from ..files.identity import method_identity
 from .costs import relative_costs
+from .kept_frames import KeptFrames
 from ..files.lock import holds_lock, run_lock
 from ..files.ownership import adopt, check_folder, claim, remove
 from .rows import append_rows, end_partial_line, read_rows, rows_file_name
@@ -107,7 +108,7 @@ def run_benchmark(
     on_bad_frame: str = "error",
     client: Any = None,
     unfilled: str | None = None,
-    interval_coverage: float | None = None,
+    interval_coverage: float | None = None, kept: KeptFrames | None = None,
 ) -> EvaluationResult:
     """Score every method under every protocol and seed; return all per-frame rows.
 
@@ -166,6 +167,8 @@ def run_benchmark(
         method that gives one (``evaluate``'s ``intervals``): its rows gain coverage,
         width and the error-rejection columns; the others' rows are unchanged. Part of the
         run's fingerprint, so rows scored without it are never resumed into such a run.
+    kept : KeptFrames, optional
+        Keeps the predictions the figures draw as the run makes them (:mod:`.kept_frames`).
 
     Returns
     -------
@@ -207,7 +210,7 @@ def run_benchmark(
     with contextlib.nullcontext() if held else run_lock(out_dir, log):
         return _run_locked(
             methods, datasets, tasks, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
-            log or (lambda msg: None), on_bad_frame, client, policies, unfilled, interval_coverage,
+            log or (lambda msg: None), on_bad_frame, client, policies, unfilled, interval_coverage, kept,
         )
 
 
@@ -230,13 +233,13 @@ def _run_locked(
     methods: Mapping[str, Any], datasets: dict[str, DepthDataset], tasks: list[Task], seeds: list[int],
     n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
     say: Callable[[str], None], on_bad_frame: str, client: Any, policies: dict[str, str], unfilled: str | None,
-    interval_coverage: float | None = None,
+    interval_coverage: float | None = None, kept: KeptFrames | None = None,
 ) -> EvaluationResult:
     """The run inside the folder's lock: open the run folder, plan, score each method, combine."""
     totals = {k: len(ds) if n_frames is None else min(len(ds), int(n_frames)) for k, ds in datasets.items()}
     run = _Run(methods, datasets, tasks, seeds, totals, out, say, policies,
                {"batch_size": batch_size, "progress": progress, "on_bad_frame": on_bad_frame, "client": client,
-                "intervals": interval_coverage})
+                "intervals": interval_coverage, "kept": kept or KeptFrames({}, 0)})
     run.open(resume, unfilled)
     run.plan()
     results: list[EvaluationResult] = []
@@ -416,6 +419,7 @@ class _Run:
             self._score_task(name, method, task, self.paths[name][task])
             # Every row is one the run planned, one per (seed, frame) (read_rows refuses others).
             rows = sorted(self._read(name, task), key=lambda r: (r["seed"], r["index"]))
+            self.evaluate_kw["kept"].ranked(task.label, name, rows, f"{self.protocols[task].task}_rmse")
             results.append(EvaluationResult(rows=rows, meta={"methods": [name]}))
         return results
 
@@ -461,7 +465,9 @@ class _Run:
                                   self.totals[task.input_kind], batch_size=kw["batch_size"], max_depth=DEFAULT_MAX_DEPTH,
                                   on_bad_frame=kw["on_bad_frame"], unfilled=self.policies[name],
                                   intervals=kw["intervals"], client=kw["client"])
-            part = evaluate_plan(method, plan, name=name, progress=kw["progress"], on_batch=append, warmup=warmup)
+            part = evaluate_plan(method, plan, name=name, progress=kw["progress"], on_batch=append, warmup=warmup,
+                                 on_predictions=kw["kept"].keeper(task.label, task.input_kind, name),
+                                 on_warm=(lambda: None) if reporter is None else reporter.warmed)
             self.skipped.append(part.meta.get("skipped_frames") or [])
 
     def combine(self, results: list[EvaluationResult]) -> EvaluationResult:

@@ -161,15 +161,16 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             )
             for name, m in methods.items()
         }
+        kept = _kept_frames(datasets, args.figure_frames, seeds[0])
         with open_client(args.scheduler) as client:
             result = run_benchmark(
                 cached, datasets, protocols=tasks, seeds=seeds, out_dir=out,
                 resume=not args.no_resume, batch_size=args.batch_size, progress=not args.quiet, log=log,
                 on_bad_frame=args.on_bad_frame, client=client, unfilled=args.unfilled,
-                interval_coverage=coverage,
+                interval_coverage=coverage, kept=kept,
             )
         _report(args, result, out, holdout, {n: (lambda n=n: materialise(n, methods[n])) for n in methods},
-                methods, datasets, tasks, seeds[0], log, started)
+                methods, datasets, tasks, seeds[0], log, started, kept)
     return 0
 
 
@@ -234,9 +235,20 @@ def _dataset(args: argparse.Namespace) -> tuple[Any, float]:
     return dataset, holdout
 
 
+def _kept_frames(datasets: dict[str, Any], n_panels: int, seed: int) -> Any:
+    """What keeps the predictions the figures draw while the run makes them (None without figures)."""
+    from ..benchmark.figures import DISTANCE_FRAMES, spread_indices
+    from ..benchmark.kept_frames import KeptFrames
+
+    if n_panels <= 0:
+        return None
+    return KeptFrames({kind: spread_indices(ds, max(n_panels, DISTANCE_FRAMES)) for kind, ds in datasets.items()},
+                      seed)
+
+
 def write_task_figures(
     result: Any, tasks: list[Any], datasets: dict[str, Any], out: Path, factories: dict[str, Any],
-    methods: dict[str, Any], *, n_panels: int, seed: int, log: Any, exclude: set[int],
+    methods: dict[str, Any], *, n_panels: int, seed: int, log: Any, exclude: set[int], kept: Any = None,
 ) -> None:
     """Draw every task's figures (:func:`~inpaintenv.benchmark.figures.task_folder`): its best four
     methods by the task's RMSE on ``n_panels`` frames, its error by depth, by distance to the
@@ -258,7 +270,7 @@ def write_task_figures(
             on_task, factories, datasets[task.input_kind], folder,
             panel_methods=list(figure_methods(table, methods, metric=metric)), n_panels=n_panels,
             protocol=task.protocol, seed=seed, log=log, exclude=exclude,
-            unfilled=result.meta.get("unfilled", {}),
+            unfilled=result.meta.get("unfilled", {}), kept=None if kept is None else kept.lookup(task.label),
         )
         log(f"figures of {task.label} in {folder}")
 
@@ -266,6 +278,7 @@ def write_task_figures(
 def _report(
     args: argparse.Namespace, result: Any, out: Path, holdout: float, factories: dict[str, Any],
     methods: dict[str, Any], datasets: dict[str, Any], tasks: list[Any], seed: int, log: Any, started: float,
+    kept: Any = None,
 ) -> None:
     """Write the report, print the tables (skipped frames, the learned-vs-classical
     headline), draw the figures of a finished run and write its ``report.html``."""
@@ -292,7 +305,7 @@ def _report(
         print(f"\n{headline_title(compared)} ({what} ratio, paired 95 % CI):\n" + headline_markdown(compared))
     if args.figure_frames > 0:
         write_task_figures(result, tasks, datasets, out, factories, methods, n_panels=args.figure_frames, seed=seed,
-                           log=log, exclude={r["index"] for r in skipped})
+                           log=log, exclude={r["index"] for r in skipped}, kept=kept)
         beams = write_density_figure(result, out / "figures" / "density")
         if beams is not None:
             log(f"RMSE against the LiDAR's beams: {beams}")

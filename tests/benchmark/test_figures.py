@@ -15,8 +15,14 @@ pytest.importorskip("estimators.classical")
 
 METHODS = ["scanline", "constant", "nearest", "harmonic", "ipbasic"]
 # 16 synthetic frames: two drives of 8.
-ARGV = ["benchmark", *[a for m in METHODS for a in ("-m", m)], "--n-frames", "16", "--frame-shape", "64", "192",
-        "--holdout", "0", "--figure-frames", "1", "--quiet"]
+OPTIONS = ["--n-frames", "16", "--frame-shape", "64", "192", "--holdout", "0", "--figure-frames", "1", "--quiet"]
+
+
+def argv_of(methods: list[str]) -> list[str]:
+    return ["benchmark", *[a for m in methods for a in ("-m", m)], *OPTIONS]
+
+
+ARGV = argv_of(METHODS)
 
 
 @pytest.fixture
@@ -54,14 +60,27 @@ def test_one_colour_per_method_in_every_figure_and_frames_from_every_drive(tmp_p
 def test_rerun_with_everything_done_does_not_predict_again(tmp_path, drawn, capsys):
     argv = [a for a in ARGV if a != "--quiet"] + ["--out", str(tmp_path)]
     assert main(argv) == 0
-    first = drawn["predict"]
+    assert drawn["predict"] == 0  # the run's own predictions of the spread frames are drawn
     err = capsys.readouterr().err
-    assert first == 4 * 8  # the four best methods on the 8 spread frames, once each (panel frames shared)
-    line = next(x for x in err.splitlines() if x.startswith("figures (rect-v1): running"))
-    assert "4 methods again on 8 frames spread over 2 of 2 drives" in line and "the rows do not keep" in line
+    assert "figures (rect-v1): the pixels of 4 methods on 8 frames spread over 2 of 2 drives kept" in err
     assert main(argv) == 0
-    assert drawn["predict"] == first  # nothing new: figures already show these rows
+    assert drawn["predict"] == 0  # nothing new: figures already show these rows
     assert "already show these rows; not redrawn" in capsys.readouterr().err
+    (tmp_path / "figures" / "figures.json").unlink()
+    assert main(argv) == 0  # every row on disk: the figures alone need the pixels, and only theirs
+    assert drawn["predict"] == 4 * 8  # the four best methods on the 8 spread frames, once each (panel frames shared)
+    line = next(x for x in capsys.readouterr().err.splitlines() if x.startswith("figures (rect-v1): running"))
+    assert "4 methods again on 8 frames spread over 2 of 2 drives" in line and "the rows do not keep" in line
+
+
+def test_figures_run_again_only_the_methods_an_earlier_run_scored(tmp_path, drawn):
+    first = ["--out", str(tmp_path), "--figure-frames", "0"]
+    assert main([*argv_of(METHODS[:2]), *first]) == 0
+    assert drawn["predict"] == 0
+    assert main([*ARGV, "--out", str(tmp_path)]) == 0  # three new methods scored now, two resumed
+    drawn_methods = set(drawn["error_vs_distance.png"]["lines"])
+    resumed = drawn_methods & set(METHODS[:2])
+    assert drawn["predict"] == 8 * len(resumed)  # only the resumed methods' frames are predicted again
 
 
 def test_spread_indices_cover_the_drives_in_turn():

@@ -127,3 +127,20 @@ def test_report_stays_small(every_task):
     size = (every_task / REPORT_FILE).stat().st_size
     assert size < 2_000_000, size
     assert ownership.owns(every_task, REPORT_FILE)
+
+
+def test_report_of_ten_methods_on_three_tasks_stays_under_5_mb(tmp_path, monkeypatch):
+    # Frames of KITTI's aspect, the default figure frames (2 panels per task, the 8 spread frames).
+    from inpaintenv.benchmark import suites
+
+    ten = suites.SUITES["classical"][:10]
+    monkeypatch.setitem(suites.SUITES, "classical", ten)
+    out = tmp_path / "run"
+    assert main(["benchmark", "--suite", "classical", "--synthetic", "--n-frames", "8", "--frame-shape", "64", "212",
+                 "--holdout", "0", "--quiet", "--out", str(out)]) == 0
+    page = (out / REPORT_FILE).read_text()
+    assert all(name in page for name in ten)
+    sections = _sections(page)
+    assert all(len(_embedded(sections[f"task-{t}"])) >= 4 for t in ("rect-v1", "scan_densify-v1", "scan_rect-v1"))
+    size = (out / REPORT_FILE).stat().st_size
+    assert size < 5_000_000, size

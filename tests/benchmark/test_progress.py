@@ -131,3 +131,32 @@ def test_first_estimate_scales_the_first_methods_rate_by_the_cost_hints():
     plain = ProgressReporter({m: 10 for m in suite}, lambda line: None, clock=lambda: now[0])
     plain.spent["pretrained"], plain.done["pretrained"] = rep.spent["pretrained"], 10
     assert plain.estimate() > 1.5 * left  # without hints: every method at the first one's rate
+
+
+class _SlowFirstCall:
+    """A stand-in method whose first call pays a one-time load (``load`` s), each later one ``frame`` s."""
+
+    def __init__(self, load: float = 0.4, frame: float = 0.02) -> None:
+        self.load, self.frame, self.calls = load, frame, 0
+
+    def __call__(self, x):
+        import time
+
+        import numpy as np
+
+        time.sleep(self.load if self.calls == 0 else self.frame)
+        self.calls += 1
+        return np.where(np.isnan(x), 10.0, x)
+
+
+def test_first_estimate_leaves_out_the_one_time_load(tmp_path):
+    from inpaintenv.data.synthetic import SyntheticStreets
+
+    lines: list[str] = []
+    slow = _SlowFirstCall()
+    runner.run_benchmark({"slow": slow, "next": _SlowFirstCall(load=0.02)}, SyntheticStreets(n=4, frame_shape=(24, 64)),
+                         out_dir=tmp_path / "run", batch_size=1, log=lines.append)
+    assert slow.calls == 5  # the warm-up call, then one per frame
+    first = next(line for line in lines if line.startswith("slow: "))
+    per_frame = float(re.search(r"([\d.]+) s/frame from its first batch", first).group(1))
+    assert per_frame < 0.2, first  # the first call's load (0.4 s) is not a frame's cost
