@@ -394,8 +394,9 @@ class InputRoutedInpainter(ConstrainedParams, BaseInpainter):
         made, name = f"_{kind}_interval", self.name_of(kind)
         if made not in self.__dict__:
             if self.intervals is None or kind == "points":  # no calibration is made on scattered points
+                why = "none is calibrated on such scans" if kind == "points" else "ships none"
                 raise InvalidInputError(
-                    f"no calibrated interval for a single {_KIND_WORDS[kind]} yet: its route {name} ships none; drop the interval "
+                    f"no calibrated interval for a single {_KIND_WORDS[kind]} yet: its route {name} {why}; drop the interval "
                     f"(fill without --confidence), or give one (--intervals CAL.json, or -m <method>-intervals)")
             with _MAKING:
                 if made not in self.__dict__:

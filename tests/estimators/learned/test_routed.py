@@ -163,7 +163,7 @@ def test_a_tenth_of_the_points_takes_the_points_route_and_lines_do_not():
 def test_a_scattered_point_scan_borrows_no_interval():
     est = InputRoutedInpainter(map_method=_WithInterval(), scan_method=_WithInterval(), points_method=HarmonicInpainter(),
                                points_name="harmonic-points", intervals=lambda name, method: _WithInterval())
-    with pytest.raises(InpaintenvError, match="scattered-point scan.*harmonic-points"):
+    with pytest.raises(InpaintenvError, match="scattered-point scan.*harmonic-points none is calibrated on such scans"):
         est.predict_interval(_scattered(0.1)[None])
 
 
