@@ -3,7 +3,7 @@
 Far points (beyond the 16-bit PNG's 255.996 m) are left out and counted, never stored as 255.996 m;
 a scan none of whose points lands in the image, a left-handed projection, a 16-bit PNG of plain
 metres and a scan given the calibration of another rig are each one clear error. The real scans
-of ``kitti-raw`` check the rig rule and the measured shares that docs/fill.md quotes.
+of ``kitti-raw`` check the rig rule and the measured shares behind it.
 """
 
 from __future__ import annotations
@@ -252,7 +252,7 @@ def test_another_days_calibration_moves_real_points_and_is_refused(kitti_raw_roo
 
 @pytest.mark.kitti
 def test_the_share_of_points_in_the_image_does_not_tell_the_rigs_apart(kitti_raw_root):
-    """Why the rig comes from the folders: docs/fill.md's measurement, as a check that it still holds."""
+    """Why the rig comes from the folders: the measurement behind the rule, as a check that it still holds."""
     def share(scan: Path, calib: Path) -> float:
         c = read_calibration(calib)
         u, v, z = project_points(read_scan(scan), c)
@@ -263,7 +263,7 @@ def test_the_share_of_points_in_the_image_does_not_tell_the_rigs_apart(kitti_raw
 
     raw = kitti_raw_root / RAW_DAY / f"{RAW_DAY}_drive_0009_sync" / "velodyne_points" / "data" / "0000000005.bin"
     k360 = kitti_raw_root / K360_SCAN
-    # docs/fill.md: 16 % of the raw scan in its image, 17 % of the KITTI-360 scan in the same image, 24 % in its own
+    # 16 % of the raw scan in its image, 17 % of the KITTI-360 scan in the same image, 24 % in its own
     assert share(raw, kitti_raw_root / RAW_DAY) == pytest.approx(0.16, abs=0.005)
     assert share(k360, kitti_raw_root / RAW_DAY) == pytest.approx(0.17, abs=0.005)
     assert share(k360, kitti_raw_root / "kitti360" / "calibration") == pytest.approx(0.24, abs=0.005)
@@ -278,7 +278,7 @@ def test_real_scans_keep_every_point_and_a_decimetre_scan_is_refused(kitti_raw_r
     scaled = scan.copy()
     scaled[:, :3] *= 10
     z = project_points(scaled, calib)[2]
-    assert np.mean(z[z > 0.1] > DEPTH_LIMIT) == pytest.approx(0.06, abs=0.005)  # docs/fill.md: 6 % beyond the limit
+    assert np.mean(z[z > 0.1] > DEPTH_LIMIT) == pytest.approx(0.06, abs=0.005)  # 6 % beyond the limit
     folder = tmp_path / f"{RAW_DAY}_drive_0001_sync"
     folder.mkdir()
     write_points_bin(folder / "s.bin", scaled)
