@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 from _common import exit_status, run_command
 
+from inpaintenv.data.inputs import INPUT_KINDS, INPUTS
+
 
 CALIBRATE_DOC = """The interval calibration shipped with a release: out-of-fold residuals of its leave-one-day-out fold models.
 
@@ -56,6 +58,15 @@ default (``SCAN_DEFAULT``) ships this way::
 ``--protocol densify-v1+rect-v1`` pools both scan tasks (each task's pixels: the unmeasured ones,
 the hole cut out of the scan), and ``--signals border depth spread far`` covers the pixels far
 from any measurement and the near ones alike: how ``kitti-scan-v1`` ships (``lodo`` chose it).
+
+Several ``--input`` kinds pool densities (each kind's frames one part of ``fit_out_of_fold``, the
+fill itself each part's model). ``pretrained``'s sparse route (``harmonic`` on 32/16/8-beam scans)
+ships this way, under a route's file that registers no ``harmonic-intervals`` for maps::
+
+    python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release harmonic \
+        --input scan-rings32-v1 scan-rings16-v1 scan-rings8-v1 --protocol densify-v1+rect-v1 \
+        --spread-method nearest --signals border depth spread far --frames-per-drive 6 \
+        --out estimators/pretrained/intervals/routes/sparse-harmonic.json
 """
 
 #: Drive of official maps: reported, never calibrated on, when calibrating on scans.
@@ -73,21 +84,26 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     parser.add_argument("--coverage", type=float, default=0.9)
     parser.add_argument("--protocol", help="masks protocol the calibration frames are occluded with (default "
                         "rect-v1 on maps, densify-v1 on scans)")
-    parser.add_argument("--input", choices=("map", "scan"), default="map",
-                        help="the input the release fills: a map with holes, or a single scan (the rebuilt drives' scans)")
+    parser.add_argument("--input", nargs="+", choices=INPUT_KINDS, default=["map"],
+                        help="the input the release fills: a map with holes, or a single scan (the rebuilt drives' "
+                        "scans) or its density variants; several scan kinds are pooled (a fill that saw no drive)")
     parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"],
                         help="scale signals (\"far\" too: SIGNALS of estimators.intervals)")
     parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
     args = parser.parse_args(argv)
-    args.protocol = args.protocol or ("densify-v1" if args.input == "scan" else "rect-v1")
+    scans = [INPUTS[k].separate for k in args.input]
+    if len(args.input) > 1 and (not all(scans) or args.fold or len(set(args.input)) < len(args.input)):
+        raise SystemExit("several --input kinds: distinct scan kinds only, of a fill that saw no drive (no --fold)")
+    args.protocol = args.protocol or ("densify-v1" if scans[0] else "rect-v1")
 
     from estimators.intervals import ConformalIntervalInpainter
     from estimators.learned import load
     from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.methods.registry import make_method
 
-    dataset = KittiDepth(args.kitti_root, split="train", input=args.input)
-    drives = sorted({str(g) for g in dataset.groups} - ({OFFICIAL_DRIVE} if args.input == "scan" else set()))
+    datasets = [KittiDepth(args.kitti_root, split="train", input=kind) for kind in args.input]
+    dataset = datasets[0]
+    drives = sorted({str(g) for g in dataset.groups} - ({OFFICIAL_DRIVE} if scans[0] else set()))
     folds = []
     for entry in args.fold:
         day, _, path = entry.partition("=")
@@ -110,7 +126,10 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
         unseen = sorted(set(drives) - set(getattr(release, "training_drives_", None) or ()))
         if not unseen:
             raise SystemExit(f"{args.release} saw every drive of {args.kitti_root}: give its fold models (--fold)")
-        wrapper.fit(spaced_per_drive(dataset, args.frames_per_drive, unseen))
+        if len(datasets) > 1:  # each density's frames a part of their own: a drive calibrates once per density
+            wrapper.fit_out_of_fold([(release, spaced_per_drive(ds, args.frames_per_drive, unseen)) for ds in datasets])
+        else:
+            wrapper.fit(spaced_per_drive(dataset, args.frames_per_drive, unseen))
     out = Path(args.out) if args.out else (Path(__file__).resolve().parents[1] / "estimators" / "pretrained"
                                            / "intervals" / f"{args.release}.json")
     wrapper.save(out, base=args.release)
@@ -289,6 +308,14 @@ normalised by their start; ranked by the interval's width).
 
     python experiments/interval_calibration.py lodo --kitti-root <KITTI root> --spread-method harmonic \\
         --fold 2011_09_26=<model without 2011_09_26> --fold 2011_09_30=<...> --fold 2011_10_03=<...>
+
+``--method NAME`` scores every day with a fill that saw no drive (no fold models), and several
+``--input`` kinds pool densities (calibration and each task's row; a row per kind as well): how
+the sparse route's ``harmonic`` was chosen::
+
+    python experiments/interval_calibration.py lodo --kitti-root <KITTI root> --method harmonic \\
+        --spread-method nearest --input scan-rings32-v1 scan-rings16-v1 scan-rings8-v1 --frames-per-drive 3 \\
+        --calibration densify-v1+rect-v1 --calibration "densify-v1+rect-v1 (+far)"
 """
 
 #: The scan tasks scored, and the calibrations compared: (protocol, signals).
@@ -297,6 +324,11 @@ SHIPPED_SIGNALS = ("border", "depth", "spread")
 LODO_SIGNALS = SHIPPED_SIGNALS + ("far",)
 CALIBRATIONS = (("densify-v1", SHIPPED_SIGNALS), ("rect-v1", SHIPPED_SIGNALS),
                 ("densify-v1+rect-v1", SHIPPED_SIGNALS), ("densify-v1+rect-v1", LODO_SIGNALS))
+
+
+def variant_name(protocol: str, signals: tuple[str, ...]) -> str:
+    """A compared calibration's name: its protocol, ``" (+far)"`` with the signal ``far``."""
+    return protocol + ("" if signals == SHIPPED_SIGNALS else " (+far)")
 
 
 def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...]) -> dict[tuple[str, int], tuple]:
@@ -340,47 +372,62 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(prog="interval_calibration.py lodo", description=LODO_DOC,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kitti-root", required=True)
-    parser.add_argument("--fold", action="append", default=[], required=True, metavar="DAY=MODEL")
+    parser.add_argument("--fold", action="append", default=[], metavar="DAY=MODEL")
+    parser.add_argument("--method", help="a fill that saw no drive, scoring every day (instead of --fold)")
+    parser.add_argument("--input", nargs="+", default=["scan"], choices=[k for k in INPUT_KINDS if INPUTS[k].separate],
+                        help="scan kinds, pooled (densities)")
     parser.add_argument("--frames-per-drive", type=int, default=8, help="0 = every frame")
     parser.add_argument("--seeds", default="0,1,2", help="rect-v1 seeds scored, comma-separated")
     parser.add_argument("--spread-method", default="harmonic")
     parser.add_argument("--coverage", type=float, default=0.9)
+    parser.add_argument("--calibration", action="append", choices=[variant_name(*c) for c in CALIBRATIONS],
+                        help="the variants compared (repeatable; default every one)")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
+    if bool(args.fold) == bool(args.method):
+        raise SystemExit("give a --fold DAY=MODEL per day, or --method (a fill that saw no drive), not both")
 
     from estimators.intervals import balanced_scale, residual_quantiles, scale_from
     from estimators.learned import load
     from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.methods.registry import make_method
 
-    dataset = KittiDepth(args.kitti_root, split="train", input="scan")
-    drives = sorted({str(g) for g in dataset.groups} - {OFFICIAL_DRIVE})
+    datasets = {kind: KittiDepth(args.kitti_root, split="train", input=kind) for kind in args.input}
+    drives = sorted({str(g) for g in datasets[args.input[0]].groups} - {OFFICIAL_DRIVE})
     seeds = tuple(int(s) for s in args.seeds.split(","))
     spread = make_method(args.spread_method)
-    days: dict[str, dict] = {}
-    for entry in args.fold:
-        day, _, path = entry.partition("=")
+    entries = [e.partition("=")[::2] for e in args.fold] or [(day, "") for day in sorted({d[:10] for d in drives})]
+    days: dict[str, dict] = {}  # day -> input kind -> (task, seed) -> residuals
+    for day, path in entries:
         start = time.perf_counter()
-        frames = spaced_per_drive(dataset, args.frames_per_drive, [d for d in drives if d.startswith(day)])
-        days[day] = day_residuals(load(path), frames, spread, seeds)
-        print(f"{day}: {len(frames)} frames ({time.perf_counter() - start:.0f} s)", flush=True)
+        model = load(path) if path else make_method(args.method)
+        mine = [d for d in drives if d.startswith(day)]
+        days[day] = {kind: day_residuals(model, spaced_per_drive(ds, args.frames_per_drive, mine), spread, seeds)
+                     for kind, ds in datasets.items()}
+        print(f"{day}: {len(mine)} drives x {len(datasets)} inputs ({time.perf_counter() - start:.0f} s)", flush=True)
     rows = []
-    print("| calibrated on | left-out day | task | coverage | mean width (m) | keep-80 % cut | AUSE (pooled) |\n"
-          "|---|---|---|---:|---:|---:|---:|")
+    every = "+".join(args.input)
+    print("| calibrated on | left-out day | task | input | coverage | mean width (m) | keep-80 % cut | AUSE (pooled) |\n"
+          "|---|---|---|---|---:|---:|---:|---:|")
     for protocol, signals in CALIBRATIONS:
-        variant = protocol + ("" if signals == SHIPPED_SIGNALS else " (+far)")
+        variant = variant_name(protocol, signals)
+        if args.calibration and variant not in args.calibration:
+            continue
         cols = [0] + [1 + LODO_SIGNALS.index(name) for name in signals]
         for day in days:
-            cal = pooled([days[d][(t, 0)] for d in days if d != day for t in protocol.split("+")])
+            cal = pooled([days[d][k][(t, 0)] for d in days if d != day for k in args.input for t in protocol.split("+")])
             coef = np.zeros(1 + len(LODO_SIGNALS))  # the signals left out weigh 0
             coef[cols] = balanced_scale(cal[0][:, cols], cal[1], cal[2], signals, 0, 200_000, "frame", args.coverage)
             _, q = residual_quantiles(cal[1] / scale_from(coef, cal[0]), cal[2], "frame", args.coverage)
             for task in SCAN_TASKS:
-                test = pooled([v for (t, _), v in days[day].items() if t == task])
-                row = {"calibration": variant, "day": day, "task": task, **interval_scores(coef, q, *test)}
-                rows.append(row)
-                print(f"| {variant} | {day} | {task} | {row['coverage']:.3f} | {row['width']:.2f} | "
-                      f"{row['cut_80']:.1%} | {row['ause']:.3f} |", flush=True)
+                for kinds in [args.input] + ([[k] for k in args.input] if len(args.input) > 1 else []):
+                    test = pooled([v for k in kinds for (t, _), v in days[day][k].items() if t == task])
+                    name = every if len(kinds) > 1 else kinds[0]
+                    row = {"calibration": variant, "day": day, "task": task, "input": name,
+                           **interval_scores(coef, q, *test)}
+                    rows.append(row)
+                    print(f"| {variant} | {day} | {task} | {name} | {row['coverage']:.3f} | {row['width']:.2f} | "
+                          f"{row['cut_80']:.1%} | {row['ause']:.3f} |", flush=True)
     if args.json:
         from inpaintenv.files import write_json
         write_json(args.json, rows)

@@ -34,17 +34,16 @@ The interval of nominal coverage ``c`` is ``pred ± q_c · scale`` (low clipped 
     correction (the ``ceil((n + 1) c)``-th smallest of ``n``), whose guarantee is for a pixel
     drawn from all the test pixels pooled.
 
-The weighted residuals are kept as 2001 quantiles, so any coverage can be asked after
-calibration (rounded up to the next stored level: conservative by at most 0.05 %).
+The weighted residuals are kept as 2001 quantiles: any coverage can be asked (rounded up, by at most 0.05 %).
 
 The guarantee is marginal over pixels of frames exchangeable with the calibration frames,
 so **the base model must never have seen the calibration drives**: ``fit`` takes whole
 drives (``groups``) and refuses drives the base records in ``training_drives_``.
 
-On single scans (``input_kind`` ``"scan"`` or a density variant) the scored pixels are the
-protocol's task: under ``densify-v1`` every pixel the scan did not measure, under a hole
-protocol the hole cut out of the scan; ``"densify-v1+rect-v1"`` pools both. The maths is in
-``._calibration``, the file's reading and writing in ``._persistence`` and ``._calibration_file``.
+On single scans (``input_kind`` ``"scan"`` or a density variant) the scored pixels are the protocol's
+task: under ``densify-v1`` every pixel the scan did not measure, under a hole protocol the hole cut
+out of the scan; ``"densify-v1+rect-v1"`` pools both. The maths is in ``._calibration``, the file's
+reading and writing in ``._persistence`` and ``._calibration_file``.
 """
 
 from __future__ import annotations
@@ -227,19 +226,19 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
     def fit_out_of_fold(self, folds: Sequence[tuple[Any, Any]]) -> ConformalIntervalInpainter:
         """Calibrate ``estimator`` on out-of-fold residuals of models of its recipe (cross-fitting).
 
-        For a model trained on every drive there is, such as a shipped release: each
-        ``(model, X)`` pair is a model trained *without* ``X``'s drives (a fold model of
-        the same recipe) and frames of those drives; the scale and the quantiles are fitted
-        on the pooled residuals of each fold model on its own left-out drives, then used
-        around ``estimator``. This is the "CV" estimate of cross-conformal prediction: it
-        assumes ``estimator``'s errors on new drives are no larger than its fold models'
-        (each trained on less data); ``calibration_["out_of_fold"]`` records it.
+        For a model trained on every drive there is, such as a shipped release: each ``(model, X)``
+        pair is a model trained *without* ``X``'s drives (a fold model of the same recipe) and
+        frames of those drives; the scale and the quantiles are fitted on the pooled residuals of
+        each fold model on its own left-out drives, then used around ``estimator``. This is the
+        "CV" estimate of cross-conformal prediction: it assumes ``estimator``'s errors on new drives
+        are no larger than its fold models' (trained on less); ``calibration_["out_of_fold"]`` records it.
 
         Parameters
         ----------
         folds : sequence of (fitted model, dataset)
             Each model of ``estimator``'s class, each dataset of whole drives the model
-            never saw (checked against its ``training_drives_``), no drive in two folds.
+            never saw (checked against its ``training_drives_``), no drive of one input kind
+            in two folds (a fill that saw no drive pools densities: one ``(fill, dataset)`` per kind).
 
         Returns
         -------
@@ -267,22 +266,25 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
                 raise InvalidInputError(f"folds[{k}]: the fold model is a {type(model).__name__}, the estimator a "
                                         f"{type(self.estimator).__name__}: fold models must follow its recipe")
             dataset = self._grouped(X, None)
-            drives = sorted({str(g) for g in dataset.groups})
+            drives, kind = sorted({str(g) for g in dataset.groups}), getattr(dataset, "input_kind", "map")
             self._refuse_seen(model, drives, f"folds[{k}]: the fold model")
-            twice = sorted(set(drives) & set(taken))
+            twice = sorted(set(drives) & {d for d, i in taken if i == kind})  # once per input kind (density)
             if twice:
-                raise InvalidInputError(f"folds[{k}]: drives {twice} are in folds[{taken[twice[0]]}] too; each drive "
-                                        "calibrates once")
-            taken.update({d: k for d in drives})
+                raise InvalidInputError(f"folds[{k}]: drives {twice} are in folds[{taken[twice[0], kind]}] too "
+                                        f"(input {kind!r}); each drive calibrates once per input kind")
+            taken.update({(d, kind): k for d in drives})
             F, r, frame = self._residuals(model, dataset, signals, second)
             feats.append(F)
             resid.append(r)
             # Frame numbers stay distinct across folds: they only group pixels for the weights.
             frames.append(frame + sum(rec["n_frames"] for rec in records))
             records.append({"drives": drives, "n_frames": len(dataset), "n_pixels": int(r.size),
-                            "training_drives": sorted(str(d) for d in getattr(model, "training_drives_", None) or ())})
-        self._calibrate(np.concatenate(feats), np.concatenate(resid), np.concatenate(frames), None, sorted(taken),
-                        signals, n_frames=sum(rec["n_frames"] for rec in records))
+                            "training_drives": sorted(str(d) for d in getattr(model, "training_drives_", None) or ()),
+                            **({"input_kind": kind} if input_kind(kind).separate else {})})  # maps' as they were
+        self._calibrate(np.concatenate(feats), np.concatenate(resid), np.concatenate(frames), None,
+                        sorted({d for d, _ in taken}), signals, n_frames=sum(rec["n_frames"] for rec in records))
+        if kinds := list(dict.fromkeys(rec["input_kind"] for rec in records if "input_kind" in rec)):
+            self.calibration_["input_kind"] = "+".join(kinds)  # densities pooled: "scan-rings32-v1+..."
         self.calibration_["out_of_fold"] = records
         return self
 
@@ -338,8 +340,7 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
                                     "drives the base never saw) or a dataset whose frames carry them (KittiDepth)")
         return dataset
 
-    #: The split-conformal quantile of sorted normalised residuals at a coverage.
-    _exact_quantile = staticmethod(exact_quantile)
+    _exact_quantile = staticmethod(exact_quantile)  # split-conformal quantile of sorted normalised residuals
 
     def _scale_from(self, F: np.ndarray) -> np.ndarray:
         """The calibrated scale (metres) of each row of the design matrix ``F``."""

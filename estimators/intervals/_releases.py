@@ -10,7 +10,14 @@ from inpaintenv.exceptions import InvalidInputError
 
 from ._conformal import ConformalIntervalInpainter
 
-__all__ = ["ShippedIntervals", "default_intervals", "load_intervals", "release_intervals", "shipped_intervals"]
+__all__ = ["ROUTE_INTERVALS", "ShippedIntervals", "default_intervals", "load_intervals", "release_intervals",
+           "shipped_intervals"]
+
+#: Calibrations shipped for one route of ``pretrained`` only, by the route's method name ->
+#: file stem in ``intervals/routes/``. Kept apart from the method calibrations so that none
+#: registers ``<name>-intervals`` for maps: the sparse route's ``harmonic`` is calibrated on
+#: 32/16/8-beam scans only.
+ROUTE_INTERVALS: dict[str, str] = {"harmonic": "sparse-harmonic"}
 
 
 def _intervals_dir() -> Path:
@@ -76,6 +83,17 @@ def _calibration_path(name: Any) -> Path:
     return path
 
 
+def _route_path(name: Any) -> Path:
+    """A route's calibration: its own (:data:`ROUTE_INTERVALS`) if it ships one, else its method's."""
+    stem = ROUTE_INTERVALS.get(name) if isinstance(name, str) else None
+    path = _intervals_dir() / "routes" / f"{stem}.json" if stem else None
+    if path is not None and path.is_file():
+        return path
+    if name not in shipped_intervals():  # only a shipped file's name, never a path
+        raise _no_calibration(name)
+    return _calibration_path(name)
+
+
 def _no_calibration(name: Any) -> InvalidInputError:
     have = ", ".join(shipped_intervals()) or "none"
     return InvalidInputError(f"method {name!r} has no shipped interval calibration (shipped: {have}); calibrate "
@@ -98,7 +116,8 @@ def load_intervals(path: str | os.PathLike, estimator: Any = None) -> ConformalI
 class ShippedIntervals:
     """The interval of a route of ``pretrained``: the calibration shipped for the route's name.
 
-    ``ShippedIntervals()(name, method)`` is ``method`` wrapped in
+    ``ShippedIntervals()(name, method)`` is ``method`` wrapped in the route's own calibration
+    (``intervals/routes/``, :data:`ROUTE_INTERVALS`: the sparse route's ``harmonic``) or else
     ``estimators/pretrained/intervals/<name>.json`` (a :class:`ConformalIntervalInpainter`,
     whose ``predict`` is ``method``'s bit for bit); the ``intervals`` of
     :class:`~estimators.learned.InputRoutedInpainter`. Stateless, so it pickles and copies.
@@ -110,9 +129,7 @@ class ShippedIntervals:
     """
 
     def __call__(self, name: str, method: Any) -> ConformalIntervalInpainter:
-        if name not in shipped_intervals():
-            raise _no_calibration(name)
-        return ConformalIntervalInpainter.load(_calibration_path(name), estimator=method)
+        return ConformalIntervalInpainter.load(_route_path(name), estimator=method)
 
     def __eq__(self, other: object) -> bool:
         return type(other) is ShippedIntervals
@@ -133,9 +150,10 @@ def default_intervals(name: str | None = None, input: str = "auto", require_cali
     (any frame routed as a 64-beam-like scan) the one shipped for the scan route
     (``<SCAN_DEFAULT>.json``, calibrated on scans), wrapped around the route's own method when
     an interval is first asked (:class:`ShippedIntervals`), so the fill is ``pretrained``'s
-    bit for bit. A route without a shipped calibration gives no interval (the sparse-scan
-    route's classical fill, which a scan sparser than a 64-beam one takes, ships none): asking
-    it is one error naming it, never another route's interval. Each route is loaded when a frame first
+    bit for bit. A sparse scan's (32/16/8 beams: the sparse route's ``harmonic``) is the
+    calibration shipped for that route only (:data:`ROUTE_INTERVALS`, calibrated on thinned
+    scans). A route without a shipped calibration gives no interval: asking it is one error
+    naming it, never another route's interval. Each route is loaded when a frame first
     takes it; its calibration when a frame's interval is first asked.
 
     Parameters

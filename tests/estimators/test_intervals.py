@@ -352,6 +352,26 @@ def test_out_of_fold_calibration_refuses_bad_folds(folds, match):
         ConformalIntervalInpainter(FoldTen(seen=["d0", "d1"]), signals=()).fit_out_of_fold(folds)
 
 
+def test_a_fill_that_saw_no_drive_pools_densities_each_drive_once_per_input_kind():
+    """The same drives thinned to 16 and to 8 rings are two parts (a drive calibrates once per
+    input kind), recorded by kind; the same kind twice is refused."""
+    from inpaintenv.data import SyntheticStreets
+
+    def thinned(kind):
+        return SyntheticStreets(n=2, frame_shape=(64, 192), seed=5, input=kind)
+
+    fill = FoldTen(seen=[])
+    wrapper = ConformalIntervalInpainter(fill, signals=(), protocol="densify-v1").fit_out_of_fold(
+        [(fill, thinned("scan-rings16-v1")), (fill, thinned("scan-rings8-v1"))])
+    cal = wrapper.calibration_
+    assert cal["input_kind"] == "scan-rings16-v1+scan-rings8-v1" and cal["n_frames"] == 4
+    assert [f["input_kind"] for f in cal["out_of_fold"]] == ["scan-rings16-v1", "scan-rings8-v1"]
+    assert cal["drives"] == sorted({str(g) for g in thinned("scan-rings8-v1").groups})
+    with pytest.raises(InvalidInputError, match="are in folds\\[0\\] too \\(input 'scan-rings8-v1'\\)"):
+        ConformalIntervalInpainter(fill, signals=(), protocol="densify-v1").fit_out_of_fold(
+            [(fill, thinned("scan-rings8-v1")), (fill, thinned("scan-rings8-v1"))])
+
+
 class CountingTen(FillTen):
     """FillTen counting its predict calls."""
 

@@ -94,3 +94,25 @@ def test_a_scan_fill_is_calibrated_on_the_rebuilt_drives_scans_never_on_drive_00
     assert cal["drives"] == drives[1:] and cal["protocol"] == "densify-v1" and cal["input_kind"] == "scan"
     # Densify scores every pixel the scan did not measure (there is no hole): far more than a rect-v1 hole.
     assert cal["n_pixels"] > 0.5 * 0.3 * 375 * 1242 * 2
+
+
+def test_several_scan_densities_are_pooled_each_drive_once_per_density(load_experiment, tmp_path):
+    rng = np.random.default_rng(4)
+    drives = ["2011_09_26_drive_0001_sync", "2011_09_26_drive_9001_sync", "2011_09_30_drive_9018_sync"]
+    for drive in drives:
+        truth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
+        scan = np.where(rng.random((375, 1242)) < 0.15, truth, 0.0)
+        for kind, depth in (("groundtruth", truth), ("velodyne_raw", scan)):
+            folder = tmp_path / "train" / drive / "proj_depth" / kind / "image_02"
+            folder.mkdir(parents=True)
+            write_depth_png(folder / "0000000000.png", depth.astype(np.float32))
+    kinds = ["scan-points50-v1", "scan-points25-v1"]
+    out = load_experiment("interval_calibration").main([
+        "calibrate", "--kitti-root", str(tmp_path), "--input", *kinds, "--release", "nearest",
+        "--protocol", "densify-v1+rect-v1", "--out", str(tmp_path / "cal.json"), "--spread-method", "harmonic"])
+    cal = json.loads(out.read_text())["calibration"]
+    assert cal["input_kind"] == "+".join(kinds) and cal["drives"] == drives[1:] and cal["n_frames"] == 4
+    assert [(f["input_kind"], f["drives"]) for f in cal["out_of_fold"]] == [(k, drives[1:]) for k in kinds]
+    with pytest.raises(SystemExit, match="distinct scan kinds only"):
+        load_experiment("interval_calibration").main(["calibrate", "--kitti-root", str(tmp_path), "--input", "map",
+                                                      "scan", "--release", "nearest"])

@@ -210,20 +210,59 @@ def test_benchmark_scores_the_default_s_interval(tmp_path):
     assert rows and all(0 <= r["hole_coverage"] <= 1 and r["hole_interval_width"] > 0 for r in rows)
 
 
-def test_a_sparse_scan_s_route_without_a_calibration_is_named_with_its_kind():
-    """pretrained fills a scan thinned to 8 rings with its sparse route; that route ships no
-    calibration, so asking its interval is one error naming the kind of frame and the route."""
+def _sparse_scan() -> np.ndarray:
+    """A synthetic scan thinned to 8 laser rings, as pretrained's sparse route takes it."""
     from inpaintenv.data import method_input
-    from inpaintenv.exceptions import InpaintenvError
 
     ds = SyntheticStreets(n=1, frame_shape=(128, 384), input="scan-rings8-v1")
     inputs = ds.load_input_batch([0])
-    x = method_input(inputs, np.zeros(inputs.shape, bool), ds.input)
+    return method_input(inputs, np.zeros(inputs.shape, bool), ds.input)
+
+
+def test_a_sparse_scan_s_route_without_a_calibration_is_named_with_its_kind(monkeypatch):
+    """Without the sparse route's own calibration, asking a sparse scan's interval is one error
+    naming the kind of frame and the route (never harmonic's map calibration: it ships none)."""
+    import estimators.intervals._releases as shipped_calibrations
+    from inpaintenv.exceptions import InpaintenvError
+
+    monkeypatch.setattr(shipped_calibrations, "ROUTE_INTERVALS", {})
+    x = _sparse_scan()
     routed = make_method("pretrained")
     routed.predict(x)
     if routed.routed_kinds_ != ["sparse"] or routed.sparse_name in shipped_intervals():
-        pytest.skip("this frame is not routed as a sparse scan, or its route ships a calibration")
+        pytest.skip("this frame is not routed as a sparse scan, or its method ships a calibration")
     with pytest.raises(InpaintenvError, match=rf"for a sparse scan \(route {routed.sparse_name}\).*no shipped"):
         routed.predict_interval(x)
     with pytest.raises(InpaintenvError, match="for a sparse scan"):
         routed.predict(x, return_std=True)
+
+
+def test_the_sparse_route_s_calibration_is_its_own_and_loaded_only_when_asked(monkeypatch):
+    """A sparse scan's interval is the calibration shipped for the sparse route (intervals/routes/),
+    loaded when a sparse scan's interval is first asked: not by filling it, not by a 64-beam
+    scan's interval. It registers no <fill>-intervals method for maps."""
+    import estimators.intervals._releases as shipped_calibrations
+    from inpaintenv.methods.learned import SPARSE_DEFAULT
+    from inpaintenv.methods.registry import available_methods
+
+    route_file = _intervals_dir() / "routes" / f"{shipped_calibrations.ROUTE_INTERVALS[SPARSE_DEFAULT]}.json"
+    assert route_file.is_file()
+    assert SPARSE_DEFAULT not in shipped_intervals() and f"{SPARSE_DEFAULT}-intervals" not in available_methods()
+    asked = []
+    real = shipped_calibrations._route_path
+    monkeypatch.setattr(shipped_calibrations, "_route_path", lambda name: asked.append(name) or real(name))
+    x = _sparse_scan()
+    routed = make_method("pretrained")
+    pred = routed.predict(x)
+    assert routed.routed_kinds_ == ["sparse"] and routed.routed_to_ == [SPARSE_DEFAULT] and asked == []
+    routed.predict_interval(_scans())  # a 64-beam scan's interval: the scan route's calibration only
+    assert SPARSE_DEFAULT not in asked
+    check_shipped_interval(routed, x, pred)
+    assert asked.count(SPARSE_DEFAULT) == 1  # loaded once, then kept
+    cal = ConformalIntervalInpainter.load(route_file, estimator=make_method(SPARSE_DEFAULT))
+    assert routed.interval_method("sparse").calibration_ == cal.calibration_
+    assert cal.calibration_["input_kind"] == "scan-rings32-v1+scan-rings16-v1+scan-rings8-v1"
+    low, high = routed.predict_interval(x, coverage=0.8)
+    own_low, own_high = cal.predict_interval(x, coverage=0.8)
+    np.testing.assert_array_equal(low, own_low)
+    np.testing.assert_array_equal(high, own_high)

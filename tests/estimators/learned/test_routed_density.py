@@ -1,5 +1,6 @@
 """``pretrained`` at every density: KITTI's official val_selection scans thinned to 16 and 8 beams
-(every 4th / 8th laser ring kept) are filled no worse than ``harmonic``, as the 64-beam scan is."""
+(every 4th / 8th laser ring kept) are filled no worse than ``harmonic``, as the 64-beam scan is,
+and given the sparse route's shipped interval."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import pytest
 from inpaintenv.data.calibration import Calibration, read_calibration
 from inpaintenv.data.inputs import method_input
 from inpaintenv.data.thinning import thin_scan_by_rings
+from release_checks import check_shipped_interval
 
 #: Every k-th laser ring kept of KITTI's 64: 64, 16 and 8 beams.
 KEEP_EVERY = (1, 4, 8)
@@ -81,3 +83,18 @@ def test_a_64_beam_scan_takes_the_scan_route_and_a_thinned_one_the_sparse_route(
     assert set(filled[1][2]) == {SCAN_DEFAULT}
     for k in KEEP_EVERY[1:]:
         assert set(filled[k][2]) == {SPARSE_DEFAULT}, k
+
+
+@pytest.mark.kitti
+def test_pretrained_gives_a_16_beam_scan_the_sparse_route_s_shipped_interval(thinned_val_selection):
+    """A few val_selection scans thinned to 16 beams: pretrained's predict_interval and
+    predict(X, return_std=True) answer from the sparse route's shipped calibration, around its fill."""
+    from inpaintenv.methods.learned import SPARSE_DEFAULT
+    from inpaintenv.methods.registry import make_method
+
+    x = thinned_val_selection[4][0][:2]
+    routed = make_method("pretrained")
+    pred = routed.predict(x)
+    assert routed.routed_to_ == [SPARSE_DEFAULT] * len(x)
+    check_shipped_interval(routed, x, pred)
+    assert "scan-rings16-v1" in routed.interval_method("sparse").calibration_["input_kind"]
