@@ -440,7 +440,7 @@ def build_html(run_dir: str | os.PathLike) -> str:
     summary = (f"{count(len(methods), 'method')}, {count(len(tasks), 'task')}, "
                f"{count(len({r['index'] for r in rows}), 'frame')}, seed{'s' * (len(seeds) != 1)} "
                f"{', '.join(map(str, seeds))}; the data and how the run was made are under provenance.")
-    return (
+    page = (
         "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
         "<meta name='viewport' content='width=device-width, initial-scale=1'>"
         f"<title>inpaintenv benchmark report</title><style>{_STYLE}</style></head><body>"
@@ -448,20 +448,27 @@ def build_html(run_dir: str | os.PathLike) -> str:
         + "\n".join(parts)
         + f"<script>{_SCRIPT}</script></body></html>\n"
     )
+    # A path or command that is not UTF-8 (surrogate escapes) is shown escaped: the page is UTF-8.
+    return page.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
-def write_html_report(run_dir: str | os.PathLike, log: Callable[[str], None] | None = None) -> Path:
+def write_html_report(run_dir: str | os.PathLike, log: Callable[[str], None] | None = None) -> Path | None:
     """Write ``report.html`` into the run folder ``run_dir`` (replacing the one a run wrote there before).
 
     The file is recorded as the run's (:mod:`inpaintenv.files.ownership`) and written whole or not at all.
 
     Returns
     -------
-    Path
-        The page's path.
+    Path or None
+        The page's path; None (and a line in ``log``) when no frame was scored (every
+        frame skipped): there is nothing to report.
     """
     run_dir = Path(run_dir)
     start = time.monotonic()
+    if not _run_rows(run_dir):
+        if log is not None:
+            log(f"no frame was scored: no {REPORT_FILE}")
+        return None
     page = build_html(run_dir)
     path = run_dir / REPORT_FILE
     claim(run_dir, REPORT_FILE)

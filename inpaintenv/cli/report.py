@@ -43,5 +43,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     with run_lock(out, log):  # not while a run writes its rows there
         adopt(out)
         path = write_html_report(out, log)
+    if path is None:
+        raise InvalidInputError(f"{out} holds no rows of a benchmark run (rows/*.jsonl); nothing to report")
     print(path)
     return 0
