@@ -78,16 +78,23 @@ def test_a_classical_fill_is_calibrated_on_every_drive(load_experiment, two_days
     assert data["params"]["spread_method"] == "nearest" and "out_of_fold" not in data["calibration"]
 
 
-def test_a_scan_fill_is_calibrated_on_the_rebuilt_drives_scans_never_on_drive_0001(load_experiment, tmp_path):
-    rng = np.random.default_rng(2)
+def _write_scan_drives(root, seed: int) -> list[str]:
+    """One random KITTI-sized frame (ground truth and a scan of it) for each of three drives under
+    ``root/train``, drive 0001 among them; the drives' names."""
+    rng = np.random.default_rng(seed)
     drives = ["2011_09_26_drive_0001_sync", "2011_09_26_drive_9001_sync", "2011_09_30_drive_9018_sync"]
     for drive in drives:
         truth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
         scan = np.where(rng.random((375, 1242)) < 0.15, truth, 0.0)
         for kind, depth in (("groundtruth", truth), ("velodyne_raw", scan)):
-            folder = tmp_path / "train" / drive / "proj_depth" / kind / "image_02"
+            folder = root / "train" / drive / "proj_depth" / kind / "image_02"
             folder.mkdir(parents=True)
             write_depth_png(folder / "0000000000.png", depth.astype(np.float32))
+    return drives
+
+
+def test_a_scan_fill_is_calibrated_on_the_rebuilt_drives_scans_never_on_drive_0001(load_experiment, tmp_path):
+    drives = _write_scan_drives(tmp_path, seed=2)
     out = load_experiment("interval_calibration").main(["calibrate", "--kitti-root", str(tmp_path), "--input", "scan",
         "--release", "nearest", "--out", str(tmp_path / "cal.json"), "--spread-method", "harmonic"])
     cal = json.loads(out.read_text())["calibration"]
@@ -97,15 +104,7 @@ def test_a_scan_fill_is_calibrated_on_the_rebuilt_drives_scans_never_on_drive_00
 
 
 def test_several_scan_densities_are_pooled_each_drive_once_per_density(load_experiment, tmp_path):
-    rng = np.random.default_rng(4)
-    drives = ["2011_09_26_drive_0001_sync", "2011_09_26_drive_9001_sync", "2011_09_30_drive_9018_sync"]
-    for drive in drives:
-        truth = np.where(rng.random((375, 1242)) < 0.3, 5.0 + 20 * rng.random((375, 1242)), 0.0)
-        scan = np.where(rng.random((375, 1242)) < 0.15, truth, 0.0)
-        for kind, depth in (("groundtruth", truth), ("velodyne_raw", scan)):
-            folder = tmp_path / "train" / drive / "proj_depth" / kind / "image_02"
-            folder.mkdir(parents=True)
-            write_depth_png(folder / "0000000000.png", depth.astype(np.float32))
+    drives = _write_scan_drives(tmp_path, seed=4)
     kinds = ["scan-points50-v1", "scan-points25-v1"]
     out = load_experiment("interval_calibration").main([
         "calibrate", "--kitti-root", str(tmp_path), "--input", *kinds, "--release", "nearest",
