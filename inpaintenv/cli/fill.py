@@ -136,7 +136,7 @@ def _fill_interrupted(args: argparse.Namespace) -> str:
 
 def cmd_fill(args: argparse.Namespace) -> int:
     """Run ``inpaintenv fill``."""
-    from ..filling import fill
+    from ..filling import FillOptions, fill
 
     method: Any = None if args.checkpoint else check_method_names([args.method])[0]
     checkpoint = check_checkpoint_folder(args.checkpoint) if args.checkpoint else None
@@ -150,12 +150,13 @@ def cmd_fill(args: argparse.Namespace) -> int:
     def log(line: str) -> None:
         print_line(f"inpaintenv fill: {line}")
 
-    report = fill(
-        args.inputs, args.out, method=method, checkpoint=checkpoint, holes=args.holes, boxes=args.box,
-        missing=args.missing, calibration=args.calib, size=args.size, camera=args.camera, format=args.format,
-        points=args.points, overwrite=args.overwrite, on_error=args.on_error, n_jobs=args.jobs,
-        batch_size=args.batch_size, progress=not args.quiet, log=log, confidence=args.confidence,
-        intervals=args.intervals, fill_all=args.fill_all, input=args.input, preview=args.preview,
+    options = FillOptions(
+        checkpoint=checkpoint, holes=args.holes, boxes=args.box, missing=args.missing, fill_all=args.fill_all,
+        calibration=args.calib, size=args.size, camera=args.camera, format=args.format, points=args.points,
+        overwrite=args.overwrite, on_error=args.on_error, n_jobs=args.jobs, batch_size=args.batch_size,
+        progress=not args.quiet, log=log, confidence=args.confidence, intervals=args.intervals, input=args.input,
+        preview=args.preview,
     )
+    report = fill(args.inputs, args.out, method=method, options=options)
     print_line(report.summary())
     return 0 if report.ok else 1

@@ -10,9 +10,9 @@ atomically; a bad file is one line naming it, and the others are still written. 
 ``confidence`` each depth file gets its per-pixel interval beside it (``<name>_low`` and
 ``<name>_high``, in the same formats), from the method's ``predict_interval``.
 
-The parts: :mod:`.plan` (which files, which outputs), :mod:`.read` (an input and its
-pixels to fill), :mod:`.methods` (the method, called on a batch), :mod:`.write` (the
-outputs) and :mod:`.run` (the loop).
+The parts: :mod:`.options` (:class:`FillOptions`, every option checked once),
+:mod:`.plan` (which files, which outputs), :mod:`.read` (an input and its pixels to fill),
+:mod:`.methods` (the method, called on a batch), :mod:`.write` (the outputs) and :mod:`.run` (the loop).
 
 >>> from inpaintenv.filling import fill
 >>> report = fill(["my_depth/"], "filled/", holes="my_masks/", method="scanline")   # doctest: +SKIP
@@ -21,8 +21,9 @@ outputs) and :mod:`.run` (the loop).
 """
 
 from .methods import fill_depth
+from .options import FillOptions
 from .plan import FORMATS, POINT_FORMATS, FillJob, FillReport, plan
 from .read import NO_HOLES
 from .run import fill
 
-__all__ = ["FORMATS", "NO_HOLES", "POINT_FORMATS", "FillJob", "FillReport", "fill", "fill_depth", "plan"]
+__all__ = ["FORMATS", "NO_HOLES", "POINT_FORMATS", "FillJob", "FillOptions", "FillReport", "fill", "fill_depth", "plan"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import sys
 from collections import deque
+from dataclasses import replace
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
@@ -12,17 +13,16 @@ from typing import Any
 
 import numpy as np
 
-from ..data.calibration import Calibration
 from ..exceptions import InvalidInputError
-from ..metrics import as_coverage
 from ..methods.intervals import IntervalSource
 from ..files.lock import run_lock
 from ..files import remove_stale_temporaries
 from ..progress import FrameProgress
 from .ledger import Ledger, file_identity
-from .methods import check_input_choice, fill_batch, interval_method, resolve_method, router, shipped_interval_name
+from .methods import fill_batch, interval_method, resolve_method, router, shipped_interval_name
 from .plan import FillJob, FillReport, plan
-from .read import Holes, Item, Reader, check_box, message
+from .options import FillOptions
+from .read import Holes, Item, Reader, message
 from .write import write_outputs
 
 __all__ = ["fill"]
@@ -174,22 +174,9 @@ def _loop(run: _Run, todo: list[FillJob], batch_size: int, progress: bool) -> No
         settle(0)
 
 
-def _check_options(on_error: str, batch_size: int, confidence: float | None, intervals: Any) -> float | None:
-    """The options' errors before anything is read; the checked coverage."""
-    if on_error not in ("continue", "stop"):
-        raise InvalidInputError(f"on_error must be 'continue' or 'stop', got {on_error!r}")
-    if batch_size < 1:
-        raise InvalidInputError(f"batch_size must be >= 1, got {batch_size}")
-    if confidence is not None:
-        return as_coverage(confidence, "confidence")
-    if intervals is not None:
-        raise InvalidInputError("--intervals is the calibration of --confidence's interval: give --confidence too")
-    return None
-
-
-def _recipe(method: Any, checkpoint: Any, confidence: float | None, intervals: Any,
-            input: str | None) -> dict[str, Any]:
+def _recipe(method: Any, options: FillOptions) -> dict[str, Any]:
     """What makes the pixels of every output of a run, besides its input and holes (for the ledger)."""
+    checkpoint, confidence, intervals, input = options.checkpoint, options.confidence, options.intervals, options.input
     if checkpoint is not None:
         made_by: Any = {"checkpoint": file_identity(checkpoint)}
     elif isinstance(method, str):
@@ -228,12 +215,12 @@ def _todo(jobs: list[FillJob], run: _Run, recipe: dict[str, Any], overwrite: boo
     return todo
 
 
-def _method(method: Any, checkpoint: Any, n_jobs: int | None, confidence: float | None,
-            intervals: Any, input: str | None) -> tuple[Any, str, IntervalSource | None]:
+def _method(method: Any, options: FillOptions) -> tuple[Any, str, IntervalSource | None]:
     """The method of a run, its name and (with ``confidence``) its interval source."""
+    checkpoint, confidence, intervals = options.checkpoint, options.confidence, options.intervals
     if confidence is not None and checkpoint is None and intervals is None:
         method = shipped_interval_name(method)  # "pretrained" -> "pretrained-intervals": its calibration
-    built, name = resolve_method(method, checkpoint, n_jobs, input)
+    built, name = resolve_method(method, checkpoint, options.n_jobs, options.input)
     if confidence is None:
         return built, name, None
     return interval_method(built, name, intervals, confidence)
@@ -241,14 +228,7 @@ def _method(method: Any, checkpoint: Any, n_jobs: int | None, confidence: float 
 
 def fill(
     inputs: str | os.PathLike | Sequence[str | os.PathLike], out: str | os.PathLike, *,
-    method: Any = "pretrained", checkpoint: str | os.PathLike | None = None,
-    holes: str | os.PathLike | None = None, boxes: Sequence[tuple[int, int, int, int]] = (), missing: bool = False,
-    calibration: str | os.PathLike | Calibration | None = None, size: tuple[int, int] | None = None,
-    camera: int | None = None, format: str = "png", points: str | None = None, overwrite: bool = False,
-    on_error: str = "continue", n_jobs: int | None = None, batch_size: int = 4, progress: bool = True,
-    log: Callable[[str], None] | None = None, confidence: float | None = None,
-    intervals: str | os.PathLike | None = None, fill_all: bool = False, input: str | None = None,
-    preview: bool = False,
+    method: Any = "pretrained", options: FillOptions | None = None, **keywords: Any,
 ) -> FillReport:
     """Fill depth files and LiDAR scans (files or folders, read recursively) into ``out``.
 
@@ -261,103 +241,53 @@ def fill(
         The output folder; never inside an input folder.
     method : str or estimator
         A registry name (default ``"pretrained"``) or an object with ``predict``.
-    checkpoint : path-like, optional
-        A saved model's folder, used instead of ``method``.
-    holes : path-like, optional
-        A mask for every input, or a folder of masks matched by relative path (nonzero = fill).
-    boxes : sequence of (x0, y0, x1, y1)
-        Rectangles to fill, columns ``x0..x1-1``, rows ``y0..y1-1``.
-    missing : bool
-        Fill the pixels without a measurement (densify) inside the scan's field of view: per
-        column between its topmost and bottommost measured rows
-        (:func:`~inpaintenv.filling.view.sensor_view`), not the sky above it.
-    calibration : path-like or Calibration, optional
-        For scans (see :func:`~inpaintenv.data.calibration.read_calibration`); ``size``
-        and ``camera`` are passed to it.
-    size : (int, int), optional
-        Image width and height, for calibrations that do not hold it.
-    camera : int, optional
-        The camera to project scans into.
-    format : {"png", "npy", "both"}
-        Depth files written per input.
-    points : {None, "bin", "ply", "both"}
-        For scans, also the original points plus the filled pixels back-projected (reflectance 0).
-    overwrite : bool
-        Redo inputs whose outputs exist. Otherwise an input whose outputs all exist, made
-        from it by the same method and options (the ledger of ``out``), is skipped, and one
-        with an output made otherwise (or not by ``fill``) fails in one line saying what differs.
-    on_error : {"continue", "stop"}
-        A bad input is reported and the run goes on, or stops there.
-    n_jobs : int, optional
-        Passed to methods that take it (the classical ones).
-    batch_size : int
-        Same-sized frames per ``predict`` call.
-    progress : bool
-        A progress bar on a terminal, progress lines otherwise.
-    log : callable, optional
-        Receives each error line (default: printed to stderr).
-    confidence : float, optional
-        Nominal coverage in (0, 1) of a per-pixel interval written beside each depth file,
-        as ``<name>_low`` and ``<name>_high`` in the same formats (low = high = the
-        measurement at measured pixels, 0 where nothing was measured or filled; in a PNG
-        ``high`` is capped at 65535/256 m). From the method's ``predict_interval`` (or
-        ``predict(X, return_std=True)``); ``"pretrained"`` uses its shipped calibration.
-    intervals : path-like, optional
-        With ``confidence``: a calibration saved by
-        :meth:`estimators.intervals.ConformalIntervalInpainter.save` to wrap ``method`` in.
-    preview : bool
-        Also write ``<name>_preview.png`` beside each input's outputs: an 8-bit colour picture of
-        the input, the fill and (with ``confidence``) the interval width (:mod:`.preview`); one
-        more output of the input, recorded and skipped like the others.
-    fill_all : bool
-        With ``missing``: every pixel without a measurement, the sky included.
-    input : {None, "auto", "scan", "map"}
-        For a method that fills each input kind its own way (``pretrained``: a single LiDAR
-        scan with the scan release ``kitti-scan-v1``, a map with the map release): every input is of this
-        kind, or (``"auto"``, the method's default) each input's kind is told from its measured
-        density. Other methods refuse it. ``FillReport.routes`` says which method filled what.
+    options : FillOptions, optional
+        How to fill (:class:`~inpaintenv.filling.options.FillOptions`, checked when made;
+        default: its defaults).
+    **keywords
+        Fields of :class:`~inpaintenv.filling.options.FillOptions`, as a shorthand
+        (``fill(inputs, out, holes="masks/", missing=True)``); with ``options``, they replace
+        its fields.
 
     Returns
     -------
     FillReport
     """
-    confidence = _check_options(on_error, batch_size, confidence, intervals)
-    if fill_all and not missing:
-        raise InvalidInputError("fill_all (--fill-all) widens missing (--missing) to every pixel without a "
-                                "measurement; give missing too")
-    input = check_input_choice(input)
-    log = log or (lambda line: print(line, file=sys.stderr, flush=True))
+    if options is None:
+        o = FillOptions(**keywords)
+    else:
+        o = replace(options, **keywords) if keywords else options
+    log = o.log or (lambda line: print(line, file=sys.stderr, flush=True))
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
-    if holes is not None and not Path(holes).exists():
-        raise FileNotFoundError(f"--holes {holes}: no such mask file or folder")
-    if isinstance(calibration, (str, os.PathLike)) and not os.path.lexists(calibration):
+    if o.holes is not None and not Path(o.holes).exists():
+        raise FileNotFoundError(f"--holes {o.holes}: no such mask file or folder")
+    if isinstance(o.calibration, (str, os.PathLike)) and not os.path.lexists(o.calibration):
         # A mistyped path: one line before any input is read, not one per scan.
-        raise FileNotFoundError(f"--calib {calibration}: no such calibration file or folder (a KITTI raw day folder, "
-                                "an odometry calib.txt or a KITTI-360 calibration folder)")
-    jobs, missing_inputs, ignored = plan(inputs, out, format=format, points=points,
-                                         protect=[holes] if holes is not None else [],
-                                         confidence=confidence is not None, preview=preview)
-    if points is not None and not any(j.is_scan for j in jobs):
+        raise FileNotFoundError(f"--calib {o.calibration}: no such calibration file or folder (a KITTI raw day "
+                                "folder, an odometry calib.txt or a KITTI-360 calibration folder)")
+    jobs, missing_inputs, ignored = plan(inputs, out, format=o.format, points=o.points,
+                                         protect=[o.holes] if o.holes is not None else [],
+                                         confidence=o.confidence is not None, preview=o.preview)
+    if o.points is not None and not any(j.is_scan for j in jobs):
         raise InvalidInputError("points (--points) applies to .bin LiDAR scans, and there are none among the inputs")
     report = FillReport(ignored=ignored)
     for path, why in missing_inputs:
         report.failed.append((path, why))
         log(why)
-    hole_spec = Holes(Path(holes) if holes is not None else None, tuple(check_box(b) for b in boxes), missing,
-                      fill_all)
-    reader = Reader(hole_spec, calibration, size, camera)
+    hole_spec = Holes(Path(o.holes) if o.holes is not None else None, tuple(o.boxes), o.missing, o.fill_all)
+    reader = Reader(hole_spec, o.calibration, o.size, o.camera)
     if any(j.is_scan for j in jobs):
         reader.load_calibration()  # first: a missing --size fails in a second, not after loading a model
-    run = _Run(reader, report, log, on_error == "stop")
-    if overwrite or not all(os.path.lexists(o) for j in jobs for o in j.all_outputs):
+    run = _Run(reader, report, log, o.on_error == "stop")
+    if o.overwrite or not all(os.path.lexists(p) for j in jobs for p in j.all_outputs):
         # Likely work: the method's errors (a bad name, no interval) come before anything is written to --out.
-        run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals, input))
+        run.set_method(*_method(method, o))
     with run_lock(out, log):  # a second run into the same --out is refused in one line
         run.ledger = Ledger(out)
-        todo = _todo(jobs, run, _recipe(method, checkpoint, confidence, intervals, input), overwrite)
+        todo = _todo(jobs, run, _recipe(method, o), o.overwrite)
         if not todo or (report.failed and run.stop):
             return report
         if run.method is None:  # the outputs were there a moment ago, no longer
-            run.set_method(*_method(method, checkpoint, n_jobs, confidence, intervals, input))
-        _loop(run, todo, batch_size, progress)
+            run.set_method(*_method(method, o))
+        _loop(run, todo, o.batch_size, o.progress)
     return report

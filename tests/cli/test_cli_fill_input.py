@@ -102,7 +102,7 @@ def test_pretrained_says_it_filled_a_sparser_sensors_scan_as_a_sparse_scan(tmp_p
 
 def test_input_is_checked_once_per_fill(tmp_path, monkeypatch):
     import inpaintenv.filling.methods
-    import inpaintenv.filling.run
+    import inpaintenv.filling.options
 
     calls: list = []
     original = inpaintenv.filling.methods.check_input_choice
@@ -111,7 +111,7 @@ def test_input_is_checked_once_per_fill(tmp_path, monkeypatch):
         calls.append(value)
         return original(value)
 
-    for module in (inpaintenv.filling.methods, inpaintenv.filling.run):
+    for module in (inpaintenv.filling.methods, inpaintenv.filling.options):
         monkeypatch.setattr(module, "check_input_choice", counting)
     write_inputs(tmp_path / "in", "map", 2)
     fill([tmp_path / "in"], tmp_path / "out", method=routed(), missing=True, input="scan", progress=False,

@@ -275,3 +275,40 @@ def test_a_real_scan_fills_at_its_calibrations_size(kitti_raw_root, tmp_path):
     assert got.shape == (calib.size[1], calib.size[0]) == depth.shape
     np.testing.assert_array_equal(got[depth > 0], depth[depth > 0])
     assert (got[sensor_view(depth)] > 0).all()
+
+
+@pytest.mark.parametrize("given, says", [
+    ({"on_error": "ignore"}, "on_error must be 'continue' or 'stop'"),
+    ({"batch_size": 0}, "batch_size must be >= 1, got 0"),
+    ({"confidence": 1.5}, "confidence"),
+    ({"intervals": "cal.json"}, "give --confidence too"),
+    ({"fill_all": True}, "give missing too"),
+    ({"input": "lidar"}, "input \\(--input\\) must be one of"),
+    ({"boxes": [(5, 5, 5, 9)]}, "0 <= x0 < x1"),
+])
+def test_fill_options_are_checked_once_when_made(given, says):
+    from inpaintenv.filling import FillOptions
+
+    with pytest.raises(InvalidInputError, match=says):
+        FillOptions(**given)
+
+
+def test_fill_options_object_and_keywords_fill_alike(pngs, tmp_path):
+    import dataclasses
+
+    from inpaintenv.filling import FillOptions
+
+    folder, _ = pngs
+    options = FillOptions(boxes=[tuple(np.array(BOX))], missing=True, format="both", progress=False)
+    assert options.boxes == (BOX,) and all(type(v) is int for v in options.boxes[0])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        options.missing = False  # checked once: never changed after
+    assert fill([folder], tmp_path / "object", method="nearest", options=options).ok
+    assert run([folder], tmp_path / "keywords", method="nearest", boxes=[BOX], missing=True, format="both").ok
+    written = {name: sha for name, sha in digest(tmp_path / "object").items() if name != LEDGER}
+    assert written and written == {n: s for n, s in digest(tmp_path / "keywords").items() if n != LEDGER}
+    # Keywords beside options replace its fields, checked again.
+    with pytest.raises(InvalidInputError, match="give missing too"):
+        fill([folder], tmp_path / "x", method="nearest", options=options, missing=False, fill_all=True)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'hole'"):
+        fill([folder], tmp_path / "x", method="nearest", hole="masks/")
