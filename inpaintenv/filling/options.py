@@ -123,7 +123,7 @@ class FillOptions:
             raise InvalidInputError("--intervals is the calibration of --confidence's interval: give --confidence too")
         if self.fill_all and not self.missing:
             raise InvalidInputError("fill_all (--fill-all) widens missing (--missing) to every pixel without a "
-                                    "measurement; give missing too")
+                                    "measurement; give missing too (--missing)")
         self._set("input", check_input_choice(self.input))
         self._set("boxes", tuple(check_box(b) for b in self.boxes))
 
