@@ -36,6 +36,9 @@ PACKAGES = ("inpaintenv", "estimators")
 SIZED = (*PACKAGES, "perf", "experiments")
 MAX_LINES = 500
 MAX_FUNCTION_LINES = 100
+#: Parameters of an ``inpaintenv`` function: positional, and in all. More is a plan or options
+#: object (``RunPlan``, ``FillOptions``, ``EvaluationPlan``) checked once where its values entered.
+MAX_POSITIONAL, MAX_PARAMETERS = 12, 16
 MAX_LOOSE_MODULES = 6
 #: Test modules loose at the top of ``tests/``: the cross-cutting ones; the rest sit in
 #: folders that mirror the package or job they test.
@@ -280,6 +283,30 @@ def test_no_function_over_100_lines(folder):
     long = {k: v for p in _py(folder) for k, v in long_functions(p).items()}
     assert not long, (f"functions of over {MAX_FUNCTION_LINES} lines of code (split them by job, or say why on the "
                       f"line above the def: '# long function: ...'): {long}")
+
+
+def long_signatures(path: Path) -> dict[str, tuple[int, int]]:
+    """``module:function`` -> (positional, all) parameters (``self``/``cls`` aside) of every function with more
+    than MAX_POSITIONAL positional or MAX_PARAMETERS in all."""
+    out = {}
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            args = node.args
+            positional = [a for a in (*args.posonlyargs, *args.args) if a.arg not in ("self", "cls")]
+            n_all = len(positional) + len(args.kwonlyargs)
+            if len(positional) > MAX_POSITIONAL or n_all > MAX_PARAMETERS:
+                out[f"{path.name}:{node.name} (line {node.lineno})"] = (len(positional), n_all)
+    return out
+
+
+def test_no_function_takes_a_long_list_of_parameters(tmp_path):
+    found = {k: v for p in _py("inpaintenv") for k, v in long_signatures(p).items()}
+    assert not found, (f"functions taking over {MAX_POSITIONAL} positional or {MAX_PARAMETERS} parameters (pass one "
+                       f"plan or options object, checked once where its values enter): {found}")
+    many = ", ".join(f"a{i}" for i in range(MAX_POSITIONAL + 1))
+    (tmp_path / "m.py").write_text(f"def run({many}): pass\n\ndef ok(self, {many[4:]}): pass\n\n"
+                                   f"def fill(a, *, {', '.join(f'k{i}=0' for i in range(MAX_PARAMETERS))}): pass\n")
+    assert list(long_signatures(tmp_path / "m.py")) == ["m.py:run (line 1)", "m.py:fill (line 5)"]
 
 
 def test_size_checks_see_long_code_and_accept_written_reasons_for_functions_only(tmp_path):

@@ -21,9 +21,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..conventions import DEFAULT_MAX_DEPTH, check_int, check_seeds
-from ..data.base import DepthDataset
-from ..evaluate import EvaluationPlan, check_on_bad_frame, evaluate_plan, resolve_source, training_drives_of
+from ..evaluate import check_on_bad_frame, evaluate_plan, resolve_source, training_drives_of
 from ..files import remove_stale_temporaries
 from ..masks import get_protocol
 from ..metrics import as_coverage, check_unfilled
@@ -41,8 +39,9 @@ from ..files.ownership import adopt, check_folder, claim, remove
 from .rows import append_rows, end_partial_line, read_rows, rows_file_name
 from .run_state import RunMismatchError, RunStateError, differences, read_run_file, run_fingerprint, write_run_file
 from .suites import method_kind
-from .tasks import Task, check_tasks, task_datasets
-from ..exceptions import InvalidInputError, InvalidTypeError, UnsafeFileError
+from .run_plan import RunPlan, check_run
+from .tasks import Task, task_datasets
+from ..exceptions import InvalidInputError, UnsafeFileError
 from ..report.results import EvaluationResult, merge_skipped
 from ..values.rows import RowPlan, SameFrames
 
@@ -59,30 +58,6 @@ UNAVAILABLE = (ImportError, KeyError, FileNotFoundError)
 def _rows_file(name: str, task: Task) -> str:
     """The row file of ``name`` in ``task`` (:func:`.rows.rows_file_name`)."""
     return rows_file_name(name, task.protocol, task.input_kind)
-
-
-def _check_run(
-    methods: Any, protocols: Any, seeds: Any, n_frames: Any, batch_size: Any, input_kind: str = "map",
-) -> tuple[list[Task], list[int]]:
-    """Validate the run's arguments; return the tasks (:mod:`.tasks`) and seeds as lists.
-
-    A single protocol name or a single int seed is accepted as a one-element list (as
-    :func:`inpaintenv.evaluate.evaluate` accepts them); a plain protocol name is a task on
-    ``input_kind``.
-    """
-    if not isinstance(methods, Mapping):
-        raise InvalidTypeError(f"methods must be a mapping of name -> method, got {type(methods).__name__}")
-    if not methods:
-        raise InvalidInputError("methods is empty; give at least one name -> method")
-    bad_names = [n for n in methods if not isinstance(n, str) or not n.strip()]
-    if bad_names:
-        raise InvalidInputError(f"method names must be non-empty strings, got {bad_names!r}")
-    tasks = check_tasks(protocols, input_kind)
-    seed_list = check_seeds(seeds, "seeds")
-    if n_frames is not None:
-        check_int(n_frames, "n_frames", minimum=1)
-    check_int(batch_size, "batch_size", minimum=1)
-    return tasks, seed_list
 
 
 def _check_identity(name: str, out: Path, recorded: str | None, identity: str, has_rows: bool) -> None:
@@ -191,8 +166,8 @@ def run_benchmark(
         ``batch_size``.
     """
     single = None if isinstance(source, Mapping) else resolve_source(source)
-    tasks, seeds = _check_run(methods, protocols, seeds, n_frames, batch_size,
-                              "map" if single is None else single.input_kind)
+    tasks, seeds = check_run(methods, protocols, seeds, n_frames, batch_size,
+                             "map" if single is None else single.input_kind)
     datasets = task_datasets(source if single is None else single, tasks)
     check_on_bad_frame(on_bad_frame)
     policies = {
@@ -207,11 +182,13 @@ def run_benchmark(
     held = holds_lock(out_dir)  # a caller holding the lock (the command) checked the folder before taking it
     if not held:
         check_folder(out_dir)  # before the lock file is made in someone else's folder
+    totals = {k: len(ds) if n_frames is None else min(len(ds), int(n_frames)) for k, ds in datasets.items()}
+    plan = RunPlan(methods, datasets, tasks, seeds, totals, Path(out_dir), resume=resume,
+                   say=log or (lambda msg: None), policies=policies, unfilled=unfilled, batch_size=batch_size,
+                   progress=progress, on_bad_frame=on_bad_frame, client=client, intervals=interval_coverage,
+                   kept=kept or KeptFrames({}, 0))
     with contextlib.nullcontext() if held else run_lock(out_dir, log):
-        return _run_locked(
-            methods, datasets, tasks, seeds, n_frames, Path(out_dir), resume, batch_size, progress,
-            log or (lambda msg: None), on_bad_frame, client, policies, unfilled, interval_coverage, kept,
-        )
+        return _run_locked(plan)
 
 
 def _plan_line(methods: Mapping[str, Any], total: int, tasks: list[Task], seeds: list[int], n_done: int,
@@ -229,21 +206,13 @@ def _known_cost(rows_by_protocol: Mapping[str, list[dict[str, Any]]]) -> float |
     return sum(ms) / len(ms) / 1000.0 if ms else None
 
 
-def _run_locked(
-    methods: Mapping[str, Any], datasets: dict[str, DepthDataset], tasks: list[Task], seeds: list[int],
-    n_frames: int | None, out: Path, resume: bool, batch_size: int, progress: bool,
-    say: Callable[[str], None], on_bad_frame: str, client: Any, policies: dict[str, str], unfilled: str | None,
-    interval_coverage: float | None = None, kept: KeptFrames | None = None,
-) -> EvaluationResult:
+def _run_locked(plan: RunPlan) -> EvaluationResult:
     """The run inside the folder's lock: open the run folder, plan, score each method, combine."""
-    totals = {k: len(ds) if n_frames is None else min(len(ds), int(n_frames)) for k, ds in datasets.items()}
-    run = _Run(methods, datasets, tasks, seeds, totals, out, say, policies,
-               {"batch_size": batch_size, "progress": progress, "on_bad_frame": on_bad_frame, "client": client,
-                "intervals": interval_coverage, "kept": kept or KeptFrames({}, 0)})
-    run.open(resume, unfilled)
-    run.plan()
+    run = _Run(plan)
+    run.open()
+    run.schedule()
     results: list[EvaluationResult] = []
-    for name, method in methods.items():
+    for name, method in plan.methods.items():
         method = run.build(name, method)
         if method is not None:
             results.extend(run.score(name, method))
@@ -254,18 +223,14 @@ def _run_locked(
 
 class _Run:
     """One benchmark run in its folder: what ``run.json`` records, the rows on disk, what
-    is left to score, and the progress lines; one method per job (:func:`_run_locked`)."""
+    is left to score, and the progress lines; one method per job (:func:`_run_locked`), all of
+    one :class:`~.run_plan.RunPlan`."""
 
-    def __init__(
-        self, methods: Mapping[str, Any], datasets: dict[str, DepthDataset], tasks: list[Task], seeds: list[int],
-        totals: dict[str, int], out: Path, say: Callable[[str], None], policies: dict[str, str],
-        evaluate_kw: dict[str, Any],
-    ) -> None:
-        self.methods, self.datasets, self.tasks, self.seeds = methods, datasets, tasks, seeds
-        self.totals, self.out, self.say, self.policies, self.evaluate_kw = totals, out, say, policies, evaluate_kw
-        self.protocols = {t: get_protocol(t.protocol) for t in tasks}  # names checked by check_tasks
-        self.rows_dir = out / "rows"
-        self.run_file = out / "run.json"
+    def __init__(self, plan: RunPlan) -> None:
+        self.plan = plan
+        self.protocols = {t: get_protocol(t.protocol) for t in plan.tasks}  # names checked by check_tasks
+        self.rows_dir = plan.out / "rows"
+        self.run_file = plan.out / "run.json"
         # name -> identity of the method that wrote its rows (see .identity); a name missing
         # here (a run.json that records no identity for it) is unknown and accepted.
         self.identities: dict[str, str] = {}
@@ -280,25 +245,26 @@ class _Run:
     def save(self) -> None:
         write_run_file(self.run_file, self.fingerprint, self.identities, self.trained)
 
-    def open(self, resume: bool, unfilled: str | None) -> None:
+    def open(self) -> None:
         """Check the folder holds this run (on resume) or clear its rows; read what it recorded."""
-        adopt(self.out)
+        adopt(self.plan.out)
         if self.rows_dir.is_symlink():
             raise UnsafeFileError(f"{self.rows_dir} is a symbolic link; a run writes its rows in its own folder only")
         self.rows_dir.mkdir(parents=True, exist_ok=True)
-        figures = self.out / "figures"
+        figures = self.plan.out / "figures"
         task_figures = [f for f in figures.iterdir() if f.is_dir() and not f.is_symlink()] \
             if figures.is_dir() and not figures.is_symlink() else []
-        for folder in (self.out, self.rows_dir, figures, *task_figures):
+        for folder in (self.plan.out, self.rows_dir, figures, *task_figures):
             remove_stale_temporaries(folder)  # left by a writer killed mid-write
-        self.fingerprint = run_fingerprint(self.datasets, self.totals, self.tasks, self.seeds)
+        self.fingerprint = run_fingerprint(self.plan.datasets, self.plan.totals, self.plan.tasks, self.plan.seeds)
+        resume, unfilled = self.plan.resume, self.plan.unfilled
         if unfilled is not None:
             # Only a run-wide choice: a method's own policy is part of what the method is, and
             # a run.json without the key (older runs, default runs) stays resumable.
             self.fingerprint["unfilled"] = unfilled
-        if self.evaluate_kw.get("intervals") is not None:
+        if self.plan.intervals is not None:
             # Rows with interval columns and rows without must never be mixed in one run.
-            self.fingerprint["interval_coverage"] = float(self.evaluate_kw["intervals"])
+            self.fingerprint["interval_coverage"] = float(self.plan.intervals)
         if resume and self.run_file.exists():
             previous = read_run_file(self.run_file)
             recorded = previous.pop("methods", None)
@@ -312,7 +278,7 @@ class _Run:
             changed = differences(previous, self.fingerprint)
             if changed:
                 raise RunMismatchError(
-                    f"{self.out} holds results of a different run ({'; '.join(changed)}); "
+                    f"{self.plan.out} holds results of a different run ({'; '.join(changed)}); "
                     "choose another --out or pass --no-resume to score again there"
                 )
         if not resume:
@@ -320,12 +286,12 @@ class _Run:
             # rows left behind could later be resumed under a fingerprint they do not match.
             # Only files a run recorded writing (the folder was checked to hold no others there).
             for stale in sorted(self.rows_dir.glob("*.jsonl")):
-                remove(self.out, stale.relative_to(self.out))
+                remove(self.plan.out, stale.relative_to(self.plan.out))
 
-    def plan(self) -> None:
+    def schedule(self) -> None:
         """Rows already on disk, identities known without building anything (a changed method
         is refused before any scoring starts), what is left to score, the plan line."""
-        methods, tasks, seeds, totals = self.methods, self.tasks, self.seeds, self.totals
+        methods, tasks, seeds, totals = self.plan.methods, self.plan.tasks, self.plan.seeds, self.plan.totals
         self.paths = {name: {t: self.rows_dir / _rows_file(name, t) for t in tasks} for name in methods}
         existing = {name: {t: self._read(name, t) for t in tasks} for name in methods}
         self.done = {
@@ -338,7 +304,8 @@ class _Run:
         }
         for name, identity in self.cheap.items():
             if identity is not None:
-                _check_identity(name, self.out, self.identities.get(name), identity, any(self.done[name].values()))
+                _check_identity(name, self.plan.out, self.identities.get(name), identity,
+                                any(self.done[name].values()))
         for name, m in methods.items():
             if not getattr(m, "lazy", False) and (drives := training_drives_of(m)) is not None:
                 self.trained[name] = drives
@@ -356,27 +323,28 @@ class _Run:
         per_method = {name: sum(len(v) for t in self.todos[name].values() for v in t.values()) for name in methods}
         n_todo_all = sum(per_method.values())
         n_done_all = sum(len(d) for by_protocol in self.done.values() for d in by_protocol.values())
-        self.say(_plan_line(methods, max(totals.values()), tasks, seeds, n_done_all, n_todo_all))
+        self.plan.say(_plan_line(methods, max(totals.values()), tasks, seeds, n_done_all, n_todo_all))
         known = {name: c for name in methods if (c := _known_cost(existing[name])) is not None}
         if n_todo_all and all(name in known for name, k in per_method.items() if k):
             eta = sum(known[name] * k for name, k in per_method.items() if k)
-            self.say(f"estimate: {'' if eta < 0.5 else 'about '}{format_duration(eta)} (from the ms/frame of the rows "
-                     "already scored)")
+            self.plan.say(f"estimate: {'' if eta < 0.5 else 'about '}{format_duration(eta)} (from the ms/frame of the "
+                          "rows already scored)")
         # A terminal gets tqdm bars from evaluate(); a log gets periodic lines instead.
-        if self.evaluate_kw["progress"] and n_todo_all and not stderr_is_terminal():
+        if self.plan.progress and n_todo_all and not stderr_is_terminal():
             left = {name: {k: sum(len(v) for t, by_seed in self.todos[name].items() if t.input_kind == k
                                   for v in by_seed.values()) for k in totals} for name in methods}
-            self.reporter = ProgressReporter(per_method, self.say, seconds_per_frame=known,
+            self.reporter = ProgressReporter(per_method, self.plan.say, seconds_per_frame=known,
                                              relative_cost=relative_costs(left), interval=PROGRESS_INTERVAL)
 
     def build(self, name: str, method: Any) -> Any:
         """``method`` ready to score (a lazy one built when needed), its identity checked and
         recorded; None when an optional method cannot be built here."""
         todo, done = self.todos[name], self.done[name]
-        n_todo = {t: sum(len(v) for v in todo[t].values()) for t in self.tasks}
-        for t in self.tasks:
+        n_todo = {t: sum(len(v) for v in todo[t].values()) for t in self.plan.tasks}
+        for t in self.plan.tasks:
             if n_todo[t]:
-                self.say(f"{name} / {t.label}: {count(n_todo[t], 'frame')} to score ({len(done[t])} already done)")
+                self.plan.say(f"{name} / {t.label}: {count(n_todo[t], 'frame')} to score "
+                              f"({len(done[t])} already done)")
         identity = self.cheap[name]
         recorded = self.identities.get(name)
         # A lazy method is built when frames need scoring, or when its rows carry an
@@ -387,13 +355,13 @@ class _Run:
             except UNAVAILABLE as exc:
                 if not getattr(method, "optional", False):
                     raise
-                self.say(f"skipping {name!r}: not available here ({exc})")
+                self.plan.say(f"skipping {name!r}: not available here ({exc})")
                 if self.reporter is not None:
                     self.reporter.drop(name)
                 return None
             if identity is None:
                 identity = method_identity(method)
-                _check_identity(name, self.out, recorded, identity, any(done.values()))
+                _check_identity(name, self.plan.out, recorded, identity, any(done.values()))
             drives = training_drives_of(method)
             if drives != self.trained.get(name):
                 if drives is None:
@@ -413,13 +381,13 @@ class _Run:
         if self.reporter is not None:
             self.reporter.begin(name)
         results = []
-        for task in self.tasks:
+        for task in self.plan.tasks:
             if not task.scores(name):
                 continue
             self._score_task(name, method, task, self.paths[name][task])
             # Every row is one the run planned, one per (seed, frame) (read_rows refuses others).
             rows = sorted(self._read(name, task), key=lambda r: (r["seed"], r["index"]))
-            self.evaluate_kw["kept"].ranked(task.label, name, rows, f"{self.protocols[task].task}_rmse")
+            self.plan.kept.ranked(task.label, name, rows, f"{self.protocols[task].task}_rmse")
             results.append(EvaluationResult(rows=rows, meta={"methods": [name]}))
         return results
 
@@ -428,13 +396,14 @@ class _Run:
         recorded their input are of its kind); a row the run did not plan is refused (RunStateError)."""
         file = _rows_file(name, task)
         if task.input_kind not in self._frames:
-            dataset, total = self.datasets[task.input_kind], self.totals[task.input_kind]
+            dataset, total = self.plan.datasets[task.input_kind], self.plan.totals[task.input_kind]
             self._frames[task.input_kind] = ([str(f) for f in dataset.frame_ids[:total]],
                                              [str(g) for g in dataset.groups[:total]])
         frame_ids, drives = self._frames[task.input_kind]
-        plan = RowPlan(methods={n for n in self.methods if _rows_file(n, task) == file}, protocol=task.protocol,
-                       input_kind=task.input_kind, seeds=set(self.seeds), frame_ids=frame_ids, drives=drives)
-        rows = [r for r in read_rows(self.rows_dir / file, plan, check=self._same.add) if r["method"] == name]
+        planned = RowPlan(methods={n for n in self.plan.methods if _rows_file(n, task) == file},
+                          protocol=task.protocol, input_kind=task.input_kind, seeds=set(self.plan.seeds),
+                          frame_ids=frame_ids, drives=drives)
+        rows = [r for r in read_rows(self.rows_dir / file, planned, check=self._same.add) if r["method"] == name]
         for r in rows:
             r.setdefault("input_kind", task.input_kind)
         return rows
@@ -448,7 +417,7 @@ class _Run:
 
         def append(batch_rows: list[dict[str, Any]]) -> None:
             if not claimed:
-                claim(self.out, path.relative_to(self.out))
+                claim(self.plan.out, path.relative_to(self.plan.out))
                 claimed.append(True)
             append_rows(path, batch_rows)
             if reporter is not None:
@@ -460,33 +429,29 @@ class _Run:
             warmup = name not in self._warmed  # once per method, not per seed or protocol
             self._warmed.add(name)
             # Every argument was checked once, by run_benchmark: the frames are positions it planned.
-            kw = self.evaluate_kw
-            plan = EvaluationPlan(self.datasets[task.input_kind], self.protocols[task], [seed], indices,
-                                  self.totals[task.input_kind], batch_size=kw["batch_size"], max_depth=DEFAULT_MAX_DEPTH,
-                                  on_bad_frame=kw["on_bad_frame"], unfilled=self.policies[name],
-                                  intervals=kw["intervals"], client=kw["client"])
-            part = evaluate_plan(method, plan, name=name, progress=kw["progress"], on_batch=append, warmup=warmup,
-                                 on_predictions=kw["kept"].keeper(task.label, task.input_kind, name),
+            evaluation = self.plan.evaluation(name, task, self.protocols[task], seed, indices)
+            part = evaluate_plan(method, evaluation, name=name, progress=self.plan.progress, on_batch=append,
+                                 warmup=warmup, on_predictions=self.plan.kept.keeper(task.label, task.input_kind, name),
                                  on_warm=(lambda: None) if reporter is None else reporter.warmed)
             self.skipped.append(part.meta.get("skipped_frames") or [])
 
     def combine(self, results: list[EvaluationResult]) -> EvaluationResult:
         """Every method's rows in one result, with the run's meta and its skipped frames."""
-        methods, trained = self.methods, self.trained
+        methods, trained = self.plan.methods, self.trained
         combined = EvaluationResult.concat(results)
         combined.meta.update(
-            {"source": "; ".join(repr(ds) for ds in self.datasets.values()),
-             "protocols": list(dict.fromkeys(t.protocol for t in self.tasks)), "seeds": self.seeds,
-             "n_frames": max(self.totals.values()),
-             "unfilled": {name: self.policies[name] for name in combined.methods},
+            {"source": "; ".join(repr(ds) for ds in self.plan.datasets.values()),
+             "protocols": list(dict.fromkeys(t.protocol for t in self.plan.tasks)), "seeds": self.plan.seeds,
+             "n_frames": max(self.plan.totals.values()),
+             "unfilled": {name: self.plan.policies[name] for name in combined.methods},
              "kinds": {name: method_kind(name, methods[name]) for name in combined.methods}}
         )
-        if set(self.datasets) != {"map"}:  # what each row is scored on: "scan:rect-v1" beside "rect-v1"
-            combined.meta["tasks"] = [t.label for t in self.tasks]
-        if self.evaluate_kw.get("intervals") is not None:
-            combined.meta["interval_coverage"] = float(self.evaluate_kw["intervals"])
-            combined.meta["interval_methods"] = [m for m in combined.methods
-                                                 if any("hole_coverage" in r for r in combined.rows if r["method"] == m)]
+        if set(self.plan.datasets) != {"map"}:  # what each row is scored on: "scan:rect-v1" beside "rect-v1"
+            combined.meta["tasks"] = [t.label for t in self.plan.tasks]
+        if self.plan.intervals is not None:
+            combined.meta["interval_coverage"] = float(self.plan.intervals)
+            combined.meta["interval_methods"] = [
+                m for m in combined.methods if any("hole_coverage" in r for r in combined.rows if r["method"] == m)]
         combined.meta.pop("training_drives", None)
         if any(name in trained for name in methods):
             combined.meta["training_drives"] = {name: trained[name] for name in methods if name in trained}
@@ -494,7 +459,7 @@ class _Run:
         merged = merge_skipped(self.skipped)
         if merged:
             combined.meta["skipped_frames"] = merged
-            self.say(f"skipped {len(merged)} unreadable frame{'s' * (len(merged) != 1)}: "
+            self.plan.say(f"skipped {len(merged)} unreadable frame{'s' * (len(merged) != 1)}: "
                      + "; ".join(f"{r['frame_id']} ({r['reason']})" for r in merged[:3])
                      + ("; ..." if len(merged) > 3 else ""))
         return combined
