@@ -17,11 +17,18 @@ are ``predict`` per frame beside ``harmonic``'s in the same run.
     python experiments/scan_lodo.py official --method kitti-scan-v1        # a method on the official sets
     python experiments/scan_lodo.py time --method kitti-scan-v1            # its ms/frame beside harmonic's
     python experiments/scan_lodo.py density --method pretrained            # per density, every set
+    python experiments/scan_lodo.py holes --per-drive 2 --seeds 0,1        # default vs the map release in holes
 
 ``density`` scores a registered method at every density on every set: the scan as it is (64
 beams), every 2nd / 4th / 8th laser ring kept (32, 16, 8 beams; rings from each frame's day's
 calibration), a seeded 50 / 25 / 10 % of its points, and rect-v1's holes cut into the 64-beam
 scan.
+
+``holes`` puts the default (``pretrained``), the map release (``kitti-ensemble-v1``, fed the scan
+with its holes) and the strongest classical fill side by side on the same units (rect-v1's holes
+cut into the 64-beam scan, and the whole scan), each method's RMSE on the hole's pixels farther
+than D px from every measurement, and the composition that takes the map release's fill beyond
+D px and the default's within it, D chosen with one recording day left out.
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import argparse
 import time
 from typing import Any
 
+import cv2
 import numpy as np
 
 from inpaintenv.data import KittiDepth
@@ -37,7 +45,7 @@ from inpaintenv.data.base import ConcatDataset, Subset, spaced_per_drive
 from inpaintenv.data.calibration import Calibration, read_calibration
 from inpaintenv.data.thinning import thin_scan_by_points, thin_scan_by_rings
 from inpaintenv.data.inputs import method_input
-from inpaintenv.files.jsonio import loads_json
+from inpaintenv.files.jsonio import loads_json, write_json
 from inpaintenv.masks import get_protocol
 from inpaintenv.methods.registry import make_method
 
@@ -290,8 +298,131 @@ def cmd_density(argv: list[str]) -> None:
                   flush=True)
 
 
+#: The distances (px to the nearest measurement) beyond which ``holes``' composition takes the map release.
+HOLE_DISTANCES = (8, 16, 24, 32, 48, 64, 96)
+HOLE_METHODS = ("pretrained", "kitti-ensemble-v1")
+
+
+def enclosed_gap(x: np.ndarray) -> float:
+    """The largest distance (px) to the nearest measurement over pixels that have a measurement above
+    and below them in their column: a hole inside the scan, not the sky above its top lines."""
+    measured = np.nan_to_num(x, nan=0.0) > 0
+    below = np.cumsum(measured, axis=0) > 0
+    above = np.cumsum(measured[::-1], axis=0)[::-1] > 0
+    return float(np.max(gap_distance(x) * (below & above), initial=0.0))
+
+
+def gap_distance(x: np.ndarray) -> np.ndarray:
+    """Per pixel, its distance (px) to the nearest measurement, 0 outside the rows the measurements span
+    (the distance ScanBlendInpainter's gate reads)."""
+    measured = np.nan_to_num(x, nan=0.0) > 0
+    rows = np.flatnonzero(measured.any(axis=1))
+    gap = cv2.distanceTransform((~measured).astype(np.uint8), cv2.DIST_L2, 5)
+    band = np.zeros(gap.shape, bool)
+    band[rows[0] : rows[-1] + 1] = True
+    return np.where(band, gap, 0.0)
+
+
+def _rmse(pred: np.ndarray, gt: np.ndarray, scored: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((pred[scored] - gt[scored]) ** 2))) if scored.any() else np.nan
+
+
+def hole_units(root: str, frames: Any, seeds: tuple[int, ...]) -> dict[str, dict[str, list[float]]]:
+    """Per task (``rect-v1 hole``, ``64 beams``), per column, one value per unit: each method's RMSE,
+    the composition's at each of :data:`HOLE_DISTANCES` (``blend D``), the default's and the map
+    release's beyond D (``far D <method>``), the input's largest gap (``gap``: :func:`gap_distance`'s
+    maximum; ``enclosed``: :func:`enclosed_gap`) and each method's seconds (``s <method>``)."""
+    methods = {m: make_method(m) for m in HOLE_METHODS + CLASSICAL}
+    out: dict[str, dict[str, list[float]]] = {}
+    for label, x, gt, scored in density_units(root, frames, seeds, ("64 beams", "rect-v1 hole")):
+        row = out.setdefault(label, {})
+        preds = {}
+        for m, method in methods.items():
+            start = time.perf_counter()
+            preds[m] = method.predict(x)
+            row.setdefault(f"s {m}", []).append(time.perf_counter() - start)
+            row.setdefault(m, []).append(_rmse(preds[m], gt, scored))
+        gap = gap_distance(x)
+        row.setdefault("gap", []).append(float(gap.max()))
+        row.setdefault("enclosed", []).append(enclosed_gap(x))
+        for d in HOLE_DISTANCES:
+            far = gap > d
+            row.setdefault(f"blend {d}", []).append(_rmse(np.where(far, preds[HOLE_METHODS[1]], preds[HOLE_METHODS[0]]),
+                                                          gt, scored))
+            for m in HOLE_METHODS:
+                row.setdefault(f"far {d} {m}", []).append(_rmse(preds[m], gt, scored & far))
+    return out
+
+
+def _ratio_text(a: list[float], b: list[float]) -> str:
+    r, lo, hi = paired_ratio(np.asarray(a), np.asarray(b))
+    return f"{r:.3f} [{lo:.3f}, {hi:.3f}]"
+
+
+def cmd_holes(argv: list[str]) -> None:
+    """The default, the map release and the strongest classical fill in holes cut into scans, per set;
+    the far-pixel composition with its distance chosen leaving one recording day out."""
+    parser = _parser("the default vs the map release in holes cut into a scan", learned=False)
+    parser.add_argument("--sets", default=",".join(DAYS + OFFICIAL_SETS), help="the sets, comma-separated")
+    parser.add_argument("--save", help="JSON file to write every unit's values to")
+    args = parser.parse_args(argv)
+    sets, seeds, default, release = _sets(parser, args), _seeds(args), *HOLE_METHODS
+    units = {}
+    for name in args.sets.split(","):
+        start = time.perf_counter()
+        units[name] = hole_units(str(default_root()), sets[name], seeds)
+        for label, row in units[name].items():
+            best = min(CLASSICAL, key=lambda m: np.nanmean(row[m]))
+            ms = {m: 1000.0 * np.mean(row[f"s {m}"]) for m in (default, release, "harmonic")}
+            print(f"{name:14s} {label:13s} | {len(row[best])} units, {best} {np.nanmean(row[best]):.3f} m | {default} "
+                  f"{np.nanmean(row[default]):.3f} m, ratio {_ratio_text(row[default], row[best])} | {release} "
+                  f"{np.nanmean(row[release]):.3f} m, ratio {_ratio_text(row[release], row[best])} | release/default "
+                  f"{_ratio_text(row[release], row[default])} | ms {ms[default]:.0f} / {ms[release]:.0f} / harmonic "
+                  f"{ms['harmonic']:.0f} | largest gap {min(row['gap']):.0f}-{max(row['gap']):.0f} px, enclosed "
+                  f"{min(row['enclosed']):.0f}-{max(row['enclosed']):.0f} px", flush=True)
+            for d in HOLE_DISTANCES:
+                far = [row[f"far {d} {m}"] for m in HOLE_METHODS]
+                print(f"{name:14s} {label:13s} | D {d:3d}: composition ratio {_ratio_text(row[f'blend {d}'], row[best])},"
+                      f" / default {_ratio_text(row[f'blend {d}'], row[default])} | beyond D: {default} "
+                      f"{np.nanmean(far[0]):.3f} m, {release} {np.nanmean(far[1]):.3f} m, release/default "
+                      f"{_ratio_text(far[1], far[0])}", flush=True)
+        print(f"{name}: {time.perf_counter() - start:.0f} s", flush=True)
+    if args.save:
+        write_json(args.save, units)
+    _holes_lodo({d: units[d] for d in DAYS if d in units}, {s: units[s] for s in OFFICIAL_SETS if s in units})
+
+
+def _composition_ratio(row: dict[str, list[float]], d: int) -> float:
+    best = min(CLASSICAL, key=lambda m: np.nanmean(row[m]))
+    return paired_ratio(np.asarray(row[f"blend {d}"]), np.asarray(row[best]))[0]
+
+
+def _holes_lodo(days: dict[str, Any], official: dict[str, Any]) -> None:
+    """D chosen on two days (the mean of their hole ratios), scored on the third; the official sets
+    with the D chosen on every day given."""
+    label = "rect-v1 hole"
+    if len(days) < 2:
+        return
+    for out in days:
+        chosen = min(HOLE_DISTANCES, key=lambda d: np.mean([_composition_ratio(days[o][label], d)
+                                                            for o in days if o != out]))
+        row = days[out][label]
+        best = min(CLASSICAL, key=lambda m: np.nanmean(row[m]))
+        print(f"left out {out}: D {chosen} (chosen on {', '.join(o for o in days if o != out)}) | composition "
+              f"{_ratio_text(row[f'blend {chosen}'], row[best])} vs default "
+              f"{_ratio_text(row[HOLE_METHODS[0]], row[best])}", flush=True)
+    chosen = min(HOLE_DISTANCES, key=lambda d: np.mean([_composition_ratio(days[o][label], d) for o in days]))
+    for name, units in official.items():
+        for task, row in units.items():
+            best = min(CLASSICAL, key=lambda m: np.nanmean(row[m]))
+            print(f"{name} {task}: D {chosen} (chosen on {', '.join(days)}) | composition "
+                  f"{_ratio_text(row[f'blend {chosen}'], row[best])} vs default "
+                  f"{_ratio_text(row[HOLE_METHODS[0]], row[best])}", flush=True)
+
+
 COMMANDS = {"classical": cmd_classical, "lodo": cmd_lodo, "release": cmd_release, "official": cmd_official,
-            "time": cmd_time, "density": cmd_density}
+            "time": cmd_time, "density": cmd_density,
+            "holes": cmd_holes}
 
 if __name__ == "__main__":
     run_command("scan_lodo.py", COMMANDS, None)
