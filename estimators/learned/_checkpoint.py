@@ -457,14 +457,6 @@ def recorded_class(config: dict[str, Any], where: Any, known: Mapping[str, type]
     return klass
 
 
-def from_checked(klass: type, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
-    """``klass._from_config`` of a checkpoint's config and weights, with its provenance, marked fitted."""
-    est = klass._from_config(config, weights, where)
-    restore_provenance(est, config)
-    est.is_fitted_ = True
-    return est
-
-
 def with_overrides(est: Any, name: str, overrides: dict[str, Any]) -> Any:
     """``est`` (release ``name``) with prediction-time ``overrides`` set and checked against its weights.
 

@@ -324,7 +324,8 @@ class MeanEnsembleInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         for name, member_config in entries:
             where = f"{path} (member {name!r})"
             own = {k[len(name) + 1:]: v for k, v in weights.items() if k.startswith(f"{name}.")}
-            fitted.append(ckpt.from_checked(ckpt.recorded_class(member_config, where, {**_MEMBER_CLASSES, cls.__name__: cls}), member_config, own, where))
+            klass = ckpt.recorded_class(member_config, where, {**_MEMBER_CLASSES, cls.__name__: cls})
+            fitted.append(klass.from_config(member_config, own, where))
         params = {**ckpt.config_value(config, "params", dict, path),
                   "estimators": [(n, clone(m)) for n, m in zip(names, fitted)]}
         est = ckpt.build_checked(cls, params, path)

@@ -60,7 +60,8 @@ class PersistenceMixin:
     @classmethod
     def from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> Any:
         """The model a checkpoint's ``config`` and (checked) ``weights`` describe, built in memory
-        by the class the config records (this class or a subclass).
+        by the ``_from_config`` of the class the config records (this class or a subclass), with
+        its provenance (``training_drives_``, ``fit_environment_``), fitted.
 
         Raises
         ------
@@ -69,7 +70,10 @@ class PersistenceMixin:
         """
         klass = ckpt.recorded_class(config, where, defined_classes())
         klass = check_loaded_class(cls, klass, where, ckpt.CheckpointError)
-        return ckpt.from_checked(klass, config, weights, where)
+        est = klass._from_config(config, weights, where)
+        ckpt.restore_provenance(est, config)
+        est.is_fitted_ = True
+        return est
 
     def save(self, path: str | os.PathLike, **options: Any) -> Path:
         """Write the fitted estimator to the folder ``path`` (``config.json`` + ``model.safetensors``).

@@ -100,3 +100,34 @@ def test_no_family_is_imported_only_for_its_side_effect():
     found = [f"{p.name}: {m.group('names')}" for p in sorted(folder.rglob("*.py")) for m in unused.finditer(p.read_text())
              if families & {n.strip() for n in m.group("names").split(",")}]
     assert found == []
+
+
+def test_a_load_reaches_the_class_own_from_config_in_three_hops(tiny_fitted, tmp_path, monkeypatch):
+    """``load`` -> ``PersistenceMixin.load`` (reads the folder with ``read_model``) -> ``from_config`` -> the
+    recorded class's ``_from_config``, for a model and for each member of an ensemble."""
+    chains: list[list[str]] = []
+
+    def recording(klass):
+        original = klass._from_config.__func__
+
+        def _from_config(cls, config, weights, where):
+            names = []
+            for frame in inspect.stack()[1:]:
+                if frame.function.startswith("test_"):
+                    break
+                if frame.filename != __file__:  # not this wrapper
+                    names.append(f"{Path(frame.filename).name}:{frame.function}")
+            chains.append(names[::-1])
+            return original(cls, config, weights, where)
+
+        monkeypatch.setattr(klass, "_from_config", classmethod(_from_config))
+
+    for klass in (learned.UNetInpainter, learned.BlendInpainter, learned.MeanEnsembleInpainter):
+        recording(klass)
+    learned.load(tiny_fitted("UNetInpainter").save(tmp_path / "unet"))
+    entry = ["_load.py:load", "_persistence.py:load", "_persistence.py:from_config"]
+    assert chains == [entry]
+    chains.clear()
+    learned.load(tiny_fitted("MeanEnsembleInpainter").save(tmp_path / "ensemble"))
+    member = [*entry, "_ensemble.py:_from_config", "_persistence.py:from_config"]
+    assert chains == [entry, member, member]  # the ensemble, then each of its two members
