@@ -316,12 +316,20 @@ the sparse route's ``harmonic`` was chosen::
     python experiments/interval_calibration.py lodo --kitti-root <KITTI root> --method harmonic \\
         --spread-method nearest --input scan-rings32-v1 scan-rings16-v1 scan-rings8-v1 --frames-per-drive 3 \\
         --calibration densify-v1+rect-v1 --calibration "densify-v1+rect-v1 (+far)"
+
+``--condition distance`` (or ``depth``, ``density``; repeatable, ``none`` the pooled quantile) takes the
+quantile per bin of the distance to the nearest measurement, the predicted depth or the measured share
+around the pixel (Mondrian conformal,
+``ConformalIntervalInpainter(condition=...)``), each variant once per condition; ``--by-bin`` also
+prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled).
 """
 
 #: The scan tasks scored, and the calibrations compared: (protocol, signals).
 SCAN_TASKS = ("densify-v1", "rect-v1")
 SHIPPED_SIGNALS = ("border", "depth", "spread")
 LODO_SIGNALS = SHIPPED_SIGNALS + ("far",)
+#: Every signal collected per pixel: the variants' and the measured share a quantile may be conditioned on.
+FEATURE_SIGNALS = LODO_SIGNALS + ("density",)
 CALIBRATIONS = (("densify-v1", SHIPPED_SIGNALS), ("rect-v1", SHIPPED_SIGNALS),
                 ("densify-v1+rect-v1", SHIPPED_SIGNALS), ("densify-v1+rect-v1", LODO_SIGNALS))
 
@@ -335,9 +343,9 @@ def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...]) 
     """``(task, seed) -> (design matrix, residuals, frame)`` of ``model`` on ``frames`` (scans)."""
     from estimators.intervals import scored_residuals
 
-    out = {("densify-v1", 0): scored_residuals(model, frames, LODO_SIGNALS, spread, "densify-v1", 0)}
+    out = {("densify-v1", 0): scored_residuals(model, frames, FEATURE_SIGNALS, spread, "densify-v1", 0)}
     for seed in seeds:
-        out[("rect-v1", seed)] = scored_residuals(model, frames, LODO_SIGNALS, spread, "rect-v1", seed)
+        out[("rect-v1", seed)] = scored_residuals(model, frames, FEATURE_SIGNALS, spread, "rect-v1", seed)
     return out
 
 
@@ -350,8 +358,9 @@ def pooled(parts: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]), np.concatenate(frames)
 
 
-def interval_scores(coef: np.ndarray, q: float, F: np.ndarray, r: np.ndarray, frame: np.ndarray) -> dict[str, float]:
-    """Mean over units of coverage, width (low clipped at 0 m) and RMSE cut by the narrowest 80 %."""
+def interval_scores(coef: np.ndarray, q: Any, F: np.ndarray, r: np.ndarray, frame: np.ndarray) -> dict[str, float]:
+    """Mean over units of coverage, width (low clipped at 0 m) and RMSE cut by the narrowest 80 %
+    (``q``: one quantile, or one per pixel)."""
     from estimators.intervals import scale_from
     from inpaintenv.metrics import rejection_curve, sparsification
 
@@ -368,6 +377,29 @@ def interval_scores(coef: np.ndarray, q: float, F: np.ndarray, r: np.ndarray, fr
             "cut_80": float(np.nanmean(1.0 - curve[:, 0] / curve[:, 1])), "ause": float(ause)}
 
 
+def coverage_by_bin(coef: np.ndarray, q: Any, F: np.ndarray, r: np.ndarray) -> dict[str, list]:
+    """Pixels pooled: ``[coverage, pixels]`` per bin of each variable (``DEFAULT_EDGES``' bins)."""
+    from estimators.intervals import cell_of, scale_from
+    from inpaintenv.values.interval_calibration import DEFAULT_EDGES
+
+    inside = r <= q * scale_from(coef, F)
+    out = {}
+    for variable, edges in DEFAULT_EDGES.items():
+        cells = cell_of({"variable": variable, "edges": edges}, FEATURE_SIGNALS, F)
+        n = np.bincount(cells, minlength=len(edges) + 1)
+        hit = np.bincount(cells, inside, minlength=len(edges) + 1)
+        out[f"by_{variable}"] = [[float(h / k) if k else None, int(k)] for h, k in zip(hit, n)]
+    return out
+
+
+def bin_labels(variable: str) -> list[str]:
+    """``<= 1``, ``1-2``, ..., ``> 64`` (px or m) of a variable's default bins."""
+    from inpaintenv.values.interval_calibration import DEFAULT_EDGES
+
+    e = [f"{v:g}" for v in DEFAULT_EDGES[variable]]
+    return [f"<= {e[0]}"] + [f"{a}-{b}" for a, b in zip(e, e[1:])] + [f"> {e[-1]}"]
+
+
 def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(prog="interval_calibration.py lodo", description=LODO_DOC,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -382,12 +414,17 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--coverage", type=float, default=0.9)
     parser.add_argument("--calibration", action="append", choices=[variant_name(*c) for c in CALIBRATIONS],
                         help="the variants compared (repeatable; default every one)")
+    parser.add_argument("--condition", action="append", choices=["none", "distance", "depth", "density"],
+                        help="quantile per bin of this variable (repeatable; default none: one pooled quantile)")
+    parser.add_argument("--by-bin", action="store_true", help="also print coverage per distance and depth bin")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
+    conditions = args.condition or ["none"]
     if bool(args.fold) == bool(args.method):
         raise SystemExit("give a --fold DAY=MODEL per day, or --method (a fill that saw no drive), not both")
 
-    from estimators.intervals import balanced_scale, residual_quantiles, scale_from
+    from estimators.intervals import balanced_scale, cell_of, cell_quantiles, fit_condition, residual_quantiles, scale_from
+    from inpaintenv.values.interval_calibration import DEFAULT_EDGES
     from estimators.learned import load
     from inpaintenv.data import KittiDepth, spaced_per_drive
     from inpaintenv.methods.registry import make_method
@@ -407,27 +444,43 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
         print(f"{day}: {len(mine)} drives x {len(datasets)} inputs ({time.perf_counter() - start:.0f} s)", flush=True)
     rows = []
     every = "+".join(args.input)
-    print("| calibrated on | left-out day | task | input | coverage | mean width (m) | keep-80 % cut | AUSE (pooled) |\n"
-          "|---|---|---|---|---:|---:|---:|---:|")
+    print("| calibrated on | condition | left-out day | task | input | coverage | mean width (m) | keep-80 % cut | "
+          "AUSE (pooled) |\n|---|---|---|---|---|---:|---:|---:|---:|")
     for protocol, signals in CALIBRATIONS:
         variant = variant_name(protocol, signals)
         if args.calibration and variant not in args.calibration:
             continue
-        cols = [0] + [1 + LODO_SIGNALS.index(name) for name in signals]
+        cols = [0] + [1 + FEATURE_SIGNALS.index(name) for name in signals]
         for day in days:
             cal = pooled([days[d][k][(t, 0)] for d in days if d != day for k in args.input for t in protocol.split("+")])
-            coef = np.zeros(1 + len(LODO_SIGNALS))  # the signals left out weigh 0
+            coef = np.zeros(1 + len(FEATURE_SIGNALS))  # the signals left out weigh 0
             coef[cols] = balanced_scale(cal[0][:, cols], cal[1], cal[2], signals, 0, 200_000, "frame", args.coverage)
-            _, q = residual_quantiles(cal[1] / scale_from(coef, cal[0]), cal[2], "frame", args.coverage)
-            for task in SCAN_TASKS:
-                for kinds in [args.input] + ([[k] for k in args.input] if len(args.input) > 1 else []):
-                    test = pooled([v for k in kinds for (t, _), v in days[day][k].items() if t == task])
-                    name = every if len(kinds) > 1 else kinds[0]
-                    row = {"calibration": variant, "day": day, "task": task, "input": name,
-                           **interval_scores(coef, q, *test)}
-                    rows.append(row)
-                    print(f"| {variant} | {day} | {task} | {name} | {row['coverage']:.3f} | {row['width']:.2f} | "
-                          f"{row['cut_80']:.1%} | {row['ause']:.3f} |", flush=True)
+            normed = cal[1] / scale_from(coef, cal[0])
+            _, q = residual_quantiles(normed, cal[2], "frame", args.coverage)
+            for cond in conditions:
+                found = None if cond == "none" else fit_condition(cond, DEFAULT_EDGES[cond], FEATURE_SIGNALS, cal[0], normed,
+                                                                   cal[2], "frame", args.coverage)
+                for task in SCAN_TASKS:
+                    for kinds in [args.input] + ([[k] for k in args.input] if len(args.input) > 1 else []):
+                        test = pooled([v for k in kinds for (t, _), v in days[day][k].items() if t == task])
+                        qq = q if found is None else cell_quantiles(found, q, args.coverage, True, "frame")[
+                            cell_of(found, FEATURE_SIGNALS, test[0])]
+                        name = every if len(kinds) > 1 else kinds[0]
+                        row = {"calibration": variant, "condition": cond, "day": day, "task": task, "input": name,
+                               **interval_scores(coef, qq, *test), **coverage_by_bin(coef, qq, test[0], test[1])}
+                        rows.append(row)
+                        print(f"| {variant} | {cond} | {day} | {task} | {name} | {row['coverage']:.3f} | "
+                              f"{row['width']:.2f} | {row['cut_80']:.1%} | {row['ause']:.3f} |", flush=True)
+    if args.by_bin:
+        for variable in DEFAULT_EDGES:
+            unit = {"distance": "px to the nearest measurement", "depth": "predicted depth, m"}.get(variable, "measured share")
+            labels = bin_labels(variable)
+            print(f"\ncoverage by {variable} bin ({unit}), pixels pooled: coverage (pixels)\n| calibrated on | condition | "
+                  "day | task | input | " + " | ".join(labels) + " |\n|---|---|---|---|---|" + "---:|" * len(labels))
+            for row in rows:
+                cells = " | ".join("–" if c is None else f"{c:.3f} ({k})" for c, k in row[f"by_{variable}"])
+                print(f"| {row['calibration']} | {row['condition']} | {row['day']} | {row['task']} | {row['input']} | "
+                      f"{cells} |")
     if args.json:
         from inpaintenv.files import write_json
         write_json(args.json, rows)

@@ -13,25 +13,26 @@ from typing import Any
 
 import numpy as np
 
-from inpaintenv.data.base import DepthDataset
-from inpaintenv.exceptions import InvalidInputError
+from inpaintenv.data.base import DepthDataset, Subset, as_dataset
+from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.data.inputs import method_input
 from inpaintenv.masks import get_protocol
 from inpaintenv.metrics import border_distance
-from inpaintenv.values.interval_calibration import (DEPTH_FLOOR, FAR_DISTANCE, N_LEVELS, RESIDUAL_FLOOR,
-                                                    SCALE_LOG_RANGE, SPREAD_FLOOR)
+from inpaintenv.values.interval_calibration import (DENSITY_WINDOW, DEPTH_FLOOR, FAR_DISTANCE, N_LEVELS,
+                                                    RESIDUAL_FLOOR, SCALE_LOG_RANGE, SPREAD_FLOOR)
 
-from ..base import SCORE_CHUNK
+from ..base import SCORE_CHUNK, training_drives
 
-__all__ = ["balanced_scale", "calibration_protocols", "check_enough_pixels", "exact_quantile", "features", "fit_scale", "residual_quantiles", "scale_from",
-           "scored_residuals", "weighted_quantiles"]
+__all__ = ["balanced_scale", "calibration_protocols", "check_enough_pixels", "checked_prediction", "exact_quantile",
+           "features", "fit_scale", "grouped", "residual_quantiles", "scale_from", "scored_residuals", "weighted_quantiles"]
 
 
 def features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second: np.ndarray | None) -> np.ndarray:
     """``(n_hole_pixels, 1 + len(signals))`` design matrix of the hole pixels (intercept first).
 
     ``"far"`` is 1 where the border distance exceeds :data:`FAR_DISTANCE` px (a hole, not the gaps
-    between a scan's lines), else 0: its coefficient is set by :func:`balanced_scale`.
+    between a scan's lines), else 0: its coefficient is set by :func:`balanced_scale`. ``"density"``
+    is the share of measured pixels (not to fill) in the :data:`DENSITY_WINDOW`-px square around the pixel.
     """
     cols = [np.ones(int(hole.sum()))]
     near = np.log1p(border_distance(hole)[hole].astype(np.float64)) if {"border", "far"} & set(signals) else None
@@ -40,6 +41,10 @@ def features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second:
             cols.append(near)
         elif s == "far":
             cols.append((near > math.log1p(FAR_DISTANCE)).astype(np.float64))
+        elif s == "density":
+            import cv2  # lazy, as border_distance's
+
+            cols.append(cv2.blur((~hole).astype(np.float32), (DENSITY_WINDOW, DENSITY_WINDOW))[hole].astype(np.float64))
         elif s == "depth":
             cols.append(np.log(np.maximum(pred[hole].astype(np.float64), DEPTH_FLOOR)))
         else:  # spread
@@ -174,3 +179,42 @@ def residual_quantiles(normed: np.ndarray, frame: np.ndarray, weighting: str,
     per_frame = np.bincount(frame)  # frame numbers are small non-negative integers
     found = weighted_quantiles(normed, 1.0 / per_frame[frame], np.append(levels, coverage))
     return found[:-1], max(float(found[-1]), 1e-6)
+
+
+def grouped(X: Any, groups: Sequence[Any] | None) -> DepthDataset:
+    """``X`` as a dataset whose frames carry drive ids (``groups`` when given), or one error saying what is missing."""
+    dataset = as_dataset(X)
+    if len(dataset) == 0:
+        raise InvalidInputError("cannot calibrate on an empty dataset")
+    if groups is not None:
+        if isinstance(groups, str) or len(groups) != len(dataset):
+            raise InvalidInputError(f"groups must give one drive id per frame ({len(dataset)}), got {groups!r:.80}")
+        dataset = Subset(dataset, np.arange(len(dataset)))  # a view: the caller's groups stay as they are
+        dataset.groups = np.asarray([str(g) for g in groups])
+    elif training_drives(dataset) is None:
+        raise InvalidInputError("calibration frames need drive ids: pass groups=[drive of each frame] (whole "
+                                "drives the base never saw) or a dataset whose frames carry them (KittiDepth)")
+    return dataset
+
+
+def checked_prediction(pred: Any, x: np.ndarray, method: str, X: Any, base: Any = None) -> np.ndarray:
+    """``pred`` as float32 of ``x``'s shape, or one error naming ``method`` and the first bad frame.
+
+    ``base``: the estimator that predicted it (None: a prediction the caller passed). A NaN or
+    inf prediction would give NaN bounds, a complex one would lose its imaginary part in the
+    cast: neither is an interval.
+    """
+    whose = "prediction" if base is None else f"the prediction of {type(base).__name__}"
+    arr = np.asarray(pred)
+    if arr.dtype.kind not in "fiu":
+        raise InvalidTypeError(f"{method}: {whose} has dtype {arr.dtype}; it must be real depth in metres")
+    if arr.size != x.size:
+        raise InvalidInputError(f"{whose} has shape {arr.shape}, X {np.shape(X)}: pass predict(X)")
+    with np.errstate(over="ignore"):
+        out = arr.astype(np.float32).reshape(x.shape)
+    finite = np.isfinite(out).reshape(len(out), -1).all(axis=1)
+    if not finite.all():
+        k = int(np.argmin(finite))
+        raise InvalidInputError(f"{method}: {whose} has NaN or inf depth in frame {k} "
+                                f"({int(np.count_nonzero(~np.isfinite(out[k])))} pixels); no interval around it")
+    return out

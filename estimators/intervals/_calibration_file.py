@@ -19,10 +19,10 @@ from typing import Any
 
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.files import read_json, write_json
-from inpaintenv.values.interval_calibration import (DEFAULT_SIGNALS, FORMAT, MAX_ABS_COEF, N_LEVELS, SIGNALS,
-                                                    WEIGHTINGS, check_calibration)
+from inpaintenv.values.interval_calibration import (CONDITIONS, DEFAULT_SIGNALS, FORMAT, MAX_ABS_COEF, N_LEVELS,
+                                                    SIGNALS, WEIGHTINGS, check_calibration)
 
-__all__ = ["DEFAULT_SIGNALS", "FORMAT", "MAX_ABS_COEF", "MAX_CALIBRATION_BYTES", "N_LEVELS", "SIGNALS", "WEIGHTINGS",
+__all__ = ["CONDITIONS", "DEFAULT_SIGNALS", "FORMAT", "MAX_ABS_COEF", "MAX_CALIBRATION_BYTES", "N_LEVELS", "SIGNALS", "WEIGHTINGS",
            "check_calibration", "read_calibration", "write_calibration"]
 
 #: Largest calibration file read (a calibration is about 60 kB; the drive lists grow it a little).

@@ -35,6 +35,8 @@ The interval of nominal coverage ``c`` is ``pred ± q_c · scale`` (low clipped 
     drawn from all the test pixels pooled.
 
 The weighted residuals are kept as 2001 quantiles: any coverage can be asked (rounded up, by at most 0.05 %).
+With ``condition`` (``"distance"`` to the nearest measurement, or ``"depth"``) ``q_c`` is taken per bin
+of the variable (Mondrian conformal, ``._mondrian``), the pooled one where a bin has too few pixels.
 
 The guarantee is marginal over pixels of frames exchangeable with the calibration frames,
 so **the base model must never have seen the calibration drives**: ``fit`` takes whole
@@ -57,17 +59,19 @@ import numpy as np
 from sklearn.base import BaseEstimator, MetaEstimatorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from inpaintenv.data.base import DepthDataset, Subset, as_dataset
+from inpaintenv.data.base import DepthDataset
 from inpaintenv.data.inputs import input_kind
 from inpaintenv.exceptions import InvalidInputError, InvalidTypeError
 from inpaintenv.metrics import check_coverage, normal_quantile
 
 from .._constraints import Check, ConstrainedParams, InstanceOf, Integer, Options
-from ..base import SCORE_PROTOCOL, SCORE_SEED, BaseInpainter, check_inpaint_input, training_drives
+from ..base import SCORE_PROTOCOL, SCORE_SEED, BaseInpainter, check_inpaint_input
 from ._bases import CLASSICAL_FILLS, make_base
-from ._calibration import (balanced_scale, calibration_protocols, exact_quantile, features, residual_quantiles,
-                           scale_from, scored_residuals, weighted_quantiles)
-from ._calibration_file import DEFAULT_SIGNALS, N_LEVELS, SIGNALS, WEIGHTINGS
+from ._calibration import (balanced_scale, calibration_protocols, checked_prediction, exact_quantile, features,
+                           grouped, residual_quantiles, scale_from, scored_residuals, weighted_quantiles)
+from ._calibration_file import CONDITIONS, DEFAULT_SIGNALS, SIGNALS, WEIGHTINGS
+from ._mondrian import (cell_of, cell_quantiles, check_condition, check_edges, fit_condition, stored_quantile,
+                        with_condition)
 from ._persistence import CalibrationFileMixin
 
 __all__ = ["ConformalIntervalInpainter", "SIGNALS", "WEIGHTINGS", "weighted_quantiles"]
@@ -116,6 +120,11 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         How calibration pixels weigh in ``q``: each frame alike (the benchmark's mean over
         frames of the coverage is then ``coverage`` on the calibration frames) or each
         pixel alike (split conformal's finite-sample correction, for pooled pixels).
+    condition : {None, "distance", "depth", "density"}, default=None
+        The variable whose bins get a quantile each (distance to the nearest measurement, predicted
+        depth, measured share around the pixel); None: one quantile for every pixel.
+    condition_edges : sequence of float, optional
+        The bins' edges (px or m; ``DEFAULT_EDGES`` of :mod:`inpaintenv.values.interval_calibration`).
 
     Attributes
     ----------
@@ -125,6 +134,8 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         The normalised residuals' quantiles at levels ``linspace(0, 1, 2001)`` (method "higher").
     quantile_ : float
         The conformal quantile ``q`` at ``coverage`` (exact order statistic).
+    condition_ : dict or None
+        With ``condition``: the edges and each bin's counts and quantiles (the file's ``condition``).
     calibration_ : dict
         What it was calibrated on: ``drives``, ``n_frames``, ``n_pixels``, ``coverage``,
         ``protocol``, ``seed``, ``base`` (the base's class), ``signals``, ``weighting``.
@@ -150,7 +161,8 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
     def __init__(
         self, estimator: Any, coverage: float = 0.9, signals: tuple[str, ...] = DEFAULT_SIGNALS,
         spread_method: str = "scanline", protocol: str = SCORE_PROTOCOL, seed: int = SCORE_SEED,
-        max_fit_pixels: int = 200_000, weighting: str = "frame",
+        max_fit_pixels: int = 200_000, weighting: str = "frame", condition: str | None = None,
+        condition_edges: Sequence[float] | None = None,
     ) -> None:
         self.estimator = estimator
         self.coverage = coverage
@@ -160,6 +172,8 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         self.seed = seed
         self.max_fit_pixels = max_fit_pixels
         self.weighting = weighting
+        self.condition = condition
+        self.condition_edges = condition_edges
 
     # -- parameters --------------------------------------------------------------
     _parameter_constraints: dict[str, list[Any]] = {
@@ -171,6 +185,8 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         "protocol": [Check(calibration_protocols)],  # an unknown name lists the known protocols
         "seed": [Integer(0)],
         "max_fit_pixels": [Integer(10)],
+        "condition": [None, Options(*CONDITIONS)],
+        "condition_edges": [None, Check(check_edges)],
     }
 
     @staticmethod
@@ -214,9 +230,10 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         """
         self._check_params()
         signals = tuple(self.signals)
+        check_condition(self.condition, self.condition_edges)
         if hasattr(self.estimator, "fit"):  # an sklearn estimator must be fitted; a bare predictor is taken as is
             check_is_fitted(self.estimator)
-        dataset = self._grouped(X, groups)
+        dataset = grouped(X, groups)
         drives = sorted({str(g) for g in dataset.groups})
         self._refuse_seen(self.estimator, drives, "the base estimator")
         second = self._second_fill(self.spread_method) if "spread" in signals else None
@@ -252,6 +269,7 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         """
         self._check_params()
         signals = tuple(self.signals)
+        check_condition(self.condition, self.condition_edges)
         if hasattr(self.estimator, "fit"):
             check_is_fitted(self.estimator)
         if isinstance(folds, (str, bytes)) or not isinstance(folds, Sequence) or not folds:
@@ -265,7 +283,7 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
             if type(model) is not type(self.estimator):
                 raise InvalidInputError(f"folds[{k}]: the fold model is a {type(model).__name__}, the estimator a "
                                         f"{type(self.estimator).__name__}: fold models must follow its recipe")
-            dataset = self._grouped(X, None)
+            dataset = grouped(X, None)
             drives, kind = sorted({str(g) for g in dataset.groups}), getattr(dataset, "input_kind", "map")
             self._refuse_seen(model, drives, f"folds[{k}]: the fold model")
             twice = sorted(set(drives) & {d for d, i in taken if i == kind})  # once per input kind (density)
@@ -297,12 +315,13 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
 
     def _residuals(self, model: Any, dataset: DepthDataset, signals: tuple[str, ...],
                    second: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The signals (design matrix), absolute residuals and frame number of ``model``'s every scored pixel."""
-        return scored_residuals(model, dataset, signals, second, self.protocol, int(self.seed))
+        """The signals (the condition's last), absolute residuals and frame number of ``model``'s every scored pixel."""
+        return scored_residuals(model, dataset, with_condition(signals, self.condition), second, self.protocol, self.seed)
 
     def _calibrate(self, F: np.ndarray, r: np.ndarray, frame: np.ndarray, dataset: DepthDataset | None,
                    drives: list[str], signals: tuple[str, ...], n_frames: int | None = None) -> ConformalIntervalInpainter:
         """Fit the scale on ``(F, r)`` and keep the normalised residuals' (weighted) quantiles."""
+        full, F = F, F[:, :1 + len(signals)]  # the condition's own signal, if any, last
         if "spread" in signals and np.ptp(F[:, 1 + signals.index("spread")]) == 0:
             raise InvalidInputError(f"spread is the same at every calibration pixel: spread_method="
                                     f"{self.spread_method!r} fills as the base does; choose another (e.g. 'nearest') "
@@ -313,6 +332,10 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         self.n_calibration_pixels_ = int(r.size)
         self.residual_quantiles_, self.quantile_ = residual_quantiles(normed, frame, self.weighting,
                                                                       float(self.coverage))
+        edges = check_condition(self.condition, self.condition_edges)
+        self.condition_ = None if edges is None else fit_condition(
+            self.condition, edges, with_condition(signals, self.condition), full, normed, frame, self.weighting,
+            float(self.coverage))
         self.calibration_ = {
             "drives": drives, "n_frames": len(dataset) if dataset is not None else int(n_frames or 0),
             "n_pixels": int(r.size), "coverage": float(self.coverage),
@@ -324,21 +347,6 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         if input_kind(kind).separate:  # maps' records stay as they were
             self.calibration_["input_kind"] = kind
         return self
-
-    @staticmethod
-    def _grouped(X: Any, groups: Sequence[Any] | None) -> DepthDataset:
-        dataset = as_dataset(X)
-        if len(dataset) == 0:
-            raise InvalidInputError("cannot calibrate on an empty dataset")
-        if groups is not None:
-            if isinstance(groups, str) or len(groups) != len(dataset):
-                raise InvalidInputError(f"groups must give one drive id per frame ({len(dataset)}), got {groups!r:.80}")
-            dataset = Subset(dataset, np.arange(len(dataset)))  # a view: the caller's groups stay as they are
-            dataset.groups = np.asarray([str(g) for g in groups])
-        elif training_drives(dataset) is None:
-            raise InvalidInputError("calibration frames need drive ids: pass groups=[drive of each frame] (whole "
-                                    "drives the base never saw) or a dataset whose frames carry them (KittiDepth)")
-        return dataset
 
     _exact_quantile = staticmethod(exact_quantile)  # split-conformal quantile of sorted normalised residuals
 
@@ -356,17 +364,24 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         c = float(self.coverage) if coverage is None else check_coverage(coverage)
         if math.isclose(c, self.calibration_["coverage"]):
             return self.quantile_
-        n = self.n_calibration_pixels_
         # The pixel weighting's finite-sample correction; the frame weighting has none.
-        level = c if self.calibration_.get("weighting", "pixel") == "frame" else math.ceil((n + 1) * c) / n
-        if level > 1:
-            raise InvalidInputError(f"{n} calibration pixels are too few for a {c:g} interval")
-        idx = min(N_LEVELS - 1, math.ceil(level * (N_LEVELS - 1) - 1e-9))
-        return max(float(self.residual_quantiles_[idx]), 1e-6)
+        return stored_quantile(self.residual_quantiles_, self.n_calibration_pixels_, c,
+                               self.calibration_.get("weighting", "pixel"))
+
+    def _half(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray, coverage: float | None) -> np.ndarray:
+        """Per-pixel half-width (metres) at ``coverage``: the scale times its bin's ``q`` (the pooled one unconditioned)."""
+        scale, cells = self._scale(x, pred, hole)
+        q = self.quantile_at(coverage)
+        cond = getattr(self, "condition_", None)
+        if cond is None:
+            return scale * q
+        c = float(self.coverage) if coverage is None else check_coverage(coverage)
+        return scale * cell_quantiles(cond, q, c, math.isclose(c, self.calibration_["coverage"]),
+                                      self.calibration_.get("weighting", "pixel"))[cells]
 
     # -- prediction --------------------------------------------------------------
-    def _scale(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> np.ndarray:
-        """Per-pixel scale (metres), 0 outside the hole; ``x``, ``pred``, ``hole`` are (N, H, W).
+    def _scale(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Per-pixel scale (metres), 0 outside the hole, and bin (None unconditioned); ``x``, ``pred``, ``hole`` are (N, H, W).
 
         The last batch's is kept (keyed by a digest of ``x`` and ``pred``): intervals of several
         coverages of one batch (a reliability diagram) compute it once.
@@ -378,7 +393,8 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         if last is not None and last[0] == digest:
             return last[1]
         out = self._compute_scale(x, pred, hole)
-        out.flags.writeable = False  # shared by the calls of one batch: never written
+        for arr in out[:1] if out[1] is None else out:
+            arr.flags.writeable = False  # shared by the calls of one batch: never written
         self.__dict__["_last_scale"] = (digest, out)
         return out
 
@@ -387,39 +403,23 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         state.pop("_last_scale", None)  # a cache: never pickled (or sent to a worker) with the estimator
         return state
 
-    def _compute_scale(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    def _compute_scale(self, x: np.ndarray, pred: np.ndarray, hole: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         signals = tuple(self.calibration_["signals"])
         other = None
         if "spread" in signals:
             # The calibrated fill, whatever spread_method says now.
             other = np.asarray(self._second_fill(self.calibration_["spread_method"]).predict(x), dtype=np.float64)
         out = np.zeros(pred.shape, dtype=np.float64)
+        cond = getattr(self, "condition_", None)
+        cells = None if cond is None else np.zeros(pred.shape, dtype=np.int64)
+        every = with_condition(signals, None if cond is None else cond["variable"])
         for k in range(len(pred)):
             if hole[k].any():
-                F = features(signals, pred[k], hole[k], None if other is None else other[k])
-                out[k][hole[k]] = self._scale_from(F)
-        return out
-
-    def _checked_prediction(self, pred: Any, x: np.ndarray, method: str, X: Any, given: bool = False) -> np.ndarray:
-        """``pred`` as float32 of ``x``'s shape, or one error naming ``method`` and the first bad frame.
-
-        A NaN or inf prediction would give NaN bounds, a complex one would lose its
-        imaginary part in the cast: neither is an interval.
-        """
-        whose = "prediction" if given else f"the prediction of {type(self.estimator).__name__}"
-        arr = np.asarray(pred)
-        if arr.dtype.kind not in "fiu":
-            raise InvalidTypeError(f"{method}: {whose} has dtype {arr.dtype}; it must be real depth in metres")
-        if arr.size != x.size:
-            raise InvalidInputError(f"{whose} has shape {arr.shape}, X {np.shape(X)}: pass predict(X)")
-        with np.errstate(over="ignore"):
-            out = arr.astype(np.float32).reshape(x.shape)
-        finite = np.isfinite(out).reshape(len(out), -1).all(axis=1)
-        if not finite.all():
-            k = int(np.argmin(finite))
-            raise InvalidInputError(f"{method}: {whose} has NaN or inf depth in frame {k} "
-                                    f"({int(np.count_nonzero(~np.isfinite(out[k])))} pixels); no interval around it")
-        return out
+                F = features(every, pred[k], hole[k], None if other is None else other[k])
+                out[k][hole[k]] = self._scale_from(F[:, :1 + len(signals)])
+                if cells is not None:
+                    cells[k][hole[k]] = cell_of(cond, every, F)
+        return out, cells
 
     def _batch(self, X: Any) -> tuple[np.ndarray, bool]:
         x = check_inpaint_input(X, require_hole=False)
@@ -453,8 +453,8 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
         if not return_std:
             return pred
         x, single = self._batch(X)
-        p = self._checked_prediction(pred, x, "predict(return_std=True)", X)
-        half = self._scale(x, p, np.isnan(x)) * self.quantile_
+        p = checked_prediction(pred, x, "predict(return_std=True)", X, self.estimator)
+        half = self._half(x, p, np.isnan(x), self.calibration_["coverage"])
         # The calibrated coverage, which quantile_ belongs to (a later set_params does not change it).
         std = (half / normal_quantile(self.calibration_["coverage"])).astype(np.float32)
         return pred, std[0] if single else std
@@ -482,17 +482,17 @@ class ConformalIntervalInpainter(CalibrationFileMixin, ConstrainedParams, MetaEs
             ``X``, and ``low = high = pred`` elsewhere (measured pixels are given, not filled).
         """
         check_is_fitted(self)
-        q = self.quantile_at(coverage)
+        self.quantile_at(coverage)  # a coverage too fine for the calibration is refused before the base runs
         x, single = self._batch(X)
         if prediction is None:
-            pred = self._checked_prediction(self.estimator.predict(x), x, "predict_interval", X)
+            pred = checked_prediction(self.estimator.predict(x), x, "predict_interval", X, self.estimator)
         else:
-            pred = self._checked_prediction(prediction, x, "predict_interval", X, given=True)
+            pred = checked_prediction(prediction, x, "predict_interval", X)
         hole = np.isnan(x)
         # Only the hole's pixels have a width: the rest of the frame is pred itself.
         p = pred[hole]
         # A width below float32's resolution at pred would round to an empty interval.
-        half = np.maximum(self._scale(x, pred, hole)[hole] * q, 4.0 * np.spacing(np.abs(p)))
+        half = np.maximum(self._half(x, pred, hole, coverage)[hole], 4.0 * np.spacing(np.abs(p)))
         low, high = pred.copy(), pred.copy()
         # float32 rounding never excludes pred
         low[hole] = np.minimum(np.maximum(p - half, 0.0).astype(np.float32), p)

@@ -50,6 +50,8 @@ class CalibrationFileMixin:
             "n_pixels": self.n_calibration_pixels_,
             "residual_quantiles": [float(v) for v in self.residual_quantiles_],
             "calibration": copy.deepcopy(cal),  # a caller editing the dict leaves the wrapper as is
+            # Only a conditioned calibration has the field: an unconditioned file is as it always was.
+            **({"condition": copy.deepcopy(cond)} if (cond := getattr(self, "condition_", None)) is not None else {}),
         }
 
     @classmethod
@@ -63,7 +65,9 @@ class CalibrationFileMixin:
         params = data["params"]
         out = cls(estimator, coverage=params["coverage"], signals=tuple(params["signals"]),
                   spread_method=params["spread_method"], protocol=params["protocol"], seed=params["seed"],
-                  max_fit_pixels=params["max_fit_pixels"], weighting=params.get("weighting", "pixel"))
+                  max_fit_pixels=params["max_fit_pixels"], weighting=params.get("weighting", "pixel"),
+                  condition=(data.get("condition") or {}).get("variable"),
+                  condition_edges=(data.get("condition") or {}).get("edges"))
         try:
             out._check_params()
         except (InvalidInputError, InvalidTypeError, KeyError) as exc:
@@ -74,6 +78,7 @@ class CalibrationFileMixin:
         out.n_calibration_pixels_ = int(data["n_pixels"])
         out.calibration_ = copy.deepcopy(data["calibration"])
         out.calibration_.setdefault("weighting", out.weighting)
+        out.condition_ = copy.deepcopy(data.get("condition"))
         return out
 
     def to_dict(self, base: str | None = None) -> dict[str, Any]:

@@ -24,6 +24,11 @@ Each field, for what calibration can produce:
     Coverage in (0, 1), known signals without repeats, a known weighting, strings where
     names are, a non-negative integer seed, and the two copies of what was calibrated
     agreeing.
+``condition`` (optional; a file without it has one quantile for every pixel)
+    Version :data:`CONDITION_VERSION`; a variable of :data:`CONDITIONS`; increasing positive finite ``edges``; one bin more than edges, their pixel counts
+    adding up to ``n_pixels``; a bin below ``min_pixels`` or ``min_frames`` has no quantile of its
+    own (the pooled one), any other its :data:`CELL_LEVELS` quantiles checked as
+    ``residual_quantiles`` and a quantile within :data:`MAX_CELL_RATIO` of the pooled one.
 
 And what they imply together (:func:`implied_scale_problem`), wherever a pixel's signals can
 be within a frame the package reads (the scale ``exp(F @ coef)`` at its smallest ``s_min``
@@ -57,19 +62,35 @@ from inpaintenv.conventions import DEPTH_LIMIT
 from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.files.limits import MAX_FRAME_PIXELS
 
-__all__ = ["DEFAULT_SIGNALS", "DEPTH_FLOOR", "FAR_DISTANCE", "FIT_TOLERANCE", "FORMAT", "MAX_ABS_COEF", "N_LEVELS",
+__all__ = ["CELL_LEVELS", "CONDITION_VERSION", "CONDITIONS", "DEFAULT_EDGES", "MAX_CELL_RATIO", "DEFAULT_SIGNALS", "DEPTH_FLOOR", "DENSITY_WINDOW", "FAR_DISTANCE", "FIT_TOLERANCE", "FORMAT", "MAX_ABS_COEF", "N_LEVELS",
            "RESIDUAL_FLOOR", "SCALE_LOG_RANGE", "SIGNALS", "SIGNAL_RANGES", "SPREAD_FLOOR", "WEIGHTINGS",
            "check_calibration", "implied_scale_problem", "scale_range"]
 
 FORMAT = "inpaintenv-conformal-intervals-v1"
 #: The signals a scale model may use (``"far"``: ``estimators.intervals._calibration.features``).
-SIGNALS: tuple[str, ...] = ("border", "depth", "spread", "far")
+SIGNALS: tuple[str, ...] = ("border", "depth", "spread", "far", "density")
 #: The signals a wrapper uses unless told otherwise.
 DEFAULT_SIGNALS: tuple[str, ...] = ("border", "depth", "spread")
 #: How the calibration pixels weigh in the quantile.
 WEIGHTINGS: tuple[str, ...] = ("frame", "pixel")
 #: Levels at which the sorted normalised residuals are kept (0, 0.0005, ..., 1).
 N_LEVELS = 2001
+#: The variables a quantile may be conditioned on (Mondrian conformal), each read from a scale
+#: signal: the distance (px) to the nearest measurement, the predicted depth (m), the share of
+#: measured pixels around the pixel (``"density"``, :data:`DENSITY_WINDOW`).
+CONDITIONS: dict[str, str] = {"distance": "border", "depth": "depth", "density": "density"}
+#: The ``condition`` field's version.
+CONDITION_VERSION = 1
+#: Bin edges of each variable unless told otherwise: bin ``b`` holds ``edges[b-1] < v <= edges[b]``.
+DEFAULT_EDGES: dict[str, tuple[float, ...]] = {"distance": (1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0),
+                                               "depth": (5.0, 10.0, 20.0, 40.0),
+                                               "density": (0.004, 0.008, 0.012, 0.016, 0.024, 0.032, 0.048)}
+#: Side (px) of the square around a pixel whose measured share is the ``"density"`` signal.
+DENSITY_WINDOW = 61
+#: Levels at which a bin's normalised residuals are kept (0, 0.005, ..., 1).
+CELL_LEVELS = 201
+#: A bin's quantile is within this factor of the pooled one (the shipped ones are within 3).
+MAX_CELL_RATIO = 20.0
 #: Largest size of a scale coefficient: the shipped ones are below 4; 20 already makes the
 #: scale change by e^20 over one unit of a log-signal.
 MAX_ABS_COEF = 20.0
@@ -88,6 +109,7 @@ SIGNAL_RANGES: dict[str, tuple[float, float]] = {
     "depth": (0.0, math.log(DEPTH_LIMIT)),
     "spread": (math.log(SPREAD_FLOOR), math.log(DEPTH_LIMIT + SPREAD_FLOOR)),
     "far": (0.0, 1.0),
+    "density": (0.0, 1.0),
 }
 #: How far above 0 the mean ``log(n + RESIDUAL_FLOOR / s_max)`` of a fitted calibration may be
 #: (the shipped ones are at -0.1 to -0.7; a fit puts it at or below 0).
@@ -205,27 +227,73 @@ def _check_record(c: _Checker, cal: dict[str, Any], params: dict[str, Any], n_pi
                          parts)
 
 
-def _check_quantiles(c: _Checker, doc: dict[str, Any], coverage: float, n_pixels: int) -> None:
+def _check_quantiles(c: _Checker, doc: dict[str, Any], coverage: float, n_pixels: int, where: str = "",
+                     n_levels: int = N_LEVELS) -> None:
     """``residual_quantiles`` non-negative and non-decreasing; ``quantile`` positive and between
-    the stored quantiles on either side of the coverage."""
-    stored = c.numbers(doc, "residual_quantiles", "residual_quantiles", N_LEVELS)
+    the stored quantiles on either side of the coverage (``where``: the fields' prefix)."""
+    stored = c.numbers(doc, "residual_quantiles", f"{where}residual_quantiles", n_levels)
     if stored[0] < 0 or (np.diff(stored) < 0).any():
-        raise c.fail("residual_quantiles", "non-negative and non-decreasing (quantiles of |residual| / scale)",
+        raise c.fail(f"{where}residual_quantiles", "non-negative and non-decreasing (quantiles of |residual| / scale)",
                      doc["residual_quantiles"])
     q = doc.get("quantile")
     if isinstance(q, bool) or not isinstance(q, (int, float)) or not math.isfinite(q) or q <= 0:
-        raise c.fail("quantile", "a positive finite number", q)
+        raise c.fail(f"{where}quantile", "a positive finite number", q)
     if math.ceil((n_pixels + 1) * coverage) > n_pixels:
-        raise c.fail("n_pixels", f"enough pixels for a {coverage:g} interval "
+        raise c.fail(f"{where}n_pixels", f"enough pixels for a {coverage:g} interval "
                      f"(>= {math.ceil(coverage / (1 - coverage))})", n_pixels)
     # The level of q under either weighting: the frame weighting's is the coverage, the
     # pixel weighting's the rank ceil((n + 1) c) among n.
     rank = (math.ceil((n_pixels + 1) * coverage) - 1) / max(n_pixels - 1, 1)
-    levels = [coverage * (N_LEVELS - 1), rank * (N_LEVELS - 1)]
+    levels = [coverage * (n_levels - 1), rank * (n_levels - 1)]
     lo = stored[max(0, math.floor(min(levels)) - 1)]
-    hi = max(float(stored[min(N_LEVELS - 1, math.ceil(max(levels)) + 1)]), 1e-6)
+    hi = max(float(stored[min(n_levels - 1, math.ceil(max(levels)) + 1)]), 1e-6)
     if not lo * (1 - 1e-9) <= q <= hi * (1 + 1e-9):
-        raise c.fail("quantile", f"between the stored residual quantiles at the coverage ({lo:.6g} .. {hi:.6g})", q)
+        raise c.fail(f"{where}quantile", f"between the stored residual quantiles at the coverage ({lo:.6g} .. {hi:.6g})",
+                     q)
+
+
+def _check_condition(c: _Checker, doc: dict[str, Any], params: dict[str, Any], n_pixels: int) -> None:
+    """``condition``: the quantile per bin of a variable (absent: one quantile for every pixel)."""
+    if "condition" not in doc:
+        return
+    cond = c.obj(doc, "condition", "condition")
+    if cond.get("version") != CONDITION_VERSION:
+        raise c.fail("condition.version", f"{CONDITION_VERSION}", cond.get("version"))
+    variable = cond.get("variable")
+    if variable not in CONDITIONS:
+        raise c.fail("condition.variable", f"one of {tuple(CONDITIONS)}", variable)
+    raw = cond.get("edges")
+    edges = c.numbers(cond, "edges", "condition.edges", len(raw) if isinstance(raw, list) and raw else 1)
+    if (edges <= 0).any() or (np.diff(edges) <= 0).any():
+        raise c.fail("condition.edges", "increasing positive numbers", raw)
+    min_pixels = c.count(cond, "min_pixels", "condition.min_pixels")
+    min_frames = c.count(cond, "min_frames", "condition.min_frames")
+    bins = c.get(cond, "bins", "condition.bins")
+    if not isinstance(bins, list) or len(bins) != len(edges) + 1 or not all(isinstance(b, dict) for b in bins):
+        raise c.fail("condition.bins", f"a list of {len(edges) + 1} JSON objects (one more than edges)", bins)
+    coverage, pooled = float(params["coverage"]), float(doc["quantile"])
+    for k, cell in enumerate(bins):
+        where = f"condition.bins[{k}]."
+        n, frames = c.count(cell, "n_pixels", where + "n_pixels", low=0), c.count(cell, "n_frames", where + "n_frames", low=0)
+        few = n < min_pixels or frames < min_frames
+        if cell.get("quantile") is None or cell.get("residual_quantiles") is None:
+            if not few or cell.get("quantile") is not None or cell.get("residual_quantiles") is not None:
+                raise c.fail(where + "quantile", f"null with residual_quantiles (the pooled quantile) exactly when "
+                             f"the bin has under {min_pixels} pixels or {min_frames} frames", cell.get("quantile"))
+            continue
+        if few:
+            raise c.fail(where + "quantile", f"null (the bin has under {min_pixels} pixels or {min_frames} frames)",
+                         cell["quantile"])
+        _check_quantiles(c, cell, coverage, n, where, CELL_LEVELS)
+        if not 1 / MAX_CELL_RATIO <= cell["quantile"] / pooled <= MAX_CELL_RATIO:
+            raise c.fail(where + "quantile", f"within {MAX_CELL_RATIO:g}x of the pooled quantile ({pooled:.4g})",
+                         cell["quantile"])
+        if float(cell["residual_quantiles"][-1]) * scale_range(np.asarray(doc["coef"], float), params["signals"])[0] \
+                > DEPTH_LIMIT:
+            raise c.fail(where + "residual_quantiles", f"residuals of at most {DEPTH_LIMIT:.3f} m", cell["quantile"])
+    counts = [cell["n_pixels"] for cell in bins]
+    if sum(counts) != n_pixels:
+        raise c.fail("condition.bins[*].n_pixels", f"counts adding up to n_pixels ({n_pixels})", counts)
 
 
 def check_calibration(doc: Any, where: Any) -> dict[str, Any]:
@@ -249,6 +317,7 @@ def check_calibration(doc: Any, where: Any) -> dict[str, Any]:
     n_pixels = c.count(doc, "n_pixels", "n_pixels")
     _check_record(c, c.obj(doc, "calibration", "calibration"), params, n_pixels)
     _check_quantiles(c, doc, float(params["coverage"]), n_pixels)
+    _check_condition(c, doc, params, n_pixels)
     problem = implied_scale_problem(coef, params["signals"], np.asarray(doc["residual_quantiles"], dtype=np.float64))
     if problem is not None:
         raise c.fail(*problem)
