@@ -29,9 +29,10 @@ from ..report import style
 from ..report.results import EvaluationResult
 from ..files import ownership
 from .figures import (
-    DISTANCE_FRAMES, FramePredictions, _describe, frame_panel, has_intervals, plot_error_rejection,
+    DISTANCE_FRAMES, FramePredictions, _describe, has_intervals, plot_error_rejection,
     plot_error_vs_distance, plot_error_vs_hole_size, plot_error_vs_nearest, spread_indices,
 )
+from .panels import frame_panel
 from .uncertainty_figure import has_reliability, plot_uncertainty
 
 __all__ = ["task_folder", "write_figures"]

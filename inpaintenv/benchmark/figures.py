@@ -1,5 +1,5 @@
-"""Figures of a benchmark task: study-style frame panels, and error by hole size, by depth and by
-distance to the nearest measurement.
+"""Figures of a benchmark task: error by hole size, by depth and by distance to the nearest measurement,
+and the pixels every figure of a frame draws (:class:`FramePredictions`; the frame panels are :mod:`.panels`).
 
 Each task of a run (maps or single scans, any protocol) has its own figures
 (:mod:`.figure_files` writes them); a method is given what the rows scored it on.
@@ -7,10 +7,10 @@ Each task of a run (maps or single scans, any protocol) has its own figures
 Every figure uses the look of :mod:`inpaintenv.report.style` (the same depth and error colour
 maps, hole drawing and method colours as ``inpaintenv show``), one colour per method for
 the whole run. Figures of per-frame metrics (:func:`plot_error_vs_hole_size`) come from
-the rows, every scored frame; figures that need pixels (:func:`frame_panel`,
-:func:`plot_error_vs_distance`) run the methods again on a few frames spread over the
-drives (:func:`spread_indices`), once per frame for both (:class:`FramePredictions`), and
-say which frames in their title.
+the rows, every scored frame; figures that need pixels (:func:`.panels.frame_panel`,
+:func:`plot_error_vs_distance`) take the run's own predictions of a few frames spread over the
+drives (:func:`spread_indices`), or run the methods again on them, once per frame for all
+(:class:`FramePredictions`), and say which frames in their title.
 """
 
 from __future__ import annotations
@@ -29,15 +29,16 @@ from ..report.results import EvaluationResult
 from ..masks import get_protocol
 from ..methods.calls import run_method
 from ..methods.intervals import interval_source
-from ..metrics import Coverage, frame_metrics, interpolate_background
+from ..metrics import Coverage, interpolate_background
 from ..report import style
 from ..progress import count
-from .figure_io import colourbar as _colourbar
+from ..report.plots import Line, LinePlot, draw_lines
 from .figure_io import pyplot as _pyplot
 from .figure_io import save_figure as _save
+from .figure_io import save_png
 
 __all__ = [
-    "DISTANCE_BINS", "DISTANCE_FRAMES", "NEAREST_BINS", "FramePredictions", "frame_panel", "plot_error_vs_distance",
+    "DISTANCE_BINS", "DISTANCE_FRAMES", "NEAREST_BINS", "FramePredictions", "plot_error_vs_distance",
     "plot_error_rejection", "plot_error_vs_hole_size", "plot_error_vs_nearest", "spread_indices",
 ]
 
@@ -185,106 +186,6 @@ class FramePredictions:
         return self.unfilled.get(name, "error")
 
 
-def _scores(predictions: FramePredictions, name: str, index: int, pred: np.ndarray, max_depth: float) -> str:
-    """The title of a fill tile: the method and its task and all-pixel scores on the frame."""
-    gt, hole = predictions.frame(index)
-    scan = None if INPUTS[predictions.input_kind].is_map else predictions.inputs(index)
-    m = frame_metrics(pred, gt, hole, max_depth=max_depth, unfilled=predictions.policy(name), inputs=scan)
-    if predictions.protocol.task == "unmeasured":
-        return f"{name}\nunmeasured RMSE {float(m['unmeasured_rmse']):.2f} m | all {float(m['all_rmse']):.2f} m"
-    return (f"{name}\nhole RMSE {float(m['hole_rmse']):.2f} m, PSNR {float(m['hole_psnr']):.1f} dB | "
-            f"all {float(m['all_rmse']):.2f} m, {float(m['all_psnr']):.1f} dB")
-
-
-def _shown_input(x: np.ndarray, width: int) -> np.ndarray:
-    """The method's input as drawn: a scan's points widened to ``width`` pixels (the max depth of each
-    neighbourhood), so points stay visible in a shrunk tile; NaN shown as no data."""
-    shown = np.nan_to_num(x, nan=0.0)
-    if width > 1:
-        import cv2
-
-        shown = cv2.dilate(shown.astype(np.float32), np.ones((width, width), np.uint8))
-    return shown
-
-
-def frame_panel(
-    methods: Mapping[str, Any],
-    dataset: DepthDataset,
-    index: int,
-    path: str | Path,
-    *,
-    protocol: str = "rect-v1",
-    seed: int = 0,
-    max_depth: float = 80.0,
-    colours: Mapping[str, Any] | None = None,
-    predictions: FramePredictions | None = None,
-) -> Path:
-    """The study's Fig. 2 for one frame, in the look of ``inpaintenv show``.
-
-    Per method a row of input (holes hatched), ground truth, reconstruction (method name
-    in its run colour, the task's and all-pixel metrics) and absolute error on the task's
-    pixels (the hole, or under ``densify-v1`` every pixel the scan lacks); holes outlined on
-    every tile; one colour bar for depth and one for the error (robust scale shared by the
-    rows, :func:`inpaintenv.report.style.error_scale`), both in metres; with the ``coverage``
-    of ``predictions``, a fifth column: each method's interval width (grey: no interval). Pixels without
-    ground truth are grey in the truth and error tiles; on a scan, the fill's pixels outside
-    the band of rows the LiDAR covers (:meth:`FramePredictions.view`) are grey too: nothing
-    there can be judged, and ``fill --missing`` leaves them empty.
-    """
-    plt = _pyplot()
-    predictions = predictions or FramePredictions(methods, dataset, protocol, seed)
-    colours = colours or style.method_colours(methods)
-    gt, hole = predictions.frame(index)
-    scored = predictions.scored(index)
-    view = predictions.view(index)
-    preds = {name: predictions.prediction(name, index) for name in methods}
-    error_max = style.error_scale([np.abs(p - gt)[scored] for p in preds.values()])
-    widths = {name: predictions.width(name, index) for name in methods}
-    width_max = style.error_scale([w[scored] for w in widths.values() if w is not None])
-    cols = 5 if any(w is not None for w in widths.values()) else 4
-    n = len(methods)
-    h, w = gt.shape
-    dpi, tile_inches = 90, 4.2
-    fig, axes = plt.subplots(
-        n, cols, figsize=(cols * tile_inches, n * tile_inches * h / w + 0.5 * n + 1.2), squeeze=False
-    )
-    # Tiles are shown shrunk: hole lines as wide on the page as in `inpaintenv show`.
-    k = w / (tile_inches * dpi)
-    scan = INPUTS[predictions.input_kind].separate
-    x = _shown_input(predictions.method_input(index), max(1, round(k)) if scan else 1)
-    inp = style.draw_holes(style.depth_rgb(x, max_depth), hole, hatch=True, scale=k)
-    truth = style.draw_holes(style.depth_rgb(gt, max_depth), hole, scale=k)
-    what = "hole" if predictions.protocol.task == "hole" else "unmeasured pixels"
-    for r, (name, pred) in enumerate(preds.items()):
-        tiles = [
-            (inp, ("scan" if scan else "input") + (" (holes hatched)" if hole.any() else "")),
-            (truth, "ground truth (grey = no data)"),
-            (style.draw_holes(style.depth_rgb(np.where(view, pred, 0.0), max_depth), hole, scale=k),
-             _scores(predictions, name, index, pred, max_depth)),
-            (style.draw_holes(style.error_rgb(np.abs(pred - gt), scored, error_max), hole, scale=k),
-             f"|error| in the {what}, 0-{error_max:g} m"),
-        ]
-        if cols == 5:
-            width = widths[name]
-            tiles.append((style.draw_holes(style.error_rgb(np.zeros_like(gt) if width is None else width,
-                                                           scored & (width is not None), width_max), hole, scale=k),
-                          "no interval" if width is None else
-                          f"interval width ({predictions.coverage:g}), 0-{width_max:g} m"))
-        for c, (img, title) in enumerate(tiles):
-            ax = axes[r, c]
-            ax.imshow(img, interpolation="nearest")
-            ax.set_title(title, fontsize=8, color=colours.get(name, "black") if c == 2 else "black")
-            ax.axis("off")
-    task = protocol if not scan else f"{protocol} on single scans (grey above the scan's rows: outside its view)"
-    fig.suptitle(f"{dataset.frame_ids[index]} — {task}, seed {seed}", fontsize=10)
-    fig.tight_layout(rect=(0, 0.09, 1, 1))
-    _colourbar(fig, axes[:, :3].ravel().tolist(), style.DEPTH_CMAP, max_depth, "depth (m)")
-    _colourbar(fig, axes[:, 3].ravel().tolist(), style.ERROR_CMAP, error_max, "|error| (m)")
-    if cols == 5:
-        _colourbar(fig, axes[:, 4].ravel().tolist(), style.ERROR_CMAP, width_max, "interval width (m)")
-    return _save(fig, path, dpi=dpi)
-
-
 def plot_error_vs_hole_size(
     result: EvaluationResult, path: str | Path, *, n_bins: int = 6, colours: Mapping[str, Any] | None = None
 ) -> Path:
@@ -293,9 +194,8 @@ def plot_error_vs_hole_size(
     From the rows alone (every scored frame, nothing is re-predicted); a protocol other
     than the first is drawn dashed, in the method's colour.
     """
-    plt = _pyplot()
     colours = colours or style.method_colours(result.methods)
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    lines = []
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in result.rows:
         groups.setdefault((row["method"], row["protocol"]), []).append(row)
@@ -314,16 +214,11 @@ def plot_error_vs_hole_size(
                 xs.append(100 * f[sel].mean())
                 ys.append(e[sel].mean())
         label = method if len(protocols) == 1 else f"{method} ({protocol})"
-        ax.plot(xs, ys, marker="o", label=label, color=colours.get(method),
-                linestyle=("-", "--", ":", "-.")[protocols.index(protocol) % 4])
+        lines.append(Line(label, xs, ys, colours.get(method, "black"), ("-", "--", ":", "-.")[protocols.index(protocol) % 4]))
     frames = len({(r["protocol"], r["seed"], r["index"]) for r in result.rows})
-    ax.set_title(f"every frame-mask of the run ({frames}), from the rows", fontsize=9)
-    ax.set_xlabel("occluded share of the frame (%)")
-    ax.set_ylabel("hole RMSE (m), mean over frames")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2 if len(groups) > 8 else 1)
-    fig.tight_layout()
-    return _save(fig, path, dpi=100)
+    return _save_plot(LinePlot(lines, f"every frame-mask of the run ({frames}), from the rows",
+                               "occluded share of the frame (%)", "hole RMSE (m), mean over frames",
+                               legend_columns=2 if len(groups) > 8 else 1), path)
 
 
 #: (percent of hole pixels kept, row column of the method's curve, of the border baseline's).
@@ -340,9 +235,8 @@ def plot_error_rejection(
 
     Only the frames with interval columns (``evaluate(..., intervals=...)``) enter.
     """
-    plt = _pyplot()
     colours = colours or style.method_colours(result.methods)
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    lines = []
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in result.rows:
         if _finite(row.get("rmse_keep_80")):
@@ -353,18 +247,17 @@ def plot_error_rejection(
         label = method if len(protocols) == 1 else f"{method} ({protocol})"
         for k, (linestyle, what) in enumerate((("-", "most confident"), ("--", "nearest the border"))):
             ys = [float(np.mean([r[cols[k]] for r in rows])) for _, *cols in REJECTION_POINTS]
-            ax.plot(xs, ys, marker="o", linestyle=linestyle, color=colours.get(method), label=f"{label}, {what}")
+            lines.append(Line(f"{label}, {what}", xs, ys, colours.get(method, "black"), linestyle))
     frames = len({(r["protocol"], r["seed"], r["index"]) for rows in groups.values() for r in rows})
     coverage = result.meta.get("interval_coverage")
-    ax.set_title(f"{frames} frame-masks with intervals" + (f" (nominal coverage {coverage:g})" if coverage else ""),
-                 fontsize=9)
-    ax.set_xlabel("hole pixels kept (%)")
-    ax.set_ylabel("hole RMSE of the kept pixels (m), mean over frames")
-    ax.invert_xaxis()
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return _save(fig, path, dpi=100)
+    return _save_plot(LinePlot(
+        lines, f"{frames} frame-masks with intervals" + (f" (nominal coverage {coverage:g})" if coverage else ""),
+        "hole pixels kept (%)", "hole RMSE of the kept pixels (m), mean over frames", invert_x=True), path)
+
+
+def _save_plot(plot: LinePlot, path: str | Path) -> Path:
+    """Draw ``plot`` (:func:`inpaintenv.report.plots.draw_lines`) into the PNG file ``path``."""
+    return save_png(draw_lines(plot).png(), path)
 
 
 def _finite(value: Any) -> bool:
@@ -405,19 +298,8 @@ def _line_figure(
     values: dict[str, list[float]], xs: np.ndarray, path: str | Path, colours: Mapping[str, Any], *,
     xlabel: str, ylabel: str, title: str, log_x: bool = False,
 ) -> Path:
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    for name, v in values.items():
-        ax.plot(xs, v, marker="o", label=name, color=colours.get(name))
-    if log_x:
-        ax.set_xscale("log", base=2)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title, fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return _save(fig, path, dpi=100)
+    lines = [Line(name, list(xs), v, colours.get(name, "black")) for name, v in values.items()]
+    return _save_plot(LinePlot(lines, title, xlabel, ylabel, log_x=log_x), path)
 
 
 def plot_error_vs_distance(

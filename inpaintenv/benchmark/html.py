@@ -9,7 +9,7 @@ here from the rows, and the run's provenance (command, versions, data, seeds, ti
 
 Nothing is re-predicted: the page comes from the rows (``rows/*.jsonl``), ``run.json``,
 the ``meta`` and ``environment`` of ``results.json`` when there is one, and the figure files.
-Every figure is a PNG embedded as base64 (drawn by matplotlib's ``savefig``), and the only
+Every figure is a PNG embedded as base64, and the only
 script is the table's sorter, inline: the page loads nothing from the network.
 """
 
@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import math
 import os
 import re
@@ -34,6 +33,7 @@ from ..files import read_bytes, read_json, write_text_atomic
 from ..masks import get_protocol
 from ..progress import count, format_duration
 from ..report import style
+from ..report.plots import BoxPlot, draw_boxes
 from ..report.results import EvaluationResult
 from ..report.tables import summary_table
 from .headline import every_method_vs_strongest
@@ -234,36 +234,17 @@ def _figure_file(path: Path, run_dir: Path) -> str:
 
 
 def _per_frame_figure(rows: list[dict[str, Any]], methods: list[str], metric: str) -> bytes | None:
-    """A box per method of its per-frame RMSE of the task, from the rows (PNG bytes via ``savefig``)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
+    """A box per method of its per-frame RMSE of the task, from the rows (PNG bytes,
+    :func:`inpaintenv.report.plots.draw_boxes`)."""
     values = {m: [r[metric] for r in rows if r["method"] == m and _finite(r.get(metric))] for m in methods}
     values = {m: v for m, v in values.items() if v}
     if not values:
         return None
-    colours = style.method_colours(methods)
     order = sorted(values, key=lambda m: float(np.mean(values[m])))
-    fig, ax = plt.subplots(figsize=(6.4, 0.8 + 0.28 * len(order)))
-    try:
-        parts = ax.boxplot([values[m] for m in order], orientation="horizontal", widths=0.6, patch_artist=True, showfliers=True)
-        for patch, m in zip(parts["boxes"], order):
-            patch.set_facecolor(colours[m])
-            patch.set_alpha(0.55)
-        ax.set_yticks(range(1, len(order) + 1), order, fontsize=7)
-        ax.invert_yaxis()
-        ax.set_xlabel(f"{metric.replace('_rmse', '')} RMSE per frame (m)")
-        n = len({(r["seed"], r["index"]) for r in rows})
-        ax.set_title(f"every frame-mask of the task ({n}), from the rows; best mean at the top", fontsize=9)
-        ax.grid(alpha=0.3, axis="x")
-        fig.tight_layout()
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=90)
-        return buf.getvalue()
-    finally:
-        plt.close(fig)
+    n = len({(r["seed"], r["index"]) for r in rows})
+    return draw_boxes(BoxPlot({m: values[m] for m in order}, style.method_colours(methods),
+                              f"every frame-mask of the task ({n}), from the rows; best mean at the top",
+                              f"{metric.replace('_rmse', '')} RMSE per frame (m)")).png()
 
 
 # -- the table -----------------------------------------------------------------------------

@@ -311,3 +311,6 @@ def _report(
             log(f"RMSE against the LiDAR's beams: {beams}")
     log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")
     write_html_report(out, log)
+    total = time.monotonic() - started
+    log(f"report (tables, figures, report.html): {total - scored:.1f} s, {(total - scored) / total:.0%} of this "
+        f"command's {total:.1f} s")

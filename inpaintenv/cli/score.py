@@ -77,7 +77,10 @@ def _score_interrupted(args: argparse.Namespace) -> str:
 def cmd_score(args: argparse.Namespace) -> int:
     """Run ``inpaintenv score``."""
     from ..benchmark.figure_files import write_figures
+    from ..benchmark.figures import DISTANCE_FRAMES, spread_indices
     from ..benchmark.html import write_html_report
+    from ..benchmark.kept_frames import KeptFrames
+    from ..data.inputs import INPUTS
     from ..benchmark.headline import headline_markdown, headline_title, learned_vs_classical
     from ..files.lock import run_lock
     from ..files.ownership import check_folder
@@ -120,12 +123,19 @@ def cmd_score(args: argparse.Namespace) -> int:
     check_folder(out)  # someone else's folder is refused before the lock file is made in it
     run_methods = {args.name: checked.method, **methods}
     protocol, seeds = manifest.protocol_name, manifest.seeds
+    figures = args.figure_frames > 0 and manifest.input_kind == "map"
+    # Panels only of frames the submission has a prediction for under the first seed.
+    absent = {i for i in range(len(dataset)) if (seeds[0], i) not in checked.method.scored_pairs}
+    # The figures draw the predictions the run makes of their frames (the submission's files as read for
+    # scoring), not the methods called again.
+    kept = KeptFrames({dataset.input_kind: spread_indices(dataset, max(args.figure_frames, DISTANCE_FRAMES), absent)},
+                      seeds[0]) if figures else None
     with run_lock(out, log):
         result = run_benchmark(
             run_methods, dataset, protocols=[protocol], seeds=seeds, out_dir=out, resume=not args.no_resume,
             batch_size=args.batch_size, progress=not args.quiet, log=log,
             # Only a folder with interval files asks for intervals: one without keeps the run it always had.
-            interval_coverage=coverage if checked.method.interval_kind is not None else None,
+            interval_coverage=coverage if checked.method.interval_kind is not None else None, kept=kept,
         )
         report = without_ms(result, args.name)  # the rows keep the time spent reading the files
         command = "inpaintenv " + " ".join(getattr(args, "argv", []))
@@ -138,16 +148,15 @@ def cmd_score(args: argparse.Namespace) -> int:
         if compared:
             what = "hole RMSE" if all(r["task"] == "hole" for r in compared) else "RMSE of the task"
             print(f"\n{headline_title(compared)} ({what} ratio, paired 95 % CI):\n" + headline_markdown(compared))
-        if args.figure_frames > 0 and manifest.input_kind != "map":
+        if args.figure_frames > 0 and not figures:
             log("no figures: they are drawn for exports of maps only (the panels show a map input)")
-        elif args.figure_frames > 0:
-            # Panels only of frames the submission has a prediction for under the first seed.
-            absent = {i for i in range(len(dataset)) if (seeds[0], i) not in checked.method.scored_pairs}
+        elif figures:
             fig_dir = out / "figures"
             write_figures(
                 result, {n: (lambda m=m: m() if getattr(m, "lazy", False) else m) for n, m in run_methods.items()},
                 dataset, fig_dir, panel_methods=list(figure_methods(table, run_methods)), n_panels=args.figure_frames,
                 protocol=protocol, seed=seeds[0], log=log, exclude=absent, unfilled=result.meta.get("unfilled", {}),
+                kept=kept.lookup(INPUTS[dataset.input_kind].label(protocol)),
             )
             log(f"figures in {fig_dir}")
         log(f"wrote {paths['json']}, {paths['csv']}, {paths['markdown']}")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from inpaintenv.benchmark import RunMismatchError, run_benchmark, write_report
-from inpaintenv.benchmark import figure_files, figures
+from inpaintenv.benchmark import figure_files, figures, panels
 from inpaintenv.cli import main
 from inpaintenv.data import ArrayDataset
 from inpaintenv.metrics import border_distance
@@ -79,14 +79,13 @@ def test_error_rejection_figure_from_the_rows(dataset, tmp_path, monkeypatch):
     res = run_benchmark({"iv": TenPlusMinus(), "ten": ten_metres}, dataset, out_dir=tmp_path, progress=False,
                         interval_coverage=0.9)
     drawn = {}
-    save = figures._save
+    save = figures._save_plot
 
-    def spy(fig, path, dpi):
-        drawn[path.name] = {ln.get_label(): (mcolors.to_hex(ln.get_color()), list(ln.get_ydata()))
-                            for ax in fig.axes for ln in ax.get_lines()}
-        return save(fig, path, dpi)
+    def spy(plot, path):
+        drawn[path.name] = {ln.label: (mcolors.to_hex(ln.colour), list(ln.y)) for ln in plot.lines}
+        return save(plot, path)
 
-    monkeypatch.setattr(figures, "_save", spy)
+    monkeypatch.setattr(figures, "_save_plot", spy)
     names = figure_files.write_figures(res, {"iv": TenPlusMinus, "ten": lambda: ten_metres}, dataset,
                                        tmp_path / "figures", panel_methods=["iv"], n_panels=1, protocol="rect-v1", seed=0)
     assert (tmp_path / "figures" / "error_rejection.png") in names
@@ -124,23 +123,16 @@ def test_cli_option(tmp_path, monkeypatch, capsys):
     assert not (tmp_path / "bad").exists()
 
 
-def test_frame_panel_shows_the_interval_width_of_a_method_that_has_one(dataset, tmp_path, monkeypatch):
+def test_frame_panel_shows_the_interval_width_of_a_method_that_has_one(dataset, tmp_path):
     from inpaintenv.metrics import as_coverage
 
-    titles = {}
-    save = figures._save
-
-    def spy(fig, path, dpi):
-        titles[path.name] = [ax.get_title() for ax in fig.axes]
-        return save(fig, path, dpi)
-
-    monkeypatch.setattr(figures, "_save", spy)
     predictions = figures.FramePredictions({"iv": TenPlusMinus(), "ten": ten_metres}, dataset, "rect-v1", 0,
                                            coverage=as_coverage(0.9))
     width = predictions.width("iv", 0)
     hole = predictions.frame(0)[1]
     assert width is not None and (width[hole] >= 2.0).all()  # 10 m ± (1 + 0.2 d): at least 2 m wide in the hole
     assert predictions.width("ten", 0) is None  # a plain callable has no interval
-    figures.frame_panel(predictions.methods, dataset, 0, tmp_path / "p.png", predictions=predictions)
-    shown = titles["p.png"]
+    shown = [title for row in panels.panel_tiles(predictions, 0, list(predictions.methods)).rows for _, title, _ in row]
     assert sum(t.startswith("interval width (0.9)") for t in shown) == 1 and "no interval" in shown
+    panels.frame_panel(predictions.methods, dataset, 0, tmp_path / "p.png", predictions=predictions)
+    assert (tmp_path / "p.png").read_bytes().startswith(b"\x89PNG")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from inpaintenv.report import style
-from inpaintenv.benchmark import figures
+from inpaintenv.benchmark import figures, panels
 from inpaintenv.cli import main
 from inpaintenv.data import ArrayDataset
 
@@ -27,21 +27,21 @@ ARGV = argv_of(METHODS)
 
 @pytest.fixture
 def drawn(monkeypatch):
-    """Per figure file name: {line label: colour} and the axes titles; and the count of re-predictions."""
+    """Per figure file name: {line label: colour} and the title; and the count of re-predictions."""
     record: dict[str, dict] = {"predict": 0}
-    save = figures._save
+    save = figures._save_plot
     run = figures.run_method
 
-    def spy_save(fig, path, dpi):
-        lines = {ln.get_label(): mcolors.to_hex(ln.get_color()) for ax in fig.axes for ln in ax.get_lines()}
-        record[path.name] = {"lines": lines, "titles": [ax.get_title() for ax in fig.axes]}
-        return save(fig, path, dpi)
+    def spy_save(plot, path):
+        lines = {ln.label: mcolors.to_hex(ln.colour) for ln in plot.lines}
+        record[path.name] = {"lines": lines, "titles": [plot.title]}
+        return save(plot, path)
 
     def spy_run(*args, **kwargs):
         record["predict"] += 1
         return run(*args, **kwargs)
 
-    monkeypatch.setattr(figures, "_save", spy_save)
+    monkeypatch.setattr(figures, "_save_plot", spy_save)
     monkeypatch.setattr(figures, "run_method", spy_run)
     return record
 
@@ -91,23 +91,46 @@ def test_spread_indices_cover_the_drives_in_turn():
     assert sorted(figures.spread_indices(data, 50)) == list(range(10))
 
 
-def test_scan_panel_shows_no_fill_above_the_scans_rows(tmp_path, monkeypatch):
+def test_scan_panel_shows_no_fill_above_the_scans_rows(tmp_path):
     """A fill of a scan is drawn only inside the band of rows the LiDAR covers: above it nothing can be
     judged, and fills that extrapolate there drew vertical streaks."""
-    import matplotlib.axes
-
     from inpaintenv.data import SyntheticStreets
     from inpaintenv.filling.view import sensor_view
+    from inpaintenv.report.raster import sample_grid
 
     data = SyntheticStreets(n=1, frame_shape=(48, 160), input="scan")
     everywhere = lambda x: np.where(np.isnan(x), np.float32(10.0), x)  # fills every pixel, sky included
-    shown = []
-    imshow = matplotlib.axes.Axes.imshow
-    monkeypatch.setattr(matplotlib.axes.Axes, "imshow",
-                        lambda ax, img, **kw: (shown.append(img), imshow(ax, img, **kw))[1])
-    figures.frame_panel({"ten": everywhere}, data, 0, tmp_path / "p.png", protocol="densify-v1")
-    view = sensor_view(data.load_pairs([0])[0][0])
+    predictions = figures.FramePredictions({"ten": everywhere}, data, "densify-v1", 0)
+    tiles = panels.panel_tiles(predictions, 0, ["ten"])
+    rows, cols = sample_grid(data.frame_shape, panels.TILE_WIDTH)
+    view = sensor_view(data.load_pairs([0])[0][0])[rows][:, cols]  # as the tile shows the frame
     assert (~view).any() and view.any()
-    fill_tile = shown[2]
+    fill_tile = tiles.rows[0][2][0]
+    assert fill_tile.shape[:2] == view.shape
     assert np.allclose(fill_tile[~view], style.NO_DATA)  # grey outside the scan's band
     assert (~np.isclose(fill_tile[view], style.NO_DATA).all(axis=-1)).mean() > 0.9  # the fill inside it
+    path = panels.frame_panel({"ten": everywhere}, data, 0, tmp_path / "p.png", protocol="densify-v1")
+    assert path.read_bytes().startswith(b"\x89PNG")
+
+
+def test_figures_colour_only_the_shown_pixels_and_lay_out_no_matplotlib_figure(tmp_path, monkeypatch):
+    """What a run's figures cost is bounded by what they show: every tile is coloured at its shown size
+    (never a full frame wider than a tile), and no matplotlib figure is laid out for the panels, the line
+    plots or report.html's per-frame boxes. Counted, not timed: a timing would be flaky on a loaded machine."""
+    import matplotlib.figure
+
+    shapes: list[tuple[int, ...]] = []
+    depth_rgb = style.depth_rgb
+    monkeypatch.setattr(style, "depth_rgb", lambda d, m: (shapes.append(np.shape(d)), depth_rgb(d, m))[1])
+    made: list[int] = []
+    init = matplotlib.figure.Figure.__init__
+    monkeypatch.setattr(matplotlib.figure.Figure, "__init__", lambda fig, *a, **k: (made.append(1), init(fig, *a, **k))[1])
+    argv = ["benchmark", "-m", "scanline", "-m", "nearest", "--n-frames", "4", "--frame-shape", "64", "760",
+            "--holdout", "0", "--figure-frames", "2", "--quiet", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    assert made == []
+    assert len(shapes) == 2 * (2 + 2)  # two panels: the input and truth tiles once, a fill tile per method
+    assert all(s[1] == panels.TILE_WIDTH for s in shapes), shapes  # 380 px shown of the 760-px frames
+    drawn = {p.name for p in (tmp_path / "figures").glob("*.png")}
+    assert len({n for n in drawn if n.startswith("frame_")}) == 2
+    assert {"error_vs_hole_size.png", "error_vs_distance.png", "error_vs_nearest.png"} <= drawn

@@ -43,6 +43,23 @@ def rows_by_method(out):
     return doc, rows
 
 
+def test_score_figures_draw_what_the_scoring_read_and_call_no_method(exported, tmp_path, monkeypatch, capsys):
+    """The panels and pixel figures of ``score`` come from the predictions the scoring made: the submission's
+    files as read once, and each ``-m`` method's output; the figures call neither again."""
+    from inpaintenv.benchmark import figures
+
+    calls = []
+    monkeypatch.setattr(figures, "run_method", lambda *a, **k: calls.append(a[-1]) or pytest.fail("called again"))
+    out = tmp_path / "run"
+    argv = [a for a in score_argv(exported, exported / "predictions", out, "-m", "harmonic", "--figure-frames", "1")
+            if a != "-q"]
+    assert main(argv) == 0
+    assert calls == []
+    assert "kept from the run's own predictions; no method runs again" in capsys.readouterr().err
+    for name in ("frame_0000.png", "error_vs_distance.png", "error_vs_nearest.png"):
+        assert (out / "figures" / name).is_file(), name
+
+
 def test_score_writes_the_benchmark_run_folder_with_classical_rows(exported, tmp_path, capsys, fill_method):
     out = tmp_path / "run"
     argv = score_argv(exported, exported / "predictions", out, "-m", "harmonic", "--figure-frames", "1")
