@@ -201,8 +201,8 @@ def draw_lines(plot: LinePlot) -> Canvas:
         ok = np.isfinite(lx) & np.isfinite(ly)
         colour = colour_rgb(ln.colour)
         runs = np.split(np.arange(len(ok)), np.flatnonzero(np.diff(ok.astype(int))) + 1)
-        for run in runs:
-            if ok[run[0]] and len(run) > 1:
+        for run in runs:  # a NaN breaks the line, as in matplotlib
+            if len(run) > 1 and ok[run[0]]:
                 _polyline(px, np.stack([lx[run], ly[run]], 1), colour, ln.linestyle)
         for x, y in zip(lx[ok], ly[ok]):
             _marker(px, x, y, colour)
