@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .raster import Canvas, colour_rgb, text_width
+from .raster import Canvas, colour_rgb, fit_size, text_width
 
 __all__ = ["BoxPlot", "Line", "LinePlot", "draw_boxes", "draw_lines"]
 
@@ -171,6 +171,13 @@ def _legend_box(plot: LinePlot, axes: _Axes, points: np.ndarray) -> tuple[int, i
     return x, y, w, h, rows, col_w
 
 
+def _title(canvas: Canvas, text: str, centre: float, width: int) -> None:
+    """The title over the axes centred at ``centre``, moved and shrunk as needed to stay inside the figure."""
+    px = fit_size(text, width - 8, TITLE_PX)
+    half = text_width(text, px) / 2
+    canvas.text(min(max(centre, half + 4), width - half - 4), 8, text, px)
+
+
 def draw_lines(plot: LinePlot) -> Canvas:
     """The figure of ``plot`` on a canvas of ``plot.size`` pixels."""
     width, height = plot.size
@@ -222,7 +229,7 @@ def draw_lines(plot: LinePlot) -> Canvas:
         canvas.text(x, box[3] + 6, _label(t), TICK_PX)
     for y, t in zip(ty, yticks):
         canvas.text(box[0] - 7, y, _label(t), TICK_PX, anchor="rm")
-    canvas.text((box[0] + box[2]) / 2, 8, plot.title, TITLE_PX)
+    _title(canvas, plot.title, (box[0] + box[2]) / 2, width)
     canvas.text((box[0] + box[2]) / 2, height - 8, plot.xlabel, LABEL_PX, anchor="md")
     canvas.vertical_text(8, (box[1] + box[3]) / 2, plot.ylabel, LABEL_PX)
     if legend is not None:
@@ -275,7 +282,7 @@ def draw_boxes(plot: BoxPlot) -> Canvas:
         canvas.text(x, box[3] + 6, _label(t), TICK_PX)
     for k, name in enumerate(names):
         canvas.text(box[0] - 6, axes.px(np.zeros(1), np.array([k + 1.0]))[1][0], name, TICK_PX - 1, anchor="rm")
-    canvas.text((box[0] + box[2]) / 2, 8, plot.title, TITLE_PX)
+    _title(canvas, plot.title, (box[0] + box[2]) / 2, plot.width)
     canvas.text((box[0] + box[2]) / 2, height - 8, plot.xlabel, LABEL_PX, anchor="md")
     return canvas
 
