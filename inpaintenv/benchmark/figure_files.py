@@ -33,6 +33,7 @@ from .figures import (
     plot_error_vs_distance, plot_error_vs_hole_size, plot_error_vs_nearest, spread_indices,
 )
 from .panels import frame_panel
+from .coverage_figure import COVERAGE_FIGURES, plot_coverage_by_bin
 from .uncertainty_figure import has_reliability, plot_uncertainty
 
 __all__ = ["task_folder", "write_figures"]
@@ -143,8 +144,10 @@ def write_figures(
     names = [out / f"frame_{i:04d}.png" for i in panels]
     names += [out / "error_vs_hole_size.png"] if by_size else []
     names += [out / "error_vs_distance.png", out / "error_vs_nearest.png"]
+    coverage = result.meta.get("interval_coverage")
     if has_intervals(result):
         names.append(out / "error_rejection.png")
+        names += [out / name for name in COVERAGE_FIGURES] if coverage else []
     if has_reliability(result):
         names.append(out / "uncertainty.png")
     settings = {"task": task, "coverage": result.meta.get("interval_coverage"), "panel_methods": list(panel_methods), "panels": panels, "distance": indices,
@@ -168,7 +171,6 @@ def write_figures(
         plot_error_rejection(result, out / "error_rejection.png", colours=colours)
     if has_reliability(result):
         plot_uncertainty(result, out / "uncertainty.png", colours=colours)
-    coverage = result.meta.get("interval_coverage")
     built = _Built(methods, panel_methods)
     predictions = FramePredictions(built, dataset, protocol, seed, unfilled,
                                    as_coverage(coverage) if has_intervals(result) and coverage else None, kept=kept)
@@ -193,6 +195,9 @@ def write_figures(
                            colours=colours, predictions=predictions)
     plot_error_vs_nearest(built, dataset, indices, out / "error_vs_nearest.png", protocol=protocol, seed=seed,
                           colours=colours, predictions=predictions)
+    if has_intervals(result) and coverage:
+        plot_coverage_by_bin(predictions, list(panel_methods), indices, out, coverage=as_coverage(coverage),
+                             colours=colours, title=f"{_describe(dataset, indices)}, {task}, seed {seed}")
     # The time taken is recorded beside the stamp, not in it: a redraw is decided by what the figures show.
     write_text_atomic(stamp_path, json.dumps({"stamp": stamp, **settings, "seconds": time.monotonic() - started},
                                              indent=1))

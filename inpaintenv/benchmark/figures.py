@@ -38,7 +38,7 @@ from .figure_io import save_figure as _save
 from .figure_io import save_png
 
 __all__ = [
-    "DISTANCE_BINS", "DISTANCE_FRAMES", "NEAREST_BINS", "FramePredictions", "plot_error_vs_distance",
+    "DISTANCE_BINS", "DISTANCE_FRAMES", "NEAREST_BINS", "FramePredictions", "nearest_distance", "plot_error_vs_distance",
     "plot_error_rejection", "plot_error_vs_hole_size", "plot_error_vs_nearest", "spread_indices",
 ]
 
@@ -109,7 +109,7 @@ class FramePredictions:
         self.methods, self.dataset, self.seed = methods, dataset, seed
         self.unfilled = dict(unfilled or {})
         self.coverage, self.kept = coverage, (kept if coverage is None else None)  # a width needs the method
-        self._widths: dict[tuple[str, int], np.ndarray | None] = {}
+        self._bounds: dict[tuple[str, int], tuple[np.ndarray, np.ndarray]] = {}
         self.protocol = get_protocol(protocol)
         self.input_kind = getattr(dataset, "input_kind", "map")
         self._frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -165,7 +165,7 @@ class FramePredictions:
             if source is not None:  # as the rows scored it: on the task's pixels
                 task = np.isnan(x) if self.protocol.task == "unmeasured" else self.frame(index)[1][None]
                 low, high = source.bounds(x, pred, task)
-                self._widths[(name, index)] = (high - low)[0]
+                self._bounds[(name, index)] = (low[0], high[0])
             if self.policy(name) == "interpolate":
                 pred = interpolate_background(pred)
             self._preds[(name, index)] = pred[0]
@@ -175,11 +175,15 @@ class FramePredictions:
         """Method ``name``'s output on frame ``index`` as the run made it (``kept``), or None: run again."""
         return None if self.kept is None else self.kept(name, index)
 
-    def width(self, name: str, index: int) -> np.ndarray | None:
-        """The width of method ``name``'s interval on frame ``index`` (``coverage`` given and the method has
-        one), else None."""
+    def bounds(self, name: str, index: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(low, high)`` of method ``name``'s interval on frame ``index`` (``coverage`` given and the method
+        has one, as the rows scored it), else None."""
         self.prediction(name, index)
-        return self._widths.get((name, index))
+        return self._bounds.get((name, index))
+
+    def width(self, name: str, index: int) -> np.ndarray | None:
+        """The width of method ``name``'s interval on frame ``index`` (see :meth:`bounds`), else None."""
+        return None if (b := self.bounds(name, index)) is None else b[1] - b[0]
 
     def policy(self, name: str) -> str:
         """Method ``name``'s ``unfilled`` policy in the run."""
@@ -335,7 +339,7 @@ def plot_error_vs_distance(
 NEAREST_BINS = (0, 2, 4, 8, 16, 32, 64, 128, 256, 100_000)
 
 
-def _nearest_distance(measured: np.ndarray) -> np.ndarray:
+def nearest_distance(measured: np.ndarray) -> np.ndarray:
     """Per pixel, the Euclidean distance (pixels) to the nearest measured pixel (inf when none is)."""
     import cv2
 
@@ -365,7 +369,7 @@ def plot_error_vs_nearest(
     colours = colours or style.method_colours(methods)
     edges = np.asarray(bins, dtype=float)
     values, pixels = _pooled_rmse(predictions, list(methods), indices, edges,
-                                  lambda i, sel: _nearest_distance(predictions.measured(i))[sel])
+                                  lambda i, sel: nearest_distance(predictions.measured(i))[sel])
     keep = pixels > 0
     centres = np.sqrt(np.maximum(edges[:-1], 0.5) * np.minimum(edges[1:], 2 * np.maximum(edges[:-1], 1)))
     values = {name: [v for v, k in zip(vs, keep) if k] for name, vs in values.items()}

@@ -59,6 +59,11 @@ KNOWN_FIGURES: tuple[tuple[str, str], ...] = (
                             "against the pixels nearest the hole border (dashed)."),
     ("error_vs_beams.png", "Error by LiDAR density: mean RMSE of the task against the beams of the LiDAR simulated "
                            "(every k-th ring of the 64-beam scan kept), one line per method (from the rows)."),
+    ("coverage_vs_nearest.png", "Conditional coverage (methods with intervals): the share of the task's pixels "
+                                "inside the interval against their distance to the nearest measurement, pixels pooled, "
+                                "beside the nominal coverage (dashed)."),
+    ("coverage_vs_distance.png", "Conditional coverage by depth: the share of the task's pixels inside the interval "
+                                 "per ground-truth range bin, beside the nominal coverage (dashed)."),
     ("uncertainty.png", "Per-pixel intervals: the reliability diagram (coverage at nominal 50-95 %, per image "
                         "solid, pixels pooled dashed) and each method's per-image AUSE and AURG (RMSE-based)."),
 )

@@ -136,3 +136,49 @@ def test_frame_panel_shows_the_interval_width_of_a_method_that_has_one(dataset, 
     assert sum(t.startswith("interval width (0.9)") for t in shown) == 1 and "no interval" in shown
     panels.frame_panel(predictions.methods, dataset, 0, tmp_path / "p.png", predictions=predictions)
     assert (tmp_path / "p.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_conditional_coverage_figure_is_the_numpy_share_per_bin(dataset, tmp_path, monkeypatch):
+    """coverage_by_bin.png: each method with an interval, its coverage per distance-to-measurement and per
+    depth bin, as NumPy counts it on the same frames; a method without an interval is not drawn."""
+    import cv2
+
+    from inpaintenv.benchmark import coverage_figure
+    from inpaintenv.masks import get_protocol
+
+    res = run_benchmark({"iv": TenPlusMinus(), "ten": ten_metres}, dataset, out_dir=tmp_path, progress=False,
+                        interval_coverage=0.9)
+    drawn = {}
+    draw = coverage_figure.draw_lines
+
+    def spy(plot):
+        drawn[plot.xlabel] = {line.label: (list(line.x), list(line.y)) for line in plot.lines}
+        return draw(plot)
+
+    monkeypatch.setattr(coverage_figure, "draw_lines", spy)
+    names = figure_files.write_figures(res, {"iv": TenPlusMinus, "ten": lambda: ten_metres}, dataset,
+                                       tmp_path / "figures", panel_methods=["iv", "ten"], n_panels=1,
+                                       protocol="rect-v1", seed=0)
+    assert {tmp_path / "figures" / "coverage_vs_nearest.png", tmp_path / "figures" / "coverage_vs_distance.png"} <= set(names)
+    assert all(p.read_bytes().startswith(b"\x89PNG") for p in names if p.name.startswith("coverage"))
+    by_distance, by_depth = drawn["distance to the nearest measured pixel (px)"], drawn["ground-truth depth (m)"]
+    assert set(by_distance) == {"iv", "nominal 0.9"} and by_distance["nominal 0.9"][1] == [0.9, 0.9]
+    near, deep = np.asarray(figures.NEAREST_BINS, float), np.asarray(figures.DISTANCE_BINS, float)
+    hits = {"d": np.zeros(len(near) - 1), "z": np.zeros(len(deep) - 1)}
+    n = {"d": np.zeros(len(near) - 1), "z": np.zeros(len(deep) - 1)}
+    for i in figures.spread_indices(dataset, figures.DISTANCE_FRAMES):
+        gt = dataset.load_pairs([i])[1][0]
+        hole = get_protocol("rect-v1").mask(gt.shape, 0, i)
+        x = np.where(hole, np.nan, gt)
+        low, high = TenPlusMinus().predict_interval(x[None])
+        scored = hole & (gt > 0)
+        inside = ((gt >= low[0]) & (gt <= high[0]))[scored]
+        dist = cv2.distanceTransform((~(np.nan_to_num(x) > 0)).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        for key, value, edges in (("d", dist[scored], near), ("z", gt[scored], deep)):
+            which = np.digitize(value, edges[1:-1])
+            n[key] += np.bincount(which, minlength=len(edges) - 1)
+            hits[key] += np.bincount(which, weights=inside, minlength=len(edges) - 1)
+    for (_, drawn_y), key in ((by_distance["iv"], "d"), (by_depth["iv"], "z")):
+        seen = n[key] > 0  # an empty bin draws no point
+        np.testing.assert_allclose(drawn_y, hits[key][seen] / n[key][seen])
+    assert min(by_distance["iv"][1]) < max(by_distance["iv"][1])  # the share changes with the distance
