@@ -1,8 +1,7 @@
 """The per-pixel intervals of a release from its leave-one-day-out fold models: the shipped
 calibration, and the signals tried for it.
 
-* ``calibrate``: write the interval calibration shipped with a release (or a
-  classical fill) (formerly ``release_intervals.py``).
+* ``calibrate``: write the interval calibration shipped with a release or a classical fill.
 * ``signals``: which per-pixel signals rank a fold model's errors (formerly ``interval_signals.py``).
 * ``lodo``: which calibration protocol serves both scan tasks, one recording day left out.
 
@@ -22,6 +21,7 @@ import numpy as np
 from _common import exit_status, run_command
 
 from inpaintenv.data.inputs import INPUT_KINDS, INPUTS
+from inpaintenv.values.interval_calibration import CONDITIONS
 
 
 CALIBRATE_DOC = """The interval calibration shipped with a release: out-of-fold residuals of its leave-one-day-out fold models.
@@ -89,6 +89,7 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
                         "scans) or its density variants; several scan kinds are pooled (a fill that saw no drive)")
     parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"],
                         help="scale signals (\"far\" too: SIGNALS of estimators.intervals)")
+    parser.add_argument("--condition", choices=CONDITIONS, help="a quantile per bin of it (Mondrian conformal)")
     parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
     args = parser.parse_args(argv)
     scans = [INPUTS[k].separate for k in args.input]
@@ -116,7 +117,7 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     release = make_method(args.release)
     start = time.perf_counter()
     wrapper = ConformalIntervalInpainter(release, coverage=args.coverage, spread_method=args.spread_method,
-                                         protocol=args.protocol, signals=tuple(args.signals))
+                                         protocol=args.protocol, signals=tuple(args.signals), condition=args.condition)
     if folds:
         left = sorted(set(drives) - {str(g) for _, ds in folds for g in ds.groups})
         if left:
@@ -317,9 +318,9 @@ the sparse route's ``harmonic`` was chosen::
         --spread-method nearest --input scan-rings32-v1 scan-rings16-v1 scan-rings8-v1 --frames-per-drive 3 \\
         --calibration densify-v1+rect-v1 --calibration "densify-v1+rect-v1 (+far)"
 
-``--condition distance`` (or ``depth``, ``density``; repeatable, ``none`` the pooled quantile) takes the
-quantile per bin of the distance to the nearest measurement, the predicted depth or the measured share
-around the pixel (Mondrian conformal,
+``--condition distance`` (or ``depth``, ``density``, ``frame_density``; repeatable, ``none`` the pooled
+quantile) takes the quantile per bin of the distance to the nearest measurement, the predicted depth, the
+measured share around the pixel or in the frame (Mondrian conformal,
 ``ConformalIntervalInpainter(condition=...)``), each variant once per condition; ``--by-bin`` also
 prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled).
 """
@@ -329,7 +330,7 @@ SCAN_TASKS = ("densify-v1", "rect-v1")
 SHIPPED_SIGNALS = ("border", "depth", "spread")
 LODO_SIGNALS = SHIPPED_SIGNALS + ("far",)
 #: Every signal collected per pixel: the variants' and the measured share a quantile may be conditioned on.
-FEATURE_SIGNALS = LODO_SIGNALS + ("density",)
+FEATURE_SIGNALS = LODO_SIGNALS + ("density", "frame_density")
 CALIBRATIONS = (("densify-v1", SHIPPED_SIGNALS), ("rect-v1", SHIPPED_SIGNALS),
                 ("densify-v1+rect-v1", SHIPPED_SIGNALS), ("densify-v1+rect-v1", LODO_SIGNALS))
 
@@ -414,7 +415,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--coverage", type=float, default=0.9)
     parser.add_argument("--calibration", action="append", choices=[variant_name(*c) for c in CALIBRATIONS],
                         help="the variants compared (repeatable; default every one)")
-    parser.add_argument("--condition", action="append", choices=["none", "distance", "depth", "density"],
+    parser.add_argument("--condition", action="append", choices=["none", *CONDITIONS],
                         help="quantile per bin of this variable (repeatable; default none: one pooled quantile)")
     parser.add_argument("--by-bin", action="store_true", help="also print coverage per distance and depth bin")
     parser.add_argument("--json", help="also write the rows here")

@@ -32,7 +32,8 @@ def features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second:
 
     ``"far"`` is 1 where the border distance exceeds :data:`FAR_DISTANCE` px (a hole, not the gaps
     between a scan's lines), else 0: its coefficient is set by :func:`balanced_scale`. ``"density"``
-    is the share of measured pixels (not to fill) in the :data:`DENSITY_WINDOW`-px square around the pixel.
+    is the share of measured pixels (not to fill) in the :data:`DENSITY_WINDOW`-px square around the pixel,
+    ``"frame_density"`` that share over the rows of the frame with a measurement (the same at every pixel).
     """
     cols = [np.ones(int(hole.sum()))]
     near = np.log1p(border_distance(hole)[hole].astype(np.float64)) if {"border", "far"} & set(signals) else None
@@ -41,6 +42,9 @@ def features(signals: Sequence[str], pred: np.ndarray, hole: np.ndarray, second:
             cols.append(near)
         elif s == "far":
             cols.append((near > math.log1p(FAR_DISTANCE)).astype(np.float64))
+        elif s == "frame_density":  # the measured share of the rows with a measurement: one value per frame
+            rows = ~hole.all(axis=1)
+            cols.append(np.full(cols[0].size, float((~hole[rows]).mean()) if rows.any() else 0.0))
         elif s == "density":
             import cv2  # lazy, as border_distance's
 

@@ -68,7 +68,7 @@ __all__ = ["CELL_LEVELS", "CONDITION_VERSION", "CONDITIONS", "DEFAULT_EDGES", "M
 
 FORMAT = "inpaintenv-conformal-intervals-v1"
 #: The signals a scale model may use (``"far"``: ``estimators.intervals._calibration.features``).
-SIGNALS: tuple[str, ...] = ("border", "depth", "spread", "far", "density")
+SIGNALS: tuple[str, ...] = ("border", "depth", "spread", "far", "density", "frame_density")
 #: The signals a wrapper uses unless told otherwise.
 DEFAULT_SIGNALS: tuple[str, ...] = ("border", "depth", "spread")
 #: How the calibration pixels weigh in the quantile.
@@ -77,14 +77,17 @@ WEIGHTINGS: tuple[str, ...] = ("frame", "pixel")
 N_LEVELS = 2001
 #: The variables a quantile may be conditioned on (Mondrian conformal), each read from a scale
 #: signal: the distance (px) to the nearest measurement, the predicted depth (m), the share of
-#: measured pixels around the pixel (``"density"``, :data:`DENSITY_WINDOW`).
-CONDITIONS: dict[str, str] = {"distance": "border", "depth": "depth", "density": "density"}
+#: measured pixels around the pixel (``"density"``, :data:`DENSITY_WINDOW`), the frame's measured share
+#: in the rows it measured (``"frame_density"``: one value per frame, a LiDAR's density).
+CONDITIONS: dict[str, str] = {"distance": "border", "depth": "depth", "density": "density",
+                               "frame_density": "frame_density"}
 #: The ``condition`` field's version.
 CONDITION_VERSION = 1
 #: Bin edges of each variable unless told otherwise: bin ``b`` holds ``edges[b-1] < v <= edges[b]``.
 DEFAULT_EDGES: dict[str, tuple[float, ...]] = {"distance": (1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0),
                                                "depth": (5.0, 10.0, 20.0, 40.0),
-                                               "density": (0.004, 0.008, 0.012, 0.016, 0.024, 0.032, 0.048)}
+                                               "density": (0.004, 0.008, 0.012, 0.016, 0.024, 0.032, 0.048),
+                                               "frame_density": (0.008, 0.011, 0.014, 0.018, 0.024, 0.032)}
 #: Side (px) of the square around a pixel whose measured share is the ``"density"`` signal.
 DENSITY_WINDOW = 61
 #: Levels at which a bin's normalised residuals are kept (0, 0.005, ..., 1).
@@ -110,6 +113,7 @@ SIGNAL_RANGES: dict[str, tuple[float, float]] = {
     "spread": (math.log(SPREAD_FLOOR), math.log(DEPTH_LIMIT + SPREAD_FLOOR)),
     "far": (0.0, 1.0),
     "density": (0.0, 1.0),
+    "frame_density": (0.0, 1.0),
 }
 #: How far above 0 the mean ``log(n + RESIDUAL_FLOOR / s_max)`` of a fitted calibration may be
 #: (the shipped ones are at -0.1 to -0.7; a fit puts it at or below 0).

@@ -207,13 +207,13 @@ def test_bad_condition_parameters_are_one_error(noisy, params, match):
         ConformalIntervalInpainter(FillTen(), signals=("border",), **params).fit(noisy[:2], groups=["a", "b"])
 
 
-@pytest.mark.parametrize("condition", ["depth", "density"])
+@pytest.mark.parametrize("condition", ["depth", "density", "frame_density"])
 def test_a_condition_the_scale_does_not_use_leaves_the_scale_as_it_is(noisy, pair, condition):
     """The variable's signal is computed beside the scale's: the scale and pooled quantile stay the unconditioned ones."""
     plain, _ = pair
     groups = [f"d{k // 2}" for k in range(len(noisy))]
     cond = ConformalIntervalInpainter(FillTen(), signals=("border",), weighting="pixel", condition=condition,
-                                      condition_edges=(0.2, 0.5) if condition == "density" else (5.0, 20.0)).fit(
+                                      condition_edges=(5.0, 20.0) if condition == "depth" else (0.2, 0.5)).fit(
         noisy, groups=groups)
     assert cond.coef_.shape == (2,) and cond.quantile_ == pytest.approx(plain.quantile_, rel=1e-6)
     assert sum(cell["n_pixels"] for cell in cond.condition_["bins"]) == cond.n_calibration_pixels_
@@ -232,3 +232,12 @@ def test_the_density_signal_is_the_measured_share_around_each_pixel():
     r = DENSITY_WINDOW // 2
     share[40 - r:40 + r + 1, 60 - r:60 + r + 1] = 1.0 / DENSITY_WINDOW ** 2
     np.testing.assert_allclose(F[:, 1], share[hole], atol=1e-7)
+
+
+def test_the_frame_density_signal_is_the_measured_share_of_the_measured_rows():
+    hole = np.ones((80, 120), bool)
+    hole[10, :30] = False  # 30 measured pixels in row 10, 6 in row 50, none elsewhere
+    hole[50, ::20] = False
+    F = features(("frame_density",), np.full(hole.shape, 5.0, np.float32), hole, None)
+    np.testing.assert_array_equal(F[:, 1], np.full(int(hole.sum()), 36 / (2 * 120)))
+    assert features(("frame_density",), np.ones((4, 5), np.float32), np.ones((4, 5), bool), None)[:, 1].max() == 0
