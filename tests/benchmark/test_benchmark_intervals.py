@@ -114,6 +114,8 @@ def test_cli_option(tmp_path, monkeypatch, capsys):
     assert main(argv) == 0
     assert (tmp_path / "run" / "figures" / "error_rejection.png").is_file()
     assert (tmp_path / "run" / "figures" / "uncertainty.png").is_file()  # reliability diagram, AUSE and AURG
+    assert (tmp_path / "run" / "figures" / "coverage_vs_nearest.png").is_file()  # conditional coverage
+    assert "Conditional coverage" in (tmp_path / "run" / "report.html").read_text()
     assert "AUSE RMSE per image (m)" in (tmp_path / "run" / "results.md").read_text()
     assert "hole coverage" in (tmp_path / "run" / "results.md").read_text()
     capsys.readouterr()
