@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..report import style
-from ..report.plots import Line, LinePlot, draw_lines
+from ..report.plots import Line, figure_png, line_figure
 from .figure_io import save_png
 from .figures import DISTANCE_BINS, NEAREST_BINS, FramePredictions, nearest_distance
 
@@ -71,6 +71,6 @@ def plot_coverage_by_bin(
             lines.append(Line(name, list(xs[key][keep]), list(np.asarray(v[key])[keep]), colours.get(name, "black")))
         x = list(xs[key])
         lines.append(Line(f"nominal {coverage:g}", [x[0], x[-1]], [coverage, coverage], "grey", "--"))
-        plot = LinePlot(lines, title, xlabel, "coverage of the interval, pixels pooled", log_x=key == "nearest")
-        paths.append(save_png(draw_lines(plot).png(), Path(folder) / file))
+        fig = line_figure(lines, title, xlabel, "coverage of the interval, pixels pooled", log_x=key == "nearest")
+        paths.append(save_png(figure_png(fig), Path(folder) / file))
     return paths, values

@@ -69,7 +69,7 @@ def figure_png(fig: Any, dpi: float) -> bytes:
 
 
 def save_png(data: bytes, path: str | Path) -> Path:
-    """Write PNG ``data`` (e.g. :meth:`inpaintenv.report.raster.Canvas.png`) to ``path`` as :func:`save_figure` does."""
+    """Write PNG ``data`` (e.g. :func:`inpaintenv.report.plots.figure_png`) to ``path`` as :func:`save_figure` does."""
     path = Path(path)
     _claim(path)
     write_atomic(path, lambda tmp: tmp.write_bytes(data))

@@ -32,7 +32,7 @@ from ..methods.intervals import interval_source
 from ..metrics import Coverage, interpolate_background
 from ..report import style
 from ..progress import count
-from ..report.plots import Line, LinePlot, draw_lines
+from ..report.plots import Line, figure_png, line_figure
 from .figure_io import pyplot as _pyplot
 from .figure_io import save_figure as _save
 from .figure_io import save_png
@@ -220,9 +220,9 @@ def plot_error_vs_hole_size(
         label = method if len(protocols) == 1 else f"{method} ({protocol})"
         lines.append(Line(label, xs, ys, colours.get(method, "black"), ("-", "--", ":", "-.")[protocols.index(protocol) % 4]))
     frames = len({(r["protocol"], r["seed"], r["index"]) for r in result.rows})
-    return _save_plot(LinePlot(lines, f"every frame-mask of the run ({frames}), from the rows",
-                               "occluded share of the frame (%)", "hole RMSE (m), mean over frames",
-                               legend_columns=2 if len(groups) > 8 else 1), path)
+    return _save_plot(line_figure(lines, f"every frame-mask of the run ({frames}), from the rows",
+                                  "occluded share of the frame (%)", "hole RMSE (m), mean over frames",
+                                  legend_columns=2 if len(groups) > 8 else 1), path)
 
 
 #: (percent of hole pixels kept, row column of the method's curve, of the border baseline's).
@@ -254,14 +254,14 @@ def plot_error_rejection(
             lines.append(Line(f"{label}, {what}", xs, ys, colours.get(method, "black"), linestyle))
     frames = len({(r["protocol"], r["seed"], r["index"]) for rows in groups.values() for r in rows})
     coverage = result.meta.get("interval_coverage")
-    return _save_plot(LinePlot(
+    return _save_plot(line_figure(
         lines, f"{frames} frame-masks with intervals" + (f" (nominal coverage {coverage:g})" if coverage else ""),
         "hole pixels kept (%)", "hole RMSE of the kept pixels (m), mean over frames", invert_x=True), path)
 
 
-def _save_plot(plot: LinePlot, path: str | Path) -> Path:
-    """Draw ``plot`` (:func:`inpaintenv.report.plots.draw_lines`) into the PNG file ``path``."""
-    return save_png(draw_lines(plot).png(), path)
+def _save_plot(fig: Any, path: str | Path) -> Path:
+    """Encode the line figure ``fig`` (:func:`inpaintenv.report.plots.line_figure`) into the PNG file ``path``."""
+    return save_png(figure_png(fig), path)
 
 
 def _finite(value: Any) -> bool:
@@ -303,7 +303,7 @@ def _line_figure(
     xlabel: str, ylabel: str, title: str, log_x: bool = False,
 ) -> Path:
     lines = [Line(name, list(xs), v, colours.get(name, "black")) for name, v in values.items()]
-    return _save_plot(LinePlot(lines, title, xlabel, ylabel, log_x=log_x), path)
+    return _save_plot(line_figure(lines, title, xlabel, ylabel, log_x=log_x), path)
 
 
 def plot_error_vs_distance(

@@ -33,7 +33,7 @@ from ..files import read_bytes, read_json, write_text_atomic
 from ..masks import get_protocol
 from ..progress import count, format_duration
 from ..report import style
-from ..report.plots import BoxPlot, draw_boxes
+from ..report.plots import box_figure, figure_png
 from ..report.results import EvaluationResult
 from ..report.tables import summary_table
 from .headline import every_method_vs_strongest
@@ -240,16 +240,16 @@ def _figure_file(path: Path, run_dir: Path) -> str:
 
 def _per_frame_figure(rows: list[dict[str, Any]], methods: list[str], metric: str) -> bytes | None:
     """A box per method of its per-frame RMSE of the task, from the rows (PNG bytes,
-    :func:`inpaintenv.report.plots.draw_boxes`)."""
+    :func:`inpaintenv.report.plots.box_figure`)."""
     values = {m: [r[metric] for r in rows if r["method"] == m and _finite(r.get(metric))] for m in methods}
     values = {m: v for m, v in values.items() if v}
     if not values:
         return None
     order = sorted(values, key=lambda m: float(np.mean(values[m])))
     n = len({(r["seed"], r["index"]) for r in rows})
-    return draw_boxes(BoxPlot({m: values[m] for m in order}, style.method_colours(methods),
-                              f"every frame-mask of the task ({n}), from the rows; best mean at the top",
-                              f"{metric.replace('_rmse', '')} RMSE per frame (m)")).png()
+    return figure_png(box_figure({m: values[m] for m in order}, style.method_colours(methods),
+                                 f"every frame-mask of the task ({n}), from the rows; best mean at the top",
+                                 f"{metric.replace('_rmse', '')} RMSE per frame (m)"))
 
 
 # -- the table -----------------------------------------------------------------------------

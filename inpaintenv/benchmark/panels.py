@@ -1,10 +1,9 @@
-"""The frame panels of a benchmark task: the study's Fig. 2 for one frame, drawn as one image.
+"""The frame panels of a benchmark task: the study's Fig. 2 for one frame, one matplotlib figure.
 
 Each tile is sampled to its shown size first (:data:`TILE_WIDTH` pixels wide, nearest pixel, as
 matplotlib's ``interpolation="nearest"`` shows it), coloured there in the look of
-:mod:`inpaintenv.report.style`, and placed with its title and the colour bars on one canvas
-(:mod:`inpaintenv.report.raster`): a KITTI panel of four methods takes about 0.1 s, where matplotlib,
-resampling each full-size tile and laying out an axes per tile, took about 1.5 s.
+:mod:`inpaintenv.report.style`, and placed pixel for pixel with its title and the colour bars on a
+fixed layout (:mod:`inpaintenv.report.plots`): no axes per tile, nothing resampled at draw time.
 """
 
 from __future__ import annotations
@@ -20,7 +19,8 @@ from ..data.base import DepthDataset
 from ..data.inputs import INPUTS
 from ..metrics import frame_metrics
 from ..report import style
-from ..report.raster import Canvas, fit_size, sample_grid
+from ..report.plots import colourbar, figure_png, image_figure, text, tile
+from ..report.raster import sample_grid
 from .figure_io import save_png
 from .figures import FramePredictions
 
@@ -125,30 +125,29 @@ def panel_tiles(
     return PanelTiles("", out, bars)
 
 
-def draw_panel(tiles: PanelTiles, *, pad: int = 10, gap: int = 14, px: int = 11) -> Canvas:
-    """The panel of ``tiles`` on one canvas: the title, per method a row of titled tiles, the colour bars."""
+def draw_panel(tiles: PanelTiles, *, pad: int = 10, gap: int = 14, points: float = 8) -> Any:
+    """The panel of ``tiles`` as one matplotlib figure: the title, per method a row of titled tiles, the
+    colour bars (sizes in pixels; text in ``points``)."""
     th, tw = tiles.rows[0][0][0].shape[:2]
     n_cols = max(len(r) for r in tiles.rows)
-    line = px + 3
-    head = pad + 2 * (px + 2) + 12
+    line = int(np.ceil(points * 100 / 72 * 1.25))  # a line of tile title, in pixels
+    head = pad + 2 * (line + 2) + 8
     row_h = 2 * line + 6 + th + 6
-    bar_h = 12 + 9 + 2 * px
+    bar_h = 12 + 10 + 2 * int(np.ceil(points * 100 / 72))
     width = 2 * pad + n_cols * tw + (n_cols - 1) * gap
-    canvas = Canvas(width, head + len(tiles.rows) * row_h + 8 + bar_h + pad)
-    big = fit_size(tiles.title, width - 2 * pad, px + 2)
-    canvas.text(width / 2, pad, tiles.title, big)
+    height = head + len(tiles.rows) * row_h + 8 + bar_h + pad
+    fig = image_figure(width, height)
+    text(fig, width / 2, pad, tiles.title, points + 2, fit=width - 2 * pad)
     for r, row in enumerate(tiles.rows):
         y = head + r * row_h + 2 * line + 6
         for c, (img, title, colour) in enumerate(row):
             x = pad + c * (tw + gap)
-            canvas.tile(img, x, y)
-            lines = title.count("\n") + 1
-            canvas.text(x + tw / 2, y - 4 - lines * line, title, fit_size(title, tw + gap - 2, px), colour)
+            tile(fig, img, x, y)
+            text(fig, x + tw / 2, y - 3, title, points, colour, va="bottom", fit=tw + gap - 2)
     y = head + len(tiles.rows) * row_h + 8
-    for first, span, cmap, top, label in tiles.bars:
-        x = pad + first * (tw + gap)
-        canvas.colourbar(x, y, span * tw + (span - 1) * gap, cmap, top, label, px)
-    return canvas
+    for col, span, cmap, top, label in tiles.bars:
+        colourbar(fig, pad + col * (tw + gap), y, span * tw + (span - 1) * gap, cmap, top, label, points)
+    return fig
 
 
 def frame_panel(
@@ -181,4 +180,4 @@ def frame_panel(
     scan = INPUTS[predictions.input_kind].separate
     task = protocol if not scan else f"{protocol} on single scans (grey above the scan's rows: outside its view)"
     tiles.title = f"{dataset.frame_ids[index]} — {task}, seed {seed}"
-    return save_png(draw_panel(tiles).png(), path)
+    return save_png(figure_png(draw_panel(tiles)), path)

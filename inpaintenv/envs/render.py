@@ -2,7 +2,8 @@
 
 Used by :meth:`DepthInpaintEnv.render` and by ``inpaintenv show``. Tiles are stacked
 vertically (KITTI frames are wide), each under a short label, optionally under a title
-line, with a colour bar in metres under the depth tiles and under the error tile. Colours
+line, with a colour bar in metres under the depth tiles and under the error tile; drawn
+by matplotlib on a fixed layout (:mod:`inpaintenv.report.plots`). Colours
 and hole drawing come from :mod:`inpaintenv.report.style`, the same as the benchmark's figures:
 depth in ``viridis`` reversed (near = bright) on ``[0, max_depth]``, absolute error in the
 holes in ``magma`` on ``[0, error_max]``, pixels without ground truth grey, holes hatched
@@ -11,14 +12,12 @@ in the input and outlined on every tile.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
-import cv2
 import numpy as np
 
 from ..conventions import check_max_depth
-from ..report import style
+from ..report import plots, style
 from ..exceptions import InvalidInputError
 
 __all__ = ["colorize_depth", "colorize_error", "render_panel"]
@@ -27,8 +26,8 @@ __all__ = ["colorize_depth", "colorize_error", "render_panel"]
 LABEL_HEIGHT = 18
 #: Height in pixels of a colour bar (gradient and tick labels).
 COLORBAR_HEIGHT = 30
-_FONT = cv2.FONT_HERSHEY_SIMPLEX
-_WHITE = (255, 255, 255)
+#: Size of the labels' text in points (11 pixels).
+TEXT_POINTS = 8
 
 
 def colorize_depth(depth: np.ndarray, max_depth: float) -> np.ndarray:
@@ -40,38 +39,6 @@ def colorize_error(error: np.ndarray, valid: np.ndarray, error_max: float) -> np
     """Map ``(H, W)`` absolute error to RGB uint8 (:func:`inpaintenv.report.style.error_rgb`); pixels
     outside ``valid`` are grey."""
     return style.to_uint8(style.error_rgb(error, valid, error_max))
-
-
-def _strip(text: str, width: int, height: int = LABEL_HEIGHT) -> np.ndarray:
-    strip = np.zeros((height, width, 3), dtype=np.uint8)
-    # A file name that is not UTF-8 reaches here as surrogate escapes, which crash OpenCV: shown as \udcXX.
-    text = text.encode("utf-8", "backslashreplace").decode("utf-8")
-    cv2.putText(strip, text, (4, height - 5), _FONT, 0.45, _WHITE, 1, cv2.LINE_AA)
-    return strip
-
-
-def _ticks(vmax: float) -> list[float]:
-    """Round tick values on ``[0, vmax]``, about five of them."""
-    raw = vmax / 4.0
-    power = 10.0 ** math.floor(math.log10(raw))
-    step = next(s * power for s in (1.0, 2.0, 2.5, 5.0, 10.0) if s * power >= raw * (1 - 1e-9))
-    return [k * step for k in range(int(vmax / step + 1e-9) + 1)]
-
-
-def _colorbar(cmap: str, vmax: float, width: int, unit: str = "m") -> np.ndarray:
-    """A horizontal colour bar: the map's gradient over ``[0, vmax]`` with tick labels."""
-    bar = np.zeros((COLORBAR_HEIGHT, width, 3), dtype=np.uint8)
-    left, right = 4, max(width - 40, 8)  # room for the last label and the unit
-    gradient = style.lookup_table(cmap)[np.linspace(0, 255, right - left).round().astype(np.intp)]
-    bar[3:13, left:right] = style.to_uint8(gradient)[None]
-    for value in _ticks(vmax):
-        x = left + round(value / vmax * (right - left - 1))
-        bar[13:16, x] = _WHITE
-        label = f"{value:g}"
-        (tw, _), _ = cv2.getTextSize(label, _FONT, 0.35, 1)
-        cv2.putText(bar, label, (min(max(x - tw // 2, 0), width - tw - 1), 27), _FONT, 0.35, _WHITE, 1, cv2.LINE_AA)
-    cv2.putText(bar, unit, (right + 6, 12), _FONT, 0.35, _WHITE, 1, cv2.LINE_AA)
-    return bar
 
 
 def render_panel(
@@ -125,27 +92,41 @@ def render_panel(
     inp = style.draw_holes(style.depth_rgb(np.where(hole, 0.0, gt), max_depth), hole, hatch=True)
     truth = style.draw_holes(style.depth_rgb(gt, max_depth), hole)
     if pred is None:
-        rec = np.zeros((H, W, 3), dtype=np.uint8)
-        err = np.zeros((H, W, 3), dtype=np.uint8)
+        rec = np.zeros((H, W, 3), dtype=np.float32)
+        err = np.zeros((H, W, 3), dtype=np.float32)
         error_max = max_depth / 8.0 if error_max is None else error_max
     else:
         p = np.asarray(pred, dtype=np.float32)
         abs_err = np.abs(p - gt)
         error_max = style.error_scale(abs_err[scored]) if error_max is None else error_max
-        rec = style.to_uint8(style.draw_holes(style.depth_rgb(p, max_depth), hole))
-        err = style.to_uint8(style.draw_holes(style.error_rgb(abs_err, scored, error_max), hole))
+        rec = style.draw_holes(style.depth_rgb(p, max_depth), hole)
+        err = style.draw_holes(style.error_rgb(abs_err, scored, error_max), hole)
 
-    parts: list[np.ndarray] = []
+    # (kind, height, what): a label strip, a tile or a colour bar, top to bottom.
+    parts: list[tuple[str, int, object]] = []
     if title:
         lines = [title] if isinstance(title, str) else list(title)
-        parts.extend(_strip(line, W, LABEL_HEIGHT + 2) for line in lines)
+        parts.extend(("label", LABEL_HEIGHT + 2, line) for line in lines)
     for label, tile in (
-        ("input (holes hatched)", style.to_uint8(inp)),
-        ("ground truth (holes outlined, grey = no data)", style.to_uint8(truth)),
+        ("input (holes hatched)", inp),
+        ("ground truth (holes outlined, grey = no data)", truth),
         ("reconstruction" if pred is not None else "reconstruction (none yet)", rec),
     ):
-        parts += [_strip(label, W), tile]
-    parts.append(_colorbar(style.DEPTH_CMAP, max_depth, W))
-    parts += [_strip(f"abs error in the holes, 0-{error_max:g} m", W), err]
-    parts.append(_colorbar(style.ERROR_CMAP, error_max, W))
-    return np.ascontiguousarray(np.concatenate(parts, axis=0))
+        parts += [("label", LABEL_HEIGHT, label), ("tile", H, tile)]
+    parts.append(("bar", COLORBAR_HEIGHT, (style.DEPTH_CMAP, max_depth)))
+    parts += [("label", LABEL_HEIGHT, f"abs error in the holes, 0-{error_max:g} m"), ("tile", H, err)]
+    parts.append(("bar", COLORBAR_HEIGHT, (style.ERROR_CMAP, error_max)))
+    fig = plots.image_figure(W, sum(h for _, h, _ in parts), background="black")
+    y = 0
+    for kind, height, what in parts:
+        if kind == "label":
+            plots.text(fig, 4, y + height - 5, str(what), TEXT_POINTS, "white", ha="left", va="baseline")
+        elif kind == "tile":
+            plots.tile(fig, what, 0, y)
+        else:
+            cmap, vmax = what
+            right = max(W - 40, 8)  # room for the last tick label and the unit
+            plots.colourbar(fig, 4, y + 3, right - 4, cmap, vmax, None, 6, colour="white")
+            plots.text(fig, right + 6, y + 12, "m", 6, "white", ha="left", va="baseline")
+        y += height
+    return plots.figure_pixels(fig)

@@ -81,9 +81,10 @@ def test_error_rejection_figure_from_the_rows(dataset, tmp_path, monkeypatch):
     drawn = {}
     save = figures._save_plot
 
-    def spy(plot, path):
-        drawn[path.name] = {ln.label: (mcolors.to_hex(ln.colour), list(ln.y)) for ln in plot.lines}
-        return save(plot, path)
+    def spy(fig, path):  # the matplotlib figure about to be encoded: each line's colour and points as drawn
+        drawn[path.name] = {ln.get_label(): (mcolors.to_hex(ln.get_color()), list(ln.get_ydata()))
+                            for ln in fig.axes[0].get_lines()}
+        return save(fig, path)
 
     monkeypatch.setattr(figures, "_save_plot", spy)
     names = figure_files.write_figures(res, {"iv": TenPlusMinus, "ten": lambda: ten_metres}, dataset,
@@ -151,13 +152,14 @@ def test_conditional_coverage_figure_is_the_numpy_share_per_bin(dataset, tmp_pat
     res = run_benchmark({"iv": TenPlusMinus(), "ten": ten_metres}, dataset, out_dir=tmp_path, progress=False,
                         interval_coverage=0.9)
     drawn = {}
-    draw = coverage_figure.draw_lines
+    encode = coverage_figure.figure_png
 
-    def spy(plot):
-        drawn[plot.xlabel] = {line.label: (list(line.x), list(line.y)) for line in plot.lines}
-        return draw(plot)
+    def spy(fig):  # the matplotlib figure about to be encoded: each line's points as drawn
+        ax = fig.axes[0]
+        drawn[ax.get_xlabel()] = {ln.get_label(): (list(ln.get_xdata()), list(ln.get_ydata())) for ln in ax.get_lines()}
+        return encode(fig)
 
-    monkeypatch.setattr(coverage_figure, "draw_lines", spy)
+    monkeypatch.setattr(coverage_figure, "figure_png", spy)
     names = figure_files.write_figures(res, {"iv": TenPlusMinus, "ten": lambda: ten_metres}, dataset,
                                        tmp_path / "figures", panel_methods=["iv", "ten"], n_panels=1,
                                        protocol="rect-v1", seed=0)

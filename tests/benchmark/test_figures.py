@@ -32,10 +32,10 @@ def drawn(monkeypatch):
     save = figures._save_plot
     run = figures.run_method
 
-    def spy_save(plot, path):
-        lines = {ln.label: mcolors.to_hex(ln.colour) for ln in plot.lines}
-        record[path.name] = {"lines": lines, "titles": [plot.title]}
-        return save(plot, path)
+    def spy_save(fig, path):  # the matplotlib figure about to be encoded: its lines and title as drawn
+        lines = {ln.get_label(): mcolors.to_hex(ln.get_color()) for ln in fig.axes[0].get_lines()}
+        record[path.name] = {"lines": lines, "titles": [t.get_text() for t in fig.texts]}
+        return save(fig, path)
 
     def spy_run(*args, **kwargs):
         record["predict"] += 1
@@ -113,24 +113,38 @@ def test_scan_panel_shows_no_fill_above_the_scans_rows(tmp_path):
     assert path.read_bytes().startswith(b"\x89PNG")
 
 
-def test_figures_colour_only_the_shown_pixels_and_lay_out_no_matplotlib_figure(tmp_path, monkeypatch):
+def test_figures_colour_only_the_shown_pixels_and_resample_no_full_frame(tmp_path, monkeypatch):
     """What a run's figures cost is bounded by what they show: every tile is coloured at its shown size
-    (never a full frame wider than a tile), and no matplotlib figure is laid out for the panels, the line
-    plots or report.html's per-frame boxes. Counted, not timed: a timing would be flaky on a loaded machine."""
+    (never a full frame wider than a tile) and placed pixel for pixel (``figimage``: no axes per tile, no
+    image for matplotlib to resample), and nothing is predicted again. Counted, not timed: a timing would be
+    flaky on a loaded machine."""
     import matplotlib.figure
 
     shapes: list[tuple[int, ...]] = []
     depth_rgb = style.depth_rgb
     monkeypatch.setattr(style, "depth_rgb", lambda d, m: (shapes.append(np.shape(d)), depth_rgb(d, m))[1])
-    made: list[int] = []
-    init = matplotlib.figure.Figure.__init__
-    monkeypatch.setattr(matplotlib.figure.Figure, "__init__", lambda fig, *a, **k: (made.append(1), init(fig, *a, **k))[1])
+    placed: list[tuple[int, ...]] = []
+    figimage = matplotlib.figure.Figure.figimage
+    monkeypatch.setattr(matplotlib.figure.Figure, "figimage",
+                        lambda fig, X, *a, **k: (placed.append(np.shape(X)), figimage(fig, X, *a, **k))[1])
+    shown: list[tuple[int, ...]] = []
+    imshow = matplotlib.axes.Axes.imshow
+    monkeypatch.setattr(matplotlib.axes.Axes, "imshow", lambda ax, X, *a, **k: (shown.append(np.shape(X)), imshow(ax, X, *a, **k))[1])
+    predicted: list[int] = []
+    run = figures.run_method
+    monkeypatch.setattr(figures, "run_method", lambda *a, **k: (predicted.append(1), run(*a, **k))[1])
+    panel_axes: list[int] = []
+    draw_panel = panels.draw_panel
+    monkeypatch.setattr(panels, "draw_panel", lambda *a, **k: (fig := draw_panel(*a, **k), panel_axes.append(len(fig.axes)))[0])
     argv = ["benchmark", "-m", "scanline", "-m", "nearest", "--n-frames", "4", "--frame-shape", "64", "760",
             "--holdout", "0", "--figure-frames", "2", "--quiet", "--out", str(tmp_path)]
     assert main(argv) == 0
-    assert made == []
     assert len(shapes) == 2 * (2 + 2)  # two panels: the input and truth tiles once, a fill tile per method
     assert all(s[1] == panels.TILE_WIDTH for s in shapes), shapes  # 380 px shown of the 760-px frames
+    assert len(placed) == 2 * 2 * 4 and all(s[1] == panels.TILE_WIDTH for s in placed), placed  # 2 panels x 2 rows x 4 tiles
+    assert shown == []  # no image on axes: nothing resampled at draw time
+    assert panel_axes == [2, 2]  # a panel's only axes are its two colour bars
+    assert predicted == []  # the run's own predictions are drawn
     drawn = {p.name for p in (tmp_path / "figures").glob("*.png")}
     assert len({n for n in drawn if n.startswith("frame_")}) == 2
     assert {"error_vs_hole_size.png", "error_vs_distance.png", "error_vs_nearest.png"} <= drawn
