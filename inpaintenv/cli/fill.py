@@ -142,8 +142,6 @@ def cmd_fill(args: argparse.Namespace) -> int:
     checkpoint = check_checkpoint_folder(args.checkpoint) if args.checkpoint else None
     if args.jobs is not None and args.jobs == 0:
         raise InvalidInputError("--jobs must be a non-zero integer (-1 = every core), got 0")
-    if args.calib is None and (args.size or args.camera is not None):
-        raise InvalidInputError("--size and --camera describe the camera of --calib; give --calib PATH with them")
 
     def log(line: str) -> None:
         print_line(f"inpaintenv fill: {line}")

@@ -121,6 +121,9 @@ class FillOptions:
             self._set("confidence", as_coverage(self.confidence, "confidence"))
         elif self.intervals is not None:
             raise InvalidInputError("--intervals is the calibration of --confidence's interval: give --confidence too")
+        if self.calibration is None and (self.size or self.camera is not None):
+            raise InvalidInputError("size (--size) and camera (--camera) describe the camera of calibration (--calib); "
+                                    "give calibration too (--calib PATH)")
         if self.fill_all and not self.missing:
             raise InvalidInputError("fill_all (--fill-all) widens missing (--missing) to every pixel without a "
                                     "measurement; give missing too (--missing)")

@@ -283,6 +283,8 @@ def test_a_real_scan_fills_at_its_calibrations_size(kitti_raw_root, tmp_path):
     ({"confidence": 1.5}, "confidence"),
     ({"intervals": "cal.json"}, "give --confidence too"),
     ({"fill_all": True}, "give missing too"),
+    ({"size": (1242, 375)}, "give calibration too"),  # size and camera alone were ignored in Python
+    ({"camera": 3}, "give calibration too"),
     ({"input": "lidar"}, "input \\(--input\\) must be one of"),
     ({"boxes": [(5, 5, 5, 9)]}, "0 <= x0 < x1"),
 ])
