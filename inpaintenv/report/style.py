@@ -33,7 +33,8 @@ import numpy as np
 
 __all__ = [
     "DEPTH_CMAP", "ERROR_CMAP", "ERROR_PERCENTILE", "HATCH", "HOLE_EDGE", "METHOD_PALETTE", "NO_DATA",
-    "depth_rgb", "draw_holes", "error_rgb", "error_scale", "lookup_table", "method_colours", "to_uint8",
+    "colour_indices", "depth_rgb", "draw_holes", "error_rgb", "error_scale", "hole_marks", "lookup_table",
+    "method_colours", "to_uint8",
 ]
 
 #: Colour map of depth (matplotlib name): perceptually uniform, near = bright yellow, far = dark purple.
@@ -68,9 +69,14 @@ def lookup_table(cmap: str) -> np.ndarray:
     return np.asarray(matplotlib.colormaps[cmap](np.linspace(0.0, 1.0, 256))[:, :3], dtype=np.float32)
 
 
-def _mapped(values: np.ndarray, vmax: float, cmap: str) -> np.ndarray:
+def colour_indices(values: np.ndarray, vmax: float) -> np.ndarray:
+    """Rows of :func:`lookup_table` that colour ``values`` on ``[0, vmax]`` (NaN as 0): ``(H, W)`` uint8."""
     scaled = np.clip(np.nan_to_num(values, nan=0.0) / vmax, 0.0, 1.0)
-    return lookup_table(cmap)[np.round(scaled * 255).astype(np.intp)]
+    return np.round(scaled * 255).astype(np.uint8)
+
+
+def _mapped(values: np.ndarray, vmax: float, cmap: str) -> np.ndarray:
+    return lookup_table(cmap)[colour_indices(values, vmax)]
 
 
 def depth_rgb(depth: np.ndarray, max_depth: float) -> np.ndarray:
@@ -124,6 +130,14 @@ def _edge(hole: np.ndarray, width: int) -> np.ndarray:
     return hole & ~inner
 
 
+def hole_marks(hole: np.ndarray, *, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Where :func:`draw_holes` paints: the holes' outline and their :data:`HATCH` stripes (two bool masks)."""
+    hole = np.asarray(hole, dtype=bool)
+    width = max(1, round(max(scale, 1.0) * hole.shape[1] / 600))
+    diagonal = np.add.outer(np.arange(hole.shape[0]), np.arange(hole.shape[1]))
+    return _edge(hole, width), hole & ((diagonal // (4 * width)) % 2 == 0)
+
+
 def draw_holes(rgb: np.ndarray, hole: np.ndarray, *, hatch: bool = False, scale: float = 1.0) -> np.ndarray:
     """``rgb`` with the holes outlined in :data:`HOLE_EDGE`, hatched inside when ``hatch``.
 
@@ -145,13 +159,11 @@ def draw_holes(rgb: np.ndarray, hole: np.ndarray, *, hatch: bool = False, scale:
     """
     hole = np.asarray(hole, dtype=bool)
     out = np.array(rgb, dtype=np.float32, copy=True)
-    width = max(1, round(max(scale, 1.0) * hole.shape[1] / 600))
+    edge, stripes = hole_marks(hole, scale=scale)
     if hatch:
-        y, x = np.indices(hole.shape)
-        stripes = ((x + y) // (4 * width)) % 2 == 0
         out[hole] = NO_DATA
-        out[hole & stripes] = HATCH
-    out[_edge(hole, width)] = HOLE_EDGE
+        out[stripes] = HATCH
+    out[edge] = HOLE_EDGE
     return out
 
 

@@ -6,7 +6,7 @@ import matplotlib.colors as mcolors
 import numpy as np
 import pytest
 
-from inpaintenv.report import style
+from inpaintenv.report import plots, style
 from inpaintenv.benchmark import figures, panels
 from inpaintenv.cli import main
 from inpaintenv.data import ArrayDataset
@@ -115,18 +115,18 @@ def test_scan_panel_shows_no_fill_above_the_scans_rows(tmp_path):
 
 def test_figures_colour_only_the_shown_pixels_and_resample_no_full_frame(tmp_path, monkeypatch):
     """What a run's figures cost is bounded by what they show: every tile is coloured at its shown size
-    (never a full frame wider than a tile) and placed pixel for pixel (``figimage``: no axes per tile, no
-    image for matplotlib to resample), and nothing is predicted again. Counted, not timed: a timing would be
-    flaky on a loaded machine."""
-    import matplotlib.figure
+    (never a full frame wider than a tile) and placed pixel for pixel (:func:`inpaintenv.report.plots.tile`:
+    no axes per tile, no image for matplotlib to resample), and nothing is predicted again. Counted, not
+    timed: a timing would be flaky on a loaded machine."""
+    import matplotlib.axes
 
     shapes: list[tuple[int, ...]] = []
     depth_rgb = style.depth_rgb
     monkeypatch.setattr(style, "depth_rgb", lambda d, m: (shapes.append(np.shape(d)), depth_rgb(d, m))[1])
     placed: list[tuple[int, ...]] = []
-    figimage = matplotlib.figure.Figure.figimage
-    monkeypatch.setattr(matplotlib.figure.Figure, "figimage",
-                        lambda fig, X, *a, **k: (placed.append(np.shape(X)), figimage(fig, X, *a, **k))[1])
+    pixels = plots._pixels_artist()
+    init = pixels.__init__
+    monkeypatch.setattr(pixels, "__init__", lambda self, X, *a: (placed.append(np.shape(X)), init(self, X, *a))[1])
     shown: list[tuple[int, ...]] = []
     imshow = matplotlib.axes.Axes.imshow
     monkeypatch.setattr(matplotlib.axes.Axes, "imshow", lambda ax, X, *a, **k: (shown.append(np.shape(X)), imshow(ax, X, *a, **k))[1])
