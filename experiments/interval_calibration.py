@@ -322,7 +322,8 @@ the sparse route's ``harmonic`` was chosen::
 quantile) takes the quantile per bin of the distance to the nearest measurement, the predicted depth, the
 measured share around the pixel or in the frame (Mondrian conformal,
 ``ConformalIntervalInpainter(condition=...)``), each variant once per condition; ``--by-bin`` also
-prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled).
+prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled). ``--input map``
+(alone) scores a classical fill's ``rect-v1`` holes in the ground-truth maps (calibration ``rect-v1``).
 """
 
 #: The scan tasks scored, and the calibrations compared: (protocol, signals).
@@ -340,11 +341,14 @@ def variant_name(protocol: str, signals: tuple[str, ...]) -> str:
     return protocol + ("" if signals == SHIPPED_SIGNALS else " (+far)")
 
 
-def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...]) -> dict[tuple[str, int], tuple]:
-    """``(task, seed) -> (design matrix, residuals, frame)`` of ``model`` on ``frames`` (scans)."""
+def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...],
+                  tasks: tuple[str, ...] = SCAN_TASKS) -> dict[tuple[str, int], tuple]:
+    """``(task, seed) -> (design matrix, residuals, frame)`` of ``model`` on ``frames`` (``tasks``)."""
     from estimators.intervals import scored_residuals
 
-    out = {("densify-v1", 0): scored_residuals(model, frames, FEATURE_SIGNALS, spread, "densify-v1", 0)}
+    out = {}
+    if "densify-v1" in tasks:
+        out[("densify-v1", 0)] = scored_residuals(model, frames, FEATURE_SIGNALS, spread, "densify-v1", 0)
     for seed in seeds:
         out[("rect-v1", seed)] = scored_residuals(model, frames, FEATURE_SIGNALS, spread, "rect-v1", seed)
     return out
@@ -407,8 +411,8 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--kitti-root", required=True)
     parser.add_argument("--fold", action="append", default=[], metavar="DAY=MODEL")
     parser.add_argument("--method", help="a fill that saw no drive, scoring every day (instead of --fold)")
-    parser.add_argument("--input", nargs="+", default=["scan"], choices=[k for k in INPUT_KINDS if INPUTS[k].separate],
-                        help="scan kinds, pooled (densities)")
+    parser.add_argument("--input", nargs="+", default=["scan"], choices=[k for k in INPUT_KINDS if INPUTS[k].separate] + ["map"],
+                        help="scan kinds, pooled (densities); or map alone (rect-v1 holes in the ground-truth map)")
     parser.add_argument("--frames-per-drive", type=int, default=8, help="0 = every frame")
     parser.add_argument("--seeds", default="0,1,2", help="rect-v1 seeds scored, comma-separated")
     parser.add_argument("--spread-method", default="harmonic")
@@ -421,6 +425,10 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
     conditions = args.condition or ["none"]
+    maps = "map" in args.input
+    if maps and (len(args.input) > 1 or (args.calibration and args.calibration != ["rect-v1"])):
+        raise SystemExit("--input map: alone, with --calibration rect-v1 (a map has one task, its rect-v1 holes)")
+    tasks = ("rect-v1",) if maps else SCAN_TASKS
     if bool(args.fold) == bool(args.method):
         raise SystemExit("give a --fold DAY=MODEL per day, or --method (a fill that saw no drive), not both")
 
@@ -440,7 +448,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
         start = time.perf_counter()
         model = load(path) if path else make_method(args.method)
         mine = [d for d in drives if d.startswith(day)]
-        days[day] = {kind: day_residuals(model, spaced_per_drive(ds, args.frames_per_drive, mine), spread, seeds)
+        days[day] = {kind: day_residuals(model, spaced_per_drive(ds, args.frames_per_drive, mine), spread, seeds, tasks)
                      for kind, ds in datasets.items()}
         print(f"{day}: {len(mine)} drives x {len(datasets)} inputs ({time.perf_counter() - start:.0f} s)", flush=True)
     rows = []
@@ -449,7 +457,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
           "AUSE (pooled) |\n|---|---|---|---|---|---:|---:|---:|---:|")
     for protocol, signals in CALIBRATIONS:
         variant = variant_name(protocol, signals)
-        if args.calibration and variant not in args.calibration:
+        if (args.calibration and variant not in args.calibration) or (maps and variant != "rect-v1"):
             continue
         cols = [0] + [1 + FEATURE_SIGNALS.index(name) for name in signals]
         for day in days:
@@ -461,7 +469,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
             for cond in conditions:
                 found = None if cond == "none" else fit_condition(cond, DEFAULT_EDGES[cond], FEATURE_SIGNALS, cal[0], normed,
                                                                    cal[2], "frame", args.coverage)
-                for task in SCAN_TASKS:
+                for task in tasks:
                     for kinds in [args.input] + ([[k] for k in args.input] if len(args.input) > 1 else []):
                         test = pooled([v for k in kinds for (t, _), v in days[day][k].items() if t == task])
                         qq = q if found is None else cell_quantiles(found, q, args.coverage, True, "frame")[

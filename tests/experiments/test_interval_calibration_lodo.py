@@ -56,3 +56,29 @@ def test_each_row_is_the_wrapper_calibrated_out_of_fold_and_scored_by_evaluate(l
             assert row["coverage"] == pytest.approx(np.mean([r["hole_coverage"] for r in scored]), abs=1e-3)
             assert row["width"] == pytest.approx(np.mean([r["hole_interval_width"] for r in scored]), rel=1e-3)
             assert 0.0 <= row["ause"] < 1.0  # pooled and normalised: 0 for the oracle ranking
+
+
+def test_map_input_scores_a_classical_fill_on_rect_v1_holes_of_the_maps(load_experiment, three_days):
+    from estimators.intervals import ConformalIntervalInpainter
+    from inpaintenv.data import KittiDepth, spaced_per_drive
+    from inpaintenv.evaluate import evaluate
+    from inpaintenv.methods.registry import make_method
+
+    out = load_experiment("interval_calibration").main([
+        "lodo", "--kitti-root", str(three_days), "--frames-per-drive", "0", "--seeds", "0,1", "--input", "map",
+        "--method", "scanline", "--spread-method", "nearest", "--condition", "none", "--condition", "distance"])
+    rows = {(r["condition"], r["day"]): r for r in out["rows"]}
+    assert {(r["calibration"], r["task"]) for r in out["rows"]} == {("rect-v1", "rect-v1")}
+    assert len(rows) == 2 * len(DAYS)
+    data = KittiDepth(str(three_days), split="train", input="map")
+    frames = {day: spaced_per_drive(data, 0, [f"{day}_drive_9001_sync"]) for day in DAYS}
+    left = DAYS[0]
+    wrapper = ConformalIntervalInpainter(make_method("scanline"), spread_method="nearest", protocol="rect-v1")
+    wrapper.fit_out_of_fold([(make_method("scanline"), frames[d]) for d in DAYS if d != left])
+    scored = evaluate(wrapper, frames[left], protocol="rect-v1", seeds=[0, 1], intervals=0.9, progress=False).rows
+    row = rows[("none", left)]
+    assert row["coverage"] == pytest.approx(np.mean([r["hole_coverage"] for r in scored]), abs=1e-3)
+    assert row["width"] == pytest.approx(np.mean([r["hole_interval_width"] for r in scored]), rel=1e-3)
+    with pytest.raises(SystemExit, match="--input map"):
+        load_experiment("interval_calibration").main([
+            "lodo", "--kitti-root", str(three_days), "--input", "map", "scan", "--method", "scanline"])
