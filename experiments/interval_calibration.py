@@ -322,8 +322,7 @@ the sparse route's ``harmonic`` was chosen::
 quantile) takes the quantile per bin of the distance to the nearest measurement, the predicted depth, the
 measured share around the pixel or in the frame (Mondrian conformal,
 ``ConformalIntervalInpainter(condition=...)``), each variant once per condition; ``--by-bin`` also
-prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled). ``--input map``
-(alone) scores a classical fill's ``rect-v1`` holes in the ground-truth maps (calibration ``rect-v1``).
+prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled). ``--input map`` (alone) scores a classical fill's ``rect-v1`` holes in the ground-truth maps (calibration ``rect-v1``).
 """
 
 #: The scan tasks scored, and the calibrations compared: (protocol, signals).
@@ -341,17 +340,12 @@ def variant_name(protocol: str, signals: tuple[str, ...]) -> str:
     return protocol + ("" if signals == SHIPPED_SIGNALS else " (+far)")
 
 
-def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...],
-                  tasks: tuple[str, ...] = SCAN_TASKS) -> dict[tuple[str, int], tuple]:
+def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...], tasks: tuple[str, ...] = SCAN_TASKS) -> dict:
     """``(task, seed) -> (design matrix, residuals, frame)`` of ``model`` on ``frames`` (``tasks``)."""
     from estimators.intervals import scored_residuals
 
-    out = {}
-    if "densify-v1" in tasks:
-        out[("densify-v1", 0)] = scored_residuals(model, frames, FEATURE_SIGNALS, spread, "densify-v1", 0)
-    for seed in seeds:
-        out[("rect-v1", seed)] = scored_residuals(model, frames, FEATURE_SIGNALS, spread, "rect-v1", seed)
-    return out
+    pairs = ([("densify-v1", 0)] if "densify-v1" in tasks else []) + [("rect-v1", seed) for seed in seeds]
+    return {(t, seed): scored_residuals(model, frames, FEATURE_SIGNALS, spread, t, seed) for t, seed in pairs}
 
 
 def pooled(parts: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -425,10 +419,9 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
     conditions = args.condition or ["none"]
-    maps = "map" in args.input
+    maps, tasks = "map" in args.input, (("rect-v1",) if "map" in args.input else SCAN_TASKS)
     if maps and (len(args.input) > 1 or (args.calibration and args.calibration != ["rect-v1"])):
         raise SystemExit("--input map: alone, with --calibration rect-v1 (a map has one task, its rect-v1 holes)")
-    tasks = ("rect-v1",) if maps else SCAN_TASKS
     if bool(args.fold) == bool(args.method):
         raise SystemExit("give a --fold DAY=MODEL per day, or --method (a fill that saw no drive), not both")
 
@@ -451,8 +444,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
         days[day] = {kind: day_residuals(model, spaced_per_drive(ds, args.frames_per_drive, mine), spread, seeds, tasks)
                      for kind, ds in datasets.items()}
         print(f"{day}: {len(mine)} drives x {len(datasets)} inputs ({time.perf_counter() - start:.0f} s)", flush=True)
-    rows = []
-    every = "+".join(args.input)
+    rows, every = [], "+".join(args.input)
     print("| calibrated on | condition | left-out day | task | input | coverage | mean width (m) | keep-80 % cut | "
           "AUSE (pooled) |\n|---|---|---|---|---|---:|---:|---:|---:|")
     for protocol, signals in CALIBRATIONS:
