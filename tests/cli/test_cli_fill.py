@@ -267,14 +267,14 @@ def test_scans_of_the_other_layouts_fill_at_their_image_size(kitti_raw_root, tmp
 @pytest.mark.kitti
 def test_a_slice_scan_thinned_to_16_and_8_beams_fills_by_the_sparse_route(kitti_raw_root, tmp_path, capsys):
     """docs/fill.md's sparser sensor: a raw .bin with every 4th / 8th ring kept, filled by the default."""
-    from inpaintenv.data import thin_points_by_rings
+    from inpaintenv.data import thin_points_by_rings, write_points_bin
     from inpaintenv.filling.view import sensor_view
 
     day = kitti_raw_root / "2011_09_26"
     scan = next(iter(sorted(day.glob("*_sync/velodyne_points/data/*.bin"))))
     (tmp_path / "in").mkdir()
     for keep_every in (4, 8):
-        thin_points_by_rings(read_scan(scan), keep_every).astype(np.float32).tofile(tmp_path / "in" / f"r{keep_every}.bin")
+        write_points_bin(tmp_path / "in" / f"r{keep_every}.bin", thin_points_by_rings(read_scan(scan), keep_every))
     assert main(["fill", str(tmp_path / "in"), "--calib", str(day), "--missing", "--out", str(tmp_path / "out"), "-q"]) == 0
     assert "pretrained filled 2 as sparse scans with harmonic" in capsys.readouterr().err
     calib = read_calibration(day)

@@ -74,22 +74,25 @@ def test_a_written_result_reads_back_the_same(result):
         assert len(rows) == 3 and all(isinstance(r["seed"], int) and isinstance(r["hole_count"], int) for r in rows)
 
 
-@pytest.mark.parametrize("name", sorted(set(HOSTILE_ROWS) - NEEDS_PLAN))
-def test_a_hand_edited_results_json_is_refused_naming_the_row(name, result, tmp_path):
+def _edit_results(name: str, result, tmp_path) -> str:
+    """``result``'s results.json with hostile edit ``name`` applied, written to ``tmp_path``; what the refusal says."""
     edit, says = HOSTILE_ROWS[name]
     doc = json.loads((result / "results.json").read_text())
     doc["rows"] = edit(doc["rows"])
     (tmp_path / "results.json").write_text(json.dumps(doc))
+    return says
+
+
+@pytest.mark.parametrize("name", sorted(set(HOSTILE_ROWS) - NEEDS_PLAN))
+def test_a_hand_edited_results_json_is_refused_naming_the_row(name, result, tmp_path):
+    says = _edit_results(name, result, tmp_path)
     with pytest.raises(InpaintenvError, match=rf"results\.json|{says}"):
         EvaluationResult.from_json(tmp_path / "results.json")
 
 
 @pytest.mark.parametrize("name", ["negative-rmse", "seed-true", "psnr-not-its-rmse", "duplicate-identical"])
 def test_the_refusal_names_the_row_and_the_column(name, result, tmp_path):
-    edit, says = HOSTILE_ROWS[name]
-    doc = json.loads((result / "results.json").read_text())
-    doc["rows"] = edit(doc["rows"])
-    (tmp_path / "results.json").write_text(json.dumps(doc))
+    says = _edit_results(name, result, tmp_path)
     with pytest.raises(ResultRowError, match=rf"row \d of .*results\.json is not a possible result row: .*{says}"):
         EvaluationResult.from_json(tmp_path / "results.json")
 
