@@ -28,8 +28,9 @@ CALIBRATE_DOC = """The interval calibration shipped with a release: out-of-fold 
 
 The release saw every drive of the slice, so no drive can calibrate it directly. Its three
 fold models (the release's recipe, each trained without one recording day and a few
-calibration drives: docs/model_card.md, "Per-pixel intervals") can: every drive is scored by
-the fold model trained without that drive's whole day, and
+calibration drives: docs/model_card.md, "Per-pixel intervals") can: every drive but
+2011_09_26_drive_0001 (``OFFICIAL_DRIVE``: its maps and scans are the official frames reported, never
+calibrated on, whatever the input) is scored by the fold model trained without its whole day, and
 ``ConformalIntervalInpainter.fit_out_of_fold`` fits the scale and the quantiles on those
 pooled residuals, then wraps the release. The result is written to
 ``estimators/pretrained/intervals/<release>.json`` (``--out`` to write elsewhere).
@@ -42,16 +43,15 @@ no fold models: without ``--fold`` it is calibrated directly on every drive its
 
     python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release kitti-mixed-v1 --protocol mixed-v1
 
-A classical fill (``--release scanline``) saw no drive: it is calibrated the same way, on every
-drive, and ships as ``<name>-intervals``::
+A classical fill (``--release scanline``) saw no drive: it is calibrated the same way, on every drive
+but drive 0001, and ships as ``<name>-intervals``::
 
     python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release scanline --spread-method nearest
 
 ``--input scan`` calibrates a fill of a single LiDAR scan on the scans of the rebuilt drives
 (each frame's ``velodyne_raw`` paired with its ground truth; protocol ``densify-v1`` by default:
-every pixel the scan did not measure is scored). Drive 2011_09_26_drive_0001 (official maps), val
-and val_selection are never calibrated on: they are the official frames reported. The scan
-default (``SCAN_DEFAULT``) ships this way::
+every pixel the scan did not measure is scored; drive 0001, val and val_selection, the official frames,
+never). The scan default (``SCAN_DEFAULT``) ships this way::
 
     python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --input scan --release harmonic-ipbasic --spread-method harmonic --frames-per-drive 0
 
@@ -69,7 +69,7 @@ ships this way, under a route's file that registers no ``harmonic-intervals`` fo
         --out estimators/pretrained/intervals/routes/sparse-harmonic.json
 """
 
-#: Drive of official maps: reported, never calibrated on, when calibrating on scans.
+#: Drive of the official maps and scans: reported, so never calibrated on (maps, scans, folds alike).
 OFFICIAL_DRIVE = "2011_09_26_drive_0001_sync"
 
 
@@ -104,7 +104,7 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
 
     datasets = [KittiDepth(args.kitti_root, split="train", input=kind) for kind in args.input]
     dataset = datasets[0]
-    drives = sorted({str(g) for g in dataset.groups} - ({OFFICIAL_DRIVE} if scans[0] else set()))
+    drives = sorted({str(g) for g in dataset.groups} - {OFFICIAL_DRIVE})
     folds = []
     for entry in args.fold:
         day, _, path = entry.partition("=")

@@ -115,3 +115,13 @@ def test_several_scan_densities_are_pooled_each_drive_once_per_density(load_expe
     with pytest.raises(SystemExit, match="distinct scan kinds only"):
         load_experiment("interval_calibration").main(["calibrate", "--kitti-root", str(tmp_path), "--input", "map",
                                                       "scan", "--release", "nearest"])
+
+
+def test_a_map_fill_is_never_calibrated_on_drive_0001(load_experiment, tmp_path):
+    # Drive 0001's maps are reported as official results: no calibration may see them, on maps as on scans.
+    drives = _write_scan_drives(tmp_path, seed=3)
+    out = load_experiment("interval_calibration").main(["calibrate", "--kitti-root", str(tmp_path), "--release",
+        "scanline", "--out", str(tmp_path / "cal.json"), "--spread-method", "nearest"])
+    cal = json.loads(out.read_text())["calibration"]
+    assert cal["drives"] == drives[1:] and cal["n_frames"] == 2 and cal["protocol"] == "rect-v1"
+    assert "input_kind" not in cal or cal["input_kind"] == "map"

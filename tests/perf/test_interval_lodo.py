@@ -68,6 +68,13 @@ def test_drives_the_base_saw_are_neither_calibrated_nor_scored(load_benchmark, t
     assert by_fold["day-2011_09_30"]["n_cal_drives"] == 1  # calibrated on 9002 only
 
 
+def test_on_maps_drive_0001_never_calibrates_a_fold_as_it_never_calibrates_the_shipped_one(load_benchmark):
+    folds = load_benchmark("interval_lodo").folds([*DRIVES, "2011_09_26_drive_0001_sync"])
+    assert [name for name, _, _ in folds] == ["day-2011_09_26", "day-2011_09_30", "drive-0001"]
+    assert all("2011_09_26_drive_0001_sync" not in cal for _, cal, _ in folds)
+    assert folds[1][1] == DRIVES[:2] and folds[2] == ("drive-0001", DRIVES, ["2011_09_26_drive_0001_sync"])
+    assert "2011_09_26_drive_0001_sync" in folds[0][2]  # scored with its day, as every drive of it
+
 @pytest.fixture
 def scans(tmp_path):
     """Two days of drives, plus official drive 0001, a frame each with a ground truth and a sparser scan."""
