@@ -60,16 +60,17 @@ CLASSICAL = ("harmonic", "harmonic-inverse", "ipbasic", "ipbasic-scan", "nearest
 TASKS = ("densify", "rect")
 
 
-def day_sets(root: str, per_drive: int) -> dict[str, Any]:
-    """Each day's drives (official drive 0001 apart), the official drive 0001 (both cameras) and val_selection."""
-    train = KittiDepth(root, split="train", input="scan", crop=CROP)
+def day_sets(root: str, per_drive: int, kind: str = "scan") -> dict[str, Any]:
+    """Each day's drives (official drive 0001 apart), the official drive 0001 (both cameras) and val_selection,
+    their scans at the input kind ``kind``."""
+    train = KittiDepth(root, split="train", input=kind, crop=CROP)
     groups = np.asarray(train.groups)
     out: dict[str, Any] = {}
     for day in DAYS:
         drives = sorted({g for g in groups if g.startswith(day) and g != OFFICIAL})
         out[day] = spaced_per_drive(Subset(train, [i for i, g in enumerate(groups) if g in drives]), per_drive)
-    out["official-0001"] = KittiDepth(root, split="train", camera="both", input="scan", crop=CROP, drives=[OFFICIAL])
-    out["val-selection"] = KittiDepth(root, split="val_selection", camera="both", input="scan")
+    out["official-0001"] = KittiDepth(root, split="train", camera="both", input=kind, crop=CROP, drives=[OFFICIAL])
+    out["val-selection"] = KittiDepth(root, split="val_selection", camera="both", input=kind)
     return out
 
 
@@ -153,20 +154,32 @@ def cmd_classical(argv: list[str]) -> None:
 
 
 def cmd_lodo(argv: list[str]) -> None:
-    """Train on two days, score on the third (and on the official sets when 2011_09_26 is left out)."""
+    """Train on two days, score on the third (and on the official sets when 2011_09_26 is left out).
+
+    ``--inputs``: train on the scans at those input kinds (``scan-rings16-v1``, ...); ``--densities``:
+    score those densities (``density``'s table) instead of the two tasks."""
     parser = _parser("leave one recording day out", learned=True)
     parser.add_argument("--days", default=",".join(DAYS), help="the days to leave out, comma-separated")
     parser.add_argument("--save-folds", help="folder to save each fold model in (as <folder>/<day>)")
+    parser.add_argument("--inputs", default="scan", help="the input kinds trained on, comma-separated")
+    parser.add_argument("--densities", help="score these densities (of: " + ", ".join(DENSITY_LABELS) + ")")
     args = parser.parse_args(argv)
     sets = _sets(parser, args)
+    train = {kind: sets if kind == "scan" else day_sets(str(default_root()), args.per_drive, kind)
+             for kind in args.inputs.split(",")}
     for day in args.days.split(","):
         start = time.perf_counter()
-        est = estimator(args).fit(ConcatDataset([sets[d] for d in DAYS if d != day]))
+        est = estimator(args).fit(ConcatDataset([t[d] for t in train.values() for d in DAYS if d != day]))
         label = f"left out {day} (fit {time.perf_counter() - start:.0f} s)"
         if args.save_folds:
             est.save(f"{args.save_folds}/{day}")
         for name in [day] + (list(OFFICIAL_SETS) if day == DAYS[0] else []):
-            compare(label, est, name, sets[name], _seeds(args))
+            if args.densities:
+                methods = {"ours": est, **{m: make_method(m) for m in CLASSICAL}}
+                density_table(name, sets[name], methods, "ours", tuple(args.densities.split(",")), _seeds(args),
+                              f"{label} | ")
+            else:
+                compare(label, est, name, sets[name], _seeds(args))
 
 
 def cmd_release(argv: list[str]) -> None:
@@ -225,6 +238,8 @@ def cmd_time(argv: list[str]) -> None:
 DENSITIES = (("64 beams", 1, None), ("32 beams", 2, None), ("16 beams", 4, None), ("8 beams", 8, None),
              ("50 % points", None, 0.5), ("25 % points", None, 0.25), ("10 % points", None, 0.1))
 #: Raw image size (W, H) of each recording day; frames are its bottom-centre CROP.
+#: What ``density`` and ``lodo --densities`` can score.
+DENSITY_LABELS = tuple(d[0] for d in DENSITIES) + ("rect-v1 hole",)
 RAW_SIZES = {"2011_09_26": (1242, 375), "2011_09_30": (1226, 370), "2011_10_03": (1241, 376)}
 
 
@@ -266,36 +281,68 @@ def density_units(root: str, frames: Any, seeds: tuple[int, ...], densities: tup
             yield "rect-v1 hole", method_input(scan, hole, "scan"), gt, (gt > 0) & hole
 
 
+def column_regions(x: np.ndarray) -> dict[str, np.ndarray]:
+    """The unmeasured pixels of ``x`` by where they lie in their column: above its top measurement
+    (a sparser LiDAR's top line misses what the lines between it and the next reach), below its lowest,
+    and between its lines within / beyond 8 px of a measurement. Columns without one: all ``above``."""
+    measured = np.nan_to_num(x, nan=0.0) > 0
+    rows = np.arange(x.shape[0])[:, None]
+    top = np.where(measured.any(0), measured.argmax(0), x.shape[0])
+    bottom = np.where(measured.any(0), x.shape[0] - 1 - measured[::-1].argmax(0), x.shape[0])
+    near = cv2.distanceTransform((~measured).astype(np.uint8), cv2.DIST_L2, 5) <= 8
+    above, below = rows < top, rows > bottom
+    between = ~measured & ~above & ~below
+    return {"above": above, "below": below, "between <=8 px": between & near, "between >8 px": between & ~near}
+
+
+def density_table(set_name: str, frames: Any, methods: dict[str, Any], name: str, densities: tuple[str, ...],
+                  seeds: tuple[int, ...], label: str = "", regions: bool = False) -> None:
+    """One line per density of ``frames``: ``methods[name]`` against the strongest classical fill, ms beside
+    harmonic; with ``regions``, a line more per method: each :func:`column_regions` region's share of the
+    scored pixels and of the squared error, and its RMSE."""
+    errs: dict[tuple[str, str], list[float]] = {}
+    seconds: dict[tuple[str, str], float] = {}
+    split: dict[tuple[str, str, str], np.ndarray] = {}  # (density, method, region): [pixels, squared error]
+    for density, x, gt, scored in density_units(str(default_root()), frames, seeds, densities):
+        parts = column_regions(x) if regions else {}
+        for m, method in methods.items():
+            start = time.perf_counter()
+            pred = method.predict(x)
+            seconds[density, m] = seconds.get((density, m), 0.0) + time.perf_counter() - start
+            errs.setdefault((density, m), []).append(_rmse(pred, gt, scored))
+            for region, inside in parts.items():
+                se = (pred - gt)[scored & inside] ** 2
+                split[density, m, region] = split.get((density, m, region), 0.0) + np.array([se.size, se.sum()])
+    for density in (d for d in DENSITY_LABELS if d in densities):
+        e = {m: np.asarray(errs[density, m]) for m in methods}
+        best = min(CLASSICAL, key=lambda m: np.nanmean(e[m]))
+        r, lo, hi = paired_ratio(e[name], e[best])
+        ms = {m: 1000.0 * seconds[density, m] / len(e[m]) for m in (name, "harmonic")}
+        print(f"{label}{set_name:14s} {density:13s} | {name} {np.nanmean(e[name]):.3f} m, {best} {np.nanmean(e[best]):.3f}"
+              f" m, ratio {r:.3f} [{lo:.3f}, {hi:.3f}] | {ms[name]:.0f} vs harmonic {ms['harmonic']:.0f} ms/frame",
+              flush=True)
+        for m in dict.fromkeys((name, best)) if regions else ():
+            cells = {k[2]: v for k, v in split.items() if k[:2] == (density, m)}
+            n, sq = (sum(v[i] for v in cells.values()) for i in (0, 1))
+            print(f"{label}{set_name:14s} {density:13s} | {m}: " + "; ".join(
+                f"{region} {v[0] / n:.0%} px, {v[1] / sq:.0%} SE, {np.sqrt(v[1] / max(v[0], 1)):.2f} m"
+                for region, v in cells.items()), flush=True)
+
+
 def cmd_density(argv: list[str]) -> None:
     """A method against the strongest classical fill at every density and in holes, per set, ms beside harmonic."""
     parser = _parser("a method at every density and in holes cut into the scan", learned=False)
     parser.add_argument("--method", default="pretrained", help="a registered method name")
     parser.add_argument("--sets", default=",".join(DAYS + OFFICIAL_SETS), help="the sets, comma-separated")
-    labels = [d[0] for d in DENSITIES] + ["rect-v1 hole"]
-    parser.add_argument("--densities", default=",".join(labels), help="the inputs scored, comma-separated")
+    parser.add_argument("--densities", default=",".join(DENSITY_LABELS), help="the inputs scored, comma-separated")
+    parser.add_argument("--regions", action="store_true", help="also the error by region of the column (above "
+                        "its top measurement, below its lowest, between its lines)")
     args = parser.parse_args(argv)
-    densities = tuple(args.densities.split(","))
     sets = _sets(parser, args)
-    name = args.method
-    methods = {name: make_method(name), **{m: make_method(m) for m in CLASSICAL}}
+    methods = {args.method: make_method(args.method), **{m: make_method(m) for m in CLASSICAL}}
     for set_name in args.sets.split(","):
-        errs: dict[tuple[str, str], list[float]] = {}
-        seconds: dict[tuple[str, str], float] = {}
-        for label, x, gt, scored in density_units(str(default_root()), sets[set_name], _seeds(args), densities):
-            for m, method in methods.items():
-                start = time.perf_counter()
-                pred = method.predict(x)
-                seconds[label, m] = seconds.get((label, m), 0.0) + time.perf_counter() - start
-                errs.setdefault((label, m), []).append(
-                    float(np.sqrt(np.mean((pred[scored] - gt[scored]) ** 2))) if scored.any() else np.nan)
-        for label in (d for d in labels if d in densities):
-            e = {m: np.asarray(errs[label, m]) for m in methods}
-            best = min(CLASSICAL, key=lambda m: np.nanmean(e[m]))
-            r, lo, hi = paired_ratio(e[name], e[best])
-            ms = {m: 1000.0 * seconds[label, m] / len(e[m]) for m in (name, "harmonic")}
-            print(f"{set_name:14s} {label:13s} | {name} {np.nanmean(e[name]):.3f} m, {best} {np.nanmean(e[best]):.3f} m,"
-                  f" ratio {r:.3f} [{lo:.3f}, {hi:.3f}] | {ms[name]:.0f} vs harmonic {ms['harmonic']:.0f} ms/frame",
-                  flush=True)
+        density_table(set_name, sets[set_name], methods, args.method, tuple(args.densities.split(",")), _seeds(args),
+                      regions=args.regions)
 
 
 #: The distances (px to the nearest measurement) beyond which ``holes``' composition takes the map release.
