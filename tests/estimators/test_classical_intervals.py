@@ -50,6 +50,8 @@ def test_it_is_calibrated_directly_and_records_on_what(name):
     assert "out_of_fold" not in cal and cal["coverage"] == 0.9 and cal["weighting"] == "frame"
     assert len(set(cal["drives"])) == len(cal["drives"]) >= 2
     assert cal["n_frames"] >= len(cal["drives"]) and cal["n_pixels"] > cal["n_frames"]
+    # Drive 0001's maps and scans are the official frames reported: never calibrated on.
+    assert "2011_09_26_drive_0001_sync" not in cal["drives"]
 
 
 def test_overrides_reach_the_fill():
