@@ -11,7 +11,8 @@
 #    2011_09_26 model), calibrated on the fold's held-out drives:
 #    perf/interval_lodo.py, rows in OUT/lodo-learned.json.
 # 3. Writes the shipped calibration, estimators/pretrained/intervals/kitti-ensemble-v1.json:
-#    every drive scored by the fold model trained without its day (experiments/interval_calibration.py calibrate).
+#    every drive but 0001 (official maps, never calibrated on) scored by the fold model trained without its day
+#    (experiments/interval_calibration.py calibrate).
 # Rerunning skips the trained folds.
 set -euo pipefail
 ROOT=${1:?usage: bash experiments/interval_folds.sh <KITTI root> [OUT]}
