@@ -3,14 +3,16 @@
 ``selection_frames.py`` trains and scores on the selection frames of ``kitti-mixed-v1``
 (drive 9001, frames 56-67, seed 0); ``classical_baselines.py`` and ``scan_lodo.py`` read the
 KITTI root from ``$INPAINTENV_KITTI_ROOT``; a script of several commands dispatches them with
-:func:`run_command`. Only the package's public API is used here.
+:func:`run_command`; :func:`edges_option` reads a ``--condition-edges`` option, :func:`bin_labels` names bins. Only the package's
+public API is used here.
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -85,3 +87,35 @@ def run_command(script: str, commands: dict[str, Callable[[list[str]], Any]], ar
 def exit_status(result: Any) -> int:
     """A command's result as the process's exit status: an int as it is, anything else (a table) 0."""
     return result if isinstance(result, int) and not isinstance(result, bool) else 0
+
+
+def edges_option(text: str) -> tuple[float, ...]:
+    """A ``--condition-edges`` value (argparse ``type``): comma-separated bin edges, as ``check_edges`` takes them.
+
+    Parameters
+    ----------
+    text : str
+        ``"E1,E2,..."``: increasing positive finite numbers.
+
+    Returns
+    -------
+    tuple of float
+        The edges.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Anything else (argparse then names the option and exits with status 2).
+    """
+    from estimators.intervals import check_edges
+
+    try:
+        return check_edges([float(v) for v in text.split(",")])
+    except ValueError as err:  # float() or check_edges (an InvalidInputError is a ValueError)
+        raise argparse.ArgumentTypeError(f"{text!r}: comma-separated increasing positive finite numbers") from err
+
+
+def bin_labels(edges: Sequence[float]) -> list[str]:
+    """``<= 1``, ``1-2``, ..., ``> 64``: the bins of ``edges`` (bin ``b`` holds ``edges[b-1] < v <= edges[b]``)."""
+    e = [f"{v:g}" for v in edges]
+    return [f"<= {e[0]}"] + [f"{a}-{b}" for a, b in zip(e, e[1:])] + [f"> {e[-1]}"]

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import exit_status, run_command
+from _common import bin_labels, edges_option, exit_status, run_command
 
 from inpaintenv.data.inputs import INPUT_KINDS, INPUTS
 from inpaintenv.values.interval_calibration import CONDITIONS
@@ -90,11 +90,14 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     parser.add_argument("--signals", nargs="*", default=["border", "depth", "spread"],
                         help="scale signals (\"far\" too: SIGNALS of estimators.intervals)")
     parser.add_argument("--condition", choices=CONDITIONS, help="a quantile per bin of it (Mondrian conformal)")
+    parser.add_argument("--condition-edges", type=edges_option, metavar="E1,E2,...", help="its bins' edges (default DEFAULT_EDGES)")
     parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
     args = parser.parse_args(argv)
     scans = [INPUTS[k].separate for k in args.input]
     if len(args.input) > 1 and (not all(scans) or args.fold or len(set(args.input)) < len(args.input)):
         raise SystemExit("several --input kinds: distinct scan kinds only, of a fill that saw no drive (no --fold)")
+    if args.condition_edges and not args.condition:
+        raise SystemExit("--condition-edges: the bin edges of a --condition, none given")
     args.protocol = args.protocol or ("densify-v1" if scans[0] else "rect-v1")
 
     from estimators.intervals import ConformalIntervalInpainter
@@ -117,7 +120,8 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     release = make_method(args.release)
     start = time.perf_counter()
     wrapper = ConformalIntervalInpainter(release, coverage=args.coverage, spread_method=args.spread_method,
-                                         protocol=args.protocol, signals=tuple(args.signals), condition=args.condition)
+                                         protocol=args.protocol, signals=tuple(args.signals), condition=args.condition,
+                                         condition_edges=args.condition_edges)
     if folds:
         left = sorted(set(drives) - {str(g) for _, ds in folds for g in ds.groups})
         if left:
@@ -321,8 +325,8 @@ the sparse route's ``harmonic`` was chosen::
 ``--condition distance`` (or ``depth``, ``density``, ``frame_density``; repeatable, ``none`` the pooled
 quantile) takes the quantile per bin of the distance to the nearest measurement, the predicted depth, the
 measured share around the pixel or in the frame (Mondrian conformal,
-``ConformalIntervalInpainter(condition=...)``), each variant once per condition; ``--by-bin`` also
-prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled). ``--input map`` (alone) scores a classical fill's ``rect-v1`` holes in the ground-truth maps (calibration ``rect-v1``).
+``ConformalIntervalInpainter(condition=...)``; bins ``DEFAULT_EDGES``, or ``--condition-edges E1,E2,...`` for the
+one condition besides none), each variant once per condition; ``--by-bin`` also prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled). ``--input map`` (alone) scores a classical fill's ``rect-v1`` holes in the ground-truth maps (calibration ``rect-v1``).
 """
 
 #: The scan tasks scored, and the calibrations compared: (protocol, signals).
@@ -391,14 +395,6 @@ def coverage_by_bin(coef: np.ndarray, q: Any, F: np.ndarray, r: np.ndarray) -> d
     return out
 
 
-def bin_labels(variable: str) -> list[str]:
-    """``<= 1``, ``1-2``, ..., ``> 64`` (px or m) of a variable's default bins."""
-    from inpaintenv.values.interval_calibration import DEFAULT_EDGES
-
-    e = [f"{v:g}" for v in DEFAULT_EDGES[variable]]
-    return [f"<= {e[0]}"] + [f"{a}-{b}" for a, b in zip(e, e[1:])] + [f"> {e[-1]}"]
-
-
 def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(prog="interval_calibration.py lodo", description=LODO_DOC,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -415,10 +411,14 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
                         help="the variants compared (repeatable; default every one)")
     parser.add_argument("--condition", action="append", choices=["none", *CONDITIONS],
                         help="quantile per bin of this variable (repeatable; default none: one pooled quantile)")
+    parser.add_argument("--condition-edges", type=edges_option, metavar="E1,E2,...",
+                        help="the bins' edges of the one --condition other than none (default DEFAULT_EDGES)")
     parser.add_argument("--by-bin", action="store_true", help="also print coverage per distance and depth bin")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
     conditions = args.condition or ["none"]
+    if args.condition_edges and len(set(conditions) - {"none"}) != 1:
+        raise SystemExit(f"--condition-edges: the bin edges of one --condition other than none, got {conditions}")
     maps, tasks = "map" in args.input, (("rect-v1",) if "map" in args.input else SCAN_TASKS)
     if maps and (len(args.input) > 1 or (args.calibration and args.calibration != ["rect-v1"])):
         raise SystemExit("--input map: alone, with --calibration rect-v1 (a map has one task, its rect-v1 holes)")
@@ -459,7 +459,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
             normed = cal[1] / scale_from(coef, cal[0])
             _, q = residual_quantiles(normed, cal[2], "frame", args.coverage)
             for cond in conditions:
-                found = None if cond == "none" else fit_condition(cond, DEFAULT_EDGES[cond], FEATURE_SIGNALS, cal[0], normed,
+                found = None if cond == "none" else fit_condition(cond, args.condition_edges or DEFAULT_EDGES[cond], FEATURE_SIGNALS, cal[0], normed,
                                                                    cal[2], "frame", args.coverage)
                 for task in tasks:
                     for kinds in [args.input] + ([[k] for k in args.input] if len(args.input) > 1 else []):
@@ -475,7 +475,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     if args.by_bin:
         for variable in DEFAULT_EDGES:
             unit = {"distance": "px to the nearest measurement", "depth": "predicted depth, m"}.get(variable, "measured share")
-            labels = bin_labels(variable)
+            labels = bin_labels(DEFAULT_EDGES[variable])
             print(f"\ncoverage by {variable} bin ({unit}), pixels pooled: coverage (pixels)\n| calibrated on | condition | "
                   "day | task | input | " + " | ".join(labels) + " |\n|---|---|---|---|---|" + "---:|" * len(labels))
             for row in rows:

@@ -125,3 +125,16 @@ def test_a_map_fill_is_never_calibrated_on_drive_0001(load_experiment, tmp_path)
     cal = json.loads(out.read_text())["calibration"]
     assert cal["drives"] == drives[1:] and cal["n_frames"] == 2 and cal["protocol"] == "rect-v1"
     assert "input_kind" not in cal or cal["input_kind"] == "map"
+
+
+def test_condition_edges_bin_the_calibrated_condition_and_the_file_loads(load_experiment, tmp_path):
+    from estimators.intervals import load_intervals
+
+    _write_scan_drives(tmp_path, seed=5)
+    out = load_experiment("interval_calibration").main([
+        "calibrate", "--kitti-root", str(tmp_path), "--input", "scan", "--release", "nearest", "--out",
+        str(tmp_path / "cal.json"), "--signals", "border", "depth", "--condition", "frame_density",
+        "--condition-edges", "0.05,0.2"])
+    assert json.loads(out.read_text())["condition"]["edges"] == [0.05, 0.2]
+    loaded = load_intervals(out)
+    assert loaded.condition == "frame_density" and loaded.condition_["edges"] == [0.05, 0.2]

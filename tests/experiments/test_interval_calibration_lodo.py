@@ -82,3 +82,62 @@ def test_map_input_scores_a_classical_fill_on_rect_v1_holes_of_the_maps(load_exp
     with pytest.raises(SystemExit, match="--input map"):
         load_experiment("interval_calibration").main([
             "lodo", "--kitti-root", str(three_days), "--input", "map", "scan", "--method", "scanline"])
+
+
+@pytest.mark.parametrize("value", ["0.02,0.01", "0.01,abc", "-0.01", "0.01,nan", "0.01,0.01", ""])
+@pytest.mark.parametrize("command", ["lodo", "calibrate"])
+def test_condition_edges_are_increasing_positive_numbers_or_one_error_naming_the_option(load_experiment, capsys,
+                                                                                         command, value):
+    with pytest.raises(SystemExit) as stop:
+        load_experiment("interval_calibration").main([command, "--kitti-root", "nowhere", "--condition",
+                                                      "frame_density", "--condition-edges", value])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and "argument --condition-edges" in err and "increasing positive finite" in err
+
+
+def test_condition_edges_are_parsed_and_refused_without_their_one_condition(load_experiment):
+    module = load_experiment("interval_calibration")
+    assert module.edges_option("0.015, 0.03") == (0.015, 0.03)
+    for conditions in ([], ["--condition", "none"], ["--condition", "density", "--condition", "frame_density"]):
+        with pytest.raises(SystemExit, match="--condition-edges: the bin edges of one --condition"):
+            module.main(["lodo", "--kitti-root", "nowhere", "--method", "harmonic", *conditions,
+                         "--condition-edges", "0.015,0.03"])
+    with pytest.raises(SystemExit, match="--condition-edges: the bin edges of a --condition"):
+        module.main(["calibrate", "--kitti-root", "nowhere", "--condition-edges", "0.015,0.03"])
+
+
+def test_one_bin_per_cell_keeps_its_ranking_and_covers_each_class(load_experiment):
+    """Two LiDAR classes (frame densities 0.01 and 0.03), errors four times wider on the sparser one:
+    edges between the classes give each class one quantile, so its AUSE is the pooled quantile's (the
+    ranking within the class is the scale's), while each class is covered as asked."""
+    from estimators.intervals import cell_of, cell_quantiles, fit_condition, residual_quantiles, scale_from
+
+    module = load_experiment("interval_calibration")
+    signals = module.FEATURE_SIGNALS
+
+    def frames(seed):
+        rng = np.random.default_rng(seed)
+        n, per = 16_000, 400  # 40 frames, 20 a class
+        frame = np.repeat(np.arange(n // per), per)
+        sparse = frame % 2 == 0
+        F = np.zeros((n, 1 + len(signals)))
+        F[:, 0] = 1.0
+        F[:, 1 + signals.index("border")] = np.log1p(rng.uniform(0.0, 30.0, n))
+        F[:, 1 + signals.index("depth")] = np.log(80.0)  # the low end never clipped at 0 m
+        F[:, 1 + signals.index("frame_density")] = np.where(sparse, 0.01, 0.03)
+        coef = np.zeros(1 + len(signals))
+        coef[1 + signals.index("border")] = 0.5
+        r = scale_from(coef, F) * np.abs(rng.normal(0.0, np.where(sparse, 2.0, 0.5), n)) * rng.uniform(0.5, 1.5, n)
+        return coef, F, r, frame, sparse
+
+    coef, F, r, frame, _ = frames(0)
+    normed = r / scale_from(coef, F)
+    _, q = residual_quantiles(normed, frame, "frame", 0.9)
+    found = fit_condition("frame_density", module.edges_option("0.02"), signals, F, normed, frame, "frame", 0.9)
+    _, F, r, frame, sparse = frames(1)
+    q_cell = cell_quantiles(found, q, 0.9, True, "frame")[cell_of(found, signals, F)]
+    for cls in (sparse, ~sparse):
+        pooled = module.interval_scores(coef, q, F[cls], r[cls], frame[cls])
+        conditioned = module.interval_scores(coef, q_cell[cls], F[cls], r[cls], frame[cls])
+        assert conditioned["ause"] == pytest.approx(pooled["ause"], abs=1e-12)
+        assert abs(conditioned["coverage"] - 0.9) < 0.02 < abs(pooled["coverage"] - 0.9)
