@@ -18,17 +18,13 @@ are ``predict`` per frame beside ``harmonic``'s in the same run.
     python experiments/scan_lodo.py time --method kitti-scan-v1            # its ms/frame beside harmonic's
     python experiments/scan_lodo.py density --method pretrained            # per density, every set
     python experiments/scan_lodo.py holes --per-drive 2 --seeds 0,1        # default vs the map release in holes
+    python experiments/scan_lodo.py lodo --estimator mlp --inputs scan-rings16-v1,scan-rings8-v1 \
+        --per-drive 3 --densities "32 beams,16 beams,8 beams"              # a learned correction per density
 
-``density`` scores a registered method at every density on every set: the scan as it is (64
-beams), every 2nd / 4th / 8th laser ring kept (32, 16, 8 beams; rings from each frame's day's
-calibration), a seeded 50 / 25 / 10 % of its points, and rect-v1's holes cut into the 64-beam
-scan.
-
-``holes`` puts the default (``pretrained``), the map release (``kitti-ensemble-v1``, fed the scan
-with its holes) and the strongest classical fill side by side on the same units (rect-v1's holes
-cut into the 64-beam scan, and the whole scan), each method's RMSE on the hole's pixels farther
-than D px from every measurement, and the composition that takes the map release's fill beyond
-D px and the default's within it, D chosen with one recording day left out.
+``density``'s densities: the scan as it is (64 beams), every 2nd / 4th / 8th laser ring (32, 16, 8
+beams; rings from the day's calibration), a seeded 50 / 25 / 10 % of its points, rect-v1's holes in
+the 64-beam scan. ``holes``: the default and the map release (fed the holed scan) in those holes,
+and the map release beyond D px of every measurement (D chosen with one day left out).
 """
 
 from __future__ import annotations
@@ -46,6 +42,7 @@ from inpaintenv.data.calibration import Calibration, read_calibration
 from inpaintenv.data.thinning import thin_scan_by_points, thin_scan_by_rings
 from inpaintenv.data.inputs import method_input
 from inpaintenv.files.jsonio import loads_json, write_json
+from estimators.candidates import prior_features
 from inpaintenv.masks import get_protocol
 from inpaintenv.methods.registry import make_method
 
@@ -58,6 +55,9 @@ CROP = (352, 1216)
 #: Every classical fill the learned one is compared with; the strongest of a set and task is the bar.
 CLASSICAL = ("harmonic", "harmonic-inverse", "ipbasic", "ipbasic-scan", "nearest", "scanline", "harmonic-ipbasic")
 TASKS = ("densify", "rect")
+#: :class:`ResidualProbe`'s classical fills beside harmonic: the cheap ones (with ``harmonic-inverse`` and
+#: ``ipbasic-scan`` its features take 5.6x harmonic's time).
+PROBE_FILLS = ("row-median", "row-far", "window-near", "window-far", "nearest")
 
 
 def day_sets(root: str, per_drive: int, kind: str = "scan") -> dict[str, Any]:
@@ -74,24 +74,6 @@ def day_sets(root: str, per_drive: int, kind: str = "scan") -> dict[str, Any]:
     return out
 
 
-def scores(method: Any, frames: Any, task: str, seeds: tuple[int, ...] = (0,)) -> tuple[np.ndarray, float]:
-    """Per-unit RMSE (NaN where nothing is scored; a unit is a frame, for ``rect`` a (seed, frame))
-    and ms per frame of ``predict``."""
-    rect = get_protocol("rect-v1")
-    errs, seconds, calls = [], 0.0, 0
-    for i in range(len(frames)):
-        scan, gt = (a[0] for a in frames.load_pairs([i]))
-        for seed in seeds if task == "rect" else (0,):
-            hole = rect.mask(scan.shape, seed, i) if task == "rect" else np.zeros(scan.shape, bool)
-            x = method_input(scan, hole, "scan")
-            start = time.perf_counter()
-            pred = method.predict(x)
-            seconds, calls = seconds + time.perf_counter() - start, calls + 1
-            scored = (gt > 0) & (hole if task == "rect" else np.isnan(x))
-            errs.append(np.sqrt(np.mean((pred[scored] - gt[scored]) ** 2)) if scored.any() else np.nan)
-    return np.asarray(errs), 1000.0 * seconds / max(calls, 1)
-
-
 def paired_ratio(a: np.ndarray, b: np.ndarray, n_boot: int = 2000) -> tuple[float, float, float]:
     """mean(a) / mean(b) over units scored by both, and its paired 95 % bootstrap interval."""
     ok = np.isfinite(a) & np.isfinite(b)
@@ -102,18 +84,6 @@ def paired_ratio(a: np.ndarray, b: np.ndarray, n_boot: int = 2000) -> tuple[floa
     return float(a.mean() / b.mean()), float(np.quantile(boot, 0.025)), float(np.quantile(boot, 0.975))
 
 
-def compare(label: str, method: Any, name: str, frames: Any, seeds: tuple[int, ...]) -> None:
-    """One line per task: ``method`` against the strongest classical fill of ``frames``, ms beside harmonic's."""
-    for task in TASKS:
-        ours, ms = scores(method, frames, task, seeds)
-        classical = {m: scores(make_method(m), frames, task, seeds) for m in CLASSICAL}
-        best = min(classical, key=lambda m: np.nanmean(classical[m][0]))
-        r, lo, hi = paired_ratio(ours, classical[best][0])
-        print(f"{label} | {name:14s} {task:8s} ours {np.nanmean(ours):.3f} m, {best} {np.nanmean(classical[best][0]):.3f}"
-              f" m, ratio {r:.3f} [{lo:.3f}, {hi:.3f}] | {ms:.0f} vs harmonic {classical['harmonic'][1]:.0f} ms/frame",
-              flush=True)
-
-
 def estimator(args: argparse.Namespace) -> Any:
     """A fresh estimator of ``--estimator`` with ``--recipe``'s keywords."""
     import estimators.learned as learned
@@ -121,12 +91,57 @@ def estimator(args: argparse.Namespace) -> Any:
     return getattr(learned, args.estimator)(**loads_json(args.recipe, "--recipe", allow_nan=False))
 
 
+class ResidualProbe:
+    """A probe, not a release: ``harmonic`` plus a learned per-pixel correction, fitted to truth minus harmonic
+    on unmeasured pixels, read from classical ``fills``, the gaps to and depths of the nearest measurements
+    (``prior_features``), the distance to the nearest one and the measured share around the pixel.
+    The correction is scikit-learn's ``MLPRegressor`` (``hidden`` units per layer) on standardised features
+    (``lodo --estimator mlp``, ``--recipe '{"fills": [...], "hidden": [32, 32]}'``)."""
+
+    def __init__(self, fills: tuple[str, ...] = PROBE_FILLS, hidden: tuple[int, ...] = (128, 128)) -> None:
+        self.fills, self.hidden = tuple(fills), tuple(hidden)
+
+    def features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(C, H, W)`` features of ``x`` (NaN = to fill) and its harmonic fill."""
+        known = np.nan_to_num(x, nan=0.0) > 0
+        distance = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5)
+        feats = prior_features(x, ("harmonic", *self.fills), gaps=True, endpoints=True)[3:]
+        feats = np.concatenate([feats, distance[None], cv2.blur(known.astype(np.float32), (61, 61))[None]])
+        return np.nan_to_num(feats, nan=0.0, posinf=0.0), feats[0]
+
+    def fit(self, datasets: list[Any], pixels: int = 4000, seed: int = 0) -> ResidualProbe:
+        from sklearn.neural_network import MLPRegressor  # noqa: PLC0415 - only this probe needs them
+        from sklearn.pipeline import make_pipeline  # noqa: PLC0415
+        from sklearn.preprocessing import StandardScaler  # noqa: PLC0415
+
+        rng, X, y = np.random.default_rng(seed), [], []
+        for frames in datasets:
+            for i in range(len(frames)):
+                scan, gt = (a[0] for a in frames.load_pairs([i]))
+                x = method_input(scan, np.zeros(scan.shape, bool), "scan")
+                (F, harmonic), (rows, cols) = self.features(x), np.nonzero(np.isnan(x) & (gt > 0))
+                pick = rng.choice(len(rows), min(pixels, len(rows)), replace=False)
+                X.append(F[:, rows[pick], cols[pick]].T)
+                y.append(gt[rows[pick], cols[pick]] - harmonic[rows[pick], cols[pick]])
+        self.model_ = make_pipeline(StandardScaler(), MLPRegressor(hidden_layer_sizes=self.hidden, batch_size=1024,
+                                                                   max_iter=10, random_state=seed))
+        self.model_.fit(np.concatenate(X), np.concatenate(y))
+        return self
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        (F, harmonic), todo = self.features(x), np.isnan(x)
+        out = np.where(todo, harmonic, x)
+        out[todo] = np.maximum(harmonic[todo] + self.model_.predict(F[:, todo].T), 0.1)
+        return out
+
+
 def _parser(description: str, learned: bool) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--per-drive", type=int, default=8, help="evenly spaced frames per drive (0: all)")
     parser.add_argument("--seeds", default="0,1,2", help="rect-v1 seeds, comma-separated")
     if learned:
-        parser.add_argument("--estimator", default="ScanBlendInpainter", help="a class of estimators.learned")
+        parser.add_argument("--estimator", default="ScanBlendInpainter", help="a class of estimators.learned, or "
+                            "mlp (ResidualProbe)")
         parser.add_argument("--recipe", default="{}", help="its keywords as JSON")
     return parser
 
@@ -146,40 +161,40 @@ def cmd_classical(argv: list[str]) -> None:
     """Every classical fill's mean RMSE and ms/frame on every set and task."""
     parser = _parser("the classical fills on every set and task", learned=False)
     args = parser.parse_args(argv)
+    methods = {m: make_method(m) for m in CLASSICAL}
     for name, frames in _sets(parser, args).items():
-        for task in TASKS:
-            for method in CLASSICAL:
-                e, ms = scores(make_method(method), frames, task, _seeds(args))
-                print(f"{name:14s} {task:8s} {method:17s} rmse {np.nanmean(e):.3f} m  {ms:.0f} ms/frame", flush=True)
+        density_table(name, frames, methods, "harmonic", ("64 beams", "rect-v1 hole"), _seeds(args), every=True)
 
 
 def cmd_lodo(argv: list[str]) -> None:
     """Train on two days, score on the third (and on the official sets when 2011_09_26 is left out).
 
-    ``--inputs``: train on the scans at those input kinds (``scan-rings16-v1``, ...); ``--densities``:
-    score those densities (``density``'s table) instead of the two tasks."""
+    ``--inputs``: train on the scans at those input kinds (``scan-rings16-v1``, ...); ``--densities``: score
+    those (``density``'s table; by default the 64-beam scan, ``densify``, and rect-v1's holes in it, ``rect``)."""
     parser = _parser("leave one recording day out", learned=True)
     parser.add_argument("--days", default=",".join(DAYS), help="the days to leave out, comma-separated")
     parser.add_argument("--save-folds", help="folder to save each fold model in (as <folder>/<day>)")
     parser.add_argument("--inputs", default="scan", help="the input kinds trained on, comma-separated")
-    parser.add_argument("--densities", help="score these densities (of: " + ", ".join(DENSITY_LABELS) + ")")
+    parser.add_argument("--densities", default="64 beams,rect-v1 hole",
+                        help="the densities scored (of: " + ", ".join(DENSITY_LABELS) + ")")
     args = parser.parse_args(argv)
+    if args.save_folds and args.estimator == "mlp":
+        parser.error("--save-folds: a probe is not saved")
+    densities = tuple(args.densities.split(","))
     sets = _sets(parser, args)
     train = {kind: sets if kind == "scan" else day_sets(str(default_root()), args.per_drive, kind)
              for kind in args.inputs.split(",")}
     for day in args.days.split(","):
         start = time.perf_counter()
-        est = estimator(args).fit(ConcatDataset([t[d] for t in train.values() for d in DAYS if d != day]))
+        frames = [t[d] for t in train.values() for d in DAYS if d != day]
+        est = ResidualProbe(**loads_json(args.recipe, "--recipe")).fit(frames) if args.estimator == "mlp" \
+            else estimator(args).fit(ConcatDataset(frames))
         label = f"left out {day} (fit {time.perf_counter() - start:.0f} s)"
         if args.save_folds:
             est.save(f"{args.save_folds}/{day}")
+        methods = {"ours": est, **{m: make_method(m) for m in CLASSICAL}}
         for name in [day] + (list(OFFICIAL_SETS) if day == DAYS[0] else []):
-            if args.densities:
-                methods = {"ours": est, **{m: make_method(m) for m in CLASSICAL}}
-                density_table(name, sets[name], methods, "ours", tuple(args.densities.split(",")), _seeds(args),
-                              f"{label} | ")
-            else:
-                compare(label, est, name, sets[name], _seeds(args))
+            density_table(name, sets[name], methods, "ours", densities, _seeds(args), f"{label} | ")
 
 
 def cmd_release(argv: list[str]) -> None:
@@ -199,8 +214,9 @@ def cmd_official(argv: list[str]) -> None:
     parser.add_argument("--method", required=True, help="a registered method name")
     args = parser.parse_args(argv)
     sets = _sets(parser, args)
+    methods = {args.method: make_method(args.method), **{m: make_method(m) for m in CLASSICAL}}
     for name in OFFICIAL_SETS:
-        compare(args.method, make_method(args.method), name, sets[name], _seeds(args))
+        density_table(name, sets[name], methods, args.method, ("64 beams", "rect-v1 hole"), _seeds(args))
 
 
 def cmd_time(argv: list[str]) -> None:
@@ -237,9 +253,9 @@ def cmd_time(argv: list[str]) -> None:
 #: Each density: (label, kept rings 1 in k, or kept share of points).
 DENSITIES = (("64 beams", 1, None), ("32 beams", 2, None), ("16 beams", 4, None), ("8 beams", 8, None),
              ("50 % points", None, 0.5), ("25 % points", None, 0.25), ("10 % points", None, 0.1))
-#: Raw image size (W, H) of each recording day; frames are its bottom-centre CROP.
 #: What ``density`` and ``lodo --densities`` can score.
 DENSITY_LABELS = tuple(d[0] for d in DENSITIES) + ("rect-v1 hole",)
+#: Raw image size (W, H) of each recording day; frames are its bottom-centre CROP.
 RAW_SIZES = {"2011_09_26": (1242, 375), "2011_09_30": (1226, 370), "2011_10_03": (1241, 376)}
 
 
@@ -296,10 +312,10 @@ def column_regions(x: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def density_table(set_name: str, frames: Any, methods: dict[str, Any], name: str, densities: tuple[str, ...],
-                  seeds: tuple[int, ...], label: str = "", regions: bool = False) -> None:
+                  seeds: tuple[int, ...], label: str = "", regions: bool = False, every: bool = False) -> None:
     """One line per density of ``frames``: ``methods[name]`` against the strongest classical fill, ms beside
     harmonic; with ``regions``, a line more per method: each :func:`column_regions` region's share of the
-    scored pixels and of the squared error, and its RMSE."""
+    scored pixels and of the squared error, and its RMSE; with ``every``, each method's mean RMSE and ms."""
     errs: dict[tuple[str, str], list[float]] = {}
     seconds: dict[tuple[str, str], float] = {}
     split: dict[tuple[str, str, str], np.ndarray] = {}  # (density, method, region): [pixels, squared error]
@@ -321,6 +337,9 @@ def density_table(set_name: str, frames: Any, methods: dict[str, Any], name: str
         print(f"{label}{set_name:14s} {density:13s} | {name} {np.nanmean(e[name]):.3f} m, {best} {np.nanmean(e[best]):.3f}"
               f" m, ratio {r:.3f} [{lo:.3f}, {hi:.3f}] | {ms[name]:.0f} vs harmonic {ms['harmonic']:.0f} ms/frame",
               flush=True)
+        for m in methods if every else ():
+            print(f"{set_name:14s} {density:13s} {m:17s} rmse {np.nanmean(e[m]):.3f} m  "
+                  f"{1000.0 * seconds[density, m] / len(e[m]):.0f} ms/frame", flush=True)
         for m in dict.fromkeys((name, best)) if regions else ():
             cells = {k[2]: v for k, v in split.items() if k[:2] == (density, m)}
             n, sq = (sum(v[i] for v in cells.values()) for i in (0, 1))
