@@ -97,15 +97,23 @@ def make_check_data(X: Any = None) -> CheckData:
 
 def training_frames(estimator: Any, gt: np.ndarray) -> Any:
     """What the checks fit ``estimator`` on: ``gt``, as frames of one drive each where the
-    estimator calibrates on whole drives (``_needs_drive_ids``, e.g. an interval wrapper)."""
+    estimator calibrates on whole drives (``_needs_drive_ids``, e.g. an interval wrapper),
+    with a scan of every other row of ``gt`` as each frame's input where it learns from
+    scans only (``_needs_scans``; such a dataset has no calibration to find laser rings by)."""
     if getattr(estimator, "_needs_drive_ids", False):
         return ArrayDataset(gt, groups=[f"check-drive-{i}" for i in range(len(gt))])
+    if getattr(estimator, "_needs_scans", False):
+        scans = np.zeros_like(gt)
+        scans[:, ::2] = gt[:, ::2]
+        return ArrayDataset(gt, inputs=scans)
     return gt
 
 
 def _needs_plain_fit(estimator: Any, what: str) -> None:
     if getattr(estimator, "_needs_drive_ids", False):
         raise CheckSkipped(f"the estimator calibrates on whole drives: {what} passes no drive ids")
+    if getattr(estimator, "_needs_scans", False):
+        raise CheckSkipped(f"the estimator learns from LiDAR scans: {what} passes depth maps")
 
 
 def _needs_depth_frames(estimator: Any) -> None:
@@ -146,7 +154,7 @@ def check_fit_returns_self(est: Any, data: CheckData) -> None:
     _needs_refit(est)
     e = _seeded(clone(est))
     assert e.fit(training_frames(e, data.gt)) is e, "fit(X) must return self"
-    if not getattr(e, "_needs_drive_ids", False):
+    if not (getattr(e, "_needs_drive_ids", False) or getattr(e, "_needs_scans", False)):
         assert e.fit(list(data.gt)) is e, "fit on a list of frames must return self"
 
 

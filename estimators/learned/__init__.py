@@ -15,6 +15,8 @@ name                   what it is
 ``ContextBlendInpainter``  the blend plus a low-resolution scene context
 ``ScanBlendInpainter``  a single scan: a classical mean near its measurements, the blend
                        far from them (release ``kitti-scan-v1``)
+``SparseResidualInpainter``  ``harmonic`` plus a learned per-pixel correction, trained on
+                       scans thinned to several densities (no release yet)
 ``MeanEnsembleInpainter``  the per-pixel mean of several learned inpainters (release
                        ``kitti-ensemble-v1``, the default)
 ``load``               any saved model, its class read from its ``config.json``
@@ -36,9 +38,9 @@ mixin and ``BaseInpainter``. The training recipes are in :mod:`estimators.learne
 multi-process training is ``torchrun -m estimators.learned.distributed``.
 
 Layers, bottom up: ``nets``, ``losses``, ``_checkpoint`` -> ``_persistence``, ``_training``
--> ``_neural_params`` -> ``_neural`` -> ``_prior`` / ``_blend`` -> ``_context_blend``, ``_scan_blend`` ->
-``_ensemble`` -> ``_load`` -> ``_releases``, ``presets`` -> ``distributed``. Classical candidate
-fills come from :mod:`estimators.candidates` (no torch). No module here imports this package
+-> ``_neural_params`` -> ``_neural`` -> ``_prior`` / ``_blend`` / ``_sparse_residual`` -> ``_context_blend``,
+``_scan_blend`` -> ``_ensemble`` -> ``_load`` -> ``_releases``, ``presets`` -> ``distributed``. Classical
+candidate fills come from :mod:`estimators.candidates` (no torch). No module here imports this package
 face or ``estimators``' face; this face imports a module only when one of its names is
 first used, so importing one family does not load the others.
 """
@@ -55,6 +57,7 @@ _EXPORTS: dict[str, str] = {
     "UNetInpainter": "_neural", "AutoencoderInpainter": "_neural", "PriorUNetInpainter": "_prior",
     "BlendInpainter": "_blend", "ContextBlendInpainter": "_context_blend", "MeanEnsembleInpainter": "_ensemble",
     "InputRoutedInpainter": "_routed", "OnFirstUse": "_routed", "ScanBlendInpainter": "_scan_blend",
+    "SparseResidualInpainter": "_sparse_residual",
     "load": "_load", "load_release": "_releases", "load_default": "_releases"
 }
 

@@ -19,13 +19,14 @@ from ._neural import AutoencoderInpainter, UNetInpainter
 from ._persistence import PersistenceMixin
 from ._prior import PriorUNetInpainter
 from ._scan_blend import ScanBlendInpainter
+from ._sparse_residual import SparseResidualInpainter
 
 __all__ = ["LOADABLE", "load"]
 
 #: Every class a saved learned model may record, by the name its ``config.json`` holds.
 LOADABLE: dict[str, type] = {klass.__name__: klass for klass in (
     UNetInpainter, AutoencoderInpainter, PriorUNetInpainter, BlendInpainter, ContextBlendInpainter,
-    ScanBlendInpainter, MeanEnsembleInpainter)}
+    ScanBlendInpainter, SparseResidualInpainter, MeanEnsembleInpainter)}
 
 
 def load(path: str | os.PathLike) -> Any:

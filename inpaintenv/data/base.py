@@ -17,6 +17,7 @@ from ..conventions import (
 )
 from ..progress import count
 from ..exceptions import InvalidInputError, InvalidTypeError, OutOfRangeError
+from .calibration import Calibration
 from .inputs import InputsMixin, check_input_kind
 
 __all__ = [
@@ -73,11 +74,7 @@ class DepthDataset(InputsMixin, Sequence, ABC):
             else:
                 raise OutOfRangeError("a dataset is indexed by frame only: ds[i] or ds[indices]")
         if isinstance(index, (int, np.integer)):
-            n = len(self)
-            i = int(index)
-            if i < -n or i >= n:
-                raise OutOfRangeError(f"frame index {i} out of range for a dataset of {n} frames")
-            return self._load(i % n)
+            return self._load(self._frame_index(int(index)))
         if isinstance(index, slice):
             return Subset(self, np.arange(len(self))[index])
         return Subset(self, np.asarray(index))
@@ -214,6 +211,9 @@ class Subset(DepthDataset):
     def _load_pair(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         return self.parent._load_pair(int(self.indices[index]))
 
+    def _scan_calibration(self, index: int) -> tuple[Calibration, float | None]:
+        return self.parent._scan_calibration(int(self.indices[index]))
+
 
 class ArrayDataset(DepthDataset):
     """Wrap an ``(N, H, W)`` array or a list of ``(H, W)`` arrays as a dataset.
@@ -308,6 +308,10 @@ class ConcatDataset(DepthDataset):
         part, i = self._part(index)
         return part._load_pair(i)
 
+    def _scan_calibration(self, index: int) -> tuple[Calibration, float | None]:
+        part, i = self._part(index)
+        return part._scan_calibration(i)
+
     def __repr__(self) -> str:
         return f"ConcatDataset({' + '.join(repr(p) for p in self.parts)})"
 
@@ -398,10 +402,8 @@ def spaced_per_drive(dataset: DepthDataset, per_drive: int, drives: Sequence[str
 def _require_dataset(dataset: Any, what: str) -> DepthDataset:
     """``dataset`` if it is a DepthDataset, else a TypeError that says how to wrap arrays."""
     if not isinstance(dataset, DepthDataset):
-        raise InvalidTypeError(
-            f"{what} must be a DepthDataset, got {type(dataset).__name__}; "
-            "wrap arrays with inpaintenv.data.as_dataset(...)"
-        )
+        raise InvalidTypeError(f"{what} must be a DepthDataset, got {type(dataset).__name__}; "
+                               "wrap arrays with inpaintenv.data.as_dataset(...)")
     return dataset
 
 
@@ -451,9 +453,7 @@ def split_by_drive(
     seed = check_seed(seed, "seed")
     drives = np.unique(dataset.groups)
     if len(drives) < 2:
-        raise InvalidInputError(
-            f"a drive-level split needs at least 2 drives, the dataset has {len(drives)}"
-        )
+        raise InvalidInputError(f"a drive-level split needs at least 2 drives, the dataset has {len(drives)}")
     if isinstance(test_size, (float, np.floating)):
         if not 0.0 < test_size < 1.0:
             raise InvalidInputError(f"test_size as a fraction must be in (0, 1), got {test_size}")

@@ -179,7 +179,7 @@ class InputsMixin:
 
     A dataset whose inputs are scans implements :meth:`_load_scan` (and may implement
     :meth:`_load_scan_pair` to produce both at once); for the ring-thinned kinds also
-    :meth:`_scan_calibration`. The thinning its kind asks for is applied here.
+    :meth:`_scan_calibration` (read through the public :meth:`scan_calibration`). The thinning its kind asks for is applied here.
     """
 
     #: The name of the dataset's :class:`InputKind`: ``"map"`` (the input is the ground truth), ``"scan"``, ...
@@ -198,8 +198,27 @@ class InputsMixin:
         """``(full scan, ground truth)`` of frame ``index``."""
         return self._load_scan(index), self._load(index)  # type: ignore[attr-defined]
 
+    def scan_calibration(self, index: int) -> tuple[Calibration, float | None]:
+        """The projection frame ``index``'s scan was made with, and its lasers' height (None: KITTI's HDL-64E).
+
+        What :func:`~inpaintenv.data.thinning.thin_scan_by_rings` needs to keep every k-th laser
+        ring of the frame's scan (``thin_scan_by_rings(scan, calibration, k, laser_height=height)``).
+
+        Returns
+        -------
+        (Calibration, float or None)
+
+        Raises
+        ------
+        IndexError
+            If ``index`` is out of range (negative indices count from the end).
+        InvalidInputError
+            If the dataset has no calibration of its scans (its source does not record one).
+        """
+        return self._scan_calibration(self._frame_index(index))
+
     def _scan_calibration(self, index: int) -> tuple[Calibration, float | None]:
-        """The projection frame ``index``'s scan was made with, and its lasers' height (None: KITTI's HDL-64E)."""
+        """:meth:`scan_calibration` of a valid index (the hook a source of scans implements)."""
         raise InvalidInputError(
             f"{type(self).__name__} has no calibration of its scans: the input kind {self.input_kind!r} finds laser "
             "rings from it; use a KITTI or synthetic source, or a points variant (scan-points25-v1)")
@@ -268,13 +287,17 @@ class InputsMixin:
         IndexError
             If ``index`` is out of range (negative indices count from the end).
         """
+        i = self._frame_index(index)
+        return self.checked_input(i, self._input_name(i))
+
+    def _frame_index(self, index: int) -> int:
+        """``index`` in ``[0, len)`` (negative counts from the end), or one :class:`OutOfRangeError`."""
         n = len(self)  # type: ignore[arg-type]
         if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
             raise OutOfRangeError(f"a frame index must be an integer, got {index!r}")
         if not -n <= int(index) < n:
             raise OutOfRangeError(f"frame index {int(index)} out of range for a dataset of {n} frames")
-        i = int(index) % n
-        return self.checked_input(i, self._input_name(i))
+        return int(index) % n
 
     def _input_name(self, i: int) -> str:
         what = "frame" if self.input.is_map else "scan"

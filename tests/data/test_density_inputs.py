@@ -85,7 +85,7 @@ def test_a_frames_input_does_not_depend_on_order_or_subset(name):
 def test_the_synthetic_rings_are_the_simulated_lasers(full_scans):
     """Each kept ring of a synthetic scan is one laser: its pixels lie on one curve (one row per column)."""
     ds = source("scan")
-    calibration, height = ds._scan_calibration(0)
+    calibration, height = ds.scan_calibration(0)
     rings = ring_map(full_scans[0], calibration, height)
     assert rings.max() + 1 >= 16
     rows, cols = np.nonzero(rings >= 0)

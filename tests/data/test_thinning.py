@@ -166,7 +166,7 @@ def test_kitti_depth_ring_variant_on_cropped_frames_of_each_day(kitti_root, day)
     drive = sorted(p.name for p in (kitti_root / "train").glob(f"{day}_drive_*_sync"))[0]
     thinned = KittiDepth(kitti_root, split="train", drives=[drive], input="scan-rings16-v1")
     full = KittiDepth(kitti_root, split="train", drives=[drive], input="scan")
-    calibration, height = thinned._scan_calibration(0)
+    calibration, height = thinned.scan_calibration(0)
     assert calibration.size == (thinned.frame_shape[1], thinned.frame_shape[0])
     for i in range(min(2, len(thinned))):
         scan, mine = full.input_frame(i), thinned.input_frame(i)

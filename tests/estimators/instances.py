@@ -71,6 +71,9 @@ CONFIGS: dict[str, list[Callable[[], dict[str, Any]]]] = {
     "ContextBlendInpainter": [_context],
     "ScanBlendInpainter": [lambda: dict(near_distance=1.0, width=4, epochs=1, pixels_per_frame=200, batch_pixels=64,
                                         num_threads=1)],
+    # One ring step: the checks' scans (every other row of their maps) have no calibration to find rings by.
+    "SparseResidualInpainter": [lambda: dict(rings=(1,), width=4, epochs=1, pixels_per_frame=200, batch_pixels=64,
+                                             num_threads=1)],
     "MeanEnsembleInpainter": [lambda: dict(estimators=[
         ("context", _class("ContextBlendInpainter")(**_context())), ("blend", _class("BlendInpainter")(**_BLEND))])],
     "InputRoutedInpainter": [lambda: dict(map_method=_harmonic(), scan_method=_nearest())],

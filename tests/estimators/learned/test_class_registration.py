@@ -36,6 +36,8 @@ def tiny_fitted():
             pixels_per_frame=50, batch_frames=2, batch_pixels=32, num_threads=1).fit(maps),
         "ScanBlendInpainter": lambda: learned.ScanBlendInpainter(near_distance=2.0, epochs=1, pixels_per_frame=100,
                                                                  width=4).fit(scans),
+        "SparseResidualInpainter": lambda: learned.SparseResidualInpainter(rings=(1,), epochs=1, pixels_per_frame=100,
+                                                                           width=4).fit(scans),
         "MeanEnsembleInpainter": lambda: learned.MeanEnsembleInpainter.from_fitted(
             [("first", made("BlendInpainter")), ("second", made("UNetInpainter"))]),
     }
@@ -55,7 +57,8 @@ SAVEABLE = sorted(name for name in learned.__all__
 
 def test_load_lists_every_saveable_public_class():
     assert set(SAVEABLE) >= {"UNetInpainter", "AutoencoderInpainter", "PriorUNetInpainter", "BlendInpainter",
-                             "ContextBlendInpainter", "ScanBlendInpainter", "MeanEnsembleInpainter"}
+                             "ContextBlendInpainter", "ScanBlendInpainter", "SparseResidualInpainter",
+                             "MeanEnsembleInpainter"}
     assert set(_load.LOADABLE) == set(SAVEABLE)
     assert all(_load.LOADABLE[name] is getattr(learned, name) for name in SAVEABLE)
     assert {name: defined_classes()[name] for name in SAVEABLE} == _load.LOADABLE

@@ -1,0 +1,121 @@
+"""SparseResidualInpainter: ``harmonic`` plus a learned correction, trained on scans thinned by laser rings."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+
+from estimators.classical import HarmonicInpainter
+from estimators.learned import SparseResidualInpainter, load
+from estimators.learned._checkpoint import CheckpointError
+from inpaintenv.data import ArrayDataset, ConcatDataset, SyntheticStreets
+from inpaintenv.data.inputs import method_input
+from inpaintenv.data.thinning import thin_scan_by_rings
+from inpaintenv.exceptions import InvalidInputError, OutOfRangeError
+
+STREETS = dict(n=4, seed=2, frame_shape=(64, 160), frames_per_drive=2)
+
+
+@pytest.fixture(scope="module")
+def scans():
+    return SyntheticStreets(**STREETS, input="scan")
+
+
+@pytest.fixture(scope="module")
+def beams16():
+    """The same frames at 16 beams: inputs (NaN = to fill) and ground truth."""
+    inputs, gt = SyntheticStreets(**STREETS, input="scan-rings16-v1").load_pairs(range(STREETS["n"]))
+    return method_input(inputs, np.zeros(inputs.shape, bool), "scan"), gt
+
+
+@pytest.fixture(scope="module")
+def fitted(scans):
+    return SparseResidualInpainter(epochs=5, pixels_per_frame=1000, num_threads=1).fit(scans)
+
+
+def test_scan_calibration_thins_a_synthetic_scan_to_its_16_beam_variant(scans, beams16):
+    both = ConcatDataset([scans, scans])
+    calibration, height = both.scan_calibration(-1)  # a wrapped dataset asks its part
+    scan = scans.input_frame(3)
+    thinned = thin_scan_by_rings(scan, calibration, 4, laser_height=height)
+    assert 0 < (thinned > 0).sum() < (scan > 0).sum() / 2
+    np.testing.assert_array_equal(np.where(thinned > 0, thinned, np.nan), beams16[0][3])
+    with pytest.raises(OutOfRangeError, match="frame index 8 out of range"):
+        both.scan_calibration(8)
+
+
+def test_beats_harmonic_at_16_beams_on_its_frames_and_keeps_every_measurement(fitted, beams16):
+    x, gt = beams16
+    pred, harmonic = fitted.predict(x), HarmonicInpainter().predict(x)
+    measured, todo = x > 0, np.isnan(x)
+    np.testing.assert_array_equal(pred[measured], x[measured])
+    assert pred.dtype == np.float32 and np.isfinite(pred).all() and (pred[todo] > 0).all()
+    scored = todo & (gt > 0)
+
+    def rmse(p):
+        return float(np.sqrt(np.mean((p[scored] - gt[scored]) ** 2)))
+
+    assert rmse(pred) < 0.95 * rmse(harmonic)
+    np.testing.assert_array_equal(fitted.predict(x[1]), pred[1])  # one frame as in a batch
+    assert fitted.n_pixels_ == 3 * 4 * 1000 and fitted.training_frames_ == 4
+    assert fitted.feature_mean_.shape == fitted.feature_std_.shape == (1 + 5 + 4 + 4 + 2,)
+
+
+def test_save_and_load_predict_the_same(fitted, beams16, tmp_path):
+    path = fitted.save(tmp_path / "model")
+    config = json.loads((path / "config.json").read_text())
+    assert config["class"] == "SparseResidualInpainter" and len(config["standardise"]["std"]) == 16
+    again = load(path)
+    assert type(again) is SparseResidualInpainter and again.get_params() == fitted.get_params()
+    np.testing.assert_array_equal(again.predict(beams16[0]), fitted.predict(beams16[0]))
+
+
+@pytest.mark.parametrize("key, value, match", [
+    ("mean", [0.0] * 15, "standardise 'mean' must be 16 numbers"),
+    ("std", [1.0] * 15 + [0.0], "standardise 'std' must be positive"),
+    ("std", [1.0] * 15 + [float("inf")], "standardise 'std' must be finite"),
+])
+def test_a_checkpoint_with_bad_standardisation_is_refused(fitted, key, value, match):
+    config, weights = fitted.to_config()
+    config["standardise"][key] = value
+    with pytest.raises(CheckpointError, match=match):
+        SparseResidualInpainter.from_config(config, weights, "model")
+
+
+@pytest.mark.parametrize("params, match", [
+    (dict(fills=("harmonic", "no-such-fill")), "fills must be a non-empty tuple"),
+    (dict(fills="nearest"), "fills must be a non-empty tuple"),
+    (dict(rings=()), "rings must be a non-empty tuple of ring steps"),
+    (dict(rings=(0, 4)), "rings must be a non-empty tuple of ring steps"),
+    (dict(rings=(2.5,)), "rings must be"),
+    (dict(width=0), "width must be"),
+    (dict(lr=0.0), "lr must be"),
+    (dict(pixels_per_frame=-1), "pixels_per_frame must be"),
+])
+def test_each_bad_parameter_is_one_clear_error(scans, params, match):
+    with pytest.raises(InvalidInputError, match=match):
+        SparseResidualInpainter(**params).fit(scans)
+
+
+def test_a_map_dataset_or_one_without_calibrations_is_refused():
+    maps = SyntheticStreets(n=2, frame_shape=(32, 64))
+    with pytest.raises(InvalidInputError, match="learns from LiDAR scans.*input kind 'map'"):
+        SparseResidualInpainter().fit(maps)
+    gt = maps.load_batch([0, 1])
+    no_calibration = ArrayDataset(gt, inputs=np.where(np.arange(32)[:, None] % 2 == 0, gt, 0.0))
+    with pytest.raises(InvalidInputError, match="no calibration of its scans"):
+        SparseResidualInpainter(rings=(1, 4)).fit(no_calibration)
+    # The scan as it is needs no calibration.
+    assert SparseResidualInpainter(rings=(1,), epochs=1, pixels_per_frame=50).fit(no_calibration).n_pixels_ > 0
+
+
+def test_clone_keeps_the_parameters_and_changed_model_parameters_are_refused(fitted, beams16):
+    twin = clone(fitted)
+    assert twin.get_params() == fitted.get_params() and not hasattr(twin, "model_")
+    changed = clone(fitted).set_params(width=8)
+    changed.__dict__.update({k: v for k, v in fitted.__dict__.items() if k.endswith("_")})
+    with pytest.raises(InvalidInputError, match="width changed since the weights were made"):
+        changed.predict(beams16[0][0])
