@@ -57,20 +57,24 @@ DENSITY_BOX = 61
 MAX_RING_STEP = 64
 
 
-def residual_features(x: np.ndarray, fills: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """The ``(C, H, W)`` float32 features of one frame (NaN -> 0) and its harmonic fill ``(H, W)``.
+def residual_features(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(P, C)`` float32 features (NaN -> 0) and the harmonic fill ``(P,)`` of the pixels ``where``.
 
     Channels: ``harmonic``, then ``fills`` (metres), the four gap lengths (pixels), the four
     endpoint depths (metres), the distance to the nearest measurement (pixels) and the
-    measured share of the :data:`DENSITY_BOX` box around the pixel. ``x``: metres, NaN = to
-    fill, 0 = no measurement.
+    measured share of the :data:`DENSITY_BOX` box around the pixel. ``x``: one frame in metres,
+    NaN = to fill, 0 = no measurement; ``where``: a boolean mask of it or ``(rows, cols)``.
     """
     known = np.nan_to_num(x, nan=0.0) > 0
     distance = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5)
     share = cv2.blur(known.astype(np.float32), (DENSITY_BOX, DENSITY_BOX))
     fills_and_lines = prior_features(x, ("harmonic", *fills), gaps=True, endpoints=True)[3:]
-    feats = np.concatenate([fills_and_lines, distance[None], share[None]])
-    return np.nan_to_num(feats, nan=0.0, posinf=0.0, neginf=0.0), np.nan_to_num(fills_and_lines[0], nan=0.0)
+    pixels = (slice(None), *where) if isinstance(where, tuple) else (slice(None), where)
+    harmonic = fills_and_lines[0][where]
+    # Gathered before NaN -> 0: most of a sparse scan is to fill, but not all of a frame.
+    feats = np.ascontiguousarray(np.concatenate([fills_and_lines[pixels], distance[where][None],
+                                                 share[where][None]]).T)
+    return np.nan_to_num(feats, nan=0.0, posinf=0.0, neginf=0.0, copy=False), np.nan_to_num(harmonic, nan=0.0)
 
 
 def _n_features(fills: tuple[str, ...]) -> int:
@@ -247,9 +251,9 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
                         if len(rows) > n_pixels:
                             pick = np.sort(rng.choice(len(rows), n_pixels, replace=False))
                             rows, cols = rows[pick], cols[pick]
-                        f, harmonic = residual_features(x, fills)
-                        feats.append(f[:, rows, cols].T)
-                        targets.append((gt[rows, cols] - harmonic[rows, cols]).astype(np.float32))
+                        f, harmonic = residual_features(x, fills, (rows, cols))
+                        feats.append(f)
+                        targets.append((gt[rows, cols] - harmonic).astype(np.float32))
                 progress.update(1)
         self.training_frames_ = used
         if not feats:
@@ -307,13 +311,13 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         todo = np.isnan(frame)
         if not (frame > 0).any():
             return np.zeros(frame.shape, np.float32)  # nothing to fill from (bound_output says 0 too)
-        feats, harmonic = residual_features(frame, tuple(self.fills))
-        pixels = self._standardised(feats[:, todo].T)
+        feats, harmonic = residual_features(frame, tuple(self.fills), todo)
+        pixels = self._standardised(feats)
         correction = np.empty(len(pixels), np.float32)
         for start in range(0, len(pixels), CHUNK):
             correction[start:start + CHUNK] = self.model_(torch.from_numpy(pixels[start:start + CHUNK])).numpy()
         out = np.array(frame, np.float32)
-        out[todo] = harmonic[todo] + correction
+        out[todo] = harmonic + correction
         return out
 
     # -- persistence (the hooks of PersistenceMixin) ------------------------------------------
