@@ -48,7 +48,7 @@ from .._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequen
 from ._far import far_pixels
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
 from ._output import bound_output
-from ._persistence import PersistenceMixin
+from ._persistence import PersistenceMixin, json_params
 from ._loop import OneCycle, Optimisation, fit_loop, new_progress, seeded
 from ._training import deterministic_torch, frame_label, torch_threads
 from ._training_data import input_frame, scan_input
@@ -430,9 +430,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     # -- persistence (the hooks of PersistenceMixin) ------------------------------------------
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
         self._check_model_params()
-        params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
-        if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
-            params["random_state"] = getattr(self, "seed_", None)  # not JSON: the seed the fit drew
+        params = json_params(self)
         config = {"params": params, "model_params": self.model_params_,
                   "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
                           "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]}}

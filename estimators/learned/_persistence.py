@@ -26,12 +26,13 @@ import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from .._persistence import as_path, check_loaded_class, check_options, read_or_fail, require_saveable
 from . import _checkpoint as ckpt
 
-__all__ = ["PersistenceMixin", "defined_classes"]
+__all__ = ["PersistenceMixin", "defined_classes", "json_params"]
 
 
 class PersistenceMixin:
@@ -148,3 +149,12 @@ def defined_classes() -> dict[str, type]:
         if klass.__module__.startswith("estimators.learned.") and not klass.__name__.startswith("_"):
             found.setdefault(klass.__name__, klass)
     return found
+
+
+def json_params(est: Any) -> dict[str, Any]:
+    """``est.get_params()`` as a config records it: tuples as lists, a random generator as the seed its fit
+    drew (``seed_``; None before a fit), since neither is JSON."""
+    params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in est.get_params().items()}
+    if isinstance(params.get("random_state"), (np.random.RandomState, np.random.Generator)):
+        params["random_state"] = getattr(est, "seed_", None)
+    return params

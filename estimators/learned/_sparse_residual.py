@@ -40,7 +40,7 @@ from . import _checkpoint as ckpt
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
 from ._loop import OneCycle, Optimisation, fit_loop, new_progress, seeded
 from ._output import bound_output
-from ._persistence import PersistenceMixin
+from ._persistence import PersistenceMixin, json_params
 from ._training import deterministic_torch, frame_label, torch_threads
 from ._training_data import input_frame, scan_input
 from .nets.pixel_blend import CHUNK
@@ -323,9 +323,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
     # -- persistence (the hooks of PersistenceMixin) ------------------------------------------
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
         self._check_model_params()
-        params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
-        if isinstance(params["random_state"], (np.random.RandomState, np.random.Generator)):
-            params["random_state"] = getattr(self, "seed_", None)  # not JSON: the seed the fit drew
+        params = json_params(self)
         config = {"params": params, "model_params": self.model_params_,
                   "standardise": {"mean": [float(v) for v in self.feature_mean_],
                                   "std": [float(v) for v in self.feature_std_]},
