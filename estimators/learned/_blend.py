@@ -47,9 +47,9 @@ from . import _checkpoint as ckpt
 from .._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
 from ._far import far_pixels
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
-from ._output import bound_output
 from ._persistence import PersistenceMixin, json_params
-from ._loop import OneCycle, Optimisation, fit_loop, new_progress, seeded
+from ._pixel_model import check_model_params, config_params, fit_record, fit_rows, predict_frames, read_fit_record
+from ._loop import seeded
 from ._training import deterministic_torch, frame_label, torch_threads
 from ._training_data import input_frame, scan_input
 from .nets import pixel_blend
@@ -277,13 +277,7 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
         return {"candidates": list(self.candidates), "endpoints": bool(self.endpoints), "width": int(self.width),
                 "layers": int(self.layers), "relative": bool(self.relative), "residual": bool(self.residual)}
 
-    def _check_model_params(self) -> None:
-        if self._model_params() != self.model_params_:
-            changed = sorted(k for k, v in self._model_params().items() if self.model_params_.get(k) != v)
-            raise InvalidInputError(
-                f"{', '.join(changed)} changed since the weights were made ({self.model_params_}); "
-                "refit, or set them back"
-            )
+    _check_model_params = check_model_params
 
     def _check_size(self) -> None:
         """Refuse a network of more than ``MAX_PARAMETERS`` (counted before it is built)."""
@@ -382,39 +376,23 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
 
     def _fit_pixels(self, x: np.ndarray, y: np.ndarray, seed: int) -> tuple[PixelBlendNet, dict[str, list[float]]]:
         """Train a fresh network on pixel features ``x`` (``(P, C)``) and depths ``y`` (metres)
-        through :func:`~._loop.fit_loop`: each epoch a fresh order of the pixels, ``batch_pixels`` a step."""
+        through :func:`~._pixel_model.fit_rows`: each epoch a fresh order of the pixels, ``batch_pixels`` a step."""
         net = seeded(self._build_model, seed)
         rng = np.random.default_rng([seed, 0x5EED])
-        batch = int(self.batch_pixels)
-        per_epoch = max(1, len(y) // batch)
-        optimisation = Optimisation(net, self.lr, schedule=OneCycle(self.lr, per_epoch * int(self.epochs)))
         xt, yt = torch.from_numpy(np.ascontiguousarray(x, np.float32)), torch.from_numpy(y)
         mirrored = net.mirror_order()
 
-        def epoch_batches(epoch: int, done: int) -> Any:
-            return torch.from_numpy(rng.permutation(len(y))[: per_epoch * batch]).split(batch)
-
-        def step(idx: torch.Tensor) -> float:
+        def batch_loss(idx: torch.Tensor) -> Any:
             xb = xt[idx]
             if rng.random() < 0.5:  # flip augmentation: the mirrored frame's pixels
                 xb = xb[:, mirrored]
-            return optimisation.update(lambda: (net.blend(xb) - yt[idx]).square().mean())
+            return lambda: (net.blend(xb) - yt[idx]).square().mean()
 
-        net.train()
-        progress = fit_loop(new_progress(), epoch_batches, step, epochs=int(self.epochs), steps_per_epoch=per_epoch,
-                            desc=type(self).__name__, verbose=bool(self.verbose))
-        net.eval()
-        return net, {"epoch_loss": progress["history"]["epoch_loss"]}
+        return net, fit_rows(net, len(y), int(self.batch_pixels), self, rng, batch_loss)
 
     # -- prediction ------------------------------------------------------------------------
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
-        self._check_params_once()
-        self._check_model_params()
-        out = np.empty(X.shape, np.float32)
-        with torch_threads(self.predict_threads), torch.inference_mode():
-            for i, frame in enumerate(X):
-                out[i] = self._predict_frame(frame)
-        return bound_output(out, X)
+        return predict_frames(self, X, self.predict_threads)
 
     def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
         return self._predict_features(frame, self._features(frame))
@@ -431,26 +409,18 @@ class BlendInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter):
     def _config(self) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
         self._check_model_params()
         params = json_params(self)
-        config = {"params": params, "model_params": self.model_params_,
-                  "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
-                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]}}
+        config = {"params": params, "model_params": self.model_params_, "fit": fit_record(self)}
         return config, self.model_.state_dict()
 
     @classmethod
     def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor], where: Any) -> BlendInpainter:
-        params = dict(ckpt.config_value(config, "params", dict, where))
-        for name in cls._TUPLE_PARAMS:
-            if name in params:
-                params[name] = tuple(ckpt.config_value(params, name, list, where))
-        model_params = dict(ckpt.config_value(config, "model_params", dict, where))
-        fit = ckpt.config_value(config, "fit", dict, where, default={})
-        epoch_loss = ckpt.config_value(fit, "epoch_loss", list, where, default=[])
+        params, model_params = config_params(cls, config, where)
+        fitted = read_fit_record(config, where)
         est = ckpt.build_checked(cls, params, where)
-        est.n_pixels_, est.training_frames_ = (ckpt.config_value(fit, k, int, where, default=0)
-                                               for k in ("n_pixels", "training_frames"))
-        est.fit_seconds_ = ckpt.config_value(fit, "fit_seconds", float, where, default=float("nan"))
+        for name, value in fitted.items():
+            setattr(est, name, value)
         est.model_ = ckpt.load_weights(est._build_model(), weights, where)
-        est.model_params_, est.history_ = model_params, {"epoch_loss": list(epoch_loss)}
+        est.model_params_ = model_params
         return est
 
 

@@ -5,8 +5,8 @@ A family says only what is its own: how an epoch's batches are drawn and what on
 does with a batch (its loss, through :meth:`Optimisation.update`); :func:`fit_loop` does
 the rest the same way for all. The U-Net, the autoencoder and the PriorUNet step over
 frames (:class:`~estimators.learned._training.TrainingMixin`); the blends, the scan blend
-and the context blend step over pooled pixels or samples (their ``_fit_pixels`` /
-``_train_network``). Every run is seeded from its ``seed`` alone (:func:`seeded`), and
+and the context blend step over pooled pixels or samples (``_fit_pixels``, through
+:func:`~._pixel_model.fit_rows`, / ``_train_network``). Every run is seeded from its ``seed`` alone (:func:`seeded`), and
 on the CPU its kernels are deterministic (``deterministic_torch`` in ``._training``).
 """
 

@@ -38,9 +38,9 @@ from ..candidates import ENDPOINT_CHANNELS, GAP_CHANNELS, check_candidates, prio
 from .._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
 from . import _checkpoint as ckpt
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
-from ._loop import OneCycle, Optimisation, fit_loop, new_progress, seeded
-from ._output import bound_output
+from ._loop import seeded
 from ._persistence import PersistenceMixin, json_params
+from ._pixel_model import check_model_params, config_params, fit_record, fit_rows, predict_frames, read_fit_record
 from ._training import deterministic_torch, frame_label, torch_threads
 from ._training_data import input_frame, scan_input
 from .nets.pixel_blend import CHUNK
@@ -190,13 +190,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         """The parameters the weights depend on."""
         return {"fills": list(self.fills), "width": int(self.width), "layers": int(self.layers)}
 
-    def _check_model_params(self) -> None:
-        if self._model_params() != self.model_params_:
-            changed = sorted(k for k, v in self._model_params().items() if self.model_params_.get(k) != v)
-            raise InvalidInputError(
-                f"{', '.join(changed)} changed since the weights were made ({self.model_params_}); "
-                "refit, or set them back"
-            )
+    _check_model_params = check_model_params
 
     def _build_model(self) -> ResidualMLP:
         return ResidualMLP(_n_features(tuple(self.fills)), int(self.width), int(self.layers))
@@ -281,31 +275,16 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         net = seeded(self._build_model, seed)
         rng = np.random.default_rng([seed, 0x5EED])
         batch = min(int(self.batch_pixels), len(y))
-        per_epoch = max(1, len(y) // batch)
-        optimisation = Optimisation(net, self.lr, schedule=OneCycle(self.lr, per_epoch * int(self.epochs)))
         xt, yt = torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(y)
 
-        def epoch_batches(epoch: int, done: int) -> Any:
-            return torch.from_numpy(rng.permutation(len(y))[: per_epoch * batch]).split(batch)
+        def batch_loss(idx: torch.Tensor) -> Any:
+            return lambda: (net(xt[idx]) - yt[idx]).square().mean()
 
-        def step(idx: torch.Tensor) -> float:
-            return optimisation.update(lambda: (net(xt[idx]) - yt[idx]).square().mean())
-
-        net.train()
-        progress = fit_loop(new_progress(), epoch_batches, step, epochs=int(self.epochs), steps_per_epoch=per_epoch,
-                            desc=type(self).__name__, verbose=bool(self.verbose))
-        net.eval()
-        return net, {"epoch_loss": progress["history"]["epoch_loss"]}
+        return net, fit_rows(net, len(y), batch, self, rng, batch_loss)
 
     # -- prediction ------------------------------------------------------------------------
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
-        self._check_params_once()
-        self._check_model_params()
-        out = np.empty(X.shape, np.float32)
-        with torch_threads(self.num_threads), torch.inference_mode():
-            for i, frame in enumerate(X):
-                out[i] = self._predict_frame(frame)
-        return bound_output(out, X)
+        return predict_frames(self, X, self.num_threads)
 
     def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
         todo = np.isnan(frame)
@@ -327,18 +306,13 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         config = {"params": params, "model_params": self.model_params_,
                   "standardise": {"mean": [float(v) for v in self.feature_mean_],
                                   "std": [float(v) for v in self.feature_std_]},
-                  "fit": {"n_pixels": int(self.n_pixels_), "training_frames": int(self.training_frames_),
-                          "fit_seconds": float(self.fit_seconds_), "epoch_loss": self.history_["epoch_loss"]}}
+                  "fit": fit_record(self)}
         return config, self.model_.state_dict()
 
     @classmethod
     def _from_config(cls, config: dict[str, Any], weights: dict[str, torch.Tensor],
                      where: Any) -> SparseResidualInpainter:
-        params = dict(ckpt.config_value(config, "params", dict, where))
-        for name in cls._TUPLE_PARAMS:
-            if name in params:
-                params[name] = tuple(ckpt.config_value(params, name, list, where))
-        model_params = dict(ckpt.config_value(config, "model_params", dict, where))
+        params, model_params = config_params(cls, config, where)
         est = ckpt.build_checked(cls, params, where)
         if model_params != est._model_params():
             raise ckpt.CheckpointError(f"{where}: model_params {model_params} are not the parameters' "
@@ -348,11 +322,8 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         mean, std = (_statistic(ckpt.config_value(standardise, k, list, where), k, n, where) for k in ("mean", "std"))
         if not (std > 0).all():
             raise ckpt.CheckpointError(f"{where}: config.json standardise 'std' must be positive")
-        fit = ckpt.config_value(config, "fit", dict, where, default={})
-        est.n_pixels_, est.training_frames_ = (ckpt.config_value(fit, k, int, where, default=0)
-                                               for k in ("n_pixels", "training_frames"))
-        est.fit_seconds_ = ckpt.config_value(fit, "fit_seconds", float, where, default=float("nan"))
-        est.history_ = {"epoch_loss": list(ckpt.config_value(fit, "epoch_loss", list, where, default=[]))}
+        for name, value in read_fit_record(config, where).items():
+            setattr(est, name, value)
         est.feature_mean_, est.feature_std_ = mean, std
         est.model_ = ckpt.load_weights(est._build_model(), weights, where)
         est.model_params_ = model_params
