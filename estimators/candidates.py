@@ -17,6 +17,7 @@ True
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 from concurrent.futures import ThreadPoolExecutor
 
 import cv2
@@ -32,7 +33,7 @@ from .classical.nearest import nearest_fill
 from .classical.scanline import scanline_fill
 from inpaintenv.exceptions import InvalidInputError
 
-__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "row_band_quantile", "row_band_quantiles", "window_extreme"]
+__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "residual_features", "row_band_quantile", "row_band_quantiles", "window_extreme"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
@@ -428,3 +429,27 @@ def prior_features(
     for channel, part in zip(out, parts):
         channel[...] = part
     return out
+
+
+#: Side (pixels) of the box whose measured share is one of :func:`residual_features`.
+DENSITY_BOX = 61
+
+
+def residual_features(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(P, C)`` float32 features (NaN -> 0) and the harmonic fill ``(P,)`` of the pixels ``where``.
+
+    Channels: ``harmonic``, then ``fills`` (metres), the four gap lengths (pixels), the four
+    endpoint depths (metres), the distance to the nearest measurement (pixels) and the
+    measured share of the :data:`DENSITY_BOX` box around the pixel. ``x``: one frame in metres,
+    NaN = to fill, 0 = no measurement; ``where``: a boolean mask of it or ``(rows, cols)``.
+    """
+    known = np.nan_to_num(x, nan=0.0) > 0
+    distance = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5)
+    share = cv2.blur(known.astype(np.float32), (DENSITY_BOX, DENSITY_BOX))
+    fills_and_lines = prior_features(x, ("harmonic", *fills), gaps=True, endpoints=True)[3:]
+    pixels = (slice(None), *where) if isinstance(where, tuple) else (slice(None), where)
+    harmonic = fills_and_lines[0][where]
+    # Gathered before NaN -> 0: most of a sparse scan is to fill, but not all of a frame.
+    feats = np.ascontiguousarray(np.concatenate([fills_and_lines[pixels], distance[where][None],
+                                                 share[where][None]]).T)
+    return np.nan_to_num(feats, nan=0.0, posinf=0.0, neginf=0.0, copy=False), np.nan_to_num(harmonic, nan=0.0)

@@ -42,7 +42,7 @@ from inpaintenv.data.calibration import Calibration, read_calibration
 from inpaintenv.data.thinning import thin_scan_by_points, thin_scan_by_rings
 from inpaintenv.data.inputs import method_input
 from inpaintenv.files.jsonio import loads_json, write_json
-from estimators.candidates import prior_features
+from estimators.candidates import residual_features
 from inpaintenv.masks import get_protocol
 from inpaintenv.methods.registry import make_method
 
@@ -93,21 +93,14 @@ def estimator(args: argparse.Namespace) -> Any:
 
 class ResidualProbe:
     """A probe, not a release: ``harmonic`` plus a learned per-pixel correction, fitted to truth minus harmonic
-    on unmeasured pixels, read from classical ``fills``, the gaps to and depths of the nearest measurements
-    (``prior_features``), the distance to the nearest one and the measured share around the pixel.
+    on unmeasured pixels, read from ``residual_features`` (classical ``fills``, the gaps to and depths of the
+    nearest measurements, the distance to the nearest one, the measured share around the pixel; those
+    ``SparseResidualInpainter`` reads).
     The correction is scikit-learn's ``MLPRegressor`` (``hidden`` units per layer) on standardised features
     (``lodo --estimator mlp``, ``--recipe '{"fills": [...], "hidden": [32, 32]}'``)."""
 
     def __init__(self, fills: tuple[str, ...] = PROBE_FILLS, hidden: tuple[int, ...] = (128, 128)) -> None:
         self.fills, self.hidden = tuple(fills), tuple(hidden)
-
-    def features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(C, H, W)`` features of ``x`` (NaN = to fill) and its harmonic fill."""
-        known = np.nan_to_num(x, nan=0.0) > 0
-        distance = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5)
-        feats = prior_features(x, ("harmonic", *self.fills), gaps=True, endpoints=True)[3:]
-        feats = np.concatenate([feats, distance[None], cv2.blur(known.astype(np.float32), (61, 61))[None]])
-        return np.nan_to_num(feats, nan=0.0, posinf=0.0), feats[0]
 
     def fit(self, datasets: list[Any], pixels: int = 4000, seed: int = 0) -> ResidualProbe:
         from sklearn.neural_network import MLPRegressor  # noqa: PLC0415 - only this probe needs them
@@ -119,19 +112,20 @@ class ResidualProbe:
             for i in range(len(frames)):
                 scan, gt = (a[0] for a in frames.load_pairs([i]))
                 x = method_input(scan, np.zeros(scan.shape, bool), "scan")
-                (F, harmonic), (rows, cols) = self.features(x), np.nonzero(np.isnan(x) & (gt > 0))
+                rows, cols = np.nonzero(np.isnan(x) & (gt > 0))
                 pick = rng.choice(len(rows), min(pixels, len(rows)), replace=False)
-                X.append(F[:, rows[pick], cols[pick]].T)
-                y.append(gt[rows[pick], cols[pick]] - harmonic[rows[pick], cols[pick]])
+                F, harmonic = residual_features(x, self.fills, (rows[pick], cols[pick]))
+                X.append(F)
+                y.append(gt[rows[pick], cols[pick]] - harmonic)
         self.model_ = make_pipeline(StandardScaler(), MLPRegressor(hidden_layer_sizes=self.hidden, batch_size=1024,
                                                                    max_iter=10, random_state=seed))
         self.model_.fit(np.concatenate(X), np.concatenate(y))
         return self
 
     def predict(self, x: np.ndarray) -> np.ndarray:
-        (F, harmonic), todo = self.features(x), np.isnan(x)
-        out = np.where(todo, harmonic, x)
-        out[todo] = np.maximum(harmonic[todo] + self.model_.predict(F[:, todo].T), 0.1)
+        todo = np.isnan(x)
+        (F, harmonic), out = residual_features(x, self.fills, todo), x.copy()
+        out[todo] = np.maximum(harmonic + self.model_.predict(F), 0.1)
         return out
 
 

@@ -4,7 +4,7 @@ On a scan with fewer laser rings than KITTI's 64 (32, 16, 8 beams) the classical
 fill is the strongest single fill measured on the KITTI slice. This estimator keeps it as the
 base and adds, at every pixel to fill, a correction read by a small MLP
 (:class:`~estimators.learned.nets.residual_mlp.ResidualMLP`) from the pixel's features
-(:func:`residual_features`): classical fills, the gaps to and depths of the nearest
+(:func:`estimators.candidates.residual_features`): classical fills, the gaps to and depths of the nearest
 measurements left, right, above and below (:func:`estimators.candidates.prior_features`), the
 distance to the nearest measurement and the measured share of the 61 x 61 box around the pixel.
 
@@ -23,7 +23,6 @@ from __future__ import annotations
 import time
 from typing import Any
 
-import cv2
 import numpy as np
 import torch
 
@@ -34,7 +33,7 @@ from inpaintenv.progress import FrameProgress
 from inpaintenv.report.provenance import environment_info
 
 from ..base import BaseInpainter, check_random_state, resolve_seed
-from ..candidates import ENDPOINT_CHANNELS, GAP_CHANNELS, check_candidates, prior_features
+from ..candidates import ENDPOINT_CHANNELS, GAP_CHANNELS, check_candidates, residual_features
 from .._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
 from . import _checkpoint as ckpt
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
@@ -46,35 +45,13 @@ from ._training_data import input_frame, scan_input
 from .nets.pixel_blend import CHUNK
 from .nets.residual_mlp import ResidualMLP
 
-__all__ = ["RESIDUAL_FILLS", "SparseResidualInpainter", "residual_features"]
+__all__ = ["RESIDUAL_FILLS", "SparseResidualInpainter"]
 
 #: Default fills read beside ``harmonic``: how near / far the pixel's row and its window
 #: reach, and the nearest measurement (the set of ``experiments/scan_lodo.py``'s probe).
 RESIDUAL_FILLS: tuple[str, ...] = ("row-median", "row-far", "window-near", "window-far", "nearest")
-#: Side (pixels) of the box whose measured share is a feature.
-DENSITY_BOX = 61
 #: The largest ring step: one ring in 64 keeps a single ring of KITTI's HDL-64E.
 MAX_RING_STEP = 64
-
-
-def residual_features(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tuple[np.ndarray, np.ndarray]:
-    """The ``(P, C)`` float32 features (NaN -> 0) and the harmonic fill ``(P,)`` of the pixels ``where``.
-
-    Channels: ``harmonic``, then ``fills`` (metres), the four gap lengths (pixels), the four
-    endpoint depths (metres), the distance to the nearest measurement (pixels) and the
-    measured share of the :data:`DENSITY_BOX` box around the pixel. ``x``: one frame in metres,
-    NaN = to fill, 0 = no measurement; ``where``: a boolean mask of it or ``(rows, cols)``.
-    """
-    known = np.nan_to_num(x, nan=0.0) > 0
-    distance = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5)
-    share = cv2.blur(known.astype(np.float32), (DENSITY_BOX, DENSITY_BOX))
-    fills_and_lines = prior_features(x, ("harmonic", *fills), gaps=True, endpoints=True)[3:]
-    pixels = (slice(None), *where) if isinstance(where, tuple) else (slice(None), where)
-    harmonic = fills_and_lines[0][where]
-    # Gathered before NaN -> 0: most of a sparse scan is to fill, but not all of a frame.
-    feats = np.ascontiguousarray(np.concatenate([fills_and_lines[pixels], distance[where][None],
-                                                 share[where][None]]).T)
-    return np.nan_to_num(feats, nan=0.0, posinf=0.0, neginf=0.0, copy=False), np.nan_to_num(harmonic, nan=0.0)
 
 
 def _n_features(fills: tuple[str, ...]) -> int:
