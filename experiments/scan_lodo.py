@@ -170,7 +170,7 @@ def cmd_lodo(argv: list[str]) -> None:
     parser.add_argument("--save-folds", help="folder to save each fold model in (as <folder>/<day>)")
     parser.add_argument("--inputs", default="scan", help="the input kinds trained on, comma-separated")
     parser.add_argument("--densities", default="64 beams,rect-v1 hole",
-                        help="the densities scored (of: " + ", ".join(DENSITY_LABELS) + ")")
+                        help=f"the densities scored (of: {_LABELS_HELP})")
     args = parser.parse_args(argv)
     if args.save_folds and args.estimator == "mlp":
         parser.error("--save-folds: a probe is not saved")
@@ -249,6 +249,8 @@ DENSITIES = (("64 beams", 1, None), ("32 beams", 2, None), ("16 beams", 4, None)
              ("50 % points", None, 0.5), ("25 % points", None, 0.25), ("10 % points", None, 0.1))
 #: What ``density`` and ``lodo --densities`` can score.
 DENSITY_LABELS = tuple(d[0] for d in DENSITIES) + ("rect-v1 hole",)
+#: The labels for an argparse help string, which %-formats it ("50 % points" would crash ``--help``).
+_LABELS_HELP = ", ".join(DENSITY_LABELS).replace("%", "%%")
 #: Raw image size (W, H) of each recording day; frames are its bottom-centre CROP.
 RAW_SIZES = {"2011_09_26": (1242, 375), "2011_09_30": (1226, 370), "2011_10_03": (1241, 376)}
 
@@ -347,7 +349,8 @@ def cmd_density(argv: list[str]) -> None:
     parser = _parser("a method at every density and in holes cut into the scan", learned=False)
     parser.add_argument("--method", default="pretrained", help="a registered method name")
     parser.add_argument("--sets", default=",".join(DAYS + OFFICIAL_SETS), help="the sets, comma-separated")
-    parser.add_argument("--densities", default=",".join(DENSITY_LABELS), help="the inputs scored, comma-separated")
+    parser.add_argument("--densities", default=",".join(DENSITY_LABELS),
+                        help=f"the inputs scored, comma-separated (of: {_LABELS_HELP})")
     parser.add_argument("--regions", action="store_true", help="also the error by region of the column (above "
                         "its top measurement, below its lowest, between its lines)")
     args = parser.parse_args(argv)
