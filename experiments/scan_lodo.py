@@ -30,6 +30,7 @@ and the map release beyond D px of every measurement (D chosen with one day left
 from __future__ import annotations
 
 import argparse
+import copy
 import time
 from typing import Any
 
@@ -168,12 +169,14 @@ def cmd_lodo(argv: list[str]) -> None:
     parser = _parser("leave one recording day out", learned=True)
     parser.add_argument("--days", default=",".join(DAYS), help="the days to leave out, comma-separated")
     parser.add_argument("--save-folds", help="folder to save each fold model in (as <folder>/<day>)")
+    parser.add_argument("--shrinks", help="score copies of each fold model at these shrinks (comma-separated; "
+                        "a parameter of the estimator, e.g. SparseResidualInpainter's), each its own row")
     parser.add_argument("--inputs", default="scan", help="the input kinds trained on, comma-separated")
     parser.add_argument("--densities", default="64 beams,rect-v1 hole",
                         help=f"the densities scored (of: {_LABELS_HELP})")
     args = parser.parse_args(argv)
-    if args.save_folds and args.estimator == "mlp":
-        parser.error("--save-folds: a probe is not saved")
+    if (args.save_folds or args.shrinks) and args.estimator == "mlp":
+        parser.error("--save-folds, --shrinks: not for a probe")
     densities = tuple(args.densities.split(","))
     sets = _sets(parser, args)
     train = {kind: sets if kind == "scan" else day_sets(str(default_root()), args.per_drive, kind)
@@ -186,9 +189,15 @@ def cmd_lodo(argv: list[str]) -> None:
         label = f"left out {day} (fit {time.perf_counter() - start:.0f} s)"
         if args.save_folds:
             est.save(f"{args.save_folds}/{day}")
-        methods = {"ours": est, **{m: make_method(m) for m in CLASSICAL}}
+        ours = shrunk(est, args.shrinks) if args.shrinks else {"ours": est}
+        methods = {**ours, **{m: make_method(m) for m in CLASSICAL}}
         for name in [day] + (list(OFFICIAL_SETS) if day == DAYS[0] else []):
-            density_table(name, sets[name], methods, "ours", densities, _seeds(args), f"{label} | ")
+            density_table(name, sets[name], methods, tuple(ours), densities, _seeds(args), f"{label} | ")
+
+
+def shrunk(est: Any, shrinks: str) -> dict[str, Any]:
+    """``ours shrink S`` -> a copy of the fitted ``est`` (weights shared) with ``shrink=S``, per S of ``shrinks``."""
+    return {f"ours shrink {s}": copy.copy(est).set_params(shrink=float(s)) for s in shrinks.split(",")}
 
 
 def cmd_release(argv: list[str]) -> None:
@@ -247,8 +256,7 @@ def cmd_time(argv: list[str]) -> None:
 #: Each density: (label, kept rings 1 in k, or kept share of points).
 DENSITIES = (("64 beams", 1, None), ("32 beams", 2, None), ("16 beams", 4, None), ("8 beams", 8, None),
              ("50 % points", None, 0.5), ("25 % points", None, 0.25), ("10 % points", None, 0.1))
-#: What ``density`` and ``lodo --densities`` can score.
-DENSITY_LABELS = tuple(d[0] for d in DENSITIES) + ("rect-v1 hole",)
+DENSITY_LABELS = tuple(d[0] for d in DENSITIES) + ("rect-v1 hole",)  # what density and lodo --densities score
 #: The labels for an argparse help string, which %-formats it ("50 % points" would crash ``--help``).
 _LABELS_HELP = ", ".join(DENSITY_LABELS).replace("%", "%%")
 #: Raw image size (W, H) of each recording day; frames are its bottom-centre CROP.
@@ -307,12 +315,13 @@ def column_regions(x: np.ndarray) -> dict[str, np.ndarray]:
     return {"above": above, "below": below, "between <=8 px": between & near, "between >8 px": between & ~near}
 
 
-def density_table(set_name: str, frames: Any, methods: dict[str, Any], name: str, densities: tuple[str, ...],
-                  seeds: tuple[int, ...], label: str = "", regions: bool = False, every: bool = False) -> None:
-    """One line per density of ``frames``: ``methods[name]`` against the strongest classical fill, ms beside
-    harmonic; with ``regions``, a line more per method: each :func:`column_regions` region's share of the
+def density_table(set_name: str, frames: Any, methods: dict[str, Any], name: str | tuple[str, ...],
+                  densities: tuple[str, ...], seeds: tuple[int, ...], label: str = "", regions: bool = False,
+                  every: bool = False) -> None:
+    """One line per density of ``frames`` (and per name, given several): ``methods[name]`` against the strongest
+    classical fill, ms beside harmonic; with ``regions``, a line more per method: each :func:`column_regions` region's share of the
     scored pixels and of the squared error, and its RMSE; with ``every``, each method's mean RMSE and ms."""
-    errs: dict[tuple[str, str], list[float]] = {}
+    names, errs = (name,) if isinstance(name, str) else tuple(name), {}
     seconds: dict[tuple[str, str], float] = {}
     split: dict[tuple[str, str, str], np.ndarray] = {}  # (density, method, region): [pixels, squared error]
     for density, x, gt, scored in density_units(str(default_root()), frames, seeds, densities):
@@ -328,15 +337,16 @@ def density_table(set_name: str, frames: Any, methods: dict[str, Any], name: str
     for density in (d for d in DENSITY_LABELS if d in densities):
         e = {m: np.asarray(errs[density, m]) for m in methods}
         best = min(CLASSICAL, key=lambda m: np.nanmean(e[m]))
-        r, lo, hi = paired_ratio(e[name], e[best])
-        ms = {m: 1000.0 * seconds[density, m] / len(e[m]) for m in (name, "harmonic")}
-        print(f"{label}{set_name:14s} {density:13s} | {name} {np.nanmean(e[name]):.3f} m, {best} {np.nanmean(e[best]):.3f}"
-              f" m, ratio {r:.3f} [{lo:.3f}, {hi:.3f}] | {ms[name]:.0f} vs harmonic {ms['harmonic']:.0f} ms/frame",
-              flush=True)
+        for n in names:
+            r, lo, hi = paired_ratio(e[n], e[best])
+            ms = {m: 1000.0 * seconds[density, m] / len(e[m]) for m in (n, "harmonic")}
+            print(f"{label}{set_name:14s} {density:13s} | {n} {np.nanmean(e[n]):.3f} m, {best} {np.nanmean(e[best]):.3f}"
+                  f" m, ratio {r:.3f} [{lo:.3f}, {hi:.3f}] | {ms[n]:.0f} vs harmonic {ms['harmonic']:.0f} ms/frame",
+                  flush=True)
         for m in methods if every else ():
             print(f"{set_name:14s} {density:13s} {m:17s} rmse {np.nanmean(e[m]):.3f} m  "
                   f"{1000.0 * seconds[density, m] / len(e[m]):.0f} ms/frame", flush=True)
-        for m in dict.fromkeys((name, best)) if regions else ():
+        for m in dict.fromkeys((*names, best)) if regions else ():
             cells = {k[2]: v for k, v in split.items() if k[:2] == (density, m)}
             n, sq = (sum(v[i] for v in cells.values()) for i in (0, 1))
             print(f"{label}{set_name:14s} {density:13s} | {m}: " + "; ".join(
@@ -484,8 +494,7 @@ def _holes_lodo(days: dict[str, Any], official: dict[str, Any]) -> None:
 
 
 COMMANDS = {"classical": cmd_classical, "lodo": cmd_lodo, "release": cmd_release, "official": cmd_official,
-            "time": cmd_time, "density": cmd_density,
-            "holes": cmd_holes}
+            "time": cmd_time, "density": cmd_density, "holes": cmd_holes}
 
 if __name__ == "__main__":
     run_command("scan_lodo.py", COMMANDS, None)

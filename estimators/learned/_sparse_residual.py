@@ -84,6 +84,10 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         k (2, 4, 8: 32, 16, 8 of KITTI's 64 beams; 1: the scan as it is). Give the dataset
         the 64-beam scan (``input="scan"``); a k above 1 needs the dataset's calibrations
         (:meth:`~inpaintenv.data.DepthDataset.scan_calibration`).
+    shrink : float in (0, 1], default 1.0
+        The correction is multiplied by it at ``predict`` (1: as fitted; towards 0: towards
+        ``harmonic``). It changes neither ``fit`` nor the weights, so one fitted model can be
+        scored at several shrinks (``set_params(shrink=...)`` on a copy).
     random_state : int, RandomState, Generator or None, default 0
         Seeds pixel sampling, initialisation and batch order; None draws a fresh seed per
         fit (the seed used is ``seed_``).
@@ -129,6 +133,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         batch_pixels: int = 1024,
         pixels_per_frame: int = 4000,
         rings: tuple[int, ...] = (2, 4, 8),
+        shrink: float = 1.0,
         random_state: Any = 0,
         num_threads: int | None = None,
         verbose: bool = False,
@@ -141,6 +146,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         self.batch_pixels = batch_pixels
         self.pixels_per_frame = pixels_per_frame
         self.rings = rings
+        self.shrink = shrink
         self.random_state = random_state
         self.num_threads = num_threads
         self.verbose = verbose
@@ -158,6 +164,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         "pixels_per_frame": [Integer(1)],
         "rings": [Sequence(Integer(1, high=MAX_RING_STEP), max_len=16,
                            noun=f"a non-empty tuple of ring steps from 1 to {MAX_RING_STEP}")],
+        "shrink": [Real(0, 1, closed="right")],
         "random_state": [Check(check_random_state)],
         "num_threads": [Integer(1, limit=MAX_THREADS), None],
         "verbose": [Bool(), Integer(0)],
@@ -273,7 +280,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         for start in range(0, len(pixels), CHUNK):
             correction[start:start + CHUNK] = self.model_(torch.from_numpy(pixels[start:start + CHUNK])).numpy()
         out = np.array(frame, np.float32)
-        out[todo] = harmonic + correction
+        out[todo] = harmonic + np.float32(self.shrink) * correction
         return out
 
     # -- persistence (the hooks of PersistenceMixin) ------------------------------------------

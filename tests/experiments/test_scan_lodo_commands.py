@@ -19,3 +19,15 @@ def test_every_command_prints_its_help(scan_lodo, command, capsys):
     assert "--per-drive" in out
     if command in ("lodo", "density"):
         assert "50 % points" in out  # the density labels, their % printed as it is
+
+
+def test_shrinks_are_copies_of_one_fitted_model_each_at_its_shrink(scan_lodo):
+    from estimators.learned import SparseResidualInpainter
+    from inpaintenv.data import SyntheticStreets
+
+    est = SparseResidualInpainter(epochs=1, pixels_per_frame=100, num_threads=1).fit(
+        SyntheticStreets(n=2, seed=1, frame_shape=(48, 96), frames_per_drive=2, input="scan"))
+    out = scan_lodo.shrunk(est, "1,0.75,0.5")
+    assert list(out) == ["ours shrink 1", "ours shrink 0.75", "ours shrink 0.5"]
+    assert [m.shrink for m in out.values()] == [1.0, 0.75, 0.5] and est.shrink == 1.0
+    assert all(m.model_ is est.model_ for m in out.values())  # one fit, the weights shared

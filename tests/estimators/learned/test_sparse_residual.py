@@ -94,6 +94,9 @@ def test_a_checkpoint_with_bad_standardisation_is_refused(fitted, key, value, ma
     (dict(width=0), "width must be"),
     (dict(lr=0.0), "lr must be"),
     (dict(pixels_per_frame=-1), "pixels_per_frame must be"),
+    (dict(shrink=0.0), r"shrink must be a number in \(0, 1\]"),
+    (dict(shrink=1.5), "shrink must be"),
+    (dict(shrink=float("nan")), "shrink must be"),
 ])
 def test_each_bad_parameter_is_one_clear_error(scans, params, match):
     with pytest.raises(InvalidInputError, match=match):
@@ -119,3 +122,28 @@ def test_clone_keeps_the_parameters_and_changed_model_parameters_are_refused(fit
     changed.__dict__.update({k: v for k, v in fitted.__dict__.items() if k.endswith("_")})
     with pytest.raises(InvalidInputError, match="width changed since the weights were made"):
         changed.predict(beams16[0][0])
+
+
+def test_shrink_scales_the_correction_at_predict_and_is_saved(fitted, beams16, tmp_path):
+    import copy
+
+    x = beams16[0]
+    harmonic, full = HarmonicInpainter().predict(x), fitted.predict(x)
+    half = copy.copy(fitted).set_params(shrink=0.5)
+    todo = np.isnan(x)
+    # harmonic plus half the correction; the measurements kept
+    np.testing.assert_allclose(half.predict(x)[todo], (harmonic + 0.5 * (full - harmonic))[todo], atol=1e-4)
+    np.testing.assert_array_equal(half.predict(x)[~todo], x[~todo])
+    assert fitted.shrink == 1.0 and np.array_equal(fitted.predict(x), full)  # the copy leaves it as it was
+    again = load(half.save(tmp_path / "half"))
+    assert again.shrink == 0.5 and np.array_equal(again.predict(x), half.predict(x))
+    with pytest.raises(InvalidInputError, match="shrink must be"):
+        copy.copy(fitted).set_params(shrink=0.0).predict(x)
+
+
+def test_shrink_changes_neither_fit_nor_the_weights(scans):
+    kw = dict(epochs=1, pixels_per_frame=200, num_threads=1)
+    a, b = SparseResidualInpainter(**kw).fit(scans), SparseResidualInpainter(shrink=0.25, **kw).fit(scans)
+    assert a.history_ == b.history_
+    for name, value in a.model_.state_dict().items():
+        assert np.array_equal(value.numpy(), b.model_.state_dict()[name].numpy())
