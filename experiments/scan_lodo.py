@@ -100,8 +100,15 @@ class ResidualProbe:
     The correction is scikit-learn's ``MLPRegressor`` (``hidden`` units per layer) on standardised features
     (``lodo --estimator mlp``, ``--recipe '{"fills": [...], "hidden": [32, 32]}'``)."""
 
-    def __init__(self, fills: tuple[str, ...] = PROBE_FILLS, hidden: tuple[int, ...] = (128, 128)) -> None:
-        self.fills, self.hidden = tuple(fills), tuple(hidden)
+    def __init__(self, fills: tuple[str, ...] = PROBE_FILLS, hidden: tuple[int, ...] = (128, 128),
+                 hole_seeds: tuple[int, ...] = ()) -> None:
+        self.fills, self.hidden, self.hole_seeds = tuple(fills), tuple(hidden), tuple(hole_seeds)
+
+    def _inputs(self, scan: np.ndarray, index: int) -> list[np.ndarray]:
+        """The scan, then per ``hole_seeds`` seed the scan with rect-v1's hole of that seed cut out (NaN = to fill)."""
+        rect = get_protocol("rect-v1")
+        holes = [np.zeros(scan.shape, bool)] + [rect.mask(scan.shape, s, index) for s in self.hole_seeds]
+        return [method_input(scan, hole, "scan") for hole in holes]
 
     def fit(self, datasets: list[Any], pixels: int = 4000, seed: int = 0) -> ResidualProbe:
         from sklearn.neural_network import MLPRegressor  # noqa: PLC0415 - only this probe needs them
@@ -112,12 +119,12 @@ class ResidualProbe:
         for frames in datasets:
             for i in range(len(frames)):
                 scan, gt = (a[0] for a in frames.load_pairs([i]))
-                x = method_input(scan, np.zeros(scan.shape, bool), "scan")
-                rows, cols = np.nonzero(np.isnan(x) & (gt > 0))
-                pick = rng.choice(len(rows), min(pixels, len(rows)), replace=False)
-                F, harmonic = residual_features(x, self.fills, (rows[pick], cols[pick]))
-                X.append(F)
-                y.append(gt[rows[pick], cols[pick]] - harmonic)
+                for x in self._inputs(scan, i):
+                    rows, cols = np.nonzero(np.isnan(x) & (gt > 0))
+                    pick = rng.choice(len(rows), min(pixels, len(rows)), replace=False)
+                    F, harmonic = residual_features(x, self.fills, (rows[pick], cols[pick]))
+                    X.append(F)
+                    y.append(gt[rows[pick], cols[pick]] - harmonic)
         self.model_ = make_pipeline(StandardScaler(), MLPRegressor(hidden_layer_sizes=self.hidden, batch_size=1024,
                                                                    max_iter=10, random_state=seed))
         self.model_.fit(np.concatenate(X), np.concatenate(y))
@@ -172,6 +179,8 @@ def cmd_lodo(argv: list[str]) -> None:
     parser.add_argument("--shrinks", help="score copies of each fold model at these shrinks (comma-separated; "
                         "a parameter of the estimator, e.g. SparseResidualInpainter's), each its own row")
     parser.add_argument("--inputs", default="scan", help="the input kinds trained on, comma-separated")
+    parser.add_argument("--also", default="", help="registered methods scored as rows beside ours (e.g. "
+                        "kitti-ensemble-v1; releases saw every day), comma-separated")
     parser.add_argument("--densities", default="64 beams,rect-v1 hole",
                         help=f"the densities scored (of: {_LABELS_HELP})")
     args = parser.parse_args(argv)
@@ -190,9 +199,10 @@ def cmd_lodo(argv: list[str]) -> None:
         if args.save_folds:
             est.save(f"{args.save_folds}/{day}")
         ours = shrunk(est, args.shrinks) if args.shrinks else {"ours": est}
-        methods = {**ours, **{m: make_method(m) for m in CLASSICAL}}
+        also = {m: make_method(m) for m in args.also.split(",") if m}
+        methods = {**ours, **also, **{m: make_method(m) for m in CLASSICAL}}
         for name in [day] + (list(OFFICIAL_SETS) if day == DAYS[0] else []):
-            density_table(name, sets[name], methods, tuple(ours), densities, _seeds(args), f"{label} | ")
+            density_table(name, sets[name], methods, (*ours, *also), densities, _seeds(args), f"{label} | ")
 
 
 def shrunk(est: Any, shrinks: str) -> dict[str, Any]:

@@ -1,7 +1,8 @@
-"""scan_lodo.py's command lines: every command's --help, lodo's --shrinks."""
+"""scan_lodo.py's command lines: every command's --help, lodo's --shrinks, the probe's training inputs."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 
@@ -31,3 +32,17 @@ def test_shrinks_are_copies_of_one_fitted_model_each_at_its_shrink(scan_lodo):
     assert list(out) == ["ours shrink 1", "ours shrink 0.75", "ours shrink 0.5"]
     assert [m.shrink for m in out.values()] == [1.0, 0.75, 0.5] and est.shrink == 1.0
     assert all(m.model_ is est.model_ for m in out.values())  # one fit, the weights shared
+
+
+def test_the_probe_with_hole_seeds_also_trains_on_rect_v1_holes_cut_into_the_scan(scan_lodo):
+    from inpaintenv.masks import get_protocol
+
+    scan = np.full((48, 96), np.nan, np.float32)
+    scan[::4] = 10.0  # a line every 4 rows, as a scan's
+    scan = np.nan_to_num(scan, nan=0.0)
+    inputs = scan_lodo.ResidualProbe(hole_seeds=(100, 101))._inputs(scan, 3)
+    assert len(inputs) == 3 and np.array_equal(np.isnan(inputs[0]), scan == 0)  # the scan as it is first
+    for x, seed in zip(inputs[1:], (100, 101)):
+        hole = get_protocol("rect-v1").mask(scan.shape, seed, 3)
+        assert np.isnan(x[hole]).all() and np.array_equal(np.isnan(x), (scan == 0) | hole)
+    assert len(scan_lodo.ResidualProbe()._inputs(scan, 3)) == 1
