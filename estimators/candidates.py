@@ -25,6 +25,7 @@ import numpy as np
 
 from inpaintenv.conventions import check_depth
 
+from ._residual_features import AtPixels, flat_pixels
 from ._scan import AxisScan
 from .classical import in_inverse_depth
 from .classical.harmonic import harmonic_fill
@@ -33,7 +34,7 @@ from .classical.nearest import nearest_fill
 from .classical.scanline import scanline_fill
 from inpaintenv.exceptions import InvalidInputError
 
-__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "residual_features", "row_band_quantile", "row_band_quantiles", "window_extreme"]
+__all__ = ["AVAILABLE_CANDIDATES", "BASE_CHANNELS", "CANDIDATES", "ENDPOINT_CHANNELS", "endpoint_values", "GAP_CHANNELS", "candidate_fills", "check_candidates", "gap_distances", "prior_features", "residual_channels", "residual_features", "row_band_quantile", "row_band_quantiles", "window_extreme"]
 
 #: Candidate fills, in channel order: row-wise linear interpolation of depth, of inverse
 #: depth, column-wise linear interpolation of depth, harmonic (Laplace) interpolation.
@@ -439,17 +440,45 @@ def residual_features(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tupl
     """The ``(P, C)`` float32 features (NaN -> 0) and the harmonic fill ``(P,)`` of the pixels ``where``.
 
     Channels: ``harmonic``, then ``fills`` (metres), the four gap lengths (pixels), the four
-    endpoint depths (metres), the distance to the nearest measurement (pixels) and the
-    measured share of the :data:`DENSITY_BOX` box around the pixel. ``x``: one frame in metres,
-    NaN = to fill, 0 = no measurement; ``where``: a boolean mask of it or ``(rows, cols)``.
+    endpoint depths (metres), the distance to the nearest measurement (pixels, OpenCV's
+    ``DIST_L2`` 5x5 mask) and the measured share of the :data:`DENSITY_BOX` box around the
+    pixel (``cv2.blur``). ``x``: one frame in metres, NaN = to fill, 0 = no measurement;
+    ``where``: a boolean mask of it or ``(rows, cols)``.
     """
-    known = np.nan_to_num(x, nan=0.0) > 0
-    distance = cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5)
-    share = cv2.blur(known.astype(np.float32), (DENSITY_BOX, DENSITY_BOX))
-    fills_and_lines = prior_features(x, ("harmonic", *fills), gaps=True, endpoints=True)[3:]
-    pixels = (slice(None), *where) if isinstance(where, tuple) else (slice(None), where)
-    harmonic = fills_and_lines[0][where]
-    # Gathered before NaN -> 0: most of a sparse scan is to fill, but not all of a frame.
-    feats = np.ascontiguousarray(np.concatenate([fills_and_lines[pixels], distance[where][None],
-                                                 share[where][None]]).T)
-    return np.nan_to_num(feats, nan=0.0, posinf=0.0, neginf=0.0, copy=False), np.nan_to_num(harmonic, nan=0.0)
+    feats, harmonic = residual_channels(x, fills, where)
+    return np.ascontiguousarray(feats.T), harmonic
+
+
+def residual_channels(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`residual_features` pixel last, ``(C, P)``: a network reads a chunk at a time, transposed.
+
+    Made at the pixels with shared pieces (:mod:`estimators._residual_features`); ``harmonic``,
+    the longest, runs in a worker thread meanwhile (NumPy and OpenCV release the GIL).
+    """
+    names = check_candidates(("harmonic", *fills), "fills")
+    x = check_depth(x, name="x", allow_nan=True, ndim=(2,))
+    known = x > 0
+    values = np.where(known, x, 0.0).astype(np.float32)
+    pixels = AtPixels(values, known, flat_pixels(where, x.shape))
+    lines = len(GAP_CHANNELS) + len(ENDPOINT_CHANNELS)
+    out = np.empty((len(names) + lines + 2, len(pixels.idx)), np.float32)
+    scans = _Scans(values, known)
+    with ThreadPoolExecutor(max_workers=1) as worker:
+        pending = worker.submit(lambda: pixels.at(harmonic_fill(values, known)))
+        rows = [n for n in names if n in ROW_QUANTILES]
+        done = dict(zip(rows, row_band_quantiles(values, known, [ROW_QUANTILES[n] for n in rows]))) if rows else {}
+        made = {"nearest": pixels.nearest, "window-near": lambda: pixels.window(False, WINDOW),
+                "window-far": lambda: pixels.window(True, WINDOW)}
+        for i, name in enumerate(names[1:], 1):
+            if name in done or name not in made and name != "harmonic":
+                # Another fill on the whole frame, as prior_features makes it: not always finite.
+                fill = done[name] if name in done else scans.fill(name)
+                out[i] = np.nan_to_num(pixels.at(fill), nan=0.0, posinf=0.0, neginf=0.0, copy=False)
+            elif name in made:
+                out[i] = made[name]()
+        pixels.lines(out[len(names):len(names) + lines], NO_MEASUREMENT_DISTANCE)
+        out[-2] = pixels.at(cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5))
+        out[-1] = pixels.at(cv2.blur(known.astype(np.float32), (DENSITY_BOX, DENSITY_BOX)))
+        harmonic = pending.result()
+    out[[i for i, n in enumerate(names) if n == "harmonic"]] = harmonic
+    return out, harmonic

@@ -33,7 +33,7 @@ from inpaintenv.progress import FrameProgress
 from inpaintenv.report.provenance import environment_info
 
 from ..base import BaseInpainter, check_random_state, resolve_seed
-from ..candidates import ENDPOINT_CHANNELS, GAP_CHANNELS, check_candidates, residual_features
+from ..candidates import ENDPOINT_CHANNELS, GAP_CHANNELS, check_candidates, residual_channels, residual_features
 from .._constraints import Bool, Check, ConstrainedParams, Integer, Real, Sequence
 from . import _checkpoint as ckpt
 from ._limits import MAX_LAYERS, MAX_THREADS, MAX_WIDTH, check_parameter_count
@@ -92,7 +92,13 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         Seeds pixel sampling, initialisation and batch order; None draws a fresh seed per
         fit (the seed used is ``seed_``).
     num_threads : int, optional
-        torch threads while fitting and predicting (None: leave torch's setting).
+        torch threads while fitting (None: leave torch's setting).
+    predict_threads : int or None, default 1
+        torch threads while predicting (None: leave torch's setting). The network's share of
+        a 16-beam KITTI frame is ~30 ms on one thread; with torch's default of one thread per
+        core, a machine with other work on it made ``predict`` 6-60x slower (2.4-3.0 s per
+        frame, ``perf/bench_sparse_residual.py`` at load average 6 on 2 cores), one thread
+        ~2x. Parallelise over frames instead.
     verbose : bool or int, default False
         Progress of ``fit`` when true or > 0.
 
@@ -136,6 +142,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         shrink: float = 1.0,
         random_state: Any = 0,
         num_threads: int | None = None,
+        predict_threads: int | None = 1,
         verbose: bool = False,
     ):
         self.fills = fills
@@ -149,6 +156,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         self.shrink = shrink
         self.random_state = random_state
         self.num_threads = num_threads
+        self.predict_threads = predict_threads
         self.verbose = verbose
 
     #: Parameters stored as JSON lists that the constructor takes as tuples.
@@ -167,6 +175,7 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         "shrink": [Real(0, 1, closed="right")],
         "random_state": [Check(check_random_state)],
         "num_threads": [Integer(1, limit=MAX_THREADS), None],
+        "predict_threads": [Integer(1, limit=MAX_THREADS), None],
         "verbose": [Bool(), Integer(0)],
     }
 
@@ -268,19 +277,28 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
 
     # -- prediction ------------------------------------------------------------------------
     def _predict_batch(self, X: np.ndarray) -> np.ndarray:
-        return predict_frames(self, X, self.num_threads)
+        return predict_frames(self, X, self.predict_threads)
 
     def _predict_frame(self, frame: np.ndarray) -> np.ndarray:
         todo = np.isnan(frame)
         if not (frame > 0).any():
             return np.zeros(frame.shape, np.float32)  # nothing to fill from (bound_output says 0 too)
-        feats, harmonic = residual_features(frame, tuple(self.fills), todo)
-        pixels = self._standardised(feats)
-        correction = np.empty(len(pixels), np.float32)
-        for start in range(0, len(pixels), CHUNK):
-            correction[start:start + CHUNK] = self.model_(torch.from_numpy(pixels[start:start + CHUNK])).numpy()
+        feats, harmonic = residual_channels(frame, tuple(self.fills), todo)
         out = np.array(frame, np.float32)
-        out[todo] = harmonic + np.float32(self.shrink) * correction
+        out[todo] = harmonic + np.float32(self.shrink) * self._corrections(feats)
+        return out
+
+    def _corrections(self, feats: np.ndarray) -> np.ndarray:
+        """The network's corrections ``(P,)`` of ``(C, P)`` features (standardised in place, as in training).
+
+        The standardisation runs along contiguous channel rows; the network reads each chunk
+        of pixels as a transposed view (a strided matrix product, no copy).
+        """
+        np.subtract(feats, self.feature_mean_[:, None], out=feats)
+        np.divide(feats, self.feature_std_[:, None], out=feats)
+        pixels, out = torch.from_numpy(feats), np.empty(feats.shape[1], np.float32)
+        for start in range(0, feats.shape[1], CHUNK):
+            out[start:start + CHUNK] = self.model_(pixels[:, start:start + CHUNK].T).numpy()
         return out
 
     # -- persistence (the hooks of PersistenceMixin) ------------------------------------------

@@ -6,8 +6,10 @@ import json
 
 import numpy as np
 import pytest
+import torch
 from sklearn.base import clone
 
+from estimators.candidates import residual_features
 from estimators.classical import HarmonicInpainter
 from estimators.learned import SparseResidualInpainter, load
 from estimators.learned._checkpoint import CheckpointError
@@ -62,6 +64,21 @@ def test_beats_harmonic_at_16_beams_on_its_frames_and_keeps_every_measurement(fi
     np.testing.assert_array_equal(fitted.predict(x[1]), pred[1])  # one frame as in a batch
     assert fitted.n_pixels_ == 3 * 4 * 1000 and fitted.training_frames_ == 4
     assert fitted.feature_mean_.shape == fitted.feature_std_.shape == (1 + 5 + 4 + 4 + 2,)
+
+
+def test_predict_is_harmonic_plus_the_network_on_the_standardised_features(fitted, beams16):
+    """The chunked prediction (features pixel last, standardised in place, read as transposed
+    views) gives what the network gives on the plain (P, C) features, for any thread count."""
+    x = beams16[0][2]
+    todo = np.isnan(x)
+    feats, harmonic = residual_features(x, tuple(fitted.fills), todo)
+    with torch.inference_mode():
+        net = fitted.model_(torch.from_numpy((feats - fitted.feature_mean_) / fitted.feature_std_)).numpy()
+    for threads in (1, 2):
+        pred = clone(fitted).set_params(predict_threads=threads)
+        pred.__dict__.update({k: v for k, v in fitted.__dict__.items() if k.endswith("_")})
+        np.testing.assert_allclose(pred.predict(x)[todo], harmonic + net, rtol=0, atol=1e-5)
+    assert fitted.predict_threads == 1 and np.abs(net).max() > 1e-3  # a network that does correct
 
 
 def test_save_and_load_predict_the_same(fitted, beams16, tmp_path):
