@@ -327,6 +327,11 @@ quantile) takes the quantile per bin of the distance to the nearest measurement,
 measured share around the pixel or in the frame (Mondrian conformal,
 ``ConformalIntervalInpainter(condition=...)``; bins ``DEFAULT_EDGES``, or ``--condition-edges E1,E2,...`` for the
 one condition besides none), each variant once per condition; ``--by-bin`` also prints each row's coverage per distance bin and per predicted-depth bin (pixels pooled). ``--input map`` (alone) scores a classical fill's ``rect-v1`` holes in the ground-truth maps (calibration ``rect-v1``).
+
+``--self-check 1000,1001`` adds the condition ``self-check``: each frame's interval scaled by a factor the
+frame gives itself, the ``--coverage`` quantile of the normalised residuals in probe holes (rect-v1 at those
+seeds) cut into the same frame, and the quantile calibrated on residuals divided by their frame's factor.
+A probe for an experiment: the holes are cut into the whole frame, not around the one being filled.
 """
 
 #: The scan tasks scored, and the calibrations compared: (protocol, signals).
@@ -395,6 +400,25 @@ def coverage_by_bin(coef: np.ndarray, q: Any, F: np.ndarray, r: np.ndarray) -> d
     return out
 
 
+def frame_factors(coef: np.ndarray, probe: dict, coverage: float) -> Any:
+    """``frames -> factor per row``: each frame's ``coverage`` quantile of its normalised probe residuals
+    (``probe``: ``day_residuals`` of probe holes); a frame without a probe pixel takes the median factor."""
+    from estimators.intervals import scale_from
+
+    F, r, frame = (np.concatenate([v[i] for v in probe.values()]) for i in range(3))
+    normed = r / scale_from(coef, F)
+    size = int(frame.max()) + 1
+    table = np.full(size, np.nan)
+    order = np.argsort(frame, kind="stable")
+    bounds = np.searchsorted(frame[order], np.arange(size + 1))
+    for f in range(size):
+        if bounds[f + 1] > bounds[f]:
+            table[f] = np.quantile(normed[order[bounds[f]:bounds[f + 1]]], coverage)
+    median = np.nanmedian(table)
+    table[np.isnan(table)] = median
+    return lambda frames: np.where(frames < size, table[np.minimum(frames, size - 1)], median)
+
+
 def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(prog="interval_calibration.py lodo", description=LODO_DOC,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -414,6 +438,8 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--condition-edges", type=edges_option, metavar="E1,E2,...",
                         help="the bins' edges of the one --condition other than none (default DEFAULT_EDGES)")
     parser.add_argument("--by-bin", action="store_true", help="also print coverage per distance and depth bin")
+    parser.add_argument("--self-check", metavar="SEEDS", help="rect-v1 seeds of the probe holes of the condition "
+                        "self-check (comma-separated): a per-frame factor from the frame's own probe residuals")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
     conditions = args.condition or ["none"]
@@ -436,13 +462,18 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     seeds = tuple(int(s) for s in args.seeds.split(","))
     spread = make_method(args.spread_method)
     entries = [e.partition("=")[::2] for e in args.fold] or [(day, "") for day in sorted({d[:10] for d in drives})]
+    probe_seeds = tuple(int(s) for s in args.self_check.split(",")) if args.self_check else ()
+    if probe_seeds:
+        conditions.append("self-check")
     days: dict[str, dict] = {}  # day -> input kind -> (task, seed) -> residuals
+    probes: dict[str, dict] = {}  # day -> input kind -> (rect-v1, probe seed) -> residuals
     for day, path in entries:
         start = time.perf_counter()
         model = load(path) if path else make_method(args.method)
         mine = [d for d in drives if d.startswith(day)]
-        days[day] = {kind: day_residuals(model, spaced_per_drive(ds, args.frames_per_drive, mine), spread, seeds, tasks)
-                     for kind, ds in datasets.items()}
+        frames = {kind: spaced_per_drive(ds, args.frames_per_drive, mine) for kind, ds in datasets.items()}
+        days[day] = {kind: day_residuals(model, f, spread, seeds, tasks) for kind, f in frames.items()}
+        probes[day] = {kind: day_residuals(model, f, spread, probe_seeds, ("rect-v1",)) for kind, f in frames.items()}
         print(f"{day}: {len(mine)} drives x {len(datasets)} inputs ({time.perf_counter() - start:.0f} s)", flush=True)
     rows, every = [], "+".join(args.input)
     print("| calibrated on | condition | left-out day | task | input | coverage | mean width (m) | keep-80 % cut | "
@@ -453,19 +484,28 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
             continue
         cols = [0] + [1 + FEATURE_SIGNALS.index(name) for name in signals]
         for day in days:
-            cal = pooled([days[d][k][(t, 0)] for d in days if d != day for k in args.input for t in protocol.split("+")])
+            keys = [(d, k, t) for d in days if d != day for k in args.input for t in protocol.split("+")]
+            cal = pooled([days[d][k][(t, 0)] for d, k, t in keys])
             coef = np.zeros(1 + len(FEATURE_SIGNALS))  # the signals left out weigh 0
             coef[cols] = balanced_scale(cal[0][:, cols], cal[1], cal[2], signals, 0, 200_000, "frame", args.coverage)
             normed = cal[1] / scale_from(coef, cal[0])
             _, q = residual_quantiles(normed, cal[2], "frame", args.coverage)
+            if probe_seeds:
+                factor = {(d, k): frame_factors(coef, probes[d][k], args.coverage) for d in days for k in args.input}
+                cal_factor = np.concatenate([factor[d, k](days[d][k][(t, 0)][2]) for d, k, t in keys])
+                _, q_checked = residual_quantiles(normed / cal_factor, cal[2], "frame", args.coverage)
             for cond in conditions:
-                found = None if cond == "none" else fit_condition(cond, args.condition_edges or DEFAULT_EDGES[cond], FEATURE_SIGNALS, cal[0], normed,
+                found = None if cond in ("none", "self-check") else fit_condition(cond, args.condition_edges or DEFAULT_EDGES[cond], FEATURE_SIGNALS, cal[0], normed,
                                                                    cal[2], "frame", args.coverage)
                 for task in tasks:
                     for kinds in [args.input] + ([[k] for k in args.input] if len(args.input) > 1 else []):
-                        test = pooled([v for k in kinds for (t, _), v in days[day][k].items() if t == task])
-                        qq = q if found is None else cell_quantiles(found, q, args.coverage, True, "frame")[
-                            cell_of(found, FEATURE_SIGNALS, test[0])]
+                        parts = [(k, v) for k in kinds for (t, _), v in days[day][k].items() if t == task]
+                        test = pooled([v for _, v in parts])
+                        if cond == "self-check":
+                            qq = q_checked * np.concatenate([factor[day, k](v[2]) for k, v in parts])
+                        else:
+                            qq = q if found is None else cell_quantiles(found, q, args.coverage, True, "frame")[
+                                cell_of(found, FEATURE_SIGNALS, test[0])]
                         name = every if len(kinds) > 1 else kinds[0]
                         row = {"calibration": variant, "condition": cond, "day": day, "task": task, "input": name,
                                **interval_scores(coef, qq, *test), **coverage_by_bin(coef, qq, test[0], test[1])}

@@ -141,3 +141,31 @@ def test_one_bin_per_cell_keeps_its_ranking_and_covers_each_class(load_experimen
         conditioned = module.interval_scores(coef, q_cell[cls], F[cls], r[cls], frame[cls])
         assert conditioned["ause"] == pytest.approx(pooled["ause"], abs=1e-12)
         assert abs(conditioned["coverage"] - 0.9) < 0.02 < abs(pooled["coverage"] - 0.9)
+
+
+def test_frame_factors_are_each_frame_s_quantile_of_its_normalised_probe_residuals(load_experiment):
+    module = load_experiment("interval_calibration")
+    rng = np.random.default_rng(0)
+    F = np.column_stack([np.ones(600), rng.random(600)])  # intercept, one signal
+    coef = np.array([0.5, 1.0])
+    frame = np.repeat([0, 2, 3], 200)  # frame 1 has no probe pixel
+    r = rng.random(600) * 3.0
+    probe = {("rect-v1", 1000): (F[:300], r[:300], frame[:300]), ("rect-v1", 1001): (F[300:], r[300:], frame[300:])}
+    factor = module.frame_factors(coef, probe, 0.9)
+    normed = r / np.exp(F @ coef)
+    want = {f: np.quantile(normed[frame == f], 0.9) for f in (0, 2, 3)}
+    median = np.median(list(want.values()))
+    got = factor(np.array([0, 1, 2, 3, 7]))
+    np.testing.assert_allclose(got, [want[0], median, want[2], want[3], median])
+
+
+def test_self_check_adds_its_rows_and_leaves_the_others_as_they_were(load_experiment, three_days):
+    args = ["lodo", "--kitti-root", str(three_days), "--frames-per-drive", "0", "--seeds", "0", "--input", "map",
+            "--method", "scanline", "--spread-method", "nearest"]
+    module = load_experiment("interval_calibration")
+    plain = module.main(args)["rows"]
+    checked = module.main([*args, "--self-check", "1000,1001"])["rows"]
+    assert [r for r in checked if r["condition"] == "none"] == plain
+    rows = [r for r in checked if r["condition"] == "self-check"]
+    assert sorted(r["day"] for r in rows) == sorted(DAYS)
+    assert all(0.0 <= r["coverage"] <= 1.0 and r["width"] > 0 and 0.0 <= r["ause"] < 1.0 for r in rows)
