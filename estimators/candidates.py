@@ -25,7 +25,7 @@ import numpy as np
 
 from inpaintenv.conventions import check_depth
 
-from ._residual_features import AtPixels, flat_pixels
+from ._residual_features import AtPixels, flat_pixels, overlap
 from ._scan import AxisScan
 from .classical import in_inverse_depth
 from .classical.harmonic import harmonic_fill
@@ -449,11 +449,19 @@ def residual_features(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tupl
     return np.ascontiguousarray(feats.T), harmonic
 
 
+def _box_channels(pixels: AtPixels, out: np.ndarray) -> None:
+    """The distance to the nearest measurement and the measured share of the box, at the pixels into ``out``."""
+    unknown = (~pixels.known).astype(np.uint8)
+    pixels.at(cv2.distanceTransform(unknown, cv2.DIST_L2, 5), out=out[0])
+    pixels.at(cv2.blur((1 - unknown).astype(np.float32), (DENSITY_BOX, DENSITY_BOX)), out=out[1])
+
+
 def residual_channels(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tuple[np.ndarray, np.ndarray]:
     """:func:`residual_features` pixel last, ``(C, P)``: a network reads a chunk at a time, transposed.
 
     Made at the pixels with shared pieces (:mod:`estimators._residual_features`); ``harmonic``,
-    the longest, runs in a worker thread meanwhile (NumPy and OpenCV release the GIL).
+    the longest, runs in a worker thread meanwhile while a core is free
+    (:func:`~estimators._residual_features.overlap`).
     """
     names = check_candidates(("harmonic", *fills), "fills")
     x = check_depth(x, name="x", allow_nan=True, ndim=(2,))
@@ -463,22 +471,22 @@ def residual_channels(x: np.ndarray, fills: tuple[str, ...], where: Any) -> tupl
     lines = len(GAP_CHANNELS) + len(ENDPOINT_CHANNELS)
     out = np.empty((len(names) + lines + 2, len(pixels.idx)), np.float32)
     scans = _Scans(values, known)
-    with ThreadPoolExecutor(max_workers=1) as worker:
-        pending = worker.submit(lambda: pixels.at(harmonic_fill(values, known)))
+    with overlap() as worker:
+        # The worker: harmonic, then the two box channels (about half the work each way).
+        pending = worker.submit(lambda: [pixels.at(harmonic_fill(values, known), out=out[0]),
+                                         _box_channels(pixels, out[-2:])])
         rows = [n for n in names if n in ROW_QUANTILES]
         done = dict(zip(rows, row_band_quantiles(values, known, [ROW_QUANTILES[n] for n in rows]))) if rows else {}
         made = {"nearest": pixels.nearest, "window-near": lambda: pixels.window(False, WINDOW),
                 "window-far": lambda: pixels.window(True, WINDOW)}
         for i, name in enumerate(names[1:], 1):
-            if name in done or name not in made and name != "harmonic":
-                # Another fill on the whole frame, as prior_features makes it: not always finite.
-                fill = done[name] if name in done else scans.fill(name)
-                out[i] = np.nan_to_num(pixels.at(fill), nan=0.0, posinf=0.0, neginf=0.0, copy=False)
+            if name in done:
+                pixels.at(done[name], out=out[i])
             elif name in made:
                 out[i] = made[name]()
+            elif name != "harmonic":  # another fill, made as prior_features makes it: not always finite
+                out[i] = np.nan_to_num(pixels.at(scans.fill(name)), nan=0.0, posinf=0.0, neginf=0.0, copy=False)
         pixels.lines(out[len(names):len(names) + lines], NO_MEASUREMENT_DISTANCE)
-        out[-2] = pixels.at(cv2.distanceTransform((~known).astype(np.uint8), cv2.DIST_L2, 5))
-        out[-1] = pixels.at(cv2.blur(known.astype(np.float32), (DENSITY_BOX, DENSITY_BOX)))
-        harmonic = pending.result()
-    out[[i for i, n in enumerate(names) if n == "harmonic"]] = harmonic
-    return out, harmonic
+        pending.result()
+    out[[i for i, n in enumerate(names) if n == "harmonic"]] = out[0]
+    return out, out[0].copy()

@@ -10,6 +10,8 @@ the single-fill functions that define them.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import cv2
 import numpy as np
 import pytest
@@ -147,3 +149,28 @@ def test_channels_pixel_last_are_the_features_transposed():
 def test_bad_pixels_are_one_clear_error(where, match):
     with pytest.raises(InvalidInputError, match=match):
         residual_features(SCANS[-2], FILLS, where)
+
+
+def test_the_same_numbers_with_or_without_the_worker_thread(monkeypatch):
+    import estimators.candidates as candidates
+    from estimators._residual_features import _Inline
+
+    x = SCANS[0]
+    monkeypatch.setattr(candidates, "overlap", lambda: ThreadPoolExecutor(max_workers=1))
+    threaded = residual_features(x, FILLS, np.isnan(x))
+    monkeypatch.setattr(candidates, "overlap", _Inline)
+    inline = residual_features(x, FILLS, np.isnan(x))
+    np.testing.assert_array_equal(threaded[0], inline[0])
+    np.testing.assert_array_equal(threaded[1], inline[1])
+
+
+def test_gaps_and_endpoints_of_a_frame_too_wide_for_16_bit_indices():
+    """Lines longer than int16 with the sentinels are scanned in int32: same definition."""
+    x = np.full((8, 30000), np.nan, np.float32)
+    x[2, [5, 7000, 29990]] = [4.0, 9.0, 30.0]
+    x[6, 15000] = 12.0
+    rows, cols = np.array([2, 2, 2, 5, 7, 0]), np.array([3, 5000, 29999, 15000, 100, 29000])
+    feats, _ = residual_features(x, ("nearest",), (rows, cols))
+    gaps, ends = _lines(np.nan_to_num(x), x > 0, rows, cols)
+    np.testing.assert_array_equal(feats[:, 2:6], gaps.astype(np.float32))
+    np.testing.assert_array_equal(feats[:, 6:10], ends.astype(np.float32))
