@@ -76,7 +76,7 @@ def _member(release: str, member: str, **changes: Any) -> dict[str, Any]:
 
 
 _ENSEMBLE, _MIXED = release_recipe("kitti-ensemble-v1"), release_recipe("kitti-mixed-v1")
-_SCAN = release_recipe("kitti-scan-v1")
+_SCAN, _SPARSE = release_recipe("kitti-scan-v1"), release_recipe("kitti-sparse-v1")
 #: The context member of kitti-ensemble-v1 (two context blends, each on its own draw of samples).
 _CONTEXT = _member("kitti-ensemble-v1", "context")
 #: The per-pixel blend member of kitti-ensemble-v1, trained alone: with its mirrored pass.
@@ -110,6 +110,11 @@ RELEASE_PRESETS: dict[str, tuple[type, dict[str, Any], str]] = {
         "the shipped scan release (its JSON's recipe; train with --input scan): a single LiDAR scan filled by the "
         "mean of harmonic and ipbasic-scan within 16 px of a measurement, by a learned blend of five classical "
         "fills beyond (ScanBlendInpainter)",
+    ),
+    "kitti-sparse-v1": (
+        *_SPARSE,
+        "the shipped sparse-scan release (its JSON's recipe; train with --input scan): harmonic plus a per-pixel "
+        "MLP correction, trained on each scan thinned to 32, 16 and 8 beams (SparseResidualInpainter)",
     ),
 }
 

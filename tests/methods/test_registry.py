@@ -70,7 +70,8 @@ def test_every_shipped_release_has_its_own_method_name():
     from inpaintenv.methods.registry import PRETRAINED_RELEASES
 
     shipped = {p.stem for p in PRETRAINED_DIR.glob("*.json") if p.with_suffix(".safetensors").is_file()}
-    assert set(PRETRAINED_RELEASES) == shipped == {"kitti-ensemble-v1", "kitti-mixed-v1", "kitti-scan-v1"}
+    assert set(PRETRAINED_RELEASES) == shipped == {"kitti-ensemble-v1", "kitti-mixed-v1", "kitti-scan-v1",
+                                                   "kitti-sparse-v1"}
     for name in PRETRAINED_RELEASES:  # each loads as the class its JSON names, through the one factory
         assert get_spec(name).cls == "load_release" and get_spec(name).kwargs == {"name": name}
         assert type(make_method(name)).__name__ == json.loads((PRETRAINED_DIR / f"{name}.json").read_text())["class"]

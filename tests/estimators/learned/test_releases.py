@@ -48,9 +48,11 @@ def _frame(shape=(64, 192)) -> tuple[np.ndarray, np.ndarray]:
     return np.where(hole, np.nan, gt).astype(np.float32), hole
 
 
-def test_the_package_ships_the_default_the_free_form_and_the_scan_release():
-    assert RELEASES == ["kitti-ensemble-v1", "kitti-mixed-v1", "kitti-scan-v1"] and DEFAULT_RELEASE == "kitti-ensemble-v1"
+def test_the_package_ships_the_default_the_free_form_the_scan_and_the_sparse_release():
+    assert RELEASES == ["kitti-ensemble-v1", "kitti-mixed-v1", "kitti-scan-v1", "kitti-sparse-v1"]
+    assert DEFAULT_RELEASE == "kitti-ensemble-v1"
     assert type(load_release("kitti-scan-v1")).__name__ == "ScanBlendInpainter"
+    assert type(load_release("kitti-sparse-v1")).__name__ == "SparseResidualInpainter"
     assert type(make_method("pretrained").map_method).__name__ == "MeanEnsembleInpainter"
     assert param_values(make_method("blend-pretrained-mixed")) == param_values(load_release("kitti-mixed-v1"))
 
@@ -156,7 +158,7 @@ def test_a_class_loads_only_its_own_checkpoints(tmp_path):
 
 
 def test_unknown_release_lists_the_shipped_ones():
-    with pytest.raises(KeyError, match="kitti-ensemble-v1.*kitti-mixed-v1.*kitti-scan-v1"):
+    with pytest.raises(KeyError, match="kitti-ensemble-v1.*kitti-mixed-v1.*kitti-scan-v1.*kitti-sparse-v1"):
         load_release("kitti-rect-v4")
 
 
