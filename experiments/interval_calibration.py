@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import bin_labels, edges_option, exit_status, run_command
+from _common import bin_labels, coverage_by_bin, edges_option, exit_status, frame_factors, interval_scores, pooled, run_command
 
 from inpaintenv.data.inputs import INPUT_KINDS, INPUTS
 from inpaintenv.values.interval_calibration import CONDITIONS
@@ -357,66 +357,30 @@ def day_residuals(model: Any, frames: Any, spread: Any, seeds: tuple[int, ...], 
     return {(t, seed): scored_residuals(model, frames, FEATURE_SIGNALS, spread, t, seed) for t, seed in pairs}
 
 
-def pooled(parts: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The parts' rows stacked, frame numbers kept distinct across parts."""
-    frames, offset = [], 0
-    for _, _, fr in parts:
-        frames.append(fr + offset)
-        offset += int(fr.max()) + 1
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]), np.concatenate(frames)
+def self_checked(coef: np.ndarray, normed: np.ndarray, frame: np.ndarray, days: dict, probes: dict, keys: list,
+                 coverage: float) -> tuple[dict, np.ndarray]:
+    """``--self-check``: each (day, kind)'s frame factors, and the quantile of the calibration's normalised
+    residuals (rows of ``keys``' parts, pooled) divided by their frame's factor."""
+    from estimators.intervals import residual_quantiles
+
+    factor = {(d, k): frame_factors(coef, probes[d][k], coverage) for d in probes for k in probes[d]}
+    cal_factor = np.concatenate([factor[d, k](days[d][k][(t, 0)][2]) for d, k, t in keys])
+    return factor, residual_quantiles(normed / cal_factor, frame, "frame", coverage)[1]
 
 
-def interval_scores(coef: np.ndarray, q: Any, F: np.ndarray, r: np.ndarray, frame: np.ndarray) -> dict[str, float]:
-    """Mean over units of coverage, width (low clipped at 0 m) and RMSE cut by the narrowest 80 %
-    (``q``: one quantile, or one per pixel)."""
-    from estimators.intervals import scale_from
-    from inpaintenv.metrics import rejection_curve, sparsification
-
-    half = q * scale_from(coef, F)
-    width = half + np.minimum(half, np.exp(F[:, 2]))  # column 2 is log(max(pred, 1 m)): low clipped at 0
-    units, unit = np.unique(frame, return_inverse=True)
-    n = np.bincount(unit).astype(np.float64)
-    sq = r ** 2
-    curve = rejection_curve(sq, np.round(width, 3), unit, len(units), (0.8, 1.0))
-    # AUSE as pNCNN reports it: RMSE-based, every pixel of the day and task pooled, normalised by the start.
-    ause = sparsification(r + 1.0, np.ones_like(r), width, np.ones(r.shape, bool), "pooled", "rmse")["ause"]
-    return {"coverage": float(np.mean(np.bincount(unit, r <= half) / n)),
-            "width": float(np.mean(np.bincount(unit, width) / n)),
-            "cut_80": float(np.nanmean(1.0 - curve[:, 0] / curve[:, 1])), "ause": float(ause)}
-
-
-def coverage_by_bin(coef: np.ndarray, q: Any, F: np.ndarray, r: np.ndarray) -> dict[str, list]:
-    """Pixels pooled: ``[coverage, pixels]`` per bin of each variable (``DEFAULT_EDGES``' bins)."""
-    from estimators.intervals import cell_of, scale_from
+def print_by_bin(rows: list[dict[str, Any]]) -> None:
+    """``--by-bin``: each row's coverage per bin of every variable of ``DEFAULT_EDGES``, pixels pooled."""
     from inpaintenv.values.interval_calibration import DEFAULT_EDGES
 
-    inside = r <= q * scale_from(coef, F)
-    out = {}
-    for variable, edges in DEFAULT_EDGES.items():
-        cells = cell_of({"variable": variable, "edges": edges}, FEATURE_SIGNALS, F)
-        n = np.bincount(cells, minlength=len(edges) + 1)
-        hit = np.bincount(cells, inside, minlength=len(edges) + 1)
-        out[f"by_{variable}"] = [[float(h / k) if k else None, int(k)] for h, k in zip(hit, n)]
-    return out
-
-
-def frame_factors(coef: np.ndarray, probe: dict, coverage: float) -> Any:
-    """``frames -> factor per row``: each frame's ``coverage`` quantile of its normalised probe residuals
-    (``probe``: ``day_residuals`` of probe holes); a frame without a probe pixel takes the median factor."""
-    from estimators.intervals import scale_from
-
-    F, r, frame = (np.concatenate([v[i] for v in probe.values()]) for i in range(3))
-    normed = r / scale_from(coef, F)
-    size = int(frame.max()) + 1
-    table = np.full(size, np.nan)
-    order = np.argsort(frame, kind="stable")
-    bounds = np.searchsorted(frame[order], np.arange(size + 1))
-    for f in range(size):
-        if bounds[f + 1] > bounds[f]:
-            table[f] = np.quantile(normed[order[bounds[f]:bounds[f + 1]]], coverage)
-    median = np.nanmedian(table)
-    table[np.isnan(table)] = median
-    return lambda frames: np.where(frames < size, table[np.minimum(frames, size - 1)], median)
+    for variable in DEFAULT_EDGES:
+        unit = {"distance": "px to the nearest measurement", "depth": "predicted depth, m"}.get(variable, "measured share")
+        labels = bin_labels(DEFAULT_EDGES[variable])
+        print(f"\ncoverage by {variable} bin ({unit}), pixels pooled: coverage (pixels)\n| calibrated on | condition | "
+              "day | task | input | " + " | ".join(labels) + " |\n|---|---|---|---|---|" + "---:|" * len(labels))
+        for row in rows:
+            cells = " | ".join("–" if c is None else f"{c:.3f} ({k})" for c, k in row[f"by_{variable}"])
+            print(f"| {row['calibration']} | {row['condition']} | {row['day']} | {row['task']} | {row['input']} | "
+                  f"{cells} |")
 
 
 def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
@@ -491,9 +455,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
             normed = cal[1] / scale_from(coef, cal[0])
             _, q = residual_quantiles(normed, cal[2], "frame", args.coverage)
             if probe_seeds:
-                factor = {(d, k): frame_factors(coef, probes[d][k], args.coverage) for d in days for k in args.input}
-                cal_factor = np.concatenate([factor[d, k](days[d][k][(t, 0)][2]) for d, k, t in keys])
-                _, q_checked = residual_quantiles(normed / cal_factor, cal[2], "frame", args.coverage)
+                factor, q_checked = self_checked(coef, normed, cal[2], days, probes, keys, args.coverage)
             for cond in conditions:
                 found = None if cond in ("none", "self-check") else fit_condition(cond, args.condition_edges or DEFAULT_EDGES[cond], FEATURE_SIGNALS, cal[0], normed,
                                                                    cal[2], "frame", args.coverage)
@@ -508,20 +470,12 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
                                 cell_of(found, FEATURE_SIGNALS, test[0])]
                         name = every if len(kinds) > 1 else kinds[0]
                         row = {"calibration": variant, "condition": cond, "day": day, "task": task, "input": name,
-                               **interval_scores(coef, qq, *test), **coverage_by_bin(coef, qq, test[0], test[1])}
+                               **interval_scores(coef, qq, *test), **coverage_by_bin(coef, qq, test[0], test[1], FEATURE_SIGNALS)}
                         rows.append(row)
                         print(f"| {variant} | {cond} | {day} | {task} | {name} | {row['coverage']:.3f} | "
                               f"{row['width']:.2f} | {row['cut_80']:.1%} | {row['ause']:.3f} |", flush=True)
     if args.by_bin:
-        for variable in DEFAULT_EDGES:
-            unit = {"distance": "px to the nearest measurement", "depth": "predicted depth, m"}.get(variable, "measured share")
-            labels = bin_labels(DEFAULT_EDGES[variable])
-            print(f"\ncoverage by {variable} bin ({unit}), pixels pooled: coverage (pixels)\n| calibrated on | condition | "
-                  "day | task | input | " + " | ".join(labels) + " |\n|---|---|---|---|---|" + "---:|" * len(labels))
-            for row in rows:
-                cells = " | ".join("–" if c is None else f"{c:.3f} ({k})" for c, k in row[f"by_{variable}"])
-                print(f"| {row['calibration']} | {row['condition']} | {row['day']} | {row['task']} | {row['input']} | "
-                      f"{cells} |")
+        print_by_bin(rows)
     if args.json:
         from inpaintenv.files import write_json
         write_json(args.json, rows)

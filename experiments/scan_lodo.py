@@ -43,11 +43,10 @@ from inpaintenv.data.calibration import Calibration, read_calibration
 from inpaintenv.data.thinning import thin_scan_by_points, thin_scan_by_rings
 from inpaintenv.data.inputs import method_input
 from inpaintenv.files.jsonio import loads_json, write_json
-from estimators.candidates import residual_features
 from inpaintenv.masks import get_protocol
 from inpaintenv.methods.registry import make_method
 
-from _common import default_root, run_command
+from _common import PROBE_FILLS, ResidualProbe, default_root, run_command
 
 DAYS = ("2011_09_26", "2011_09_30", "2011_10_03")
 OFFICIAL = "2011_09_26_drive_0001_sync"
@@ -56,11 +55,6 @@ CROP = (352, 1216)
 #: Every classical fill the learned one is compared with; the strongest of a set and task is the bar.
 CLASSICAL = ("harmonic", "harmonic-inverse", "ipbasic", "ipbasic-scan", "nearest", "scanline", "harmonic-ipbasic")
 TASKS = ("densify", "rect")
-#: :class:`ResidualProbe`'s classical fills beside harmonic: the cheap ones (with ``harmonic-inverse`` and
-#: ``ipbasic-scan`` its features take 5.6x harmonic's time).
-PROBE_FILLS = ("row-median", "row-far", "window-near", "window-far", "nearest")
-
-
 def day_sets(root: str, per_drive: int, kind: str = "scan") -> dict[str, Any]:
     """Each day's drives (official drive 0001 apart), the official drive 0001 (both cameras) and val_selection,
     their scans at the input kind ``kind``."""
@@ -90,51 +84,6 @@ def estimator(args: argparse.Namespace) -> Any:
     import estimators.learned as learned
 
     return getattr(learned, args.estimator)(**loads_json(args.recipe, "--recipe", allow_nan=False))
-
-
-class ResidualProbe:
-    """A probe, not a release: ``harmonic`` plus a learned per-pixel correction, fitted to truth minus harmonic
-    on unmeasured pixels, read from ``residual_features`` (classical ``fills``, the gaps to and depths of the
-    nearest measurements, the distance to the nearest one, the measured share around the pixel; those
-    ``SparseResidualInpainter`` reads).
-    The correction is scikit-learn's ``MLPRegressor`` (``hidden`` units per layer) on standardised features
-    (``lodo --estimator mlp``, ``--recipe '{"fills": [...], "hidden": [32, 32]}'``)."""
-
-    def __init__(self, fills: tuple[str, ...] = PROBE_FILLS, hidden: tuple[int, ...] = (128, 128),
-                 hole_seeds: tuple[int, ...] = ()) -> None:
-        self.fills, self.hidden, self.hole_seeds = tuple(fills), tuple(hidden), tuple(hole_seeds)
-
-    def _inputs(self, scan: np.ndarray, index: int) -> list[np.ndarray]:
-        """The scan, then per ``hole_seeds`` seed the scan with rect-v1's hole of that seed cut out (NaN = to fill)."""
-        rect = get_protocol("rect-v1")
-        holes = [np.zeros(scan.shape, bool)] + [rect.mask(scan.shape, s, index) for s in self.hole_seeds]
-        return [method_input(scan, hole, "scan") for hole in holes]
-
-    def fit(self, datasets: list[Any], pixels: int = 4000, seed: int = 0) -> ResidualProbe:
-        from sklearn.neural_network import MLPRegressor  # noqa: PLC0415 - only this probe needs them
-        from sklearn.pipeline import make_pipeline  # noqa: PLC0415
-        from sklearn.preprocessing import StandardScaler  # noqa: PLC0415
-
-        rng, X, y = np.random.default_rng(seed), [], []
-        for frames in datasets:
-            for i in range(len(frames)):
-                scan, gt = (a[0] for a in frames.load_pairs([i]))
-                for x in self._inputs(scan, i):
-                    rows, cols = np.nonzero(np.isnan(x) & (gt > 0))
-                    pick = rng.choice(len(rows), min(pixels, len(rows)), replace=False)
-                    F, harmonic = residual_features(x, self.fills, (rows[pick], cols[pick]))
-                    X.append(F)
-                    y.append(gt[rows[pick], cols[pick]] - harmonic)
-        self.model_ = make_pipeline(StandardScaler(), MLPRegressor(hidden_layer_sizes=self.hidden, batch_size=1024,
-                                                                   max_iter=10, random_state=seed))
-        self.model_.fit(np.concatenate(X), np.concatenate(y))
-        return self
-
-    def predict(self, x: np.ndarray) -> np.ndarray:
-        todo = np.isnan(x)
-        (F, harmonic), out = residual_features(x, self.fills, todo), x.copy()
-        out[todo] = np.maximum(harmonic + self.model_.predict(F), 0.1)
-        return out
 
 
 def _parser(description: str, learned: bool) -> argparse.ArgumentParser:
