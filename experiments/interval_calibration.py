@@ -94,8 +94,8 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
     parser.add_argument("--out", help="default estimators/pretrained/intervals/<release>.json")
     args = parser.parse_args(argv)
     scans = [INPUTS[k].separate for k in args.input]
-    if len(args.input) > 1 and (not all(scans) or args.fold or len(set(args.input)) < len(args.input)):
-        raise SystemExit("several --input kinds: distinct scan kinds only, of a fill that saw no drive (no --fold)")
+    if len(args.input) > 1 and (not all(scans) or len(set(args.input)) < len(args.input)):
+        raise SystemExit("several --input kinds: distinct scan kinds only (each fold model scores its day at each)")
     if args.condition_edges and not args.condition:
         raise SystemExit("--condition-edges: the bin edges of a --condition, none given")
     args.protocol = args.protocol or ("densify-v1" if scans[0] else "rect-v1")
@@ -115,7 +115,7 @@ def calibrate_command(argv: list[str] | None = None) -> Path:
         mine = [d for d in drives if d.startswith(day)]
         if not mine:
             raise SystemExit(f"--fold {entry}: no drive of day {day!r} in {args.kitti_root}")
-        folds.append((model, spaced_per_drive(dataset, args.frames_per_drive, mine)))
+        folds += [(model, spaced_per_drive(ds, args.frames_per_drive, mine)) for ds in datasets]  # a part per kind
         print(f"{day}: {len(mine)} drives scored by {path}", flush=True)
     release = make_method(args.release)
     start = time.perf_counter()

@@ -117,6 +117,26 @@ def test_several_scan_densities_are_pooled_each_drive_once_per_density(load_expe
                                                       "scan", "--release", "nearest"])
 
 
+def test_fold_models_score_their_day_at_each_scan_density(load_experiment, tmp_path, monkeypatch):
+    # A learned fill of sparse scans: each fold model scores its left-out day's drives once per density.
+    import estimators.learned
+
+    drives = _write_scan_drives(tmp_path, seed=5)
+    kinds = ["scan-points50-v1", "scan-points25-v1"]
+    models = {day: FoldTen([d for d in drives if not d.startswith(day)]) for day in ("2011_09_26", "2011_09_30")}
+    monkeypatch.setattr(estimators.learned, "load", lambda path: models[str(path)])
+    monkeypatch.setattr(estimators.learned, "load_release", lambda name: FoldTen(drives))
+    out = load_experiment("interval_calibration").main([
+        "calibrate", "--kitti-root", str(tmp_path), "--input", *kinds, "--protocol", "densify-v1+rect-v1",
+        "--out", str(tmp_path / "cal.json"), "--spread-method", "harmonic", "--release", "kitti-ensemble-v1",
+        *[a for day in models for a in ("--fold", f"{day}={day}")]])
+    cal = json.loads(out.read_text())["calibration"]
+    assert cal["input_kind"] == "+".join(kinds) and cal["drives"] == drives[1:] and cal["n_frames"] == 4
+    assert [(f["input_kind"], f["drives"]) for f in cal["out_of_fold"]] == [
+        (k, [d]) for d in drives[1:] for k in kinds]  # drive 0001 never, each day by its own fold at each kind
+    assert all(not set(f["drives"]) & set(f["training_drives"]) for f in cal["out_of_fold"])
+
+
 def test_a_map_fill_is_never_calibrated_on_drive_0001(load_experiment, tmp_path):
     # Drive 0001's maps are reported as official results: no calibration may see them, on maps as on scans.
     drives = _write_scan_drives(tmp_path, seed=3)
