@@ -4,10 +4,12 @@ The goal is ``predict`` <= 4x the time of ``harmonic`` measured in the same run.
 the same in-memory scans (KITTI's val_selection thinned to every 4th / 8th laser ring, or
 synthetic scans thinned the same way without ``--kitti-root``), one frame per call,
 interleaved call by call (predict, harmonic, the features alone) so a shared machine's load
-falls on all three alike; each is the median of ``--repeat`` calls per frame, then the median
-over frames. ``features_ms`` is :func:`estimators.candidates.residual_features` alone (it
-includes harmonic, the floor); ``network_ms`` is the rest of ``predict``. The load average
-before and after is printed beside the times: quote the ratio, not the times, on a busy machine.
+falls on all three alike. ``predict_over_harmonic`` is the median over every round of every
+frame of the ratio of the round's two back-to-back calls (``cpu_``: of their process CPU time,
+a worker thread's included); times are medians over the same calls. ``features_ms`` is
+:func:`estimators.candidates.residual_features` alone (it includes harmonic, the floor);
+``network_ms`` is the rest of ``predict``. The load average before and after is printed beside
+the times: quote the ratio, not the times, on a busy machine.
 
 Examples
 --------
@@ -51,15 +53,17 @@ def scans(root: str | None, kind: str, frames: int) -> list[np.ndarray]:
     return [x for x in method_input(inputs, np.zeros(inputs.shape, bool), "scan") if (x > 0).any()]
 
 
-def interleaved_ms(calls: dict[str, Callable[[], Any]], repeat: int) -> dict[str, float]:
-    """Median ms of each call over ``repeat`` rounds, one call of each per round."""
-    times: dict[str, list[float]] = {name: [] for name in calls}
+def interleaved_ms(calls: dict[str, Callable[[], Any]], repeat: int) -> dict[str, list[float]]:
+    """Wall-clock and CPU ms of each call over ``repeat`` rounds, one call of each per round:
+    ``{name: [...], "cpu " + name: [...]}``."""
+    times: dict[str, list[float]] = {k: [] for name in calls for k in (name, f"cpu {name}")}
     for _ in range(repeat):
         for name, call in calls.items():
-            start = time.perf_counter()
+            wall, cpu = time.perf_counter(), time.process_time()
             call()
-            times[name].append(time.perf_counter() - start)
-    return {name: 1000 * statistics.median(t) for name, t in times.items()}
+            times[f"cpu {name}"].append(1000 * (time.process_time() - cpu))
+            times[name].append(1000 * (time.perf_counter() - wall))
+    return times
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -86,17 +90,24 @@ def main(argv: list[str] | None = None) -> dict:
     for label, kind in DENSITIES:
         inputs = scans(args.kitti_root, kind, args.frames)
         est.predict(inputs[0])  # warm-up (thread pools, allocator)
-        rows = [interleaved_ms({
-            "predict_ms": lambda x=x: est.predict(x),
-            "harmonic_ms": lambda x=x: harmonic.predict(x),
-            "features_ms": lambda x=x: residual_features(x, fills, np.isnan(x)),
+        rounds = [interleaved_ms({
+            "predict": lambda x=x: est.predict(x),
+            "harmonic": lambda x=x: harmonic.predict(x),
+            "features": lambda x=x: residual_features(x, fills, np.isnan(x)),
         }, args.repeat) for x in inputs]
-        med = {k: round(statistics.median(r[k] for r in rows), 1) for k in rows[0]}
+        times = {k: [t for r in rounds for t in r[k]] for k in rounds[0]}
+
+        def ratio(a: str, b: str) -> float:
+            # Each round's two calls ran back to back: their ratio drifts less with the load than either time.
+            return round(statistics.median(x / y for x, y in zip(times[a], times[b])), 2)
+
+        med = {f"median_{k.replace('cpu ', 'cpu_')}_ms": round(statistics.median(v), 1) for k, v in times.items()}
         result["densities"][label] = {
-            "frames": len(rows), "frame": list(inputs[0].shape), **{f"median_{k}": v for k, v in med.items()},
-            "median_network_ms": round(med["predict_ms"] - med["features_ms"], 1),
-            "predict_over_harmonic": round(med["predict_ms"] / med["harmonic_ms"], 2),
-            "features_over_harmonic": round(med["features_ms"] / med["harmonic_ms"], 2),
+            "frames": len(rounds), "frame": list(inputs[0].shape), **med,
+            "median_network_ms": round(med["median_predict_ms"] - med["median_features_ms"], 1),
+            "predict_over_harmonic": ratio("predict", "harmonic"),
+            "features_over_harmonic": ratio("features", "harmonic"),
+            "cpu_predict_over_harmonic": ratio("cpu predict", "cpu harmonic"),
         }
     result["load_average"] = [round(load_before, 2), round(os.getloadavg()[0], 2)]
     print(json.dumps(result, indent=1))

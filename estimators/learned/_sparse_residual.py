@@ -95,10 +95,10 @@ class SparseResidualInpainter(ConstrainedParams, PersistenceMixin, BaseInpainter
         torch threads while fitting (None: leave torch's setting).
     predict_threads : int or None, default 1
         torch threads while predicting (None: leave torch's setting). The network's share of
-        a 16-beam KITTI frame is ~30 ms on one thread; with torch's default of one thread per
-        core, a machine with other work on it made ``predict`` 6-60x slower (2.4-3.0 s per
-        frame, ``perf/bench_sparse_residual.py`` at load average 6 on 2 cores), one thread
-        ~2x. Parallelise over frames instead.
+        a 16-beam KITTI frame is ~40 ms on one thread; with torch's default of one thread per
+        core, a 2-core machine with other work on it (load average 3.6-4.2) took 2.9 s per
+        frame instead of ~0.13 s (``perf/bench_sparse_residual.py --threads 2``). Parallelise
+        over frames instead.
     verbose : bool or int, default False
         Progress of ``fit`` when true or > 0.
 

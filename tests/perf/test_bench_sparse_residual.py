@@ -14,7 +14,7 @@ def test_times_predict_features_and_harmonic_per_density(load_benchmark, capsys)
     for row in out["densities"].values():
         assert row["frames"] == 1 and row["frame"] == [352, 1216]
         assert row["median_predict_ms"] > 0 and row["median_harmonic_ms"] > 0 and row["median_features_ms"] > 0
-        assert row["predict_over_harmonic"] == round(row["median_predict_ms"] / row["median_harmonic_ms"], 2)
+        assert row["predict_over_harmonic"] > 0 and row["cpu_predict_over_harmonic"] > 0 and row["median_cpu_predict_ms"] > 0
     assert '"predict_over_harmonic"' in capsys.readouterr().out
     with pytest.raises(SystemExit):
         load_benchmark("bench_sparse_residual").main(["--threads", "0"])
