@@ -41,17 +41,18 @@ class _Inline:
         return future
 
 
-def overlap() -> ThreadPoolExecutor | _Inline:
-    """One worker thread while a core is free (1-minute load average below the cores), else inline.
+def overlap(wanted: bool = True) -> ThreadPoolExecutor | _Inline:
+    """One worker thread if ``wanted`` and a core is free (1-minute load average below the cores), else inline.
 
-    The worker overlaps ``harmonic`` with the other channels on an idle machine; on a busy
-    one its GIL hand-offs cost more than it saves (16/8-beam KITTI scans at load average
-    4.7-5.6 on 2 cores: median ``predict`` 173-177 ms inline vs 196-221 ms with the worker).
-    The numbers are the same either way.
+    A worker overlaps ``harmonic`` with the other channels, and half the network's chunks with
+    the other half, on a machine with a core to spare (16/8-beam KITTI scans on 2 cores at load
+    average 1.7-2.1: ``kitti-sparse-v1`` 2.8x ``harmonic``'s time with workers, 4.6x inline); on
+    a busy one its GIL hand-offs cost more than it saves (load 4.7-5.6: ``predict`` 173-177 ms
+    inline, 196-221 ms with the worker). The numbers are the same either way.
     """
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     busy = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
-    return ThreadPoolExecutor(max_workers=1) if busy < cores else _Inline()
+    return ThreadPoolExecutor(max_workers=1) if wanted and busy < cores else _Inline()
 
 
 def flat_pixels(where: Any, shape: tuple[int, int]) -> np.ndarray:

@@ -15,10 +15,11 @@ Examples
 --------
     python perf/bench_sparse_residual.py                                  # synthetic scans
     python perf/bench_sparse_residual.py --kitti-root <KITTI root> --repeat 7
+    python perf/bench_sparse_residual.py --kitti-root <KITTI root> --name kitti-sparse-v1
     python perf/bench_sparse_residual.py --model runs/sparse/model --threads 1
 
-The weights do not change the time: without ``--model`` a small network is fitted for one
-epoch on two synthetic scans.
+The weights do not change the time, the network's size does: without ``--name`` or ``--model``
+a network of the default size is fitted for one epoch on two synthetic scans.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ import numpy as np
 
 from estimators.candidates import residual_features
 from estimators.classical import HarmonicInpainter
-from estimators.learned import SparseResidualInpainter, load
+from estimators.learned import SparseResidualInpainter, load, load_release
 from inpaintenv.data import KittiDepth, SyntheticStreets
 from inpaintenv.data.inputs import method_input
 
@@ -69,6 +70,7 @@ def interleaved_ms(calls: dict[str, Callable[[], Any]], repeat: int) -> dict[str
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--kitti-root", help="KITTI root: val_selection's scans (default: synthetic scans)")
+    p.add_argument("--name", help="a shipped release of SparseResidualInpainter (e.g. kitti-sparse-v1)")
     p.add_argument("--model", help="a folder written by SparseResidualInpainter.save (default: fit a small one)")
     p.add_argument("--frames", type=int, default=5, help="frames per density (default 5)")
     p.add_argument("--repeat", type=int, default=5, help="interleaved rounds per frame; the median counts (default 5)")
@@ -78,14 +80,16 @@ def main(argv: list[str] | None = None) -> dict:
         p.error("--frames, --repeat and --threads must be >= 1")
 
     load_before = os.getloadavg()[0]
-    if args.model:
-        est = load(args.model)
+    if args.name or args.model:
+        est = load_release(args.name) if args.name else load(args.model)
     else:
         est = SparseResidualInpainter(epochs=1, pixels_per_frame=2000).fit(SyntheticStreets(n=2, seed=0, input="scan"))
     if args.threads is not None:
         est.set_params(predict_threads=args.threads)
     harmonic, fills = HarmonicInpainter(), tuple(est.fills)
-    result: dict[str, Any] = {"frames": "KITTI val_selection" if args.kitti_root else "synthetic",
+    result: dict[str, Any] = {"model": args.name or args.model or "fitted on synthetic scans",
+                              "width": est.width, "layers": est.layers,
+                              "frames": "KITTI val_selection" if args.kitti_root else "synthetic",
                               "predict_threads": est.predict_threads, "cores": os.cpu_count(), "densities": {}}
     for label, kind in DENSITIES:
         inputs = scans(args.kitti_root, kind, args.frames)

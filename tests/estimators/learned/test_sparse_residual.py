@@ -81,6 +81,23 @@ def test_predict_is_harmonic_plus_the_network_on_the_standardised_features(fitte
     assert fitted.predict_threads == 1 and np.abs(net).max() > 1e-3  # a network that does correct
 
 
+def test_the_same_prediction_with_or_without_worker_threads(fitted, beams16, monkeypatch):
+    """Features and network chunks split over a worker thread (a free core) give the same numbers."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import estimators.candidates as candidates
+    import estimators.learned._sparse_residual as module
+    from estimators._residual_features import _Inline
+
+    x = beams16[0][:2]
+    for where in (candidates, module):
+        monkeypatch.setattr(where, "overlap", lambda wanted=True: _Inline())
+    inline = fitted.predict(x)
+    for where in (candidates, module):
+        monkeypatch.setattr(where, "overlap", lambda wanted=True: ThreadPoolExecutor(max_workers=1))
+    np.testing.assert_array_equal(fitted.predict(x), inline)
+
+
 def test_save_and_load_predict_the_same(fitted, beams16, tmp_path):
     path = fitted.save(tmp_path / "model")
     config = json.loads((path / "config.json").read_text())
