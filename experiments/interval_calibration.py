@@ -59,14 +59,16 @@ never). The scan default (``SCAN_DEFAULT``) ships this way::
 the hole cut out of the scan), and ``--signals border depth spread far`` covers the pixels far
 from any measurement and the near ones alike: how ``kitti-scan-v1`` ships (``lodo`` chose it).
 
-Several ``--input`` kinds pool densities (each kind's frames one part of ``fit_out_of_fold``, the
-fill itself each part's model). ``pretrained``'s sparse route (``harmonic`` on 32/16/8-beam scans)
-ships this way, under a route's file that registers no ``harmonic-intervals`` for maps::
+Several ``--input`` kinds pool densities (each kind's frames one part of ``fit_out_of_fold``: each
+fold model scores its day at every kind). ``pretrained``'s sparse route (``kitti-sparse-v1`` on
+32/16/8-beam scans; its fold models from ``scan_lodo.py lodo --save-folds``, at the release's shrink)
+ships this way, under a route's file that registers no ``kitti-sparse-v1-intervals`` for maps::
 
-    python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release harmonic \
+    python experiments/interval_calibration.py calibrate --kitti-root <KITTI root> --release kitti-sparse-v1 \
         --input scan-rings32-v1 scan-rings16-v1 scan-rings8-v1 --protocol densify-v1+rect-v1 \
         --spread-method nearest --signals border depth spread far --frames-per-drive 6 \
-        --out estimators/pretrained/intervals/routes/sparse-harmonic.json
+        --fold 2011_09_26=<fold> --fold 2011_09_30=<fold> --fold 2011_10_03=<fold> \
+        --out estimators/pretrained/intervals/routes/sparse-kitti-sparse-v1.json
 """
 
 #: Drive of the official maps and scans: reported, so never calibrated on (maps, scans, folds alike).

@@ -15,9 +15,9 @@ __all__ = ["ROUTE_INTERVALS", "ShippedIntervals", "default_intervals", "load_int
 
 #: Calibrations shipped for one route of ``pretrained`` only, by the route's method name ->
 #: file stem in ``intervals/routes/``. Kept apart from the method calibrations so that none
-#: registers ``<name>-intervals`` for maps: the sparse route's ``harmonic`` is calibrated on
+#: registers ``<name>-intervals`` for maps: the sparse route's release is calibrated on
 #: 32/16/8-beam scans only.
-ROUTE_INTERVALS: dict[str, str] = {"harmonic": "sparse-harmonic"}
+ROUTE_INTERVALS: dict[str, str] = {"kitti-sparse-v1": "sparse-kitti-sparse-v1"}
 
 
 def _intervals_dir() -> Path:
@@ -117,7 +117,7 @@ class ShippedIntervals:
     """The interval of a route of ``pretrained``: the calibration shipped for the route's name.
 
     ``ShippedIntervals()(name, method)`` is ``method`` wrapped in the route's own calibration
-    (``intervals/routes/``, :data:`ROUTE_INTERVALS`: the sparse route's ``harmonic``) or else
+    (``intervals/routes/``, :data:`ROUTE_INTERVALS`: the sparse route's release) or else
     ``estimators/pretrained/intervals/<name>.json`` (a :class:`ConformalIntervalInpainter`,
     whose ``predict`` is ``method``'s bit for bit); the ``intervals`` of
     :class:`~estimators.learned.InputRoutedInpainter`. Stateless, so it pickles and copies.
@@ -150,7 +150,7 @@ def default_intervals(name: str | None = None, input: str = "auto", require_cali
     (any frame routed as a 64-beam-like scan) the one shipped for the scan route
     (``<SCAN_DEFAULT>.json``, calibrated on scans), wrapped around the route's own method when
     an interval is first asked (:class:`ShippedIntervals`), so the fill is ``pretrained``'s
-    bit for bit. A sparse scan's (32/16/8 beams: the sparse route's ``harmonic``) is the
+    bit for bit. A sparse scan's (32/16/8 beams: the sparse route's release) is the
     calibration shipped for that route only (:data:`ROUTE_INTERVALS`, calibrated on thinned
     scans). A route without a shipped calibration gives no interval: asking it is one error
     naming it, never another route's interval. Each route is loaded when a frame first

@@ -30,7 +30,7 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
     """The default method ``pretrained``: the map release for a map, the scan release :data:`~inpaintenv.methods.learned.SCAN_DEFAULT` for a scan.
 
     A scan sparser than a 64-beam one (:func:`~estimators.learned._routed.scan_spacing` above
-    :data:`~estimators.learned._routed.SPARSE_SPACING`) goes to the classical
+    :data:`~estimators.learned._routed.SPARSE_SPACING`) goes to the sparse release
     :data:`~inpaintenv.methods.learned.SPARSE_DEFAULT` instead; a scan of points scattered far apart
     along its lines (:func:`~estimators.learned._routed.row_spacing` above
     :data:`~estimators.learned._routed.POINTS_SPACING`) to the classical
@@ -60,13 +60,13 @@ def load_default(input: str = "auto", **overrides: Any) -> Any:
     from ._routed import InputRoutedInpainter, OnFirstUse
 
     releases = shipped()
-    for name in (DEFAULT_RELEASE, SCAN_DEFAULT):
+    for name in (DEFAULT_RELEASE, SCAN_DEFAULT, SPARSE_DEFAULT):
         if name not in releases:
             raise UnknownNameError(f"no shipped release {name!r}; shipped: {sorted(releases)}")
     map_method = load_release(DEFAULT_RELEASE, **overrides) if overrides else OnFirstUse(load_release, DEFAULT_RELEASE)
     return InputRoutedInpainter(map_method=map_method, scan_method=OnFirstUse(load_release, SCAN_DEFAULT), input=input,
                                 scan_name=SCAN_DEFAULT, map_name=DEFAULT_RELEASE,
-                                sparse_method=_classical(SPARSE_DEFAULT), sparse_name=SPARSE_DEFAULT,
+                                sparse_method=OnFirstUse(load_release, SPARSE_DEFAULT), sparse_name=SPARSE_DEFAULT,
                                 points_method=_classical(POINTS_DEFAULT), points_name=POINTS_DEFAULT)
 
 

@@ -49,10 +49,10 @@ DEFAULT_RELEASE = "kitti-ensemble-v1"
 SCAN_DEFAULT = "kitti-scan-v1"
 
 #: What ``pretrained`` fills a LiDAR scan of fewer lines than a 64-beam one with (32, 16, 8 beams):
-#: the classical ``harmonic``. There the scan release's learned blend is worse than the classical
-#: fills, and ``harmonic`` is the strongest of them or near it on every recording day
-#: (docs/model_cards/kitti-scan-v1.md).
-SPARSE_DEFAULT = "harmonic"
+#: the sparse release, ``harmonic`` plus half a learned per-pixel correction, below the strongest
+#: classical fill at every one of those densities on every recording day left out
+#: (docs/model_cards/kitti-sparse-v1.md); there the scan release's blend is worse than the classical fills.
+SPARSE_DEFAULT = "kitti-sparse-v1"
 
 #: What ``pretrained`` fills a scan of points scattered far apart along its lines with (a tenth of a
 #: scan's points kept at random): the classical mean ``harmonic-ipbasic``, the strongest classical

@@ -276,7 +276,7 @@ def test_a_slice_scan_thinned_to_16_and_8_beams_fills_by_the_sparse_route(kitti_
     for keep_every in (4, 8):
         write_points_bin(tmp_path / "in" / f"r{keep_every}.bin", thin_points_by_rings(read_scan(scan), keep_every))
     assert main(["fill", str(tmp_path / "in"), "--calib", str(day), "--missing", "--out", str(tmp_path / "out"), "-q"]) == 0
-    assert "pretrained filled 2 as sparse scans with harmonic" in capsys.readouterr().err
+    assert "pretrained filled 2 as sparse scans with kitti-sparse-v1" in capsys.readouterr().err
     calib = read_calibration(day)
     for keep_every in (4, 8):
         depth = project_scan(read_scan(tmp_path / "in" / f"r{keep_every}.bin"), calib)

@@ -126,7 +126,7 @@ def test_a_conditioned_file_round_trips_and_an_old_one_has_no_condition(pair, no
 SHIPPED = Path(__file__).resolve().parents[2] / "estimators" / "pretrained" / "intervals"
 
 
-@pytest.mark.parametrize("name", ["routes/sparse-harmonic", "harmonic-ipbasic", "scanline"])
+@pytest.mark.parametrize("name", ["routes/sparse-kitti-sparse-v1", "harmonic-ipbasic", "scanline"])
 def test_a_shipped_file_without_the_field_loads_and_predicts_pooled(name):
     doc = json.loads((SHIPPED / f"{name}.json").read_text())
     if "condition" in doc:

@@ -193,6 +193,11 @@ def test_pretrained_fills_a_sparse_scan_with_the_sparse_default():
     from inpaintenv.methods.learned import SCAN_DEFAULT, SPARSE_DEFAULT
     from inpaintenv.methods.registry import make_method
 
+    from estimators.learned import OnFirstUse, load_default, load_release
+
+    # the sparse release, loaded when a sparse scan first takes the route
+    assert SPARSE_DEFAULT == "kitti-sparse-v1" and load_default().get_params(deep=False)["sparse_method"] == OnFirstUse(
+        load_release, SPARSE_DEFAULT)
     est = make_method("pretrained")
     sparse = _lines(24)
     np.testing.assert_array_equal(est.predict(sparse), make_method(SPARSE_DEFAULT).predict(sparse))
