@@ -2,7 +2,8 @@
 
 Maps: the official ``val`` frame(s), ``rect-v1`` seeds 0-9 (the README's map benchmark).
 Scans: the slice's official frames with a scan (drive 0001 both cameras, the
-``val_selection_cropped`` frames of drive 0002), ``densify-v1`` (the README's scan benchmark).
+``val_selection_cropped`` frames of drive 0002), ``densify-v1`` (the README's scan benchmark), as
+they are and thinned to 16 and 8 laser rings (``scan-rings16-v1``, ``scan-rings8-v1``: the sparse route).
 Each is filled by ``pretrained`` and its interval asked at every level of the reliability
 diagram; printed per input: coverage at 90 %, AUCE, and the RMSE-based AUSE and AURG ranked
 by the interval's width, pooled (pNCNN: every scored pixel, curves normalised by their start)
@@ -54,12 +55,13 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     holes = np.concatenate([rect.masks(gt.shape[1:], seed, list(range(len(maps)))) for seed in range(10)])
     gts = np.concatenate([gt] * 10)
     results["maps (val, rect-v1, seeds 0-9)"] = score(method, gts, np.where(holes, np.nan, gts), holes)
-    scans = open_source(args.kitti_root, split="train,val_selection", camera="both", drives=SCAN_DRIVES,
-                        input="scan")
-    inputs = scans.load_input_batch(list(range(len(scans))))
-    truth = scans.load_batch(list(range(len(scans))))
-    x = method_input(inputs, np.zeros(inputs.shape, bool), "scan")
-    results["scans (official, densify-v1)"] = score(method, truth, x, np.isnan(x))
+    for kind, label in (("scan", "scans"), ("scan-rings16-v1", "16-beam scans"), ("scan-rings8-v1", "8-beam scans")):
+        scans = open_source(args.kitti_root, split="train,val_selection", camera="both", drives=SCAN_DRIVES,
+                            input=kind)
+        inputs = scans.load_input_batch(list(range(len(scans))))
+        truth = scans.load_batch(list(range(len(scans))))
+        x = method_input(inputs, np.zeros(inputs.shape, bool), "scan")
+        results[f"{label} (official, densify-v1)"] = score(method, truth, x, np.isnan(x))
     for name, row in results.items():
         print(f"{name}: " + ", ".join(f"{k} {v:.3f}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
     return results
