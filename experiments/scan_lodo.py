@@ -215,7 +215,9 @@ def cmd_time(argv: list[str]) -> None:
 #: Each density: (label, kept rings 1 in k, or kept share of points).
 DENSITIES = (("64 beams", 1, None), ("32 beams", 2, None), ("16 beams", 4, None), ("8 beams", 8, None),
              ("50 % points", None, 0.5), ("25 % points", None, 0.25), ("10 % points", None, 0.1))
-DENSITY_LABELS = tuple(d[0] for d in DENSITIES) + ("rect-v1 hole",)  # what density and lodo --densities score
+#: rect-v1's holes cut into the scan at a density (label -> the density's label), scored in the hole.
+HOLE_LABELS = {"rect-v1 hole": "64 beams", "16 beams + rect-v1 hole": "16 beams", "8 beams + rect-v1 hole": "8 beams"}
+DENSITY_LABELS = tuple(d[0] for d in DENSITIES) + tuple(HOLE_LABELS)  # what density and lodo --densities score
 #: The labels for an argparse help string, which %-formats it ("50 % points" would crash ``--help``).
 _LABELS_HELP = ", ".join(DENSITY_LABELS).replace("%", "%%")
 #: Raw image size (W, H) of each recording day; frames are its bottom-centre CROP.
@@ -243,8 +245,8 @@ def density_units(root: str, frames: Any, seeds: tuple[int, ...], densities: tup
     """Every unit of every density of ``frames``: ``(density label, method input, ground truth, scored pixels)``.
 
     A unit is a frame at each density (scored on the ground-truth pixels it did not measure), and a
-    (seed, frame) for rect-v1's holes cut into the 64-beam scan (scored in the hole); only the
-    ``densities`` named (labels of :data:`DENSITIES` and ``"rect-v1 hole"``)."""
+    (seed, frame) for rect-v1's holes cut into the scan at a density (:data:`HOLE_LABELS`; scored in the
+    hole); only the ``densities`` named."""
     rect, calibrations = get_protocol("rect-v1"), {}
     for i in range(len(frames)):
         scan, gt = (a[0] for a in frames.load_pairs([i]))
@@ -255,9 +257,12 @@ def density_units(root: str, frames: Any, seeds: tuple[int, ...], densities: tup
         for density in (d for d in DENSITIES if d[0] in densities):
             x = method_input(thinned(scan, density, calibrations[key], i), np.zeros(scan.shape, bool), "scan")
             yield density[0], x, gt, (gt > 0) & np.isnan(x)
-        for seed in seeds if "rect-v1 hole" in densities else ():
-            hole = rect.mask(scan.shape, seed, i)
-            yield "rect-v1 hole", method_input(scan, hole, "scan"), gt, (gt > 0) & hole
+        for label in (h for h in HOLE_LABELS if h in densities):
+            density, = (d for d in DENSITIES if d[0] == HOLE_LABELS[label])
+            base = thinned(scan, density, calibrations[key], i)
+            for seed in seeds:
+                hole = rect.mask(scan.shape, seed, i)
+                yield label, method_input(base, hole, "scan"), gt, (gt > 0) & hole
 
 
 def column_regions(x: np.ndarray) -> dict[str, np.ndarray]:

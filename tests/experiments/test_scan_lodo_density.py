@@ -46,3 +46,33 @@ def test_residual_probe_learns_a_correction_of_harmonic_and_keeps_the_scan(scan_
         errs["harmonic"].append(np.sqrt(np.mean((harmonic.predict(x)[scored] - gt[scored]) ** 2)))
     # fitted to truth minus harmonic on these frames: closer to their truth than harmonic
     assert np.mean(errs["probe"]) < np.mean(errs["harmonic"])
+
+
+def test_holes_are_cut_into_the_scan_at_their_density_and_scored_inside_the_hole(scan_lodo, monkeypatch):
+    from inpaintenv.masks import get_protocol
+
+    class Frames:
+        frame_ids = ["2011_09_26_drive_9001_sync/image_02/0000000005.png"]
+
+        def __len__(self):
+            return 1
+
+        def load_pairs(self, index):
+            scan = np.zeros((64, 160), np.float32)
+            scan[::2] = 10.0  # a line every other row
+            return scan[None], np.full((1, 64, 160), 12.0, np.float32)
+
+    monkeypatch.setattr(scan_lodo, "crop_calibration", lambda root, day, camera: None)
+    # Stand-in for ring thinning: every k-th line kept, for a k-th of the rings.
+    monkeypatch.setattr(scan_lodo, "thinned", lambda scan, density, calibration, seed: np.where(
+        (np.arange(scan.shape[0]) % (2 * (density[1] or 1)) == 0)[:, None], scan, 0.0))
+    labels = ("rect-v1 hole", "16 beams + rect-v1 hole", "16 beams")
+    units = list(scan_lodo.density_units("root", Frames(), (0, 1), labels))
+    assert [u[0] for u in units] == ["16 beams", "rect-v1 hole", "rect-v1 hole", "16 beams + rect-v1 hole",
+                                     "16 beams + rect-v1 hole"]
+    for (label, x, gt, scored), seed in zip(units[1:], (0, 1, 0, 1)):
+        hole = get_protocol("rect-v1").mask((64, 160), seed, 0)
+        every = 2 if label == "rect-v1 hole" else 8
+        lines = (np.arange(64) % every == 0)[:, None]
+        assert np.array_equal(scored, hole) and np.isnan(x[hole]).all()
+        assert np.array_equal(np.nan_to_num(x, nan=0.0) > 0, lines & ~hole)  # the density's lines, less the hole
