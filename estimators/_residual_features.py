@@ -2,8 +2,8 @@
 
 A sparse scan leaves ~95 % of a frame to fill, so each channel stays one whole-frame operation
 and one gather; what these pieces save is repeated work and whole-frame copies. One distance
-transform with labels gives the nearest measurement that the ``nearest`` fill and both window
-fills' empty windows read (each computed it again), one cumulative scan per direction gives the
+nearest fill serves the ``nearest`` channel and both window fills' empty windows (each computed
+it again), one cumulative scan per direction gives the
 gap lengths and endpoint depths (without the interpolation weights a row/column fill needs), and
 each channel is gathered as soon as it is made instead of from a stack of whole frames. The
 numbers are those of :func:`~estimators.classical.nearest.nearest_fill`,
@@ -22,6 +22,8 @@ import cv2
 import numpy as np
 
 from inpaintenv.exceptions import InvalidInputError
+
+from .classical.nearest import nearest_fill
 
 __all__ = ["AtPixels", "flat_pixels", "overlap"]
 
@@ -83,15 +85,7 @@ class AtPixels:
     def nearest(self) -> np.ndarray:
         """:func:`~estimators.classical.nearest.nearest_fill` at the pixels."""
         if self._nearest is None:
-            if not self.known.any():
-                self._nearest = np.zeros(len(self.idx), np.float32)
-            elif self.known.all():
-                self._nearest = self.values_at.copy()
-            else:
-                # DIST_LABEL_PIXEL numbers the measured pixels 1..K in raster order, as values[known].
-                _, labels = cv2.distanceTransformWithLabels((~self.known).astype(np.uint8), cv2.DIST_L2, 5,
-                                                            labelType=cv2.DIST_LABEL_PIXEL)
-                self._nearest = self.values[self.known][self.at(labels) - 1]
+            self._nearest = self.at(nearest_fill(self.values, self.known))  # once for the three fills that read it
         return self._nearest
 
     def window(self, far: bool, size: int) -> np.ndarray:

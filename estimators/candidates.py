@@ -148,19 +148,8 @@ def window_extreme(values: np.ndarray, known: np.ndarray, far: bool, size: int =
     measurement in their window take the nearest measurement's depth.
     """
     values, known = _check_values_known(values, known)
-    if not known.any():
-        return np.zeros(values.shape, np.float32)
-    kernel = np.ones((int(size), int(size)), np.uint8)
-    if far:
-        out = cv2.dilate(np.where(known, values, 0.0).astype(np.float32), kernel)
-        empty = out <= 0
-    else:
-        # OpenCV pads an erosion with the type's largest value: anything that high is empty.
-        out = cv2.erode(np.where(known, values, np.inf).astype(np.float32), kernel)
-        empty = ~(out < np.finfo(np.float32).max)
-    if empty.any():
-        out = np.where(empty, nearest_fill(values, known), out)
-    return np.where(known, values, out).astype(np.float32)
+    every = AtPixels(values, known, np.arange(values.size))  # the whole frame: one definition with residual_features
+    return every.window(bool(far), int(size)).reshape(values.shape)
 
 
 def _ipbasic(values: np.ndarray, known: np.ndarray) -> np.ndarray:
