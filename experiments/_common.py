@@ -115,6 +115,28 @@ def edges_option(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"{text!r}: comma-separated increasing positive finite numbers") from err
 
 
+def seeds_option(text: str) -> tuple[int, ...]:
+    """A comma-separated list of seeds (argparse ``type``): whole numbers from 0, else ``ArgumentTypeError``."""
+    try:
+        seeds = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        seeds = ()
+    if not seeds or min(seeds) < 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: comma-separated whole numbers from 0")
+    return seeds
+
+
+def numbers_option(text: str) -> tuple[float, ...]:
+    """A comma-separated list of finite numbers (argparse ``type``), else ``ArgumentTypeError``."""
+    try:
+        numbers = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        numbers = ()
+    if not numbers or not all(np.isfinite(numbers)):
+        raise argparse.ArgumentTypeError(f"{text!r}: comma-separated finite numbers")
+    return numbers
+
+
 def bin_labels(edges: Sequence[float]) -> list[str]:
     """``<= 1``, ``1-2``, ..., ``> 64``: the bins of ``edges`` (bin ``b`` holds ``edges[b-1] < v <= edges[b]``)."""
     e = [f"{v:g}" for v in edges]

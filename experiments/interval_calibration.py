@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _common import bin_labels, coverage_by_bin, edges_option, exit_status, frame_factors, interval_scores, pooled, run_command
+from _common import (bin_labels, coverage_by_bin, edges_option, exit_status, frame_factors, interval_scores, pooled,
+                     run_command, seeds_option)
 
 from inpaintenv.data.inputs import INPUT_KINDS, INPUTS
 from inpaintenv.values.interval_calibration import CONDITIONS
@@ -404,7 +405,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--condition-edges", type=edges_option, metavar="E1,E2,...",
                         help="the bins' edges of the one --condition other than none (default DEFAULT_EDGES)")
     parser.add_argument("--by-bin", action="store_true", help="also print coverage per distance and depth bin")
-    parser.add_argument("--self-check", metavar="SEEDS", help="rect-v1 seeds of the probe holes of the condition "
+    parser.add_argument("--self-check", metavar="SEEDS", type=seeds_option, help="rect-v1 seeds of the probe holes of the condition "
                         "self-check (comma-separated): a per-frame factor from the frame's own probe residuals")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
@@ -428,7 +429,7 @@ def lodo_command(argv: list[str] | None = None) -> dict[str, Any]:
     seeds = tuple(int(s) for s in args.seeds.split(","))
     spread = make_method(args.spread_method)
     entries = [e.partition("=")[::2] for e in args.fold] or [(day, "") for day in sorted({d[:10] for d in drives})]
-    probe_seeds = tuple(int(s) for s in args.self_check.split(",")) if args.self_check else ()
+    probe_seeds = args.self_check or ()
     if probe_seeds:
         conditions.append("self-check")
     days: dict[str, dict] = {}  # day -> input kind -> (task, seed) -> residuals

@@ -43,10 +43,11 @@ from inpaintenv.data.calibration import Calibration, read_calibration
 from inpaintenv.data.thinning import thin_scan_by_points, thin_scan_by_rings
 from inpaintenv.data.inputs import method_input
 from inpaintenv.files.jsonio import loads_json, write_json
+from inpaintenv.exceptions import InvalidInputError
 from inpaintenv.masks import get_protocol
 from inpaintenv.methods.registry import make_method
 
-from _common import PROBE_FILLS, ResidualProbe, default_root, run_command
+from _common import PROBE_FILLS, ResidualProbe, default_root, numbers_option, run_command
 
 DAYS = ("2011_09_26", "2011_09_30", "2011_10_03")
 OFFICIAL = "2011_09_26_drive_0001_sync"
@@ -125,7 +126,7 @@ def cmd_lodo(argv: list[str]) -> None:
     parser = _parser("leave one recording day out", learned=True)
     parser.add_argument("--days", default=",".join(DAYS), help="the days to leave out, comma-separated")
     parser.add_argument("--save-folds", help="folder to save each fold model in (as <folder>/<day>)")
-    parser.add_argument("--shrinks", help="score copies of each fold model at these shrinks (comma-separated; "
+    parser.add_argument("--shrinks", type=numbers_option, help="score copies of each fold model at these shrinks (comma-separated; "
                         "a parameter of the estimator, e.g. SparseResidualInpainter's), each its own row")
     parser.add_argument("--inputs", default="scan", help="the input kinds trained on, comma-separated")
     parser.add_argument("--also", default="", help="registered methods scored as rows beside ours (e.g. "
@@ -135,6 +136,11 @@ def cmd_lodo(argv: list[str]) -> None:
     args = parser.parse_args(argv)
     if (args.save_folds or args.shrinks) and args.estimator == "mlp":
         parser.error("--save-folds, --shrinks: not for a probe")
+    try:  # a shrink the estimator refuses is refused now, not after the first fit
+        for copy_at in shrunk(estimator(args), args.shrinks or ()).values():
+            copy_at._check_params()
+    except InvalidInputError as err:
+        parser.error(f"argument --shrinks: {err}")
     densities = tuple(args.densities.split(","))
     sets = _sets(parser, args)
     train = {kind: sets if kind == "scan" else day_sets(str(default_root()), args.per_drive, kind)
@@ -154,9 +160,9 @@ def cmd_lodo(argv: list[str]) -> None:
             density_table(name, sets[name], methods, (*ours, *also), densities, _seeds(args), f"{label} | ")
 
 
-def shrunk(est: Any, shrinks: str) -> dict[str, Any]:
+def shrunk(est: Any, shrinks: tuple[float, ...]) -> dict[str, Any]:
     """``ours shrink S`` -> a copy of the fitted ``est`` (weights shared) with ``shrink=S``, per S of ``shrinks``."""
-    return {f"ours shrink {s}": copy.copy(est).set_params(shrink=float(s)) for s in shrinks.split(",")}
+    return {f"ours shrink {s:g}": copy.copy(est).set_params(shrink=float(s)) for s in shrinks}
 
 
 def cmd_release(argv: list[str]) -> None:

@@ -169,3 +169,11 @@ def test_self_check_adds_its_rows_and_leaves_the_others_as_they_were(load_experi
     rows = [r for r in checked if r["condition"] == "self-check"]
     assert sorted(r["day"] for r in rows) == sorted(DAYS)
     assert all(0.0 <= r["coverage"] <= 1.0 and r["width"] > 0 and 0.0 <= r["ause"] < 1.0 for r in rows)
+
+
+@pytest.mark.parametrize("value", ["a,b", "-1", ""])
+def test_self_check_seeds_are_whole_numbers_or_one_error_naming_the_option(load_experiment, capsys, value):
+    with pytest.raises(SystemExit) as stop:
+        load_experiment("interval_calibration").main(["lodo", "--kitti-root", "nowhere", "--method", "harmonic",
+                                                      "--self-check", value])
+    assert stop.value.code == 2 and "argument --self-check" in capsys.readouterr().err

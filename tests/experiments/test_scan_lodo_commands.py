@@ -28,7 +28,7 @@ def test_shrinks_are_copies_of_one_fitted_model_each_at_its_shrink(scan_lodo):
 
     est = SparseResidualInpainter(epochs=1, pixels_per_frame=100, num_threads=1).fit(
         SyntheticStreets(n=2, seed=1, frame_shape=(48, 96), frames_per_drive=2, input="scan"))
-    out = scan_lodo.shrunk(est, "1,0.75,0.5")
+    out = scan_lodo.shrunk(est, scan_lodo.numbers_option("1,0.75,0.5"))
     assert list(out) == ["ours shrink 1", "ours shrink 0.75", "ours shrink 0.5"]
     assert [m.shrink for m in out.values()] == [1.0, 0.75, 0.5] and est.shrink == 1.0
     assert all(m.model_ is est.model_ for m in out.values())  # one fit, the weights shared
@@ -46,3 +46,15 @@ def test_the_probe_with_hole_seeds_also_trains_on_rect_v1_holes_cut_into_the_sca
         hole = get_protocol("rect-v1").mask(scan.shape, seed, 3)
         assert np.isnan(x[hole]).all() and np.array_equal(np.isnan(x), (scan == 0) | hole)
     assert len(scan_lodo.ResidualProbe()._inputs(scan, 3)) == 1
+
+
+@pytest.mark.parametrize("value", ["abc", "0.5,", "1,nan", "2"])
+def test_shrinks_that_are_not_numbers_or_that_the_estimator_refuses_stop_before_any_fit(scan_lodo, capsys,
+                                                                                       monkeypatch, value):
+    monkeypatch.setattr(scan_lodo, "_sets", lambda parser, args: pytest.fail("read data before checking --shrinks"))
+    with pytest.raises(SystemExit) as stop:
+        scan_lodo.COMMANDS["lodo"](["--estimator", "SparseResidualInpainter", "--shrinks", value])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and "argument --shrinks" in err
+    if value == "2":  # a number, refused by SparseResidualInpainter's own constraint
+        assert "shrink must be a number in (0, 1]" in err
